@@ -1,0 +1,50 @@
+//! The error type of `gradtac-io`.
+
+use std::path::PathBuf;
+
+/// Errors of sources and sinks. Every variant about input names where: file and line (and
+/// column) for text files, byte offset for binary files, CAN id and time for bus traffic.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// An I/O error on a path.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A source or sink was configured with values it cannot work with.
+    #[error("invalid configuration: {0}")]
+    InvalidConfig(String),
+    /// A malformed text input (CSV, candump): file, 1-based line and, where known, column.
+    #[error("{path}:{line}{}: {reason}", column.as_ref().map(|c| format!(" column {c:?}")).unwrap_or_default())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The column's name (CSV header) where the error is in one cell.
+        column: Option<String>,
+        /// What is wrong.
+        reason: String,
+    },
+    /// Arrow or Parquet failed.
+    #[error("{context}: {reason}")]
+    Arrow {
+        /// What was being done (a path, a schema).
+        context: String,
+        /// The library's message.
+        reason: String,
+    },
+}
+
+impl From<Error> for gradtac_stream::Error {
+    fn from(e: Error) -> Self {
+        gradtac_stream::Error::other(e)
+    }
+}
+
+/// `Result` with [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

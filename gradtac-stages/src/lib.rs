@@ -1,0 +1,25 @@
+//! # gradtac-stages
+//!
+//! The signal-processing stages of GradTac, each a synchronous [`Stage`](gradtac_stream::Stage)
+//! in its own module: [`normalise`] → [`savgol`] → [`events`] → [`window`] →
+//! [`interpolate`] → [`contour`] → [`track`]. No async runtime and no Arrow here: stages are
+//! plain state machines, driven by the adapters of `gradtac-stream`.
+//!
+//! The method each stage implements is specified in the repository's `docs/method.md`
+//! (a restatement of the GradTac paper); every stage's docs state its delay, units and
+//! trade-offs.
+#![warn(missing_docs)]
+
+mod error;
+pub mod event;
+
+pub mod contour;
+pub mod events;
+pub mod interpolate;
+pub mod normalise;
+pub mod savgol;
+pub mod track;
+pub mod window;
+
+pub use error::{Error, Result};
+pub use event::{EventBatch, TactileEvent};

@@ -1,0 +1,115 @@
+//! Timestamps: integer nanoseconds.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::ops::{Add, Sub};
+
+/// A point in time, in integer **nanoseconds**.
+///
+/// # Epoch rule
+/// A timestamp is nanoseconds since an epoch that belongs to the *source*:
+/// - live sources (a CAN bus) stamp frames with nanoseconds since the Unix epoch (UTC);
+/// - file sources with a time column use that column's own origin, converted to ns
+///   (a column in seconds is multiplied by 10⁹ and rounded to the nearest ns);
+/// - file sources without a time column (a fixed sample rate) start at **0 at the first
+///   frame** and advance by `round(k · 10⁹ / rate_hz)` ns for frame `k`, so that rounding
+///   error never accumulates.
+///
+/// Timestamps of different sensors are comparable (and [`merge`](crate::merge) orders by
+/// them) only when their sources share an epoch; a scene that mixes live and recorded
+/// sources is the user's responsibility.
+///
+/// `i64` nanoseconds span ±292 years around the epoch.
+#[derive(Copy, Clone, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Timestamp(pub i64);
+
+impl Timestamp {
+    /// The epoch itself.
+    pub const ZERO: Timestamp = Timestamp(0);
+
+    /// From integer nanoseconds.
+    pub const fn from_nanos(ns: i64) -> Self {
+        Timestamp(ns)
+    }
+
+    /// From seconds, rounded to the nearest nanosecond. Returns `None` for non-finite input
+    /// or a value outside the `i64` nanosecond range.
+    pub fn from_secs_f64(s: f64) -> Option<Self> {
+        let ns = (s * 1e9).round();
+        if ns.is_finite() && ns >= i64::MIN as f64 && ns < i64::MAX as f64 {
+            Some(Timestamp(ns as i64))
+        } else {
+            None
+        }
+    }
+
+    /// The time of frame `k` at a fixed sample rate, starting at 0: `round(k·10⁹/rate_hz)`.
+    pub fn at_rate(k: u64, rate_hz: f64) -> Self {
+        Timestamp(((k as f64) * 1e9 / rate_hz).round() as i64)
+    }
+
+    /// Integer nanoseconds.
+    pub const fn as_nanos(self) -> i64 {
+        self.0
+    }
+
+    /// Seconds as `f64` (exact below 2⁵³ ns ≈ 104 days).
+    pub fn as_secs_f64(self) -> f64 {
+        self.0 as f64 * 1e-9
+    }
+}
+
+impl fmt::Debug for Timestamp {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}ns", self.0)
+    }
+}
+
+impl fmt::Display for Timestamp {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:.9}s", self.as_secs_f64())
+    }
+}
+
+impl Add<i64> for Timestamp {
+    type Output = Timestamp;
+    fn add(self, ns: i64) -> Timestamp {
+        Timestamp(self.0 + ns)
+    }
+}
+
+impl Sub for Timestamp {
+    type Output = i64;
+    /// The difference in nanoseconds.
+    fn sub(self, rhs: Timestamp) -> i64 {
+        self.0 - rhs.0
+    }
+}
+
+/// Anything that carries a timestamp; [`merge`](crate::merge) orders by it.
+pub trait Timed {
+    /// The item's time.
+    fn time(&self) -> Timestamp;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rate_does_not_accumulate_rounding() {
+        // 3 Hz: 1e9/3 is not an integer; frame 3 must land on exactly 1 s.
+        assert_eq!(Timestamp::at_rate(3, 3.0), Timestamp(1_000_000_000));
+        assert_eq!(Timestamp::at_rate(1, 3.0), Timestamp(333_333_333));
+        assert_eq!(Timestamp::at_rate(2, 3.0), Timestamp(666_666_667));
+    }
+
+    #[test]
+    fn seconds_round_trip_and_reject_nonfinite() {
+        assert_eq!(Timestamp::from_secs_f64(1.5), Some(Timestamp(1_500_000_000)));
+        assert_eq!(Timestamp::from_secs_f64(f64::NAN), None);
+        assert_eq!(Timestamp::from_secs_f64(1e300), None);
+        assert_eq!(Timestamp(2_000_000_000) - Timestamp(500), 1_999_999_500);
+    }
+}
