@@ -99,9 +99,9 @@ where
 
     /// The largest delay among the instances (zero before any input).
     fn delay(&self) -> Delay {
-        self.states.iter().map(|(_, s)| s.delay()).fold(Delay::ZERO, |a, d| Delay {
-            frames: a.frames.max(d.frames),
-            nanos: a.nanos.max(d.nanos),
-        })
+        self.states
+            .iter()
+            .map(|(_, s)| s.delay())
+            .fold(Delay::ZERO, |a, d| Delay { frames: a.frames.max(d.frames), nanos: a.nanos.max(d.nanos) })
     }
 }

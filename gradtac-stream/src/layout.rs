@@ -157,10 +157,7 @@ impl Layout {
             [5.04983, 1.8519, -9.88999],
             [2.64671, 0.0, -10.51272],
         ];
-        let positions = SKIN
-            .iter()
-            .map(|&[x, y, z]| [x, y.hypot(z) * y.atan2(-z)])
-            .collect();
+        let positions = SKIN.iter().map(|&[x, y, z]| [x, y.hypot(z) * y.atan2(-z)]).collect();
         let names = (1..=24).map(|i| format!("e{i}")).collect();
         Layout::try_new("biotac-sp", names, positions, None).expect("the built-in layout is valid")
     }
@@ -237,7 +234,8 @@ impl Layout {
 }
 
 fn bounding_box(p: &[[f64; 2]]) -> Extent {
-    let mut e = Extent { x_min: f64::INFINITY, x_max: f64::NEG_INFINITY, y_min: f64::INFINITY, y_max: f64::NEG_INFINITY };
+    let mut e =
+        Extent { x_min: f64::INFINITY, x_max: f64::NEG_INFINITY, y_min: f64::INFINITY, y_max: f64::NEG_INFINITY };
     for q in p {
         e.x_min = e.x_min.min(q[0]);
         e.x_max = e.x_max.max(q[0]);
