@@ -15,8 +15,9 @@
 //! use futures::StreamExt;
 //!
 //! let double = || map_stage(|x: f64| 2.0 * x);
-//! let offline: Result<Vec<f64>, ()> = [1.0, 2.0].into_iter().map(Ok).stage(double()).collect();
-//! let live: Vec<Result<f64, ()>> = futures::executor::block_on(
+//! type E = gradtac_stream::Error;
+//! let offline: Result<Vec<f64>, E> = [1.0, 2.0].into_iter().map(Ok).stage(double()).collect();
+//! let live: Vec<Result<f64, E>> = futures::executor::block_on(
 //!     futures::stream::iter([Ok(1.0), Ok(2.0)]).stage(double()).collect(),
 //! );
 //! assert_eq!(offline.unwrap(), live.into_iter().collect::<Result<Vec<_>, _>>().unwrap());

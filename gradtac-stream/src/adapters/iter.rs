@@ -64,8 +64,9 @@ where
 ///
 /// ```
 /// use gradtac_stream::{map_stage, IteratorStageExt};
-/// let out: Result<Vec<i32>, ()> = [1, 2, 3].into_iter().map(Ok).stage(map_stage(|x: i32| x + 1)).collect();
-/// assert_eq!(out, Ok(vec![2, 3, 4]));
+/// let out: Result<Vec<i32>, gradtac_stream::Error> =
+///     [1, 2, 3].into_iter().map(Ok).stage(map_stage(|x: i32| x + 1)).collect();
+/// assert_eq!(out.unwrap(), vec![2, 3, 4]);
 /// ```
 pub trait IteratorStageExt: Iterator + Sized {
     /// Drive `stage` with this iterator's items (see [`StageIter`]).

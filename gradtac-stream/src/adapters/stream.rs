@@ -79,10 +79,10 @@ where
 /// ```
 /// use futures::{stream, StreamExt};
 /// use gradtac_stream::{map_stage, StreamStageExt};
-/// let out: Vec<Result<i32, ()>> = futures::executor::block_on(
+/// let out: Vec<Result<i32, gradtac_stream::Error>> = futures::executor::block_on(
 ///     stream::iter([Ok(1), Ok(2)]).stage(map_stage(|x: i32| x * 10)).collect(),
 /// );
-/// assert_eq!(out, vec![Ok(10), Ok(20)]);
+/// assert_eq!(out.into_iter().map(Result::unwrap).collect::<Vec<_>>(), vec![10, 20]);
 /// ```
 pub trait StreamStageExt: Stream + Sized {
     /// Drive `stage` with this stream's items (see [`StageStream`]).
