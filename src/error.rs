@@ -1,0 +1,53 @@
+//! The error type of the `gradtac` package (scenes, planning, running).
+
+use std::path::PathBuf;
+
+/// Errors of scenes, plans and runs; the errors of the member crates pass through.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A scene file is malformed or inconsistent.
+    #[error("{path}: {reason}")]
+    Scene {
+        /// The scene file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+    /// An I/O error with its path.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// From the core crate (layouts, pipeline errors).
+    #[error(transparent)]
+    Stream(#[from] gradtac_stream::Error),
+    /// From a stage (configuration, bad input).
+    #[error(transparent)]
+    Stage(#[from] gradtac_stages::Error),
+    /// From a source or sink.
+    #[error(transparent)]
+    Io2(#[from] gradtac_io::Error),
+    /// The run was interrupted (Ctrl-C); finished outputs were kept.
+    #[error("interrupted")]
+    Interrupted,
+}
+
+impl Error {
+    /// Unwrap a pipeline error into the most specific variant (stage or io error inside).
+    pub fn from_pipeline(e: gradtac_stream::Error) -> Self {
+        match e {
+            gradtac_stream::Error::Other(inner) => match inner.downcast::<gradtac_stages::Error>() {
+                Ok(s) => Error::Stage(*s),
+                Err(inner) => match inner.downcast::<gradtac_io::Error>() {
+                    Ok(s) => Error::Io2(*s),
+                    Err(inner) => Error::Stream(gradtac_stream::Error::Other(inner)),
+                },
+            },
+            other => Error::Stream(other),
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! Running a planned scene (being written).

@@ -1,0 +1,250 @@
+//! Scene files: which sensors, which sources, which stage settings, which outputs.
+//!
+//! A scene is TOML. Relative paths (sources, layouts, outputs) are resolved against the
+//! directory of the scene file.
+//!
+//! ```toml
+//! [[sensor]]
+//! name = "ff"
+//! layout = "biotac-sp"                 # a built-in layout, or a path to a CSV (name,x_mm,y_mm)
+//! source = { csv = "recording.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }
+//!
+//! [stages.normalise]
+//! calibrate_frames = 20
+//!
+//! [[output]]
+//! tap = "normalise"                    # any stage by name, or "source" for the raw frames
+//! path = "out/normalised.parquet"
+//! # sensors = ["ff"]                   # default: every sensor
+//! ```
+//!
+//! Every table rejects unknown keys, so a misspelt setting is an error, not a silent default.
+
+use crate::Error;
+use gradtac_stages::normalise::NormaliseConfig;
+use gradtac_stream::Layout;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A parsed scene (see the [module docs](self)).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// The sensors, each with its own source.
+    #[serde(rename = "sensor", default)]
+    pub sensors: Vec<SensorSpec>,
+    /// Stage settings shared by every sensor.
+    #[serde(default)]
+    pub stages: StageSettings,
+    /// What to write.
+    #[serde(rename = "output", default)]
+    pub outputs: Vec<OutputSpec>,
+    /// Directory relative paths are resolved against (the scene file's; not part of the TOML).
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+    /// The TOML text the scene was parsed from (stored in output metadata).
+    #[serde(skip)]
+    pub text: String,
+}
+
+/// One sensor of a scene.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSpec {
+    /// The sensor's name (`ff`, `th`, …): the key of its stream and the `sensor` column of outputs.
+    pub name: String,
+    /// A built-in layout name (`biotac-sp`) or a path to a layout CSV. Default `biotac-sp`.
+    #[serde(default = "default_layout")]
+    pub layout: String,
+    /// Where its frames come from.
+    pub source: SourceSpec,
+}
+
+fn default_layout() -> String {
+    "biotac-sp".into()
+}
+
+/// A sensor's source. Exactly one kind key (`csv`, …) names the file.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SourceSpec {
+    /// A CSV file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub csv: Option<PathBuf>,
+    /// Columns: a comma-separated list of header names, or a pattern with `{a..b}` ranges and
+    /// `*` globs (`ff_e{1..24}`). Default: every column except the time column.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub columns: Option<String>,
+    /// Fixed sample rate (Hz) when the file has no time column: frame k is at k/rate s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_hz: Option<f64>,
+    /// Name of a time column.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_column: Option<String>,
+    /// Unit of the time column: `"s"` (default) or `"ns"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_unit: Option<String>,
+}
+
+/// Stage settings; a missing table means the stage's defaults.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StageSettings {
+    /// Min–max normalisation.
+    #[serde(default)]
+    pub normalise: NormaliseConfig,
+}
+
+/// One output: a tap on a stage, written to a file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// The stage whose output is written (see [`crate::plan::Tap`]).
+    pub tap: String,
+    /// The Parquet file to write.
+    pub path: PathBuf,
+    /// Only these sensors (default: all).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensors: Option<Vec<String>>,
+    /// Rows per Parquet row group (default 65 536).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row_group_size: Option<usize>,
+}
+
+impl Scene {
+    /// Parse a scene from TOML text; relative paths will resolve against `base_dir`.
+    pub fn from_toml(text: &str, base_dir: impl Into<PathBuf>, origin: &Path) -> Result<Self, Error> {
+        let mut scene: Scene = toml::from_str(text).map_err(|e| Error::Scene {
+            path: origin.to_path_buf(),
+            reason: e.to_string().trim_end().to_string(),
+        })?;
+        scene.base_dir = base_dir.into();
+        scene.text = text.to_string();
+        scene.validate(origin)?;
+        Ok(scene)
+    }
+
+    /// Read and parse a scene file.
+    pub fn load(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Self::from_toml(&text, base, path)
+    }
+
+    /// A path from the scene, resolved against its directory.
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.base_dir.join(p)
+        }
+    }
+
+    /// The layout of a sensor (built in, or loaded from its CSV).
+    pub fn layout(&self, sensor: &SensorSpec) -> Result<Layout, Error> {
+        if gradtac_stream::layout::BUILTIN_LAYOUTS.contains(&sensor.layout.as_str()) {
+            return Ok(Layout::builtin(&sensor.layout)?);
+        }
+        Ok(Layout::from_csv_path(&self.resolve(Path::new(&sensor.layout)))?)
+    }
+
+    fn validate(&self, origin: &Path) -> Result<(), Error> {
+        let bad = |reason: String| Error::Scene { path: origin.to_path_buf(), reason };
+        if self.sensors.is_empty() {
+            return Err(bad("no [[sensor]]".into()));
+        }
+        for (i, s) in self.sensors.iter().enumerate() {
+            if s.name.is_empty() {
+                return Err(bad(format!("sensor #{} has an empty name", i + 1)));
+            }
+            if self.sensors[..i].iter().any(|o| o.name == s.name) {
+                return Err(bad(format!("sensor {:?} is declared twice", s.name)));
+            }
+            s.source.validate().map_err(|r| bad(format!("sensor {:?}: source: {r}", s.name)))?;
+        }
+        if self.outputs.is_empty() {
+            return Err(bad("no [[output]]: nothing would be computed".into()));
+        }
+        for (i, o) in self.outputs.iter().enumerate() {
+            if crate::plan::Tap::parse(&o.tap).is_none() {
+                return Err(bad(format!(
+                    "output #{} taps {:?}; known taps: {}",
+                    i + 1,
+                    o.tap,
+                    crate::plan::Tap::names().join(", ")
+                )));
+            }
+            for name in o.sensors.iter().flatten() {
+                if !self.sensors.iter().any(|s| &s.name == name) {
+                    return Err(bad(format!("output #{} names sensor {name:?}, which is not declared", i + 1)));
+                }
+            }
+            if self.outputs[..i].iter().any(|p| p.path == o.path) {
+                return Err(bad(format!("two outputs write {}", o.path.display())));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl SourceSpec {
+    fn validate(&self) -> Result<(), String> {
+        if self.csv.is_none() {
+            return Err("name a file: csv = \"…\"".into());
+        }
+        match (self.rate_hz, &self.time_column) {
+            (Some(_), Some(_)) => return Err("give rate_hz or time_column, not both".into()),
+            (None, None) => return Err("give rate_hz (Hz) or time_column".into()),
+            (Some(r), None) if !(r.is_finite() && r > 0.0) => return Err(format!("rate_hz must be > 0, got {r}")),
+            _ => {}
+        }
+        if let Some(u) = &self.time_unit {
+            if self.time_column.is_none() {
+                return Err("time_unit without time_column".into());
+            }
+            if u != "s" && u != "ns" {
+                return Err(format!("time_unit must be \"s\" or \"ns\", got {u:?}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ISSUE_EXAMPLE: &str = r#"
+[[sensor]]
+name = "ff"
+layout = "biotac-sp"
+source = { csv = "recording.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }
+
+[stages.normalise]
+calibrate_frames = 20
+
+[[output]]
+tap = "normalise"
+path = "out/normalised.parquet"
+"#;
+
+    #[test]
+    fn the_issue_example_parses() {
+        let s = Scene::from_toml(ISSUE_EXAMPLE, "/data", Path::new("scene.toml")).unwrap();
+        assert_eq!(s.sensors[0].name, "ff");
+        assert_eq!(s.stages.normalise.calibrate_frames, Some(20));
+        assert_eq!(s.resolve(&s.outputs[0].path), PathBuf::from("/data/out/normalised.parquet"));
+        assert_eq!(s.layout(&s.sensors[0]).unwrap().len(), 24);
+    }
+
+    #[test]
+    fn mistakes_are_named() {
+        let err = |t: &str| Scene::from_toml(t, ".", Path::new("s.toml")).unwrap_err().to_string();
+        assert!(err(&ISSUE_EXAMPLE.replace("calibrate_frames", "calibrate_frame")).contains("unknown field"));
+        assert!(err(&ISSUE_EXAMPLE.replace("tap = \"normalise\"", "tap = \"normalize\"")).contains("known taps"));
+        assert!(err(&ISSUE_EXAMPLE.replace(", rate_hz = 100.0", "")).contains("rate_hz"));
+        assert!(err(&ISSUE_EXAMPLE.replace("path = \"out/normalised.parquet\"", "path = \"o.parquet\"\nsensors = [\"th\"]"))
+            .contains("\"th\""));
+        assert!(err("").contains("no [[sensor]]"));
+    }
+}
