@@ -6,6 +6,7 @@
 #![warn(missing_docs)]
 
 pub mod blocking;
+pub mod can;
 pub mod csv_source;
 mod error;
 pub mod parquet_sink;
