@@ -1091,6 +1091,33 @@ mod tests {
     }
 
     #[test]
+    fn the_scene_example_deserialises_from_toml() {
+        #[derive(Deserialize)]
+        struct Sensor {
+            source: CsvSourceConfig,
+        }
+        let s: Sensor =
+            toml::from_str(r#"source = { csv = "recording.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }"#).unwrap();
+        assert_eq!(s.source, CsvSourceConfig::new("recording.csv", sel("ff_e{1..24}")).with_rate_hz(100.0));
+        let s: Sensor = toml::from_str(
+            "[source]\ncsv = \"r.tsv\"\ncolumns = [\"a\", \"b\"]\ntime_column = \"t\"\ntime_unit = \"ms\"\ndelimiter = \"\\t\"\n",
+        )
+        .unwrap();
+        assert_eq!(s.source.delimiter, '\t');
+        assert_eq!(s.source.time_unit, TimeUnit::Milliseconds);
+        let e =
+            toml::from_str::<Sensor>(r#"source = { csv = "r.csv", columns = "e{1..", rate_hz = 1.0 }"#).err().unwrap();
+        assert!(e.to_string().contains("'{' without '}'"), "{e}");
+    }
+
+    #[test]
+    fn frames_can_move_to_a_blocking_thread() {
+        fn send<T: Send + 'static>() {}
+        send::<CsvFrames<File>>();
+        send::<CsvProgress>();
+    }
+
+    #[test]
     fn header_errors() {
         let c = CsvSourceConfig::new("t.csv", sel("a")).with_rate_hz(1.0);
         let open = |t: &'static str| CsvFrames::from_reader(t.as_bytes(), Path::new("t.csv"), &c, SensorId::new("s"));
