@@ -13,7 +13,7 @@ pub mod npy;
 pub mod parquet_sink;
 pub mod records;
 
-pub use blocking::{blocking_stream, BlockingStream};
+pub use blocking::{blocking_sink, blocking_stream, BlockingSink, BlockingStream};
 pub use csv_source::{ColumnSelector, CsvFrames, CsvProgress, CsvSourceConfig, TimeUnit};
 pub use error::{Error, Result};
 pub use parquet_sink::ParquetSink;
