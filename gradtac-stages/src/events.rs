@@ -206,6 +206,8 @@ pub struct Events {
     lo: Vec<f64>,
     /// `L(k+1)`, or −inf for a taxel without a reference yet.
     hi: Vec<f64>,
+    /// `L(k)`.
+    mid: Vec<f64>,
     /// `ln y₀`.
     r0: Vec<f64>,
     /// `k`: the reference is `r₀ + kτ`.
@@ -219,6 +221,8 @@ pub struct Events {
     /// (time, seq) of the previous frame of the segment.
     last_frame: Option<(Timestamp, u64)>,
     counters: EventCounters,
+    /// Events of the frame being processed (reused; the batch gets an exact-size copy).
+    scratch: Vec<TactileEvent>,
 }
 
 impl Events {
@@ -268,6 +272,8 @@ impl Events {
             max_gap_ns,
             lo: vec![f64::INFINITY; taxels],
             hi: vec![f64::NEG_INFINITY; taxels],
+            mid: vec![1.0; taxels],
+            scratch: Vec::new(),
             r0: vec![0.0; taxels],
             level: vec![0; taxels],
             prev: vec![0.0; taxels],
@@ -355,6 +361,7 @@ impl Events {
             self.r0[i] = r0;
             self.level[i] = 0;
             self.lo[i] = (r0 - tau).exp();
+            self.mid[i] = r0.exp(); // L(0), computed like every other level
             self.hi[i] = (r0 + tau).exp();
             self.prev[i] = y;
             self.prev_t[i] = now;
@@ -363,24 +370,37 @@ impl Events {
         let r0 = self.r0[i];
         let lvl = |j: i64| (r0 + j as f64 * tau).exp();
         let k = self.level[i];
-        let (dir, j) = if y >= self.hi[i] {
-            let mut j = (((y.ln() - r0) / tau).floor() as i64).max(k + 1);
-            while lvl(j + 1) <= y {
-                j += 1;
+        let (lo, mid, hi) = (self.lo[i], self.mid[i], self.hi[i]);
+        // (direction, final level j, new bounds L(j−1), L(j), L(j+1)). One crossing — by far
+        // the most common case — costs one exp and no ln: the bounds shift by one level.
+        let (dir, j, bounds) = if y >= hi {
+            let next = lvl(k + 2);
+            if y < next {
+                (1i64, k + 1, (mid, hi, next))
+            } else {
+                let mut j = (((y.ln() - r0) / tau).floor() as i64).max(k + 2);
+                while lvl(j + 1) <= y {
+                    j += 1;
+                }
+                while j > k + 2 && lvl(j) > y {
+                    j -= 1;
+                }
+                (1i64, j, (lvl(j - 1), lvl(j), lvl(j + 1)))
             }
-            while j > k + 1 && lvl(j) > y {
-                j -= 1;
+        } else if y <= lo {
+            let next = lvl(k - 2);
+            if y > next {
+                (-1i64, k - 1, (next, lo, mid))
+            } else {
+                let mut j = (((y.ln() - r0) / tau).ceil() as i64).min(k - 2);
+                while lvl(j - 1) >= y {
+                    j -= 1;
+                }
+                while j < k - 2 && lvl(j) < y {
+                    j += 1;
+                }
+                (-1i64, j, (lvl(j - 1), lvl(j), lvl(j + 1)))
             }
-            (1i64, j)
-        } else if y <= self.lo[i] {
-            let mut j = (((y.ln() - r0) / tau).ceil() as i64).min(k - 1);
-            while lvl(j - 1) >= y {
-                j -= 1;
-            }
-            while j < k - 1 && lvl(j) < y {
-                j += 1;
-            }
-            (-1i64, j)
         } else {
             // Inside the bounds after all (only reachable for a taxel just (re)initialised).
             self.prev[i] = y;
@@ -408,7 +428,16 @@ impl Events {
                 self.overflow_per_taxel[i] += remaining;
                 break;
             }
-            let te = time_of(lvl(lv));
+            let level_value = if lv == k + dir {
+                if dir > 0 {
+                    hi
+                } else {
+                    lo
+                }
+            } else {
+                lvl(lv)
+            };
+            let te = time_of(level_value);
             let free_at = self.last_event[i].saturating_add(self.refractory_ns);
             if self.refractory_ns > 0 && te < free_at {
                 // Skip ahead to about where the taxel becomes free again, then re-check exactly.
@@ -433,8 +462,7 @@ impl Events {
             lv += dir;
         }
         self.level[i] = j;
-        self.lo[i] = lvl(j - 1);
-        self.hi[i] = lvl(j + 1);
+        (self.lo[i], self.mid[i], self.hi[i]) = bounds;
         self.prev[i] = y;
         self.prev_t[i] = now;
         Ok(())
@@ -466,7 +494,8 @@ impl Stage for Events {
         }
         let now = frame.time.as_nanos();
         let (offset, floor) = (self.config.offset, self.config.floor);
-        let mut events = Vec::new();
+        let mut events = std::mem::take(&mut self.scratch);
+        events.clear();
         let mut first_taxel_with_events = usize::MAX;
         let mut several = false;
         for i in 0..n {
@@ -482,7 +511,11 @@ impl Stage for Events {
                 continue;
             }
             let before = events.len();
-            self.slow(&frame, i, x, y, &mut events)?;
+            let r = self.slow(&frame, i, x, y, &mut events);
+            if let Err(e) = r {
+                self.scratch = events;
+                return Err(e);
+            }
             if events.len() > before {
                 if first_taxel_with_events == usize::MAX {
                     first_taxel_with_events = i;
@@ -497,7 +530,15 @@ impl Stage for Events {
             events.sort_by_key(|e| e.time);
         }
         self.last_frame = Some((frame.time, frame.seq));
-        out.push(EventBatch { sensor: frame.sensor, time: frame.time, seq: frame.seq, taxels: n as u16, events });
+        let batch_events = events.to_vec(); // exact size; no allocation when empty
+        self.scratch = events;
+        out.push(EventBatch {
+            sensor: frame.sensor,
+            time: frame.time,
+            seq: frame.seq,
+            taxels: n as u16,
+            events: batch_events,
+        });
         Ok(())
     }
 

@@ -48,7 +48,9 @@
 //! A *segment* is a run of frames without a discontinuity. With [`GapPolicy::Reset`] (the
 //! default) a discontinuity is: a frame whose `seq` is not the previous `seq + 1` (dropped
 //! frames), a time that does not increase, or — when the sample period is known (`delta`, or
-//! the rate given to [`SavGol::try_with_rate`]) — an interval longer than `gap_factor` periods.
+//! the rate given to [`SavGol::try_with_rate`]) — an interval longer than `gap_factor` periods;
+//! also a change of sensor id (one stage serves one sensor; [`Keyed`](gradtac_stream::Keyed)
+//! gives each sensor its own).
 //! At a discontinuity the stage flushes the segment as [`finish`](Stage::finish) would (end edge
 //! included) and starts a new one, so the output equals that of running the filter separately
 //! over each segment; no window ever spans a gap. [`GapPolicy::Ignore`] treats all frames as
@@ -509,6 +511,11 @@ impl SavGol {
         if f.seq != seq.wrapping_add(1) || f.time <= t {
             return true;
         }
+        if let Some(s) = &self.sensor {
+            if !s.ptr_eq(&f.sensor) && *s != f.sensor {
+                return true;
+            }
+        }
         match self.period_ns {
             Some(p) => (f.time - t) as f64 > self.config.gap_factor * p,
             None => false,
@@ -533,17 +540,23 @@ impl SavGol {
         }
     }
 
-    /// Emit the full window's fit at positions `range` (window must be full).
-    fn emit_window(&mut self, range: std::ops::Range<usize>, out: &mut Vec<TaxelFrame>, mut first: Option<Vec<f64>>) {
+    /// Emit the full window's fit at positions `range` (window must be full). The last output
+    /// reuses `last` (buffer and sensor id) when given.
+    fn emit_window(
+        &mut self,
+        range: std::ops::Range<usize>,
+        out: &mut Vec<TaxelFrame>,
+        mut last: Option<(SensorId, Vec<f64>)>,
+    ) {
         let w = self.window;
+        let end = range.end;
         for pos in range {
-            let mut buf = match first.take() {
-                Some(b) => b,
-                None => self.take_buf(),
+            let (sensor, mut buf) = match last.take_if(|_| pos + 1 == end) {
+                Some(sb) => sb,
+                None => (self.sensor.clone().expect("a segment has a sensor"), self.take_buf()),
             };
             Self::apply(&self.ring, self.taxels, self.head, &self.weights[pos * w..(pos + 1) * w], &mut buf);
             let (time, seq) = self.meta[(self.head + pos) % w];
-            let sensor = self.sensor.clone().expect("a segment has a sensor");
             out.push(TaxelFrame { sensor, time, seq, values: buf });
         }
     }
@@ -621,22 +634,28 @@ impl Stage for SavGol {
         let TaxelFrame { sensor, time, seq, values } = frame;
         match self.config.mode {
             SavGolMode::Centred => {
-                if self.sensor.is_none() {
-                    self.sensor = Some(sensor);
-                }
                 let c = self.count;
                 if c < w as u64 {
+                    if self.sensor.is_none() {
+                        self.sensor = Some(sensor);
+                    }
                     if self.spare.len() < w {
                         self.spare.push(values);
                     }
                 } else if c == w as u64 {
                     // The first full window: the start edge and the first centre.
-                    self.emit_window(0..self.half + 1, out, Some(values));
+                    if self.sensor.is_none() {
+                        self.sensor = Some(sensor.clone());
+                    }
+                    self.emit_window(0..self.half + 1, out, Some((sensor, values)));
                 } else {
-                    self.emit_window(self.half..self.half + 1, out, Some(values));
+                    self.emit_window(self.half..self.half + 1, out, Some((sensor, values)));
                 }
             }
             SavGolMode::Causal => {
+                if self.sensor.is_none() {
+                    self.sensor = Some(sensor.clone());
+                }
                 let mut buf = values;
                 let c = self.count as usize;
                 if c >= w {

@@ -244,8 +244,58 @@ fn log_walk(taxels: usize, len: std::ops::Range<usize>) -> impl Strategy<Value =
     })
 }
 
+/// The rule of method.md stage 3, written the slow obvious way: step the reference one level
+/// at a time (`L(j) = e^{r₀ + jτ}`, `y ≥ L(k+1)` → up, `y ≤ L(k−1)` → down), interpolate each
+/// crossing linearly in value, order a frame's events by (time, taxel, crossing).
+fn naive_events(rows: &[Vec<f64>], tau: f64, floor: f64) -> Vec<Vec<TactileEvent>> {
+    let n = rows[0].len();
+    let y = |x: f64| if x >= floor { x } else { floor };
+    let r0: Vec<f64> = rows[0].iter().map(|&x| y(x).ln()).collect();
+    let mut k = vec![0i64; n];
+    let mut out = vec![Vec::new()];
+    for f in 1..rows.len() {
+        let (pt, now) = ((f as i64 - 1) * PERIOD_NS, f as i64 * PERIOD_NS);
+        let mut evs = Vec::new();
+        for i in 0..n {
+            let l = |j: i64| (r0[i] + j as f64 * tau).exp();
+            let (p, v) = (y(rows[f - 1][i]), y(rows[f][i]));
+            let time = |level: f64| {
+                let frac = ((level - p) / (v - p)).clamp(0.0, 1.0);
+                Timestamp(pt + (frac * (now - pt) as f64).round() as i64)
+            };
+            while v >= l(k[i] + 1) {
+                k[i] += 1;
+                evs.push(TactileEvent { time: time(l(k[i])), taxel: i as u16, polarity: 1 });
+            }
+            while v <= l(k[i] - 1) {
+                k[i] -= 1;
+                evs.push(TactileEvent { time: time(l(k[i])), taxel: i as u16, polarity: -1 });
+            }
+        }
+        evs.sort_by_key(|e| e.time);
+        out.push(evs);
+    }
+    out
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    /// The optimised stage (cached linear-domain bounds, jump to the final level, one exp per
+    /// single crossing) emits exactly the events of the naive rule.
+    #[test]
+    fn matches_the_naive_rule(rows in log_walk(3, 1..40), tau in 0.01f64..1.0) {
+        let config = EventsConfig {
+            threshold: Threshold::Uniform(tau),
+            max_events_per_step: u32::MAX,
+            ..Default::default()
+        };
+        let out = Events::try_new(3, config).unwrap().run_all(frames(&rows)).unwrap();
+        let want = naive_events(&rows, tau, 1e-3);
+        for (f, (b, w)) in out.iter().zip(&want).enumerate() {
+            prop_assert_eq!(&b.events, w, "frame {}", f);
+        }
+    }
 
     /// Σ polarity·τ up to each frame reconstructs ln y − ln y₀ within τ, at every sample.
     #[test]
