@@ -162,7 +162,7 @@ pub struct MaxContour {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum NoContact {
-    /// No finite value on the surface.
+    /// No finite value on the surface (or a value of ±∞).
     NoData,
     /// The peak is below `min_peak`.
     BelowMinPeak,
@@ -500,7 +500,8 @@ impl MaxContourFinder {
                 scan(&v, &mut zmax, &mut zmin, &mut at)
             }
         }
-        if at == usize::MAX {
+        if at == usize::MAX || zmax == f64::INFINITY || zmin == f64::NEG_INFINITY {
+            // no finite value, or ±∞ (which no level can split)
             return ContourOutcome::NoContact(NoContact::NoData);
         }
         if zmax < self.cfg.min_peak {
@@ -655,15 +656,31 @@ impl MaxContourFinder {
     }
 }
 
+/// Finite maximum (first index in raster order) and minimum. Eight independent lanes with
+/// `x < m ? x : m` selects (NaN never selected) so the compiler vectorises the pass.
 fn scan(v: &[f64], zmax: &mut f64, zmin: &mut f64, at: &mut usize) {
-    for (i, &x) in v.iter().enumerate() {
-        if x > *zmax {
-            *zmax = x;
-            *at = i;
+    const L: usize = 8;
+    let mut mn = [f64::INFINITY; L];
+    let mut mx = [f64::NEG_INFINITY; L];
+    let chunks = v.chunks_exact(L);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for l in 0..L {
+            let x = c[l];
+            mn[l] = if x < mn[l] { x } else { mn[l] };
+            mx[l] = if x > mx[l] { x } else { mx[l] };
         }
-        if x < *zmin {
-            *zmin = x;
-        }
+    }
+    for &x in rest {
+        mn[0] = if x < mn[0] { x } else { mn[0] };
+        mx[0] = if x > mx[0] { x } else { mx[0] };
+    }
+    let hi = mx.iter().copied().fold(f64::NEG_INFINITY, |a, b| if b > a { b } else { a });
+    let lo = mn.iter().copied().fold(f64::INFINITY, |a, b| if b < a { b } else { a });
+    if hi > f64::NEG_INFINITY {
+        *zmax = hi;
+        *zmin = lo;
+        *at = v.iter().position(|&x| x == hi).expect("the maximum is an element");
     }
 }
 

@@ -268,9 +268,12 @@ pub struct WeightTable {
     starts: Vec<u32>,
     taxels: Vec<u16>,
     weights: Vec<f64>,
-    // transpose: for taxel k, (points, weights) in col_starts[k]..col_starts[k+1]
-    col_starts: Vec<u32>,
-    col_points: Vec<u32>,
+    // transpose as runs of consecutive grid points: taxel k owns runs
+    // run_starts[k]..run_starts[k+1]; run r covers points run_point[r].. with weights
+    // col_weights[run_weight[r]..run_weight[r+1]]
+    run_starts: Vec<u32>,
+    run_point: Vec<u32>,
+    run_weight: Vec<u32>,
     col_weights: Vec<f64>,
     inside: Vec<bool>,
     n_taxels: usize,
@@ -325,9 +328,13 @@ impl WeightTable {
     /// `out += w[·, taxel] · delta`: the change of the surface when one taxel's value changes
     /// by `delta`.
     pub fn add_taxel(&self, taxel: usize, delta: f64, out: &mut [f64]) {
-        let (a, b) = (self.col_starts[taxel] as usize, self.col_starts[taxel + 1] as usize);
-        for (&p, &w) in self.col_points[a..b].iter().zip(&self.col_weights[a..b]) {
-            out[p as usize] += w * delta;
+        let (a, b) = (self.run_starts[taxel] as usize, self.run_starts[taxel + 1] as usize);
+        for r in a..b {
+            let (w0, w1) = (self.run_weight[r] as usize, self.run_weight[r + 1] as usize);
+            let p = self.run_point[r] as usize;
+            for (o, &w) in out[p..p + (w1 - w0)].iter_mut().zip(&self.col_weights[w0..w1]) {
+                *o += w * delta;
+            }
         }
     }
 
@@ -347,19 +354,33 @@ impl WeightTable {
         for k in 0..n_taxels {
             counts[k + 1] += counts[k];
         }
-        let col_starts = counts.clone();
-        let mut next = counts;
+        let mut next = counts.clone();
         let mut col_points = vec![0u32; taxels.len()];
-        let mut col_weights = vec![0.0; taxels.len()];
+        let mut cw = vec![0.0; taxels.len()];
         for (p, r) in rows.iter().enumerate() {
             for &(k, w) in r {
                 let at = next[k] as usize;
                 col_points[at] = p as u32;
-                col_weights[at] = w;
+                cw[at] = w;
                 next[k] += 1;
             }
         }
-        WeightTable { starts, taxels, weights, col_starts, col_points, col_weights, inside, n_taxels, fill }
+        // split each taxel's (ascending) points into runs of consecutive points
+        let (mut run_starts, mut run_point, mut run_weight) = (vec![0u32], Vec::new(), Vec::new());
+        let mut col_weights = Vec::with_capacity(cw.len());
+        for k in 0..n_taxels {
+            let (a, b) = (counts[k] as usize, counts[k + 1] as usize);
+            for i in a..b {
+                if i == a || col_points[i] != col_points[i - 1] + 1 {
+                    run_point.push(col_points[i]);
+                    run_weight.push(col_weights.len() as u32);
+                }
+                col_weights.push(cw[i]);
+            }
+            run_starts.push(run_point.len() as u32);
+        }
+        run_weight.push(col_weights.len() as u32);
+        WeightTable { starts, taxels, weights, run_starts, run_point, run_weight, col_weights, inside, n_taxels, fill }
     }
 }
 
