@@ -30,6 +30,13 @@
 //! is line 1) and, for a bad cell, the column's header name: a non-numeric, empty or
 //! non-finite cell; a row with another number of fields than the header; a time that goes
 //! back. After an error the iterator ends.
+//!
+//! Physical lines are counted by `\n` (LF and CRLF files; blank lines and newlines inside
+//! quoted fields count, a row spanning several lines is named by its first). The `csv`
+//! crate's own record line numbers are not used: they skip blank lines and lag on CRLF.
+//!
+//! Cells are trimmed of surrounding whitespace; blank lines are skipped (they do not count
+//! as frames, so `seq` counts data rows only).
 
 use crate::{Error, Result};
 use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
