@@ -577,7 +577,7 @@ impl CanCodec {
                 ByteOrder::Little => (word >> p) & fmask,
             };
             let raw = if m.signed && u >> (m.bits - 1) & 1 == 1 { u as i64 - (1i64 << m.bits) } else { u as i64 };
-            let value = (raw >= m.raw_min && raw <= m.raw_max).then(|| raw as f64 * m.scale + m.offset);
+            let value = (raw >= m.raw_min && raw <= m.raw_max).then_some(raw as f64 * m.scale + m.offset);
             out.push(FieldValue { taxel: base + k, raw, value });
         }
         Decoded::Values { sensor: m.sensor, group }
