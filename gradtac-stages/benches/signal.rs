@@ -6,13 +6,17 @@
 //! outside the timed region (`iter_batched`); dropping the outputs is inside it.
 //!
 //! The input is synthetic but BioTac-like: per-taxel baselines 1500–3800 counts, slow
-//! touch-like swings of ±200 counts with different periods per taxel, and ±3 counts of noise;
-//! normalised with given bounds (baseline ± 250) to about [0, 1]; events with τ = 0.05.
+//! touch-like swings with different periods per taxel, and ±3 counts of noise; normalised with
+//! given bounds (baseline ± 250) to about [0, 1]; events with τ = 0.05. Two inputs: `touch`
+//! (swings of ±200 counts: ≈ 9.3 events per frame after SG, dense — real BioTacSP-DoS data gives
+//! 5–60 per frame depending on τ and calibration) and `quiet` (±20 counts: ≈ 0.44 events per
+//! frame). The event stage's cost is ≈ 40 ns per event on top of ≈ 3 ns per taxel, so its
+//! throughput depends on the event density far more than on anything else.
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
 use gradtac_stages::normalise::{Normalise, NormaliseConfig};
 use gradtac_stages::savgol::{SavGol, SavGolConfig, SavGolMode};
-use gradtac_stream::{Stage, StageExt, TaxelFrame, Timestamp};
+use gradtac_stream::{SensorId, Stage, StageExt, TaxelFrame, Timestamp};
 use std::hint::black_box;
 
 const TAXELS: usize = 24;
@@ -22,7 +26,7 @@ fn baseline(i: usize) -> f64 {
     1500.0 + 100.0 * i as f64
 }
 
-fn input() -> Vec<TaxelFrame> {
+fn input(amplitude: f64) -> Vec<TaxelFrame> {
     let mut seed = 0x2545_f491_4f6c_dd1du64;
     let mut noise = move || {
         seed ^= seed << 13;
@@ -30,15 +34,17 @@ fn input() -> Vec<TaxelFrame> {
         seed ^= seed << 17;
         (seed >> 11) as f64 / (1u64 << 53) as f64 * 6.0 - 3.0
     };
+    // one shared id, as a source hands out clones of its sensor's id
+    let sensor: SensorId = "ff".into();
     (0..FRAMES)
         .map(|k| {
             let values = (0..TAXELS)
                 .map(|i| {
                     let period = 150.0 + 7.0 * i as f64;
-                    baseline(i) + 200.0 * (2.0 * std::f64::consts::PI * k as f64 / period).sin() + noise()
+                    baseline(i) + amplitude * (2.0 * std::f64::consts::PI * k as f64 / period).sin() + noise()
                 })
                 .collect();
-            TaxelFrame::new("ff".into(), Timestamp::at_rate(k as u64, 100.0), k as u64, values)
+            TaxelFrame::new(sensor.clone(), Timestamp::at_rate(k as u64, 100.0), k as u64, values)
         })
         .collect()
 }
@@ -78,15 +84,19 @@ where
 }
 
 fn benches(c: &mut Criterion) {
-    let frames = input();
-    // Event density of this input, for the record.
-    {
+    let touch = input(200.0);
+    let quiet = input(20.0);
+    for (name, frames) in [("touch", &touch), ("quiet", &quiet)] {
         let mut chain = normalise().then(savgol(SavGolMode::Centred)).then(events());
         let out = chain.run_all(frames.clone()).unwrap();
         let n: usize = out.iter().map(|b| b.events.len()).sum();
-        eprintln!("input: {FRAMES} frames × {TAXELS} taxels; normalise → SG(11,3) → events(τ=0.05): {n} events");
+        eprintln!(
+            "input {name}: {FRAMES} frames × {TAXELS} taxels → {n} events ({:.2} per frame)",
+            n as f64 / FRAMES as f64
+        );
     }
-    let normalised = normalise().run_all(frames.clone()).unwrap();
+    let touch_n = normalise().run_all(touch.clone()).unwrap();
+    let quiet_n = normalise().run_all(quiet.clone()).unwrap();
 
     let mut g = c.benchmark_group("signal_24_taxels");
     g.throughput(Throughput::Elements(FRAMES as u64));
@@ -94,23 +104,27 @@ fn benches(c: &mut Criterion) {
     let mut out = Vec::with_capacity(128);
     let mut s = normalise();
     g.bench_function("normalise", |b| {
-        b.iter_batched(|| frames.clone(), |fs| run(&mut s, fs, &mut out), BatchSize::LargeInput)
+        b.iter_batched(|| touch.clone(), |fs| run(&mut s, fs, &mut out), BatchSize::LargeInput)
     });
     for (name, mode) in [("savgol_11_3_centred", SavGolMode::Centred), ("savgol_11_3_causal", SavGolMode::Causal)] {
         let mut out = Vec::with_capacity(128);
         let mut s = savgol(mode);
         g.bench_function(name, |b| {
-            b.iter_batched(|| normalised.clone(), |fs| run(&mut s, fs, &mut out), BatchSize::LargeInput)
+            b.iter_batched(|| touch_n.clone(), |fs| run(&mut s, fs, &mut out), BatchSize::LargeInput)
         });
     }
-    let mut out = Vec::with_capacity(128);
-    let mut s = events();
-    g.bench_function("events_tau_0.05", |b| {
-        b.iter_batched(|| normalised.clone(), |fs| run(&mut s, fs, &mut out), BatchSize::LargeInput)
-    });
-    for (name, mode) in [
-        ("normalise_savgol_centred_events", SavGolMode::Centred),
-        ("normalise_savgol_causal_events", SavGolMode::Causal),
+    for (name, frames) in [("events_touch", &touch_n), ("events_quiet", &quiet_n)] {
+        let mut out = Vec::with_capacity(128);
+        let mut s = events();
+        g.bench_function(name, |b| {
+            b.iter_batched(|| frames.clone(), |fs| run(&mut s, fs, &mut out), BatchSize::LargeInput)
+        });
+    }
+    for (name, mode, frames) in [
+        ("chain_centred_touch", SavGolMode::Centred, &touch),
+        ("chain_centred_quiet", SavGolMode::Centred, &quiet),
+        ("chain_causal_touch", SavGolMode::Causal, &touch),
+        ("chain_causal_quiet", SavGolMode::Causal, &quiet),
     ] {
         let mut out = Vec::with_capacity(128);
         let mut s = normalise().then(savgol(mode)).then(events());

@@ -12,7 +12,7 @@
 //!
 //! Between two samples `(t, y_t)` and `(t+δ, y_{t+δ})` of a taxel the signal is taken as linear
 //! in **value**, so level `L` is crossed at `t + δ·(L − y_t)/(y_{t+δ} − y_t)`, rounded to the
-//! nearest nanosecond. Levels are geometric in value, so a rise crosses them densest near `t`
+//! nearest nanosecond (halves up). Levels are geometric in value, so a rise crosses them densest near `t`
 //! (the paper's "frequency of events higher initially").
 //!
 //! The comparison runs in the linear domain against the two cached bounds `L(k±1)` per taxel,
@@ -60,6 +60,12 @@ use gradtac_stream::{Delay, Stage, TaxelFrame, Timestamp};
 use serde::{Deserialize, Serialize};
 
 const STAGE: &str = "events";
+
+/// A finite input whose offset value is below the floor (non-finite input goes to the policy).
+#[inline(always)]
+fn below_floor(x: f64, y: f64, floor: f64) -> bool {
+    x.is_finite() && !y.is_nan() && y < floor
+}
 
 /// The smallest accepted threshold: below it neighbouring levels `e^{r₀+jτ}` stop being
 /// distinct in `f64` for large `|r₀ + jτ|`.
@@ -223,6 +229,8 @@ pub struct Events {
     counters: EventCounters,
     /// Events of the frame being processed (reused; the batch gets an exact-size copy).
     scratch: Vec<TactileEvent>,
+    /// Taxels of the frame being processed that need the slow path (reused).
+    slow_taxels: Vec<u32>,
 }
 
 impl Events {
@@ -274,6 +282,7 @@ impl Events {
             hi: vec![f64::NEG_INFINITY; taxels],
             mid: vec![1.0; taxels],
             scratch: Vec::new(),
+            slow_taxels: Vec::with_capacity(taxels),
             r0: vec![0.0; taxels],
             level: vec![0; taxels],
             prev: vec![0.0; taxels],
@@ -416,7 +425,8 @@ impl Events {
         let not_before = self.last_frame.map_or(i64::MIN, |(t, _)| t.as_nanos());
         let time_of = |v: f64| {
             let frac = ((v - p) / dy).clamp(0.0, 1.0);
-            (pt + (frac * dt).round() as i64).max(not_before)
+            // frac·dt ≥ 0: adding ½ and truncating rounds half up, without a libm call.
+            (pt + (frac * dt + 0.5) as i64).max(not_before)
         };
         let cap = self.config.max_events_per_step;
         let mut emitted = 0u32;
@@ -498,22 +508,36 @@ impl Stage for Events {
         events.clear();
         let mut first_taxel_with_events = usize::MAX;
         let mut several = false;
-        for i in 0..n {
-            let x = frame.values[i];
+        // Pass 1, branch-light over all taxels: values inside their bounds only update `prev`;
+        // the rest (crossings, non-finite, first samples) are listed for pass 2.
+        let mut slow = std::mem::take(&mut self.slow_taxels);
+        slow.clear();
+        let mut floored = 0;
+        let state = self.lo.iter().zip(&self.hi).zip(self.prev.iter_mut().zip(self.prev_t.iter_mut()));
+        for (i, (&x, ((&lo, &hi), (prev, prev_t)))) in frame.values.iter().zip(state).enumerate() {
             let mut y = x + offset;
-            if !(y >= floor) && x.is_finite() && !y.is_nan() {
+            if below_floor(x, y, floor) {
                 y = floor;
-                self.counters.floored += 1;
+                floored += 1;
             }
-            if y > self.lo[i] && y < self.hi[i] {
-                self.prev[i] = y;
-                self.prev_t[i] = now;
-                continue;
+            if y > lo && y < hi {
+                *prev = y;
+                *prev_t = now;
+            } else {
+                slow.push(i as u32);
             }
+        }
+        self.counters.floored += floored;
+        for &i in &slow {
+            let i = i as usize;
+            let x = frame.values[i];
+            let y = x + offset;
+            let y = if below_floor(x, y, floor) { floor } else { y };
             let before = events.len();
             let r = self.slow(&frame, i, x, y, &mut events);
             if let Err(e) = r {
                 self.scratch = events;
+                self.slow_taxels = slow;
                 return Err(e);
             }
             if events.len() > before {
@@ -525,13 +549,14 @@ impl Stage for Events {
             }
         }
         if several {
-            // Each taxel's run is already in time order; a stable sort keeps taxel order, then
-            // crossing order, for equal times.
-            events.sort_by_key(|e| e.time);
+            // Sort by (time, taxel). Events of one taxel with equal times are equal (one step
+            // moves one way), so this is the stable (time, taxel, crossing) order.
+            events.sort_unstable_by_key(|e| (e.time, e.taxel));
         }
         self.last_frame = Some((frame.time, frame.seq));
         let batch_events = events.to_vec(); // exact size; no allocation when empty
         self.scratch = events;
+        self.slow_taxels = slow;
         out.push(EventBatch {
             sensor: frame.sensor,
             time: frame.time,

@@ -181,7 +181,7 @@ fn time_gap_interpolate_or_reset() {
 
 #[test]
 fn non_finite_values_error_or_skip() {
-    let rows = vec![vec![1.0, 1.0], vec![1.0, f64::NAN], vec![2.0, 2.0]];
+    let rows = [vec![1.0, 1.0], vec![1.0, f64::NAN], vec![2.0, 2.0]];
     let mut ev = Events::try_new(2, cfg(0.1)).unwrap();
     let mut out = Vec::new();
     ev.push(frame(0, rows[0].clone()), &mut out).unwrap();
@@ -261,7 +261,7 @@ fn naive_events(rows: &[Vec<f64>], tau: f64, floor: f64) -> Vec<Vec<TactileEvent
             let (p, v) = (y(rows[f - 1][i]), y(rows[f][i]));
             let time = |level: f64| {
                 let frac = ((level - p) / (v - p)).clamp(0.0, 1.0);
-                Timestamp(pt + (frac * (now - pt) as f64).round() as i64)
+                Timestamp(pt + (frac * (now - pt) as f64 + 0.5).floor() as i64)
             };
             while v >= l(k[i] + 1) {
                 k[i] += 1;
