@@ -103,9 +103,8 @@ impl Grid {
             return Err(bad(format!("grid {nx}×{ny} has more than 2^24 points")));
         }
         let e = extent;
-        if ![e.x_min, e.x_max, e.y_min, e.y_max].iter().all(|v| v.is_finite())
-            || !(e.x_max > e.x_min && e.y_max > e.y_min)
-        {
+        let finite = [e.x_min, e.x_max, e.y_min, e.y_max].iter().all(|v| v.is_finite());
+        if !(finite && e.x_max > e.x_min && e.y_max > e.y_min) {
             return Err(bad(format!("grid extent {e:?} is empty or not finite")));
         }
         Ok(Grid { extent, nx, ny })

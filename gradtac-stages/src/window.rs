@@ -202,7 +202,7 @@ impl Window {
             (Some(n), None) => Size::Frames(n),
             (None, Some(ms)) => {
                 let ns = (ms * 1e6).round();
-                if !(ms.is_finite() && ns >= 1.0 && ns < 9.2e18) {
+                if !(ms.is_finite() && (1.0..9.2e18).contains(&ns)) {
                     return bad(format!("`duration_ms` = {ms} must be a positive duration of at least 1 ns"));
                 }
                 Size::Nanos(ns as i64)
@@ -444,20 +444,12 @@ impl Stage for Window {
                 }
             }
             (WindowKind::Decaying, size) => {
-                let (decay, age_w): (f64, Box<dyn Fn(&TactileEvent) -> f64>) = match size {
-                    Size::Frames(tau) => {
-                        let tau = tau as f64;
-                        let f = if self.n_frames == 0 { 0.0 } else { (-1.0 / tau).exp() };
-                        (f, Box::new(|_| 1.0))
-                    }
+                // decay of what was held since the previous frame; `tau_ns` = None: by frames
+                let (decay, tau_ns) = match size {
+                    Size::Frames(tau) => (if self.n_frames == 0 { 0.0 } else { (-1.0 / tau as f64).exp() }, None),
                     Size::Nanos(tau) => {
-                        let tau = tau as f64;
                         let dt = self.frames.back().map_or(0, |f| b.time - f.time) as f64;
-                        let now = b.time;
-                        (
-                            if self.n_frames == 0 { 0.0 } else { (-dt / tau).exp() },
-                            Box::new(move |e| (-((now - e.time) as f64) / tau).exp()),
-                        )
+                        (if self.n_frames == 0 { 0.0 } else { (-dt / tau as f64).exp() }, Some(tau as f64))
                     }
                 };
                 for (p, n) in self.dpos.iter_mut().zip(self.dneg.iter_mut()) {
@@ -465,7 +457,7 @@ impl Stage for Window {
                     *n *= decay;
                 }
                 for e in &b.events {
-                    let w = age_w(e);
+                    let w = tau_ns.map_or(1.0, |tau| (-((b.time - e.time) as f64) / tau).exp());
                     if e.polarity > 0 {
                         self.dpos[e.taxel as usize] += w;
                     } else {

@@ -23,7 +23,7 @@ fn constant_in_constant_out_every_method_and_policy() {
     for m in ALL {
         for o in [Outside::Nan, Outside::Fill, Outside::Extend] {
             let it = interp(&l, &g, m, o);
-            let s = it.surface(&vec![3.25; 24]);
+            let s = it.surface(&[3.25; 24]);
             let mut inside = 0;
             for (p, &v) in s.iter().enumerate() {
                 if it.table().inside(p) || o == Outside::Extend {
@@ -139,13 +139,12 @@ fn natural_neighbour_matches_metpy() {
         let s = it.surface(&c.values);
         let mut worst: f64 = 0.0;
         for (k, (v, want)) in s.iter().zip(&c.expected).enumerate() {
-            match want {
-                Some(w) => {
-                    assert!(v.is_finite(), "{}: point {k}: MetPy {w}, we NaN", c.name);
-                    worst = worst.max((v - w).abs());
-                    compared += 1;
-                }
-                None => {} // MetPy failed or outside its hull; ours is defined on the hull boundary
+            // where MetPy gives NaN (outside its hull, or a failure on a Delaunay edge) ours is
+            // checked by the analytic tests instead
+            if let Some(w) = want {
+                assert!(v.is_finite(), "{}: point {k}: MetPy {w}, we NaN", c.name);
+                worst = worst.max((v - w).abs());
+                compared += 1;
             }
         }
         assert!(worst <= 1e-6, "{}: max |Δ| = {worst:e}", c.name);
