@@ -171,6 +171,14 @@ impl Grid {
     pub fn y(&self, j: usize) -> f64 {
         lin(self.extent.y_min, self.extent.y_max, j, self.ny)
     }
+    /// The x of every column (mm), for writing the grid next to a surface.
+    pub fn xs(&self) -> Vec<f64> {
+        (0..self.nx).map(|i| self.x(i)).collect()
+    }
+    /// The y of every row (mm).
+    pub fn ys(&self) -> Vec<f64> {
+        (0..self.ny).map(|j| self.y(j)).collect()
+    }
     /// Map fractional (column, row) index coordinates to mm.
     pub fn index_to_mm(&self, col: f64, row: f64) -> [f64; 2] {
         [self.extent.x_min + col * self.dx(), self.extent.y_min + row * self.dy()]

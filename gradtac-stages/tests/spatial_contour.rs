@@ -178,6 +178,8 @@ fn two_equal_peaks_take_the_first_in_raster_order() {
         let c = find(&z, &g, &cfg).contact().cloned().unwrap();
         // ties go to the first grid point in raster order: same row, lower x
         assert_eq!(c.peak_mm, [10.0, 15.0]);
+        // the other component (masked while marching) does not make the region look cut
+        assert!(!c.clipped);
         assert!((c.centroid_mm[0] - 10.0).abs() < 1e-6, "{:?}", c.centroid_mm);
         // the other peak's region is not merged: the area equals a lone peak's at that level
         let single = find(&a, &g, &ContourConfig { levels: Levels::Explicit(vec![c.level]), ..cfg.clone() });
