@@ -5,6 +5,7 @@
 //! stage's output to Parquet through one Arrow schema per output type.
 #![warn(missing_docs)]
 
+pub mod arrow_ipc;
 pub mod blocking;
 pub mod can;
 pub mod csv_source;
