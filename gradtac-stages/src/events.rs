@@ -326,9 +326,11 @@ impl Events {
         self.overflow_per_taxel.iter_mut().for_each(|c| *c = 0);
     }
 
-    /// The current reference `ln`-level of each taxel (`None` before its first finite sample).
+    /// The current reference level `r = r₀ + kτ` (on the `ln` scale) of a taxel; `None` before
+    /// its first finite sample of the segment, or for a taxel index out of range.
     pub fn reference(&self, taxel: usize) -> Option<f64> {
-        (self.lo[taxel] != f64::INFINITY).then(|| self.r0[taxel] + self.level[taxel] as f64 * self.tau[taxel])
+        let lo = *self.lo.get(taxel)?;
+        (lo != f64::INFINITY).then(|| self.r0[taxel] + self.level[taxel] as f64 * self.tau[taxel])
     }
 
     fn clear_state(&mut self) {
