@@ -526,8 +526,14 @@ impl MaxContourFinder {
         self.levels.clear();
         match &self.cfg.levels {
             Levels::Count(n) => {
-                let step = (zmax - zmin) / (*n as f64 + 1.0);
-                self.levels.extend((1..=*n).map(|k| zmin + k as f64 * step));
+                let range = zmax - zmin;
+                let m = *n as f64 + 1.0;
+                if range.is_finite() {
+                    self.levels.extend((1..=*n).map(|k| zmin + k as f64 * (range / m)));
+                } else {
+                    // a range beyond f64 (|z| near 1.8e308): the same levels as convex combinations
+                    self.levels.extend((1..=*n).map(|k| zmin * (1.0 - k as f64 / m) + zmax * (k as f64 / m)));
+                }
             }
             Levels::Explicit(v) => self.levels.extend(v.iter().copied()),
         }
@@ -535,7 +541,8 @@ impl MaxContourFinder {
         if self.levels.is_empty() {
             return ContourOutcome::NoContact(NoContact::Flat);
         }
-        self.levels.sort_by(|a, b| b.partial_cmp(a).expect("finite levels"));
+        self.levels.retain(|l| l.is_finite());
+        self.levels.sort_by(|a, b| b.total_cmp(a));
         self.levels.dedup();
         let cell = grid.cell_area();
         let peak_mm = [grid.x(pc), grid.y(pr)];
