@@ -4,6 +4,8 @@
 //!
 //! - `surface/<method>/<n>`: one surface of an n×n grid from 24 BioTac SP taxel values (a
 //!   sparse weighted sum over the precomputed weight table), per frame.
+//! - `spade_direct/<method>/64`: the same 64×64 surface evaluated point by point with spade
+//!   (locate + weights every frame): the baseline the weight table replaces.
 //! - `build/<method>/64`: building the weight table once (per layout, grid and method).
 //! - `contour64/<mode>`: the maximal contour of a 64×64 natural-neighbour event surface,
 //!   marching the peak region only or the whole grid.
@@ -19,6 +21,7 @@ use gradtac_stages::track::{Track, TrackConfig};
 use gradtac_stages::window::{Window, WindowConfig};
 use gradtac_stages::{contour::Contour, EventBatch, TactileEvent};
 use gradtac_stream::{Layout, Stage, StageExt, Timestamp};
+use spade::{DelaunayTriangulation, FloatTriangulation, Point2, Triangulation};
 use std::hint::black_box;
 use std::sync::Arc;
 
@@ -74,6 +77,50 @@ fn surfaces(c: &mut Criterion) {
         }
     }
     g.finish();
+    // the same surface straight from spade, without the weight table (the baseline it replaces)
+    let mut g = c.benchmark_group("spade_direct");
+    g.throughput(Throughput::Elements(1));
+    let mut tri: DelaunayTriangulation<Point2<f64>> = DelaunayTriangulation::new();
+    for p in l.positions() {
+        tri.insert(Point2::new(p[0], p[1])).unwrap();
+    }
+    let grid = Grid::try_new(l.extent(), 64, 64).unwrap();
+    let value = |v: spade::handles::VertexHandle<'_, Point2<f64>>| vals[v.fix().index()];
+    let nn = tri.natural_neighbor();
+    let mut out = vec![0.0; 64 * 64];
+    // same values as the weight table (checked once, outside the timing)
+    let table = Interpolator::try_new(&l, Arc::new(grid.clone()), Method::NaturalNeighbour, Outside::Nan, 2.0, 0.0)
+        .unwrap()
+        .surface(&vals);
+    for j in 0..64 {
+        for i in 0..64 {
+            let d = nn.interpolate(value, Point2::new(grid.x(i), grid.y(j))).unwrap_or(f64::NAN);
+            let t = table[[j, i]];
+            assert!((d.is_nan() && t.is_nan()) || (d - t).abs() < 1e-12, "({i},{j}): {d} vs {t}");
+        }
+    }
+    g.bench_function(BenchmarkId::new("NaturalNeighbour", 64), |b| {
+        b.iter(|| {
+            for j in 0..64 {
+                for i in 0..64 {
+                    out[j * 64 + i] = nn.interpolate(value, Point2::new(grid.x(i), grid.y(j))).unwrap_or(f64::NAN);
+                }
+            }
+            black_box(&out);
+        })
+    });
+    let bary = tri.barycentric();
+    g.bench_function(BenchmarkId::new("Linear", 64), |b| {
+        b.iter(|| {
+            for j in 0..64 {
+                for i in 0..64 {
+                    out[j * 64 + i] = bary.interpolate(value, Point2::new(grid.x(i), grid.y(j))).unwrap_or(f64::NAN);
+                }
+            }
+            black_box(&out);
+        })
+    });
+    g.finish();
     let mut g = c.benchmark_group("build");
     let grid = Arc::new(Grid::try_new(l.extent(), 64, 64).unwrap());
     for m in [Method::NaturalNeighbour, Method::Linear, Method::Nearest, Method::InverseDistance] {
@@ -110,9 +157,12 @@ fn pipeline(c: &mut Criterion) {
     let t = templates(&l, 200);
     let mut g = c.benchmark_group("pipeline64");
     g.throughput(Throughput::Elements(1));
-    for (name, incremental, peak_only) in
-        [("fresh+whole", false, false), ("fresh+peak", false, true), ("incremental+peak", true, true)]
-    {
+    for (name, incremental, peak_only) in [
+        ("fresh+whole", false, false),
+        ("fresh+peak", false, true),
+        ("incremental+whole", true, false),
+        ("incremental+peak", true, true),
+    ] {
         let w = Window::try_new(&WindowConfig { frames: Some(10), ..Default::default() }).unwrap();
         let icfg = InterpolateConfig { method: Method::NaturalNeighbour, incremental, ..Default::default() };
         let i = Interpolate::try_new(&icfg, &l).unwrap();
