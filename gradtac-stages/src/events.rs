@@ -231,6 +231,9 @@ pub struct Events {
     scratch: Vec<TactileEvent>,
     /// Taxels of the frame being processed that need the slow path (reused).
     slow_taxels: Vec<u32>,
+    /// Sort keys and per-taxel polarity of the frame being processed (reused).
+    sort_keys: Vec<u64>,
+    polarity: Vec<i8>,
 }
 
 impl Events {
@@ -283,6 +286,8 @@ impl Events {
             mid: vec![1.0; taxels],
             scratch: Vec::new(),
             slow_taxels: Vec::with_capacity(taxels),
+            sort_keys: Vec::new(),
+            polarity: vec![0; taxels],
             r0: vec![0.0; taxels],
             level: vec![0; taxels],
             prev: vec![0.0; taxels],
@@ -356,6 +361,36 @@ impl Events {
                 Ok(())
             }
         }
+    }
+
+    /// Sort a frame's events by (time, taxel). Events of one taxel with equal times are equal
+    /// (one step moves one way), so this is also the stable (time, taxel, crossing) order.
+    ///
+    /// All times lie in `[previous frame, now]`; when that span fits 47 bits of ns (39 hours)
+    /// each event packs into one `u64` key `(time − start) << 16 | taxel`, a plain integer sort,
+    /// and the polarity is restored from the taxel (one direction per taxel per step).
+    fn sort_batch(&mut self, events: &mut [TactileEvent], now: i64) {
+        let start = events.iter().map(|e| e.time.as_nanos()).min().unwrap_or(now);
+        if now.checked_sub(start).is_none_or(|span| span >= 1 << 47) {
+            events.sort_by_key(|e| (e.time, e.taxel));
+            return;
+        }
+        let mut keys = std::mem::take(&mut self.sort_keys);
+        keys.clear();
+        keys.extend(events.iter().map(|e| ((e.time.as_nanos() - start) as u64) << 16 | e.taxel as u64));
+        for e in events.iter() {
+            self.polarity[e.taxel as usize] = e.polarity;
+        }
+        keys.sort_unstable();
+        for (e, k) in events.iter_mut().zip(&keys) {
+            let taxel = (k & 0xffff) as u16;
+            *e = TactileEvent {
+                time: Timestamp(start + (k >> 16) as i64),
+                taxel,
+                polarity: self.polarity[taxel as usize],
+            };
+        }
+        self.sort_keys = keys;
     }
 
     /// A sample that is outside the taxel's bounds, non-finite, or the taxel's first.
@@ -551,9 +586,7 @@ impl Stage for Events {
             }
         }
         if several {
-            // Sort by (time, taxel). Events of one taxel with equal times are equal (one step
-            // moves one way), so this is the stable (time, taxel, crossing) order.
-            events.sort_unstable_by_key(|e| (e.time, e.taxel));
+            self.sort_batch(&mut events, now);
         }
         self.last_frame = Some((frame.time, frame.seq));
         let batch_events = events.to_vec(); // exact size; no allocation when empty
