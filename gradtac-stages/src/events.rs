@@ -666,6 +666,21 @@ mod tests {
     }
 
     #[test]
+    fn long_intervals_sort_without_packed_keys() {
+        // an interval of 2^48 ns (3.3 days) is beyond the packed u64 keys: the tuple sort
+        let far = TaxelFrame::new("ff".into(), Timestamp(1 << 48), 1, vec![2.0, 3.0, 0.5]);
+        let mut ev = Events::try_new(3, tau(0.2)).unwrap();
+        let b = ev.run_all([frame(0, vec![1.0, 1.0, 1.0]), far]).unwrap();
+        let e = &b[1].events;
+        assert_eq!(e.len(), 3 + 5 + 3);
+        assert!(e.windows(2).all(|w| (w[0].time, w[0].taxel) <= (w[1].time, w[1].taxel)));
+        for t in 0..3u16 {
+            let pol = if t == 2 { -1 } else { 1 };
+            assert!(e.iter().filter(|e| e.taxel == t).all(|e| e.polarity == pol));
+        }
+    }
+
+    #[test]
     fn refractory_suppresses_but_tracks() {
         let mut c = tau(0.01);
         c.refractory_s = 0.004; // 4 ms, frames 10 ms apart
