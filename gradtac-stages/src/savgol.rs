@@ -92,6 +92,9 @@ use serde::{Deserialize, Serialize};
 
 const STAGE: &str = "savgol";
 
+/// Causal mode caches the warm-up weights (≈ window²/2 values) up to this window.
+const SHORT_CACHE_MAX_WINDOW: usize = 257;
+
 /// The largest 1-norm condition number of the triangular factor the coefficient computation
 /// accepts; above it the weights are not guaranteed to 1e-11 relative, and constructors refuse.
 pub const MAX_CONDITION: f64 = 1e5;
@@ -391,11 +394,14 @@ pub struct SavGol {
     delta: f64,
     /// Sample period in ns when known (for time-based gap detection).
     period_ns: Option<f64>,
-    /// Dot-order weights at every position of a full window, `window × window` row-major
-    /// (row `pos`); the centre row is the interior filter, the last row the causal one.
-    weights: Vec<f64>,
-    /// Causal mode: weights of the fit to the first `n` frames evaluated at frame `n−1`, for
-    /// `n = 1..window`, concatenated (`n` weights each).
+    /// The factored fit over a full window: edge weights are derived from it on demand (at
+    /// segment starts and ends only), so memory stays O(window · order).
+    fit: Fit,
+    /// Dot-order interior weights: at the centre (centred mode) or the newest sample (causal).
+    interior: Vec<f64>,
+    /// Causal mode, windows up to [`SHORT_CACHE_MAX_WINDOW`]: weights of the fit to the first
+    /// `n` frames evaluated at frame `n−1`, for `n = 1..window`, concatenated (`n` weights
+    /// each). Longer windows compute them when needed.
     short_causal: Vec<f64>,
     /// Doubled ring of rows (`2·window × taxels`): slot `i` is stored at rows `i` and `i+window`,
     /// so the window, oldest first, is the contiguous rows `head..head+window`.
@@ -457,9 +463,12 @@ impl SavGol {
             (None, None) => (1.0, None),
         };
         let fit = check_fit(w, config.polyorder, delta)?;
-        let weights: Vec<f64> = (0..w).flat_map(|pos| fit.weights(config.deriv, delta, pos)).collect();
+        let interior = match config.mode {
+            SavGolMode::Centred => fit.weights(config.deriv, delta, w / 2),
+            SavGolMode::Causal => fit.weights(config.deriv, delta, w - 1),
+        };
         let mut short_causal = Vec::new();
-        if config.mode == SavGolMode::Causal {
+        if config.mode == SavGolMode::Causal && w <= SHORT_CACHE_MAX_WINDOW {
             for n in 1..w {
                 let f = short_fit(n, config.polyorder);
                 short_causal.extend(f.weights(config.deriv, delta, n - 1));
@@ -471,7 +480,8 @@ impl SavGol {
             half: w / 2,
             delta,
             period_ns,
-            weights,
+            fit,
+            interior,
             short_causal,
             ring: vec![0.0; 2 * w * taxels],
             meta: vec![(Timestamp::ZERO, 0); w],
@@ -512,13 +522,10 @@ impl SavGol {
         self.period_ns.map(|p| self.delay_frames() as f64 * p * 1e-9)
     }
 
-    /// The interior weights in dot order (centre row centred, last row causal).
+    /// The interior weights in dot order (at the centre when centred, at the newest sample when
+    /// causal).
     pub fn coefficients(&self) -> &[f64] {
-        let pos = match self.config.mode {
-            SavGolMode::Centred => self.half,
-            SavGolMode::Causal => self.window - 1,
-        };
-        &self.weights[pos * self.window..(pos + 1) * self.window]
+        &self.interior
     }
 
     fn is_gap(&self, f: &TaxelFrame) -> bool {
@@ -588,7 +595,12 @@ impl SavGol {
                 Some(sb) => sb,
                 None => (self.sensor.clone().expect("a segment has a sensor"), self.take_buf()),
             };
-            Self::apply(&self.ring, self.taxels, self.head, &self.weights[pos * w..(pos + 1) * w], &mut buf);
+            if pos == self.half {
+                Self::apply(&self.ring, self.taxels, self.head, &self.interior, &mut buf);
+            } else {
+                let edge = self.fit.weights(self.config.deriv, self.delta, pos);
+                Self::apply(&self.ring, self.taxels, self.head, &edge, &mut buf);
+            }
             let (time, seq) = self.meta[(self.head + pos) % w];
             out.push(TaxelFrame { sensor, time, seq, values: buf });
         }
@@ -692,10 +704,13 @@ impl Stage for SavGol {
                 let mut buf = values;
                 let c = self.count as usize;
                 if c >= w {
-                    Self::apply(&self.ring, n, self.head, &self.weights[(w - 1) * w..w * w], &mut buf);
-                } else {
+                    Self::apply(&self.ring, n, self.head, &self.interior, &mut buf);
+                } else if !self.short_causal.is_empty() {
                     let start = c * (c - 1) / 2;
                     Self::apply(&self.ring, n, 0, &self.short_causal[start..start + c], &mut buf);
+                } else {
+                    let wts = short_fit(c, self.config.polyorder).weights(self.config.deriv, self.delta, c - 1);
+                    Self::apply(&self.ring, n, 0, &wts, &mut buf);
                 }
                 out.push(TaxelFrame { sensor, time, seq, values: buf });
             }
@@ -963,6 +978,23 @@ mod tests {
             for (k, (o, w)) in out.iter().zip(&want).enumerate() {
                 proptest::prop_assert_eq!(o.seq, k as u64);
                 proptest::prop_assert!((o.values[0] - w).abs() <= 1e-12 * w.abs().max(1.0), "{} vs {}", o.values[0], w);
+            }
+        }
+    }
+
+    #[test]
+    fn long_windows_compute_warm_up_weights_on_demand() {
+        // window 301 > the causal warm-up cache: same results as the offline definition
+        let x: Vec<f64> = (0..340).map(|k| ((k * 7919) % 97) as f64 - 0.001 * (k * k) as f64).collect();
+        let rows: Vec<Vec<f64>> = x.iter().map(|v| vec![*v]).collect();
+        for mode in [SavGolMode::Centred, SavGolMode::Causal] {
+            let mut sg = SavGol::try_new(1, cfg(301, 4, 1, mode)).unwrap();
+            assert!(sg.short_causal.is_empty());
+            let out = sg.run_all(frames(&rows)).unwrap();
+            let want = offline(&x, 301, 4, 1, 1.0, mode);
+            assert_eq!(out.len(), 340);
+            for (o, w) in out.iter().zip(&want) {
+                assert!((o.values[0] - w).abs() <= 1e-12 * w.abs().max(1.0), "{mode:?}: {} vs {w}", o.values[0]);
             }
         }
     }
