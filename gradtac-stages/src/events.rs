@@ -487,16 +487,18 @@ impl Events {
             let te = time_of(level_value);
             let free_at = self.last_event[i].saturating_add(self.refractory_ns);
             if self.refractory_ns > 0 && te < free_at {
-                // Skip ahead to about where the taxel becomes free again, then re-check exactly.
-                let frac_free = if dt > 0.0 { (free_at - pt) as f64 / dt } else { f64::INFINITY };
-                let skip = if frac_free >= 1.0 {
-                    remaining
-                } else {
-                    let v = p + frac_free * dy;
-                    let est = (v.max(f64::MIN_POSITIVE).ln() - r0) / tau;
-                    let target = if dir > 0 { est.floor() as i64 - 1 } else { est.ceil() as i64 + 1 };
-                    ((target - lv) * dir).clamp(1, remaining as i64) as u64
-                };
+                // Crossing times are monotone in the level: binary-search the first crossing at
+                // or after `free_at` (or none), suppressing everything before it.
+                let (mut a, mut b) = (1u64, remaining); // crossing `lv + dir·m`, m ∈ [a, b]; b = none
+                while a < b {
+                    let m = a + (b - a) / 2;
+                    if time_of(lvl(lv + dir * m as i64)) >= free_at {
+                        b = m;
+                    } else {
+                        a = m + 1;
+                    }
+                }
+                let skip = a;
                 self.counters.suppressed += skip;
                 remaining -= skip;
                 lv += dir * skip as i64;
