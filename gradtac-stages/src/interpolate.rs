@@ -39,13 +39,18 @@
 //! # Delay
 //! None: one surface per input, stamped with the input's time span.
 //!
-//! # Trade-offs (24 taxels, 64 × 64 grid; measured figures in `benches/spatial.rs`)
-//! | method | smoothness | linear field exact | weights / grid point | notes |
-//! |---|---|---|---|---|
-//! | natural neighbour | C¹ off the taxels | yes | ~4–8 | the paper's method; most expensive to build |
-//! | linear | C⁰ (kinks on edges) | yes | ≤ 3 | cheapest exact method |
-//! | nearest | discontinuous | no | 1 | cheapest; blocky contours |
-//! | inverse distance | C^∞ off taxels | no | 24 (all) | defined everywhere; flat spots at taxels |
+//! # Trade-offs (24 BioTac SP taxels, 64 × 64 grid, `outside = "nan"`)
+//! Per-surface and build times: medians of `cargo bench -p gradtac-stages --bench spatial`
+//! (release, one core of a shared 2-core machine).
+//!
+//! | method | smoothness | linear field exact | weights / inside point | µs / surface | build (once) |
+//! |---|---|---|---|---|---|
+//! | natural neighbour | C¹ off the taxels | yes | 4.9 | 5.5 (spade per point: 468) | 0.75 ms |
+//! | linear | C⁰ (kinks on edges) | yes | 3 | 6.8 (spade per point: 181) | 0.29 ms |
+//! | nearest | discontinuous | no | 1 | 4.3 | 0.29 ms |
+//! | inverse distance | C^∞ off taxels, flat spots at taxels | no | 24 (all) | 21.4 | 1.6 ms |
+//!
+//! Grid size: natural neighbour 0.34 / 1.2 / 5.5 / 21.6 µs per surface at 16² / 32² / 64² / 128².
 //!
 //! | option | faster | more accurate |
 //! |---|---|---|
