@@ -10,8 +10,12 @@
 //! given bounds (baseline ± 250) to about [0, 1]; events with τ = 0.05. Two inputs: `touch`
 //! (swings of ±200 counts: ≈ 9.3 events per frame after SG, dense — real BioTacSP-DoS data gives
 //! 5–60 per frame depending on τ and calibration) and `quiet` (±20 counts: ≈ 0.44 events per
-//! frame). The event stage's cost is ≈ 40 ns per event on top of ≈ 3 ns per taxel, so its
+//! frame). The event stage's cost is ≈ 30–40 ns per event on top of ≈ 3 ns per taxel, so its
 //! throughput depends on the event density far more than on anything else.
+//!
+//! Group `real_biotacsp_dos` runs the chain over the real BioTacSP-DoS recordings when the
+//! shared data directory is present (`$GRADTAC_DATA`, default `../../shared/data`), and is
+//! skipped otherwise.
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
 use gradtac_stages::normalise::{Normalise, NormaliseConfig};
@@ -135,5 +139,94 @@ fn benches(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(group, benches);
+/// BioTacSP-DoS recordings (Zapata-Impata, Gil and Torres, Sensors 19(3):523, 2019) from the
+/// shared data directory (`$GRADTAC_DATA` or `../../shared/data` from this crate), if present:
+/// every sequence as its own stream of raw counts at 100 Hz.
+fn real_recordings() -> Option<Vec<Vec<TaxelFrame>>> {
+    let root = std::env::var_os("GRADTAC_DATA")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"))
+        .join("biotacsp-dos");
+    let mut paths = Vec::new();
+    for class in std::fs::read_dir(&root).ok()? {
+        let class = class.ok()?.path();
+        if class.is_dir() {
+            for f in std::fs::read_dir(&class).ok()? {
+                let f = f.ok()?.path();
+                if f.extension().is_some_and(|e| e == "csv") {
+                    paths.push(f);
+                }
+            }
+        }
+    }
+    paths.sort();
+    let sensor: SensorId = "ff".into();
+    let recordings: Vec<Vec<TaxelFrame>> = paths
+        .iter()
+        .filter_map(|p| {
+            let text = std::fs::read_to_string(p).ok()?;
+            let rows: Option<Vec<Vec<f64>>> = text
+                .lines()
+                .skip(1)
+                .map(|l| l.split(',').map(|v| v.trim().parse().ok()).collect::<Option<Vec<f64>>>())
+                .collect();
+            let frames = rows?
+                .into_iter()
+                .enumerate()
+                .map(|(k, v)| TaxelFrame::new(sensor.clone(), Timestamp::at_rate(k as u64, 100.0), k as u64, v))
+                .collect::<Vec<_>>();
+            (frames.first()?.values.len() == TAXELS).then_some(frames)
+        })
+        .collect();
+    (!recordings.is_empty()).then_some(recordings)
+}
+
+/// normalise (calibrated on each recording's first 20 frames) → SG(11, 3) centred → events,
+/// over every recording of the real data set.
+fn real_data(c: &mut Criterion) {
+    let Some(recordings) = real_recordings() else {
+        eprintln!("real-data benches skipped: no BioTacSP-DoS under $GRADTAC_DATA or ../../shared/data");
+        return;
+    };
+    let frames: usize = recordings.iter().map(Vec::len).sum();
+    let mut g = c.benchmark_group("real_biotacsp_dos");
+    g.throughput(Throughput::Elements(frames as u64));
+    g.sample_size(10);
+    for tau in [0.05, 0.2, 0.5] {
+        let build = || {
+            let events =
+                Events::try_new(TAXELS, EventsConfig { threshold: Threshold::Uniform(tau), ..Default::default() })
+                    .unwrap();
+            Normalise::try_new(TAXELS, &NormaliseConfig::default())
+                .unwrap()
+                .then(savgol(SavGolMode::Centred))
+                .then(events)
+        };
+        let n: usize = recordings
+            .iter()
+            .map(|r| build().run_all(r.clone()).unwrap().iter().map(|b| b.events.len()).sum::<usize>())
+            .sum();
+        eprintln!(
+            "real data: {} recordings, {frames} frames; τ = {tau}: {n} events ({:.2} per frame)",
+            recordings.len(),
+            n as f64 / frames as f64
+        );
+        let mut chain = build();
+        let mut out = Vec::with_capacity(128);
+        g.bench_function(format!("chain_centred_tau_{tau}"), |b| {
+            b.iter_batched(
+                || recordings.clone(),
+                |recs| {
+                    for r in recs {
+                        run(&mut chain, r, &mut out);
+                    }
+                },
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(group, benches, real_data);
 criterion_main!(group);

@@ -92,6 +92,10 @@ use serde::{Deserialize, Serialize};
 
 const STAGE: &str = "savgol";
 
+/// The longest window accepted (1000 s at 100 Hz): beyond it a configuration is almost surely a
+/// mistake, and the ring buffer (`2 · window · taxels` values) would be large.
+pub const MAX_WINDOW: usize = 100_001;
+
 /// Causal mode caches the warm-up weights (≈ window²/2 values) up to this window.
 const SHORT_CACHE_MAX_WINDOW: usize = 257;
 
@@ -421,7 +425,7 @@ impl SavGol {
     /// A filter for frames of `taxels` values. `delta` defaults to 1 (per frame) when unset.
     ///
     /// # Errors
-    /// [`Error::InvalidConfig`] for an even or zero window, `polyorder ≥ window`,
+    /// [`Error::InvalidConfig`] for an even or zero window, one above [`MAX_WINDOW`], `polyorder ≥ window`,
     /// `deriv > polyorder`, a bad `delta` or `gap_factor`, zero taxels, or an ill-conditioned
     /// (window, order) (see [`MAX_CONDITION`]).
     pub fn try_new(taxels: usize, config: SavGolConfig) -> Result<SavGol> {
@@ -447,6 +451,9 @@ impl SavGol {
         }
         if w % 2 == 0 {
             return Err(invalid(format!("window must be odd (centred fits need a middle sample), got {w}")));
+        }
+        if w > MAX_WINDOW {
+            return Err(invalid(format!("window {w} exceeds the maximum of {MAX_WINDOW} samples")));
         }
         if config.deriv > config.polyorder {
             return Err(invalid(format!(
@@ -906,6 +913,7 @@ mod tests {
         c.delta = Some(0.0);
         assert!(e(c).contains("delta"));
         assert!(SavGol::try_new(0, SavGolConfig::default()).is_err());
+        assert!(e(cfg(MAX_WINDOW + 2, 3, 0, SavGolMode::Centred)).contains("maximum"));
         assert!(SavGol::try_with_rate(1, SavGolConfig::default(), f64::NAN).is_err());
     }
 
