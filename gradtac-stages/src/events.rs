@@ -30,9 +30,10 @@
 //! last finite sample, but its event times are clamped to no earlier than the previous frame.
 //! Delay: none (the events of an interval are known when it closes).
 //!
-//! Event schema (as written to Parquet by the scene layer): one row per event with
-//! `sensor` (string), `time` (i64 ns, see [`Timestamp`]), `taxel` (u16), `polarity` (i8, ±1),
-//! plus the batch's `seq` (u64, the frame that closed the interval).
+//! Event schema as written to Parquet/Arrow (`event/1`, specified in the repository's
+//! `docs/schemas.md`): one row per event with `sensor` (Utf8), `time_ns` (Int64, the event's
+//! interpolated time), `frame_time_ns` (Int64) and `seq` (UInt64) of the batch's frame,
+//! `taxel` (UInt16) and `polarity` (Int8, ±1); an empty batch writes no row.
 //!
 //! # Policies
 //! | situation | behaviour |
