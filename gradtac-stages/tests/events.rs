@@ -431,3 +431,30 @@ proptest! {
         prop_assert_eq!(&separate, &whole);
     }
 }
+
+/// Two interleaved sensors through `Keyed` (one SG → events chain per sensor) give each sensor
+/// exactly the batches it gets alone.
+#[test]
+fn keyed_sensors_do_not_mix() {
+    use gradtac_stream::{Keyed, SensorId};
+    let sg = SavGolConfig { window: 7, polyorder: 2, ..Default::default() };
+    let build = |_: &SensorId| {
+        SavGol::try_with_rate(2, sg.clone(), 100.0).unwrap().then(Events::try_new(2, cfg(0.05)).unwrap())
+    };
+    let stream = |name: &str, phase: f64| -> Vec<TaxelFrame> {
+        (0..50u64)
+            .map(|k| {
+                let v = (0..2).map(|i| 1.5 + (k as f64 * 0.3 + phase + i as f64).sin()).collect();
+                TaxelFrame::new(SensorId::new(name), Timestamp(k as i64 * PERIOD_NS), k, v)
+            })
+            .collect()
+    };
+    let (ff, th) = (stream("ff", 0.0), stream("th", 1.0));
+    let interleaved: Vec<TaxelFrame> = ff.iter().zip(&th).flat_map(|(a, b)| [a.clone(), b.clone()]).collect();
+    let mixed = Keyed::new(build).run_all(interleaved).unwrap();
+    let alone = |fs: Vec<TaxelFrame>| build(&SensorId::new("x")).run_all(fs).unwrap();
+    let of = |name: &str| mixed.iter().filter(|b| b.sensor.as_str() == name).cloned().collect::<Vec<_>>();
+    assert_eq!(of("ff"), alone(ff));
+    assert_eq!(of("th"), alone(th));
+    assert!(!all_events(&of("ff")).is_empty());
+}
