@@ -323,18 +323,27 @@ impl WeightTable {
     pub fn apply(&self, values: &[f64], out: &mut [f64]) {
         debug_assert_eq!(values.len(), self.n_taxels);
         debug_assert_eq!(out.len(), self.points());
-        for (p, o) in out.iter_mut().enumerate() {
-            let (a, b) = (self.starts[p] as usize, self.starts[p + 1] as usize);
-            if a == b {
-                *o = self.fill;
-                continue;
-            }
-            let mut s = 0.0;
-            for (&k, &w) in self.taxels[a..b].iter().zip(&self.weights[a..b]) {
-                s += w * values[k as usize];
-            }
-            *o = s;
+        for (o, se) in out.iter_mut().zip(self.starts.windows(2)) {
+            *o = self.row_value(se[0] as usize, se[1] as usize, values);
         }
+    }
+
+    /// A new row-major vector of `Σ w·values` for every grid point.
+    pub fn apply_to_vec(&self, values: &[f64]) -> Vec<f64> {
+        debug_assert_eq!(values.len(), self.n_taxels);
+        self.starts.windows(2).map(|se| self.row_value(se[0] as usize, se[1] as usize, values)).collect()
+    }
+
+    #[inline(always)]
+    fn row_value(&self, a: usize, b: usize, values: &[f64]) -> f64 {
+        if a == b {
+            return self.fill;
+        }
+        let mut s = 0.0;
+        for (&k, &w) in self.taxels[a..b].iter().zip(&self.weights[a..b]) {
+            s += w * values[k as usize];
+        }
+        s
     }
 
     /// `out += w[·, taxel] · delta`: the change of the surface when one taxel's value changes
@@ -754,9 +763,7 @@ impl<I: TaxelValues> Stage for Interpolate<I> {
             self.prev_values.copy_from_slice(v);
             Array2::from_shape_vec((ny, nx), self.current.clone()).expect("shape matches the grid")
         } else {
-            let mut buf = vec![0.0; ny * nx];
-            self.interp.table.apply(v, &mut buf);
-            Array2::from_shape_vec((ny, nx), buf).expect("shape matches the grid")
+            Array2::from_shape_vec((ny, nx), self.interp.table.apply_to_vec(v)).expect("shape matches the grid")
         };
         let (start, end) = input.span();
         out.push(Surface {
