@@ -106,8 +106,15 @@ impl Plan {
         let mut s = String::new();
         for p in &self.sensors {
             let spec = &scene.sensors[p.index];
-            let src = spec.source.csv.as_ref().map(|c| c.display().to_string()).unwrap_or_default();
-            let _ = writeln!(s, "sensor {} — layout {} ({} taxels), source csv {}", p.name, p.layout.name(), p.layout.len(), src);
+            let _ = writeln!(
+                s,
+                "sensor {} — layout {} ({} taxels), source {} {}",
+                p.name,
+                p.layout.name(),
+                p.layout.len(),
+                spec.source.kind(),
+                scene.resolve(spec.source.path()).display()
+            );
             let Some(deepest) = p.deepest else {
                 let _ = writeln!(s, "  not read: no output uses this sensor");
                 continue;
@@ -135,7 +142,9 @@ impl Plan {
                         delay = delay + st.delay();
                         startup += st.startup_frames();
                         match scene.stages.normalise.bounds(p.layout.len()) {
-                            Ok(Bounds::Calibrate { frames }) => format!("min–max, bounds from the first {frames} frames"),
+                            Ok(Bounds::Calibrate { frames }) => {
+                                format!("min–max, bounds from the first {frames} frames")
+                            }
                             Ok(Bounds::Given { .. }) => "min–max, given bounds".into(),
                             Ok(Bounds::Running) => "min–max, running bounds".into(),
                             Err(_) => unreachable!("validated by Plan::new"),
