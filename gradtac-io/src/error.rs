@@ -38,6 +38,14 @@ pub enum Error {
         /// The library's message.
         reason: String,
     },
+    /// A record that does not fit a sink's schema (a frame with another taxel count, …).
+    #[error("{schema} record does not fit the sink: {reason}")]
+    Record {
+        /// The schema id (`frame/1`, …).
+        schema: String,
+        /// What does not fit, naming the record (sensor, frame index).
+        reason: String,
+    },
 }
 
 impl From<Error> for gradtac_stream::Error {

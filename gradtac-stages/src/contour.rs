@@ -1,1 +1,771 @@
-//! Placeholder: this stage is being written (see the issue tracker).
+//! Contour: iso-contours of a surface and the *maximal contour*, the region of touch
+//! (method.md, stage 6).
+//!
+//! # What it does
+//! - [`isolines`]: marching squares at one level with linear interpolation of the crossing
+//!   along each cell edge — the same vertices as `skimage.measure.find_contours` (a point is
+//!   *above* when `z > level`; squares with a NaN corner are skipped; the crossing on an edge is
+//!   `p + (level − z_p)/(z_q − z_p)·(q − p)` with `p` the lower index). Saddle cells (two
+//!   diagonal corners above) follow a [`Saddle`] rule, used consistently everywhere.
+//! - [`MaxContourFinder`] / the [`Contour`] stage: the **maximal contour** is the highest level
+//!   (of the configured [`Levels`]) at which the region above the level that contains the
+//!   surface's peak has an area of at least [`ContourConfig::min_area_mm2`]. Reported: its
+//!   boundary polygon (mm, counter-clockwise), holes, area (mm²), centroid (mm), orientation of
+//!   the principal axis (rad), eccentricity, the level and the peak.
+//!
+//! **Closing along the grid edge.** A region cut by the grid's edge, by NaN (outside the
+//! hull under [`Outside::Nan`](crate::interpolate::Outside)) is closed *along* that edge:
+//! outside the grid and at NaN the surface counts as −∞, so the boundary runs through the
+//! last grid points that are above the level. Such a contour is flagged
+//! [`MaxContour::clipped`]; its area and centroid describe the visible part only.
+//!
+//! **Peak and ties.** The peak is the largest finite value; ties go to the first grid point in
+//! raster order (lowest row = lowest y, then lowest column = lowest x). With two equal peaks
+//! the maximal contour is therefore the region around the first one — the other peak's region
+//! is a separate component at that level and is not merged (a union's centroid would lie
+//! between the two contacts, where nothing touches).
+//!
+//! **No contact** is data ([`ContourOutcome::NoContact`]): no finite value, a peak below
+//! [`ContourConfig::min_peak`], a flat surface, or no level with a region of non-trivial area.
+//!
+//! # Units
+//! Coordinates in mm (the grid's), areas in mm², angles in radians measured from +x toward +y
+//! in `(−π/2, π/2]`; levels and peak in surface units.
+//!
+//! # Delay
+//! None: one [`ContourFrame`] per surface.
+//!
+//! # Trade-offs
+//! | option | faster | more accurate / robust |
+//! |---|---|---|
+//! | `levels` | few levels (coarse area steps) | many levels (the maximal contour hugs the peak more tightly) |
+//! | `peak_only` | `true`: march only the peak region's bounding box | `false`: march the whole grid (identical result; a cross-check) |
+//! | `saddle` | — | `centre` (mean of the corners) follows the bilinear surface best |
+//! | grid size | small | large (sub-cell interpolation already makes areas second-order accurate) |
+
+use crate::interpolate::{Grid, Surface};
+use crate::Error;
+use gradtac_stream::{Delay, HasSensor, SensorId, Stage, Timed, Timestamp};
+use ndarray::ArrayView2;
+use serde::{Deserialize, Serialize};
+
+const STAGE: &str = "contour";
+
+/// How a saddle cell (two diagonal corners above the level, two below) is split.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Saddle {
+    /// The corners above are joined when the mean of the four corners is above the level
+    /// (the bilinear surface's value at the cell centre); otherwise they are separated.
+    #[default]
+    Centre,
+    /// Corners above are always joined (skimage `fully_connected="high"`).
+    High,
+    /// Corners above are always separated (skimage's default, `fully_connected="low"`).
+    Low,
+}
+
+impl Saddle {
+    fn joins_above(self, z: [f64; 4], level: f64) -> bool {
+        match self {
+            Saddle::High => true,
+            Saddle::Low => false,
+            Saddle::Centre => (z[0] + z[1] + z[2] + z[3]) * 0.25 > level,
+        }
+    }
+}
+
+/// Contour levels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Levels {
+    /// `n` levels evenly spaced strictly between the surface's finite minimum and maximum:
+    /// `min + k·(max − min)/(n + 1)` for `k = 1..=n` (recomputed for every surface).
+    Count(usize),
+    /// Explicit levels in surface units (any order).
+    Explicit(Vec<f64>),
+}
+
+impl Default for Levels {
+    fn default() -> Self {
+        Levels::Count(10)
+    }
+}
+
+/// Configuration of the [`Contour`] stage (`[stages.contour]` in a scene).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ContourConfig {
+    /// Levels: a count (`levels = 10`, evenly spaced) or a list (`levels = [1.0, 2.0]`).
+    /// Default 10.
+    pub levels: Levels,
+    /// Smallest area (mm²) a region must have to count as the maximal contour. Default 1.
+    pub min_area_mm2: f64,
+    /// Smallest peak (surface units) for a contact; below it the frame is "no contact".
+    /// Default 1 (one event, for window aggregates).
+    pub min_peak: f64,
+    /// Saddle rule. Default `centre`.
+    pub saddle: Saddle,
+    /// March only the bounding box of the peak's region (same result, faster). Default true.
+    pub peak_only: bool,
+}
+
+impl Default for ContourConfig {
+    fn default() -> Self {
+        ContourConfig {
+            levels: Levels::Count(10),
+            min_area_mm2: 1.0,
+            min_peak: 1.0,
+            saddle: Saddle::Centre,
+            peak_only: true,
+        }
+    }
+}
+
+/// One iso-line in fractional index coordinates `[col, row]` (x, y).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Isoline {
+    /// Vertices; a closed line does not repeat its first vertex.
+    pub points: Vec<[f64; 2]>,
+    /// Whether the line closes on itself.
+    pub closed: bool,
+}
+
+/// The maximal contour of one surface.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaxContour {
+    /// The level (surface units).
+    pub level: f64,
+    /// Outer boundary (mm), counter-clockwise, first vertex not repeated.
+    pub polygon: Vec<[f64; 2]>,
+    /// Boundaries of holes (mm), clockwise.
+    pub holes: Vec<Vec<[f64; 2]>>,
+    /// Area of the region (mm²), holes excluded.
+    pub area_mm2: f64,
+    /// Area centroid (mm): the contact location.
+    pub centroid_mm: [f64; 2],
+    /// Angle of the principal (major) axis of the region's second moments (rad, from +x toward
+    /// +y, in `(−π/2, π/2]`); meaningless when `eccentricity` is near 0 (a round region).
+    pub orientation_rad: f64,
+    /// `√(1 − λ_min/λ_max)` of the second-moment eigenvalues: 0 round, → 1 elongated.
+    pub eccentricity: f64,
+    /// The surface's peak value.
+    pub peak: f64,
+    /// Where the peak is (mm, a grid point).
+    pub peak_mm: [f64; 2],
+    /// True when the region was closed along the grid edge or a NaN (outside-hull) boundary.
+    pub clipped: bool,
+}
+
+/// Why a surface has no contact.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoContact {
+    /// No finite value on the surface.
+    NoData,
+    /// The peak is below `min_peak`.
+    BelowMinPeak,
+    /// The surface is flat (max == min) or no level lies below its peak.
+    Flat,
+    /// No level's region reaches `min_area_mm2`.
+    TooSmall,
+}
+
+/// The result for one surface: a contact region or the reason there is none.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum ContourOutcome {
+    /// The maximal contour.
+    Contact(MaxContour),
+    /// No contact, and why.
+    NoContact(NoContact),
+}
+
+impl ContourOutcome {
+    /// The contour, if any.
+    pub fn contact(&self) -> Option<&MaxContour> {
+        match self {
+            ContourOutcome::Contact(c) => Some(c),
+            ContourOutcome::NoContact(_) => None,
+        }
+    }
+}
+
+/// The output of the [`Contour`] stage for one surface.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ContourFrame {
+    /// The sensor.
+    pub sensor: SensorId,
+    /// Start of the surface's time span.
+    pub start: Timestamp,
+    /// End of the span.
+    pub end: Timestamp,
+    /// Index of the newest source frame.
+    pub seq: u64,
+    /// The maximal contour or why there is none.
+    pub outcome: ContourOutcome,
+}
+
+impl Timed for ContourFrame {
+    fn time(&self) -> Timestamp {
+        self.end
+    }
+}
+
+impl HasSensor for ContourFrame {
+    fn sensor(&self) -> &SensorId {
+        &self.sensor
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// marching squares core
+
+#[derive(Clone, Copy, Debug)]
+struct Seg {
+    from: u32,
+    to: u32,
+    a: [f64; 2],
+    b: [f64; 2],
+}
+
+/// Inclusive window of grid points.
+#[derive(Clone, Copy, Debug)]
+struct Win {
+    c0: usize,
+    c1: usize,
+    r0: usize,
+    r1: usize,
+}
+
+#[derive(Default, Debug, Clone)]
+struct Scratch {
+    segs: Vec<Seg>,
+    start_of: Vec<u32>,
+    end_of: Vec<u32>,
+    used: Vec<bool>,
+    stamp: Vec<u32>,
+    gen: u32,
+    stack: Vec<(usize, usize)>,
+    clipped: bool,
+}
+
+const NONE: u32 = u32::MAX;
+
+/// March the cells of a window. `pad`: the window is surrounded by −∞ and NaN counts as −∞
+/// (closed rings); otherwise squares with a NaN corner are skipped (skimage's rule).
+/// `comp`: when given, points above the level that are not stamped `gen` count as −∞.
+fn march(
+    z: &ArrayView2<'_, f64>,
+    level: f64,
+    saddle: Saddle,
+    w: Win,
+    pad: bool,
+    comp: Option<(&[u32], u32)>,
+    s: &mut Scratch,
+) {
+    let nx = z.ncols();
+    let width = (w.c1 - w.c0 + 3) as i64; // local columns -1 ..= c1-c0+1
+    let height = (w.r1 - w.r0 + 3) as i64;
+    s.segs.clear();
+    s.clipped = false;
+    let val = |c: i64, r: i64| -> f64 {
+        if c < w.c0 as i64 || c > w.c1 as i64 || r < w.r0 as i64 || r > w.r1 as i64 {
+            return f64::NEG_INFINITY;
+        }
+        let v = z[[r as usize, c as usize]];
+        if v.is_nan() {
+            return if pad { f64::NEG_INFINITY } else { f64::NAN };
+        }
+        if let Some((stamp, gen)) = comp {
+            if v > level && stamp[r as usize * nx + c as usize] != gen {
+                return f64::NEG_INFINITY;
+            }
+        }
+        v
+    };
+    // local edge ids: horizontal edge from (c,r) to (c+1,r): 2·idx; vertical (c,r)→(c,r+1): 2·idx+1
+    let id = |c: i64, r: i64, vertical: bool| -> u32 {
+        let lc = c - (w.c0 as i64 - 1);
+        let lr = r - (w.r0 as i64 - 1);
+        (2 * (lr * width + lc) + vertical as i64) as u32
+    };
+    let (cs, ce, rs, re) = if pad {
+        (w.c0 as i64 - 1, w.c1 as i64, w.r0 as i64 - 1, w.r1 as i64)
+    } else {
+        (w.c0 as i64, w.c1 as i64 - 1, w.r0 as i64, w.r1 as i64 - 1)
+    };
+    let mut clipped = false;
+    let mut frac = |a: f64, b: f64| -> f64 {
+        if a == f64::NEG_INFINITY {
+            clipped = true;
+            1.0
+        } else if b == f64::NEG_INFINITY {
+            clipped = true;
+            0.0
+        } else if a == b {
+            0.0
+        } else {
+            (level - a) / (b - a)
+        }
+    };
+    for r in rs..=re {
+        for c in cs..=ce {
+            // corners counter-clockwise in (x = col, y = row): (c,r) (c+1,r) (c+1,r+1) (c,r+1)
+            let v = [val(c, r), val(c + 1, r), val(c + 1, r + 1), val(c, r + 1)];
+            if !pad && v.iter().any(|x| x.is_nan()) {
+                continue;
+            }
+            let up = [v[0] > level, v[1] > level, v[2] > level, v[3] > level];
+            let case = up[0] as u8 | (up[1] as u8) << 1 | (up[2] as u8) << 2 | (up[3] as u8) << 3;
+            if case == 0 || case == 15 {
+                continue;
+            }
+            // edge k joins corner k to corner k+1; canonical direction = increasing index
+            let edge_pt = |k: usize, frac: &mut dyn FnMut(f64, f64) -> f64| -> (u32, [f64; 2]) {
+                let (cf, rf) = (c as f64, r as f64);
+                match k {
+                    0 => (id(c, r, false), [cf + frac(v[0], v[1]), rf]),
+                    1 => (id(c + 1, r, true), [cf + 1.0, rf + frac(v[1], v[2])]),
+                    2 => (id(c, r + 1, false), [cf + frac(v[3], v[2]), rf + 1.0]),
+                    _ => (id(c, r, true), [cf, rf + frac(v[0], v[3])]),
+                }
+            };
+            let exit = |k: usize| up[k] && !up[(k + 1) % 4];
+            let entry = |k: usize| !up[k] && up[(k + 1) % 4];
+            if case == 5 || case == 10 {
+                let joined = saddle.joins_above(v, level);
+                for k in (0..4).filter(|&k| exit(k)) {
+                    let e = if joined { (k + 1) % 4 } else { (k + 3) % 4 };
+                    let (from, a) = edge_pt(k, &mut frac);
+                    let (to, b) = edge_pt(e, &mut frac);
+                    s.segs.push(Seg { from, to, a, b });
+                }
+            } else {
+                let k = (0..4).find(|&k| exit(k)).expect("a mixed cell has an exit");
+                let e = (0..4).find(|&k| entry(k)).expect("a mixed cell has an entry");
+                let (from, a) = edge_pt(k, &mut frac);
+                let (to, b) = edge_pt(e, &mut frac);
+                s.segs.push(Seg { from, to, a, b });
+            }
+        }
+    }
+    s.clipped = clipped;
+    let n_ids = (2 * width * height) as usize;
+    s.start_of.clear();
+    s.start_of.resize(n_ids, NONE);
+    s.end_of.clear();
+    s.end_of.resize(n_ids, NONE);
+    for (i, g) in s.segs.iter().enumerate() {
+        s.start_of[g.from as usize] = i as u32;
+        s.end_of[g.to as usize] = i as u32;
+    }
+}
+
+/// Link the segments of the last [`march`] into lines.
+fn link(s: &mut Scratch) -> Vec<Isoline> {
+    let n = s.segs.len();
+    s.used.clear();
+    s.used.resize(n, false);
+    let mut lines = Vec::new();
+    // open lines start where no segment ends
+    for i in 0..n {
+        if s.end_of[s.segs[i].from as usize] == NONE {
+            lines.push(follow(s, i, false));
+        }
+    }
+    for i in 0..n {
+        if !s.used[i] {
+            lines.push(follow(s, i, true));
+        }
+    }
+    lines
+}
+
+fn follow(s: &mut Scratch, first: usize, closed: bool) -> Isoline {
+    let mut pts = Vec::new();
+    let mut i = first;
+    loop {
+        s.used[i] = true;
+        let g = s.segs[i];
+        pts.push(g.a);
+        let next = s.start_of[g.to as usize];
+        if next == NONE {
+            pts.push(g.b);
+            return Isoline { points: pts, closed: false };
+        }
+        if next as usize == first || s.used[next as usize] {
+            return Isoline { points: pts, closed };
+        }
+        i = next as usize;
+    }
+}
+
+/// The iso-lines of `z` at `level` in fractional index coordinates `[col, row]`, with
+/// scikit-image's conventions (see the [module docs](self)): lines that reach the array's edge
+/// or a NaN square stay open.
+pub fn isolines(z: ArrayView2<'_, f64>, level: f64, saddle: Saddle) -> Vec<Isoline> {
+    let (ny, nx) = z.dim();
+    if nx < 2 || ny < 2 {
+        return Vec::new();
+    }
+    let mut s = Scratch::default();
+    march(&z, level, saddle, Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 }, false, None, &mut s);
+    link(&mut s)
+}
+
+/// The closed boundaries of `{z > level}` (NaN and outside the array count as −∞, so regions
+/// are closed along the edge), in index coordinates; outer boundaries counter-clockwise
+/// (positive area), holes clockwise.
+pub fn region_boundaries(z: ArrayView2<'_, f64>, level: f64, saddle: Saddle) -> Vec<Vec<[f64; 2]>> {
+    let (ny, nx) = z.dim();
+    if nx == 0 || ny == 0 {
+        return Vec::new();
+    }
+    let mut s = Scratch::default();
+    march(&z, level, saddle, Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 }, true, None, &mut s);
+    link(&mut s).into_iter().map(|l| l.points).collect()
+}
+
+/// Area, first and second moments of a polygon relative to `o` (Green's theorem; signed by
+/// orientation): `[A, ∫x, ∫y, ∫x², ∫xy, ∫y²]`.
+fn moments(p: &[[f64; 2]], o: [f64; 2]) -> [f64; 6] {
+    let mut m = [0.0; 6];
+    let n = p.len();
+    for i in 0..n {
+        let (x0, y0) = (p[i][0] - o[0], p[i][1] - o[1]);
+        let (x1, y1) = (p[(i + 1) % n][0] - o[0], p[(i + 1) % n][1] - o[1]);
+        let c = x0 * y1 - x1 * y0;
+        m[0] += c;
+        m[1] += (x0 + x1) * c;
+        m[2] += (y0 + y1) * c;
+        m[3] += (x0 * x0 + x0 * x1 + x1 * x1) * c;
+        m[4] += (x0 * y1 + 2.0 * x0 * y0 + 2.0 * x1 * y1 + x1 * y0) * c;
+        m[5] += (y0 * y0 + y0 * y1 + y1 * y1) * c;
+    }
+    [m[0] / 2.0, m[1] / 6.0, m[2] / 6.0, m[3] / 12.0, m[4] / 24.0, m[5] / 12.0]
+}
+
+/// Signed area of a polygon (positive counter-clockwise).
+pub fn polygon_area(p: &[[f64; 2]]) -> f64 {
+    moments(p, p.first().copied().unwrap_or([0.0; 2]))[0]
+}
+
+/// Finds maximal contours; holds scratch buffers so repeated calls do not allocate much.
+#[derive(Clone, Debug)]
+pub struct MaxContourFinder {
+    cfg: ContourConfig,
+    s: Scratch,
+    levels: Vec<f64>,
+}
+
+impl MaxContourFinder {
+    /// Validates the configuration: at least one level, finite levels, finite non-negative
+    /// `min_area_mm2`, finite `min_peak`.
+    pub fn try_new(cfg: &ContourConfig) -> crate::Result<Self> {
+        let bad = |reason: String| Err(Error::InvalidConfig { stage: STAGE, reason });
+        match &cfg.levels {
+            Levels::Count(0) => return bad("`levels` must be ≥ 1".into()),
+            Levels::Count(n) if *n > 100_000 => return bad(format!("{n} levels is too many (≤ 100000)")),
+            Levels::Explicit(v) if v.is_empty() => return bad("`levels` is an empty list".into()),
+            Levels::Explicit(v) if v.iter().any(|x| !x.is_finite()) => {
+                return bad(format!("`levels` {v:?} must be finite"))
+            }
+            _ => {}
+        }
+        if !(cfg.min_area_mm2.is_finite() && cfg.min_area_mm2 >= 0.0) {
+            return bad(format!("`min_area_mm2` = {} must be finite and ≥ 0", cfg.min_area_mm2));
+        }
+        if !cfg.min_peak.is_finite() {
+            return bad(format!("`min_peak` = {} must be finite", cfg.min_peak));
+        }
+        Ok(MaxContourFinder { cfg: cfg.clone(), s: Scratch::default(), levels: Vec::new() })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ContourConfig {
+        &self.cfg
+    }
+
+    /// The maximal contour of `z` (shape `(ny, nx)` matching `grid`).
+    pub fn find(&mut self, z: ArrayView2<'_, f64>, grid: &Grid) -> ContourOutcome {
+        let (ny, nx) = z.dim();
+        assert_eq!((ny, nx), (grid.ny(), grid.nx()), "surface shape must match its grid");
+        // peak (first in raster order) and finite minimum
+        let (mut zmax, mut zmin, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
+        match z.as_slice() {
+            Some(sl) => scan(sl, &mut zmax, &mut zmin, &mut at),
+            None => {
+                let v: Vec<f64> = z.iter().copied().collect();
+                scan(&v, &mut zmax, &mut zmin, &mut at)
+            }
+        }
+        if at == usize::MAX {
+            return ContourOutcome::NoContact(NoContact::NoData);
+        }
+        if zmax < self.cfg.min_peak {
+            return ContourOutcome::NoContact(NoContact::BelowMinPeak);
+        }
+        if zmax <= zmin {
+            return ContourOutcome::NoContact(NoContact::Flat);
+        }
+        let (pr, pc) = (at / nx, at % nx);
+        self.levels.clear();
+        match &self.cfg.levels {
+            Levels::Count(n) => {
+                let step = (zmax - zmin) / (*n as f64 + 1.0);
+                self.levels.extend((1..=*n).map(|k| zmin + k as f64 * step));
+            }
+            Levels::Explicit(v) => self.levels.extend(v.iter().copied()),
+        }
+        self.levels.retain(|&l| l < zmax);
+        if self.levels.is_empty() {
+            return ContourOutcome::NoContact(NoContact::Flat);
+        }
+        self.levels.sort_by(|a, b| b.partial_cmp(a).expect("finite levels"));
+        self.levels.dedup();
+        let cell = grid.cell_area();
+        let peak_mm = [grid.x(pc), grid.y(pr)];
+        let levels = std::mem::take(&mut self.levels);
+        let mut result = ContourOutcome::NoContact(NoContact::TooSmall);
+        for &level in &levels {
+            let w = self.component(&z, level, pr, pc);
+            let win = if self.cfg.peak_only { w } else { Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 } };
+            let gen = self.s.gen;
+            let stamp = std::mem::take(&mut self.s.stamp);
+            march(&z, level, self.cfg.saddle, win, true, Some((&stamp, gen)), &mut self.s);
+            self.s.stamp = stamp;
+            let clipped = self.s.clipped;
+            let rings = link(&mut self.s);
+            // area in index units first (cheap), mm² = index area × cell area
+            let mut outer = (0usize, f64::NEG_INFINITY);
+            let mut total = 0.0;
+            let areas: Vec<f64> = rings.iter().map(|r| polygon_area(&r.points)).collect();
+            for (i, &a) in areas.iter().enumerate() {
+                total += a;
+                if a > outer.1 {
+                    outer = (i, a);
+                }
+            }
+            if total * cell < self.cfg.min_area_mm2 || rings.is_empty() {
+                continue;
+            }
+            let to_mm = |p: &[f64; 2]| grid.index_to_mm(p[0], p[1]);
+            let mut m = [0.0; 6];
+            for r in &rings {
+                let pts: Vec<[f64; 2]> = r.points.iter().map(to_mm).collect();
+                let mi = moments(&pts, peak_mm);
+                for k in 0..6 {
+                    m[k] += mi[k];
+                }
+            }
+            let a = m[0];
+            let (cx, cy) = (m[1] / a, m[2] / a);
+            let mu20 = m[3] / a - cx * cx;
+            let mu11 = m[4] / a - cx * cy;
+            let mu02 = m[5] / a - cy * cy;
+            let mut theta = 0.5 * (2.0 * mu11).atan2(mu20 - mu02);
+            if theta <= -std::f64::consts::FRAC_PI_2 {
+                theta += std::f64::consts::PI;
+            }
+            let half_tr = 0.5 * (mu20 + mu02);
+            let disc = (0.25 * (mu20 - mu02).powi(2) + mu11 * mu11).sqrt();
+            let (l1, l2) = (half_tr + disc, half_tr - disc);
+            let ecc = if l1 > 0.0 { (1.0 - (l2 / l1).max(0.0)).max(0.0).sqrt() } else { 0.0 };
+            let polygon = rings[outer.0].points.iter().map(to_mm).collect();
+            let holes = rings
+                .iter()
+                .enumerate()
+                .filter(|&(i, _)| i != outer.0)
+                .map(|(_, r)| r.points.iter().map(to_mm).collect())
+                .collect();
+            result = ContourOutcome::Contact(MaxContour {
+                level,
+                polygon,
+                holes,
+                area_mm2: a,
+                centroid_mm: [peak_mm[0] + cx, peak_mm[1] + cy],
+                orientation_rad: theta,
+                eccentricity: ecc,
+                peak: zmax,
+                peak_mm,
+                clipped,
+            });
+            break;
+        }
+        self.levels = levels;
+        result
+    }
+
+    /// Flood-fill the component of `{z > level}` containing (pr, pc) — 4-connected, plus
+    /// diagonals across saddle cells the saddle rule joins — stamping it with a new generation;
+    /// returns its bounding box grown by one point (clipped to the grid).
+    fn component(&mut self, z: &ArrayView2<'_, f64>, level: f64, pr: usize, pc: usize) -> Win {
+        let (ny, nx) = z.dim();
+        let s = &mut self.s;
+        if s.stamp.len() != nx * ny {
+            s.stamp.clear();
+            s.stamp.resize(nx * ny, 0);
+            s.gen = 0;
+        }
+        s.gen = s.gen.wrapping_add(1);
+        if s.gen == 0 {
+            s.stamp.iter_mut().for_each(|x| *x = 0);
+            s.gen = 1;
+        }
+        let gen = s.gen;
+        let above = |r: usize, c: usize| z[[r, c]] > level; // NaN is never above
+        let (mut r0, mut r1, mut c0, mut c1) = (pr, pr, pc, pc);
+        s.stack.clear();
+        s.stack.push((pr, pc));
+        s.stamp[pr * nx + pc] = gen;
+        while let Some((r, c)) = s.stack.pop() {
+            r0 = r0.min(r);
+            r1 = r1.max(r);
+            c0 = c0.min(c);
+            c1 = c1.max(c);
+            for (dr, dc) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)] {
+                let (rr, cc) = (r as i64 + dr, c as i64 + dc);
+                if rr < 0 || cc < 0 || rr >= ny as i64 || cc >= nx as i64 {
+                    continue;
+                }
+                let (rr, cc) = (rr as usize, cc as usize);
+                if s.stamp[rr * nx + cc] == gen || !above(rr, cc) {
+                    continue;
+                }
+                if dr != 0 && dc != 0 {
+                    // diagonal: only across a saddle cell that the rule joins
+                    let (o1, o2) = (above(r, cc), above(rr, c));
+                    if !(o1 || o2) {
+                        let (rm, cm) = (r.min(rr), c.min(cc));
+                        let v = [z[[rm, cm]], z[[rm, cm + 1]], z[[rm + 1, cm + 1]], z[[rm + 1, cm]]];
+                        if !self.cfg.saddle.joins_above(v, level) {
+                            continue;
+                        }
+                    } else {
+                        // reachable through an orthogonal neighbour; visited that way
+                        continue;
+                    }
+                }
+                s.stamp[rr * nx + cc] = gen;
+                s.stack.push((rr, cc));
+            }
+        }
+        Win { c0: c0.saturating_sub(1), c1: (c1 + 1).min(nx - 1), r0: r0.saturating_sub(1), r1: (r1 + 1).min(ny - 1) }
+    }
+}
+
+fn scan(v: &[f64], zmax: &mut f64, zmin: &mut f64, at: &mut usize) {
+    for (i, &x) in v.iter().enumerate() {
+        if x > *zmax {
+            *zmax = x;
+            *at = i;
+        }
+        if x < *zmin {
+            *zmin = x;
+        }
+    }
+}
+
+/// The contour stage: one [`ContourFrame`] per [`Surface`] (see the [module docs](self)).
+#[derive(Clone, Debug)]
+#[must_use = "a stage does nothing until inputs are pushed"]
+pub struct Contour {
+    finder: MaxContourFinder,
+}
+
+impl Contour {
+    /// A stage from its configuration (validated).
+    pub fn try_new(cfg: &ContourConfig) -> crate::Result<Self> {
+        Ok(Contour { finder: MaxContourFinder::try_new(cfg)? })
+    }
+
+    /// The maximal contour of one surface, without the stage wrapping.
+    pub fn find(&mut self, s: &Surface) -> ContourOutcome {
+        self.finder.find(s.values.view(), &s.grid)
+    }
+}
+
+impl Stage for Contour {
+    type In = Surface;
+    type Out = ContourFrame;
+    type Error = Error;
+
+    fn push(&mut self, s: Surface, out: &mut Vec<ContourFrame>) -> crate::Result<()> {
+        if s.values.dim() != (s.grid.ny(), s.grid.nx()) {
+            return Err(Error::BadInput {
+                stage: STAGE,
+                sensor: s.sensor.to_string(),
+                seq: s.seq,
+                reason: format!("surface of shape {:?} on a {}×{} grid", s.values.dim(), s.grid.ny(), s.grid.nx()),
+            });
+        }
+        let outcome = self.find(&s);
+        out.push(ContourFrame { sensor: s.sensor, start: s.start, end: s.end, seq: s.seq, outcome });
+        Ok(())
+    }
+
+    fn reset(&mut self) {}
+
+    fn delay(&self) -> Delay {
+        Delay::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray::{array, Array2};
+
+    #[test]
+    fn single_square_saddle_rules_match_skimage() {
+        let z = array![[1.0, 0.0], [0.0, 1.0]];
+        // skimage low: [[0,0.5],[0.5,0]] and [[1,0.5],[0.5,1]] (row, col)
+        let low = isolines(z.view(), 0.5, Saddle::Low);
+        assert_eq!(low.len(), 2);
+        let mut segs: Vec<_> = low.iter().map(|l| l.points.clone()).collect();
+        segs.sort_by(|a, b| a[0].partial_cmp(&b[0]).unwrap());
+        for s in &segs {
+            assert_eq!(s.len(), 2);
+            assert!(!low[0].closed);
+        }
+        let ends: Vec<[f64; 2]> = segs.iter().flat_map(|s| s.iter().copied()).collect();
+        for p in [[0.5, 0.0], [0.0, 0.5], [1.0, 0.5], [0.5, 1.0]] {
+            assert!(ends.contains(&p), "{p:?} in {ends:?}");
+        }
+        // low separates (0,0) from (1,1): one segment joins (0.5,0) and (0,0.5)
+        assert!(segs.iter().any(|s| s.contains(&[0.5, 0.0]) && s.contains(&[0.0, 0.5])));
+        let high = isolines(z.view(), 0.5, Saddle::High);
+        assert!(high.iter().any(|l| l.points.contains(&[0.5, 0.0]) && l.points.contains(&[1.0, 0.5])));
+    }
+
+    #[test]
+    fn closed_ring_area_and_orientation() {
+        let mut z = Array2::zeros((5, 5));
+        z[[2, 2]] = 1.0;
+        let rings = region_boundaries(z.view(), 0.5, Saddle::Centre);
+        assert_eq!(rings.len(), 1);
+        // a diamond with half-diagonals 0.5: area 0.5, counter-clockwise
+        assert!((polygon_area(&rings[0]) - 0.5).abs() < 1e-15);
+        // a region touching the edge is closed along it
+        let mut z = Array2::zeros((3, 3));
+        z[[0, 0]] = 1.0;
+        let rings = region_boundaries(z.view(), 0.5, Saddle::Centre);
+        assert_eq!(rings.len(), 1);
+        assert!((polygon_area(&rings[0]) - 0.125).abs() < 1e-15, "{rings:?}");
+    }
+
+    #[test]
+    fn config_validation() {
+        assert!(MaxContourFinder::try_new(&ContourConfig { levels: Levels::Count(0), ..Default::default() }).is_err());
+        assert!(MaxContourFinder::try_new(&ContourConfig {
+            levels: Levels::Explicit(vec![f64::NAN]),
+            ..Default::default()
+        })
+        .is_err());
+        assert!(MaxContourFinder::try_new(&ContourConfig { min_area_mm2: -1.0, ..Default::default() }).is_err());
+        let toml_like: ContourConfig = serde_json::from_str(r#"{"levels": [1.0, 2.0], "saddle": "low"}"#).unwrap();
+        assert_eq!(toml_like.levels, Levels::Explicit(vec![1.0, 2.0]));
+        let c: ContourConfig = serde_json::from_str(r#"{"levels": 5}"#).unwrap();
+        assert_eq!(c.levels, Levels::Count(5));
+    }
+}

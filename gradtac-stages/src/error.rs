@@ -43,6 +43,19 @@ pub enum Error {
         /// Why it is refused.
         reason: &'static str,
     },
+    /// An input item the stage refuses as a whole (time going backwards, events out of order,
+    /// a batch of another sensor).
+    #[error("{stage}: sensor {sensor} frame {seq}: {reason}")]
+    BadInput {
+        /// The stage.
+        stage: &'static str,
+        /// The sensor.
+        sensor: String,
+        /// The frame's index in its source.
+        seq: u64,
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 impl From<Error> for gradtac_stream::Error {

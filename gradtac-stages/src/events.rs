@@ -1,1 +1,604 @@
-//! Placeholder: this stage is being written (see the issue tracker).
+//! Log-change tactile events (method.md, stage 3): the DVS rule per taxel.
+//!
+//! # What it does
+//! Each taxel keeps a reference level `r` on the log scale, starting at `ln y₀` of its first
+//! sample. The value used is `y = max(x + offset, floor)` (see *Values ≤ 0* below). Whenever
+//! `ln y` has moved from `r` by at least `τ`, the stage emits one [`TactileEvent`] per threshold
+//! crossed — polarity +1 up, −1 down — and moves `r` by `±τ` for each. Concretely the levels are
+//! `L(j) = e^{r₀ + jτ}` for integer `j` and the reference is one of them, `L(k)`; a sample
+//! `y ≥ L(k+1)` crosses every level `k+1..=j` with `L(j) ≤ y < L(j+1)`, a sample `y ≤ L(k−1)`
+//! every level `k−1, k−2, …, j` with `L(j−1) < y ≤ L(j)`; then `k := j`. (The paper's inline
+//! `ln X' > e^τ ln X` contradicts its own `|ln X' − ln X| > τ`; this is the latter, with `≥`.)
+//!
+//! Between two samples `(t, y_t)` and `(t+δ, y_{t+δ})` of a taxel the signal is taken as linear
+//! in **value**, so level `L` is crossed at `t + δ·(L − y_t)/(y_{t+δ} − y_t)`, rounded to the
+//! nearest nanosecond. Levels are geometric in value, so a rise crosses them densest near `t`
+//! (the paper's "frequency of events higher initially").
+//!
+//! The comparison runs in the linear domain against the two cached bounds `L(k±1)` per taxel,
+//! so a sample that crosses nothing costs two comparisons and no logarithm; `ln` and `exp` are
+//! evaluated only for crossings. Because the bounds are recomputed from the integer level `k`
+//! (not accumulated), a constant signal never fires again after its crossings, and feeding the
+//! same frames in any chunking gives bit-identical events.
+//!
+//! # Output
+//! Exactly one [`EventBatch`] per input frame (often empty), stamped with that frame's time and
+//! seq; the batch holds the events of the interval `[t, t+δ]` that frame closed (a crossing
+//! that rounds to `t` itself is stamped `t`). Inside a batch events are in non-decreasing time;
+//! ties are ordered by taxel index, then by crossing order. Across the batches of one stream
+//! times are non-decreasing too: a taxel whose previous sample was skipped interpolates from its
+//! last finite sample, but its event times are clamped to no earlier than the previous frame.
+//! Delay: none (the events of an interval are known when it closes).
+//!
+//! Event schema (as written to Parquet by the scene layer): one row per event with
+//! `sensor` (string), `time` (i64 ns, see [`Timestamp`]), `taxel` (u16), `polarity` (i8, ±1),
+//! plus the batch's `seq` (u64, the frame that closed the interval).
+//!
+//! # Policies
+//! | situation | behaviour |
+//! |---|---|
+//! | `x + offset ≤ floor` (e.g. 0 after min-max normalisation) | the value is raised to `floor` (`> 0`), counted in [`EventCounters::floored`]; never `ln 0` |
+//! | NaN or ±inf | [`NonFinitePolicy::Error`]: [`Error::BadValue`] naming sensor, frame seq and taxel; [`NonFinitePolicy::Skip`]: the sample is ignored for that taxel (its next finite sample interpolates from the last finite one), counted in [`EventCounters::skipped`] |
+//! | more than `max_events_per_step` crossings of one taxel in one step | the earliest `max_events_per_step` are emitted, the reference still moves past all of them (it tracks the signal), the rest counted in [`EventCounters::overflow`] (and per taxel, [`Events::overflow_per_taxel`]) |
+//! | a crossing within `refractory_s` of the taxel's previous emitted event | not emitted, but the reference moves (the taxel is blind, as a DVS pixel); counted in [`EventCounters::suppressed`] |
+//! | dropped frames (`seq` jumps) or an interval longer than `max_gap_s` | [`EventGapPolicy::Interpolate`] (default): one long interval, crossings interpolated across it; [`EventGapPolicy::Reset`]: references restart at the new frame, the change across the gap produces no events |
+//! | time going backwards | always a reset (there is no interval to interpolate in) |
+//!
+//! With no floor clamping, no cap overflow and no refractory suppression, the running sum of
+//! `polarity·τ` of a taxel equals `r − ln y₀`, so it reconstructs `ln y − ln y₀` to within `τ`
+//! at every sample.
+//!
+//! # Trade-offs
+//! | knob | smaller | larger |
+//! |---|---|---|
+//! | `threshold` τ | finer resolution, more events (cap!) | fewer events, coarser; τ ≥ the total log change → none |
+//! | `floor` | more events from near-zero values (log blows up) | insensitive near 0 |
+//! | `refractory_s` | faithful counts | bounded rate, lost resolution |
+
+use crate::{Error, EventBatch, Result, TactileEvent};
+use gradtac_stream::{Delay, Stage, TaxelFrame, Timestamp};
+use serde::{Deserialize, Serialize};
+
+const STAGE: &str = "events";
+
+/// The smallest accepted threshold: below it neighbouring levels `e^{r₀+jτ}` stop being
+/// distinct in `f64` for large `|r₀ + jτ|`.
+pub const MIN_THRESHOLD: f64 = 1e-12;
+
+fn invalid(reason: impl Into<String>) -> Error {
+    Error::InvalidConfig { stage: STAGE, reason: reason.into() }
+}
+
+/// The threshold `τ` on `ln y`: one for all taxels or one per taxel. In TOML `threshold = 0.1`
+/// or `threshold = [0.1, 0.2, …]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Threshold {
+    /// The same `τ` for every taxel.
+    Uniform(f64),
+    /// `τ` per taxel (length = number of taxels).
+    PerTaxel(Vec<f64>),
+}
+
+impl Default for Threshold {
+    fn default() -> Self {
+        Threshold::Uniform(0.05)
+    }
+}
+
+/// What to do with a NaN or ±inf input value.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NonFinitePolicy {
+    /// Fail with [`Error::BadValue`] naming the sensor, frame and taxel.
+    #[default]
+    Error,
+    /// Ignore that taxel's sample and count it.
+    Skip,
+}
+
+/// What a gap in the stream (dropped frames, or an interval above `max_gap_s`) does.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EventGapPolicy {
+    /// Treat the gap as one long interval; crossings are interpolated across it.
+    #[default]
+    Interpolate,
+    /// Restart every taxel's reference at the frame after the gap.
+    Reset,
+}
+
+/// Configuration of [`Events`]; a `[stages.events]` table in a scene.
+///
+/// ```toml
+/// threshold = 0.05          # τ on ln(value); or one per taxel: [0.05, 0.04, …]
+/// refractory_s = 0.0        # seconds; 0 = none
+/// max_events_per_step = 64  # per taxel per input frame
+/// offset = 0.0              # y = max(x + offset, floor)
+/// floor = 1e-3
+/// non_finite = "error"      # or "skip"
+/// gap = "interpolate"       # or "reset"
+/// # max_gap_s = 0.05        # an interval longer than this is a gap (optional)
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EventsConfig {
+    /// `τ`, dimensionless (a change of `ln y`; 0.05 ≈ 5 %). ≥ [`MIN_THRESHOLD`], finite.
+    /// Default 0.05.
+    pub threshold: Threshold,
+    /// Refractory period in **seconds** (rounded to whole ns): after an emitted event a taxel's
+    /// crossings within this time are not emitted. Default 0 (none).
+    pub refractory_s: f64,
+    /// Most events one taxel may emit for one input frame (≥ 1); the rest are counted as
+    /// overflow. Default 64.
+    pub max_events_per_step: u32,
+    /// Added to every value before the log (same unit as the input). Default 0.
+    pub offset: f64,
+    /// Values below it (after `offset`) are raised to it before the log (same unit as the
+    /// input, > 0). Default 1e-3 (0.1 % of full scale for normalised input).
+    pub floor: f64,
+    /// NaN / ±inf handling. Default [`NonFinitePolicy::Error`].
+    pub non_finite: NonFinitePolicy,
+    /// Gap handling. Default [`EventGapPolicy::Interpolate`].
+    pub gap: EventGapPolicy,
+    /// An interval longer than this many **seconds** is a gap (besides a `seq` jump, which
+    /// always is). Default `None`.
+    pub max_gap_s: Option<f64>,
+}
+
+impl Default for EventsConfig {
+    fn default() -> Self {
+        EventsConfig {
+            threshold: Threshold::default(),
+            refractory_s: 0.0,
+            max_events_per_step: 64,
+            offset: 0.0,
+            floor: 1e-3,
+            non_finite: NonFinitePolicy::Error,
+            gap: EventGapPolicy::Interpolate,
+            max_gap_s: None,
+        }
+    }
+}
+
+/// What the stage dropped or altered, summed over its life (kept across [`Stage::reset`];
+/// see [`Events::clear_counters`]).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct EventCounters {
+    /// Crossings not emitted because of `max_events_per_step`.
+    pub overflow: u64,
+    /// Crossings not emitted because of the refractory period.
+    pub suppressed: u64,
+    /// Non-finite samples skipped ([`NonFinitePolicy::Skip`]).
+    pub skipped: u64,
+    /// Samples raised to `floor`.
+    pub floored: u64,
+}
+
+/// The log-change event generator over [`TaxelFrame`]s; see the [module docs](self).
+///
+/// ```
+/// use gradtac_stages::events::{Events, EventsConfig, Threshold};
+/// use gradtac_stream::{StageExt, TaxelFrame, Timestamp};
+///
+/// let config = EventsConfig { threshold: Threshold::Uniform(0.5), ..Default::default() };
+/// let mut ev = Events::try_new(1, config).unwrap();
+/// let frame = |k: u64, x: f64| TaxelFrame::new("ff".into(), Timestamp(k as i64 * 10_000_000), k, vec![x]);
+/// let batches = ev.run_all([frame(0, 1.0), frame(1, 3.0)]).unwrap();
+/// assert_eq!(batches.len(), 2); // one batch per frame
+/// // ln 3 = 1.0986: two crossings of 0.5, at values e^0.5 and e^1.0
+/// let ev1 = &batches[1].events;
+/// assert_eq!(ev1.len(), 2);
+/// assert!(ev1.iter().all(|e| e.polarity == 1));
+/// let t = (0.5f64.exp() - 1.0) / 2.0 * 1e7;
+/// assert_eq!(ev1[0].time, Timestamp(t.round() as i64));
+/// ```
+#[derive(Clone, Debug)]
+#[must_use = "a stage does nothing until frames are pushed"]
+pub struct Events {
+    config: EventsConfig,
+    taxels: usize,
+    tau: Vec<f64>,
+    refractory_ns: i64,
+    max_gap_ns: Option<i64>,
+    // Per-taxel state (structure of arrays).
+    /// `L(k−1)`, or +inf for a taxel without a reference yet.
+    lo: Vec<f64>,
+    /// `L(k+1)`, or −inf for a taxel without a reference yet.
+    hi: Vec<f64>,
+    /// `ln y₀`.
+    r0: Vec<f64>,
+    /// `k`: the reference is `r₀ + kτ`.
+    level: Vec<i64>,
+    /// Last finite value `y` and its time (ns).
+    prev: Vec<f64>,
+    prev_t: Vec<i64>,
+    /// Time of the last emitted event (ns), `i64::MIN` for none.
+    last_event: Vec<i64>,
+    overflow_per_taxel: Vec<u64>,
+    /// (time, seq) of the previous frame of the segment.
+    last_frame: Option<(Timestamp, u64)>,
+    counters: EventCounters,
+}
+
+impl Events {
+    /// An event generator for frames of `taxels` values.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] for zero or more than 65 535 taxels, a threshold that is not
+    /// finite and ≥ [`MIN_THRESHOLD`] (or a per-taxel list of the wrong length), a negative or
+    /// non-finite refractory period, a zero cap, a `floor` that is not finite and > 0, a
+    /// non-finite offset, or a `max_gap_s` that is not finite and > 0.
+    pub fn try_new(taxels: usize, config: EventsConfig) -> Result<Events> {
+        if taxels == 0 || taxels > u16::MAX as usize {
+            return Err(invalid(format!("taxels must be 1..=65535, got {taxels}")));
+        }
+        let tau = match &config.threshold {
+            Threshold::Uniform(t) => vec![*t; taxels],
+            Threshold::PerTaxel(v) if v.len() == taxels => v.clone(),
+            Threshold::PerTaxel(v) => {
+                return Err(invalid(format!("threshold has {} values for {taxels} taxels", v.len())));
+            }
+        };
+        if let Some((i, t)) = tau.iter().enumerate().find(|(_, t)| !(t.is_finite() && **t >= MIN_THRESHOLD)) {
+            return Err(invalid(format!("threshold of taxel {i} must be finite and >= {MIN_THRESHOLD:e}, got {t}")));
+        }
+        let r = config.refractory_s;
+        if !(r.is_finite() && (0.0..=9.0e9).contains(&r)) {
+            return Err(invalid(format!("refractory_s must be finite, >= 0 and at most 9e9 s, got {r}")));
+        }
+        if config.max_events_per_step == 0 {
+            return Err(invalid("max_events_per_step must be at least 1"));
+        }
+        if !(config.floor.is_finite() && config.floor > 0.0) {
+            return Err(invalid(format!("floor must be finite and > 0 (it keeps ln finite), got {}", config.floor)));
+        }
+        if !config.offset.is_finite() {
+            return Err(invalid(format!("offset must be finite, got {}", config.offset)));
+        }
+        let max_gap_ns = match config.max_gap_s {
+            None => None,
+            Some(g) if g.is_finite() && g > 0.0 && g <= 9.0e9 => Some((g * 1e9).round() as i64),
+            Some(g) => return Err(invalid(format!("max_gap_s must be finite, > 0 and at most 9e9 s, got {g}"))),
+        };
+        Ok(Events {
+            taxels,
+            tau,
+            refractory_ns: (r * 1e9).round() as i64,
+            max_gap_ns,
+            lo: vec![f64::INFINITY; taxels],
+            hi: vec![f64::NEG_INFINITY; taxels],
+            r0: vec![0.0; taxels],
+            level: vec![0; taxels],
+            prev: vec![0.0; taxels],
+            prev_t: vec![0; taxels],
+            last_event: vec![i64::MIN; taxels],
+            overflow_per_taxel: vec![0; taxels],
+            last_frame: None,
+            counters: EventCounters::default(),
+            config,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &EventsConfig {
+        &self.config
+    }
+
+    /// Number of taxels per frame.
+    pub fn taxels(&self) -> usize {
+        self.taxels
+    }
+
+    /// What was dropped or altered so far.
+    pub fn counters(&self) -> EventCounters {
+        self.counters
+    }
+
+    /// Crossings dropped by the cap, so far (= `counters().overflow`).
+    pub fn overflow(&self) -> u64 {
+        self.counters.overflow
+    }
+
+    /// Crossings dropped by the cap, per taxel.
+    pub fn overflow_per_taxel(&self) -> &[u64] {
+        &self.overflow_per_taxel
+    }
+
+    /// Zero all counters.
+    pub fn clear_counters(&mut self) {
+        self.counters = EventCounters::default();
+        self.overflow_per_taxel.iter_mut().for_each(|c| *c = 0);
+    }
+
+    /// The current reference `ln`-level of each taxel (`None` before its first finite sample).
+    pub fn reference(&self, taxel: usize) -> Option<f64> {
+        (self.lo[taxel] != f64::INFINITY).then(|| self.r0[taxel] + self.level[taxel] as f64 * self.tau[taxel])
+    }
+
+    fn clear_state(&mut self) {
+        self.lo.iter_mut().for_each(|x| *x = f64::INFINITY);
+        self.hi.iter_mut().for_each(|x| *x = f64::NEG_INFINITY);
+        self.last_event.iter_mut().for_each(|x| *x = i64::MIN);
+        self.last_frame = None;
+    }
+
+    #[inline]
+    fn bad_value(&mut self, frame: &TaxelFrame, taxel: usize, x: f64) -> Result<()> {
+        match self.config.non_finite {
+            NonFinitePolicy::Error => Err(Error::BadValue {
+                stage: STAGE,
+                sensor: frame.sensor.to_string(),
+                seq: frame.seq,
+                taxel,
+                value: x,
+                reason: "non-finite value",
+            }),
+            NonFinitePolicy::Skip => {
+                self.counters.skipped += 1;
+                Ok(())
+            }
+        }
+    }
+
+    /// A sample that is outside the taxel's bounds, non-finite, or the taxel's first.
+    #[cold]
+    fn slow(&mut self, frame: &TaxelFrame, i: usize, x: f64, y: f64, events: &mut Vec<TactileEvent>) -> Result<()> {
+        if !(x.is_finite() && y.is_finite()) {
+            return self.bad_value(frame, i, x);
+        }
+        let now = frame.time.as_nanos();
+        let tau = self.tau[i];
+        if self.lo[i] == f64::INFINITY {
+            // First finite sample of this taxel in the segment: it becomes the reference.
+            let r0 = y.ln();
+            self.r0[i] = r0;
+            self.level[i] = 0;
+            self.lo[i] = (r0 - tau).exp();
+            self.hi[i] = (r0 + tau).exp();
+            self.prev[i] = y;
+            self.prev_t[i] = now;
+            return Ok(());
+        }
+        let r0 = self.r0[i];
+        let lvl = |j: i64| (r0 + j as f64 * tau).exp();
+        let k = self.level[i];
+        let (dir, j) = if y >= self.hi[i] {
+            let mut j = (((y.ln() - r0) / tau).floor() as i64).max(k + 1);
+            while lvl(j + 1) <= y {
+                j += 1;
+            }
+            while j > k + 1 && lvl(j) > y {
+                j -= 1;
+            }
+            (1i64, j)
+        } else if y <= self.lo[i] {
+            let mut j = (((y.ln() - r0) / tau).ceil() as i64).min(k - 1);
+            while lvl(j - 1) >= y {
+                j -= 1;
+            }
+            while j < k - 1 && lvl(j) < y {
+                j += 1;
+            }
+            (-1i64, j)
+        } else {
+            // Inside the bounds after all (only reachable for a taxel just (re)initialised).
+            self.prev[i] = y;
+            self.prev_t[i] = now;
+            return Ok(());
+        };
+        // Crossings at levels k+dir, k+2·dir, …, j, in time order.
+        let (p, pt) = (self.prev[i], self.prev_t[i]);
+        let dy = y - p;
+        let dt = (now - pt) as f64;
+        // Clamped to the previous frame's time: after a skipped sample the interval reaches
+        // further back, but batches must stay in time order.
+        let not_before = self.last_frame.map_or(i64::MIN, |(t, _)| t.as_nanos());
+        let time_of = |v: f64| {
+            let frac = ((v - p) / dy).clamp(0.0, 1.0);
+            (pt + (frac * dt).round() as i64).max(not_before)
+        };
+        let cap = self.config.max_events_per_step;
+        let mut emitted = 0u32;
+        let mut lv = k + dir;
+        let mut remaining = (j - k).unsigned_abs();
+        while remaining > 0 {
+            if emitted == cap {
+                self.counters.overflow += remaining;
+                self.overflow_per_taxel[i] += remaining;
+                break;
+            }
+            let te = time_of(lvl(lv));
+            let free_at = self.last_event[i].saturating_add(self.refractory_ns);
+            if self.refractory_ns > 0 && te < free_at {
+                // Skip ahead to about where the taxel becomes free again, then re-check exactly.
+                let frac_free = if dt > 0.0 { (free_at - pt) as f64 / dt } else { f64::INFINITY };
+                let skip = if frac_free >= 1.0 {
+                    remaining
+                } else {
+                    let v = p + frac_free * dy;
+                    let est = (v.max(f64::MIN_POSITIVE).ln() - r0) / tau;
+                    let target = if dir > 0 { est.floor() as i64 - 1 } else { est.ceil() as i64 + 1 };
+                    ((target - lv) * dir).clamp(1, remaining as i64) as u64
+                };
+                self.counters.suppressed += skip;
+                remaining -= skip;
+                lv += dir * skip as i64;
+                continue;
+            }
+            events.push(TactileEvent { time: Timestamp(te), taxel: i as u16, polarity: dir as i8 });
+            self.last_event[i] = te;
+            emitted += 1;
+            remaining -= 1;
+            lv += dir;
+        }
+        self.level[i] = j;
+        self.lo[i] = lvl(j - 1);
+        self.hi[i] = lvl(j + 1);
+        self.prev[i] = y;
+        self.prev_t[i] = now;
+        Ok(())
+    }
+}
+
+impl Stage for Events {
+    type In = TaxelFrame;
+    type Out = EventBatch;
+    type Error = Error;
+
+    fn push(&mut self, frame: TaxelFrame, out: &mut Vec<EventBatch>) -> Result<()> {
+        let n = self.taxels;
+        if frame.values.len() != n {
+            return Err(Error::TaxelCount {
+                stage: STAGE,
+                sensor: frame.sensor.to_string(),
+                seq: frame.seq,
+                expected: n,
+                got: frame.values.len(),
+            });
+        }
+        if let Some((t, seq)) = self.last_frame {
+            let dt = frame.time - t;
+            let gap = frame.seq != seq.wrapping_add(1) || self.max_gap_ns.is_some_and(|g| dt > g);
+            if dt < 0 || (gap && self.config.gap == EventGapPolicy::Reset) {
+                self.clear_state();
+            }
+        }
+        let now = frame.time.as_nanos();
+        let (offset, floor) = (self.config.offset, self.config.floor);
+        let mut events = Vec::new();
+        let mut first_taxel_with_events = usize::MAX;
+        let mut several = false;
+        for i in 0..n {
+            let x = frame.values[i];
+            let mut y = x + offset;
+            if !(y >= floor) && x.is_finite() && !y.is_nan() {
+                y = floor;
+                self.counters.floored += 1;
+            }
+            if y > self.lo[i] && y < self.hi[i] {
+                self.prev[i] = y;
+                self.prev_t[i] = now;
+                continue;
+            }
+            let before = events.len();
+            self.slow(&frame, i, x, y, &mut events)?;
+            if events.len() > before {
+                if first_taxel_with_events == usize::MAX {
+                    first_taxel_with_events = i;
+                } else {
+                    several = true;
+                }
+            }
+        }
+        if several {
+            // Each taxel's run is already in time order; a stable sort keeps taxel order, then
+            // crossing order, for equal times.
+            events.sort_by_key(|e| e.time);
+        }
+        self.last_frame = Some((frame.time, frame.seq));
+        out.push(EventBatch { sensor: frame.sensor, time: frame.time, seq: frame.seq, taxels: n as u16, events });
+        Ok(())
+    }
+
+    fn reset(&mut self) {
+        self.clear_state();
+    }
+
+    fn delay(&self) -> Delay {
+        Delay::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gradtac_stream::StageExt;
+
+    fn frame(k: u64, v: Vec<f64>) -> TaxelFrame {
+        TaxelFrame::new("ff".into(), Timestamp(k as i64 * 10_000_000), k, v)
+    }
+
+    fn tau(t: f64) -> EventsConfig {
+        EventsConfig { threshold: Threshold::Uniform(t), ..Default::default() }
+    }
+
+    #[test]
+    fn down_crossings_and_interpolated_times() {
+        let mut ev = Events::try_new(1, tau(0.5)).unwrap();
+        let b = ev.run_all([frame(0, vec![1.0]), frame(1, vec![0.3])]).unwrap();
+        // ln 0.3 = −1.204: levels −0.5, −1.0 crossed
+        let e = &b[1].events;
+        assert_eq!(e.len(), 2);
+        assert!(e.iter().all(|e| e.polarity == -1 && e.taxel == 0));
+        for (ev, level) in e.iter().zip([-0.5f64, -1.0]) {
+            let t = (1.0 - level.exp()) / 0.7 * 1e7;
+            assert_eq!(ev.time, Timestamp(t.round() as i64));
+        }
+    }
+
+    #[test]
+    fn reference_moves_by_whole_thresholds_and_does_not_refire() {
+        let mut ev = Events::try_new(1, tau(0.1)).unwrap();
+        let mut out = Vec::new();
+        ev.push(frame(0, vec![1.0]), &mut out).unwrap();
+        ev.push(frame(1, vec![1.35]), &mut out).unwrap(); // ln 1.35 = 0.300: exactly at/near level 3
+        let n = out[1].events.len();
+        assert!(n == 2 || n == 3, "{n}");
+        for k in 2..10 {
+            ev.push(frame(k, vec![1.35]), &mut out).unwrap();
+            assert!(out.last().unwrap().events.is_empty());
+        }
+        let r = ev.reference(0).unwrap();
+        assert!((1.35f64.ln() - r).abs() < 0.1 && r <= 1.35f64.ln());
+    }
+
+    #[test]
+    fn ties_are_ordered_by_taxel_then_crossing() {
+        let mut ev = Events::try_new(3, tau(0.2)).unwrap();
+        let b = ev.run_all([frame(0, vec![1.0, 1.0, 1.0]), frame(1, vec![2.0, 2.0, 0.5])]).unwrap();
+        let e = &b[1].events;
+        assert!(e.windows(2).all(|w| w[0].time <= w[1].time));
+        // taxels 0 and 1 are identical: each of their events comes as a (0, 1) pair
+        let same: Vec<_> = e.iter().filter(|e| e.taxel < 2).collect();
+        assert!(same.chunks(2).all(|c| c[0].taxel == 0 && c[1].taxel == 1 && c[0].time == c[1].time));
+    }
+
+    #[test]
+    fn refractory_suppresses_but_tracks() {
+        let mut c = tau(0.01);
+        c.refractory_s = 0.004; // 4 ms, frames 10 ms apart
+        let mut ev = Events::try_new(1, c).unwrap();
+        let b = ev.run_all([frame(0, vec![1.0]), frame(1, vec![2.0]), frame(2, vec![2.0])]).unwrap();
+        let e = &b[1].events;
+        // ln 2 / 0.01 = 69 crossings in 10 ms: at most one per 4 ms
+        assert!(!e.is_empty() && e.len() <= 3, "{}", e.len());
+        assert!(e.windows(2).all(|w| w[1].time - w[0].time >= 4_000_000));
+        assert_eq!(ev.counters().suppressed + e.len() as u64, 69);
+        assert!(b[2].events.is_empty());
+    }
+
+    #[test]
+    fn bad_configs_are_refused() {
+        assert!(Events::try_new(0, EventsConfig::default()).is_err());
+        assert!(Events::try_new(70_000, EventsConfig::default()).is_err());
+        assert!(Events::try_new(1, tau(0.0)).is_err());
+        assert!(Events::try_new(1, tau(f64::NAN)).is_err());
+        let c = EventsConfig { threshold: Threshold::PerTaxel(vec![0.1; 3]), ..Default::default() };
+        assert!(Events::try_new(24, c).unwrap_err().to_string().contains("3 values for 24"));
+        assert!(Events::try_new(1, EventsConfig { floor: 0.0, ..Default::default() }).is_err());
+        assert!(Events::try_new(1, EventsConfig { max_events_per_step: 0, ..Default::default() }).is_err());
+        assert!(Events::try_new(1, EventsConfig { refractory_s: -1.0, ..Default::default() }).is_err());
+        assert!(Events::try_new(1, EventsConfig { max_gap_s: Some(0.0), ..Default::default() }).is_err());
+    }
+
+    #[test]
+    fn config_deserialises_scalar_or_per_taxel() {
+        let c: EventsConfig = serde_json::from_str(r#"{"threshold": 0.2, "non_finite": "skip"}"#).unwrap();
+        assert_eq!(c.threshold, Threshold::Uniform(0.2));
+        assert_eq!(c.non_finite, NonFinitePolicy::Skip);
+        let c: EventsConfig = serde_json::from_str(r#"{"threshold": [0.1, 0.2], "gap": "reset"}"#).unwrap();
+        assert_eq!(c.threshold, Threshold::PerTaxel(vec![0.1, 0.2]));
+        assert!(serde_json::from_str::<EventsConfig>(r#"{"tau": 0.1}"#).is_err());
+    }
+}

@@ -1,0 +1,355 @@
+//! Parquet sink: any [`ArrowRecord`] type to one zstd-compressed Parquet file, written under
+//! a temporary name and renamed only when finished.
+//!
+//! The synchronous core (arrow-rs style): [`ParquetSink::try_new`] validates and creates the
+//! temporary file, `with_*` set options, [`push`](ParquetSink::push) appends one record,
+//! [`finish`](ParquetSink::finish) completes the file. An async pipeline feeds it from its
+//! consumer loop (or from `spawn_blocking`); the sink does no I/O except when a batch is full.
+//!
+//! # Crash safety
+//! Rows go to `<name>.partial` beside the target (`out/frames.parquet` →
+//! `out/frames.parquet.partial`). Only [`finish`](ParquetSink::finish) writes the footer,
+//! `fsync`s the file, renames it to the final name (atomic on one file system, replacing an
+//! older file) and `fsync`s the directory. So the final name either does not exist or holds
+//! a complete file:
+//! - [`abort`](ParquetSink::abort) (on a pipeline error) flushes what was pushed, writes the
+//!   footer and leaves a valid, readable file under the `.partial` name;
+//! - dropping the sink without `finish` (a panic, a crash) leaves the `.partial` file,
+//!   possibly without a footer, and never the final name.
+//!
+//! # Memory
+//! Records are buffered in Arrow builders and handed to [`ArrowWriter`] every
+//! `min(row_group_size, 8192)` rows; the writer keeps the current row group encoded and
+//! compressed in memory until it holds `row_group_size` rows. Memory is bounded by one row
+//! group, whatever the length of the stream.
+//!
+//! # Metadata
+//! The file's key-value metadata holds `gradtac.version` (this crate's version),
+//! `gradtac.schema` ([`ArrowRecord::SCHEMA_ID`], e.g. `frame/1`), the Arrow schema (key
+//! `ARROW:schema`, written by `parquet`), and every pair given with
+//! [`with_metadata`](ParquetSink::with_metadata) (the CLI adds `gradtac.scene` and
+//! `gradtac.layout`). Schemas are documented in `docs/schemas.md`.
+//!
+//! ```
+//! use gradtac_io::{FrameShape, ParquetSink};
+//! use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
+//!
+//! let dir = tempfile::tempdir().unwrap();
+//! let mut sink = ParquetSink::<TaxelFrame>::try_new(dir.path().join("f.parquet"), FrameShape::unnamed(2).unwrap())
+//!     .unwrap()
+//!     .with_row_group_size(1000)
+//!     .unwrap()
+//!     .with_metadata("gradtac.scene", "demo");
+//! sink.push(&TaxelFrame::new(SensorId::new("ff"), Timestamp(0), 0, vec![1.0, 2.0])).unwrap();
+//! let path = sink.finish().unwrap();
+//! assert!(path.ends_with("f.parquet") && path.exists());
+//! ```
+
+use crate::records::{arrow_error, ArrowRecord, RecordBuilder, SCHEMA_KEY};
+use crate::{Error, Result};
+use arrow_schema::SchemaRef;
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::metadata::KeyValue;
+use parquet::file::properties::WriterProperties;
+use std::fmt;
+use std::fs::{self, File};
+use std::path::{Path, PathBuf};
+
+/// Key of the writing crate's version in the file's key-value metadata.
+pub const VERSION_KEY: &str = "gradtac.version";
+/// Rows per row group unless [`ParquetSink::with_row_group_size`] says otherwise.
+pub const DEFAULT_ROW_GROUP_SIZE: usize = 65_536;
+/// The zstd level unless [`ParquetSink::with_zstd_level`] says otherwise.
+pub const DEFAULT_ZSTD_LEVEL: i32 = 3;
+/// The suffix of the temporary file.
+pub const PARTIAL_SUFFIX: &str = ".partial";
+/// Largest batch handed to the Parquet writer at once.
+const MAX_BATCH_ROWS: usize = 8192;
+
+/// Writes records of type `T` to a Parquet file (see the [module documentation](self)).
+#[must_use = "a sink writes nothing final until `finish` is called"]
+pub struct ParquetSink<T: ArrowRecord> {
+    path: PathBuf,
+    partial: PathBuf,
+    file: Option<File>,
+    writer: Option<ArrowWriter<File>>,
+    builder: T::Builder,
+    schema: SchemaRef,
+    row_group_size: usize,
+    zstd_level: i32,
+    metadata: Vec<(String, String)>,
+    rows: u64,
+    failed: bool,
+}
+
+impl<T: ArrowRecord> fmt::Debug for ParquetSink<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("ParquetSink")
+            .field("path", &self.path)
+            .field("schema", &T::SCHEMA_ID)
+            .field("row_group_size", &self.row_group_size)
+            .field("zstd_level", &self.zstd_level)
+            .field("metadata", &self.metadata)
+            .field("rows", &self.rows)
+            .field("failed", &self.failed)
+            .finish_non_exhaustive()
+    }
+}
+
+/// `<dir>/<name>.partial` for `<dir>/<name>`.
+pub fn partial_path(path: &Path) -> Option<PathBuf> {
+    let name = path.file_name()?;
+    let mut partial = name.to_os_string();
+    partial.push(PARTIAL_SUFFIX);
+    Some(path.with_file_name(partial))
+}
+
+impl<T: ArrowRecord> ParquetSink<T> {
+    /// A sink that will write `path`; creates (or truncates) `<path>.partial` now, so an
+    /// unwritable directory fails here. The parent directory must exist. `shape` fixes the
+    /// schema (e.g. the taxel names of frames).
+    pub fn try_new(path: impl AsRef<Path>, shape: T::Shape) -> Result<Self> {
+        let path = path.as_ref().to_path_buf();
+        let partial = partial_path(&path)
+            .ok_or_else(|| Error::InvalidConfig(format!("output path {} has no file name", path.display())))?;
+        if path.is_dir() {
+            return Err(Error::InvalidConfig(format!("output path {} is a directory", path.display())));
+        }
+        let file = File::create(&partial).map_err(|source| Error::Io { path: partial.clone(), source })?;
+        let schema = T::schema(&shape);
+        Ok(ParquetSink {
+            builder: T::builder(&shape, MAX_BATCH_ROWS.min(DEFAULT_ROW_GROUP_SIZE)),
+            path,
+            partial,
+            file: Some(file),
+            writer: None,
+            schema,
+            row_group_size: DEFAULT_ROW_GROUP_SIZE,
+            zstd_level: DEFAULT_ZSTD_LEVEL,
+            metadata: vec![
+                (VERSION_KEY.to_string(), env!("CARGO_PKG_VERSION").to_string()),
+                (SCHEMA_KEY.to_string(), T::SCHEMA_ID.to_string()),
+            ],
+            rows: 0,
+            failed: false,
+        })
+    }
+
+    /// Rows per row group (≥ 1; default [`DEFAULT_ROW_GROUP_SIZE`]). Every row group but
+    /// the last holds exactly this many rows. Takes effect only before the first batch
+    /// reaches the writer (the first `min(rows, 8192)` pushes); set it right after
+    /// [`try_new`](Self::try_new).
+    pub fn with_row_group_size(mut self, rows: usize) -> Result<Self> {
+        if rows == 0 {
+            return Err(Error::InvalidConfig("row_group_size must be at least 1".into()));
+        }
+        if self.writer.is_some() {
+            return Err(Error::InvalidConfig("row_group_size must be set before writing starts".into()));
+        }
+        self.row_group_size = rows;
+        Ok(self)
+    }
+
+    /// The zstd compression level: any level zstd accepts, 1 fastest … 22 smallest (default
+    /// [`DEFAULT_ZSTD_LEVEL`]; 0 means zstd's own default).
+    /// Set it before writing starts, like [`with_row_group_size`](Self::with_row_group_size).
+    pub fn with_zstd_level(mut self, level: i32) -> Result<Self> {
+        ZstdLevel::try_new(level).map_err(|e| Error::InvalidConfig(format!("zstd level {level}: {e}")))?;
+        if self.writer.is_some() {
+            return Err(Error::InvalidConfig("zstd level must be set before writing starts".into()));
+        }
+        self.zstd_level = level;
+        Ok(self)
+    }
+
+    /// Add a key-value pair to the file's metadata (written with the footer, so it may be
+    /// called any time before [`finish`](Self::finish)). A key given twice keeps the last
+    /// value; this can also replace `gradtac.version` / `gradtac.schema`.
+    pub fn with_metadata(mut self, key: impl Into<String>, value: impl Into<String>) -> Self {
+        self.set_metadata(key, value);
+        self
+    }
+
+    /// [`with_metadata`](Self::with_metadata) through `&mut`.
+    pub fn set_metadata(&mut self, key: impl Into<String>, value: impl Into<String>) {
+        let (key, value) = (key.into(), value.into());
+        match self.metadata.iter_mut().find(|(k, _)| *k == key) {
+            Some(kv) => kv.1 = value,
+            None => self.metadata.push((key, value)),
+        }
+    }
+
+    /// The final path ([`finish`](Self::finish) renames to it).
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The temporary path rows are written to.
+    pub fn partial_path(&self) -> &Path {
+        &self.partial
+    }
+
+    /// The Arrow schema of the file.
+    pub fn schema(&self) -> &SchemaRef {
+        &self.schema
+    }
+
+    /// Records accepted so far.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// Append one record. A record that does not fit the schema (e.g. a frame with another
+    /// taxel count) is rejected with [`Error::Record`] and the sink stays usable; an I/O or
+    /// Parquet error leaves the sink failed (later calls fail; [`abort`](Self::abort) to
+    /// keep what can be kept).
+    pub fn push(&mut self, record: &T) -> Result<()> {
+        self.check_usable()?;
+        self.builder.append(record)?;
+        self.rows += 1;
+        if self.builder.len() >= self.row_group_size.min(MAX_BATCH_ROWS) {
+            self.flush_batch()?;
+        }
+        Ok(())
+    }
+
+    /// Complete the file: write pending rows and the footer, `fsync`, rename
+    /// `<path>.partial` to `<path>` and `fsync` the directory. Returns the final path.
+    pub fn finish(mut self) -> Result<PathBuf> {
+        self.close()?;
+        fs::rename(&self.partial, &self.path).map_err(|source| Error::Io { path: self.path.clone(), source })?;
+        sync_parent(&self.path)?;
+        Ok(self.path.clone())
+    }
+
+    /// Stop writing: pending rows and the footer are written so the `.partial` file is a
+    /// valid Parquet file of every record pushed, and it is left under the temporary name.
+    /// Returns that path. Fails (leaving the `.partial` file as it is) if the sink had
+    /// already failed or closing fails.
+    pub fn abort(mut self) -> Result<PathBuf> {
+        self.close()?;
+        Ok(self.partial.clone())
+    }
+
+    fn check_usable(&self) -> Result<()> {
+        if self.failed {
+            return Err(arrow_error(self.partial.display().to_string(), "an earlier write to this file failed"));
+        }
+        Ok(())
+    }
+
+    fn writer(&mut self) -> Result<&mut ArrowWriter<File>> {
+        if self.writer.is_none() {
+            let file = self.file.take().ok_or_else(|| arrow_error(self.partial.display().to_string(), "no file"))?;
+            let level = ZstdLevel::try_new(self.zstd_level).map_err(|e| Error::InvalidConfig(e.to_string()))?;
+            let props = WriterProperties::builder()
+                .set_compression(Compression::ZSTD(level))
+                .set_max_row_group_row_count(Some(self.row_group_size))
+                .build();
+            let writer = ArrowWriter::try_new(file, self.schema.clone(), Some(props))
+                .map_err(|e| arrow_error(self.partial.display().to_string(), e))?;
+            self.writer = Some(writer);
+        }
+        Ok(self.writer.as_mut().expect("set above"))
+    }
+
+    fn flush_batch(&mut self) -> Result<()> {
+        if self.builder.is_empty() {
+            return Ok(());
+        }
+        let result = self.builder.finish().and_then(|batch| {
+            let context = self.partial.display().to_string();
+            self.writer()?.write(&batch).map_err(|e| arrow_error(context, e))
+        });
+        self.failed |= result.is_err();
+        result
+    }
+
+    fn close(&mut self) -> Result<()> {
+        self.check_usable()?;
+        let result = self.flush_batch().and_then(|()| {
+            let context = self.partial.display().to_string();
+            let metadata = self.metadata.clone();
+            let writer = self.writer()?;
+            for (k, v) in metadata {
+                writer.append_key_value_metadata(KeyValue::new(k, v));
+            }
+            writer.finish().map_err(|e| arrow_error(&context, e))?;
+            writer.inner().sync_all().map_err(|source| Error::Io { path: PathBuf::from(&context), source })
+        });
+        self.failed = true; // closed: nothing more may be written
+        result
+    }
+}
+
+/// `fsync` the directory holding `path`, so a rename in it is durable (Unix only).
+fn sync_parent(path: &Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        let parent = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        File::open(parent)
+            .and_then(|d| d.sync_all())
+            .map_err(|source| Error::Io { path: parent.to_path_buf(), source })?;
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::FrameShape;
+    use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
+
+    #[test]
+    fn partial_name_is_beside_the_target() {
+        assert_eq!(partial_path(Path::new("out/a.parquet")).unwrap(), Path::new("out/a.parquet.partial"));
+        assert_eq!(partial_path(Path::new("a")).unwrap(), Path::new("a.partial"));
+        assert!(partial_path(Path::new("/")).is_none());
+    }
+
+    #[test]
+    fn options_are_validated() {
+        let dir = tempfile::tempdir().unwrap();
+        let shape = FrameShape::unnamed(1).unwrap();
+        let new = || ParquetSink::<TaxelFrame>::try_new(dir.path().join("x.parquet"), shape.clone()).unwrap();
+        assert!(new().with_row_group_size(0).is_err());
+        assert!(new().with_zstd_level(23).is_err());
+        assert!(new().with_zstd_level(19).is_ok());
+        let e = ParquetSink::<TaxelFrame>::try_new(dir.path(), shape.clone()).unwrap_err();
+        assert!(e.to_string().contains("is a directory"), "{e}");
+        let e = ParquetSink::<TaxelFrame>::try_new(dir.path().join("no/such/dir/x.parquet"), shape).unwrap_err();
+        assert!(matches!(e, Error::Io { .. }), "{e}");
+    }
+
+    #[test]
+    fn rejected_record_keeps_sink_usable() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut sink =
+            ParquetSink::<TaxelFrame>::try_new(dir.path().join("x.parquet"), FrameShape::unnamed(2).unwrap()).unwrap();
+        let f = |n| TaxelFrame::new(SensorId::new("ff"), Timestamp(0), 0, vec![0.0; n]);
+        sink.push(&f(2)).unwrap();
+        assert!(matches!(sink.push(&f(3)), Err(Error::Record { .. })));
+        sink.push(&f(2)).unwrap();
+        assert_eq!(sink.rows(), 2);
+        let path = sink.finish().unwrap();
+        assert!(path.exists());
+        assert!(!dir.path().join("x.parquet.partial").exists());
+    }
+
+    #[test]
+    fn metadata_keys_replace() {
+        let dir = tempfile::tempdir().unwrap();
+        let sink = ParquetSink::<TaxelFrame>::try_new(dir.path().join("x.parquet"), FrameShape::unnamed(2).unwrap())
+            .unwrap()
+            .with_metadata("k", "1")
+            .with_metadata("k", "2");
+        assert_eq!(sink.metadata.iter().filter(|(k, _)| k == "k").count(), 1);
+        assert_eq!(sink.metadata.last().unwrap().1, "2");
+    }
+}
