@@ -1,12 +1,17 @@
-//! Run a blocking iterator (a file reader) as a tokio-fed [`Stream`].
+//! Run blocking file I/O beside an async pipeline: the thin async shell around gradtac-io's
+//! synchronous sources and sinks.
 //!
-//! [`blocking_stream`] moves the iterator onto tokio's blocking thread pool
-//! ([`tokio::task::spawn_blocking`]); items travel through a bounded
-//! [`tokio::sync::mpsc`] channel, so the reader runs at most `capacity` items ahead of the
-//! consumer and the async side never blocks on file I/O.
+//! - [`blocking_stream`] moves an iterator (a file reader) onto tokio's blocking thread pool
+//!   ([`tokio::task::spawn_blocking`]); items travel through a bounded
+//!   [`tokio::sync::mpsc`] channel, so the reader runs at most `capacity` items ahead of the
+//!   consumer and the async side never blocks on file I/O.
+//! - [`blocking_sink`] does the converse for a [`ParquetSink`]: records sent from async code
+//!   are written on the blocking pool.
 
+use crate::{ArrowRecord, Error, ParquetSink, Result as IoResult};
 use futures::Stream;
 use std::future::Future;
+use std::path::PathBuf;
 use std::pin::Pin;
 use std::task::{Context, Poll};
 use tokio::sync::mpsc;
@@ -93,10 +98,117 @@ impl<T, E> Stream for BlockingStream<T, E> {
     }
 }
 
+enum SinkMsg<T> {
+    Record(T),
+    Finish,
+    Abort,
+}
+
+/// Handle returned by [`blocking_sink`]: send records, then [`finish`](Self::finish) or
+/// [`abort`](Self::abort).
+#[must_use = "a sink writes nothing final until `finish` is awaited"]
+pub struct BlockingSink<T> {
+    tx: mpsc::Sender<SinkMsg<T>>,
+    task: JoinHandle<IoResult<PathBuf>>,
+}
+
+impl<T> std::fmt::Debug for BlockingSink<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BlockingSink").field("closed", &self.tx.is_closed()).finish_non_exhaustive()
+    }
+}
+
+/// Run `sink` on tokio's blocking pool; feed it from async code through a bounded channel
+/// of `capacity` records (at least 1).
+///
+/// The writer stops at its first error (a record that does not fit, an I/O error), aborting
+/// the sink (the `.partial` file keeps the records written before): later
+/// [`send`](BlockingSink::send)s fail, and [`finish`](BlockingSink::finish) returns that
+/// error. Dropping the handle without `finish` or `abort` drops the sink, which leaves the
+/// `.partial` file and never the final name.
+///
+/// # Panics
+/// Like [`tokio::task::spawn_blocking`], when called outside a tokio runtime.
+///
+/// ```
+/// use gradtac_io::blocking::blocking_sink;
+/// use gradtac_io::{FrameShape, ParquetSink};
+/// use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
+///
+/// # tokio::runtime::Builder::new_current_thread().build().unwrap().block_on(async {
+/// let dir = tempfile::tempdir().unwrap();
+/// let sink = ParquetSink::<TaxelFrame>::try_new(dir.path().join("f.parquet"), FrameShape::unnamed(1).unwrap()).unwrap();
+/// let writer = blocking_sink(sink, 64);
+/// for k in 0..10 {
+///     writer.send(TaxelFrame::new(SensorId::new("ff"), Timestamp(k), k as u64, vec![k as f64])).await.unwrap();
+/// }
+/// let path = writer.finish().await.unwrap();
+/// assert!(path.exists());
+/// # });
+/// ```
+pub fn blocking_sink<T>(mut sink: ParquetSink<T>, capacity: usize) -> BlockingSink<T>
+where
+    T: ArrowRecord + Send + 'static,
+{
+    let (tx, mut rx) = mpsc::channel::<SinkMsg<T>>(capacity.max(1));
+    let task = tokio::task::spawn_blocking(move || {
+        while let Some(msg) = rx.blocking_recv() {
+            match msg {
+                SinkMsg::Record(r) => {
+                    if let Err(e) = sink.push(&r) {
+                        // Keep what was written readable under the `.partial` name.
+                        let _ = sink.abort();
+                        return Err(e);
+                    }
+                }
+                SinkMsg::Finish => return sink.finish(),
+                SinkMsg::Abort => return sink.abort(),
+            }
+        }
+        // Every handle dropped without finish/abort: leave the `.partial` file.
+        Err(Error::InvalidConfig(format!("{}: dropped before finish", sink.path().display())))
+    });
+    BlockingSink { tx, task }
+}
+
+impl<T: Send + 'static> BlockingSink<T> {
+    /// Send one record, waiting while the channel is full. Fails when the writer has
+    /// stopped (after an error; [`finish`](Self::finish) returns it).
+    pub async fn send(&self, record: T) -> IoResult<()> {
+        self.tx.send(SinkMsg::Record(record)).await.map_err(|_| stopped())
+    }
+
+    /// Write everything sent so far and complete the file ([`ParquetSink::finish`]);
+    /// returns the final path, or the writer's first error.
+    pub async fn finish(self) -> IoResult<PathBuf> {
+        self.close(SinkMsg::Finish).await
+    }
+
+    /// Stop and keep what was sent in a valid `.partial` file ([`ParquetSink::abort`]);
+    /// returns its path.
+    pub async fn abort(self) -> IoResult<PathBuf> {
+        self.close(SinkMsg::Abort).await
+    }
+
+    async fn close(self, msg: SinkMsg<T>) -> IoResult<PathBuf> {
+        let _ = self.tx.send(msg).await; // if the writer stopped, its error is in the task
+        match self.task.await {
+            Ok(result) => result,
+            Err(e) if e.is_panic() => std::panic::resume_unwind(e.into_panic()),
+            Err(e) => Err(Error::InvalidConfig(format!("sink task cancelled: {e}"))),
+        }
+    }
+}
+
+fn stopped() -> Error {
+    Error::InvalidConfig("the sink's writer has stopped; `finish` returns its error".into())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use futures::StreamExt;
+    use std::fs::File;
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Arc;
     use std::time::Duration;
@@ -156,5 +268,52 @@ mod tests {
         assert!(e.is_panic());
         let msg = e.into_panic();
         assert_eq!(msg.downcast_ref::<&str>(), Some(&"reader broke"));
+    }
+
+    #[tokio::test]
+    async fn blocking_sink_finishes_aborts_and_reports_errors() {
+        use crate::FrameShape;
+        use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
+        let dir = tempfile::tempdir().unwrap();
+        let frame = |k: u64, n: usize| TaxelFrame::new(SensorId::new("ff"), Timestamp(k as i64), k, vec![k as f64; n]);
+        let new = |name: &str| {
+            ParquetSink::<TaxelFrame>::try_new(dir.path().join(name), FrameShape::unnamed(2).unwrap()).unwrap()
+        };
+
+        let w = blocking_sink(new("ok.parquet"), 2);
+        for k in 0..100 {
+            w.send(frame(k, 2)).await.unwrap();
+        }
+        assert_eq!(w.finish().await.unwrap(), dir.path().join("ok.parquet"));
+
+        let w = blocking_sink(new("ab.parquet"), 2);
+        w.send(frame(0, 2)).await.unwrap();
+        assert_eq!(w.abort().await.unwrap(), dir.path().join("ab.parquet.partial"));
+        assert!(!dir.path().join("ab.parquet").exists());
+
+        let w = blocking_sink(new("bad.parquet"), 1);
+        w.send(frame(0, 2)).await.unwrap();
+        let _ = w.send(frame(1, 3)).await; // accepted by the channel or refused: either way
+        let mut refused = false;
+        for k in 2..10 {
+            refused |= w.send(frame(k, 2)).await.is_err();
+        }
+        assert!(refused, "sends fail once the writer stopped");
+        let e = w.finish().await.unwrap_err();
+        assert!(matches!(e, Error::Record { .. }), "{e}");
+        assert!(!dir.path().join("bad.parquet").exists());
+        let partial = File::open(dir.path().join("bad.parquet.partial")).unwrap();
+        let rows = parquet::file::reader::FileReader::metadata(
+            &parquet::file::reader::SerializedFileReader::new(partial).unwrap(),
+        )
+        .file_metadata()
+        .num_rows();
+        assert_eq!(rows, 1, "the frame before the bad one, in a readable file");
+
+        let w = blocking_sink(new("drop.parquet"), 4);
+        w.send(frame(0, 2)).await.unwrap();
+        drop(w);
+        assert!(!dir.path().join("drop.parquet").exists());
+        assert!(dir.path().join("drop.parquet.partial").exists());
     }
 }

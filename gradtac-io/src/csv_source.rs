@@ -30,6 +30,13 @@
 //! is line 1) and, for a bad cell, the column's header name: a non-numeric, empty or
 //! non-finite cell; a row with another number of fields than the header; a time that goes
 //! back. After an error the iterator ends.
+//!
+//! Physical lines are counted by `\n` (LF and CRLF files; blank lines and newlines inside
+//! quoted fields count, a row spanning several lines is named by its first). The `csv`
+//! crate's own record line numbers are not used: they skip blank lines and lag on CRLF.
+//!
+//! Cells are trimmed of surrounding whitespace; blank lines are skipped (they do not count
+//! as frames, so `seq` counts data rows only).
 
 use crate::{Error, Result};
 use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
@@ -65,7 +72,8 @@ pub const MAX_EXPANSION: usize = 100_000;
 /// In a pattern, `{a..b}` is an inclusive integer range (descending when `a > b`), `*`
 /// matches any run of characters and `?` one character. Several ranges expand as a
 /// cartesian product, the leftmost varying slowest. A pattern must match a column for every
-/// alternative; a selection must not pick one column twice.
+/// alternative; a selection must not pick one column twice. Globs never pick the source's
+/// time column, so `*` means "every column but the time".
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ColumnSelector {
     /// Literal column names, in taxel order.
@@ -203,6 +211,12 @@ impl ColumnSelector {
     /// order. On failure the error's `reason` lists every missing name (and the ambiguous or
     /// repeated ones), and names `origin` as the file, line 1.
     pub fn resolve(&self, header: &[String], origin: &Path) -> Result<Vec<usize>> {
+        self.resolve_excluding(header, origin, None)
+    }
+
+    /// [`resolve`](Self::resolve), where globs never match column `skip` (the time column:
+    /// `*` means every column but the time). A literal name may still pick it.
+    pub fn resolve_excluding(&self, header: &[String], origin: &Path, skip: Option<usize>) -> Result<Vec<usize>> {
         self.validate()?;
         let err = |reason: String| Error::Parse { path: origin.to_path_buf(), line: 1, column: None, reason };
         let mut picked = Vec::new();
@@ -212,7 +226,9 @@ impl ColumnSelector {
             let want = want.trim().to_string();
             if matches!(self, ColumnSelector::Pattern(_)) && is_glob(&want) {
                 let before = picked.len();
-                picked.extend(header.iter().enumerate().filter(|(_, h)| glob_match(&want, h)).map(|(i, _)| i));
+                picked.extend(
+                    header.iter().enumerate().filter(|&(i, h)| Some(i) != skip && glob_match(&want, h)).map(|(i, _)| i),
+                );
                 if picked.len() == before {
                     missing.push(want);
                 }
@@ -369,6 +385,21 @@ impl TimeUnit {
     }
 }
 
+impl FromStr for TimeUnit {
+    type Err = Error;
+
+    /// `s`, `ms`, `us`, `ns` (or `seconds`, `milliseconds`, `microseconds`, `nanoseconds`).
+    fn from_str(s: &str) -> Result<Self> {
+        match s.trim() {
+            "s" | "seconds" => Ok(TimeUnit::Seconds),
+            "ms" | "milliseconds" => Ok(TimeUnit::Milliseconds),
+            "us" | "microseconds" => Ok(TimeUnit::Microseconds),
+            "ns" | "nanoseconds" => Ok(TimeUnit::Nanoseconds),
+            other => Err(Error::InvalidConfig(format!("time unit {other:?}: use s, ms, us or ns"))),
+        }
+    }
+}
+
 /// `[+-]?digits[.digits]` times 10^`digits`, rounded half away from zero; `None` for any
 /// other form or on overflow.
 fn parse_decimal_scaled(text: &str, digits: u32) -> Option<i64> {
@@ -422,7 +453,9 @@ pub struct CsvSourceConfig {
     /// working directory (a scene loader resolves them against the scene file first).
     #[serde(rename = "csv", alias = "path")]
     pub path: PathBuf,
-    /// The taxel columns, in taxel order (see [`ColumnSelector`]).
+    /// The taxel columns, in taxel order (see [`ColumnSelector`]). Default `"*"`: every
+    /// column except the time column, in header order.
+    #[serde(default = "all_columns")]
     pub columns: ColumnSelector,
     /// Name of the column holding each row's time, in `time_unit`. Times must not decrease.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -437,6 +470,10 @@ pub struct CsvSourceConfig {
     /// Field delimiter, one ASCII character (default `,`).
     #[serde(default = "default_delimiter")]
     pub delimiter: char,
+}
+
+fn all_columns() -> ColumnSelector {
+    ColumnSelector::Pattern("*".into())
 }
 
 fn default_delimiter() -> char {
@@ -619,9 +656,8 @@ impl<R: Read> CsvFrames<R> {
             }
             header.push(name);
         }
-        let indices = config.columns.resolve(&header, &origin)?;
         let time = match (&config.time_column, config.rate_hz) {
-            (Some(name), _) => {
+            (Some(name), None) => {
                 let name = name.trim();
                 let index = ColumnSelector::Names(vec![name.to_string()]).resolve(&header, &origin).map_err(|_| {
                     Error::Parse {
@@ -634,8 +670,13 @@ impl<R: Read> CsvFrames<R> {
                 TimeSource::Column { index, unit: config.time_unit }
             }
             (None, Some(rate)) => TimeSource::Rate(rate),
-            (None, None) => unreachable!("validate() requires a time source"),
+            _ => return Err(Error::InvalidConfig("give exactly one of time_column and rate_hz".into())),
         };
+        let skip = match time {
+            TimeSource::Column { index, .. } => Some(index),
+            TimeSource::Rate(_) => None,
+        };
+        let indices = config.columns.resolve_excluding(&header, &origin, skip)?;
         let read = Arc::new(AtomicU64::new(reader.position().byte()));
         Ok(CsvFrames {
             reader,
@@ -1023,6 +1064,64 @@ mod tests {
         assert_eq!(r[1].as_ref().unwrap().time, Timestamp(5));
         let e = r[3].as_ref().unwrap_err().to_string();
         assert!(e.starts_with("t.csv:5 column \"t\": time goes back"), "{e}");
+    }
+
+    #[test]
+    fn star_means_every_column_but_the_time() {
+        let c: CsvSourceConfig =
+            serde_json::from_str(r#"{"csv": "t.csv", "time_column": "t", "time_unit": "ns"}"#).unwrap();
+        assert_eq!(c.columns, ColumnSelector::Pattern("*".into()));
+        let f =
+            CsvFrames::from_reader("x,t,y\n1,5,2\n".as_bytes(), Path::new("t.csv"), &c, SensorId::new("s")).unwrap();
+        assert_eq!(f.columns(), ["x", "y"]);
+        let frames: Vec<_> = f.map(Result::unwrap).collect();
+        assert_eq!((frames[0].time, frames[0].values.clone()), (Timestamp(5), vec![1.0, 2.0]));
+        // A literal name may still take the time column as a value.
+        let c = c.clone();
+        let c = CsvSourceConfig { columns: sel("t,x"), ..c };
+        let f =
+            CsvFrames::from_reader("x,t,y\n1,5,2\n".as_bytes(), Path::new("t.csv"), &c, SensorId::new("s")).unwrap();
+        assert_eq!(f.columns(), ["t", "x"]);
+        // Without a time column, `*` is every column.
+        let c = CsvSourceConfig::new("t.csv", sel("*")).with_rate_hz(1.0);
+        let f =
+            CsvFrames::from_reader("x,t,y\n1,5,2\n".as_bytes(), Path::new("t.csv"), &c, SensorId::new("s")).unwrap();
+        assert_eq!(f.columns(), ["x", "t", "y"]);
+    }
+
+    #[test]
+    fn time_unit_from_str() {
+        assert_eq!("ns".parse::<TimeUnit>().unwrap(), TimeUnit::Nanoseconds);
+        assert_eq!("seconds".parse::<TimeUnit>().unwrap(), TimeUnit::Seconds);
+        assert_eq!(" ms ".parse::<TimeUnit>().unwrap(), TimeUnit::Milliseconds);
+        assert!("h".parse::<TimeUnit>().is_err());
+    }
+
+    #[test]
+    fn the_scene_example_deserialises_from_toml() {
+        #[derive(Deserialize)]
+        struct Sensor {
+            source: CsvSourceConfig,
+        }
+        let s: Sensor =
+            toml::from_str(r#"source = { csv = "recording.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }"#).unwrap();
+        assert_eq!(s.source, CsvSourceConfig::new("recording.csv", sel("ff_e{1..24}")).with_rate_hz(100.0));
+        let s: Sensor = toml::from_str(
+            "[source]\ncsv = \"r.tsv\"\ncolumns = [\"a\", \"b\"]\ntime_column = \"t\"\ntime_unit = \"ms\"\ndelimiter = \"\\t\"\n",
+        )
+        .unwrap();
+        assert_eq!(s.source.delimiter, '\t');
+        assert_eq!(s.source.time_unit, TimeUnit::Milliseconds);
+        let e =
+            toml::from_str::<Sensor>(r#"source = { csv = "r.csv", columns = "e{1..", rate_hz = 1.0 }"#).err().unwrap();
+        assert!(e.to_string().contains("'{' without '}'"), "{e}");
+    }
+
+    #[test]
+    fn frames_can_move_to_a_blocking_thread() {
+        fn send<T: Send + 'static>() {}
+        send::<CsvFrames<File>>();
+        send::<CsvProgress>();
     }
 
     #[test]

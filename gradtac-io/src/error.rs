@@ -46,6 +46,27 @@ pub enum Error {
         /// What does not fit, naming the record (sensor, frame index).
         reason: String,
     },
+    /// A CAN interface could not be opened or read: names the interface, what was being done
+    /// and the OS reason.
+    #[error("CAN interface {interface:?}: {action}: {source}")]
+    CanInterface {
+        /// The interface (`can0`).
+        interface: String,
+        /// What failed (`cannot open`, `read failed`, …), with any diagnosis.
+        action: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A malformed binary file (NumPy `.npy`, Arrow IPC): the file and the byte offset.
+    #[error("{path} at byte {offset}: {reason}")]
+    Binary {
+        /// The file.
+        path: PathBuf,
+        /// Byte offset in the file where the problem is.
+        offset: u64,
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 impl From<Error> for gradtac_stream::Error {

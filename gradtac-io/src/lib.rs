@@ -5,13 +5,16 @@
 //! stage's output to Parquet through one Arrow schema per output type.
 #![warn(missing_docs)]
 
+pub mod arrow_ipc;
 pub mod blocking;
+pub mod can;
 pub mod csv_source;
 mod error;
+pub mod npy;
 pub mod parquet_sink;
 pub mod records;
 
-pub use blocking::{blocking_stream, BlockingStream};
+pub use blocking::{blocking_sink, blocking_stream, BlockingSink, BlockingStream};
 pub use csv_source::{ColumnSelector, CsvFrames, CsvProgress, CsvSourceConfig, TimeUnit};
 pub use error::{Error, Result};
 pub use parquet_sink::ParquetSink;

@@ -343,6 +343,12 @@ mod tests {
     }
 
     #[test]
+    fn sink_can_move_to_a_blocking_thread() {
+        fn send<T: Send + 'static>() {}
+        send::<ParquetSink<TaxelFrame>>();
+    }
+
+    #[test]
     fn metadata_keys_replace() {
         let dir = tempfile::tempdir().unwrap();
         let sink = ParquetSink::<TaxelFrame>::try_new(dir.path().join("x.parquet"), FrameShape::unnamed(2).unwrap())

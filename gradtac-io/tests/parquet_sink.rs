@@ -7,6 +7,7 @@ use gradtac_io::{CsvFrames, CsvSourceConfig, Error, FrameShape, ParquetSink};
 use gradtac_stream::{Layout, SensorId, TaxelFrame, Timestamp};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::Compression;
+use proptest::prelude::*;
 use std::collections::HashMap;
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -348,4 +349,42 @@ fn biotacsp_dos_csv_to_parquet_when_present() {
     sink.finish().unwrap();
     assert!(input.len() > 100);
     assert_eq!(bits(&frames_of(&read_back(&target).0)), bits(&input));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// Whatever the row-group size and the values, the file holds exactly the pushed frames
+    /// (bit for bit, in order) in row groups of the asked size.
+    #[test]
+    fn any_frames_and_row_group_size_round_trip(
+        raw in prop::collection::vec((any::<i64>(), prop::collection::vec(any::<u64>(), 3)), 0..400),
+        row_group in 1usize..150,
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("p.parquet");
+        let input: Vec<TaxelFrame> = raw
+            .iter()
+            .enumerate()
+            .map(|(k, (t, v))| {
+                TaxelFrame::new(SensorId::new(["ff", "th", "mf"][k % 3]), Timestamp::from_nanos(*t), k as u64, v.iter().map(|b| f64::from_bits(*b)).collect())
+            })
+            .collect();
+        let mut sink = ParquetSink::<TaxelFrame>::try_new(&target, FrameShape::unnamed(3).unwrap())
+            .unwrap()
+            .with_row_group_size(row_group)
+            .unwrap();
+        for f in &input {
+            sink.push(f).unwrap();
+        }
+        sink.finish().unwrap();
+        let (batches, md) = read_back(&target);
+        prop_assert_eq!(bits(&frames_of(&batches)), bits(&input));
+        let sizes: Vec<i64> = md.row_groups().iter().map(|g| g.num_rows()).collect();
+        let mut want: Vec<i64> = vec![row_group as i64; input.len() / row_group];
+        if input.len() % row_group != 0 {
+            want.push((input.len() % row_group) as i64);
+        }
+        prop_assert_eq!(sizes, want);
+    }
 }

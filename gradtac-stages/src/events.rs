@@ -12,7 +12,7 @@
 //!
 //! Between two samples `(t, y_t)` and `(t+δ, y_{t+δ})` of a taxel the signal is taken as linear
 //! in **value**, so level `L` is crossed at `t + δ·(L − y_t)/(y_{t+δ} − y_t)`, rounded to the
-//! nearest nanosecond. Levels are geometric in value, so a rise crosses them densest near `t`
+//! nearest nanosecond (halves up). Levels are geometric in value, so a rise crosses them densest near `t`
 //! (the paper's "frequency of events higher initially").
 //!
 //! The comparison runs in the linear domain against the two cached bounds `L(k±1)` per taxel,
@@ -30,9 +30,10 @@
 //! last finite sample, but its event times are clamped to no earlier than the previous frame.
 //! Delay: none (the events of an interval are known when it closes).
 //!
-//! Event schema (as written to Parquet by the scene layer): one row per event with
-//! `sensor` (string), `time` (i64 ns, see [`Timestamp`]), `taxel` (u16), `polarity` (i8, ±1),
-//! plus the batch's `seq` (u64, the frame that closed the interval).
+//! Event schema as written to Parquet/Arrow (`event/1`, specified in the repository's
+//! `docs/schemas.md`): one row per event with `sensor` (Utf8), `time_ns` (Int64, the event's
+//! interpolated time), `frame_time_ns` (Int64) and `seq` (UInt64) of the batch's frame,
+//! `taxel` (UInt16) and `polarity` (Int8, ±1); an empty batch writes no row.
 //!
 //! # Policies
 //! | situation | behaviour |
@@ -60,6 +61,12 @@ use gradtac_stream::{Delay, Stage, TaxelFrame, Timestamp};
 use serde::{Deserialize, Serialize};
 
 const STAGE: &str = "events";
+
+/// A finite input whose offset value is below the floor (non-finite input goes to the policy).
+#[inline(always)]
+fn below_floor(x: f64, y: f64, floor: f64) -> bool {
+    x.is_finite() && !y.is_nan() && y < floor
+}
 
 /// The smallest accepted threshold: below it neighbouring levels `e^{r₀+jτ}` stop being
 /// distinct in `f64` for large `|r₀ + jτ|`.
@@ -206,6 +213,8 @@ pub struct Events {
     lo: Vec<f64>,
     /// `L(k+1)`, or −inf for a taxel without a reference yet.
     hi: Vec<f64>,
+    /// `L(k)`.
+    mid: Vec<f64>,
     /// `ln y₀`.
     r0: Vec<f64>,
     /// `k`: the reference is `r₀ + kτ`.
@@ -219,6 +228,13 @@ pub struct Events {
     /// (time, seq) of the previous frame of the segment.
     last_frame: Option<(Timestamp, u64)>,
     counters: EventCounters,
+    /// Events of the frame being processed (reused; the batch gets an exact-size copy).
+    scratch: Vec<TactileEvent>,
+    /// Taxels of the frame being processed that need the slow path (reused).
+    slow_taxels: Vec<u32>,
+    /// Sort keys and per-taxel polarity of the frame being processed (reused).
+    sort_keys: Vec<u64>,
+    polarity: Vec<i8>,
 }
 
 impl Events {
@@ -268,6 +284,11 @@ impl Events {
             max_gap_ns,
             lo: vec![f64::INFINITY; taxels],
             hi: vec![f64::NEG_INFINITY; taxels],
+            mid: vec![1.0; taxels],
+            scratch: Vec::new(),
+            slow_taxels: Vec::with_capacity(taxels),
+            sort_keys: Vec::new(),
+            polarity: vec![0; taxels],
             r0: vec![0.0; taxels],
             level: vec![0; taxels],
             prev: vec![0.0; taxels],
@@ -311,9 +332,11 @@ impl Events {
         self.overflow_per_taxel.iter_mut().for_each(|c| *c = 0);
     }
 
-    /// The current reference `ln`-level of each taxel (`None` before its first finite sample).
+    /// The current reference level `r = r₀ + kτ` (on the `ln` scale) of a taxel; `None` before
+    /// its first finite sample of the segment, or for a taxel index out of range.
     pub fn reference(&self, taxel: usize) -> Option<f64> {
-        (self.lo[taxel] != f64::INFINITY).then(|| self.r0[taxel] + self.level[taxel] as f64 * self.tau[taxel])
+        let lo = *self.lo.get(taxel)?;
+        (lo != f64::INFINITY).then(|| self.r0[taxel] + self.level[taxel] as f64 * self.tau[taxel])
     }
 
     fn clear_state(&mut self) {
@@ -341,6 +364,36 @@ impl Events {
         }
     }
 
+    /// Sort a frame's events by (time, taxel). Events of one taxel with equal times are equal
+    /// (one step moves one way), so this is also the stable (time, taxel, crossing) order.
+    ///
+    /// All times lie in `[previous frame, now]`; when that span fits 47 bits of ns (39 hours)
+    /// each event packs into one `u64` key `(time − start) << 16 | taxel`, a plain integer sort,
+    /// and the polarity is restored from the taxel (one direction per taxel per step).
+    fn sort_batch(&mut self, events: &mut [TactileEvent], now: i64) {
+        let start = events.iter().map(|e| e.time.as_nanos()).min().unwrap_or(now);
+        if now.checked_sub(start).is_none_or(|span| span >= 1 << 47) {
+            events.sort_by_key(|e| (e.time, e.taxel));
+            return;
+        }
+        let mut keys = std::mem::take(&mut self.sort_keys);
+        keys.clear();
+        keys.extend(events.iter().map(|e| ((e.time.as_nanos() - start) as u64) << 16 | e.taxel as u64));
+        for e in events.iter() {
+            self.polarity[e.taxel as usize] = e.polarity;
+        }
+        keys.sort_unstable();
+        for (e, k) in events.iter_mut().zip(&keys) {
+            let taxel = (k & 0xffff) as u16;
+            *e = TactileEvent {
+                time: Timestamp(start + (k >> 16) as i64),
+                taxel,
+                polarity: self.polarity[taxel as usize],
+            };
+        }
+        self.sort_keys = keys;
+    }
+
     /// A sample that is outside the taxel's bounds, non-finite, or the taxel's first.
     #[cold]
     fn slow(&mut self, frame: &TaxelFrame, i: usize, x: f64, y: f64, events: &mut Vec<TactileEvent>) -> Result<()> {
@@ -355,6 +408,7 @@ impl Events {
             self.r0[i] = r0;
             self.level[i] = 0;
             self.lo[i] = (r0 - tau).exp();
+            self.mid[i] = r0.exp(); // L(0), computed like every other level
             self.hi[i] = (r0 + tau).exp();
             self.prev[i] = y;
             self.prev_t[i] = now;
@@ -363,24 +417,37 @@ impl Events {
         let r0 = self.r0[i];
         let lvl = |j: i64| (r0 + j as f64 * tau).exp();
         let k = self.level[i];
-        let (dir, j) = if y >= self.hi[i] {
-            let mut j = (((y.ln() - r0) / tau).floor() as i64).max(k + 1);
-            while lvl(j + 1) <= y {
-                j += 1;
+        let (lo, mid, hi) = (self.lo[i], self.mid[i], self.hi[i]);
+        // (direction, final level j, new bounds L(j−1), L(j), L(j+1)). One crossing — by far
+        // the most common case — costs one exp and no ln: the bounds shift by one level.
+        let (dir, j, bounds) = if y >= hi {
+            let next = lvl(k + 2);
+            if y < next {
+                (1i64, k + 1, (mid, hi, next))
+            } else {
+                let mut j = (((y.ln() - r0) / tau).floor() as i64).max(k + 2);
+                while lvl(j + 1) <= y {
+                    j += 1;
+                }
+                while j > k + 2 && lvl(j) > y {
+                    j -= 1;
+                }
+                (1i64, j, (lvl(j - 1), lvl(j), lvl(j + 1)))
             }
-            while j > k + 1 && lvl(j) > y {
-                j -= 1;
+        } else if y <= lo {
+            let next = lvl(k - 2);
+            if y > next {
+                (-1i64, k - 1, (next, lo, mid))
+            } else {
+                let mut j = (((y.ln() - r0) / tau).ceil() as i64).min(k - 2);
+                while lvl(j - 1) >= y {
+                    j -= 1;
+                }
+                while j < k - 2 && lvl(j) < y {
+                    j += 1;
+                }
+                (-1i64, j, (lvl(j - 1), lvl(j), lvl(j + 1)))
             }
-            (1i64, j)
-        } else if y <= self.lo[i] {
-            let mut j = (((y.ln() - r0) / tau).ceil() as i64).min(k - 1);
-            while lvl(j - 1) >= y {
-                j -= 1;
-            }
-            while j < k - 1 && lvl(j) < y {
-                j += 1;
-            }
-            (-1i64, j)
         } else {
             // Inside the bounds after all (only reachable for a taxel just (re)initialised).
             self.prev[i] = y;
@@ -396,7 +463,8 @@ impl Events {
         let not_before = self.last_frame.map_or(i64::MIN, |(t, _)| t.as_nanos());
         let time_of = |v: f64| {
             let frac = ((v - p) / dy).clamp(0.0, 1.0);
-            (pt + (frac * dt).round() as i64).max(not_before)
+            // frac·dt ≥ 0: adding ½ and truncating rounds half up, without a libm call.
+            (pt + (frac * dt + 0.5) as i64).max(not_before)
         };
         let cap = self.config.max_events_per_step;
         let mut emitted = 0u32;
@@ -408,19 +476,30 @@ impl Events {
                 self.overflow_per_taxel[i] += remaining;
                 break;
             }
-            let te = time_of(lvl(lv));
+            let level_value = if lv == k + dir {
+                if dir > 0 {
+                    hi
+                } else {
+                    lo
+                }
+            } else {
+                lvl(lv)
+            };
+            let te = time_of(level_value);
             let free_at = self.last_event[i].saturating_add(self.refractory_ns);
             if self.refractory_ns > 0 && te < free_at {
-                // Skip ahead to about where the taxel becomes free again, then re-check exactly.
-                let frac_free = if dt > 0.0 { (free_at - pt) as f64 / dt } else { f64::INFINITY };
-                let skip = if frac_free >= 1.0 {
-                    remaining
-                } else {
-                    let v = p + frac_free * dy;
-                    let est = (v.max(f64::MIN_POSITIVE).ln() - r0) / tau;
-                    let target = if dir > 0 { est.floor() as i64 - 1 } else { est.ceil() as i64 + 1 };
-                    ((target - lv) * dir).clamp(1, remaining as i64) as u64
-                };
+                // Crossing times are monotone in the level: binary-search the first crossing at
+                // or after `free_at` (or none), suppressing everything before it.
+                let (mut a, mut b) = (1u64, remaining); // crossing `lv + dir·m`, m ∈ [a, b]; b = none
+                while a < b {
+                    let m = a + (b - a) / 2;
+                    if time_of(lvl(lv + dir * m as i64)) >= free_at {
+                        b = m;
+                    } else {
+                        a = m + 1;
+                    }
+                }
+                let skip = a;
                 self.counters.suppressed += skip;
                 remaining -= skip;
                 lv += dir * skip as i64;
@@ -433,8 +512,7 @@ impl Events {
             lv += dir;
         }
         self.level[i] = j;
-        self.lo[i] = lvl(j - 1);
-        self.hi[i] = lvl(j + 1);
+        (self.lo[i], self.mid[i], self.hi[i]) = bounds;
         self.prev[i] = y;
         self.prev_t[i] = now;
         Ok(())
@@ -466,23 +544,42 @@ impl Stage for Events {
         }
         let now = frame.time.as_nanos();
         let (offset, floor) = (self.config.offset, self.config.floor);
-        let mut events = Vec::new();
+        let mut events = std::mem::take(&mut self.scratch);
+        events.clear();
         let mut first_taxel_with_events = usize::MAX;
         let mut several = false;
-        for i in 0..n {
-            let x = frame.values[i];
+        // Pass 1, branch-light over all taxels: values inside their bounds only update `prev`;
+        // the rest (crossings, non-finite, first samples) are listed for pass 2.
+        let mut slow = std::mem::take(&mut self.slow_taxels);
+        slow.clear();
+        let mut floored = 0;
+        let state = self.lo.iter().zip(&self.hi).zip(self.prev.iter_mut().zip(self.prev_t.iter_mut()));
+        for (i, (&x, ((&lo, &hi), (prev, prev_t)))) in frame.values.iter().zip(state).enumerate() {
             let mut y = x + offset;
-            if !(y >= floor) && x.is_finite() && !y.is_nan() {
+            if below_floor(x, y, floor) {
                 y = floor;
-                self.counters.floored += 1;
+                floored += 1;
             }
-            if y > self.lo[i] && y < self.hi[i] {
-                self.prev[i] = y;
-                self.prev_t[i] = now;
-                continue;
+            if y > lo && y < hi {
+                *prev = y;
+                *prev_t = now;
+            } else {
+                slow.push(i as u32);
             }
+        }
+        self.counters.floored += floored;
+        for &i in &slow {
+            let i = i as usize;
+            let x = frame.values[i];
+            let y = x + offset;
+            let y = if below_floor(x, y, floor) { floor } else { y };
             let before = events.len();
-            self.slow(&frame, i, x, y, &mut events)?;
+            let r = self.slow(&frame, i, x, y, &mut events);
+            if let Err(e) = r {
+                self.scratch = events;
+                self.slow_taxels = slow;
+                return Err(e);
+            }
             if events.len() > before {
                 if first_taxel_with_events == usize::MAX {
                     first_taxel_with_events = i;
@@ -492,12 +589,19 @@ impl Stage for Events {
             }
         }
         if several {
-            // Each taxel's run is already in time order; a stable sort keeps taxel order, then
-            // crossing order, for equal times.
-            events.sort_by_key(|e| e.time);
+            self.sort_batch(&mut events, now);
         }
         self.last_frame = Some((frame.time, frame.seq));
-        out.push(EventBatch { sensor: frame.sensor, time: frame.time, seq: frame.seq, taxels: n as u16, events });
+        let batch_events = events.to_vec(); // exact size; no allocation when empty
+        self.scratch = events;
+        self.slow_taxels = slow;
+        out.push(EventBatch {
+            sensor: frame.sensor,
+            time: frame.time,
+            seq: frame.seq,
+            taxels: n as u16,
+            events: batch_events,
+        });
         Ok(())
     }
 
@@ -562,6 +666,21 @@ mod tests {
         // taxels 0 and 1 are identical: each of their events comes as a (0, 1) pair
         let same: Vec<_> = e.iter().filter(|e| e.taxel < 2).collect();
         assert!(same.chunks(2).all(|c| c[0].taxel == 0 && c[1].taxel == 1 && c[0].time == c[1].time));
+    }
+
+    #[test]
+    fn long_intervals_sort_without_packed_keys() {
+        // an interval of 2^48 ns (3.3 days) is beyond the packed u64 keys: the tuple sort
+        let far = TaxelFrame::new("ff".into(), Timestamp(1 << 48), 1, vec![2.0, 3.0, 0.5]);
+        let mut ev = Events::try_new(3, tau(0.2)).unwrap();
+        let b = ev.run_all([frame(0, vec![1.0, 1.0, 1.0]), far]).unwrap();
+        let e = &b[1].events;
+        assert_eq!(e.len(), 3 + 5 + 3);
+        assert!(e.windows(2).all(|w| (w[0].time, w[0].taxel) <= (w[1].time, w[1].taxel)));
+        for t in 0..3u16 {
+            let pol = if t == 2 { -1 } else { 1 };
+            assert!(e.iter().filter(|e| e.taxel == t).all(|e| e.polarity == pol));
+        }
     }
 
     #[test]

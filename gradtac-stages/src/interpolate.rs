@@ -39,13 +39,18 @@
 //! # Delay
 //! None: one surface per input, stamped with the input's time span.
 //!
-//! # Trade-offs (24 taxels, 64 × 64 grid; measured figures in `benches/spatial.rs`)
-//! | method | smoothness | linear field exact | weights / grid point | notes |
-//! |---|---|---|---|---|
-//! | natural neighbour | C¹ off the taxels | yes | ~4–8 | the paper's method; most expensive to build |
-//! | linear | C⁰ (kinks on edges) | yes | ≤ 3 | cheapest exact method |
-//! | nearest | discontinuous | no | 1 | cheapest; blocky contours |
-//! | inverse distance | C^∞ off taxels | no | 24 (all) | defined everywhere; flat spots at taxels |
+//! # Trade-offs (24 BioTac SP taxels, 64 × 64 grid, `outside = "nan"`)
+//! Per-surface and build times: medians of `cargo bench -p gradtac-stages --bench spatial`
+//! (release, one core of a shared 2-core machine).
+//!
+//! | method | smoothness | linear field exact | weights / inside point | µs / surface | build (once) |
+//! |---|---|---|---|---|---|
+//! | natural neighbour | C¹ off the taxels | yes | 4.9 | 5.5 (spade per point: 468) | 0.75 ms |
+//! | linear | C⁰ (kinks on edges) | yes | 3 | 6.8 (spade per point: 181) | 0.29 ms |
+//! | nearest | discontinuous | no | 1 | 4.3 | 0.29 ms |
+//! | inverse distance | C^∞ off taxels, flat spots at taxels | no | 24 (all) | 21.4 | 1.6 ms |
+//!
+//! Grid size: natural neighbour 0.34 / 1.2 / 5.5 / 21.6 µs per surface at 16² / 32² / 64² / 128².
 //!
 //! | option | faster | more accurate |
 //! |---|---|---|
@@ -103,9 +108,8 @@ impl Grid {
             return Err(bad(format!("grid {nx}×{ny} has more than 2^24 points")));
         }
         let e = extent;
-        if ![e.x_min, e.x_max, e.y_min, e.y_max].iter().all(|v| v.is_finite())
-            || !(e.x_max > e.x_min && e.y_max > e.y_min)
-        {
+        let finite = [e.x_min, e.x_max, e.y_min, e.y_max].iter().all(|v| v.is_finite());
+        if !(finite && e.x_max > e.x_min && e.y_max > e.y_min) {
             return Err(bad(format!("grid extent {e:?} is empty or not finite")));
         }
         Ok(Grid { extent, nx, ny })
@@ -171,6 +175,14 @@ impl Grid {
     /// y of row `j` (mm); the last row is exactly `y_max`.
     pub fn y(&self, j: usize) -> f64 {
         lin(self.extent.y_min, self.extent.y_max, j, self.ny)
+    }
+    /// The x of every column (mm), for writing the grid next to a surface.
+    pub fn xs(&self) -> Vec<f64> {
+        (0..self.nx).map(|i| self.x(i)).collect()
+    }
+    /// The y of every row (mm).
+    pub fn ys(&self) -> Vec<f64> {
+        (0..self.ny).map(|j| self.y(j)).collect()
     }
     /// Map fractional (column, row) index coordinates to mm.
     pub fn index_to_mm(&self, col: f64, row: f64) -> [f64; 2] {
@@ -268,9 +280,12 @@ pub struct WeightTable {
     starts: Vec<u32>,
     taxels: Vec<u16>,
     weights: Vec<f64>,
-    // transpose: for taxel k, (points, weights) in col_starts[k]..col_starts[k+1]
-    col_starts: Vec<u32>,
-    col_points: Vec<u32>,
+    // transpose as runs of consecutive grid points: taxel k owns runs
+    // run_starts[k]..run_starts[k+1]; run r covers points run_point[r].. with weights
+    // col_weights[run_weight[r]..run_weight[r+1]]
+    run_starts: Vec<u32>,
+    run_point: Vec<u32>,
+    run_weight: Vec<u32>,
     col_weights: Vec<f64>,
     inside: Vec<bool>,
     n_taxels: usize,
@@ -325,9 +340,13 @@ impl WeightTable {
     /// `out += w[·, taxel] · delta`: the change of the surface when one taxel's value changes
     /// by `delta`.
     pub fn add_taxel(&self, taxel: usize, delta: f64, out: &mut [f64]) {
-        let (a, b) = (self.col_starts[taxel] as usize, self.col_starts[taxel + 1] as usize);
-        for (&p, &w) in self.col_points[a..b].iter().zip(&self.col_weights[a..b]) {
-            out[p as usize] += w * delta;
+        let (a, b) = (self.run_starts[taxel] as usize, self.run_starts[taxel + 1] as usize);
+        for r in a..b {
+            let (w0, w1) = (self.run_weight[r] as usize, self.run_weight[r + 1] as usize);
+            let p = self.run_point[r] as usize;
+            for (o, &w) in out[p..p + (w1 - w0)].iter_mut().zip(&self.col_weights[w0..w1]) {
+                *o += w * delta;
+            }
         }
     }
 
@@ -347,19 +366,33 @@ impl WeightTable {
         for k in 0..n_taxels {
             counts[k + 1] += counts[k];
         }
-        let col_starts = counts.clone();
-        let mut next = counts;
+        let mut next = counts.clone();
         let mut col_points = vec![0u32; taxels.len()];
-        let mut col_weights = vec![0.0; taxels.len()];
+        let mut cw = vec![0.0; taxels.len()];
         for (p, r) in rows.iter().enumerate() {
             for &(k, w) in r {
                 let at = next[k] as usize;
                 col_points[at] = p as u32;
-                col_weights[at] = w;
+                cw[at] = w;
                 next[k] += 1;
             }
         }
-        WeightTable { starts, taxels, weights, col_starts, col_points, col_weights, inside, n_taxels, fill }
+        // split each taxel's (ascending) points into runs of consecutive points
+        let (mut run_starts, mut run_point, mut run_weight) = (vec![0u32], Vec::new(), Vec::new());
+        let mut col_weights = Vec::with_capacity(cw.len());
+        for k in 0..n_taxels {
+            let (a, b) = (counts[k] as usize, counts[k + 1] as usize);
+            for i in a..b {
+                if i == a || col_points[i] != col_points[i - 1] + 1 {
+                    run_point.push(col_points[i]);
+                    run_weight.push(col_weights.len() as u32);
+                }
+                col_weights.push(cw[i]);
+            }
+            run_starts.push(run_point.len() as u32);
+        }
+        run_weight.push(col_weights.len() as u32);
+        WeightTable { starts, taxels, weights, run_starts, run_point, run_weight, col_weights, inside, n_taxels, fill }
     }
 }
 

@@ -18,6 +18,36 @@
 //!   their time difference, exponentially smoothed with `velocity_alpha` (1 = raw).
 //!   `None` on a track's first point.
 //!
+//! # Example: events to contact track
+//! ```
+//! use gradtac_stages::contour::{Contour, ContourConfig};
+//! use gradtac_stages::interpolate::{Interpolate, InterpolateConfig};
+//! use gradtac_stages::track::{ContactState, Track, TrackConfig};
+//! use gradtac_stages::window::{Window, WindowConfig};
+//! use gradtac_stages::{EventBatch, TactileEvent};
+//! use gradtac_stream::{Layout, StageExt, Timestamp};
+//!
+//! let layout = Layout::biotac_sp();
+//! let mut chain = Window::try_new(&WindowConfig::default())?
+//!     .then(Interpolate::try_new(&InterpolateConfig::default(), &layout)?)
+//!     .then(Contour::try_new(&ContourConfig::default())?)
+//!     .then(Track::try_new(&TrackConfig::default())?);
+//! // three frames of events on electrode 24 (index 23, mid-pad), 10 ms apart
+//! let batches = (0..3u64).map(|k| EventBatch {
+//!     sensor: "ff".into(),
+//!     time: Timestamp((k as i64 + 1) * 10_000_000),
+//!     seq: k,
+//!     taxels: 24,
+//!     events: vec![TactileEvent { time: Timestamp(k as i64 * 10_000_000 + 5), taxel: 23, polarity: 1 }; 2],
+//! });
+//! let track = chain.run_all(batches)?;
+//! assert_eq!(track.len(), 3);
+//! assert_eq!(track[2].state, ContactState::Contact);
+//! let e24 = layout.positions()[23];
+//! assert!((track[2].x_mm - e24[0]).hypot(track[2].y_mm - e24[1]) < 1.0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! # Units
 //! Positions mm, areas mm², angles rad, velocities mm/s, times ns.
 //!

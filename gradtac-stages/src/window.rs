@@ -7,9 +7,12 @@
 //! - **tumbling** — consecutive, non-overlapping windows. By frame count: every `frames` input
 //!   frames one aggregate of those frames' events. By duration: windows `[k·D, (k+1)·D)` of
 //!   event time, aligned to the epoch (so sensors sharing an epoch share windows); window `k` is
-//!   emitted when the first frame at or after `(k+1)·D` arrives, since that frame's batch may
-//!   still hold events of window `k`. Windows that contain no frame at all are skipped (no data
-//!   is not "no events").
+//!   emitted when the first frame or event at or after `(k+1)·D` arrives (a frame's batch may
+//!   still hold events of window `k`). Windows holding neither a frame nor an event are
+//!   skipped; a window holding events but no frame (a duration shorter than the frame
+//!   interval) is emitted with `frames = 0`. An event older than the open window (not produced
+//!   by the events stage, which stamps events inside their frame interval) is counted in the
+//!   open window.
 //! - **sliding** — after every `step`-th frame, the events of the last `frames` frames, or of
 //!   event time `(t − D, t]` where `t` is the newest frame's time.
 //! - **decaying** — an exponentially weighted sum emitted after every `step`-th frame: an event
@@ -199,7 +202,7 @@ impl Window {
             (Some(n), None) => Size::Frames(n),
             (None, Some(ms)) => {
                 let ns = (ms * 1e6).round();
-                if !(ms.is_finite() && ns >= 1.0 && ns < 9.2e18) {
+                if !(ms.is_finite() && (1.0..9.2e18).contains(&ns)) {
                     return bad(format!("`duration_ms` = {ms} must be a positive duration of at least 1 ns"));
                 }
                 Size::Nanos(ns as i64)
@@ -338,6 +341,16 @@ impl Window {
         }
     }
 
+    /// Emit the open duration window (it holds frames, events or both) and clear it.
+    fn close_tumbling(&mut self, d: i64, seq_now: u64, out: &mut Vec<WindowAggregate>) {
+        let k = self.tumble_k.expect("a window is open");
+        let seq = self.frames.back().map_or(seq_now, |f| f.seq);
+        self.emit_counts(Timestamp(k.saturating_mul(d)), Timestamp((k + 1).saturating_mul(d)), seq, self.n_frames, out);
+        self.clear_counts();
+        self.frames.clear();
+        self.n_frames = 0;
+    }
+
     fn clear_counts(&mut self) {
         self.pos.iter_mut().for_each(|x| *x = 0);
         self.neg.iter_mut().for_each(|x| *x = 0);
@@ -373,27 +386,21 @@ impl Stage for Window {
             (WindowKind::Tumbling, Size::Nanos(d)) => {
                 let k_of = |t: Timestamp| t.as_nanos().div_euclid(d);
                 let kb = k_of(b.time);
-                let mut i = 0;
-                if let Some(k) = self.tumble_k {
-                    if kb > k {
-                        // events of this batch still inside window k
-                        while i < b.events.len() && k_of(b.events[i].time) <= k {
-                            self.add(&b.events[i], 1);
-                            i += 1;
-                        }
-                        let (seq, frames) = self.frames.back().map_or((b.seq, 0), |f| (f.seq, self.n_frames));
-                        self.emit_counts(Timestamp(k * d), Timestamp((k + 1) * d), seq, frames, out);
-                        self.clear_counts();
-                        self.frames.clear();
-                        self.n_frames = 0;
+                for e in &b.events {
+                    let ke = k_of(e.time);
+                    let cur = *self.tumble_k.get_or_insert(ke);
+                    if ke > cur {
+                        self.close_tumbling(d, b.seq, out);
+                        self.tumble_k = Some(ke);
                     }
-                }
-                // remaining events belong to the batch's own window (events of skipped,
-                // frameless windows are counted in the next window that holds a frame)
-                for e in &b.events[i..] {
+                    // an event older than the open window (late) is counted in it
                     self.add(e, 1);
                 }
-                self.tumble_k = Some(kb);
+                let cur = *self.tumble_k.get_or_insert(kb);
+                if kb > cur {
+                    self.close_tumbling(d, b.seq, out);
+                    self.tumble_k = Some(kb);
+                }
                 self.frames.clear();
                 self.frames.push_back(FrameRec { time: b.time, seq: b.seq, events: Vec::new() });
                 self.n_frames += 1;
@@ -437,20 +444,12 @@ impl Stage for Window {
                 }
             }
             (WindowKind::Decaying, size) => {
-                let (decay, age_w): (f64, Box<dyn Fn(&TactileEvent) -> f64>) = match size {
-                    Size::Frames(tau) => {
-                        let tau = tau as f64;
-                        let f = if self.n_frames == 0 { 0.0 } else { (-1.0 / tau).exp() };
-                        (f, Box::new(|_| 1.0))
-                    }
+                // decay of what was held since the previous frame; `tau_ns` = None: by frames
+                let (decay, tau_ns) = match size {
+                    Size::Frames(tau) => (if self.n_frames == 0 { 0.0 } else { (-1.0 / tau as f64).exp() }, None),
                     Size::Nanos(tau) => {
-                        let tau = tau as f64;
                         let dt = self.frames.back().map_or(0, |f| b.time - f.time) as f64;
-                        let now = b.time;
-                        (
-                            if self.n_frames == 0 { 0.0 } else { (-dt / tau).exp() },
-                            Box::new(move |e| (-((now - e.time) as f64) / tau).exp()),
-                        )
+                        (if self.n_frames == 0 { 0.0 } else { (-dt / tau as f64).exp() }, Some(tau as f64))
                     }
                 };
                 for (p, n) in self.dpos.iter_mut().zip(self.dneg.iter_mut()) {
@@ -458,7 +457,7 @@ impl Stage for Window {
                     *n *= decay;
                 }
                 for e in &b.events {
-                    let w = age_w(e);
+                    let w = tau_ns.map_or(1.0, |tau| (-((b.time - e.time) as f64) / tau).exp());
                     if e.polarity > 0 {
                         self.dpos[e.taxel as usize] += w;
                     } else {
@@ -495,7 +494,13 @@ impl Stage for Window {
                     Size::Frames(_) => self.emit_counts(f.time, t, seq, self.n_frames, out),
                     Size::Nanos(d) => {
                         let k = self.tumble_k.expect("set with the first frame");
-                        self.emit_counts(Timestamp(k * d), Timestamp((k + 1) * d), seq, self.n_frames, out)
+                        self.emit_counts(
+                            Timestamp(k.saturating_mul(d)),
+                            Timestamp((k + 1).saturating_mul(d)),
+                            seq,
+                            self.n_frames,
+                            out,
+                        )
                     }
                 }
             }

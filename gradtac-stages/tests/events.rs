@@ -181,7 +181,7 @@ fn time_gap_interpolate_or_reset() {
 
 #[test]
 fn non_finite_values_error_or_skip() {
-    let rows = vec![vec![1.0, 1.0], vec![1.0, f64::NAN], vec![2.0, 2.0]];
+    let rows = [vec![1.0, 1.0], vec![1.0, f64::NAN], vec![2.0, 2.0]];
     let mut ev = Events::try_new(2, cfg(0.1)).unwrap();
     let mut out = Vec::new();
     ev.push(frame(0, rows[0].clone()), &mut out).unwrap();
@@ -244,8 +244,90 @@ fn log_walk(taxels: usize, len: std::ops::Range<usize>) -> impl Strategy<Value =
     })
 }
 
+/// The rule of method.md stage 3, written the slow obvious way: step the reference one level
+/// at a time (`L(j) = e^{r₀ + jτ}`, `y ≥ L(k+1)` → up, `y ≤ L(k−1)` → down), interpolate each
+/// crossing linearly in value, drop crossings within `refractory_ns` of the taxel's last
+/// emitted event, stop emitting after `cap` per taxel and step, order a frame's events by
+/// (time, taxel, crossing). Returns the events per frame, and (overflow, suppressed).
+fn naive_events(
+    rows: &[Vec<f64>],
+    tau: f64,
+    floor: f64,
+    cap: u32,
+    refractory_ns: i64,
+) -> (Vec<Vec<TactileEvent>>, (u64, u64)) {
+    let n = rows[0].len();
+    let (mut overflow, mut suppressed) = (0u64, 0u64);
+    let mut last_event = vec![i64::MIN; n];
+    let y = |x: f64| if x >= floor { x } else { floor };
+    let r0: Vec<f64> = rows[0].iter().map(|&x| y(x).ln()).collect();
+    let mut k = vec![0i64; n];
+    let mut out = vec![Vec::new()];
+    for f in 1..rows.len() {
+        let (pt, now) = ((f as i64 - 1) * PERIOD_NS, f as i64 * PERIOD_NS);
+        let mut evs = Vec::new();
+        for i in 0..n {
+            let l = |j: i64| (r0[i] + j as f64 * tau).exp();
+            let (p, v) = (y(rows[f - 1][i]), y(rows[f][i]));
+            let time = |level: f64| {
+                let frac = ((level - p) / (v - p)).clamp(0.0, 1.0);
+                Timestamp(pt + (frac * (now - pt) as f64 + 0.5).floor() as i64)
+            };
+            let mut crossings = Vec::new();
+            while v >= l(k[i] + 1) {
+                k[i] += 1;
+                crossings.push((time(l(k[i])), 1));
+            }
+            while v <= l(k[i] - 1) {
+                k[i] -= 1;
+                crossings.push((time(l(k[i])), -1));
+            }
+            let mut emitted = 0;
+            for (c, &(t, polarity)) in crossings.iter().enumerate() {
+                if emitted == cap {
+                    overflow += (crossings.len() - c) as u64;
+                    break;
+                }
+                if t.as_nanos() < last_event[i].saturating_add(refractory_ns) {
+                    suppressed += 1;
+                    continue;
+                }
+                evs.push(TactileEvent { time: t, taxel: i as u16, polarity });
+                last_event[i] = t.as_nanos();
+                emitted += 1;
+            }
+        }
+        evs.sort_by_key(|e| e.time);
+        out.push(evs);
+    }
+    (out, (overflow, suppressed))
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    /// The optimised stage (cached linear-domain bounds, jump to the final level, one exp per
+    /// single crossing, binary search past a refractory period, packed-key sort) emits exactly
+    /// the events of the naive rule, and counts the same overflow and suppressions.
+    #[test]
+    fn matches_the_naive_rule(rows in log_walk(3, 1..40), tau in 0.01f64..1.0,
+                              cap in prop_oneof![Just(u32::MAX), 1u32..6],
+                              refractory_ms in prop_oneof![Just(0.0), 0.0f64..25.0]) {
+        let config = EventsConfig {
+            threshold: Threshold::Uniform(tau),
+            max_events_per_step: cap,
+            refractory_s: refractory_ms * 1e-3,
+            ..Default::default()
+        };
+        let mut ev = Events::try_new(3, config).unwrap();
+        let out = push_all(&mut ev, frames(&rows));
+        let refractory_ns = (refractory_ms * 1e-3 * 1e9).round() as i64; // as the stage rounds it
+        let (want, (overflow, suppressed)) = naive_events(&rows, tau, 1e-3, cap, refractory_ns);
+        for (f, (b, w)) in out.iter().zip(&want).enumerate() {
+            prop_assert_eq!(&b.events, w, "frame {}", f);
+        }
+        prop_assert_eq!((ev.counters().overflow, ev.counters().suppressed), (overflow, suppressed));
+    }
 
     /// Σ polarity·τ up to each frame reconstructs ln y − ln y₀ within τ, at every sample.
     #[test]
@@ -348,4 +430,31 @@ proptest! {
         }
         prop_assert_eq!(&separate, &whole);
     }
+}
+
+/// Two interleaved sensors through `Keyed` (one SG → events chain per sensor) give each sensor
+/// exactly the batches it gets alone.
+#[test]
+fn keyed_sensors_do_not_mix() {
+    use gradtac_stream::{Keyed, SensorId};
+    let sg = SavGolConfig { window: 7, polyorder: 2, ..Default::default() };
+    let build = |_: &SensorId| {
+        SavGol::try_with_rate(2, sg.clone(), 100.0).unwrap().then(Events::try_new(2, cfg(0.05)).unwrap())
+    };
+    let stream = |name: &str, phase: f64| -> Vec<TaxelFrame> {
+        (0..50u64)
+            .map(|k| {
+                let v = (0..2).map(|i| 1.5 + (k as f64 * 0.3 + phase + i as f64).sin()).collect();
+                TaxelFrame::new(SensorId::new(name), Timestamp(k as i64 * PERIOD_NS), k, v)
+            })
+            .collect()
+    };
+    let (ff, th) = (stream("ff", 0.0), stream("th", 1.0));
+    let interleaved: Vec<TaxelFrame> = ff.iter().zip(&th).flat_map(|(a, b)| [a.clone(), b.clone()]).collect();
+    let mixed = Keyed::new(build).run_all(interleaved).unwrap();
+    let alone = |fs: Vec<TaxelFrame>| build(&SensorId::new("x")).run_all(fs).unwrap();
+    let of = |name: &str| mixed.iter().filter(|b| b.sensor.as_str() == name).cloned().collect::<Vec<_>>();
+    assert_eq!(of("ff"), alone(ff));
+    assert_eq!(of("th"), alone(th));
+    assert!(!all_events(&of("ff")).is_empty());
 }

@@ -25,6 +25,15 @@ struct CoeffFile {
     scipy_ok: f64,
     sweep: Vec<SweepCase>,
     full: Vec<FullCase>,
+    high: Vec<HighCase>,
+}
+
+#[derive(Deserialize)]
+struct HighCase {
+    window: usize,
+    polyorder: usize,
+    deriv: usize,
+    coeffs: Vec<f64>,
 }
 
 #[derive(Deserialize)]
@@ -122,7 +131,7 @@ fn sweep_windows_5_to_201_orders_0_to_12() {
 #[test]
 fn full_vectors_match_scipy_or_exact() {
     let file: CoeffFile = load("savgol_coeffs.json");
-    let (mut worst, mut n_scipy) = (0.0f64, 0);
+    let (mut worst, mut worst_exact, mut n_scipy) = (0.0f64, 0.0f64, 0);
     for c in &file.full {
         let mine = match (c.use_.as_str(), c.pos) {
             ("conv", None) => savgol_coeffs(c.window, c.polyorder, c.deriv, c.delta).unwrap(),
@@ -142,10 +151,47 @@ fn full_vectors_match_scipy_or_exact() {
             c.source
         );
         worst = worst.max(e);
+        if c.source == "exact" {
+            worst_exact = worst_exact.max(e);
+        }
         n_scipy += usize::from(c.source == "scipy");
     }
     assert!(n_scipy > 500);
-    eprintln!("full vectors: {} cases ({n_scipy} from scipy), worst relative error {worst:.1e}", file.full.len());
+    eprintln!(
+        "full vectors: {} cases ({n_scipy} from scipy), worst relative error {worst:.1e} ({worst_exact:.1e} where the reference is exact)",
+        file.full.len()
+    );
+}
+
+/// Beyond order 12: every accepted (window, order) matches the exact weights; the refused ones
+/// are the near-interpolating fits, refused with the condition number in the message.
+#[test]
+fn high_orders_are_exact_or_refused() {
+    let file: CoeffFile = load("savgol_coeffs.json");
+    let (mut accepted, mut refused, mut worst) = (Vec::new(), Vec::new(), 0.0f64);
+    for c in &file.high {
+        match savgol_coeffs(c.window, c.polyorder, c.deriv, 1.0) {
+            Ok(mine) => {
+                let e = rel_err(&mine, &c.coeffs);
+                assert!(e <= COEFF_TOL, "w {} p {} d {}: {e:e}", c.window, c.polyorder, c.deriv);
+                worst = worst.max(e);
+                accepted.push((c.window, c.polyorder));
+            }
+            Err(e) => {
+                assert!(e.to_string().contains("condition number"), "{e}");
+                refused.push((c.window, c.polyorder));
+            }
+        }
+    }
+    accepted.dedup();
+    refused.dedup();
+    eprintln!("high orders: accepted {accepted:?} (worst error {worst:.1e}), refused {refused:?}");
+    for must in [(21, 20), (41, 25), (101, 40), (201, 40)] {
+        assert!(accepted.contains(&must), "{must:?} should be accepted");
+    }
+    for must in [(31, 30), (41, 40)] {
+        assert!(refused.contains(&must), "{must:?} should be refused");
+    }
 }
 
 fn frames_of(input: &[Vec<f64>]) -> Vec<TaxelFrame> {

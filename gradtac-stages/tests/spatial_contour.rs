@@ -178,6 +178,8 @@ fn two_equal_peaks_take_the_first_in_raster_order() {
         let c = find(&z, &g, &cfg).contact().cloned().unwrap();
         // ties go to the first grid point in raster order: same row, lower x
         assert_eq!(c.peak_mm, [10.0, 15.0]);
+        // the other component (masked while marching) does not make the region look cut
+        assert!(!c.clipped);
         assert!((c.centroid_mm[0] - 10.0).abs() < 1e-6, "{:?}", c.centroid_mm);
         // the other peak's region is not merged: the area equals a lone peak's at that level
         let single = find(&a, &g, &ContourConfig { levels: Levels::Explicit(vec![c.level]), ..cfg.clone() });
@@ -264,4 +266,28 @@ proptest! {
             prop_assert!(c.centroid_mm[0].is_finite() && c.centroid_mm[1].is_finite());
         }
     }
+}
+
+/// Surfaces at the extremes of f64: huge values whose range overflows, tiny values near the
+/// subnormal range, and a huge constant offset; the contour is the same shape in each.
+#[test]
+fn extreme_values_keep_the_shape() {
+    let g = grid(41, 41);
+    let base = gaussian(&g, 10.0, 10.0, 3.0, 3.0, 0.0).mapv(|v| v / 10.0 * 2.0 - 1.0); // −1..1
+    let cfg = ContourConfig { min_peak: f64::MIN, ..Default::default() };
+    let want = find(&base, &g, &cfg).contact().cloned().unwrap();
+    for scale in [1e-300, 1e300, 1.7e308] {
+        let z = base.mapv(|v| v * scale);
+        let c = find(&z, &g, &cfg).contact().cloned().unwrap_or_else(|| panic!("scale {scale:e}"));
+        assert!((c.area_mm2 - want.area_mm2).abs() < 1e-9 * want.area_mm2, "scale {scale:e}: {}", c.area_mm2);
+        assert!((c.centroid_mm[0] - want.centroid_mm[0]).abs() < 1e-9, "scale {scale:e}");
+    }
+    // an offset of 1e12 leaves ~4 significant digits of the bump: the shape survives roughly
+    let z = base.mapv(|v| v + 1e12);
+    let c = find(&z, &g, &cfg).contact().cloned().unwrap();
+    assert!((c.area_mm2 - want.area_mm2).abs() < 1e-3 * want.area_mm2, "{} vs {}", c.area_mm2, want.area_mm2);
+    // ±∞ on the surface is refused as no data, not a panic
+    let mut z = base.clone();
+    z[[3, 3]] = f64::INFINITY;
+    assert_eq!(find(&z, &g, &cfg), ContourOutcome::NoContact(NoContact::NoData));
 }

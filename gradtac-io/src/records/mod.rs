@@ -1,8 +1,9 @@
 //! Arrow records: one documented Arrow schema per pipeline output type.
 //!
 //! Every type a sink can write implements [`ArrowRecord`] in its own file under
-//! `src/records/` (frames in [`frame`]; events, window aggregates, surfaces, contours and
-//! tracks plug in the same way). The trait gives
+//! `src/records/`: frames ([`frame`], `frame/1`), events ([`events`], `event/1`), window
+//! aggregates ([`window`], `window/1`), surfaces ([`surface`], `surface/1`), contours
+//! ([`contour`], `contour/1`) and tracks ([`track`], `track/1`). The trait gives
 //! - a schema id stored in files under the key `gradtac.schema` (`frame/1`: name and
 //!   version; bump the version on any incompatible change),
 //! - the Arrow [`Schema`](arrow_schema::Schema), which may depend on a per-sink **shape**
@@ -32,9 +33,20 @@
 //! assert_eq!(TaxelFrame::SCHEMA_ID, "frame/1");
 //! ```
 
+mod columns;
+pub mod contour;
+pub mod events;
 pub mod frame;
+pub mod surface;
+pub mod track;
+pub mod window;
 
+pub use contour::ContourBuilder;
+pub use events::{EventBuilder, EventShape};
 pub use frame::{FrameBuilder, FrameShape};
+pub use surface::{SurfaceBuilder, SurfaceShape};
+pub use track::TrackBuilder;
+pub use window::{WindowBuilder, WindowShape};
 
 use crate::{Error, Result};
 use arrow_array::RecordBatch;

@@ -139,10 +139,18 @@ def main():
     print(f"full vectors: {len(full)} cases, {sum(f['source'] == 'scipy' for f in full)} from scipy",
           file=sys.stderr)
 
+    # 3. High orders, beyond the 0..12 sweep, exact only (scipy is hopeless there): where the
+    #    Rust side accepts a case it must match; near-interpolating ones it should refuse.
+    high = []
+    for (w, p) in [(21, 20), (23, 22), (41, 25), (61, 30), (101, 40), (201, 40), (25, 24), (31, 30), (41, 40)]:
+        for d in range(0, 3):
+            high.append({"window": w, "polyorder": p, "deriv": d,
+                         "coeffs": exact_conv(w, p, d)})
+
     with open("savgol_coeffs.json", "w") as f:
         json.dump({"versions": versions, "scipy_ok": SCIPY_OK,
                    "fingerprint": "sum_j c_j * (((37 j + 11) mod 23)/23 - 1/2), conv order",
-                   "sweep": sweep, "full": full}, f, separators=(",", ":"))
+                   "sweep": sweep, "full": full, "high": high}, f, separators=(",", ":"))
 
     # 3. savgol_filter(mode='interp') over whole signals, edges included. Three taxels per
     #    signal set (a noisy sine, a ramp with a step, a random walk), several configs.

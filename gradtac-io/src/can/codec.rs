@@ -1,0 +1,901 @@
+//! The declarative CAN frame codec: which CAN ids carry which taxels of which sensor, and how
+//! their values are packed.
+//!
+//! A codec is configured by a [`CodecConfig`] (a scene's `codec` table) made of
+//! [`SensorSpec`]s, each with one or more [`MessageSpec`]s, and/or a built-in preset
+//! ([`PresetConfig`], see [`presets`](super::presets)). [`CanCodec::try_new`] validates the
+//! whole configuration — every taxel carried by exactly one message slot, no two messages
+//! claiming the same CAN id, fields inside 8 bytes — so that decoding never meets an
+//! impossible case at run time.
+//!
+//! # Message model
+//! A CAN frame matches a message when `frame.id & mask == id & mask` and the frame format
+//! (standard/extended) agrees. The matched frame carries `count` consecutive fields of `bits`
+//! bits each, starting at bit `start_bit`, for taxels
+//!
+//! ```text
+//! taxel(k) = first_taxel + group · stride + k        k = 0 … count−1
+//! group    = id_index · mux.groups + mux_value        (terms absent when unused)
+//! id_index = (frame.id & !mask) >> shift              (0 when mask covers every id bit)
+//! ```
+//!
+//! so a message can stand for one frame (`mask` = all bits, no mux), for a run of ids (one
+//! frame per taxel or per taxel block: free low id bits index the block) or for a multiplexed
+//! frame whose first byte (`mux.byte`) says which block it carries this time.
+//!
+//! # Bit numbering
+//! - `byte_order = "big"` (Motorola): the payload is read as one big-endian bit string; bit 0
+//!   is the most significant bit of byte 0, bit 8 the MSB of byte 1, and each field is read
+//!   most significant bit first. A 16-bit field at `start_bit = 8` is bytes 1–2 read as a
+//!   big-endian `u16`; two 12-bit fields at bit 8 are `b1b2b3` = `AAA BBB` (nibbles).
+//! - `byte_order = "little"` (Intel): the payload is read as one little-endian integer; bit 0 is
+//!   the least significant bit of byte 0 and a field's value is `(payload >> start) & mask`.
+//!   A 16-bit field at `start_bit = 8` is bytes 1–2 read as a little-endian `u16`.
+//!
+//! In both orders byte `i` holds bits `8i … 8i+7`, so byte-aligned fields are what one expects.
+//!
+//! # Values
+//! `raw` is the unsigned field, or its two's-complement value when `signed`. A raw value
+//! outside `[raw_min, raw_max]` is *out of range*: it is counted and its taxel gets no value
+//! from this frame (the set is then incomplete, see [`IncompletePolicy`]). A valid value
+//! becomes `raw · scale + offset` in the sensor's unit.
+
+use crate::can::frame::{fmt_id, CanFrame, MAX_EXTENDED_ID, MAX_STANDARD_ID};
+use crate::{Error, Result};
+use gradtac_stream::SensorId;
+use serde::{Deserialize, Serialize};
+
+/// Byte (and bit) order of a message's fields; see the [module docs](self) for the numbering.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ByteOrder {
+    /// Big-endian / Motorola (`"big"`, alias `"motorola"`).
+    #[default]
+    #[serde(rename = "big", alias = "motorola")]
+    Big,
+    /// Little-endian / Intel (`"little"`, alias `"intel"`).
+    #[serde(rename = "little", alias = "intel")]
+    Little,
+}
+
+/// What to do with a taxel set that does not complete (a timeout, a new cycle starting first,
+/// out-of-range values, the end of the stream).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum IncompletePolicy {
+    /// Drop the set and count it (`"drop"`): no frame is emitted for that cycle.
+    #[default]
+    #[serde(rename = "drop")]
+    Drop,
+    /// Emit the set with each missing taxel holding the last valid value received for it, and
+    /// flag those taxels ([`DecodedFrame::carried`](super::DecodedFrame::carried)); counted.
+    /// A set with a taxel that never had a value is dropped instead: values are never made up.
+    #[serde(rename = "carry")]
+    Carry,
+}
+
+/// The multiplexer of a message: a byte whose value says which taxel block the frame carries.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MuxSpec {
+    /// Index (0–7) of the multiplexer byte in the payload.
+    pub byte: u8,
+    /// Number of taxel blocks: values `0 … groups−1` select a block.
+    pub groups: u32,
+    /// Multiplexer values that carry other data (a hand rotating pressure or temperature words
+    /// through the same id): such frames are counted as ignored, not as faults. Any other value
+    /// outside `0 … groups−1` is an *unknown multiplexer value* fault.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ignore: Vec<u8>,
+}
+
+/// One CAN message layout: the ids it matches and the run of taxel fields it carries.
+///
+/// Serde shape (a `[[…messages]]` TOML table); every field but `id`, `bits` and `start_bit` has
+/// a default:
+///
+/// ```toml
+/// id = 0x100            # base identifier
+/// extended = false      # 29-bit identifier
+/// mask = 0x7FF          # id bits that must equal `id` (default: all)
+/// shift = 0             # id_index = (frame.id & !mask) >> shift
+/// id_groups = 16        # number of valid id_index values (default: all the mask leaves free)
+/// length = 8            # exact data length required (default: the bytes the fields and mux need)
+/// mux = { byte = 0, groups = 6, ignore = [6, 7, 8] }
+/// start_bit = 8         # first bit of field 0 (see bit numbering)
+/// bits = 12             # width of each field, 1–32
+/// count = 4             # fields per frame (default 1)
+/// byte_order = "big"    # "big" | "little"
+/// signed = false
+/// scale = 1.0           # value = raw · scale + offset
+/// offset = 0.0
+/// raw_min = 1           # valid raw range, inclusive (default: everything the field can hold)
+/// raw_max = 4094
+/// first_taxel = 0       # taxel of field 0 of group 0
+/// stride = 4            # taxels between groups (default: count)
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MessageSpec {
+    /// Base identifier.
+    pub id: u32,
+    /// True for 29-bit extended identifiers.
+    #[serde(default)]
+    pub extended: bool,
+    /// Identifier bits that must equal those of `id`; default: all bits (an exact match).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mask: Option<u32>,
+    /// Right shift applied to the free (unmasked) id bits to get the id index.
+    #[serde(default)]
+    pub shift: u32,
+    /// Number of valid id indices (ids whose index is ≥ this are unknown ids); default: every
+    /// index the mask leaves free.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id_groups: Option<u32>,
+    /// Exact data length (bytes) a frame must have; other lengths are a *wrong length* fault.
+    /// Default: the smallest length holding the fields and the multiplexer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<u8>,
+    /// Optional multiplexer byte.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mux: Option<MuxSpec>,
+    /// First bit of field 0 (see the bit numbering in the module docs).
+    pub start_bit: u32,
+    /// Width of each field in bits (1–32).
+    pub bits: u32,
+    /// Number of consecutive fields (taxels) per frame.
+    #[serde(default = "one")]
+    pub count: u32,
+    /// Byte order of the fields.
+    #[serde(default)]
+    pub byte_order: ByteOrder,
+    /// Fields are two's-complement signed.
+    #[serde(default)]
+    pub signed: bool,
+    /// Multiplier from raw value to the sensor's unit.
+    #[serde(default = "one_f64")]
+    pub scale: f64,
+    /// Added after scaling (sensor unit).
+    #[serde(default)]
+    pub offset: f64,
+    /// Smallest valid raw value (inclusive).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub raw_min: Option<i64>,
+    /// Largest valid raw value (inclusive).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub raw_max: Option<i64>,
+    /// Taxel index of field 0 of group 0.
+    #[serde(default)]
+    pub first_taxel: u32,
+    /// Taxels between consecutive groups; default `count`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stride: Option<u32>,
+}
+
+fn one() -> u32 {
+    1
+}
+fn one_f64() -> f64 {
+    1.0
+}
+fn default_timeout_ms() -> f64 {
+    50.0
+}
+
+impl MessageSpec {
+    /// A message matching exactly `id` (standard), carrying `count` unsigned big-endian
+    /// fields of `bits` bits from `start_bit`; refine with struct update syntax.
+    pub fn new(id: u32, start_bit: u32, bits: u32, count: u32) -> Self {
+        MessageSpec {
+            id,
+            extended: false,
+            mask: None,
+            shift: 0,
+            id_groups: None,
+            length: None,
+            mux: None,
+            start_bit,
+            bits,
+            count,
+            byte_order: ByteOrder::Big,
+            signed: false,
+            scale: 1.0,
+            offset: 0.0,
+            raw_min: None,
+            raw_max: None,
+            first_taxel: 0,
+            stride: None,
+        }
+    }
+}
+
+/// One sensor on the bus: its name, taxel count, reassembly timeout and policy, and the
+/// messages that carry its taxels.
+///
+/// ```toml
+/// [[codec.sensors]]
+/// name = "ff"
+/// taxels = 24
+/// timeout_ms = 50.0      # a set not complete this long after its first frame is incomplete
+/// incomplete = "drop"    # "drop" | "carry"
+/// [[codec.sensors.messages]]
+/// id = 0x100
+/// # … see MessageSpec
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSpec {
+    /// The sensor's name (its [`SensorId`]).
+    pub name: String,
+    /// Number of taxels in a frame.
+    pub taxels: u32,
+    /// Milliseconds after a set's first CAN frame within which the set must be complete;
+    /// measured on frame timestamps. Default 50 ms.
+    #[serde(default = "default_timeout_ms")]
+    pub timeout_ms: f64,
+    /// What to do with incomplete sets.
+    #[serde(default)]
+    pub incomplete: IncompletePolicy,
+    /// The messages carrying the taxels.
+    pub messages: Vec<MessageSpec>,
+}
+
+/// The built-in layouts; see [`presets`](super::presets) for their wire formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PresetKind {
+    /// One frame per taxel, big-endian 16-bit x/y/z fields (`"xela-uskin"`).
+    #[serde(rename = "xela-uskin")]
+    XelaUskin,
+    /// Multiplexed per-fingertip frames, 24 electrodes in 12-bit fields (`"biotac-mux"`).
+    #[serde(rename = "biotac-mux")]
+    BiotacMux,
+}
+
+/// A preset instantiated for a list of sensors.
+///
+/// ```toml
+/// [codec.preset]
+/// kind = "biotac-mux"          # or "xela-uskin"
+/// sensors = ["ff", "mf", "th"] # sensor i uses the preset's i-th id block
+/// base_id = 0x100              # default: 0x100 (biotac-mux), 0x200 (xela-uskin)
+/// extended = false
+/// taxels = 16                  # xela-uskin only (default 16, one 4×4 module)
+/// timeout_ms = 50.0
+/// incomplete = "drop"
+/// raw_min = 1                  # default: the preset's valid range
+/// raw_max = 4094
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PresetConfig {
+    /// Which layout.
+    pub kind: PresetKind,
+    /// Sensor names, in id order.
+    pub sensors: Vec<String>,
+    /// First CAN id (default per preset).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_id: Option<u32>,
+    /// Use 29-bit identifiers.
+    #[serde(default)]
+    pub extended: bool,
+    /// Taxels per sensor (`xela-uskin` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub taxels: Option<u32>,
+    /// Reassembly timeout (ms) per sensor.
+    #[serde(default = "default_timeout_ms")]
+    pub timeout_ms: f64,
+    /// Policy for incomplete sets.
+    #[serde(default)]
+    pub incomplete: IncompletePolicy,
+    /// Override of the preset's smallest valid raw value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub raw_min: Option<i64>,
+    /// Override of the preset's largest valid raw value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub raw_max: Option<i64>,
+}
+
+impl PresetConfig {
+    /// A preset for `sensors` with all defaults.
+    pub fn new(kind: PresetKind, sensors: &[&str]) -> Self {
+        PresetConfig {
+            kind,
+            sensors: sensors.iter().map(|s| s.to_string()).collect(),
+            base_id: None,
+            extended: false,
+            taxels: None,
+            timeout_ms: default_timeout_ms(),
+            incomplete: IncompletePolicy::Drop,
+            raw_min: None,
+            raw_max: None,
+        }
+    }
+
+    /// The sensors this preset stands for.
+    pub fn expand(&self) -> Result<Vec<SensorSpec>> {
+        super::presets::expand(self)
+    }
+}
+
+/// The codec of a scene's CAN source: a preset, explicit sensors, or both (their ids must not
+/// overlap).
+///
+/// ```toml
+/// [sources.hand.codec.preset]
+/// kind = "biotac-mux"
+/// sensors = ["ff", "mf", "th"]
+/// # and/or
+/// [[sources.hand.codec.sensors]]
+/// name = "palm"
+/// # …
+/// ```
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CodecConfig {
+    /// A built-in layout.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<PresetConfig>,
+    /// Explicitly described sensors.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sensors: Vec<SensorSpec>,
+}
+
+impl CodecConfig {
+    /// A config made of one preset.
+    pub fn preset(p: PresetConfig) -> Self {
+        CodecConfig { preset: Some(p), sensors: Vec::new() }
+    }
+
+    /// A config of explicit sensors.
+    pub fn sensors(sensors: Vec<SensorSpec>) -> Self {
+        CodecConfig { preset: None, sensors }
+    }
+}
+
+/// A validated message, ready to decode.
+#[derive(Clone, Debug)]
+struct Message {
+    sensor: usize,
+    id: u32,
+    extended: bool,
+    mask: u32,
+    shift: u32,
+    id_groups: u32,
+    length: u8,
+    mux: Option<(u8, u32, [bool; 256])>,
+    start_bit: u32,
+    bits: u32,
+    count: u32,
+    order: ByteOrder,
+    signed: bool,
+    scale: f64,
+    offset: f64,
+    raw_min: i64,
+    raw_max: i64,
+    first_taxel: u32,
+    stride: u32,
+}
+
+/// A validated sensor.
+#[derive(Clone, Debug)]
+pub(crate) struct Sensor {
+    pub(crate) id: SensorId,
+    pub(crate) taxels: u32,
+    pub(crate) timeout_ns: i64,
+    pub(crate) policy: IncompletePolicy,
+}
+
+/// One field decoded from a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldValue {
+    /// The taxel it belongs to.
+    pub taxel: u32,
+    /// The raw field value (sign-extended when signed).
+    pub raw: i64,
+    /// `raw · scale + offset`, or `None` when `raw` is out of the valid range.
+    pub value: Option<f64>,
+}
+
+/// What a frame is to the codec.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Decoded {
+    /// Its fields were appended to the output (some may be out of range).
+    Values {
+        /// Index of the sensor ([`CanCodec::sensor_id`]).
+        sensor: usize,
+        /// The message's block index (`id_index · mux.groups + mux_value`).
+        group: u32,
+    },
+    /// No message matches the id (or the id index is past `id_groups`).
+    UnknownId,
+    /// The message matched but the data length is not the one required.
+    WrongLength {
+        /// Index of the sensor.
+        sensor: usize,
+        /// Required length.
+        expected: u8,
+        /// The frame's length.
+        got: u8,
+    },
+    /// The multiplexer value selects no block and is not ignored.
+    UnknownMux {
+        /// Index of the sensor.
+        sensor: usize,
+        /// The value.
+        value: u8,
+    },
+    /// The multiplexer value is listed as carrying other data.
+    Ignored {
+        /// Index of the sensor.
+        sensor: usize,
+        /// The value.
+        value: u8,
+    },
+}
+
+/// A validated codec: maps CAN frames to taxel values. Stateless; reassembly into frames is
+/// [`CanDecoder`](super::CanDecoder)'s job.
+#[derive(Clone, Debug)]
+pub struct CanCodec {
+    sensors: Vec<Sensor>,
+    messages: Vec<Message>,
+}
+
+fn width_mask(extended: bool) -> u32 {
+    if extended {
+        MAX_EXTENDED_ID
+    } else {
+        MAX_STANDARD_ID
+    }
+}
+
+impl CanCodec {
+    /// Validate a configuration. Errors ([`Error::InvalidConfig`]) name the sensor and message
+    /// (`sensor "ff" message 0 (id 0x100)`) and say what is wrong.
+    pub fn try_new(config: &CodecConfig) -> Result<Self> {
+        let mut specs = Vec::new();
+        if let Some(p) = &config.preset {
+            specs.extend(p.expand()?);
+        }
+        specs.extend(config.sensors.iter().cloned());
+        Self::from_sensors(&specs)
+    }
+
+    /// Validate a list of sensors (see [`try_new`](Self::try_new)).
+    pub fn from_sensors(specs: &[SensorSpec]) -> Result<Self> {
+        let bad = |s: String| Error::InvalidConfig(format!("CAN codec: {s}"));
+        if specs.is_empty() {
+            return Err(bad("no sensors".into()));
+        }
+        let mut sensors = Vec::with_capacity(specs.len());
+        let mut messages = Vec::new();
+        for (si, s) in specs.iter().enumerate() {
+            if s.name.trim().is_empty() {
+                return Err(bad(format!("sensor {si} has an empty name")));
+            }
+            if specs[..si].iter().any(|o| o.name == s.name) {
+                return Err(bad(format!("sensor {:?} is described twice", s.name)));
+            }
+            let who = format!("sensor {:?}", s.name);
+            if s.taxels == 0 {
+                return Err(bad(format!("{who}: taxels must be at least 1")));
+            }
+            if !(s.timeout_ms.is_finite() && s.timeout_ms > 0.0 && s.timeout_ms < 1e9) {
+                return Err(bad(format!("{who}: timeout_ms must be positive and finite, got {}", s.timeout_ms)));
+            }
+            if s.messages.is_empty() {
+                return Err(bad(format!("{who}: no messages")));
+            }
+            let mut covered = vec![false; s.taxels as usize];
+            for (mi, m) in s.messages.iter().enumerate() {
+                let who = format!("{who} message {mi} (id {:#x})", m.id);
+                let msg = compile_message(si, m, s.taxels, &mut covered).map_err(|r| bad(format!("{who}: {r}")))?;
+                messages.push((msg, who));
+            }
+            let missing: Vec<usize> = covered.iter().enumerate().filter(|(_, c)| !**c).map(|(i, _)| i).collect();
+            if !missing.is_empty() {
+                return Err(bad(format!(
+                    "{who}: taxels {} are carried by no message, so a set could never complete",
+                    list(&missing)
+                )));
+            }
+            sensors.push(Sensor {
+                id: SensorId::new(&s.name),
+                taxels: s.taxels,
+                timeout_ns: (s.timeout_ms * 1e6).round() as i64,
+                policy: s.incomplete,
+            });
+        }
+        // No frame may match two messages. Conservative: the masks' common bits must differ.
+        for (i, (a, wa)) in messages.iter().enumerate() {
+            for (b, wb) in &messages[..i] {
+                if a.extended == b.extended && (a.id ^ b.id) & a.mask & b.mask == 0 {
+                    return Err(bad(format!("{wa} and {wb} both match some CAN ids; give them disjoint ids or masks")));
+                }
+            }
+        }
+        Ok(CanCodec { sensors, messages: messages.into_iter().map(|(m, _)| m).collect() })
+    }
+
+    /// Number of sensors.
+    pub fn num_sensors(&self) -> usize {
+        self.sensors.len()
+    }
+
+    /// The id of sensor `i` (in configuration order).
+    pub fn sensor_id(&self, i: usize) -> &SensorId {
+        &self.sensors[i].id
+    }
+
+    /// Number of taxels of sensor `i`.
+    pub fn taxels(&self, i: usize) -> usize {
+        self.sensors[i].taxels as usize
+    }
+
+    pub(crate) fn sensor(&self, i: usize) -> &Sensor {
+        &self.sensors[i]
+    }
+
+    /// Decode one frame: append its fields to `out` (cleared first) and say what it was.
+    pub fn decode(&self, frame: &CanFrame, out: &mut Vec<FieldValue>) -> Decoded {
+        out.clear();
+        let id = frame.id();
+        let ext = frame.is_extended();
+        let Some(m) = self.messages.iter().find(|m| m.extended == ext && (id & m.mask) == (m.id & m.mask)) else {
+            return Decoded::UnknownId;
+        };
+        let id_index = (id & !m.mask & width_mask(ext)) >> m.shift;
+        if id_index >= m.id_groups {
+            return Decoded::UnknownId;
+        }
+        if frame.len() != m.length as usize {
+            return Decoded::WrongLength { sensor: m.sensor, expected: m.length, got: frame.len() as u8 };
+        }
+        let data = frame.data();
+        let mut group = id_index;
+        if let Some((byte, groups, ignore)) = &m.mux {
+            let v = data[*byte as usize];
+            if u32::from(v) >= *groups {
+                return if ignore[v as usize] {
+                    Decoded::Ignored { sensor: m.sensor, value: v }
+                } else {
+                    Decoded::UnknownMux { sensor: m.sensor, value: v }
+                };
+            }
+            group = id_index * groups + u32::from(v);
+        }
+        let mut padded = [0u8; 8];
+        padded[..data.len()].copy_from_slice(data);
+        let word = match m.order {
+            ByteOrder::Big => u64::from_be_bytes(padded),
+            ByteOrder::Little => u64::from_le_bytes(padded),
+        };
+        let fmask = (1u64 << m.bits) - 1;
+        let base = m.first_taxel + group * m.stride;
+        for k in 0..m.count {
+            let p = m.start_bit + k * m.bits;
+            let u = match m.order {
+                ByteOrder::Big => (word >> (64 - p - m.bits)) & fmask,
+                ByteOrder::Little => (word >> p) & fmask,
+            };
+            let raw = if m.signed && u >> (m.bits - 1) & 1 == 1 { u as i64 - (1i64 << m.bits) } else { u as i64 };
+            let value = (raw >= m.raw_min && raw <= m.raw_max).then_some(raw as f64 * m.scale + m.offset);
+            out.push(FieldValue { taxel: base + k, raw, value });
+        }
+        Decoded::Values { sensor: m.sensor, group }
+    }
+}
+
+/// `[0, 1, 2]` → `"0, 1, 2"`, shortened after 12 entries.
+fn list(v: &[usize]) -> String {
+    let mut s: Vec<String> = v.iter().take(12).map(|x| x.to_string()).collect();
+    if v.len() > 12 {
+        s.push(format!("… ({} in all)", v.len()));
+    }
+    s.join(", ")
+}
+
+fn compile_message(
+    sensor: usize,
+    m: &MessageSpec,
+    taxels: u32,
+    covered: &mut [bool],
+) -> std::result::Result<Message, String> {
+    let width = width_mask(m.extended);
+    if m.id > width {
+        return Err(format!("id does not fit a {} identifier", if m.extended { "29-bit" } else { "11-bit" }));
+    }
+    let mask = m.mask.unwrap_or(width);
+    if mask & !width != 0 {
+        return Err(format!("mask {mask:#x} has bits outside the {}-bit identifier", if m.extended { 29 } else { 11 }));
+    }
+    if m.shift > 28 {
+        return Err(format!("shift {} is larger than an identifier", m.shift));
+    }
+    let free = (!mask & width) >> m.shift;
+    if free & free.wrapping_add(1) != 0 {
+        return Err(format!(
+            "the id bits the mask leaves free above `shift` must be contiguous from `shift` (free bits {:#x})",
+            !mask & width
+        ));
+    }
+    let reachable = u64::from(free) + 1;
+    let id_groups = match m.id_groups {
+        None => reachable,
+        Some(0) => return Err("id_groups must be at least 1".into()),
+        Some(g) if u64::from(g) > reachable => {
+            return Err(format!("id_groups = {g} but the mask leaves room for only {reachable} id indices"))
+        }
+        Some(g) => u64::from(g),
+    };
+    if !(1..=32).contains(&m.bits) {
+        return Err(format!("bits = {}; a field is 1 to 32 bits wide", m.bits));
+    }
+    if m.count == 0 {
+        return Err("count must be at least 1".into());
+    }
+    let end_bit = u64::from(m.start_bit) + u64::from(m.count) * u64::from(m.bits);
+    if end_bit > 64 {
+        return Err(format!(
+            "fields end at bit {end_bit} (start_bit {} + {} × {} bits) but a frame holds 64 bits",
+            m.start_bit, m.count, m.bits
+        ));
+    }
+    let mut needed = end_bit.div_ceil(8) as u8;
+    let mux = match &m.mux {
+        None => None,
+        Some(x) => {
+            if x.byte > 7 {
+                return Err(format!("mux.byte = {}; a frame has bytes 0–7", x.byte));
+            }
+            let (lo, hi) = (u64::from(x.byte) * 8, u64::from(x.byte) * 8 + 8);
+            if lo < end_bit && u64::from(m.start_bit) < hi {
+                return Err(format!("mux byte {} overlaps the fields (bits {}–{})", x.byte, m.start_bit, end_bit - 1));
+            }
+            if x.groups == 0 || x.groups > 256 {
+                return Err(format!("mux.groups = {}; must be 1–256", x.groups));
+            }
+            let mut ignore = [false; 256];
+            for &v in &x.ignore {
+                if u32::from(v) < x.groups {
+                    return Err(format!("mux value {v} is both a taxel block (< groups = {}) and ignored", x.groups));
+                }
+                ignore[v as usize] = true;
+            }
+            needed = needed.max(x.byte + 1);
+            Some((x.byte, x.groups, ignore))
+        }
+    };
+    let length = match m.length {
+        None => needed,
+        Some(l) if l > 8 => return Err(format!("length = {l}; a classic CAN frame has at most 8 bytes")),
+        Some(l) if l < needed => return Err(format!("length = {l} but the fields and mux need {needed} bytes")),
+        Some(l) => l,
+    };
+    let field_min = if m.signed { -(1i64 << (m.bits - 1)) } else { 0 };
+    let field_max = if m.signed { (1i64 << (m.bits - 1)) - 1 } else { (1i64 << m.bits) - 1 };
+    let raw_min = m.raw_min.unwrap_or(field_min);
+    let raw_max = m.raw_max.unwrap_or(field_max);
+    if raw_min > raw_max {
+        return Err(format!("raw_min {raw_min} > raw_max {raw_max}"));
+    }
+    if raw_max < field_min || raw_min > field_max {
+        return Err(format!(
+            "valid range {raw_min}…{raw_max} excludes every value a {}{}-bit field holds",
+            if m.signed { "signed " } else { "" },
+            m.bits
+        ));
+    }
+    if !m.scale.is_finite() || m.scale == 0.0 || !m.offset.is_finite() {
+        return Err(format!("scale ({}) must be finite and non-zero, offset ({}) finite", m.scale, m.offset));
+    }
+    let groups = id_groups * mux.as_ref().map_or(1, |x| u64::from(x.1));
+    let stride = m.stride.unwrap_or(m.count);
+    if groups > 1 && stride < m.count {
+        return Err(format!("stride {stride} < count {}: blocks would overlap", m.count));
+    }
+    let last = u64::from(m.first_taxel) + (groups - 1) * u64::from(stride) + u64::from(m.count) - 1;
+    if last >= u64::from(taxels) {
+        return Err(format!(
+            "carries taxels up to {last} ({groups} blocks × stride {stride} from taxel {}), but the sensor has {taxels}",
+            m.first_taxel
+        ));
+    }
+    // `last < taxels` bounds this loop by the taxel count.
+    for g in 0..groups {
+        for k in 0..u64::from(m.count) {
+            let t = (u64::from(m.first_taxel) + g * u64::from(stride) + k) as usize;
+            if covered[t] {
+                return Err(format!("taxel {t} is already carried by another message slot"));
+            }
+            covered[t] = true;
+        }
+    }
+    Ok(Message {
+        sensor,
+        id: m.id,
+        extended: m.extended,
+        mask,
+        shift: m.shift,
+        id_groups: id_groups as u32,
+        length,
+        mux,
+        start_bit: m.start_bit,
+        bits: m.bits,
+        count: m.count,
+        order: m.byte_order,
+        signed: m.signed,
+        scale: m.scale,
+        offset: m.offset,
+        raw_min,
+        raw_max,
+        first_taxel: m.first_taxel,
+        stride,
+    })
+}
+
+/// A CAN id for messages: `123` or `1ABCDEF0`, as candump prints it.
+pub fn id_string(id: u32, extended: bool) -> String {
+    fmt_id(id, extended)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gradtac_stream::Timestamp;
+
+    fn sensor(messages: Vec<MessageSpec>, taxels: u32) -> SensorSpec {
+        SensorSpec { name: "s".into(), taxels, timeout_ms: 50.0, incomplete: IncompletePolicy::Drop, messages }
+    }
+
+    fn frame(id: u32, data: &[u8]) -> CanFrame {
+        CanFrame::standard(id, data, Timestamp(0)).unwrap()
+    }
+
+    fn decode(c: &CanCodec, f: &CanFrame) -> (Decoded, Vec<FieldValue>) {
+        let mut out = Vec::new();
+        let d = c.decode(f, &mut out);
+        (d, out)
+    }
+
+    #[test]
+    fn big_endian_12_bit_fields_read_msb_first() {
+        // bytes 1..4 = AB CD EF → fields 0xABC, 0xDEF
+        let c = CanCodec::from_sensors(&[sensor(vec![MessageSpec::new(0x10, 8, 12, 2)], 2)]).unwrap();
+        let (d, v) = decode(&c, &frame(0x10, &[0, 0xAB, 0xCD, 0xEF]));
+        assert_eq!(d, Decoded::Values { sensor: 0, group: 0 });
+        assert_eq!(v.iter().map(|f| f.raw).collect::<Vec<_>>(), vec![0xABC, 0xDEF]);
+        assert_eq!(v[1].value, Some(0xDEF as f64));
+    }
+
+    #[test]
+    fn little_endian_fields_read_lsb_first() {
+        // LE payload 0xEFCDAB00 ; bits 8.. = 0xEFCDAB ; 12-bit fields: 0xDAB, 0xEFC
+        let m = MessageSpec { byte_order: ByteOrder::Little, ..MessageSpec::new(0x10, 8, 12, 2) };
+        let c = CanCodec::from_sensors(&[sensor(vec![m], 2)]).unwrap();
+        let (_, v) = decode(&c, &frame(0x10, &[0, 0xAB, 0xCD, 0xEF]));
+        assert_eq!(v.iter().map(|f| f.raw).collect::<Vec<_>>(), vec![0xDAB, 0xEFC]);
+        // 16-bit LE at byte 1 = bytes 1-2 little-endian
+        let m = MessageSpec { byte_order: ByteOrder::Little, ..MessageSpec::new(0x10, 8, 16, 1) };
+        let c = CanCodec::from_sensors(&[sensor(vec![m], 1)]).unwrap();
+        let (_, v) = decode(&c, &frame(0x10, &[0, 0x34, 0x12]));
+        assert_eq!(v[0].raw, 0x1234);
+    }
+
+    #[test]
+    fn signed_scale_offset_and_range() {
+        let m = MessageSpec {
+            signed: true,
+            scale: 0.5,
+            offset: 10.0,
+            raw_min: Some(-100),
+            raw_max: Some(100),
+            ..MessageSpec::new(0x10, 0, 16, 3)
+        };
+        let c = CanCodec::from_sensors(&[sensor(vec![m], 3)]).unwrap();
+        let (_, v) = decode(&c, &frame(0x10, &[0xFF, 0xFE, 0x00, 0x64, 0x80, 0x00]));
+        assert_eq!(v[0].raw, -2);
+        assert_eq!(v[0].value, Some(9.0));
+        assert_eq!(v[1].value, Some(60.0));
+        assert_eq!(v[2].raw, -32768);
+        assert_eq!(v[2].value, None);
+    }
+
+    #[test]
+    fn id_index_and_mux_select_taxels() {
+        // ids 0x200..0x203 → blocks of 2 taxels; mux byte 0 selects 0..2 within each
+        let m = MessageSpec {
+            mask: Some(0x7FC),
+            mux: Some(MuxSpec { byte: 0, groups: 3, ignore: vec![9] }),
+            length: Some(8),
+            ..MessageSpec::new(0x200, 8, 16, 2)
+        };
+        let c = CanCodec::from_sensors(&[sensor(vec![m], 24)]).unwrap();
+        let (d, v) = decode(&c, &frame(0x202, &[1, 0, 7, 0, 8, 0, 0, 0]));
+        assert_eq!(d, Decoded::Values { sensor: 0, group: 7 });
+        assert_eq!(v.iter().map(|f| (f.taxel, f.raw)).collect::<Vec<_>>(), vec![(14, 7), (15, 8)]);
+        assert_eq!(decode(&c, &frame(0x202, &[9, 0, 0, 0, 0, 0, 0, 0])).0, Decoded::Ignored { sensor: 0, value: 9 });
+        assert_eq!(decode(&c, &frame(0x202, &[3, 0, 0, 0, 0, 0, 0, 0])).0, Decoded::UnknownMux { sensor: 0, value: 3 });
+        assert_eq!(decode(&c, &frame(0x202, &[0, 0, 0])).0, Decoded::WrongLength { sensor: 0, expected: 8, got: 3 });
+        assert_eq!(decode(&c, &frame(0x204, &[0; 8])).0, Decoded::UnknownId);
+        // extended frames with the same number do not match a standard message
+        let mut out = Vec::new();
+        assert_eq!(c.decode(&CanFrame::extended(0x200, &[0; 8], Timestamp(0)).unwrap(), &mut out), Decoded::UnknownId);
+    }
+
+    #[test]
+    fn id_groups_limits_the_ids() {
+        let m = MessageSpec { mask: Some(0x7F0), id_groups: Some(12), ..MessageSpec::new(0x200, 0, 16, 1) };
+        let c = CanCodec::from_sensors(&[sensor(vec![m], 12)]).unwrap();
+        assert!(matches!(decode(&c, &frame(0x20B, &[0, 1])).0, Decoded::Values { group: 11, .. }));
+        assert_eq!(decode(&c, &frame(0x20C, &[0, 1])).0, Decoded::UnknownId);
+    }
+
+    fn err(specs: &[SensorSpec]) -> String {
+        CanCodec::from_sensors(specs).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let e = err(&[sensor(vec![MessageSpec::new(0x10, 0, 16, 2)], 3)]);
+        assert!(e.contains("taxels 2 are carried by no message"), "{e}");
+        let e = err(&[sensor(vec![MessageSpec::new(0x10, 0, 16, 4)], 3)]);
+        assert!(e.contains("sensor \"s\" message 0 (id 0x10)") && e.contains("up to 3"), "{e}");
+        let e = err(&[sensor(vec![MessageSpec::new(0x10, 60, 8, 1)], 1)]);
+        assert!(e.contains("end at bit 68"), "{e}");
+        let e = err(&[sensor(vec![MessageSpec::new(0x10, 0, 33, 1)], 1)]);
+        assert!(e.contains("1 to 32"), "{e}");
+        let e = err(&[sensor(
+            vec![MessageSpec::new(0x10, 0, 8, 1), MessageSpec { first_taxel: 1, ..MessageSpec::new(0x10, 8, 8, 1) }],
+            2,
+        )]);
+        assert!(e.contains("both match"), "{e}");
+        let e = err(&[sensor(
+            vec![MessageSpec::new(0x10, 0, 8, 2), MessageSpec { first_taxel: 1, ..MessageSpec::new(0x11, 0, 8, 1) }],
+            2,
+        )]);
+        assert!(e.contains("taxel 1 is already carried"), "{e}");
+        let m = MessageSpec {
+            mux: Some(MuxSpec { byte: 0, groups: 1, ignore: vec![] }),
+            ..MessageSpec::new(0x10, 0, 8, 1)
+        };
+        assert!(err(&[sensor(vec![m], 1)]).contains("overlaps"));
+        let m = MessageSpec { length: Some(1), ..MessageSpec::new(0x10, 0, 16, 1) };
+        assert!(err(&[sensor(vec![m], 1)]).contains("need 2 bytes"));
+        let m = MessageSpec { mask: Some(0x7F5), ..MessageSpec::new(0x10, 0, 16, 1) };
+        assert!(err(&[sensor(vec![m], 16)]).contains("contiguous"));
+        let m = MessageSpec::new(0x800, 0, 16, 1);
+        assert!(err(&[sensor(vec![m], 1)]).contains("11-bit"));
+        let mut s = sensor(vec![MessageSpec::new(0x10, 0, 8, 1)], 1);
+        s.timeout_ms = 0.0;
+        assert!(err(&[s.clone()]).contains("timeout_ms"));
+        s.timeout_ms = 1.0;
+        assert!(err(&[s.clone(), s]).contains("described twice"));
+        assert!(err(&[]).contains("no sensors"));
+    }
+
+    #[test]
+    fn deserializes_from_toml() {
+        let cfg: CodecConfig = toml::from_str(
+            r#"
+            [[sensors]]
+            name = "palm"
+            taxels = 4
+            incomplete = "carry"
+            [[sensors.messages]]
+            id = 0x300
+            start_bit = 0
+            bits = 16
+            count = 4
+            byte_order = "intel"
+            raw_max = 60000
+            "#,
+        )
+        .unwrap();
+        assert_eq!(cfg.sensors[0].messages[0].byte_order, ByteOrder::Little);
+        assert_eq!(cfg.sensors[0].incomplete, IncompletePolicy::Carry);
+        assert_eq!(cfg.sensors[0].timeout_ms, 50.0);
+        let c = CanCodec::try_new(&cfg).unwrap();
+        assert_eq!(c.taxels(0), 4);
+        let e = toml::from_str::<CodecConfig>("[[sensors]]\nname='a'\ntaxels=1\nmessages=[]\nbogus=1").unwrap_err();
+        assert!(e.to_string().contains("bogus"), "{e}");
+    }
+}

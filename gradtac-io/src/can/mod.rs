@@ -1,0 +1,40 @@
+//! CAN bus sources: a declarative frame codec, reassembly of taxel frames from several CAN
+//! frames, fault statistics, and the sources that feed them — candump logs, an in-memory
+//! transport and (on Linux) a live SocketCAN interface.
+//!
+//! ```text
+//! candump log ──CandumpReader──┐
+//! frame_channel ──FrameReceiver─┼──> CanFrame ──CanDecoder (codec + reassembly + stats)──> TaxelFrame
+//! SocketCAN ──SocketCanFrames───┘        (sync Stage; CanStream is its async shell)
+//! ```
+//!
+//! - [`CanFrame`]: a classic CAN frame (id, standard/extended, ≤ 8 bytes, time) with no
+//!   driver types in it.
+//! - [`CodecConfig`] / [`CanCodec`]: which ids carry which taxels and how values are packed;
+//!   presets `xela-uskin` and `biotac-mux` ([`presets`]); serde shape in `docs/can.md`.
+//! - [`CanDecoder`]: the synchronous [`Stage`](gradtac_stream::Stage) from CAN frames to
+//!   taxel frames, with per-sensor timeout and [`IncompletePolicy`]; never fails on traffic,
+//!   counts faults in [`CanStats`].
+//! - [`CandumpSource`] (iterator), [`candump::replay`] (tokio stream with original or fast
+//!   timing), [`frame_channel`] + [`CanStream`] (in-memory), `socketcan::open` (live).
+
+pub mod candump;
+pub mod codec;
+pub mod frame;
+pub mod presets;
+pub mod reassembly;
+#[cfg(target_os = "linux")]
+pub mod socketcan;
+pub mod stats;
+pub mod stream;
+pub mod transport;
+
+pub use candump::{CandumpConfig, CandumpReader, CandumpSource, CandumpStats, FdPolicy};
+pub use codec::{
+    ByteOrder, CanCodec, CodecConfig, IncompletePolicy, MessageSpec, MuxSpec, PresetConfig, PresetKind, SensorSpec,
+};
+pub use frame::CanFrame;
+pub use reassembly::{CanDecoder, DecodedFrame, FlaggedDecoder};
+pub use stats::{CanStats, Fault, FaultKind, FaultSite, StatsHandle};
+pub use stream::{CanStream, FlaggedCanStream, Timing};
+pub use transport::{frame_channel, FrameReceiver, FrameSender};

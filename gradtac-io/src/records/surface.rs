@@ -1,0 +1,194 @@
+//! [`Surface`] as Arrow: schema `surface/1`, one row per surface.
+//!
+//! | column | Arrow type | meaning |
+//! |---|---|---|
+//! | `sensor` | `Utf8`, not null | the sensor's name |
+//! | `start_ns` | `Int64`, not null | start of the span the surface describes ([`Surface::start`]); `gradtac.unit = ns` |
+//! | `end_ns` | `Int64`, not null | end of the span, the newest contributing frame's time ([`Surface::end`]); `gradtac.unit = ns` |
+//! | `seq` | `UInt64`, not null | index of the newest contributing source frame |
+//! | `values` | `FixedSizeList<Float64 not null>[nx·ny]`, not null | the values at the grid points, **row-major**: element `row·nx + col` is the point `(x(col), y(row))`; NaN (outside the taxels' hull) preserved bit-exactly |
+//!
+//! The grid is the sink's [`SurfaceShape`] and is stored in the schema metadata under
+//! `gradtac.grid` as JSON `{"nx", "ny", "x_min", "x_max", "y_min", "y_max"}` (mm). Column
+//! `col` lies at `x(col) = x_min + (x_max − x_min)·col/(nx − 1)` and row `row` at
+//! `y(row) = y_min + (y_max − y_min)·row/(ny − 1)` (both ends included, like
+//! `numpy.linspace`), so `values.reshape(ny, nx)` in NumPy gives `[row (y), col (x)]` like
+//! [`Surface::values`]. A surface on another grid (another size or extent) is rejected with
+//! [`Error::Record`](crate::Error::Record).
+
+use super::columns::{f64_list, item_field, ns_field, record_error, schema_with_id};
+use super::{arrow_error, ArrowRecord, RecordBuilder};
+use crate::Result;
+use arrow_array::builder::{
+    ArrayBuilder, FixedSizeListBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder,
+};
+use arrow_array::{ArrayRef, RecordBatch};
+use arrow_schema::{DataType, Field, SchemaRef};
+use gradtac_stages::interpolate::{Grid, Surface};
+use std::sync::Arc;
+
+/// Schema-metadata key of the grid of a `surface/1` file (JSON object).
+pub const GRID_KEY: &str = "gradtac.grid";
+
+/// The grid of the surfaces one sink writes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceShape {
+    grid: Arc<Grid>,
+}
+
+impl SurfaceShape {
+    /// The shape of surfaces on `grid` (e.g. `Interpolate::interpolator().grid().clone()`,
+    /// or `surface.grid.clone()` of the first surface).
+    pub fn new(grid: impl Into<Arc<Grid>>) -> Self {
+        SurfaceShape { grid: grid.into() }
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Arc<Grid> {
+        &self.grid
+    }
+
+    /// The value of [`GRID_KEY`]: the grid as JSON.
+    pub fn grid_json(&self) -> String {
+        let e = self.grid.extent();
+        serde_json::json!({
+            "nx": self.grid.nx(),
+            "ny": self.grid.ny(),
+            "x_min": e.x_min,
+            "x_max": e.x_max,
+            "y_min": e.y_min,
+            "y_max": e.y_max,
+        })
+        .to_string()
+    }
+}
+
+impl ArrowRecord for Surface {
+    type Shape = SurfaceShape;
+    type Builder = SurfaceBuilder;
+    const SCHEMA_ID: &'static str = "surface/1";
+
+    fn schema(shape: &SurfaceShape) -> SchemaRef {
+        schema_with_id(
+            vec![
+                Field::new("sensor", DataType::Utf8, false),
+                ns_field("start_ns"),
+                ns_field("end_ns"),
+                Field::new("seq", DataType::UInt64, false),
+                Field::new("values", f64_list(shape.grid.len()), false),
+            ],
+            Self::SCHEMA_ID,
+            vec![(GRID_KEY.to_string(), shape.grid_json())],
+        )
+    }
+
+    fn builder(shape: &SurfaceShape, capacity: usize) -> SurfaceBuilder {
+        let len = shape.grid.len();
+        // Reserve at most 8 MiB of values up front: a surface is large (64×64 = 4096 values).
+        let reserve = capacity.saturating_mul(len).min(1 << 20);
+        SurfaceBuilder {
+            schema: Self::schema(shape),
+            grid: shape.grid.clone(),
+            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
+            start: Int64Builder::with_capacity(capacity),
+            end: Int64Builder::with_capacity(capacity),
+            seq: UInt64Builder::with_capacity(capacity),
+            values: FixedSizeListBuilder::with_capacity(
+                Float64Builder::with_capacity(reserve),
+                // A grid holds at most 2^24 points, so this fits an i32 list size.
+                len as i32,
+                capacity,
+            )
+            .with_field(item_field()),
+        }
+    }
+}
+
+/// Builds `surface/1` batches (see the [module documentation](self)).
+pub struct SurfaceBuilder {
+    schema: SchemaRef,
+    grid: Arc<Grid>,
+    sensor: StringBuilder,
+    start: Int64Builder,
+    end: Int64Builder,
+    seq: UInt64Builder,
+    values: FixedSizeListBuilder<Float64Builder>,
+}
+
+impl std::fmt::Debug for SurfaceBuilder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SurfaceBuilder")
+            .field("nx", &self.grid.nx())
+            .field("ny", &self.grid.ny())
+            .field("pending", &self.len())
+            .finish()
+    }
+}
+
+impl RecordBuilder<Surface> for SurfaceBuilder {
+    fn schema(&self) -> SchemaRef {
+        self.schema.clone()
+    }
+
+    fn append(&mut self, s: &Surface) -> Result<()> {
+        let (nx, ny) = (self.grid.nx(), self.grid.ny());
+        if !(Arc::ptr_eq(&s.grid, &self.grid) || *s.grid == *self.grid) {
+            let (e, f) = (s.grid.extent(), self.grid.extent());
+            return Err(record_error(
+                Surface::SCHEMA_ID,
+                format!(
+                    "sensor {} surface of frame {} is on a {}×{} grid over x {}..{}, y {}..{} mm; this sink was \
+                     built for {nx}×{ny} over x {}..{}, y {}..{} mm",
+                    s.sensor,
+                    s.seq,
+                    s.grid.nx(),
+                    s.grid.ny(),
+                    e.x_min,
+                    e.x_max,
+                    e.y_min,
+                    e.y_max,
+                    f.x_min,
+                    f.x_max,
+                    f.y_min,
+                    f.y_max
+                ),
+            ));
+        }
+        if s.values.dim() != (ny, nx) {
+            let (r, c) = s.values.dim();
+            return Err(record_error(
+                Surface::SCHEMA_ID,
+                format!(
+                    "sensor {} surface of frame {} holds {r}×{c} values (rows×cols); its grid has {ny}×{nx}",
+                    s.sensor, s.seq
+                ),
+            ));
+        }
+        self.sensor.append_value(s.sensor.as_str());
+        self.start.append_value(s.start.as_nanos());
+        self.end.append_value(s.end.as_nanos());
+        self.seq.append_value(s.seq);
+        match s.values.as_slice() {
+            Some(flat) => self.values.values().append_slice(flat),
+            // Not in standard layout (a transposed view): logical row-major order.
+            None => s.values.iter().for_each(|&v| self.values.values().append_value(v)),
+        }
+        self.values.append(true);
+        Ok(())
+    }
+
+    fn len(&self) -> usize {
+        self.seq.len()
+    }
+
+    fn finish(&mut self) -> Result<RecordBatch> {
+        let columns: Vec<ArrayRef> = vec![
+            Arc::new(self.sensor.finish()),
+            Arc::new(self.start.finish()),
+            Arc::new(self.end.finish()),
+            Arc::new(self.seq.finish()),
+            Arc::new(self.values.finish()),
+        ];
+        RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(Surface::SCHEMA_ID, e))
+    }
+}
