@@ -11,13 +11,14 @@
 //! the error and left under its `.partial` name; the final name never appears. On Ctrl-C the
 //! outputs are finished (renamed): they hold everything read so far.
 
-use crate::plan::{Plan, Tap};
+use crate::chain::SensorChain;
+use crate::plan::Plan;
 use crate::scene::{Scene, SourceSpec};
+use crate::sinks::Sinks;
 use crate::Error;
 use futures::StreamExt;
-use gradtac_io::{CsvFrames, CsvProgress, FrameShape, ParquetSink};
-use gradtac_stages::normalise::Normalise;
-use gradtac_stream::{merge_streams, Layout, SensorId, Stage, TaxelFrame};
+use gradtac_io::{CsvFrames, CsvProgress};
+use gradtac_stream::{merge_streams, SensorId, TaxelFrame};
 use std::fmt;
 use std::path::PathBuf;
 use std::pin::Pin;
@@ -63,202 +64,62 @@ impl fmt::Display for RunReport {
     }
 }
 
-/// A sink of one output; one variant per output type.
-enum OutputSink {
-    Frames(ParquetSink<TaxelFrame>),
-}
-
-impl OutputSink {
-    fn rows(&self) -> u64 {
-        match self {
-            OutputSink::Frames(s) => s.rows(),
-        }
-    }
-    fn frames(&mut self) -> &mut ParquetSink<TaxelFrame> {
-        match self {
-            OutputSink::Frames(s) => s,
-        }
-    }
-    fn finish(self) -> Result<PathBuf, Error> {
-        match self {
-            OutputSink::Frames(s) => Ok(s.finish()?),
-        }
-    }
-    fn abort(self) -> Result<PathBuf, Error> {
-        match self {
-            OutputSink::Frames(s) => Ok(s.abort()?),
-        }
-    }
-}
-
-/// One sensor's chain, built only as deep as the plan says.
-struct SensorChain {
-    sensor: SensorId,
-    frames_in: u64,
-    /// Outputs tapping each stage.
-    taps: Vec<(Tap, Vec<usize>)>,
-    normalise: Option<Normalise>,
-}
-
-impl SensorChain {
-    fn taps_of(&self, tap: Tap) -> &[usize] {
-        self.taps.iter().find(|(t, _)| *t == tap).map_or(&[], |(_, v)| v)
-    }
-}
-
 /// The synchronous core of a run (see the [module docs](self)).
 pub struct Runner {
     chains: Vec<SensorChain>,
-    sinks: Vec<Option<OutputSink>>,
-    buf: Vec<TaxelFrame>,
+    sinks: Sinks,
     last: usize,
 }
 
 impl Runner {
     /// Build every planned stage and open (as `.partial`) every output.
     pub fn new(scene: &Scene, plan: &Plan) -> Result<Runner, Error> {
-        let mut sinks = Vec::new();
-        for (i, o) in scene.outputs.iter().enumerate() {
-            let tap = Tap::parse(&o.tap).expect("validated by Scene");
-            let users: Vec<&Layout> =
-                plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| &p.layout).collect();
-            let Some(first) = users.first() else {
-                return Err(Error::Scene {
-                    path: scene.base_dir.clone(),
-                    reason: format!("output #{} covers no sensor", i + 1),
-                });
-            };
-            if let Some(other) = users.iter().find(|l| l.len() != first.len()) {
-                return Err(Error::Scene {
-                    path: scene.base_dir.clone(),
-                    reason: format!(
-                        "output #{} mixes layouts of {} and {} taxels; give each its own output (sensors = [...])",
-                        i + 1,
-                        first.len(),
-                        other.len()
-                    ),
-                });
-            }
-            let path = scene.resolve(&o.path);
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
-            }
-            let sink = match tap {
-                Tap::Source | Tap::Normalise => {
-                    let mut s = ParquetSink::<TaxelFrame>::try_new(&path, FrameShape::from_layout(first))?
-                        .with_metadata("gradtac.scene", scene.text.clone())
-                        .with_metadata("gradtac.tap", tap.name())
-                        .with_metadata("gradtac.layout", first.to_csv());
-                    if let Some(n) = o.row_group_size {
-                        s = s.with_row_group_size(n)?;
-                    }
-                    for p in plan.sensors.iter().filter(|p| p.outputs.contains(&i)) {
-                        s.set_metadata(format!("gradtac.layout.{}", p.name), p.layout.to_csv());
-                    }
-                    OutputSink::Frames(s)
-                }
-            };
-            sinks.push(Some(sink));
-        }
-        let mut chains = Vec::new();
-        for p in plan.sensors.iter().filter(|p| p.deepest.is_some()) {
-            let taps = Tap::ALL
-                .into_iter()
-                .map(|t| (t, p.outputs.iter().copied().filter(|&i| scene.outputs[i].tap == t.name()).collect()))
-                .collect();
-            let normalise = if p.runs(Tap::Normalise) {
-                Some(Normalise::try_new(p.layout.len(), &scene.stages.normalise)?)
-            } else {
-                None
-            };
-            chains.push(SensorChain { sensor: SensorId::new(&p.name), frames_in: 0, taps, normalise });
-        }
-        Ok(Runner { chains, sinks, buf: Vec::new(), last: 0 })
+        let chains = plan
+            .sensors
+            .iter()
+            .filter(|p| p.deepest.is_some())
+            .map(|p| SensorChain::build(scene, p))
+            .collect::<Result<Vec<_>, _>>()?;
+        let sinks = Sinks::open(scene, plan)?;
+        Ok(Runner { chains, sinks, last: 0 })
     }
 
     fn chain_index(&mut self, s: &SensorId) -> Option<usize> {
-        if self.chains.get(self.last).is_some_and(|c| c.sensor.ptr_eq(s) || &c.sensor == s) {
+        let c = self.chains.get(self.last)?;
+        if c.sensor().ptr_eq(s) || c.sensor() == s {
             return Some(self.last);
         }
-        let i = self.chains.iter().position(|c| &c.sensor == s)?;
+        let i = self.chains.iter().position(|c| c.sensor() == s)?;
         self.last = i;
         Some(i)
-    }
-
-    fn write_frames(sinks: &mut [Option<OutputSink>], outs: &[usize], f: &TaxelFrame) -> Result<(), Error> {
-        for &o in outs {
-            sinks[o].as_mut().expect("open until finish").frames().push(f)?;
-        }
-        Ok(())
     }
 
     /// Push one frame. Frames of sensors the plan does not run are ignored.
     pub fn push(&mut self, frame: TaxelFrame) -> Result<(), Error> {
         let Some(i) = self.chain_index(&frame.sensor) else { return Ok(()) };
-        let chain = &mut self.chains[i];
-        chain.frames_in += 1;
-        Self::write_frames(&mut self.sinks, chain.taps_of(Tap::Source), &frame)?;
-        if let Some(n) = &mut chain.normalise {
-            n.push(frame, &mut self.buf)?;
-            Self::drain_normalised(&mut self.sinks, chain.taps_of(Tap::Normalise), &mut self.buf)?;
-        }
-        Ok(())
-    }
-
-    fn drain_normalised(
-        sinks: &mut [Option<OutputSink>],
-        outs: &[usize],
-        buf: &mut Vec<TaxelFrame>,
-    ) -> Result<(), Error> {
-        for f in buf.drain(..) {
-            Self::write_frames(sinks, outs, &f)?;
-        }
-        Ok(())
+        self.chains[i].process(Some(frame), false, &mut self.sinks)
     }
 
     /// Frames pushed so far, per sensor.
     pub fn frames_in(&self) -> Vec<(String, u64)> {
-        self.chains.iter().map(|c| (c.sensor.to_string(), c.frames_in)).collect()
+        self.chains.iter().map(|c| (c.sensor().to_string(), c.frames_in())).collect()
     }
 
-    /// End of input: flush every stage, finish every output (rename to its final name).
+    /// End of input: flush every stage, finish every output (rename to its final name). On a
+    /// flush error the outputs are left as `.partial` files.
     pub fn finish(mut self) -> Result<Vec<(PathBuf, u64)>, Error> {
-        let flushed = self.flush_stages();
-        if let Err(e) = flushed {
-            self.abort();
-            return Err(e);
-        }
-        let mut done = Vec::new();
-        let mut first_err = None;
-        for s in self.sinks.iter_mut() {
-            let s = s.take().expect("open until finish");
-            let rows = s.rows();
-            match s.finish() {
-                Ok(p) => done.push((p, rows)),
-                Err(e) => {
-                    first_err.get_or_insert(e);
-                }
+        for i in 0..self.chains.len() {
+            if let Err(e) = self.chains[i].process(None, true, &mut self.sinks) {
+                self.sinks.abort();
+                return Err(e);
             }
         }
-        match first_err {
-            None => Ok(done),
-            Some(e) => Err(e),
-        }
-    }
-
-    fn flush_stages(&mut self) -> Result<(), Error> {
-        for chain in &mut self.chains {
-            if let Some(n) = &mut chain.normalise {
-                n.finish(&mut self.buf)?;
-                Self::drain_normalised(&mut self.sinks, chain.taps_of(Tap::Normalise), &mut self.buf)?;
-            }
-        }
-        Ok(())
+        self.sinks.finish()
     }
 
     /// After an error: close every output as a valid `.partial` file; returns their paths.
-    pub fn abort(mut self) -> Vec<PathBuf> {
-        self.sinks.iter_mut().filter_map(|s| s.take()).filter_map(|s| s.abort().ok()).collect()
+    pub fn abort(self) -> Vec<PathBuf> {
+        self.sinks.abort()
     }
 }
 

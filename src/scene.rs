@@ -22,7 +22,13 @@
 
 use crate::Error;
 use gradtac_io::CsvSourceConfig;
+use gradtac_stages::contour::ContourConfig;
+use gradtac_stages::events::EventsConfig;
+use gradtac_stages::interpolate::InterpolateConfig;
 use gradtac_stages::normalise::NormaliseConfig;
+use gradtac_stages::savgol::SavGolConfig;
+use gradtac_stages::track::TrackConfig;
+use gradtac_stages::window::WindowConfig;
 use gradtac_stream::Layout;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -95,6 +101,13 @@ impl<'de> Deserialize<'de> for SourceSpec {
 }
 
 impl SourceSpec {
+    /// The source's fixed sample rate (Hz), when it has one.
+    pub fn rate_hz(&self) -> Option<f64> {
+        match self {
+            SourceSpec::Csv(c) => c.rate_hz,
+        }
+    }
+
     /// The file the source reads.
     pub fn path(&self) -> &Path {
         match self {
@@ -116,13 +129,32 @@ impl SourceSpec {
     }
 }
 
-/// Stage settings; a missing table means the stage's defaults.
+/// Stage settings, one table per stage (`[stages.<tap>]`); a missing table means the stage's
+/// defaults. Each table is the stage's own configuration struct, documented with the stage.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StageSettings {
-    /// Min–max normalisation.
+    /// Min–max normalisation ([`NormaliseConfig`]).
     #[serde(default)]
     pub normalise: NormaliseConfig,
+    /// Savitzky–Golay smoothing / derivatives ([`SavGolConfig`]).
+    #[serde(default)]
+    pub savgol: SavGolConfig,
+    /// Log-change events ([`EventsConfig`]).
+    #[serde(default)]
+    pub events: EventsConfig,
+    /// Event windows ([`WindowConfig`]).
+    #[serde(default)]
+    pub window: WindowConfig,
+    /// Interpolated surfaces ([`InterpolateConfig`]).
+    #[serde(default)]
+    pub surface: InterpolateConfig,
+    /// Maximal contours ([`ContourConfig`]).
+    #[serde(default)]
+    pub contour: ContourConfig,
+    /// Contact tracks ([`TrackConfig`]).
+    #[serde(default)]
+    pub track: TrackConfig,
 }
 
 /// One output: a tap on a stage, written to a file.
