@@ -25,11 +25,13 @@ pub use gradtac_io as io;
 pub use gradtac_stages as stages;
 pub use gradtac_stream as stream;
 
+pub mod chain;
 pub mod demo;
 mod error;
 pub mod plan;
 pub mod run;
 pub mod scene;
+pub mod sinks;
 
 pub use error::Error;
 pub use plan::{Plan, Tap};

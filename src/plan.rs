@@ -4,30 +4,50 @@
 //! one stage; a sensor runs a stage only if some output that covers the sensor taps that
 //! stage or a later one. A sensor no output covers is not read at all.
 
+use crate::chain::SensorChain;
 use crate::scene::Scene;
 use crate::Error;
-use gradtac_stages::normalise::{Bounds, Normalise};
-use gradtac_stream::{Delay, Layout, Stage};
+use gradtac_stream::Layout;
 use std::fmt::Write as _;
 
-/// A point of the per-sensor chain that an output can tap, in chain order.
+/// A point of the per-sensor chain that an output can tap, in chain order. Its name is also
+/// the name of the stage's settings table (`[stages.<name>]`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Tap {
     /// Raw frames as the source delivers them.
     Source,
     /// Min–max normalised frames.
     Normalise,
+    /// Savitzky–Golay smoothed (or differentiated) frames.
+    Savgol,
+    /// Log-change event batches (one per frame).
+    Events,
+    /// Per-taxel event aggregates over a window.
+    Window,
+    /// Interpolated surfaces on a grid.
+    Surface,
+    /// Maximal contours.
+    Contour,
+    /// Contact track points.
+    Track,
 }
 
 impl Tap {
     /// Every tap, in chain order.
-    pub const ALL: [Tap; 2] = [Tap::Source, Tap::Normalise];
+    pub const ALL: [Tap; 8] =
+        [Tap::Source, Tap::Normalise, Tap::Savgol, Tap::Events, Tap::Window, Tap::Surface, Tap::Contour, Tap::Track];
 
     /// The tap's name in scenes.
     pub fn name(self) -> &'static str {
         match self {
             Tap::Source => "source",
             Tap::Normalise => "normalise",
+            Tap::Savgol => "savgol",
+            Tap::Events => "events",
+            Tap::Window => "window",
+            Tap::Surface => "surface",
+            Tap::Contour => "contour",
+            Tap::Track => "track",
         }
     }
 
@@ -93,9 +113,7 @@ impl Plan {
             let deepest = outputs.iter().filter_map(|&i| Tap::parse(&scene.outputs[i].tap)).max();
             let plan = SensorPlan { index, name: spec.name.clone(), layout, deepest, outputs };
             // Construct each stage once now, so a bad setting is reported before any data moves.
-            if plan.runs(Tap::Normalise) {
-                Normalise::try_new(plan.layout.len(), &scene.stages.normalise)?;
-            }
+            SensorChain::build(scene, &plan)?;
             sensors.push(plan);
         }
         Ok(Plan { sensors })
@@ -106,14 +124,20 @@ impl Plan {
         let mut s = String::new();
         for p in &self.sensors {
             let spec = &scene.sensors[p.index];
-            let src = spec.source.csv.as_ref().map(|c| c.display().to_string()).unwrap_or_default();
-            let _ = writeln!(s, "sensor {} — layout {} ({} taxels), source csv {}", p.name, p.layout.name(), p.layout.len(), src);
+            let _ = writeln!(
+                s,
+                "sensor {} — layout {} ({} taxels), source {} {}",
+                p.name,
+                p.layout.name(),
+                p.layout.len(),
+                spec.source.kind(),
+                scene.resolve(spec.source.path()).display()
+            );
             let Some(deepest) = p.deepest else {
                 let _ = writeln!(s, "  not read: no output uses this sensor");
                 continue;
             };
-            let mut delay = Delay::ZERO;
-            let mut startup = 0;
+            let chain = SensorChain::build(scene, p).expect("validated by Plan::new");
             for tap in p.stages() {
                 let tapped_by: Vec<String> = p
                     .outputs
@@ -127,31 +151,21 @@ impl Plan {
                     let next = Tap::ALL.into_iter().find(|t| *t > tap).map_or("", Tap::name);
                     format!("feeds {next}")
                 };
-                let detail = match tap {
-                    Tap::Source => "read frames".to_string(),
-                    Tap::Normalise => {
-                        let st = Normalise::try_new(p.layout.len(), &scene.stages.normalise)
-                            .expect("validated by Plan::new");
-                        delay = delay + st.delay();
-                        startup += st.startup_frames();
-                        match scene.stages.normalise.bounds(p.layout.len()) {
-                            Ok(Bounds::Calibrate { frames }) => format!("min–max, bounds from the first {frames} frames"),
-                            Ok(Bounds::Given { .. }) => "min–max, given bounds".into(),
-                            Ok(Bounds::Running) => "min–max, running bounds".into(),
-                            Err(_) => unreachable!("validated by Plan::new"),
-                        }
-                    }
-                };
-                let _ = writeln!(s, "  {:<10} {:<44} {}", tap.name(), detail, why);
+                let _ = writeln!(s, "  {:<10} {:<52} {}", tap.name(), chain.describe(tap, &scene.stages), why);
             }
+            let delay = chain.delay();
             let later: Vec<&str> = Tap::ALL.into_iter().filter(|t| *t > deepest).map(Tap::name).collect();
             if !later.is_empty() {
                 let _ = writeln!(s, "  not built: {} (no output needs them)", later.join(", "));
             }
+            let rate = spec.source.rate_hz();
             let _ = writeln!(
                 s,
-                "  latency: {} frames + {} ns in steady state; start-up holds {} frames",
-                delay.frames, delay.nanos, startup
+                "  latency: {} frames + {:.3} ms in steady state{}; start-up holds {} frames",
+                delay.frames,
+                delay.nanos as f64 * 1e-6,
+                rate.map_or(String::new(), |r| format!(" (= {:.1} ms at {r} Hz)", delay.seconds_at(r) * 1e3)),
+                chain.startup_frames()
             );
         }
         let _ = writeln!(s, "outputs:");

@@ -1,1 +1,221 @@
-//! Running a planned scene (being written).
+//! Running a planned scene: sources → the stages each sensor needs → Parquet outputs.
+//!
+//! [`Runner`] is the synchronous core: push frames of any sensor, in time order, and it runs
+//! each sensor's planned chain and writes every tapped output. [`run`] is the async shell
+//! the CLI uses: it opens the sources, reads each on tokio's blocking pool, merges them by
+//! time, feeds the runner, and handles Ctrl-C.
+//!
+//! **Outputs are all-or-nothing under their final name.** Each is written as
+//! `<path>.partial` and renamed when the run finishes. When the run fails (bad input, a
+//! stage error), every output is closed as a valid Parquet file of what was written before
+//! the error and left under its `.partial` name; the final name never appears. On Ctrl-C the
+//! outputs are finished (renamed): they hold everything read so far.
+
+use crate::chain::SensorChain;
+use crate::plan::Plan;
+use crate::scene::{Scene, SourceSpec};
+use crate::sinks::Sinks;
+use crate::Error;
+use futures::StreamExt;
+use gradtac_io::{CsvFrames, CsvProgress};
+use gradtac_stream::{merge_streams, SensorId, TaxelFrame};
+use std::fmt;
+use std::path::PathBuf;
+use std::pin::Pin;
+use std::time::Instant;
+
+/// Options of a run.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Draw a progress bar (on stderr) over the sources' bytes.
+    pub progress: bool,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default)]
+pub struct RunReport {
+    /// Frames read per sensor (sensors that were read).
+    pub frames: Vec<(String, u64)>,
+    /// Rows written and final path per output.
+    pub outputs: Vec<(PathBuf, u64)>,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// True when Ctrl-C ended the run early.
+    pub interrupted: bool,
+}
+
+impl fmt::Display for RunReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let total: u64 = self.frames.iter().map(|(_, n)| n).sum();
+        writeln!(
+            f,
+            "{}read {total} frames in {:.3} s ({:.0} frames/s)",
+            if self.interrupted { "interrupted: " } else { "" },
+            self.seconds,
+            total as f64 / self.seconds.max(1e-9)
+        )?;
+        for (s, n) in &self.frames {
+            writeln!(f, "  sensor {s}: {n} frames")?;
+        }
+        for (p, n) in &self.outputs {
+            writeln!(f, "  wrote {} ({n} rows)", p.display())?;
+        }
+        Ok(())
+    }
+}
+
+/// The synchronous core of a run (see the [module docs](self)).
+pub struct Runner {
+    chains: Vec<SensorChain>,
+    sinks: Sinks,
+    last: usize,
+}
+
+impl Runner {
+    /// Build every planned stage and open (as `.partial`) every output.
+    pub fn new(scene: &Scene, plan: &Plan) -> Result<Runner, Error> {
+        let chains = plan
+            .sensors
+            .iter()
+            .filter(|p| p.deepest.is_some())
+            .map(|p| SensorChain::build(scene, p))
+            .collect::<Result<Vec<_>, _>>()?;
+        let sinks = Sinks::open(scene, plan)?;
+        Ok(Runner { chains, sinks, last: 0 })
+    }
+
+    fn chain_index(&mut self, s: &SensorId) -> Option<usize> {
+        let c = self.chains.get(self.last)?;
+        if c.sensor().ptr_eq(s) || c.sensor() == s {
+            return Some(self.last);
+        }
+        let i = self.chains.iter().position(|c| c.sensor() == s)?;
+        self.last = i;
+        Some(i)
+    }
+
+    /// Push one frame. Frames of sensors the plan does not run are ignored.
+    pub fn push(&mut self, frame: TaxelFrame) -> Result<(), Error> {
+        let Some(i) = self.chain_index(&frame.sensor) else { return Ok(()) };
+        self.chains[i].process(Some(frame), false, &mut self.sinks)
+    }
+
+    /// Frames pushed so far, per sensor.
+    pub fn frames_in(&self) -> Vec<(String, u64)> {
+        self.chains.iter().map(|c| (c.sensor().to_string(), c.frames_in())).collect()
+    }
+
+    /// End of input: flush every stage, finish every output (rename to its final name). On a
+    /// flush error the outputs are left as `.partial` files.
+    pub fn finish(mut self) -> Result<Vec<(PathBuf, u64)>, Error> {
+        for i in 0..self.chains.len() {
+            if let Err(e) = self.chains[i].process(None, true, &mut self.sinks) {
+                self.sinks.abort();
+                return Err(e);
+            }
+        }
+        self.sinks.finish()
+    }
+
+    /// After an error: close every output as a valid `.partial` file; returns their paths.
+    pub fn abort(self) -> Vec<PathBuf> {
+        self.sinks.abort()
+    }
+}
+
+type FrameStream = Pin<Box<dyn futures::Stream<Item = Result<TaxelFrame, gradtac_stream::Error>> + Send>>;
+
+/// Open the sources of the sensors the plan runs: a stream per sensor plus progress handles.
+fn open_sources(scene: &Scene, plan: &Plan) -> Result<(Vec<FrameStream>, Vec<CsvProgress>), Error> {
+    let mut streams: Vec<FrameStream> = Vec::new();
+    let mut progress = Vec::new();
+    for p in plan.sensors.iter().filter(|p| p.deepest.is_some()) {
+        match &scene.sensors[p.index].source {
+            SourceSpec::Csv(cfg) => {
+                let mut cfg = cfg.clone();
+                cfg.path = scene.resolve(&cfg.path);
+                let frames = CsvFrames::open(&cfg, SensorId::new(&p.name))?;
+                if frames.taxel_count() != p.layout.len() {
+                    return Err(Error::Scene {
+                        path: cfg.path.clone(),
+                        reason: format!(
+                            "sensor {}: the source selects {} columns but layout {} has {} taxels",
+                            p.name,
+                            frames.taxel_count(),
+                            p.layout.name(),
+                            p.layout.len()
+                        ),
+                    });
+                }
+                progress.push(frames.progress());
+                let it = frames.map(|r| r.map_err(gradtac_stream::Error::from));
+                streams.push(Box::pin(gradtac_io::blocking_stream(it, 1024)));
+            }
+        }
+    }
+    Ok((streams, progress))
+}
+
+/// Run a scene on a tokio runtime (see the [module docs](self)).
+pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunReport, Error> {
+    let start = Instant::now();
+    let (streams, progress) = open_sources(scene, plan)?;
+    let mut runner = Runner::new(scene, plan)?;
+    let bar = opts.progress.then(|| {
+        let total: u64 = progress.iter().filter_map(CsvProgress::total_bytes).sum();
+        let bar = indicatif::ProgressBar::new(total);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {wide_bar} {bytes}/{total_bytes} {msg}",
+            )
+            .expect("valid template"),
+        );
+        bar
+    });
+    let mut merged = merge_streams(streams, 256);
+    let ctrl_c = tokio::signal::ctrl_c();
+    tokio::pin!(ctrl_c);
+    let mut interrupted = false;
+    let mut n: u64 = 0;
+    loop {
+        let item = tokio::select! {
+            biased;
+            _ = &mut ctrl_c => { interrupted = true; break; }
+            item = merged.next() => item,
+        };
+        let pushed = match item {
+            Some(Ok(frame)) => runner.push(frame),
+            Some(Err(e)) => Err(Error::from_pipeline(e)),
+            None => break,
+        };
+        if let Err(e) = pushed {
+            if let Some(b) = &bar {
+                b.abandon_with_message("failed");
+            }
+            let partial = runner.abort();
+            tracing::warn!(?partial, "run failed; outputs left under their temporary names");
+            return Err(e);
+        }
+        n += 1;
+        if let Some(b) = bar.as_ref().filter(|_| n % 4096 == 0) {
+            b.set_position(progress.iter().map(CsvProgress::bytes_read).sum());
+        }
+    }
+    if let Some(b) = &bar {
+        b.set_position(progress.iter().map(CsvProgress::bytes_read).sum());
+        b.finish_and_clear();
+    }
+    let frames = runner.frames_in();
+    let outputs = runner.finish()?;
+    Ok(RunReport { frames, outputs, seconds: start.elapsed().as_secs_f64(), interrupted })
+}
+
+/// [`run`] on a fresh tokio runtime, for synchronous callers (the CLI).
+pub fn run_blocking(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunReport, Error> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .map_err(|source| Error::Io { path: PathBuf::from("<tokio runtime>"), source })?;
+    rt.block_on(run(scene, plan, opts))
+}

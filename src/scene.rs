@@ -21,7 +21,14 @@
 //! Every table rejects unknown keys, so a misspelt setting is an error, not a silent default.
 
 use crate::Error;
+use gradtac_io::CsvSourceConfig;
+use gradtac_stages::contour::ContourConfig;
+use gradtac_stages::events::EventsConfig;
+use gradtac_stages::interpolate::InterpolateConfig;
 use gradtac_stages::normalise::NormaliseConfig;
+use gradtac_stages::savgol::SavGolConfig;
+use gradtac_stages::track::TrackConfig;
+use gradtac_stages::window::WindowConfig;
 use gradtac_stream::Layout;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -64,35 +71,90 @@ fn default_layout() -> String {
     "biotac-sp".into()
 }
 
-/// A sensor's source. Exactly one kind key (`csv`, …) names the file.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SourceSpec {
+/// A sensor's source: a table whose kind key (`csv = "…"`) names the file; the other keys are
+/// that kind's settings ([`CsvSourceConfig`]).
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+#[non_exhaustive]
+pub enum SourceSpec {
     /// A CSV file.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub csv: Option<PathBuf>,
-    /// Columns: a comma-separated list of header names, or a pattern with `{a..b}` ranges and
-    /// `*` globs (`ff_e{1..24}`). Default: every column except the time column.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub columns: Option<String>,
-    /// Fixed sample rate (Hz) when the file has no time column: frame k is at k/rate s.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub rate_hz: Option<f64>,
-    /// Name of a time column.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub time_column: Option<String>,
-    /// Unit of the time column: `"s"` (default) or `"ns"`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub time_unit: Option<String>,
+    Csv(CsvSourceConfig),
 }
 
-/// Stage settings; a missing table means the stage's defaults.
+/// Source kinds, by their key.
+pub const SOURCE_KINDS: &[&str] = &["csv"];
+
+impl<'de> Deserialize<'de> for SourceSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let table = toml::Table::deserialize(d)?;
+        if table.contains_key("csv") {
+            return CsvSourceConfig::deserialize(toml::Value::Table(table))
+                .map(SourceSpec::Csv)
+                .map_err(D::Error::custom);
+        }
+        Err(D::Error::custom(format!(
+            "a source names its kind with one of the keys {}: e.g. source = {{ csv = \"recording.csv\", ... }}",
+            SOURCE_KINDS.join(", ")
+        )))
+    }
+}
+
+impl SourceSpec {
+    /// The source's fixed sample rate (Hz), when it has one.
+    pub fn rate_hz(&self) -> Option<f64> {
+        match self {
+            SourceSpec::Csv(c) => c.rate_hz,
+        }
+    }
+
+    /// The file the source reads.
+    pub fn path(&self) -> &Path {
+        match self {
+            SourceSpec::Csv(c) => &c.path,
+        }
+    }
+
+    /// The kind's key (`csv`).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            SourceSpec::Csv(_) => "csv",
+        }
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        match self {
+            SourceSpec::Csv(c) => c.validate().map_err(|e| e.to_string()),
+        }
+    }
+}
+
+/// Stage settings, one table per stage (`[stages.<tap>]`); a missing table means the stage's
+/// defaults. Each table is the stage's own configuration struct, documented with the stage.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StageSettings {
-    /// Min–max normalisation.
+    /// Min–max normalisation ([`NormaliseConfig`]).
     #[serde(default)]
     pub normalise: NormaliseConfig,
+    /// Savitzky–Golay smoothing / derivatives ([`SavGolConfig`]).
+    #[serde(default)]
+    pub savgol: SavGolConfig,
+    /// Log-change events ([`EventsConfig`]).
+    #[serde(default)]
+    pub events: EventsConfig,
+    /// Event windows ([`WindowConfig`]).
+    #[serde(default)]
+    pub window: WindowConfig,
+    /// Interpolated surfaces ([`InterpolateConfig`]).
+    #[serde(default)]
+    pub surface: InterpolateConfig,
+    /// Maximal contours ([`ContourConfig`]).
+    #[serde(default)]
+    pub contour: ContourConfig,
+    /// Contact tracks ([`TrackConfig`]).
+    #[serde(default)]
+    pub track: TrackConfig,
 }
 
 /// One output: a tap on a stage, written to a file.
@@ -114,10 +176,8 @@ pub struct OutputSpec {
 impl Scene {
     /// Parse a scene from TOML text; relative paths will resolve against `base_dir`.
     pub fn from_toml(text: &str, base_dir: impl Into<PathBuf>, origin: &Path) -> Result<Self, Error> {
-        let mut scene: Scene = toml::from_str(text).map_err(|e| Error::Scene {
-            path: origin.to_path_buf(),
-            reason: e.to_string().trim_end().to_string(),
-        })?;
+        let mut scene: Scene = toml::from_str(text)
+            .map_err(|e| Error::Scene { path: origin.to_path_buf(), reason: e.to_string().trim_end().to_string() })?;
         scene.base_dir = base_dir.into();
         scene.text = text.to_string();
         scene.validate(origin)?;
@@ -187,29 +247,6 @@ impl Scene {
     }
 }
 
-impl SourceSpec {
-    fn validate(&self) -> Result<(), String> {
-        if self.csv.is_none() {
-            return Err("name a file: csv = \"…\"".into());
-        }
-        match (self.rate_hz, &self.time_column) {
-            (Some(_), Some(_)) => return Err("give rate_hz or time_column, not both".into()),
-            (None, None) => return Err("give rate_hz (Hz) or time_column".into()),
-            (Some(r), None) if !(r.is_finite() && r > 0.0) => return Err(format!("rate_hz must be > 0, got {r}")),
-            _ => {}
-        }
-        if let Some(u) = &self.time_unit {
-            if self.time_column.is_none() {
-                return Err("time_unit without time_column".into());
-            }
-            if u != "s" && u != "ns" {
-                return Err(format!("time_unit must be \"s\" or \"ns\", got {u:?}"));
-            }
-        }
-        Ok(())
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -243,8 +280,11 @@ path = "out/normalised.parquet"
         assert!(err(&ISSUE_EXAMPLE.replace("calibrate_frames", "calibrate_frame")).contains("unknown field"));
         assert!(err(&ISSUE_EXAMPLE.replace("tap = \"normalise\"", "tap = \"normalize\"")).contains("known taps"));
         assert!(err(&ISSUE_EXAMPLE.replace(", rate_hz = 100.0", "")).contains("rate_hz"));
-        assert!(err(&ISSUE_EXAMPLE.replace("path = \"out/normalised.parquet\"", "path = \"o.parquet\"\nsensors = [\"th\"]"))
-            .contains("\"th\""));
+        assert!(err(&ISSUE_EXAMPLE.replace("csv = ", "cvs = ")).contains("kind"));
+        assert!(err(
+            &ISSUE_EXAMPLE.replace("path = \"out/normalised.parquet\"", "path = \"o.parquet\"\nsensors = [\"th\"]")
+        )
+        .contains("\"th\""));
         assert!(err("").contains("no [[sensor]]"));
     }
 }

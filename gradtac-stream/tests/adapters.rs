@@ -131,3 +131,15 @@ async fn runs_on_tokio() {
     let v: Vec<_> = s.collect().await;
     assert_eq!(v, vec![Ok(5)]);
 }
+
+#[test]
+fn items_before_a_source_error_are_not_lost() {
+    let ok = |t| Ok::<_, String>(TaxelFrame::new(SensorId::new("a"), Timestamp(t), 0, vec![]));
+    let src = vec![ok(1), ok(2), ok(3), Err("line 5".to_string())];
+    let via_iter: Vec<_> = merge_iter(vec![src.clone().into_iter()], 16).collect();
+    let via_stream: Vec<_> =
+        futures::executor::block_on(merge_streams(vec![stream::iter(src)], 16).collect::<Vec<_>>());
+    assert_eq!(via_iter, via_stream);
+    assert_eq!(via_iter.len(), 4);
+    assert_eq!(via_iter[3], Err("line 5".to_string()));
+}

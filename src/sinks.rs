@@ -1,0 +1,188 @@
+//! The outputs of a run: one Parquet sink per scene output, typed by the stage it taps.
+
+use crate::plan::{Plan, Tap};
+use crate::scene::Scene;
+use crate::Error;
+use gradtac_io::records::SurfaceShape;
+use gradtac_io::{ArrowRecord, FrameShape, ParquetSink};
+use gradtac_stages::contour::ContourFrame;
+use gradtac_stages::interpolate::{Grid, Surface};
+use gradtac_stages::track::TrackPoint;
+use gradtac_stages::window::WindowAggregate;
+use gradtac_stages::EventBatch;
+use gradtac_stream::{Layout, TaxelFrame};
+use std::path::PathBuf;
+
+/// A sink of one output; one variant per output type (schemas in `docs/schemas.md`).
+pub enum OutputSink {
+    /// Frames (`source`, `normalise`, `savgol` taps), `frame/1`.
+    Frames(ParquetSink<TaxelFrame>),
+    /// Events, one row per event, `event/1`.
+    Events(ParquetSink<EventBatch>),
+    /// Window aggregates, `window/1`.
+    Windows(ParquetSink<WindowAggregate>),
+    /// Surfaces, `surface/1`.
+    Surfaces(ParquetSink<Surface>),
+    /// Maximal contours, `contour/1`.
+    Contours(ParquetSink<ContourFrame>),
+    /// Track points, `track/1`.
+    Tracks(ParquetSink<TrackPoint>),
+}
+
+/// An output type the runner can write: finds its own sink among the variants.
+pub trait Record: ArrowRecord {
+    /// The typed sink, when `s` writes this type.
+    fn sink(s: &mut OutputSink) -> Option<&mut ParquetSink<Self>>;
+}
+
+macro_rules! record {
+    ($t:ty, $variant:ident) => {
+        impl Record for $t {
+            fn sink(s: &mut OutputSink) -> Option<&mut ParquetSink<Self>> {
+                match s {
+                    OutputSink::$variant(s) => Some(s),
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+record!(TaxelFrame, Frames);
+record!(EventBatch, Events);
+record!(WindowAggregate, Windows);
+record!(Surface, Surfaces);
+record!(ContourFrame, Contours);
+record!(TrackPoint, Tracks);
+
+macro_rules! each_sink {
+    ($s:expr, $v:ident => $e:expr) => {
+        match $s {
+            OutputSink::Frames($v) => $e,
+            OutputSink::Events($v) => $e,
+            OutputSink::Windows($v) => $e,
+            OutputSink::Surfaces($v) => $e,
+            OutputSink::Contours($v) => $e,
+            OutputSink::Tracks($v) => $e,
+        }
+    };
+}
+
+impl OutputSink {
+    fn rows(&self) -> u64 {
+        each_sink!(self, s => s.rows())
+    }
+    fn finish(self) -> Result<PathBuf, Error> {
+        each_sink!(self, s => Ok(s.finish()?))
+    }
+    fn abort(self) -> Result<PathBuf, Error> {
+        each_sink!(self, s => Ok(s.abort()?))
+    }
+    fn set_metadata(&mut self, k: String, v: String) {
+        each_sink!(self, s => s.set_metadata(k, v))
+    }
+}
+
+/// Every output of a run, open as `<path>.partial` until [`Sinks::finish`].
+pub struct Sinks {
+    sinks: Vec<Option<OutputSink>>,
+}
+
+impl Sinks {
+    /// Open every output of the scene. Outputs shared by several sensors need layouts of one size.
+    pub fn open(scene: &Scene, plan: &Plan) -> Result<Sinks, Error> {
+        let mut sinks = Vec::new();
+        for (i, o) in scene.outputs.iter().enumerate() {
+            let tap = Tap::parse(&o.tap).expect("validated by Scene");
+            let users: Vec<&Layout> =
+                plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| &p.layout).collect();
+            let bad = |reason: String| Error::Scene { path: scene.base_dir.clone(), reason };
+            let Some(&layout) = users.first() else {
+                return Err(bad(format!("output #{} covers no sensor", i + 1)));
+            };
+            if let Some(other) = users.iter().find(|l| l.len() != layout.len()) {
+                return Err(bad(format!(
+                    "output #{} mixes layouts of {} and {} taxels; give each its own output (sensors = [...])",
+                    i + 1,
+                    layout.len(),
+                    other.len()
+                )));
+            }
+            let path = scene.resolve(&o.path);
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+            }
+            let rg = o.row_group_size;
+            let taxels = FrameShape::from_layout(layout);
+            let mut sink = match tap {
+                Tap::Source | Tap::Normalise | Tap::Savgol => {
+                    OutputSink::Frames(configure(ParquetSink::try_new(&path, taxels)?, rg)?)
+                }
+                Tap::Events => OutputSink::Events(configure(ParquetSink::try_new(&path, taxels)?, rg)?),
+                Tap::Window => OutputSink::Windows(configure(ParquetSink::try_new(&path, taxels)?, rg)?),
+                Tap::Surface => {
+                    let grids = users
+                        .iter()
+                        .map(|l| Grid::from_config(&scene.stages.surface.grid, l))
+                        .collect::<Result<Vec<_>, _>>()?;
+                    if grids.iter().any(|g| g != &grids[0]) {
+                        return Err(bad(format!(
+                            "output #{}: the sensors' layouts give different surface grids; give each its own output",
+                            i + 1
+                        )));
+                    }
+                    let shape = SurfaceShape::new(grids[0].clone());
+                    OutputSink::Surfaces(configure(ParquetSink::try_new(&path, shape)?, rg)?)
+                }
+                Tap::Contour => OutputSink::Contours(configure(ParquetSink::try_new(&path, ())?, rg)?),
+                Tap::Track => OutputSink::Tracks(configure(ParquetSink::try_new(&path, ())?, rg)?),
+            };
+            sink.set_metadata("gradtac.scene".into(), scene.text.clone());
+            sink.set_metadata("gradtac.tap".into(), tap.name().into());
+            sink.set_metadata("gradtac.layout".into(), layout.to_csv());
+            for p in plan.sensors.iter().filter(|p| p.outputs.contains(&i)) {
+                sink.set_metadata(format!("gradtac.layout.{}", p.name), p.layout.to_csv());
+            }
+            sinks.push(Some(sink));
+        }
+        Ok(Sinks { sinks })
+    }
+
+    /// Write `records` to each output in `outputs` (indices into the scene's outputs).
+    pub fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
+        for &o in outputs {
+            let sink = self.sinks[o].as_mut().and_then(T::sink).expect("the planner opened a sink of the tap's type");
+            for r in records {
+                sink.push(r)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Close and rename every output; returns (final path, rows) per output.
+    pub fn finish(mut self) -> Result<Vec<(PathBuf, u64)>, Error> {
+        let mut done = Vec::new();
+        let mut first_err = None;
+        for s in self.sinks.iter_mut().filter_map(Option::take) {
+            let rows = s.rows();
+            match s.finish() {
+                Ok(p) => done.push((p, rows)),
+                Err(e) => {
+                    first_err.get_or_insert(e);
+                }
+            }
+        }
+        first_err.map_or(Ok(done), Err)
+    }
+
+    /// Close every output as a valid file under its `.partial` name; returns those paths.
+    pub fn abort(mut self) -> Vec<PathBuf> {
+        self.sinks.iter_mut().filter_map(Option::take).filter_map(|s| s.abort().ok()).collect()
+    }
+}
+
+fn configure<T: ArrowRecord>(s: ParquetSink<T>, row_group_size: Option<usize>) -> Result<ParquetSink<T>, Error> {
+    Ok(match row_group_size {
+        Some(n) => s.with_row_group_size(n)?,
+        None => s,
+    })
+}

@@ -1,0 +1,205 @@
+//! End-to-end tests of the `gradtac` binary: scenes over CSV recordings to Parquet.
+
+use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, StringArray, UInt64Array};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn gradtac() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_gradtac"))
+}
+
+fn dos_dir() -> Option<PathBuf> {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/biotacsp-dos");
+    d.is_dir().then_some(d)
+}
+
+/// Rows of a parquet frame file: (sensor, time_ns, seq, values).
+fn read_frames(path: &Path) -> Vec<(String, i64, u64, Vec<f64>)> {
+    let file = fs::File::open(path).unwrap();
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap();
+    let mut rows = Vec::new();
+    for batch in reader {
+        let b = batch.unwrap();
+        let sensor = b.column_by_name("sensor").unwrap().as_any().downcast_ref::<StringArray>().unwrap().clone();
+        let time = b.column_by_name("time_ns").unwrap().as_any().downcast_ref::<Int64Array>().unwrap().clone();
+        let seq = b.column_by_name("seq").unwrap().as_any().downcast_ref::<UInt64Array>().unwrap().clone();
+        let vals = b.column_by_name("values").unwrap().as_any().downcast_ref::<FixedSizeListArray>().unwrap().clone();
+        for i in 0..b.num_rows() {
+            let v = vals.value(i);
+            let v = v.as_any().downcast_ref::<Float64Array>().unwrap();
+            rows.push((sensor.value(i).to_string(), time.value(i), seq.value(i), v.values().to_vec()));
+        }
+    }
+    rows
+}
+
+/// The CSV's numbers, parsed here with nothing but `str::split` and `parse`.
+fn read_csv_numbers(path: &Path) -> Vec<Vec<f64>> {
+    fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.split(',').map(|c| c.trim().parse::<f64>().unwrap()).collect())
+        .collect()
+}
+
+/// min–max normalisation with bounds from the first `n` rows, span floored at 1 count,
+/// written out independently of the library.
+fn expected_normalised(rows: &[Vec<f64>], n: usize) -> Vec<Vec<f64>> {
+    let taxels = rows[0].len();
+    let lo: Vec<f64> = (0..taxels).map(|j| rows[..n].iter().map(|r| r[j]).fold(f64::INFINITY, f64::min)).collect();
+    let hi: Vec<f64> = (0..taxels).map(|j| rows[..n].iter().map(|r| r[j]).fold(f64::NEG_INFINITY, f64::max)).collect();
+    rows.iter().map(|r| (0..taxels).map(|j| (r[j] - lo[j]) / (hi[j] - lo[j]).max(1.0)).collect()).collect()
+}
+
+fn scene(dir: &Path, csv: &Path, extra_outputs: &str) -> PathBuf {
+    let text = format!(
+        r#"
+[[sensor]]
+name = "ff"
+layout = "biotac-sp"
+source = {{ csv = "{}", columns = "ff_e{{1..24}}", rate_hz = 100.0 }}
+
+[stages.normalise]
+calibrate_frames = 20
+
+[[output]]
+tap = "normalise"
+path = "out/normalised.parquet"
+row_group_size = 100
+{extra_outputs}
+"#,
+        csv.display()
+    );
+    let p = dir.join("scene.toml");
+    fs::write(&p, text).unwrap();
+    p
+}
+
+fn synthetic_csv(path: &Path, rows: usize) {
+    let mut s: String = (1..=24).map(|i| format!("ff_e{i}")).collect::<Vec<_>>().join(",");
+    s.push('\n');
+    for k in 0..rows {
+        let row: Vec<String> = (0..24).map(|j| format!("{}", 2000 + ((k * 37 + j * 101) % 997))).collect();
+        s.push_str(&row.join(","));
+        s.push('\n');
+    }
+    fs::write(path, s).unwrap();
+}
+
+fn check_normalised_run(csv: &Path) {
+    let dir = tempfile::tempdir().unwrap();
+    let sc = scene(dir.path(), csv, "");
+    let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
+    assert!(out.status.success(), "stderr: {}", String::from_utf8_lossy(&out.stderr));
+    let rows = read_frames(&dir.path().join("out/normalised.parquet"));
+    let input = read_csv_numbers(csv);
+    let expected = expected_normalised(&input, 20);
+    assert_eq!(rows.len(), input.len(), "every input frame is present");
+    for (k, (sensor, t, seq, values)) in rows.iter().enumerate() {
+        assert_eq!(sensor, "ff");
+        assert_eq!(*seq, k as u64);
+        assert_eq!(*t, (k as i64) * 10_000_000, "100 Hz");
+        assert_eq!(values, &expected[k], "frame {k} of {}", csv.display());
+    }
+    assert!(!dir.path().join("out/normalised.parquet.partial").exists());
+}
+
+#[test]
+fn run_normalises_a_synthetic_recording_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rec.csv");
+    synthetic_csv(&csv, 333);
+    check_normalised_run(&csv);
+}
+
+#[test]
+fn run_normalises_every_biotacsp_dos_class_exactly() {
+    let Some(dos) = dos_dir() else {
+        eprintln!("skipped: ../shared/data/biotacsp-dos is not present");
+        return;
+    };
+    // one recording of each class
+    for class in ["n", "e", "s", "w", "cw", "aw", "t"] {
+        let mut files: Vec<_> = fs::read_dir(dos.join(class)).unwrap().map(|e| e.unwrap().path()).collect();
+        files.sort();
+        check_normalised_run(&files[0]);
+    }
+}
+
+#[test]
+fn a_bad_cell_fails_naming_file_and_line_and_leaves_no_final_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("broken.csv");
+    synthetic_csv(&csv, 100);
+    // line 1 is the header, so line 57 is data row 56
+    let mut lines: Vec<String> = fs::read_to_string(&csv).unwrap().lines().map(String::from).collect();
+    lines[56] = lines[56].replacen("20", "2x0", 1);
+    fs::write(&csv, lines.join("\n") + "\n").unwrap();
+    let sc = scene(dir.path(), &csv, "[[output]]\ntap = \"source\"\npath = \"out/raw.parquet\"\n");
+    let out = gradtac().arg("run").arg(&sc).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("broken.csv:57"), "stderr: {stderr}");
+    for name in ["normalised.parquet", "raw.parquet"] {
+        assert!(!dir.path().join("out").join(name).exists(), "{name} must not appear under its final name");
+    }
+    // what was read before the error is kept, valid, under the temporary name
+    let raw = read_frames(&dir.path().join("out/raw.parquet.partial"));
+    assert_eq!(raw.len(), 55, "rows before the bad line");
+}
+
+#[test]
+fn explain_lists_only_what_outputs_need() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rec.csv");
+    synthetic_csv(&csv, 10);
+    let sc = scene(dir.path(), &csv, "");
+    let out = gradtac().arg("explain").arg(&sc).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let running: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("  ") && !l.starts_with("  #"))
+        .map(|l| l.split_whitespace().next().unwrap())
+        .collect();
+    let later = gradtac::Tap::ALL.into_iter().filter(|t| *t > gradtac::Tap::Normalise);
+    for t in later {
+        assert!(!running.contains(&t.name()), "{} must not be built:\n{text}", t.name());
+    }
+    assert!(running.contains(&"normalise"), "{text}");
+    // a second sensor no output uses is not read
+    let two = fs::read_to_string(&sc).unwrap().replace(
+        "[stages.normalise]",
+        &format!("[[sensor]]\nname = \"th\"\nsource = {{ csv = \"{}\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\n[stages.normalise]", csv.display()),
+    ) + "sensors = [\"ff\"]\n";
+    fs::write(&sc, two).unwrap();
+    let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
+    assert!(text.contains("sensor th") && text.contains("not read: no output uses this sensor"), "{text}");
+}
+
+#[test]
+fn demo_runs_without_arguments_and_says_where() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = gradtac().args(["demo", "--quiet", "--dir"]).arg(dir.path()).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains(&format!("demo directory: {}", dir.path().display())), "{text}");
+    let rows = read_frames(&dir.path().join("out/normalised.parquet"));
+    assert_eq!(rows.len(), 600);
+}
+
+#[test]
+fn scene_errors_are_reported_not_panicked() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("bad.toml");
+    fs::write(&p, "[[sensor]]\nname = \"ff\"\nsource = { csv = \"nope.csv\", rate_hz = 100.0, columns = \"a\" }\n[[output]]\ntap = \"normalise\"\npath = \"o.parquet\"\n").unwrap();
+    let out = gradtac().arg("run").arg(&p).output().unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("nope.csv"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
