@@ -12,12 +12,14 @@
 //! outputs are finished (renamed): they hold everything read so far.
 
 use crate::chain::SensorChain;
-use crate::plan::Plan;
+use crate::plan::{Plan, SensorPlan};
 use crate::scene::{Scene, SourceSpec};
 use crate::sinks::Sinks;
 use crate::Error;
 use futures::StreamExt;
-use gradtac_io::{CsvFrames, CsvProgress};
+use gradtac_io::arrow_ipc::ArrowIpcConfig;
+use gradtac_io::npy::{NpyFrames, NpySourceConfig};
+use gradtac_io::{CsvFrames, CsvProgress, CsvSourceConfig};
 use gradtac_stream::{merge_streams, SensorId, TaxelFrame};
 use std::fmt;
 use std::path::PathBuf;
@@ -124,34 +126,61 @@ impl Runner {
 }
 
 type FrameStream = Pin<Box<dyn futures::Stream<Item = Result<TaxelFrame, gradtac_stream::Error>> + Send>>;
+type FrameIter = Box<dyn Iterator<Item = Result<TaxelFrame, gradtac_stream::Error>> + Send>;
+
+/// Open one sensor's source as an iterator; returns it with its taxel count (when known
+/// before reading) and, for CSV, a progress handle.
+fn open_source(scene: &Scene, p: &SensorPlan) -> Result<(FrameIter, Option<usize>, Option<CsvProgress>), Error> {
+    let sensor = SensorId::new(&p.name);
+    let err = |e: gradtac_io::Error| gradtac_stream::Error::from(e);
+    Ok(match &scene.sensors[p.index].source {
+        SourceSpec::Csv(cfg) => {
+            let cfg = CsvSourceConfig { path: scene.resolve(&cfg.path), ..cfg.clone() };
+            let frames = CsvFrames::open(&cfg, sensor)?;
+            let (n, progress) = (frames.taxel_count(), frames.progress());
+            (Box::new(frames.map(move |r| r.map_err(err))), Some(n), Some(progress))
+        }
+        SourceSpec::Npy(cfg) => {
+            let cfg = NpySourceConfig {
+                path: scene.resolve(&cfg.path),
+                timestamps: cfg.timestamps.as_ref().map(|t| scene.resolve(t)),
+                ..cfg.clone()
+            };
+            let frames = NpyFrames::open(&cfg, sensor)?;
+            let n = frames.taxel_count();
+            (Box::new(frames.map(move |r| r.map_err(err))), Some(n), None)
+        }
+        SourceSpec::Arrow(cfg) => {
+            let mut cfg = ArrowIpcConfig { path: scene.resolve(&cfg.path), ..cfg.clone() };
+            if cfg.columns.is_none() && cfg.sensors.is_none() {
+                cfg.sensors = Some(vec![p.name.clone()]);
+            }
+            let frames = gradtac_io::arrow_ipc::open(&cfg, sensor)?;
+            let n = frames.taxel_count();
+            (Box::new(frames.map(move |r| r.map_err(err))), n, None)
+        }
+    })
+}
 
 /// Open the sources of the sensors the plan runs: a stream per sensor plus progress handles.
 fn open_sources(scene: &Scene, plan: &Plan) -> Result<(Vec<FrameStream>, Vec<CsvProgress>), Error> {
     let mut streams: Vec<FrameStream> = Vec::new();
     let mut progress = Vec::new();
     for p in plan.sensors.iter().filter(|p| p.deepest.is_some()) {
-        match &scene.sensors[p.index].source {
-            SourceSpec::Csv(cfg) => {
-                let mut cfg = cfg.clone();
-                cfg.path = scene.resolve(&cfg.path);
-                let frames = CsvFrames::open(&cfg, SensorId::new(&p.name))?;
-                if frames.taxel_count() != p.layout.len() {
-                    return Err(Error::Scene {
-                        path: cfg.path.clone(),
-                        reason: format!(
-                            "sensor {}: the source selects {} columns but layout {} has {} taxels",
-                            p.name,
-                            frames.taxel_count(),
-                            p.layout.name(),
-                            p.layout.len()
-                        ),
-                    });
-                }
-                progress.push(frames.progress());
-                let it = frames.map(|r| r.map_err(gradtac_stream::Error::from));
-                streams.push(Box::pin(gradtac_io::blocking_stream(it, 1024)));
-            }
+        let (it, taxels, prog) = open_source(scene, p)?;
+        if let Some(n) = taxels.filter(|&n| n != p.layout.len()) {
+            return Err(Error::Scene {
+                path: scene.resolve(scene.sensors[p.index].source.path()),
+                reason: format!(
+                    "sensor {}: the source has {n} taxel columns but layout {} has {} taxels",
+                    p.name,
+                    p.layout.name(),
+                    p.layout.len()
+                ),
+            });
         }
+        progress.extend(prog);
+        streams.push(Box::pin(gradtac_io::blocking_stream(it, 1024)));
     }
     Ok((streams, progress))
 }

@@ -21,6 +21,8 @@
 //! Every table rejects unknown keys, so a misspelt setting is an error, not a silent default.
 
 use crate::Error;
+use gradtac_io::arrow_ipc::ArrowIpcConfig;
+use gradtac_io::npy::NpySourceConfig;
 use gradtac_io::CsvSourceConfig;
 use gradtac_stages::contour::ContourConfig;
 use gradtac_stages::events::EventsConfig;
@@ -71,27 +73,42 @@ fn default_layout() -> String {
     "biotac-sp".into()
 }
 
-/// A sensor's source: a table whose kind key (`csv = "…"`) names the file; the other keys are
-/// that kind's settings ([`CsvSourceConfig`]).
+/// A sensor's source: a table whose kind key (`csv = "…"`, `npy = "…"`, `arrow = "…"`) names
+/// the file; the other keys are that kind's settings ([`CsvSourceConfig`],
+/// [`NpySourceConfig`], [`ArrowIpcConfig`]).
+///
+/// An Arrow IPC file in the long layout (`sensor`/`time_ns`/`seq`/`values`) may hold several
+/// sensors; without an explicit `sensors = [...]` filter the scene keeps the rows whose
+/// `sensor` equals the scene sensor's name.
 #[derive(Clone, Debug, Serialize)]
 #[serde(untagged)]
 #[non_exhaustive]
 pub enum SourceSpec {
     /// A CSV file.
     Csv(CsvSourceConfig),
+    /// A NumPy `.npy` file (frames × taxels).
+    Npy(NpySourceConfig),
+    /// An Arrow IPC file or stream.
+    Arrow(ArrowIpcConfig),
 }
 
 /// Source kinds, by their key.
-pub const SOURCE_KINDS: &[&str] = &["csv"];
+pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow"];
 
 impl<'de> Deserialize<'de> for SourceSpec {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         use serde::de::Error as _;
         let table = toml::Table::deserialize(d)?;
-        if table.contains_key("csv") {
-            return CsvSourceConfig::deserialize(toml::Value::Table(table))
-                .map(SourceSpec::Csv)
-                .map_err(D::Error::custom);
+        let kinds: Vec<&str> = SOURCE_KINDS.iter().copied().filter(|k| table.contains_key(*k)).collect();
+        if kinds.len() > 1 {
+            return Err(D::Error::custom(format!("a source has one kind; this one names {}", kinds.join(" and "))));
+        }
+        let v = toml::Value::Table(table);
+        match kinds.first().copied() {
+            Some("csv") => return CsvSourceConfig::deserialize(v).map(SourceSpec::Csv).map_err(D::Error::custom),
+            Some("npy") => return NpySourceConfig::deserialize(v).map(SourceSpec::Npy).map_err(D::Error::custom),
+            Some("arrow") => return ArrowIpcConfig::deserialize(v).map(SourceSpec::Arrow).map_err(D::Error::custom),
+            _ => {}
         }
         Err(D::Error::custom(format!(
             "a source names its kind with one of the keys {}: e.g. source = {{ csv = \"recording.csv\", ... }}",
@@ -105,6 +122,8 @@ impl SourceSpec {
     pub fn rate_hz(&self) -> Option<f64> {
         match self {
             SourceSpec::Csv(c) => c.rate_hz,
+            SourceSpec::Npy(c) => c.rate_hz,
+            SourceSpec::Arrow(c) => c.rate_hz,
         }
     }
 
@@ -112,19 +131,29 @@ impl SourceSpec {
     pub fn path(&self) -> &Path {
         match self {
             SourceSpec::Csv(c) => &c.path,
+            SourceSpec::Npy(c) => &c.path,
+            SourceSpec::Arrow(c) => &c.path,
         }
     }
 
-    /// The kind's key (`csv`).
+    /// The kind's key (`csv`, `npy`, `arrow`).
     pub fn kind(&self) -> &'static str {
         match self {
             SourceSpec::Csv(_) => "csv",
+            SourceSpec::Npy(_) => "npy",
+            SourceSpec::Arrow(_) => "arrow",
         }
     }
 
     fn validate(&self) -> Result<(), String> {
         match self {
             SourceSpec::Csv(c) => c.validate().map_err(|e| e.to_string()),
+            SourceSpec::Npy(c) => match (c.rate_hz, &c.timestamps) {
+                (Some(_), Some(_)) => Err("give rate_hz or timestamps, not both".into()),
+                (None, None) => Err("give rate_hz (Hz) or timestamps (a 1-D .npy)".into()),
+                _ => Ok(()),
+            },
+            SourceSpec::Arrow(c) => c.layout(gradtac_stream::SensorId::new("_")).map(|_| ()).map_err(|e| e.to_string()),
         }
     }
 }

@@ -203,3 +203,109 @@ fn scene_errors_are_reported_not_panicked() {
     assert!(stderr.contains("nope.csv"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// A minimal `.npy` (v1.0, little-endian f64, C order) of `rows`.
+fn write_npy(path: &Path, rows: &[Vec<f64>]) {
+    let header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, {}), }}", rows.len(), rows[0].len());
+    let mut h = header.into_bytes();
+    while (10 + h.len() + 1) % 64 != 0 {
+        h.push(b' ');
+    }
+    h.push(b'\n');
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend((h.len() as u16).to_le_bytes());
+    bytes.extend(h);
+    for r in rows {
+        for v in r {
+            bytes.extend(v.to_le_bytes());
+        }
+    }
+    fs::write(path, bytes).unwrap();
+}
+
+fn rows_for_test(n: usize) -> Vec<Vec<f64>> {
+    (0..n).map(|k| (0..24).map(|j| 1800.0 + ((k * 53 + j * 17) % 409) as f64).collect()).collect()
+}
+
+fn run_source_scene(dir: &Path, source: &str) -> Vec<(String, i64, u64, Vec<f64>)> {
+    let text = format!(
+        "[[sensor]]\nname = \"ff\"\nsource = {source}\n[[output]]\ntap = \"source\"\npath = \"out/raw.parquet\"\n"
+    );
+    let sc = dir.join("scene.toml");
+    fs::write(&sc, text).unwrap();
+    let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
+    assert!(out.status.success(), "stderr: {}", String::from_utf8_lossy(&out.stderr));
+    read_frames(&dir.join("out/raw.parquet"))
+}
+
+#[test]
+fn npy_sources_run_in_scenes() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = rows_for_test(50);
+    write_npy(&dir.path().join("rec.npy"), &rows);
+    let got = run_source_scene(dir.path(), "{ npy = \"rec.npy\", rate_hz = 50.0 }");
+    assert_eq!(got.len(), 50);
+    for (k, (_, t, seq, v)) in got.iter().enumerate() {
+        assert_eq!((*seq, *t, v), (k as u64, k as i64 * 20_000_000, &rows[k]));
+    }
+}
+
+#[test]
+fn arrow_ipc_sources_run_in_scenes() {
+    use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch};
+    use arrow_schema::{DataType, Field, Schema};
+    use std::sync::Arc;
+    let dir = tempfile::tempdir().unwrap();
+    let rows = rows_for_test(30);
+    let mut fields = vec![Field::new("t", DataType::Int64, false)];
+    let mut cols: Vec<ArrayRef> = vec![Arc::new(Int64Array::from_iter_values((0..30).map(|k| k * 1_000_000)))];
+    for j in 0..24 {
+        fields.push(Field::new(format!("ff_e{}", j + 1), DataType::Float64, false));
+        cols.push(Arc::new(Float64Array::from_iter_values(rows.iter().map(|r| r[j]))));
+    }
+    let schema = Arc::new(Schema::new(fields));
+    let batch = RecordBatch::try_new(schema.clone(), cols).unwrap();
+    let f = fs::File::create(dir.path().join("rec.arrow")).unwrap();
+    let mut w = arrow_ipc::writer::FileWriter::try_new(f, &schema).unwrap();
+    w.write(&batch).unwrap();
+    w.finish().unwrap();
+    let got = run_source_scene(
+        dir.path(),
+        "{ arrow = \"rec.arrow\", columns = \"ff_e{1..24}\", time_column = \"t\", time_unit = \"ns\" }",
+    );
+    assert_eq!(got.len(), 30);
+    for (k, (_, t, _, v)) in got.iter().enumerate() {
+        assert_eq!((*t, v), (k as i64 * 1_000_000, &rows[k]));
+    }
+}
+
+#[test]
+fn every_stage_can_be_tapped_and_explain_counts_latency() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rec.csv");
+    synthetic_csv(&csv, 120);
+    let mut extra = String::new();
+    for tap in ["savgol", "events", "window", "surface", "contour", "track"] {
+        extra.push_str(&format!("[[output]]\ntap = \"{tap}\"\npath = \"out/{tap}.parquet\"\n"));
+    }
+    let sc = scene(dir.path(), &csv, &extra);
+    let text = fs::read_to_string(&sc).unwrap().replace(
+        "[stages.normalise]",
+        "[stages.surface]\ngrid = { nx = 16 }\n\n[stages.savgol]\nwindow = 7\npolyorder = 2\n\n[stages.normalise]",
+    );
+    fs::write(&sc, text).unwrap();
+    let out = gradtac().arg("explain").arg(&sc).output().unwrap();
+    let explain = String::from_utf8(out.stdout).unwrap();
+    assert!(explain.contains("latency: 3 frames"), "{explain}");
+    let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
+    assert!(out.status.success(), "stderr: {}", String::from_utf8_lossy(&out.stderr));
+    for tap in ["normalised", "savgol", "events", "window", "surface", "contour", "track"] {
+        let p = dir.path().join(format!("out/{tap}.parquet"));
+        let meta = ParquetRecordBatchReaderBuilder::try_new(fs::File::open(&p).unwrap()).unwrap();
+        let kv = meta.metadata().file_metadata().key_value_metadata().unwrap();
+        assert!(kv.iter().any(|k| k.key == "gradtac.scene"), "{tap}");
+        assert!(kv.iter().any(|k| k.key == "gradtac.schema"), "{tap}");
+    }
+    // one smoothed frame per input frame, one window aggregate per frame (sliding, step 1)
+    assert_eq!(read_frames(&dir.path().join("out/savgol.parquet")).len(), 120);
+}
