@@ -771,4 +771,24 @@ mod tests {
         assert!(timestamp(NpyDtype::I64, false, &i64::MAX.to_le_bytes(), TimeUnit::Seconds).is_err());
         assert!(timestamp(NpyDtype::F64, false, &f64::NAN.to_le_bytes(), TimeUnit::Seconds).is_err());
     }
+
+    proptest::proptest! {
+        /// Random bytes, and valid headers with one byte changed, never panic the header
+        /// reader; errors carry an offset inside the input.
+        #[test]
+        fn header_reader_never_panics(bytes in proptest::collection::vec(proptest::num::u8::ANY, 0..200),
+                                      at in 0usize..128, b in proptest::num::u8::ANY) {
+            let _ = read_header(&mut &bytes[..], Path::new("x.npy"));
+            let mut h = b"\x93NUMPY\x01\x00\x76\x00{'descr': '<f8', 'fortran_order': False, 'shape': (3, 24), }".to_vec();
+            while h.len() < 127 {
+                h.push(b' ');
+            }
+            h.push(b'\n');
+            proptest::prop_assert!(read_header(&mut &h[..], Path::new("x.npy")).is_ok());
+            h[at] = b;
+            if let Err(Error::Binary { offset, .. }) = read_header(&mut &h[..], Path::new("x.npy")) {
+                proptest::prop_assert!(offset <= 128);
+            }
+        }
+    }
 }

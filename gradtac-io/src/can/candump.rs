@@ -601,4 +601,17 @@ mod tests {
         let f = CanFrame::extended(0x1234567, &[9, 8, 7], Timestamp(1_700_000_001_000_002_000)).unwrap();
         assert_eq!(data(&f.to_candump_line("can0")), f);
     }
+
+    proptest::proptest! {
+        /// Arbitrary text, and mutations of valid lines, never panic the parser.
+        #[test]
+        fn parse_line_never_panics(s in "\\PC{0,60}", valid in 0usize..4, cut in 0usize..40, junk in "[#R_.()0-9A-Fa-z ]{0,6}") {
+            let _ = parse_line(&s);
+            let lines = ["(1700000000.123456) can0 123#DEADBEEF", "(1.5) vcan0 1ABCDEF0#0102 R",
+                         "(1.0) can1 123##1DEADBEEF", "(1.0) can0 20000004#0004000000000000"];
+            let l = lines[valid];
+            let cut = cut.min(l.len());
+            let _ = parse_line(&format!("{}{junk}{}", &l[..cut], &l[cut..]));
+        }
+    }
 }

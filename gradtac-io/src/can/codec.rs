@@ -898,4 +898,33 @@ mod tests {
         let e = toml::from_str::<CodecConfig>("[[sensors]]\nname='a'\ntaxels=1\nmessages=[]\nbogus=1").unwrap_err();
         assert!(e.to_string().contains("bogus"), "{e}");
     }
+
+    proptest::proptest! {
+        /// Any frame, against any valid message layout, decodes without panicking and yields
+        /// taxels inside the sensor.
+        #[test]
+        fn decode_never_panics(
+            start in 0u32..64, bits in 1u32..=32, count in 1u32..8, little in proptest::bool::ANY,
+            signed in proptest::bool::ANY, mux in proptest::option::of(0u8..8),
+            id in 0u32..0x800, data in proptest::collection::vec(proptest::num::u8::ANY, 0..=8),
+        ) {
+            let m = MessageSpec {
+                byte_order: if little { ByteOrder::Little } else { ByteOrder::Big },
+                signed,
+                mask: Some(0x7F0),
+                id_groups: Some(2),
+                mux: mux.map(|b| MuxSpec { byte: b, groups: 3, ignore: vec![200] }),
+                ..MessageSpec::new(0x100, start, bits, count)
+            };
+            let taxels = 2 * 3 * count;
+            if let Ok(c) = CanCodec::from_sensors(&[sensor(vec![m], taxels)]) {
+                let f = CanFrame::standard(id, &data, Timestamp(0)).unwrap();
+                let mut out = Vec::new();
+                let _ = c.decode(&f, &mut out);
+                for v in &out {
+                    proptest::prop_assert!(v.taxel < taxels);
+                }
+            }
+        }
+    }
 }

@@ -136,7 +136,9 @@ where
                     if let Some(p) = self.pace.as_mut() {
                         let (t0, i0) = *p.origin.get_or_insert((frame.time(), Instant::now()));
                         let dt = (frame.time() - t0).max(0) as f64 / p.speed;
-                        let due = i0 + Duration::from_nanos(dt.min(u64::MAX as f64) as u64);
+                        // a gap beyond what an Instant can hold is shortened to 30 days
+                        let gap = Duration::from_nanos(dt.min(u64::MAX as f64) as u64);
+                        let due = i0.checked_add(gap).unwrap_or_else(|| i0 + Duration::from_secs(30 * 86_400));
                         if due > Instant::now() {
                             self.sleep = Some(Box::pin(tokio::time::sleep_until(due)));
                             self.pending = Some(frame);
@@ -222,5 +224,79 @@ where
 
     fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<Self::Item>> {
         self.0.poll_decoded(cx)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::can::codec::{CanCodec, CodecConfig, IncompletePolicy, PresetConfig, PresetKind};
+    use crate::can::transport::frame_channel;
+    use futures::StreamExt;
+
+    fn decoder() -> CanDecoder {
+        let mut p = PresetConfig::new(PresetKind::BiotacMux, &["ff"]);
+        p.timeout_ms = 20.0;
+        p.incomplete = IncompletePolicy::Carry;
+        CanDecoder::new(CanCodec::try_new(&CodecConfig::preset(p)).unwrap())
+    }
+
+    fn mux_frame(m: u8, t: Timestamp) -> CanFrame {
+        CanFrame::standard(0x100, &[m, 0x40, 0x04, 0x00, 0x40, 0x04, 0x00, 0], t).unwrap()
+    }
+
+    async fn feed_partial() -> (crate::can::transport::FrameSender, crate::can::transport::FrameReceiver) {
+        let (tx, rx) = frame_channel(16);
+        let now = wall_now();
+        for m in 0..6 {
+            tx.send(mux_frame(m, now)).await.unwrap();
+        }
+        for m in 0..3 {
+            tx.send(mux_frame(m, now + 1)).await.unwrap();
+        }
+        (tx, rx)
+    }
+
+    #[tokio::test]
+    async fn wall_clock_expiry_closes_sets_while_the_bus_is_quiet() {
+        let (tx, rx) = feed_partial().await;
+        let mut s = CanStream::new(rx, decoder()).with_wall_clock_expiry().flagged();
+        let first = s.next().await.unwrap().unwrap();
+        assert!(first.is_complete());
+        // the sender stays open and silent: only the system clock can close the second set
+        let second = tokio::time::timeout(Duration::from_secs(5), s.next()).await.expect("expired by the clock");
+        let second = second.unwrap().unwrap();
+        assert_eq!(second.carried, (12..24).collect::<Vec<u32>>());
+        assert_eq!(s.stats_handle().snapshot().incomplete.count, 1);
+        drop(tx);
+        assert!(s.next().await.is_none());
+    }
+
+    #[tokio::test]
+    async fn without_wall_clock_expiry_a_quiet_bus_waits_for_frames() {
+        let (tx, rx) = feed_partial().await;
+        let mut s = CanStream::new(rx, decoder());
+        assert!(s.next().await.unwrap().is_ok());
+        assert!(tokio::time::timeout(Duration::from_millis(60), s.next()).await.is_err());
+        drop(tx); // end of stream: finish() carries the open set
+        assert_eq!(s.next().await.unwrap().unwrap().values.len(), 24);
+        assert_eq!(s.stats().sets_carried, 1);
+    }
+
+    #[tokio::test]
+    async fn original_timing_spaces_frames_out() {
+        let (tx, rx) = frame_channel(32); // holds all 18 frames: no consumer runs yet
+        for k in 0..3i64 {
+            for m in 0..6 {
+                tx.send(mux_frame(m, Timestamp(k * 40_000_000 + i64::from(m)))).await.unwrap();
+            }
+        }
+        drop(tx);
+        let start = tokio::time::Instant::now();
+        let s = CanStream::new(rx, decoder()).with_timing(Timing::Original, 2.0).unwrap();
+        let got: Vec<TaxelFrame> = s.map(|r| r.unwrap()).collect().await;
+        assert_eq!(got.len(), 3);
+        // 80 ms of recording at 2× speed: at least 40 ms
+        assert!(start.elapsed() >= Duration::from_millis(40), "{:?}", start.elapsed());
     }
 }
