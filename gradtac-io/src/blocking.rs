@@ -7,9 +7,13 @@
 //!   consumer and the async side never blocks on file I/O.
 //! - [`blocking_sink`] does the converse for a [`ParquetSink`]: records sent from async code
 //!   are written on the blocking pool.
+//! - [`blocking_archive`] does the same for a [`ParquetArchive`]; dropping its handle
+//!   finishes the archive's open files.
 
+use crate::archive::ParquetArchive;
 use crate::{ArrowRecord, Error, ParquetSink, Result as IoResult};
 use futures::Stream;
+use gradtac_stream::{HasSensor, Timed};
 use std::future::Future;
 use std::path::PathBuf;
 use std::pin::Pin;
@@ -196,6 +200,144 @@ impl<T: Send + 'static> BlockingSink<T> {
             Ok(result) => result,
             Err(e) if e.is_panic() => std::panic::resume_unwind(e.into_panic()),
             Err(e) => Err(Error::InvalidConfig(format!("sink task cancelled: {e}"))),
+        }
+    }
+}
+
+enum ArchiveMsg<T> {
+    Record(T),
+    Roll,
+    Finish,
+    Abort,
+}
+
+/// Handle returned by [`blocking_archive`]: send records, then [`finish`](Self::finish).
+#[must_use = "an archive's open files are finished when `finish` is awaited (or, unreported, on drop)"]
+pub struct BlockingArchive<T> {
+    tx: mpsc::Sender<ArchiveMsg<T>>,
+    task: JoinHandle<IoResult<Vec<PathBuf>>>,
+}
+
+impl<T> std::fmt::Debug for BlockingArchive<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BlockingArchive").field("closed", &self.tx.is_closed()).finish_non_exhaustive()
+    }
+}
+
+/// Run `archive` on tokio's blocking pool; feed it from async code through a bounded channel
+/// of `capacity` records (at least 1).
+///
+/// - [`finish`](BlockingArchive::finish) writes everything sent and finishes every open
+///   file under its final name; call it at the end of the stream, **and** when the stream
+///   fails or is cancelled (e.g. the branch of a `tokio::select!` on Ctrl-C): the records
+///   sent are valid data. It returns every file the archive finished, or the first error.
+/// - The writer stops at its first error (a record that does not fit, an I/O error); it then
+///   finishes the open files it can (see [`ParquetArchive::finish`]); later
+///   [`send`](BlockingArchive::send)s fail and `finish` returns the error.
+/// - **Drop** of the handle without `finish`/`abort` (a cancelled task, a panic in the
+///   producer) is seen by the writer thread as a closed channel: it writes what was sent
+///   and finishes the open files there, logging the outcome with `tracing` (an `error!`
+///   when it fails, since no caller can receive it). A tokio runtime waits for its
+///   blocking threads when it shuts down, so this completes before the runtime is gone —
+///   but not if the process exits first (`std::process::exit`, a kill): then the open
+///   files stay under their temporary names. Prefer awaiting `finish`.
+///
+/// # Panics
+/// Like [`tokio::task::spawn_blocking`], when called outside a tokio runtime.
+///
+/// ```
+/// use gradtac_io::archive::ParquetArchive;
+/// use gradtac_io::blocking::blocking_archive;
+/// use gradtac_io::FrameShape;
+/// use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
+///
+/// # tokio::runtime::Builder::new_current_thread().build().unwrap().block_on(async {
+/// let dir = tempfile::tempdir().unwrap();
+/// let archive = ParquetArchive::<TaxelFrame>::try_new(dir.path(), FrameShape::unnamed(1).unwrap())
+///     .unwrap()
+///     .with_roll_rows(4)
+///     .unwrap();
+/// let writer = blocking_archive(archive, 64);
+/// for k in 0..10 {
+///     writer.send(TaxelFrame::new(SensorId::new("ff"), Timestamp(k), k as u64, vec![k as f64])).await.unwrap();
+/// }
+/// let files = writer.finish().await.unwrap();
+/// assert_eq!(files.len(), 3); // 4 + 4 + 2 rows
+/// # });
+/// ```
+pub fn blocking_archive<T>(mut archive: ParquetArchive<T>, capacity: usize) -> BlockingArchive<T>
+where
+    T: ArrowRecord + HasSensor + Timed + Send + 'static,
+{
+    let (tx, mut rx) = mpsc::channel::<ArchiveMsg<T>>(capacity.max(1));
+    let task = tokio::task::spawn_blocking(move || {
+        while let Some(msg) = rx.blocking_recv() {
+            match msg {
+                ArchiveMsg::Record(r) => {
+                    if let Err(e) = archive.push(&r) {
+                        if let Err(also) = archive.finish() {
+                            tracing::error!(error = %also, "archive: finishing after an error failed too");
+                        }
+                        return Err(e);
+                    }
+                }
+                ArchiveMsg::Roll => {
+                    if let Err(e) = archive.roll() {
+                        let _ = archive.finish();
+                        return Err(e);
+                    }
+                }
+                ArchiveMsg::Finish => return archive.finish(),
+                ArchiveMsg::Abort => return archive.abort(),
+            }
+        }
+        // Every handle dropped without finish/abort: a cancelled task or a panic upstream.
+        let dir = archive.dir().display().to_string();
+        match archive.finish() {
+            Ok(files) => {
+                tracing::warn!(archive = %dir, files = files.len(), "archive handle dropped: open files finished");
+                Ok(files)
+            }
+            Err(e) => {
+                tracing::error!(archive = %dir, error = %e, "archive handle dropped: finishing failed");
+                Err(e)
+            }
+        }
+    });
+    BlockingArchive { tx, task }
+}
+
+impl<T: Send + 'static> BlockingArchive<T> {
+    /// Send one record, waiting while the channel is full. Fails when the writer has
+    /// stopped (after an error; [`finish`](Self::finish) returns it).
+    pub async fn send(&self, record: T) -> IoResult<()> {
+        self.tx.send(ArchiveMsg::Record(record)).await.map_err(|_| stopped())
+    }
+
+    /// Ask the writer to finish every open file now ([`ParquetArchive::roll`]), after the
+    /// records sent before. Fails when the writer has stopped.
+    pub async fn roll(&self) -> IoResult<()> {
+        self.tx.send(ArchiveMsg::Roll).await.map_err(|_| stopped())
+    }
+
+    /// Write everything sent so far and finish every open file under its final name
+    /// ([`ParquetArchive::finish`]); returns every file finished, or the writer's first error.
+    pub async fn finish(self) -> IoResult<Vec<PathBuf>> {
+        self.close(ArchiveMsg::Finish).await
+    }
+
+    /// Write everything sent so far and leave the open files closed but under their
+    /// temporary names ([`ParquetArchive::abort`]); returns those paths.
+    pub async fn abort(self) -> IoResult<Vec<PathBuf>> {
+        self.close(ArchiveMsg::Abort).await
+    }
+
+    async fn close(self, msg: ArchiveMsg<T>) -> IoResult<Vec<PathBuf>> {
+        let _ = self.tx.send(msg).await; // if the writer stopped, its error is in the task
+        match self.task.await {
+            Ok(result) => result,
+            Err(e) if e.is_panic() => std::panic::resume_unwind(e.into_panic()),
+            Err(e) => Err(Error::InvalidConfig(format!("archive task cancelled: {e}"))),
         }
     }
 }

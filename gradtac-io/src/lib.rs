@@ -5,6 +5,7 @@
 //! stage's output to Parquet through one Arrow schema per output type.
 #![warn(missing_docs)]
 
+pub mod archive;
 pub mod arrow_ipc;
 pub mod blocking;
 pub mod can;
@@ -14,7 +15,8 @@ pub mod npy;
 pub mod parquet_sink;
 pub mod records;
 
-pub use blocking::{blocking_sink, blocking_stream, BlockingSink, BlockingStream};
+pub use archive::{ArchiveConfig, ParquetArchive, Partitioning};
+pub use blocking::{blocking_archive, blocking_sink, blocking_stream, BlockingArchive, BlockingSink, BlockingStream};
 pub use csv_source::{ColumnSelector, CsvFrames, CsvProgress, CsvSourceConfig, TimeUnit};
 pub use error::{Error, Result};
 pub use parquet_sink::ParquetSink;

@@ -113,6 +113,23 @@ impl<T: ArrowRecord> ParquetSink<T> {
         let path = path.as_ref().to_path_buf();
         let partial = partial_path(&path)
             .ok_or_else(|| Error::InvalidConfig(format!("output path {} has no file name", path.display())))?;
+        Self::try_new_with_temp(path, partial, shape)
+    }
+
+    /// Like [`try_new`](Self::try_new), with rows written to `temp` (instead of
+    /// `<path>.partial`) until [`finish`](Self::finish) renames it to `path`. `temp` must be
+    /// on the same file system as `path` (the rename is atomic only there) and differ from
+    /// it. [`ParquetArchive`](crate::archive::ParquetArchive) uses a hidden temporary name
+    /// (`.part-000003.parquet.partial`) that dataset readers skip.
+    pub fn try_new_with_temp(path: impl AsRef<Path>, temp: impl AsRef<Path>, shape: T::Shape) -> Result<Self> {
+        let (path, partial) = (path.as_ref().to_path_buf(), temp.as_ref().to_path_buf());
+        if path == partial || path.file_name().is_none() || partial.file_name().is_none() {
+            return Err(Error::InvalidConfig(format!(
+                "output path {} and temporary path {} must be two different file names",
+                path.display(),
+                partial.display()
+            )));
+        }
         if path.is_dir() {
             return Err(Error::InvalidConfig(format!("output path {} is a directory", path.display())));
         }
@@ -198,6 +215,16 @@ impl<T: ArrowRecord> ParquetSink<T> {
     /// Records accepted so far.
     pub fn rows(&self) -> u64 {
         self.rows
+    }
+
+    /// The file's size so far, estimated in bytes: the bytes already written to the file
+    /// (the magic and every flushed row group, compressed — exact) plus the Parquet writer's
+    /// estimate of the row group it is encoding (compressed pages plus the open page
+    /// uncompressed). Records still in the Arrow builder — up to `min(row_group_size, 8192)`
+    /// of them, handed to the writer when that many have been pushed — are not counted, nor
+    /// is the footer (a few hundred bytes to a few kB). 0 before the first batch.
+    pub fn estimated_size(&self) -> u64 {
+        self.writer.as_ref().map_or(0, |w| (w.bytes_written() + w.in_progress_size()) as u64)
     }
 
     /// Append one record. A record that does not fit the schema (e.g. a frame with another
