@@ -40,7 +40,7 @@
 //! |---|---|---|
 //! | `levels` | few levels (coarse area steps) | many levels (the maximal contour hugs the peak more tightly) |
 //! | `min_area_mm2` | — | small: the region hugs the busiest taxel (a surface of non-negative values peaks *at* a taxel, so the location snaps toward taxels); large: the centroid averages more of the surface. Synthetic contact moving over the BioTac SP (`tests/spatial_pipeline.rs`): mean location error 1.55 mm at 1 mm², 0.90 mm at 15 mm² |
-//! | `peak_only` | `true`: march only the peak region's bounding box (64 × 64 event surface: 2.0 µs) | `false`: march the whole grid (identical result, a cross-check: 38.8 µs) |
+//! | `peak_only` | `true`: march only the peak region's bounding box (64 × 64 event surface: 2.0–2.4 µs) | `false`: march the whole grid (identical result, a cross-check: 36–39 µs) |
 //! | `saddle` | — | `centre` (mean of the corners) follows the bilinear surface best |
 //! | grid size | small | large (sub-cell interpolation already makes areas second-order accurate) |
 

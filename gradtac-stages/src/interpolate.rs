@@ -40,17 +40,19 @@
 //! None: one surface per input, stamped with the input's time span.
 //!
 //! # Trade-offs (24 BioTac SP taxels, 64 × 64 grid, `outside = "nan"`)
-//! Per-surface and build times: medians of `cargo bench -p gradtac-stages --bench spatial`
-//! (release, one core of a shared 2-core machine).
+//! Per-surface and build times: medians of two runs of
+//! `cargo bench -p gradtac-stages --bench spatial` (release, one core of a shared 2-core
+//! machine; the spread between runs is the machine's noise).
 //!
 //! | method | smoothness | linear field exact | weights / inside point | µs / surface | build (once) |
 //! |---|---|---|---|---|---|
-//! | natural neighbour | C¹ off the taxels | yes | 4.9 | 5.5 (spade per point: 468) | 0.75 ms |
-//! | linear | C⁰ (kinks on edges) | yes | 3 | 6.8 (spade per point: 181) | 0.29 ms |
-//! | nearest | discontinuous | no | 1 | 4.3 | 0.29 ms |
-//! | inverse distance | C^∞ off taxels, flat spots at taxels | no | 24 (all) | 21.4 | 1.6 ms |
+//! | natural neighbour | C¹ off the taxels | yes | 4.9 | 5.5–7.6 (spade point by point: 468–507) | 0.75–0.87 ms |
+//! | linear | C⁰ (kinks on edges) | yes | 3 | 4.6–6.8 (spade point by point: 181) | 0.29–0.45 ms |
+//! | nearest | discontinuous | no | 1 | 2.4–4.3 | 0.29–0.44 ms |
+//! | inverse distance | C^∞ off taxels, flat spots at taxels | no | 24 (all) | 17.8–21.4 | 1.6–1.7 ms |
 //!
-//! Grid size: natural neighbour 0.34 / 1.2 / 5.5 / 21.6 µs per surface at 16² / 32² / 64² / 128².
+//! Grid size, natural neighbour: 0.34–0.40 / 1.2–2.1 / 5.5–7.6 / 21.6–23.7 µs per surface at
+//! 16² / 32² / 64² / 128².
 //!
 //! | option | faster | more accurate |
 //! |---|---|---|
