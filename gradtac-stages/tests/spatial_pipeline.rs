@@ -149,3 +149,41 @@ fn chunking_does_not_change_the_chain_output() {
         }
     }
 }
+
+/// An elongated contact rotating at 2 rad/s (counter-clockwise, +x toward +y), contoured and
+/// tracked: the angular velocity follows, through the ±π/2 wrap of the axis.
+#[test]
+fn rotating_contact_gives_angular_velocity() {
+    use gradtac_stages::interpolate::{Grid, Surface};
+    use gradtac_stream::Extent;
+    use ndarray::Array2;
+    use std::sync::Arc;
+    let grid =
+        Arc::new(Grid::try_new(Extent { x_min: -12.0, x_max: 12.0, y_min: -12.0, y_max: 12.0 }, 64, 64).unwrap());
+    let surfaces = (0..200).map(|k| {
+        let t = k as f64 * 0.01;
+        let a = 2.0 * t; // 0 .. 4 rad: passes ±π/2 and π
+        let (c, s) = (a.cos(), a.sin());
+        let values = Array2::from_shape_fn((64, 64), |(j, i)| {
+            let (x, y) = (grid.x(i) - 1.0, grid.y(j) + 0.5);
+            let (u, v) = (c * x + s * y, -s * x + c * y);
+            10.0 * (-(u * u) / 32.0 - (v * v) / 4.0).exp()
+        });
+        Surface {
+            sensor: "th".into(),
+            start: Timestamp::at_rate(k, 100.0),
+            end: Timestamp::at_rate(k, 100.0),
+            seq: k,
+            grid: grid.clone(),
+            values,
+        }
+    });
+    let mut chain =
+        Contour::try_new(&ContourConfig::default()).unwrap().then(Track::try_new(&TrackConfig::default()).unwrap());
+    let pts = chain.run_all(surfaces).unwrap();
+    for p in &pts[1..] {
+        let w = p.angular_velocity_rad_s.expect("elongated contour");
+        assert!((w - 2.0).abs() < 0.2, "frame {}: {w} rad/s", p.seq);
+        assert!((p.x_mm - 1.0).abs() < 0.1 && (p.y_mm + 0.5).abs() < 0.1, "{p:?}");
+    }
+}
