@@ -49,6 +49,12 @@
 //! `polarity·τ` of a taxel equals `r − ln y₀`, so it reconstructs `ln y − ln y₀` to within `τ`
 //! at every sample.
 //!
+//! # Speed
+//! Per 24-taxel frame (criterion, `benches/signal.rs`, one core, release): ≈ 3 ns per taxel when
+//! nothing crosses (66 ns per frame at 0.44 events per frame, 15 M frames/s) plus ≈ 30–50 ns per
+//! event (2.1 M frames/s at 9.3 events per frame). One allocation per frame that has events
+//! (the batch's exact-size `Vec`), none otherwise.
+//!
 //! # Trade-offs
 //! | knob | smaller | larger |
 //! |---|---|---|
