@@ -17,11 +17,6 @@
 //! - **Velocity** (mm/s): the displacement between consecutive accepted points of a track over
 //!   their time difference, exponentially smoothed with `velocity_alpha` (1 = raw).
 //!   `None` on a track's first point.
-//! - **Angular velocity** (rad/s): the rate of change of the maximal contour's principal axis
-//!   (an axis, so the change between two points is taken in `(−π/2, π/2]`; positive from +x
-//!   toward +y), smoothed like the velocity. Rotational slip shows here. `None` on a track's
-//!   first point and when either contour is too round for its axis to mean anything
-//!   (eccentricity below `min_eccentricity`).
 //!
 //! # Example: events to contact track
 //! ```
@@ -100,9 +95,6 @@ pub struct TrackConfig {
     pub release_frames: u32,
     /// Velocity smoothing `α` in `(0, 1]`: `v ← α·v_raw + (1 − α)·v`. Default 1 (raw).
     pub velocity_alpha: f64,
-    /// Smallest eccentricity (0 round … 1 a line) at which a contour's orientation counts for
-    /// the angular velocity. Default 0.3.
-    pub min_eccentricity: f64,
 }
 
 impl Default for TrackConfig {
@@ -113,7 +105,6 @@ impl Default for TrackConfig {
             max_gated_frames: 3,
             release_frames: 1,
             velocity_alpha: 1.0,
-            min_eccentricity: 0.3,
         }
     }
 }
@@ -153,15 +144,10 @@ pub struct TrackPoint {
     pub area_mm2: f64,
     /// Principal-axis orientation (rad); NaN without contact.
     pub orientation_rad: f64,
-    /// Eccentricity of the maximal contour (0 round … 1 a line); NaN without contact.
-    pub eccentricity: f64,
     /// Surface peak (surface units); NaN without contact.
     pub peak: f64,
     /// Velocity (mm/s) along x and y; `None` on a track's first point and without contact.
     pub velocity_mm_s: Option<[f64; 2]>,
-    /// Angular velocity of the principal axis (rad/s, positive from +x toward +y); `None` on a
-    /// track's first point and for round contours.
-    pub angular_velocity_rad_s: Option<f64>,
     /// True when the point repeats the last accepted one because the contour jumped.
     pub gated: bool,
 }
@@ -185,10 +171,8 @@ struct Accepted {
     y: f64,
     area: f64,
     orientation: f64,
-    eccentricity: f64,
     peak: f64,
     velocity: Option<[f64; 2]>,
-    angular: Option<f64>,
 }
 
 /// The tracker stage (see the [module docs](self)). One instance per sensor.
@@ -218,9 +202,6 @@ impl Track {
         }
         if cfg.release_frames == 0 {
             return bad("`release_frames` must be ≥ 1".into());
-        }
-        if !(0.0..=1.0).contains(&cfg.min_eccentricity) {
-            return bad(format!("`min_eccentricity` = {} must be in [0, 1]", cfg.min_eccentricity));
         }
         if !(cfg.velocity_alpha > 0.0 && cfg.velocity_alpha <= 1.0) {
             return bad(format!("`velocity_alpha` = {} must be in (0, 1]", cfg.velocity_alpha));
@@ -266,10 +247,8 @@ impl Stage for Track {
             y_mm: f64::NAN,
             area_mm2: f64::NAN,
             orientation_rad: f64::NAN,
-            eccentricity: f64::NAN,
             peak: f64::NAN,
             velocity_mm_s: None,
-            angular_velocity_rad_s: None,
             gated: false,
         };
         match f.outcome {
@@ -292,10 +271,8 @@ impl Stage for Track {
                     y,
                     area: c.area_mm2,
                     orientation: c.orientation_rad,
-                    eccentricity: c.eccentricity,
                     peak: c.peak,
                     velocity: None,
-                    angular: None,
                 };
                 let mut accept = true;
                 match (self.track, self.last) {
@@ -319,17 +296,8 @@ impl Stage for Track {
                                     Some(v) => [a * raw[0] + (1.0 - a) * v[0], a * raw[1] + (1.0 - a) * v[1]],
                                     None => raw,
                                 });
-                                let e = self.cfg.min_eccentricity;
-                                if new.eccentricity >= e && prev.eccentricity >= e {
-                                    let raw = axial_difference(new.orientation, prev.orientation) / dt;
-                                    new.angular = Some(match prev.angular {
-                                        Some(w) => a * raw + (1.0 - a) * w,
-                                        None => raw,
-                                    });
-                                }
                             } else {
                                 new.velocity = prev.velocity;
-                                new.angular = prev.angular;
                             }
                         }
                     }
@@ -345,10 +313,8 @@ impl Stage for Track {
                 p.y_mm = new.y;
                 p.area_mm2 = new.area;
                 p.orientation_rad = new.orientation;
-                p.eccentricity = new.eccentricity;
                 p.peak = new.peak;
                 p.velocity_mm_s = new.velocity;
-                p.angular_velocity_rad_s = new.angular;
             }
         }
         out.push(p);
@@ -368,16 +334,6 @@ impl Stage for Track {
     }
 }
 
-/// `a − b` for two axis angles (defined modulo π), in `(−π/2, π/2]`.
-fn axial_difference(a: f64, b: f64) -> f64 {
-    use std::f64::consts::{FRAC_PI_2, PI};
-    let mut d = (a - b).rem_euclid(PI); // [0, π)
-    if d > FRAC_PI_2 {
-        d -= PI;
-    }
-    d
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -385,10 +341,6 @@ mod tests {
     use gradtac_stream::StageExt;
 
     fn frame(t: i64, at: Option<[f64; 2]>) -> ContourFrame {
-        oriented(t, at, 0.0, 0.0)
-    }
-
-    fn oriented(t: i64, at: Option<[f64; 2]>, orientation_rad: f64, eccentricity: f64) -> ContourFrame {
         let outcome = match at {
             None => ContourOutcome::NoContact(NoContact::BelowMinPeak),
             Some(c) => ContourOutcome::Contact(MaxContour {
@@ -397,8 +349,8 @@ mod tests {
                 holes: vec![],
                 area_mm2: 2.0,
                 centroid_mm: c,
-                orientation_rad,
-                eccentricity,
+                orientation_rad: 0.0,
+                eccentricity: 0.0,
                 peak: 3.0,
                 peak_mm: c,
                 clipped: false,
@@ -427,29 +379,6 @@ mod tests {
         assert!(pts[2].x_mm.is_nan());
         assert_eq!(pts[2].no_contact, Some(NoContact::BelowMinPeak));
         assert_eq!(pts[3].track, Some(1)); // release_frames = 1: a new track
-    }
-
-    #[test]
-    fn angular_velocity_wraps_the_axis_and_needs_elongation() {
-        use std::f64::consts::PI;
-        let mut tr = Track::try_new(&TrackConfig::default()).unwrap();
-        let ms = 1_000_000;
-        let pts = tr
-            .run_all([
-                oriented(0, Some([0.0, 0.0]), PI / 2.0 - 0.05, 0.9),
-                // the axis turned by +0.1 rad through ±π/2 in 10 ms: +10 rad/s
-                oriented(10 * ms, Some([0.0, 0.0]), -PI / 2.0 + 0.05, 0.9),
-                // a round contour: no angular velocity
-                oriented(20 * ms, Some([0.0, 0.0]), 0.3, 0.1),
-            ])
-            .unwrap();
-        assert_eq!(pts[0].angular_velocity_rad_s, None);
-        let w = pts[1].angular_velocity_rad_s.unwrap();
-        assert!((w - 10.0).abs() < 1e-9, "{w}");
-        assert_eq!(pts[2].angular_velocity_rad_s, None);
-        assert_eq!(pts[1].eccentricity, 0.9);
-        assert!((axial_difference(0.1, PI - 0.1) - 0.2).abs() < 1e-12);
-        assert!((axial_difference(-0.1, 0.1) + 0.2).abs() < 1e-12);
     }
 
     #[test]
