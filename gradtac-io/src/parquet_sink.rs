@@ -30,6 +30,9 @@
 //! [`with_metadata`](ParquetSink::with_metadata) (the CLI adds `gradtac.scene` and
 //! `gradtac.layout`). Schemas are documented in `docs/schemas.md`.
 //!
+//! A directory of files rolled by size or time and partitioned by sensor is written by
+//! [`ParquetArchive`](crate::archive::ParquetArchive), one `ParquetSink` per open file.
+//!
 //! ```
 //! use gradtac_io::{FrameShape, ParquetSink};
 //! use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
@@ -367,6 +370,48 @@ mod tests {
         let path = sink.finish().unwrap();
         assert!(path.exists());
         assert!(!dir.path().join("x.parquet.partial").exists());
+    }
+
+    #[test]
+    fn a_chosen_temporary_name_is_used_and_validated() {
+        let dir = tempfile::tempdir().unwrap();
+        let shape = FrameShape::unnamed(1).unwrap();
+        let (path, temp) = (dir.path().join("a.parquet"), dir.path().join(".a.tmp"));
+        let e = ParquetSink::<TaxelFrame>::try_new_with_temp(&path, &path, shape.clone()).unwrap_err();
+        assert!(e.to_string().contains("two different file names"), "{e}");
+        let mut sink = ParquetSink::<TaxelFrame>::try_new_with_temp(&path, &temp, shape).unwrap();
+        assert_eq!(sink.partial_path(), temp);
+        sink.push(&TaxelFrame::new(SensorId::new("ff"), Timestamp(0), 0, vec![1.0])).unwrap();
+        assert!(temp.exists() && !path.exists());
+        assert_eq!(sink.finish().unwrap(), path);
+        assert!(path.exists() && !temp.exists());
+    }
+
+    #[test]
+    fn estimated_size_grows_with_each_batch_and_bounds_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.parquet");
+        let mut sink = ParquetSink::<TaxelFrame>::try_new(&path, FrameShape::unnamed(8).unwrap())
+            .unwrap()
+            .with_row_group_size(100)
+            .unwrap();
+        assert_eq!(sink.estimated_size(), 0);
+        let mut last = 0;
+        for k in 0..1000u64 {
+            let values = (0..8).map(|i| ((k * 8 + i) as f64).sqrt()).collect();
+            sink.push(&TaxelFrame::new(SensorId::new("ff"), Timestamp(k as i64), k, values)).unwrap();
+            let now = sink.estimated_size();
+            assert!(now >= last, "never shrinks");
+            if (k + 1) % 100 == 0 {
+                assert!(now > last, "a batch reached the writer at row {k}");
+            }
+            last = now;
+        }
+        let path = sink.finish().unwrap();
+        let size = fs::metadata(&path).unwrap().len();
+        // Every row group is flushed (1000 rows / 100): the estimate is the bytes written,
+        // the file adds only the footer.
+        assert!(size >= last && size < last + 16 * 1024, "file {size} bytes, estimate {last}");
     }
 
     #[test]
