@@ -579,6 +579,58 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
     }
 }
 
+/// A writer of records of type `T` — one Parquet file ([`ParquetSink`]) or an archive
+/// ([`ParquetArchive`]) — behind one object-safe interface, so a host (the CLI's outputs)
+/// can hold `Box<dyn RecordSink<T>>` whichever the configuration chose.
+pub trait RecordSink<T>: Send {
+    /// Append one record ([`ParquetSink::push`], [`ParquetArchive::push`]).
+    fn push(&mut self, record: &T) -> Result<()>;
+    /// Records accepted so far.
+    fn rows(&self) -> u64;
+    /// Add or replace a key-value pair in the metadata of the file(s) not yet finished.
+    fn set_metadata(&mut self, key: String, value: String);
+    /// Finish: every file under its final name; returns the files finished (one for a sink).
+    fn finish(self: Box<Self>) -> Result<Vec<PathBuf>>;
+    /// Close valid files but leave the open ones under their temporary names; returns those.
+    fn abort(self: Box<Self>) -> Result<Vec<PathBuf>>;
+}
+
+impl<T: ArrowRecord> RecordSink<T> for ParquetSink<T> {
+    fn push(&mut self, record: &T) -> Result<()> {
+        ParquetSink::push(self, record)
+    }
+    fn rows(&self) -> u64 {
+        ParquetSink::rows(self)
+    }
+    fn set_metadata(&mut self, key: String, value: String) {
+        ParquetSink::set_metadata(self, key, value)
+    }
+    fn finish(self: Box<Self>) -> Result<Vec<PathBuf>> {
+        ParquetSink::finish(*self).map(|p| vec![p])
+    }
+    fn abort(self: Box<Self>) -> Result<Vec<PathBuf>> {
+        ParquetSink::abort(*self).map(|p| vec![p])
+    }
+}
+
+impl<T: ArrowRecord + HasSensor + Timed> RecordSink<T> for ParquetArchive<T> {
+    fn push(&mut self, record: &T) -> Result<()> {
+        ParquetArchive::push(self, record)
+    }
+    fn rows(&self) -> u64 {
+        ParquetArchive::rows(self)
+    }
+    fn set_metadata(&mut self, key: String, value: String) {
+        ParquetArchive::set_metadata(self, key, value)
+    }
+    fn finish(self: Box<Self>) -> Result<Vec<PathBuf>> {
+        ParquetArchive::finish(*self)
+    }
+    fn abort(self: Box<Self>) -> Result<Vec<PathBuf>> {
+        ParquetArchive::abort(*self)
+    }
+}
+
 /// The first index after every `<prefix>-<digits>.parquet` and `.<prefix>-<digits>.parquet.partial`
 /// in `dir` (0 when there is none).
 fn next_free_index(dir: &Path, prefix: &str) -> Result<u64> {
@@ -740,6 +792,44 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         assert!(archive(dir.path()).finish().unwrap().is_empty());
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0, "the probe file is gone");
+    }
+
+    #[test]
+    fn sinks_and_archives_are_interchangeable_record_sinks() {
+        let dir = tempfile::tempdir().unwrap();
+        let shape = FrameShape::unnamed(2).unwrap();
+        let sinks: Vec<Box<dyn RecordSink<TaxelFrame>>> = vec![
+            Box::new(ParquetSink::try_new(dir.path().join("one.parquet"), shape.clone()).unwrap()),
+            Box::new(archive(&dir.path().join("many")).with_roll_rows(2).unwrap()),
+        ];
+        let mut done = Vec::new();
+        for mut s in sinks {
+            for k in 0..3 {
+                s.push(&frame("ff", k, k as u64)).unwrap();
+            }
+            s.set_metadata("k".into(), "v".into());
+            assert_eq!(s.rows(), 3);
+            done.push(s.finish().unwrap().len());
+        }
+        assert_eq!(done, [1, 2]);
+    }
+
+    #[test]
+    fn every_output_type_can_be_archived() {
+        fn archivable<T: ArrowRecord + HasSensor + Timed + Send + 'static>() {
+            let _ = blocking_archive_is_available::<T>;
+        }
+        fn blocking_archive_is_available<T: ArrowRecord + HasSensor + Timed + Send + 'static>(
+            a: ParquetArchive<T>,
+        ) -> crate::BlockingArchive<T> {
+            crate::blocking_archive(a, 1)
+        }
+        archivable::<TaxelFrame>();
+        archivable::<gradtac_stages::EventBatch>();
+        archivable::<gradtac_stages::window::WindowAggregate>();
+        archivable::<gradtac_stages::interpolate::Surface>();
+        archivable::<gradtac_stages::contour::ContourFrame>();
+        archivable::<gradtac_stages::track::TrackPoint>();
     }
 
     #[test]

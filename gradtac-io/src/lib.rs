@@ -15,7 +15,7 @@ pub mod npy;
 pub mod parquet_sink;
 pub mod records;
 
-pub use archive::{ArchiveConfig, ParquetArchive, Partitioning};
+pub use archive::{ArchiveConfig, ParquetArchive, Partitioning, RecordSink};
 pub use blocking::{blocking_archive, blocking_sink, blocking_stream, BlockingArchive, BlockingSink, BlockingStream};
 pub use csv_source::{ColumnSelector, CsvFrames, CsvProgress, CsvSourceConfig, TimeUnit};
 pub use error::{Error, Result};
