@@ -14,10 +14,13 @@ mod error;
 pub mod event;
 
 pub mod contour;
+pub mod dos;
 pub mod events;
 pub mod interpolate;
 pub mod normalise;
 pub mod savgol;
+pub mod sim;
+pub mod slip;
 pub mod track;
 pub mod window;
 
