@@ -14,7 +14,6 @@ mod error;
 pub mod event;
 
 pub mod contour;
-pub mod dos;
 pub mod events;
 pub mod interpolate;
 pub mod normalise;
