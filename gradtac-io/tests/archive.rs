@@ -4,7 +4,7 @@
 //! (when installed) `pyarrow.dataset` reading an archive as one hive-partitioned table.
 
 use arrow_array::cast::AsArray;
-use arrow_array::types::UInt64Type;
+use arrow_array::types::{Int64Type, UInt64Type};
 use arrow_array::RecordBatch;
 use gradtac_io::archive::{ArchiveConfig, ParquetArchive, Partitioning};
 use gradtac_io::records::{to_batch, ArrowRecord};
@@ -14,6 +14,7 @@ use gradtac_stages::track::{ContactState, TrackPoint};
 use gradtac_stream::{HasSensor, SensorId, TaxelFrame, Timestamp};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::Compression;
+use proptest::prelude::*;
 use std::collections::{BTreeMap, HashMap};
 use std::fs::{self, File};
 use std::path::{Path, PathBuf};
@@ -210,9 +211,7 @@ fn tracks_round_trip_through_an_archive_rolled_by_time() {
         let times: Vec<i64> = back
             .batches
             .iter()
-            .flat_map(|b| {
-                b.column_by_name("time_ns").unwrap().as_primitive::<arrow_array::types::Int64Type>().values().to_vec()
-            })
+            .flat_map(|b| b.column_by_name("time_ns").unwrap().as_primitive::<Int64Type>().values().to_vec())
             .collect();
         assert!(times.iter().all(|t| t.div_euclid(100_000_000) == i as i64), "file {i}: {times:?}");
         batches.extend(back.batches);
@@ -560,5 +559,99 @@ print(json.dumps({"rows": t.num_rows, "by_sensor": out}))
         want.sort();
         seqs.sort();
         assert_eq!(seqs, want, "{s}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// invariant: any records, any rolling — nothing lost, nothing reordered
+
+/// The `seq` and `time_ns` of every row of the files in `dir` (not recursive), files in name
+/// order, one list per file.
+fn files_in(dir: &Path) -> Vec<Vec<(u64, i64)>> {
+    let mut names: Vec<PathBuf> = fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file() && p.extension().is_some_and(|x| x == "parquet"))
+        .collect();
+    names.sort();
+    names
+        .iter()
+        .map(|p| {
+            read(p)
+                .batches
+                .iter()
+                .flat_map(|b| {
+                    let seq = b.column_by_name("seq").unwrap().as_primitive::<UInt64Type>().values().to_vec();
+                    let time = b.column_by_name("time_ns").unwrap().as_primitive::<Int64Type>().values().to_vec();
+                    seq.into_iter().zip(time)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Whatever the records (times in any order) and the rolling: each partition's files,
+    /// read in name order, hold exactly its records in push order; no file is empty; a file
+    /// holds at most `roll_rows` rows, and no record of a later time span than its first.
+    #[test]
+    fn any_records_any_rolling_lose_and_reorder_nothing(
+        records in proptest::collection::vec((0usize..3, -50i64..50), 0..120),
+        roll_rows in proptest::option::of(1u64..20),
+        span in proptest::option::of(1u64..30),
+        by_sensor in any::<bool>(),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let sensors = ["ff", "th", "mf"];
+        let mut a = ParquetArchive::<TaxelFrame>::try_new(dir.path(), FrameShape::unnamed(1).unwrap()).unwrap();
+        if by_sensor {
+            a = a.with_partitioning(Partitioning::Sensor).unwrap();
+        }
+        if let Some(r) = roll_rows {
+            a = a.with_roll_rows(r).unwrap();
+        }
+        if let Some(s) = span {
+            a = a.with_roll_span(Duration::from_nanos(s)).unwrap();
+        }
+        for (k, &(s, t)) in records.iter().enumerate() {
+            a.push(&TaxelFrame::new(SensorId::new(sensors[s]), Timestamp(t), k as u64, vec![t as f64])).unwrap();
+        }
+        let files = a.finish().unwrap();
+        let groups: Vec<(PathBuf, Vec<usize>)> = if by_sensor {
+            sensors
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (dir.path().join(format!("sensor={s}")), (0..records.len()).filter(|&k| records[k].0 == i).collect()))
+                .collect()
+        } else {
+            vec![(dir.path().to_path_buf(), (0..records.len()).collect())]
+        };
+        let mut count = 0;
+        for (sub, want) in groups {
+            let got = if sub.exists() { files_in(&sub) } else { Vec::new() };
+            count += got.len();
+            let flat: Vec<u64> = got.iter().flatten().map(|&(seq, _)| seq).collect();
+            prop_assert_eq!(flat, want.iter().map(|&k| k as u64).collect::<Vec<_>>());
+            for f in &got {
+                prop_assert!(!f.is_empty());
+                if let Some(r) = roll_rows {
+                    prop_assert!(f.len() as u64 <= r);
+                }
+                if let Some(s) = span {
+                    let first = f[0].1.div_euclid(s as i64);
+                    prop_assert!(f.iter().all(|&(_, t)| t.div_euclid(s as i64) <= first));
+                }
+            }
+            // consecutive files: a roll happened for a reason
+            for w in got.windows(2) {
+                let full = roll_rows.is_some_and(|r| w[0].len() as u64 == r);
+                let later = span.is_some_and(|s| w[1][0].1.div_euclid(s as i64) > w[0][0].1.div_euclid(s as i64));
+                prop_assert!(full || later);
+            }
+        }
+        prop_assert_eq!(count, files.len());
+        prop_assert!(tree(dir.path()).iter().all(|f| !f.contains(".partial")));
     }
 }
