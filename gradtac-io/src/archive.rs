@@ -41,7 +41,7 @@
 //!   group in progress; it grows each time a batch of `min(row_group_size, 8192)` records is
 //!   handed to the writer, so a file overshoots `roll_bytes` by at most about one such batch
 //!   plus the footer. Lower `row_group_size` for tighter sizes;
-//! - **time**: a record's time falls in a later span than the file's first record, spans
+//! - **time**: a record's time falls in a later span than the file's first (accepted) record, spans
 //!   being aligned to the epoch: record time `t` (ns) is in span `t.div_euclid(span)`
 //!   ([`with_roll_span`](ParquetArchive::with_roll_span)). With a span of one hour, files
 //!   start on the hour whatever time the stream started. A late record (an earlier span than
@@ -177,7 +177,8 @@ impl Default for ArchiveConfig {
 /// One open file.
 struct OpenFile<T: ArrowRecord> {
     sink: ParquetSink<T>,
-    /// The time span of the file's first record (time rolling only).
+    /// The time span of the file's first accepted record (time rolling only; `None` until
+    /// then, so a rejected record's time never sets it).
     span: Option<i64>,
 }
 
@@ -442,7 +443,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
             }
         }
         if !self.open.contains_key(&key) {
-            self.open_file(&key, span)?;
+            self.open_file(&key)?;
         }
         let file = self.open.get_mut(&key).expect("opened above");
         match file.sink.push(record) {
@@ -454,6 +455,9 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
             }
         }
         self.rows += 1;
+        if file.span.is_none() {
+            file.span = span;
+        }
         let full = self.roll_rows.is_some_and(|n| file.sink.rows() >= n)
             || self.roll_bytes.is_some_and(|b| file.sink.estimated_size() >= b);
         if full {
@@ -529,7 +533,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
         }
     }
 
-    fn open_file(&mut self, key: &str, span: Option<i64>) -> Result<()> {
+    fn open_file(&mut self, key: &str) -> Result<()> {
         let dir = if key.is_empty() { self.dir.clone() } else { self.dir.join(key) };
         let index = match self.next_index.get(key) {
             Some(&i) => i,
@@ -552,7 +556,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
             }
         };
         self.next_index.insert(key.to_string(), index + 1);
-        self.open.insert(key.to_string(), OpenFile { sink, span });
+        self.open.insert(key.to_string(), OpenFile { sink, span: None });
         Ok(())
     }
 
@@ -759,6 +763,22 @@ mod tests {
         }
         assert_eq!(a.finished().len(), 4, "{:?}", a.finished());
         assert_eq!(a.finish().unwrap().len(), 5);
+    }
+
+    #[test]
+    fn a_rejected_record_does_not_set_the_time_span() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut a = archive(dir.path()).with_roll_span(Duration::from_nanos(10)).unwrap();
+        a.push(&frame("ff", 0, 0)).unwrap();
+        // a bad record far in the future: rolls (its span is later) but is rejected …
+        let bad = TaxelFrame::new(SensorId::new("ff"), Timestamp(1_000_000), 1, vec![1.0]);
+        assert!(matches!(a.push(&bad), Err(Error::Record { .. })));
+        // … and the next file's span comes from its first accepted record, so time rolling goes on
+        for (seq, t) in [(2, 12), (3, 15), (4, 21)] {
+            a.push(&frame("ff", t, seq)).unwrap();
+        }
+        let files = a.finish().unwrap();
+        assert_eq!(files.len(), 3, "[0] [12, 15] [21]: {files:?}");
     }
 
     #[test]
