@@ -8,7 +8,7 @@ use arrow_array::types::{Int64Type, UInt64Type};
 use arrow_array::RecordBatch;
 use gradtac_io::archive::{ArchiveConfig, ParquetArchive, Partitioning};
 use gradtac_io::records::{to_batch, ArrowRecord};
-use gradtac_io::{blocking_archive, FrameShape};
+use gradtac_io::{blocking_archive, FrameShape, ParquetSink};
 use gradtac_stages::contour::NoContact;
 use gradtac_stages::track::{ContactState, TrackPoint};
 use gradtac_stream::{HasSensor, SensorId, TaxelFrame, Timestamp};
@@ -357,6 +357,8 @@ const KILL_TH_HEAD_START: u64 = 77;
 /// The child gives up (exits without finishing) after this many files: bounds time and size
 /// (≈ 6 MB) if the parent never kills it.
 const KILL_MAX_FILES: usize = 600;
+/// Rows of the single file the child finishes before it starts the archive.
+const KILL_SINGLE_ROWS: u64 = 321;
 
 fn kill_archive(dir: &Path) -> ParquetArchive<TaxelFrame> {
     ParquetArchive::try_new(dir, FrameShape::unnamed(KILL_TAXELS).unwrap())
@@ -377,12 +379,26 @@ fn kill_child_writer() {
     let dir =
         PathBuf::from(std::env::var_os(CHILD_DIR).expect("run by killed_writer_leaves_every_finished_file_valid"));
     let mut a = kill_archive(&dir);
+    // Single-file sinks beside the archive: one finished before the loop, one written in it.
+    let single = |name: &str| {
+        ParquetSink::<TaxelFrame>::try_new(dir.with_file_name(name), FrameShape::unnamed(KILL_TAXELS).unwrap())
+            .unwrap()
+            .with_row_group_size(50)
+            .unwrap()
+    };
+    let mut done = single("single-done.parquet");
+    for k in 0..KILL_SINGLE_ROWS {
+        done.push(&frame("ff", k, KILL_TAXELS)).unwrap();
+    }
+    done.finish().unwrap();
+    let mut live = single("single-live.parquet");
     for k in 0..KILL_TH_HEAD_START {
         a.push(&frame("th", k, KILL_TAXELS)).unwrap();
     }
     for k in 0.. {
         a.push(&frame("ff", k, KILL_TAXELS)).unwrap();
         a.push(&frame("th", k + KILL_TH_HEAD_START, KILL_TAXELS)).unwrap();
+        live.push(&frame("ff", k, KILL_TAXELS)).unwrap();
         if k % 16 == 0 {
             std::thread::sleep(Duration::from_millis(1)); // pace: the parent polls
         }
@@ -416,9 +432,9 @@ fn scan(dir: &Path) -> (BTreeMap<String, Vec<String>>, Vec<String>) {
     (finished, partial)
 }
 
-/// SIGKILL a process writing an archive: every file under a final name reads back complete
-/// and valid, in sequence; the only unfinished files are the open ones, under their hidden
-/// temporary names; a dataset reader sees exactly the finished files.
+/// SIGKILL a process writing an archive (and two single-file sinks): every file under a final
+/// name reads back complete and valid, in sequence; the only unfinished files are the open
+/// ones, under their (hidden) temporary names; a dataset reader sees exactly the finished files.
 #[cfg(unix)]
 #[test]
 fn killed_writer_leaves_every_finished_file_valid() {
@@ -498,6 +514,14 @@ fn killed_writer_leaves_every_finished_file_valid() {
     eprintln!("killed after {total} finished rows; finished {finished:?}; temporary {partial:?}");
     assert!(!partial.is_empty(), "killed while writing, so one file was open");
     assert_eq!(partial.len() + finished.values().map(Vec::len).sum::<usize>(), tree(&archive).len());
+
+    // The single-file sinks: the finished one is complete; the live one exists only as `.partial`.
+    let single = read(&dir.path().join("single-done.parquet"));
+    assert_eq!(single.rows, KILL_SINGLE_ROWS as i64);
+    let want: Vec<TaxelFrame> = (0..KILL_SINGLE_ROWS).map(|k| frame("ff", k, KILL_TAXELS)).collect();
+    assert_batches_equal(&FrameShape::unnamed(KILL_TAXELS).unwrap(), &want, &single.batches, "single-done");
+    assert!(!dir.path().join("single-live.parquet").exists());
+    assert!(dir.path().join("single-live.parquet.partial").exists());
 
     // A dataset reader skips the hidden temporary files and sees every finished row.
     if pyarrow() {
