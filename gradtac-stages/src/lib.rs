@@ -15,9 +15,11 @@ pub mod event;
 
 pub mod contour;
 pub mod events;
+pub mod force;
 pub mod interpolate;
 pub mod normalise;
 pub mod savgol;
+pub mod servo;
 pub mod sim;
 pub mod slip;
 pub mod track;
