@@ -184,7 +184,7 @@ pub fn parse_line(line: &str) -> std::result::Result<Option<LogEntry<'_>>, Strin
             return Err(format!("raw DLC suffix _{x} is allowed only after 8 data bytes, as one hex digit 9-F"));
         }
     }
-    let frame = CanFrame::try_new(id, extended, &data, time).map_err(|e| e.to_string())?;
+    let frame = CanFrame::try_new(id, extended, data.as_slice(), time).map_err(|e| e.to_string())?;
     Ok(Some(LogEntry::Data { interface, frame }))
 }
 
@@ -207,20 +207,44 @@ fn parse_time(s: &str) -> std::result::Result<Timestamp, String> {
         .ok_or_else(|| format!("time {s} is out of range"))
 }
 
-fn hex_bytes(s: &str, max: usize) -> std::result::Result<Vec<u8>, String> {
+/// Up to 64 bytes decoded from hex pairs, without allocating.
+struct Bytes {
+    buf: [u8; 64],
+    len: usize,
+}
+
+impl Bytes {
+    fn as_slice(&self) -> &[u8] {
+        &self.buf[..self.len]
+    }
+    fn len(&self) -> usize {
+        self.len
+    }
+}
+
+fn hex_bytes(s: &str, max: usize) -> std::result::Result<Bytes, String> {
     if s.len() % 2 != 0 {
         return Err(format!("data {s:?} has an odd number of hex digits"));
     }
-    if s.len() / 2 > max {
+    if s.len() / 2 > max.min(64) {
         return Err(format!("{} data bytes; at most {max}", s.len() / 2));
     }
-    s.as_bytes()
-        .chunks(2)
-        .map(|p| {
-            let h = std::str::from_utf8(p).ok().filter(|h| h.bytes().all(|b| b.is_ascii_hexdigit()));
-            h.and_then(|h| u8::from_str_radix(h, 16).ok()).ok_or_else(|| format!("data {s:?} is not hexadecimal"))
-        })
-        .collect()
+    fn nibble(c: u8) -> Option<u8> {
+        match c {
+            b'0'..=b'9' => Some(c - b'0'),
+            b'a'..=b'f' => Some(c - b'a' + 10),
+            b'A'..=b'F' => Some(c - b'A' + 10),
+            _ => None,
+        }
+    }
+    let mut out = Bytes { buf: [0; 64], len: s.len() / 2 };
+    for (i, p) in s.as_bytes().chunks_exact(2).enumerate() {
+        match (nibble(p[0]), nibble(p[1])) {
+            (Some(h), Some(l)) => out.buf[i] = h << 4 | l,
+            _ => return Err(format!("data {s:?} is not hexadecimal")),
+        }
+    }
+    Ok(out)
 }
 
 /// Streams [`CanFrame`]s from a candump log, one line at a time (constant memory).
