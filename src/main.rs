@@ -46,7 +46,7 @@ fn main() -> ExitCode {
         .init();
     let cli = Cli::parse();
     match execute(cli.command) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("gradtac: error: {e}");
             let mut src = std::error::Error::source(&e);
@@ -59,22 +59,29 @@ fn main() -> ExitCode {
     }
 }
 
-fn execute(cmd: Command) -> Result<(), gradtac::Error> {
+/// Exit status of a run that Ctrl-C ended (its outputs are finished and valid).
+const INTERRUPTED: u8 = 130;
+
+fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
     match cmd {
         Command::Run { scene, quiet } => {
             let scene = Scene::load(&scene)?;
             let plan = Plan::new(&scene)?;
             let report = run::run_blocking(&scene, &plan, &run::RunOptions { progress: !quiet })?;
+            if report.interrupted {
+                eprint!("gradtac: {report}");
+                return Ok(ExitCode::from(INTERRUPTED));
+            }
             if !quiet {
                 print!("{report}");
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Command::Explain { scene } => {
             let scene = Scene::load(&scene)?;
             let plan = Plan::new(&scene)?;
             print!("{}", plan.explain(&scene));
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Command::Demo { dir, quiet } => {
             let dir = match dir {
@@ -101,7 +108,7 @@ fn execute(cmd: Command) -> Result<(), gradtac::Error> {
             for o in &scene.outputs {
                 println!("  output:    {}", scene.resolve(&o.path).display());
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
     }
 }

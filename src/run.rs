@@ -38,8 +38,8 @@ pub struct RunOptions {
 pub struct RunReport {
     /// Frames read per sensor (sensors that were read).
     pub frames: Vec<(String, u64)>,
-    /// Rows written and final path per output.
-    pub outputs: Vec<(PathBuf, u64)>,
+    /// Final files and rows written per output (one file, or an archive's files).
+    pub outputs: Vec<(Vec<PathBuf>, u64)>,
     /// Wall-clock seconds.
     pub seconds: f64,
     /// True when Ctrl-C ended the run early.
@@ -59,8 +59,16 @@ impl fmt::Display for RunReport {
         for (s, n) in &self.frames {
             writeln!(f, "  sensor {s}: {n} frames")?;
         }
-        for (p, n) in &self.outputs {
-            writeln!(f, "  wrote {} ({n} rows)", p.display())?;
+        for (files, n) in &self.outputs {
+            match files.as_slice() {
+                [one] => writeln!(f, "  wrote {} ({n} rows)", one.display())?,
+                many => writeln!(
+                    f,
+                    "  wrote {} files under {} ({n} rows)",
+                    many.len(),
+                    many.first().and_then(|p| p.parent()).map_or(String::new(), |d| d.display().to_string())
+                )?,
+            }
         }
         Ok(())
     }
@@ -109,7 +117,7 @@ impl Runner {
 
     /// End of input: flush every stage, finish every output (rename to its final name). On a
     /// flush error the outputs are left as `.partial` files.
-    pub fn finish(mut self) -> Result<Vec<(PathBuf, u64)>, Error> {
+    pub fn finish(mut self) -> Result<Vec<(Vec<PathBuf>, u64)>, Error> {
         for i in 0..self.chains.len() {
             if let Err(e) = self.chains[i].process(None, true, &mut self.sinks) {
                 self.sinks.abort();

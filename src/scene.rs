@@ -21,6 +21,7 @@
 //! Every table rejects unknown keys, so a misspelt setting is an error, not a silent default.
 
 use crate::Error;
+use gradtac_io::archive::ArchiveConfig;
 use gradtac_io::arrow_ipc::ArrowIpcConfig;
 use gradtac_io::npy::NpySourceConfig;
 use gradtac_io::CsvSourceConfig;
@@ -200,6 +201,12 @@ pub struct OutputSpec {
     /// Rows per Parquet row group (default 65 536).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub row_group_size: Option<usize>,
+    /// Write an archive directory at `path` instead of one file: rolling files
+    /// (`roll_bytes`, `roll_seconds`, `roll_rows`) and optional hive partitioning
+    /// (`partition = "sensor"` → `path/sensor=ff/part-000000.parquet`); see
+    /// [`ArchiveConfig`] and `docs/schemas.md`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub archive: Option<ArchiveConfig>,
 }
 
 impl Scene {

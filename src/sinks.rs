@@ -1,8 +1,9 @@
 //! The outputs of a run: one Parquet sink per scene output, typed by the stage it taps.
 
 use crate::plan::{Plan, Tap};
-use crate::scene::Scene;
+use crate::scene::{OutputSpec, Scene};
 use crate::Error;
+use gradtac_io::archive::{ParquetArchive, RecordSink};
 use gradtac_io::records::SurfaceShape;
 use gradtac_io::{ArrowRecord, FrameShape, ParquetSink};
 use gradtac_stages::contour::ContourFrame;
@@ -10,35 +11,38 @@ use gradtac_stages::interpolate::{Grid, Surface};
 use gradtac_stages::track::TrackPoint;
 use gradtac_stages::window::WindowAggregate;
 use gradtac_stages::EventBatch;
-use gradtac_stream::{Layout, TaxelFrame};
-use std::path::PathBuf;
+use gradtac_stream::{HasSensor, Layout, TaxelFrame, Timed};
+use std::path::{Path, PathBuf};
 
 /// A sink of one output; one variant per output type (schemas in `docs/schemas.md`).
+///
+/// Each holds a single file ([`ParquetSink`]) or an archive directory ([`ParquetArchive`]:
+/// rolling files, optional hive partitioning by sensor) behind [`RecordSink`].
 pub enum OutputSink {
     /// Frames (`source`, `normalise`, `savgol` taps), `frame/1`.
-    Frames(ParquetSink<TaxelFrame>),
+    Frames(Box<dyn RecordSink<TaxelFrame>>),
     /// Events, one row per event, `event/1`.
-    Events(ParquetSink<EventBatch>),
+    Events(Box<dyn RecordSink<EventBatch>>),
     /// Window aggregates, `window/1`.
-    Windows(ParquetSink<WindowAggregate>),
+    Windows(Box<dyn RecordSink<WindowAggregate>>),
     /// Surfaces, `surface/1`.
-    Surfaces(ParquetSink<Surface>),
+    Surfaces(Box<dyn RecordSink<Surface>>),
     /// Maximal contours, `contour/1`.
-    Contours(ParquetSink<ContourFrame>),
+    Contours(Box<dyn RecordSink<ContourFrame>>),
     /// Track points, `track/1`.
-    Tracks(ParquetSink<TrackPoint>),
+    Tracks(Box<dyn RecordSink<TrackPoint>>),
 }
 
 /// An output type the runner can write: finds its own sink among the variants.
-pub trait Record: ArrowRecord {
+pub trait Record: ArrowRecord + HasSensor + Timed + Send + 'static {
     /// The typed sink, when `s` writes this type.
-    fn sink(s: &mut OutputSink) -> Option<&mut ParquetSink<Self>>;
+    fn sink(s: &mut OutputSink) -> Option<&mut Box<dyn RecordSink<Self>>>;
 }
 
 macro_rules! record {
     ($t:ty, $variant:ident) => {
         impl Record for $t {
-            fn sink(s: &mut OutputSink) -> Option<&mut ParquetSink<Self>> {
+            fn sink(s: &mut OutputSink) -> Option<&mut Box<dyn RecordSink<Self>>> {
                 match s {
                     OutputSink::$variant(s) => Some(s),
                     _ => None,
@@ -71,10 +75,10 @@ impl OutputSink {
     fn rows(&self) -> u64 {
         each_sink!(self, s => s.rows())
     }
-    fn finish(self) -> Result<PathBuf, Error> {
+    fn finish(self) -> Result<Vec<PathBuf>, Error> {
         each_sink!(self, s => Ok(s.finish()?))
     }
-    fn abort(self) -> Result<PathBuf, Error> {
+    fn abort(self) -> Result<Vec<PathBuf>, Error> {
         each_sink!(self, s => Ok(s.abort()?))
     }
     fn set_metadata(&mut self, k: String, v: String) {
@@ -111,14 +115,11 @@ impl Sinks {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
             }
-            let rg = o.row_group_size;
             let taxels = FrameShape::from_layout(layout);
             let mut sink = match tap {
-                Tap::Source | Tap::Normalise | Tap::Savgol => {
-                    OutputSink::Frames(configure(ParquetSink::try_new(&path, taxels)?, rg)?)
-                }
-                Tap::Events => OutputSink::Events(configure(ParquetSink::try_new(&path, taxels)?, rg)?),
-                Tap::Window => OutputSink::Windows(configure(ParquetSink::try_new(&path, taxels)?, rg)?),
+                Tap::Source | Tap::Normalise | Tap::Savgol => OutputSink::Frames(open(&path, taxels, o)?),
+                Tap::Events => OutputSink::Events(open(&path, taxels, o)?),
+                Tap::Window => OutputSink::Windows(open(&path, taxels, o)?),
                 Tap::Surface => {
                     let grids = users
                         .iter()
@@ -130,11 +131,10 @@ impl Sinks {
                             i + 1
                         )));
                     }
-                    let shape = SurfaceShape::new(grids[0].clone());
-                    OutputSink::Surfaces(configure(ParquetSink::try_new(&path, shape)?, rg)?)
+                    OutputSink::Surfaces(open(&path, SurfaceShape::new(grids[0].clone()), o)?)
                 }
-                Tap::Contour => OutputSink::Contours(configure(ParquetSink::try_new(&path, ())?, rg)?),
-                Tap::Track => OutputSink::Tracks(configure(ParquetSink::try_new(&path, ())?, rg)?),
+                Tap::Contour => OutputSink::Contours(open(&path, (), o)?),
+                Tap::Track => OutputSink::Tracks(open(&path, (), o)?),
             };
             sink.set_metadata("gradtac.scene".into(), scene.text.clone());
             sink.set_metadata("gradtac.tap".into(), tap.name().into());
@@ -158,8 +158,8 @@ impl Sinks {
         Ok(())
     }
 
-    /// Close and rename every output; returns (final path, rows) per output.
-    pub fn finish(mut self) -> Result<Vec<(PathBuf, u64)>, Error> {
+    /// Close and rename every output; returns (final files, rows) per output.
+    pub fn finish(mut self) -> Result<Vec<(Vec<PathBuf>, u64)>, Error> {
         let mut done = Vec::new();
         let mut first_err = None;
         for s in self.sinks.iter_mut().filter_map(Option::take) {
@@ -176,13 +176,26 @@ impl Sinks {
 
     /// Close every output as a valid file under its `.partial` name; returns those paths.
     pub fn abort(mut self) -> Vec<PathBuf> {
-        self.sinks.iter_mut().filter_map(Option::take).filter_map(|s| s.abort().ok()).collect()
+        self.sinks.iter_mut().filter_map(Option::take).filter_map(|s| s.abort().ok()).flatten().collect()
     }
 }
 
-fn configure<T: ArrowRecord>(s: ParquetSink<T>, row_group_size: Option<usize>) -> Result<ParquetSink<T>, Error> {
-    Ok(match row_group_size {
-        Some(n) => s.with_row_group_size(n)?,
-        None => s,
+/// One output's sink: an archive directory when the output has `archive` settings, else one file.
+fn open<T: Record>(path: &Path, shape: T::Shape, o: &OutputSpec) -> Result<Box<dyn RecordSink<T>>, Error> {
+    Ok(match &o.archive {
+        Some(cfg) => {
+            let mut a = ParquetArchive::from_config(path, shape, cfg)?;
+            if let Some(n) = o.row_group_size {
+                a = a.with_row_group_size(n)?;
+            }
+            Box::new(a)
+        }
+        None => {
+            let mut s = ParquetSink::try_new(path, shape)?;
+            if let Some(n) = o.row_group_size {
+                s = s.with_row_group_size(n)?;
+            }
+            Box::new(s)
+        }
     })
 }
