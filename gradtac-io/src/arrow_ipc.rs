@@ -11,6 +11,7 @@
 //!     from 0 per sensor;
 //!   - `values`: `FixedSizeList<Float64>` (or `List`/`LargeList<Float64>`), the same length
 //!     in every row.
+//!
 //!   Rows may mix sensors; `sensors = [...]` keeps some.
 //! - **wide**: one row per frame of one sensor, one numeric column per taxel selected by name
 //!   or pattern ([`ColumnSelector`], as for CSV: `columns = "ff_e{1..24}"`). Any integer or

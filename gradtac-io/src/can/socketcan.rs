@@ -168,6 +168,7 @@ mod tests {
         for iface in ["can0", "lo", "gtnosuchif0"] {
             let e = SocketCanFrames::open(iface).unwrap_err();
             let text = e.to_string();
+            eprintln!("{text}");
             assert!(text.starts_with(&format!("CAN interface {iface:?}: cannot open a CAN socket")), "{text}");
             let Error::CanInterface { source, .. } = &e else { panic!("{e:?}") };
             assert!(source.raw_os_error().is_some(), "{text}");
