@@ -62,7 +62,7 @@
 //! let sim = Simulator::try_new(layout.clone(), SensorModel::default(), 7)?;
 //! let scene = Scene::trajectory(Trajectory::CircleCw, 2.0, 3.0, &layout);
 //! let rec = sim.run(&scene)?;
-//! assert_eq!(rec.frames.len(), scene.frames());
+//! assert_eq!(rec.frames.len(), scene.frames_at(100.0)); // one finger, 3 s at 100 Hz
 //! let f = &rec.frames[150];
 //! assert!(f.truth.contact_mm.is_some() && f.truth.force_n > 0.0);
 //! assert!(f.frame.values.iter().all(|&v| (0.0..=4095.0).contains(&v) && v == v.round()));
@@ -397,11 +397,6 @@ impl Scene {
     /// Frames per sensor at `rate_hz`.
     pub fn frames_at(&self, rate_hz: f64) -> usize {
         (self.duration_s * rate_hz).round() as usize
-    }
-
-    /// Frames of the whole recording at the default 100 Hz (all sensors, interleaved).
-    pub fn frames(&self) -> usize {
-        self.frames_at(100.0) * self.fingers.len()
     }
 
     /// One indenter (sensor `ff`) of diameter `diameter_mm` pressing at `force_n` and moving

@@ -474,6 +474,27 @@ mod tests {
     }
 
     #[test]
+    fn chunking_does_not_change_the_events() {
+        let stop = |v: f64| move |t: f64| [0.0, v * (t - 0.5).clamp(0.0, 0.4)];
+        let input = points(150, stop(-10.0), stop(-10.0));
+        let all = Slip::try_new(&SlipConfig::default()).unwrap().run_all(input.clone()).unwrap();
+        assert_eq!(all.len(), 2);
+        for cut in [1, 3, 7, 64] {
+            let mut s = Slip::try_new(&SlipConfig::default()).unwrap();
+            let mut out = Vec::new();
+            for chunk in input.chunks(cut) {
+                let mut part = Vec::new();
+                for p in chunk {
+                    s.push(p.clone(), &mut part).unwrap();
+                }
+                out.extend(part);
+            }
+            s.finish(&mut out).unwrap();
+            assert_eq!(out, all, "chunks of {cut}");
+        }
+    }
+
+    #[test]
     fn slow_motion_no_contact_and_other_sensors_give_no_slip() {
         let mut s = Slip::try_new(&SlipConfig::default()).unwrap();
         assert!(s.run_all(points(100, ramp(2.0), ramp(-2.0))).unwrap().is_empty());
