@@ -1,0 +1,967 @@
+//! Direction of slip on one fingertip: the seven BioTacSP-DoS classes from GradTac features
+//! (method.md, stage 7 and "Real data at hand").
+//!
+//! # What it does
+//! A recording (or a span of a stream) of one sensor's raw frames is turned into a short
+//! feature vector by the GradTac chain — log-change [events](crate::events) → per-taxel event
+//! counts, split by polarity ([window](crate::window) aggregates) → [natural-neighbour
+//! surfaces](crate::interpolate) → [maximal contours](crate::contour) — and the vector is
+//! classified by the nearest class mean under a per-feature scale fitted by
+//! [`DosModel::calibrate`] from labelled recordings. The classes ([`DosClass`]) are those of
+//! the BioTacSP-DoS dataset (Zapata-Impata, Gil and Torres, "Learning Spatio Temporal Tactile
+//! Features with a ConvLSTM for the Direction Of Slip Detection", Sensors 19(3):523, 2019):
+//! translational slip `n`, `e`, `s`, `w`, rotational slip `cw`, `aw`, and stable touch `t`.
+//!
+//! # Features ([`Feature`])
+//! Over the span, with `τ` = [`DosFeatureConfig::threshold`] on `ln(counts)`:
+//!
+//! | feature | unit | definition |
+//! |---|---|---|
+//! | `rate` | — | `ln(1 + events per second)`, all taxels, both polarities: how much is happening (touch is quiet) |
+//! | `positive_fraction` | — | positive events / all events (0.5 without events) |
+//! | `positive_x`, `positive_y` | mm | centroid of the maximal contour of the surface of **positive**-event counts per taxel |
+//! | `negative_x`, `negative_y` | mm | the same for **negative**-event counts |
+//! | `activity_x`, `activity_y` | mm | the same for all events (the count aggregate) |
+//! | `track_dx`, `track_dy` | mm | displacement of the contact track: the activity contour's centroid in tumbling windows of [`DosFeatureConfig::track_window_frames`], mean of the last third of the windows minus mean of the first third |
+//! | `rotation` | rad | the contour's rotation: sum over consecutive track windows of the change of the activity contour's principal-axis orientation (wrapped to `(−π/2, π/2]`, weighted by the smaller of the two eccentricities — a round contour has no orientation) |
+//!
+//! A surface without a contour (no events, or none reaching `min_peak`) places its centroid at
+//! the centre of the layout's extent; a span with fewer than two track windows has zero
+//! displacement and rotation. Every feature is finite for any finite input.
+//!
+//! **Which features.** The default set ([`DosFeatureConfig::default`]) is the six of
+//! `rate`, `positive_fraction`, `positive_x/y`, `negative_x/y`: on the BioTacSP-DoS development
+//! subset with leave-one-object-out cross-validation they scored best of the sets compared
+//! (`cargo run --release --example dos_eval`, which prints the comparison). The track and
+//! rotation features are computed either way and can be selected in the model file.
+//!
+//! # Decision rule
+//! With class means `μ_c` and per-feature pooled within-class variances `σ²_j` (both fitted by
+//! [`DosModel::calibrate`]), a feature vector `f` gets the class minimising
+//! `D_c = Σ_j (f_j − μ_{c,j})² / σ²_j` (ties: the first class in the model's order). This is
+//! the maximum-likelihood class of a Gaussian model with a shared diagonal covariance and equal
+//! priors; [`Decision::posterior`] gives `softmax(−D_c/2)`.
+//!
+//! **Parameter count:** `(classes + 1) × features` numbers — class means and one variance per
+//! feature. With the 7 classes and the 6 default features: **48**. Configuration (threshold,
+//! window, grid, contour settings, the feature list) is fixed, not fitted.
+//!
+//! # Class names → directions (layout axes of [`Layout::biotac_sp`](gradtac_stream::Layout::biotac_sp): x along the finger toward the tip, y across)
+//! | class | contact motion | [`DosClass::direction`] / [`DosClass::rotation_sense`] |
+//! |---|---|---|
+//! | `n` | toward the tip | `+x` |
+//! | `s` | toward the palm | `−x` |
+//! | `e` | across | `+y` |
+//! | `w` | across | `−y` |
+//! | `cw` | rotation from `+x` toward `+y` | `+1` |
+//! | `aw` | rotation from `+y` toward `+x` | `−1` |
+//! | `t` | none | — |
+//!
+//! *How the translations were determined* (BioTacSP-DoS development subset, 167 recordings):
+//! pressing the skin lowers a BioTac electrode's count — across recordings each electrode's
+//! counts lie far below its largest value (≈ its rest value, 3 600–3 700) and never much above.
+//! The class-mean change of counts (last 20 frames minus first 20) then shows where pressure
+//! goes: for `n` the counts rise (pressure leaves) at the proximal electrodes (x ≈ −6…−11 mm:
+//! e8–e10, e18–e20) and fall (pressure arrives) at the pad's middle and tip (e15, e23, e24,
+//! x ≈ 0…5 mm): the contact moves toward `+x`. `s` is the mirror image (rise at e21–e24, fall at
+//! e8/e18: `−x`); `e` rises on the `−y` side (e3–e7), so the contact moves toward `+y`; `w`
+//! rises on the `+y` side (e11–e17): `−y`. The event features agree: the events concentrate
+//! on the side the contact leaves (class-mean event centroids `n` x ≈ −4 mm, `s` x ≈ +2,
+//! `e` y ≈ −5.5, `w` y ≈ +4.7). Viewed from outside the pad with the tip up, `+y` is to the
+//! right, so this is the compass: north up, east right.
+//! *Rotation sense* is the compass convention (clockwise = north toward east = `+x` toward
+//! `+y`, the direction in which [`MaxContour::orientation_rad`](crate::contour::MaxContour)
+//! grows). It is **not** confirmed by the data: on the development subset the mean `rotation`
+//! feature of `cw` and `aw` differs little (see `dos_eval`'s printout).
+//!
+//! # Units, delay, cost
+//! Input in raw sensor counts (> 0; a value ≤ 0 is raised to the events stage's floor).
+//! The extractor has no delay of its own: a decision covers the span pushed so far
+//! ([`DosClassifier`]: every `decision_frames` frames, or at `finish`). A 280-frame recording
+//! costs ~13 surfaces and contours (32 × 32 natural neighbour), tens of µs in release.
+//!
+//! # Trade-offs
+//! | knob | lower | higher |
+//! |---|---|---|
+//! | `threshold` τ | more noise events (quiet touch looks busy) | loses slow, small slips |
+//! | `track_window_frames` | noisy track, more rotation samples | smeared track, few samples |
+//! | `min_area_mm2` | centroid snaps to the busiest taxel | centroid averages a larger region |
+//! | features | fewer: fewer parameters, more robust on unseen objects | more: fits the seen objects better |
+//! | `decision_frames` (stage) | faster answers from little evidence | later, surer answers |
+
+use crate::contour::{ContourConfig, Levels, MaxContour, MaxContourFinder, Saddle};
+use crate::events::{Events, EventsConfig, Threshold};
+use crate::interpolate::{GridConfig, Interpolator, Method, Outside};
+use crate::window::{Aggregate, Window, WindowAggregate, WindowConfig, WindowKind};
+use crate::{Error, EventBatch, Result};
+use gradtac_stream::{Delay, HasSensor, Layout, SensorId, Stage, TaxelFrame, Timed, Timestamp};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+use std::sync::Arc;
+
+const STAGE: &str = "dos";
+
+fn invalid(reason: impl Into<String>) -> Error {
+    Error::InvalidConfig { stage: STAGE, reason: reason.into() }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Classes
+// ---------------------------------------------------------------------------------------------
+
+/// A BioTacSP-DoS class (see the [module docs](self) for the map to layout directions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DosClass {
+    /// Translational slip north: contact moves toward `+x` (the fingertip).
+    N,
+    /// Translational slip east: contact moves toward `+y`.
+    E,
+    /// Translational slip south: contact moves toward `−x`.
+    S,
+    /// Translational slip west: contact moves toward `−y`.
+    W,
+    /// Rotational slip clockwise (`+x` toward `+y`).
+    Cw,
+    /// Rotational slip anticlockwise (`+y` toward `+x`).
+    Aw,
+    /// Stable touch, no slip.
+    T,
+}
+
+impl DosClass {
+    /// All seven classes in the dataset's order (`n, e, s, w, cw, aw, t`).
+    pub const ALL: [DosClass; 7] =
+        [DosClass::N, DosClass::E, DosClass::S, DosClass::W, DosClass::Cw, DosClass::Aw, DosClass::T];
+
+    /// The dataset's name (`"n"`, …, `"t"`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DosClass::N => "n",
+            DosClass::E => "e",
+            DosClass::S => "s",
+            DosClass::W => "w",
+            DosClass::Cw => "cw",
+            DosClass::Aw => "aw",
+            DosClass::T => "t",
+        }
+    }
+
+    /// Unit vector of the contact's motion in the layout's axes for a translational class
+    /// (`n` → `[1, 0]`, `e` → `[0, 1]`, `s` → `[−1, 0]`, `w` → `[0, −1]`); `None` otherwise.
+    pub fn direction(self) -> Option<[f64; 2]> {
+        match self {
+            DosClass::N => Some([1.0, 0.0]),
+            DosClass::E => Some([0.0, 1.0]),
+            DosClass::S => Some([-1.0, 0.0]),
+            DosClass::W => Some([0.0, -1.0]),
+            _ => None,
+        }
+    }
+
+    /// `+1` for `cw` (rotation from `+x` toward `+y`, growing orientation angle), `−1` for
+    /// `aw`, `None` otherwise.
+    pub fn rotation_sense(self) -> Option<f64> {
+        match self {
+            DosClass::Cw => Some(1.0),
+            DosClass::Aw => Some(-1.0),
+            _ => None,
+        }
+    }
+
+    /// The translational class whose direction is closest to `v` (layout axes), `None` for a
+    /// zero or non-finite vector.
+    pub fn from_direction(v: [f64; 2]) -> Option<DosClass> {
+        if !(v[0].is_finite() && v[1].is_finite()) || (v[0] == 0.0 && v[1] == 0.0) {
+            return None;
+        }
+        [DosClass::N, DosClass::E, DosClass::S, DosClass::W].into_iter().max_by(|a, b| {
+            let (da, db) = (a.direction().unwrap_or([0.0; 2]), b.direction().unwrap_or([0.0; 2]));
+            (da[0] * v[0] + da[1] * v[1]).total_cmp(&(db[0] * v[0] + db[1] * v[1]))
+        })
+    }
+}
+
+impl fmt::Display for DosClass {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for DosClass {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        DosClass::ALL
+            .into_iter()
+            .find(|c| c.as_str().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| invalid(format!("unknown class {s:?}; expected one of n, e, s, w, cw, aw, t")))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Features
+// ---------------------------------------------------------------------------------------------
+
+/// One feature (see the table in the [module docs](self)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Feature {
+    /// `ln(1 + events per second)`.
+    Rate,
+    /// Positive events / all events.
+    PositiveFraction,
+    /// Positive-event contour centroid x (mm).
+    PositiveX,
+    /// Positive-event contour centroid y (mm).
+    PositiveY,
+    /// Negative-event contour centroid x (mm).
+    NegativeX,
+    /// Negative-event contour centroid y (mm).
+    NegativeY,
+    /// All-event contour centroid x (mm).
+    ActivityX,
+    /// All-event contour centroid y (mm).
+    ActivityY,
+    /// Track displacement along x (mm).
+    TrackDx,
+    /// Track displacement along y (mm).
+    TrackDy,
+    /// Contour rotation (rad).
+    Rotation,
+}
+
+impl Feature {
+    /// Every feature, in the order of [`FeatureVector::all`].
+    pub const ALL: [Feature; 11] = [
+        Feature::Rate,
+        Feature::PositiveFraction,
+        Feature::PositiveX,
+        Feature::PositiveY,
+        Feature::NegativeX,
+        Feature::NegativeY,
+        Feature::ActivityX,
+        Feature::ActivityY,
+        Feature::TrackDx,
+        Feature::TrackDy,
+        Feature::Rotation,
+    ];
+
+    /// The default set: rate, positive fraction, positive- and negative-event centroids.
+    pub const DEFAULT: [Feature; 6] = [
+        Feature::Rate,
+        Feature::PositiveFraction,
+        Feature::PositiveX,
+        Feature::PositiveY,
+        Feature::NegativeX,
+        Feature::NegativeY,
+    ];
+
+    /// The snake_case name used in model files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Feature::Rate => "rate",
+            Feature::PositiveFraction => "positive_fraction",
+            Feature::PositiveX => "positive_x",
+            Feature::PositiveY => "positive_y",
+            Feature::NegativeX => "negative_x",
+            Feature::NegativeY => "negative_y",
+            Feature::ActivityX => "activity_x",
+            Feature::ActivityY => "activity_y",
+            Feature::TrackDx => "track_dx",
+            Feature::TrackDy => "track_dy",
+            Feature::Rotation => "rotation",
+        }
+    }
+
+    fn index(self) -> usize {
+        Feature::ALL.iter().position(|&f| f == self).unwrap_or(0)
+    }
+}
+
+/// Every feature of one span (see [`Feature`]); select with [`FeatureVector::select`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FeatureVector {
+    /// The values in [`Feature::ALL`] order.
+    pub all: [f64; 11],
+    /// Number of frames in the span.
+    pub frames: u64,
+    /// Number of events in the span.
+    pub events: u64,
+}
+
+impl FeatureVector {
+    /// One feature's value.
+    pub fn get(&self, f: Feature) -> f64 {
+        self.all[f.index()]
+    }
+
+    /// The values of `features`, in that order.
+    pub fn select(&self, features: &[Feature]) -> Vec<f64> {
+        features.iter().map(|&f| self.get(f)).collect()
+    }
+}
+
+/// Configuration of the feature extraction, stored in the model file (`[stages.dos.features]`).
+///
+/// ```toml
+/// threshold = 0.005          # τ on ln(counts)
+/// track_window_frames = 25   # frames per track window
+/// grid_nx = 32               # surface grid points per axis
+/// min_area_mm2 = 15.0        # smallest maximal-contour area
+/// min_peak = 1.0             # events; below it a surface has no contact
+/// features = ["rate", "positive_fraction", "positive_x", "positive_y", "negative_x", "negative_y"]
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DosFeatureConfig {
+    /// Event threshold `τ` on `ln(counts)` (dimensionless, ≥ 1e-12). Default 0.005 (≈ 17 counts
+    /// at 3 500).
+    pub threshold: f64,
+    /// Frames per tumbling track window (≥ 2). Default 25 (0.25 s at 100 Hz).
+    pub track_window_frames: u64,
+    /// Grid points per axis of the natural-neighbour surfaces (≥ 4). Default 32.
+    pub grid_nx: usize,
+    /// Smallest area (mm²) of a maximal contour. Default 15.
+    pub min_area_mm2: f64,
+    /// Smallest surface peak (events) for a contour. Default 1.
+    pub min_peak: f64,
+    /// How a count surface's location is taken. Default [`CentroidMethod::Taxels`].
+    pub centroid: CentroidMethod,
+    /// The features the classifier uses, in order (non-empty, no repeats). Default: the six
+    /// of [`Feature::DEFAULT`].
+    pub features: Vec<Feature>,
+}
+
+impl Default for DosFeatureConfig {
+    fn default() -> Self {
+        DosFeatureConfig {
+            threshold: 0.005,
+            track_window_frames: 25,
+            grid_nx: 32,
+            min_area_mm2: 15.0,
+            min_peak: 1.0,
+            centroid: CentroidMethod::Taxels,
+            features: Feature::DEFAULT.to_vec(),
+        }
+    }
+}
+
+impl DosFeatureConfig {
+    /// Checks every field (see their docs).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.threshold.is_finite() && self.threshold >= crate::events::MIN_THRESHOLD) {
+            return Err(invalid(format!("threshold {} must be finite and ≥ 1e-12", self.threshold)));
+        }
+        if self.track_window_frames < 2 {
+            return Err(invalid(format!("track_window_frames {} must be ≥ 2", self.track_window_frames)));
+        }
+        if !(4..=1024).contains(&self.grid_nx) {
+            return Err(invalid(format!("grid_nx {} must be in 4..=1024", self.grid_nx)));
+        }
+        if !(self.min_area_mm2.is_finite() && self.min_area_mm2 >= 0.0) {
+            return Err(invalid(format!("min_area_mm2 {} must be finite and ≥ 0", self.min_area_mm2)));
+        }
+        if !self.min_peak.is_finite() {
+            return Err(invalid(format!("min_peak {} must be finite", self.min_peak)));
+        }
+        if self.features.is_empty() {
+            return Err(invalid("features must not be empty"));
+        }
+        for (i, f) in self.features.iter().enumerate() {
+            if self.features[..i].contains(f) {
+                return Err(invalid(format!("feature {} appears twice", f.name())));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How the location of an event-count surface is taken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CentroidMethod {
+    /// The value-weighted centroid of the whole natural-neighbour surface (inside the taxels'
+    /// hull): every event counts, weighted by the area it spreads over.
+    Surface,
+    /// The centroid of the maximal contour (the region of touch of method.md stage 6): the
+    /// busiest region only.
+    MaxContour,
+    /// The count-weighted mean of the taxel positions (no interpolation): each taxel weighs
+    /// by its own events, not by the area it covers. The default: it scored best on
+    /// BioTacSP-DoS (see the [module docs](self)).
+    #[default]
+    Taxels,
+}
+
+/// One track window's activity contour.
+#[derive(Clone, Copy, Debug)]
+struct TrackSample {
+    centroid: [f64; 2],
+    orientation: f64,
+    eccentricity: f64,
+}
+
+/// Extracts a [`FeatureVector`] from raw frames of one sensor: events → split counts → surfaces
+/// → maximal contours. A plain state machine: [`push`](Self::push) frames, read
+/// [`features`](Self::features) for the span so far, [`clear_span`](Self::clear_span) to start
+/// a new span without losing the event references, [`reset`](Self::reset) on a discontinuity.
+#[derive(Clone, Debug)]
+pub struct DosFeatureExtractor {
+    cfg: DosFeatureConfig,
+    taxels: usize,
+    events: Events,
+    window: Window,
+    interp: Interpolator,
+    finder: MaxContourFinder,
+    centre: [f64; 2],
+    positions: Vec<[f64; 2]>,
+    seconds: (Option<Timestamp>, Option<Timestamp>),
+    pos: Vec<f64>,
+    neg: Vec<f64>,
+    frames: u64,
+    track: Vec<TrackSample>,
+    batches: Vec<EventBatch>,
+    windows: Vec<WindowAggregate>,
+}
+
+impl DosFeatureExtractor {
+    /// An extractor for `layout`'s sensor (validating the configuration).
+    pub fn try_new(cfg: &DosFeatureConfig, layout: &Layout) -> Result<Self> {
+        cfg.validate()?;
+        let taxels = layout.len();
+        let events = Events::try_new(
+            taxels,
+            EventsConfig { threshold: Threshold::Uniform(cfg.threshold), ..Default::default() },
+        )?;
+        let window = Window::try_new(&WindowConfig {
+            kind: WindowKind::Tumbling,
+            frames: Some(cfg.track_window_frames),
+            duration_ms: None,
+            step: 1,
+            aggregate: Aggregate::Split,
+        })?;
+        let grid =
+            crate::interpolate::Grid::from_config(&GridConfig { nx: cfg.grid_nx, ..Default::default() }, layout)?;
+        let interp = Interpolator::try_new(layout, Arc::new(grid), Method::NaturalNeighbour, Outside::Nan, 2.0, 0.0)?;
+        let finder = MaxContourFinder::try_new(&ContourConfig {
+            levels: Levels::Count(10),
+            min_area_mm2: cfg.min_area_mm2,
+            min_peak: cfg.min_peak,
+            saddle: Saddle::Centre,
+            peak_only: true,
+        })?;
+        Ok(DosFeatureExtractor {
+            cfg: cfg.clone(),
+            taxels,
+            events,
+            window,
+            interp,
+            finder,
+            centre: layout.extent().centre(),
+            positions: layout.positions().to_vec(),
+            seconds: (None, None),
+            pos: vec![0.0; taxels],
+            neg: vec![0.0; taxels],
+            frames: 0,
+            track: Vec::new(),
+            batches: Vec::new(),
+            windows: Vec::new(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &DosFeatureConfig {
+        &self.cfg
+    }
+
+    /// Frames in the current span.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// Push one raw frame (counts). Errors name the sensor, frame and taxel (wrong taxel count,
+    /// non-finite value, time going backwards).
+    pub fn push(&mut self, frame: TaxelFrame) -> Result<()> {
+        if frame.values.len() != self.taxels {
+            return Err(Error::TaxelCount {
+                stage: STAGE,
+                sensor: frame.sensor.to_string(),
+                seq: frame.seq,
+                expected: self.taxels,
+                got: frame.values.len(),
+            });
+        }
+        self.batches.clear();
+        let time = frame.time;
+        self.events.push(frame, &mut self.batches)?;
+        self.seconds = (self.seconds.0.or(Some(time)), Some(time));
+        self.frames += 1;
+        for b in self.batches.drain(..) {
+            for e in &b.events {
+                let t = e.taxel as usize;
+                if e.polarity > 0 {
+                    self.pos[t] += 1.0;
+                } else {
+                    self.neg[t] += 1.0;
+                }
+            }
+            self.window.push(b, &mut self.windows)?;
+        }
+        for w in self.windows.drain(..) {
+            let Some(split) = &w.split else { continue };
+            let counts: Vec<f64> = split.positive.iter().zip(&split.negative).map(|(p, n)| p + n).collect();
+            if let Some(c) = contour(&self.interp, &mut self.finder, &counts) {
+                self.track.push(TrackSample {
+                    centroid: c.centroid_mm,
+                    orientation: c.orientation_rad,
+                    eccentricity: c.eccentricity,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The features of the span so far (see the [module docs](self)).
+    pub fn features(&mut self) -> FeatureVector {
+        let p: f64 = self.pos.iter().sum();
+        let n: f64 = self.neg.iter().sum();
+        let total = p + n;
+        let mut all = [0.0; 11];
+        all[Feature::Rate.index()] = (1.0 + total / self.span_seconds()).ln();
+        all[Feature::PositiveFraction.index()] = if total > 0.0 { p / total } else { 0.5 };
+        let pc = self.centroid(&self.pos.clone());
+        let nc = self.centroid(&self.neg.clone());
+        let activity: Vec<f64> = self.pos.iter().zip(&self.neg).map(|(a, b)| a + b).collect();
+        let ac = self.centroid(&activity);
+        all[Feature::PositiveX.index()] = pc[0];
+        all[Feature::PositiveY.index()] = pc[1];
+        all[Feature::NegativeX.index()] = nc[0];
+        all[Feature::NegativeY.index()] = nc[1];
+        all[Feature::ActivityX.index()] = ac[0];
+        all[Feature::ActivityY.index()] = ac[1];
+        let (d, rot) = track_motion(&self.track);
+        all[Feature::TrackDx.index()] = d[0];
+        all[Feature::TrackDy.index()] = d[1];
+        all[Feature::Rotation.index()] = rot;
+        FeatureVector { all, frames: self.frames, events: total as u64 }
+    }
+
+    /// Start a new span: counts, track and frame count restart, the event references (and the
+    /// partly filled track window) are kept.
+    pub fn clear_span(&mut self) {
+        self.pos.iter_mut().for_each(|v| *v = 0.0);
+        self.neg.iter_mut().for_each(|v| *v = 0.0);
+        self.frames = 0;
+        self.seconds = (None, None);
+        self.track.clear();
+    }
+
+    /// Forget everything (a discontinuity in the stream).
+    pub fn reset(&mut self) {
+        self.clear_span();
+        self.events.reset();
+        self.window.reset();
+    }
+
+    /// The span's duration: `(t_last − t_first)·n/(n − 1)` for `n` frames (one mean frame
+    /// interval per frame); 10 ms per frame when the times do not tell (fewer than two frames,
+    /// equal times).
+    pub fn span_seconds(&self) -> f64 {
+        let n = self.frames as f64;
+        match self.seconds {
+            (Some(a), Some(b)) if self.frames >= 2 && b > a => (b - a) as f64 * 1e-9 * n / (n - 1.0),
+            _ => 0.01 * n.max(1.0),
+        }
+    }
+
+    fn centroid(&mut self, values: &[f64]) -> [f64; 2] {
+        match self.cfg.centroid {
+            CentroidMethod::MaxContour => {
+                contour(&self.interp, &mut self.finder, values).map_or(self.centre, |c| c.centroid_mm)
+            }
+            CentroidMethod::Surface => surface_centroid(&self.interp, values).unwrap_or(self.centre),
+            CentroidMethod::Taxels => {
+                let w: f64 = values.iter().sum();
+                if w > 0.0 {
+                    let sx: f64 = values.iter().zip(&self.positions).map(|(v, p)| v * p[0]).sum();
+                    let sy: f64 = values.iter().zip(&self.positions).map(|(v, p)| v * p[1]).sum();
+                    [sx / w, sy / w]
+                } else {
+                    self.centre
+                }
+            }
+        }
+    }
+}
+
+fn contour(interp: &Interpolator, finder: &mut MaxContourFinder, values: &[f64]) -> Option<MaxContour> {
+    let z = interp.surface(values);
+    finder.find(z.view(), interp.grid()).contact().cloned()
+}
+
+/// The value-weighted centroid of the (finite part of the) interpolated surface; `None` when
+/// its weight is not positive.
+fn surface_centroid(interp: &Interpolator, values: &[f64]) -> Option<[f64; 2]> {
+    let z = interp.surface(values);
+    let g = interp.grid();
+    let (mut w, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    for ((j, i), &v) in z.indexed_iter() {
+        if v.is_finite() && v > 0.0 {
+            w += v;
+            sx += v * g.x(i);
+            sy += v * g.y(j);
+        }
+    }
+    (w > 0.0).then(|| [sx / w, sy / w])
+}
+
+/// Track displacement (last third minus first third of the samples) and eccentricity-weighted
+/// rotation (sum of wrapped orientation changes).
+fn track_motion(track: &[TrackSample]) -> ([f64; 2], f64) {
+    let k = track.len();
+    if k < 2 {
+        return ([0.0; 2], 0.0);
+    }
+    let third = (k / 3).max(1);
+    let mean = |s: &[TrackSample]| {
+        let n = s.len() as f64;
+        [s.iter().map(|t| t.centroid[0]).sum::<f64>() / n, s.iter().map(|t| t.centroid[1]).sum::<f64>() / n]
+    };
+    let (a, b) = (mean(&track[..third]), mean(&track[k - third..]));
+    let mut rot = 0.0;
+    for w in track.windows(2) {
+        let d = wrap_half_pi(w[1].orientation - w[0].orientation);
+        let weight = w[0].eccentricity.min(w[1].eccentricity);
+        if d.is_finite() && weight.is_finite() {
+            rot += weight * d;
+        }
+    }
+    ([b[0] - a[0], b[1] - a[1]], rot)
+}
+
+/// An angle difference of axes (period π) wrapped to `(−π/2, π/2]`.
+fn wrap_half_pi(d: f64) -> f64 {
+    let pi = std::f64::consts::PI;
+    let mut r = d.rem_euclid(pi);
+    if r > pi / 2.0 {
+        r -= pi;
+    }
+    r
+}
+
+// ---------------------------------------------------------------------------------------------
+// Model
+// ---------------------------------------------------------------------------------------------
+
+/// The fitted classifier: feature configuration, class means and per-feature variances.
+/// Serialises to JSON / TOML (serde) and is validated when deserialised.
+///
+/// ```
+/// use gradtac_stages::dos::{DosClass, DosFeatureConfig, DosModel};
+/// let cfg = DosFeatureConfig { features: vec![gradtac_stages::dos::Feature::TrackDx], ..Default::default() };
+/// let samples = vec![(DosClass::N, vec![2.0]), (DosClass::N, vec![3.0]), (DosClass::S, vec![-2.5]), (DosClass::S, vec![-3.5])];
+/// let model = DosModel::calibrate(cfg, &samples)?;
+/// assert_eq!(model.classify(&[1.0])?.class, DosClass::N);
+/// assert_eq!(model.parameter_count(), 3); // two means and one variance
+/// # Ok::<(), gradtac_stages::Error>(())
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, try_from = "RawModel")]
+pub struct DosModel {
+    /// How features are computed (and which are used).
+    pub config: DosFeatureConfig,
+    /// The classes the model knows, in decision order.
+    pub classes: Vec<DosClass>,
+    /// Class means, `classes.len()` rows of `config.features.len()` values.
+    pub means: Vec<Vec<f64>>,
+    /// Pooled within-class variance per feature (> 0).
+    pub variances: Vec<f64>,
+    /// Number of labelled recordings the model was fitted on (information only).
+    pub recordings: usize,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawModel {
+    config: DosFeatureConfig,
+    classes: Vec<DosClass>,
+    means: Vec<Vec<f64>>,
+    variances: Vec<f64>,
+    #[serde(default)]
+    recordings: usize,
+}
+
+impl TryFrom<RawModel> for DosModel {
+    type Error = Error;
+    fn try_from(r: RawModel) -> Result<Self> {
+        let m = DosModel {
+            config: r.config,
+            classes: r.classes,
+            means: r.means,
+            variances: r.variances,
+            recordings: r.recordings,
+        };
+        m.validate()?;
+        Ok(m)
+    }
+}
+
+/// Smallest variance relative to a feature's total variance (keeps a constant feature from
+/// dividing by zero).
+const VARIANCE_FLOOR: f64 = 1e-6;
+
+/// A decision: the class, and the distances and posteriors per class of the model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Decision {
+    /// The chosen class.
+    pub class: DosClass,
+    /// `D_c` per model class (model order).
+    pub distances: Vec<f64>,
+    /// `softmax(−D_c/2)` per model class (model order).
+    pub posterior: Vec<f64>,
+}
+
+impl DosModel {
+    /// Fit class means and pooled within-class variances from labelled feature vectors
+    /// (each of `config.features.len()` values, e.g. [`FeatureVector::select`]).
+    ///
+    /// The model's classes are those present, in [`DosClass::ALL`] order. Refuses an invalid
+    /// configuration, vectors of the wrong length or non-finite values, fewer than two classes,
+    /// and data without any within-class spread (fewer samples than classes + 1).
+    /// A feature whose within-class variance is below `1e-6` of its total variance gets that
+    /// floor (and a floor of `1e-12` when constant).
+    pub fn calibrate(config: DosFeatureConfig, samples: &[(DosClass, Vec<f64>)]) -> Result<DosModel> {
+        config.validate()?;
+        let d = config.features.len();
+        for (i, (c, f)) in samples.iter().enumerate() {
+            if f.len() != d {
+                return Err(invalid(format!("sample {i} ({c}) has {} values for {d} features", f.len())));
+            }
+            if let Some(j) = f.iter().position(|v| !v.is_finite()) {
+                return Err(invalid(format!("sample {i} ({c}): feature {} is {}", config.features[j].name(), f[j])));
+            }
+        }
+        let classes: Vec<DosClass> =
+            DosClass::ALL.into_iter().filter(|c| samples.iter().any(|(s, _)| s == c)).collect();
+        if classes.len() < 2 {
+            return Err(invalid(format!("calibration needs at least two classes, got {}", classes.len())));
+        }
+        if samples.len() <= classes.len() {
+            return Err(invalid(format!(
+                "{} samples for {} classes: at least one class needs two samples",
+                samples.len(),
+                classes.len()
+            )));
+        }
+        let mut means = vec![vec![0.0; d]; classes.len()];
+        let mut counts = vec![0usize; classes.len()];
+        for (c, f) in samples {
+            let k = classes.iter().position(|x| x == c).unwrap_or(0);
+            counts[k] += 1;
+            for j in 0..d {
+                means[k][j] += f[j];
+            }
+        }
+        for (m, &n) in means.iter_mut().zip(&counts) {
+            m.iter_mut().for_each(|v| *v /= n as f64);
+        }
+        let dof = (samples.len() - classes.len()) as f64;
+        let grand: Vec<f64> =
+            (0..d).map(|j| samples.iter().map(|(_, f)| f[j]).sum::<f64>() / samples.len() as f64).collect();
+        let mut variances = vec![0.0; d];
+        let mut total = vec![0.0; d];
+        for (c, f) in samples {
+            let k = classes.iter().position(|x| x == c).unwrap_or(0);
+            for j in 0..d {
+                variances[j] += (f[j] - means[k][j]).powi(2);
+                total[j] += (f[j] - grand[j]).powi(2);
+            }
+        }
+        for j in 0..d {
+            let floor = (VARIANCE_FLOOR * total[j] / (samples.len() - 1) as f64).max(1e-12);
+            variances[j] = (variances[j] / dof).max(floor);
+        }
+        let m = DosModel { config, classes, means, variances, recordings: samples.len() };
+        m.validate()?;
+        Ok(m)
+    }
+
+    /// Checks shapes and values (done on deserialisation).
+    pub fn validate(&self) -> Result<()> {
+        self.config.validate()?;
+        let d = self.config.features.len();
+        if self.classes.len() < 2 {
+            return Err(invalid("a model needs at least two classes"));
+        }
+        for (i, c) in self.classes.iter().enumerate() {
+            if self.classes[..i].contains(c) {
+                return Err(invalid(format!("class {c} appears twice")));
+            }
+        }
+        if self.means.len() != self.classes.len() {
+            return Err(invalid(format!("{} rows of means for {} classes", self.means.len(), self.classes.len())));
+        }
+        for (c, m) in self.classes.iter().zip(&self.means) {
+            if m.len() != d || m.iter().any(|v| !v.is_finite()) {
+                return Err(invalid(format!("means of class {c} must be {d} finite values, got {m:?}")));
+            }
+        }
+        if self.variances.len() != d || self.variances.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(invalid(format!("variances must be {d} finite values > 0, got {:?}", self.variances)));
+        }
+        Ok(())
+    }
+
+    /// Number of fitted numbers: `(classes + 1) × features`.
+    pub fn parameter_count(&self) -> usize {
+        (self.classes.len() + 1) * self.config.features.len()
+    }
+
+    /// Classify one feature vector (the model's features, in order).
+    pub fn classify(&self, features: &[f64]) -> Result<Decision> {
+        let d = self.config.features.len();
+        if features.len() != d {
+            return Err(invalid(format!("{} feature values for a model of {d} features", features.len())));
+        }
+        if let Some(j) = features.iter().position(|v| !v.is_finite()) {
+            return Err(invalid(format!("feature {} is {}", self.config.features[j].name(), features[j])));
+        }
+        let distances: Vec<f64> = self
+            .means
+            .iter()
+            .map(|m| m.iter().zip(features).zip(&self.variances).map(|((mu, f), v)| (f - mu).powi(2) / v).sum())
+            .collect();
+        let mut best = 0;
+        for (k, &dk) in distances.iter().enumerate() {
+            if dk < distances[best] {
+                best = k;
+            }
+        }
+        let dmin = distances[best];
+        let w: Vec<f64> = distances.iter().map(|&dk| (-(dk - dmin) / 2.0).exp()).collect();
+        let s: f64 = w.iter().sum();
+        Ok(Decision { class: self.classes[best], posterior: w.iter().map(|x| x / s).collect(), distances })
+    }
+
+    /// Classify the full feature vector of a span.
+    pub fn classify_vector(&self, fv: &FeatureVector) -> Result<Decision> {
+        self.classify(&fv.select(&self.config.features))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stage
+// ---------------------------------------------------------------------------------------------
+
+/// One slip-direction decision of the [`DosClassifier`] stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DosDecision {
+    /// The sensor.
+    pub sensor: SensorId,
+    /// Time of the span's first frame.
+    pub start: Timestamp,
+    /// Time of its last frame.
+    pub end: Timestamp,
+    /// Index of the last frame.
+    pub seq: u64,
+    /// Frames in the span.
+    pub frames: u64,
+    /// The decision.
+    pub decision: Decision,
+    /// The span's features (all of them, [`Feature::ALL`] order).
+    pub features: FeatureVector,
+}
+
+impl Timed for DosDecision {
+    fn time(&self) -> Timestamp {
+        self.end
+    }
+}
+
+impl HasSensor for DosDecision {
+    fn sensor(&self) -> &SensorId {
+        &self.sensor
+    }
+}
+
+/// The classifier as a [`Stage`]: raw frames of one sensor in, [`DosDecision`]s out — one per
+/// `decision_frames` frames (tumbling spans), or with `None` one per segment at
+/// [`finish`](Stage::finish) (a whole recording). [`reset`](Stage::reset) drops the open span.
+/// Delay: `decision_frames − 1` frames; with `None` the decision comes at `finish` and
+/// [`Stage::delay`] reports zero (no frame count describes it).
+#[derive(Clone, Debug)]
+#[must_use = "a stage does nothing until frames are pushed"]
+pub struct DosClassifier {
+    model: DosModel,
+    extractor: DosFeatureExtractor,
+    decision_frames: Option<u64>,
+    span: Option<(SensorId, Timestamp, Timestamp, u64)>,
+}
+
+impl DosClassifier {
+    /// A classifier for `layout`'s sensor; `decision_frames` (≥ 1) or `None` for one decision
+    /// per segment.
+    pub fn try_new(model: DosModel, layout: &Layout, decision_frames: Option<u64>) -> Result<Self> {
+        model.validate()?;
+        if decision_frames == Some(0) {
+            return Err(invalid("decision_frames must be ≥ 1"));
+        }
+        let extractor = DosFeatureExtractor::try_new(&model.config, layout)?;
+        Ok(DosClassifier { model, extractor, decision_frames, span: None })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &DosModel {
+        &self.model
+    }
+
+    fn emit(&mut self, out: &mut Vec<DosDecision>) -> Result<()> {
+        if let Some((sensor, start, end, seq)) = self.span.take() {
+            let features = self.extractor.features();
+            let decision = self.model.classify_vector(&features)?;
+            out.push(DosDecision { sensor, start, end, seq, frames: features.frames, decision, features });
+            self.extractor.clear_span();
+        }
+        Ok(())
+    }
+}
+
+impl Stage for DosClassifier {
+    type In = TaxelFrame;
+    type Out = DosDecision;
+    type Error = Error;
+
+    fn push(&mut self, frame: TaxelFrame, out: &mut Vec<DosDecision>) -> Result<()> {
+        let (sensor, time, seq) = (frame.sensor.clone(), frame.time, frame.seq);
+        self.extractor.push(frame)?;
+        match &mut self.span {
+            Some(s) => {
+                s.2 = time;
+                s.3 = seq;
+            }
+            None => self.span = Some((sensor, time, time, seq)),
+        }
+        if self.decision_frames.is_some_and(|n| self.extractor.frames() >= n) {
+            self.emit(out)?;
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, out: &mut Vec<DosDecision>) -> Result<()> {
+        self.emit(out)
+    }
+
+    fn reset(&mut self) {
+        self.extractor.reset();
+        self.span = None;
+    }
+
+    fn delay(&self) -> Delay {
+        match self.decision_frames {
+            Some(n) => Delay::frames(n - 1),
+            // the decision comes at `finish`, which no frame count describes
+            None => Delay::ZERO,
+        }
+    }
+}
