@@ -14,6 +14,7 @@ mod error;
 pub mod event;
 
 pub mod contour;
+pub mod dos;
 pub mod events;
 pub mod force;
 pub mod interpolate;
