@@ -31,7 +31,7 @@ use arrow_array::cast::AsArray;
 use arrow_array::types::*;
 use arrow_array::{Array, ArrayRef, RecordBatch};
 use arrow_schema::{ArrowError, DataType, TimeUnit as ArrowTimeUnit};
-use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
+use gradtac_stream::{SensorId, Stage, TaxelFrame, Timestamp};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::fs::File;
@@ -185,31 +185,60 @@ enum Resolved {
     Wide { sensor: SensorId, taxels: Vec<usize>, time: Option<usize>, rate: f64 },
 }
 
-/// Taxel frames from an iterator of record batches (see the [module docs](self)): an
-/// [`Iterator`] of `Result<TaxelFrame>` that stops after the first error.
-#[must_use = "iterators are lazy and do nothing unless consumed"]
-pub struct BatchFrames<I> {
-    batches: I,
+/// Record batches → taxel frames, as a synchronous [`Stage`] (`In = RecordBatch`,
+/// `Out = TaxelFrame`): the core of every Arrow source. Drive it over any iterator
+/// ([`BatchFrames`], `IteratorStageExt::stage`) or any `Stream` of batches a host application
+/// hands over (`StreamStageExt::stage`):
+///
+/// ```
+/// use arrow_array::{ArrayRef, Float64Array, RecordBatch};
+/// use futures::StreamExt;
+/// use gradtac_io::arrow_ipc::{BatchDecoder, BatchLayout, WideTime};
+/// use gradtac_io::ColumnSelector;
+/// use gradtac_stream::{SensorId, StreamStageExt};
+/// use std::sync::Arc;
+///
+/// let batch = RecordBatch::try_from_iter([
+///     ("a", Arc::new(Float64Array::from(vec![1.0, 2.0])) as ArrayRef),
+///     ("b", Arc::new(Float64Array::from(vec![3.0, 4.0])) as ArrayRef),
+/// ])?;
+/// let layout = BatchLayout::Wide {
+///     sensor: SensorId::new("ff"),
+///     columns: ColumnSelector::Names(vec!["a".into(), "b".into()]),
+///     time: WideTime::Rate(100.0),
+/// };
+/// let batches = futures::stream::iter([Ok::<_, gradtac_io::Error>(batch)]);
+/// let frames: Vec<_> = futures::executor::block_on(batches.stage(BatchDecoder::new("host", layout)).collect());
+/// assert_eq!(frames[1].as_ref().unwrap().values, vec![2.0, 4.0]);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug)]
+#[must_use = "a decoder does nothing until batches are pushed"]
+pub struct BatchDecoder {
     origin: PathBuf,
     layout: BatchLayout,
     resolved: Option<Resolved>,
-    ready: VecDeque<TaxelFrame>,
     batch_no: u64,
     rows: u64,
     taxels: Option<usize>,
     seqs: HashMap<SensorId, u64>,
     last_time: Option<i64>,
+}
+
+/// Taxel frames from an iterator of record batches (see the [module docs](self)): an
+/// [`Iterator`] of `Result<TaxelFrame>` that stops after the first error.
+#[must_use = "iterators are lazy and do nothing unless consumed"]
+pub struct BatchFrames<I> {
+    batches: I,
+    decoder: BatchDecoder,
+    ready: VecDeque<TaxelFrame>,
+    buf: Vec<TaxelFrame>,
     done: bool,
 }
 
 impl<I> std::fmt::Debug for BatchFrames<I> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("BatchFrames")
-            .field("origin", &self.origin)
-            .field("layout", &self.layout)
-            .field("batch_no", &self.batch_no)
-            .field("rows", &self.rows)
-            .finish_non_exhaustive()
+        f.debug_struct("BatchFrames").field("decoder", &self.decoder).finish_non_exhaustive()
     }
 }
 
@@ -254,16 +283,31 @@ where
     pub fn new(batches: I, origin: impl Into<PathBuf>, layout: BatchLayout) -> Self {
         BatchFrames {
             batches,
+            decoder: BatchDecoder::new(origin, layout),
+            ready: VecDeque::new(),
+            buf: Vec::new(),
+            done: false,
+        }
+    }
+
+    /// The decoder (rows read, taxel count).
+    pub fn decoder(&self) -> &BatchDecoder {
+        &self.decoder
+    }
+}
+
+impl BatchDecoder {
+    /// A decoder for batches of `layout`; `origin` names the source in errors.
+    pub fn new(origin: impl Into<PathBuf>, layout: BatchLayout) -> Self {
+        BatchDecoder {
             origin: origin.into(),
             layout,
             resolved: None,
-            ready: VecDeque::new(),
             batch_no: 0,
             rows: 0,
             taxels: None,
             seqs: HashMap::new(),
             last_time: None,
-            done: false,
         }
     }
 
@@ -324,19 +368,18 @@ where
         }
     }
 
-    fn decode(&mut self, batch: &RecordBatch) -> Result<()> {
+    fn decode(&mut self, batch: &RecordBatch, out: &mut Vec<TaxelFrame>) -> Result<()> {
         let resolved = match self.resolved.take() {
             Some(r) => r,
             None => self.resolve(batch)?,
         };
-        let r = self.decode_with(&resolved, batch);
+        let r = self.decode_with(&resolved, batch, out);
         self.resolved = Some(resolved);
         r
     }
 
-    fn decode_with(&mut self, resolved: &Resolved, batch: &RecordBatch) -> Result<()> {
+    fn decode_with(&mut self, resolved: &Resolved, batch: &RecordBatch, out: &mut Vec<TaxelFrame>) -> Result<()> {
         let n = batch.num_rows();
-        let mut out = Vec::with_capacity(n);
         match resolved {
             Resolved::Long { sensor, time, seq, values, keep } => {
                 let (sensor, time, seq, values) = (*sensor, *time, *seq, *values);
@@ -411,7 +454,6 @@ where
         }
         self.rows += n as u64;
         self.batch_no += 1;
-        self.ready.extend(out);
         Ok(())
     }
 
@@ -454,17 +496,42 @@ where
                 }
                 Some(Err(e)) => {
                     self.done = true;
-                    return Some(Err(self.err(None, e.to_string())));
+                    return Some(Err(self.decoder.err(None, e.to_string())));
                 }
                 Some(Ok(b)) => {
-                    if let Err(e) = self.decode(&b) {
+                    let r = self.decoder.decode(&b, &mut self.buf);
+                    if let Err(e) = r {
                         self.done = true;
-                        self.ready.clear();
+                        self.buf.clear();
                         return Some(Err(e));
                     }
+                    self.ready.extend(self.buf.drain(..));
                 }
             }
         }
+    }
+}
+
+impl Stage for BatchDecoder {
+    type In = RecordBatch;
+    type Out = TaxelFrame;
+    type Error = Error;
+
+    /// Decode one batch; on `Err` (a bad row) the frames of that batch are not emitted.
+    fn push(&mut self, batch: RecordBatch, out: &mut Vec<TaxelFrame>) -> Result<()> {
+        let mut buf = Vec::with_capacity(batch.num_rows());
+        self.decode(&batch, &mut buf)?;
+        out.append(&mut buf);
+        Ok(())
+    }
+
+    /// Forget the resolved columns, taxel count, `seq` counters and the last time (a new
+    /// table may follow); the row and batch counts keep counting.
+    fn reset(&mut self) {
+        self.resolved = None;
+        self.taxels = None;
+        self.seqs.clear();
+        self.last_time = None;
     }
 }
 
