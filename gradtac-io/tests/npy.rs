@@ -287,3 +287,35 @@ np.save(f"{d}/t.npy", np.array([0.5, 0.75, 1.0, 1.25, 1.5]))
     assert_eq!(frames[4].time, Timestamp(1_500_000_000));
     assert_eq!(frames[4].values[23], base[4 * 24 + 23]);
 }
+
+/// A real BioTacSP-DoS recording (when the shared data is present) stored as big-endian
+/// `u2` and as little-endian `f8` `.npy` files reads back exactly as its CSV values.
+#[test]
+fn real_biotacsp_recording_as_npy_when_present() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/biotacsp-dos/cw/bottle4.csv");
+    if !path.exists() {
+        eprintln!("skipped: {} is absent", path.display());
+        return;
+    }
+    let text = std::fs::read_to_string(&path).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .filter(|l| !l.is_empty())
+        .map(|l| l.split(',').map(|c| c.trim().parse().unwrap()).collect())
+        .collect();
+    let flat: Vec<f64> = rows.concat();
+    let dir = tempfile::tempdir().unwrap();
+    for (descr, code, big) in [(">u2", "u2", true), ("<f8", "f8", false)] {
+        let p = write(
+            dir.path(),
+            &format!("{code}.npy"),
+            &npy(1, descr, false, &[rows.len() as u64, 24], &encode(code, big, &flat)),
+        );
+        let frames = read_all(&NpySourceConfig::with_rate(&p, 100.0)).unwrap();
+        assert_eq!(frames.len(), rows.len());
+        for (f, r) in frames.iter().zip(&rows) {
+            assert_eq!(&f.values, r, "{descr}");
+        }
+    }
+}
