@@ -249,6 +249,16 @@ pub enum PresetKind {
     BiotacMux,
 }
 
+impl PresetKind {
+    /// The name used in scene files (`"xela-uskin"`, `"biotac-mux"`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PresetKind::XelaUskin => "xela-uskin",
+            PresetKind::BiotacMux => "biotac-mux",
+        }
+    }
+}
+
 /// A preset instantiated for a list of sensors.
 ///
 /// ```toml

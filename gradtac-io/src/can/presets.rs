@@ -40,7 +40,7 @@ pub const BIOTAC_MUX_OTHER: [u8; 3] = [6, 7, 8];
 pub const XELA_USKIN_TAXELS: u32 = 16;
 
 pub(crate) fn expand(p: &PresetConfig) -> Result<Vec<SensorSpec>> {
-    let bad = |s: String| Error::InvalidConfig(format!("CAN preset {:?}: {s}", p.kind));
+    let bad = |s: String| Error::InvalidConfig(format!("CAN preset {:?}: {s}", p.kind.as_str()));
     if p.sensors.is_empty() {
         return Err(bad("no sensors".into()));
     }
@@ -150,7 +150,8 @@ mod tests {
         let f = CanFrame::standard(0x21C, &[0; 6], Timestamp(0)).unwrap();
         assert_eq!(c.decode(&f, &mut out), Decoded::UnknownId);
         p.base_id = Some(0x208);
-        assert!(CanCodec::try_new(&CodecConfig::preset(p)).unwrap_err().to_string().contains("multiple"));
+        let e = CanCodec::try_new(&CodecConfig::preset(p)).unwrap_err().to_string();
+        assert!(e.contains("CAN preset \"xela-uskin\": base_id 0x208 must be a multiple of 0x10"), "{e}");
     }
 
     #[test]
