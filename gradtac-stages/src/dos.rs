@@ -508,17 +508,16 @@ impl DosFeatureExtractor {
             }
             self.window.push(b, &mut self.windows)?;
         }
-        for w in self.windows.drain(..) {
+        let mut windows = std::mem::take(&mut self.windows);
+        for w in &windows {
             let Some(split) = &w.split else { continue };
             let counts: Vec<f64> = split.positive.iter().zip(&split.negative).map(|(p, n)| p + n).collect();
-            if let Some(c) = contour(&self.interp, &mut self.finder, &counts) {
-                self.track.push(TrackSample {
-                    centroid: c.centroid_mm,
-                    orientation: c.orientation_rad,
-                    eccentricity: c.eccentricity,
-                });
+            if let Some(sample) = self.locate(&counts) {
+                self.track.push(sample);
             }
         }
+        windows.clear();
+        self.windows = windows;
         Ok(())
     }
 
@@ -576,44 +575,68 @@ impl DosFeatureExtractor {
     }
 
     fn centroid(&mut self, values: &[f64]) -> [f64; 2] {
+        self.locate(values).map_or(self.centre, |s| s.centroid)
+    }
+
+    /// Location, orientation and eccentricity of a count distribution by the configured method.
+    fn locate(&mut self, values: &[f64]) -> Option<TrackSample> {
         match self.cfg.centroid {
-            CentroidMethod::MaxContour => {
-                contour(&self.interp, &mut self.finder, values).map_or(self.centre, |c| c.centroid_mm)
+            CentroidMethod::MaxContour => contour(&self.interp, &mut self.finder, values).map(|c| TrackSample {
+                centroid: c.centroid_mm,
+                orientation: c.orientation_rad,
+                eccentricity: c.eccentricity,
+            }),
+            CentroidMethod::Surface => {
+                let z = self.interp.surface(values);
+                let g = self.interp.grid();
+                weighted_moments(z.indexed_iter().map(|((j, i), &v)| (g.x(i), g.y(j), v)))
             }
-            CentroidMethod::Surface => surface_centroid(&self.interp, values).unwrap_or(self.centre),
             CentroidMethod::Taxels => {
-                let w: f64 = values.iter().sum();
-                if w > 0.0 {
-                    let sx: f64 = values.iter().zip(&self.positions).map(|(v, p)| v * p[0]).sum();
-                    let sy: f64 = values.iter().zip(&self.positions).map(|(v, p)| v * p[1]).sum();
-                    [sx / w, sy / w]
-                } else {
-                    self.centre
-                }
+                weighted_moments(values.iter().zip(&self.positions).map(|(&v, p)| (p[0], p[1], v)))
             }
         }
     }
+}
+
+/// Centroid, principal-axis orientation (rad, `(−π/2, π/2]`) and eccentricity
+/// `√(1 − λ_min/λ_max)` of positive finite weights at points; `None` without weight.
+fn weighted_moments(points: impl Iterator<Item = (f64, f64, f64)> + Clone) -> Option<TrackSample> {
+    let (mut w, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    for (x, y, v) in points.clone() {
+        if v.is_finite() && v > 0.0 {
+            w += v;
+            sx += v * x;
+            sy += v * y;
+        }
+    }
+    if !(w > 0.0 && w.is_finite()) {
+        return None;
+    }
+    let c = [sx / w, sy / w];
+    let (mut xx, mut yy, mut xy) = (0.0, 0.0, 0.0);
+    for (x, y, v) in points {
+        if v.is_finite() && v > 0.0 {
+            let (dx, dy) = (x - c[0], y - c[1]);
+            xx += v * dx * dx;
+            yy += v * dy * dy;
+            xy += v * dx * dy;
+        }
+    }
+    let (xx, yy, xy) = (xx / w, yy / w, xy / w);
+    let mut orientation = 0.5 * (2.0 * xy).atan2(xx - yy);
+    if orientation <= -std::f64::consts::FRAC_PI_2 {
+        orientation += std::f64::consts::PI;
+    }
+    let half = ((xx - yy).powi(2) / 4.0 + xy * xy).sqrt();
+    let (hi, lo) = ((xx + yy) / 2.0 + half, ((xx + yy) / 2.0 - half).max(0.0));
+    let eccentricity = if hi > 0.0 { (1.0 - lo / hi).clamp(0.0, 1.0).sqrt() } else { 0.0 };
+    let finite = c[0].is_finite() && c[1].is_finite() && orientation.is_finite();
+    finite.then_some(TrackSample { centroid: c, orientation, eccentricity })
 }
 
 fn contour(interp: &Interpolator, finder: &mut MaxContourFinder, values: &[f64]) -> Option<MaxContour> {
     let z = interp.surface(values);
     finder.find(z.view(), interp.grid()).contact().cloned()
-}
-
-/// The value-weighted centroid of the (finite part of the) interpolated surface; `None` when
-/// its weight is not positive.
-fn surface_centroid(interp: &Interpolator, values: &[f64]) -> Option<[f64; 2]> {
-    let z = interp.surface(values);
-    let g = interp.grid();
-    let (mut w, mut sx, mut sy) = (0.0, 0.0, 0.0);
-    for ((j, i), &v) in z.indexed_iter() {
-        if v.is_finite() && v > 0.0 {
-            w += v;
-            sx += v * g.x(i);
-            sy += v * g.y(j);
-        }
-    }
-    (w > 0.0).then(|| [sx / w, sy / w])
 }
 
 /// Track displacement (last third minus first third of the samples) and eccentricity-weighted
@@ -963,5 +986,308 @@ impl Stage for DosClassifier {
             // the decision comes at `finish`, which no frame count describes
             None => Delay::ZERO,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gradtac_stream::StageExt;
+
+    /// A deterministic pseudo-random source (64-bit LCG, top 53 bits).
+    struct Lcg(u64);
+    impl Lcg {
+        fn uniform(&mut self) -> f64 {
+            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        }
+        fn normal(&mut self) -> f64 {
+            let (u, v) = (self.uniform(), self.uniform());
+            (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+        }
+    }
+
+    /// A synthetic BioTac-like recording: per-taxel rest counts ~3500, an elliptical contact
+    /// (σ 4 × 2 mm, depth 1000 counts — pressing lowers counts) whose centre moves from
+    /// `c0` by `shift` mm and whose major axis turns from `phi0` by `turn` rad over the
+    /// recording, plus ±2 counts of noise.
+    fn recording(frames: usize, c0: [f64; 2], shift: [f64; 2], phi0: f64, turn: f64, seed: u64) -> Vec<TaxelFrame> {
+        let layout = Layout::biotac_sp();
+        let mut rng = Lcg(seed);
+        let rest: Vec<f64> = (0..24).map(|i| 3400.0 + 10.0 * i as f64).collect();
+        (0..frames)
+            .map(|k| {
+                let s = k as f64 / (frames - 1) as f64;
+                let c = [c0[0] + s * shift[0], c0[1] + s * shift[1]];
+                let phi = phi0 + s * turn;
+                let (sn, cs) = phi.sin_cos();
+                let values = layout
+                    .positions()
+                    .iter()
+                    .zip(&rest)
+                    .map(|(p, r)| {
+                        let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+                        let (u, v) = (cs * dx + sn * dy, -sn * dx + cs * dy);
+                        let depth = 1000.0 * (-(u * u) / (2.0 * 16.0) - (v * v) / (2.0 * 4.0)).exp();
+                        (r - depth + 2.0 * (2.0 * rng.uniform() - 1.0)).round()
+                    })
+                    .collect();
+                TaxelFrame::new("ff".into(), Timestamp::at_rate(k as u64, 100.0), k as u64, values)
+            })
+            .collect()
+    }
+
+    /// The synthetic motion of a class: translations of 8 mm along the class direction,
+    /// rotations of 60° in the class sense, no motion for touch.
+    fn synthetic(class: DosClass, c0: [f64; 2], phi0: f64, seed: u64) -> Vec<TaxelFrame> {
+        let shift = class.direction().map_or([0.0; 2], |d| [8.0 * d[0], 8.0 * d[1]]);
+        let turn = class.rotation_sense().map_or(0.0, |s| s * std::f64::consts::FRAC_PI_3);
+        let start = [c0[0] - shift[0] / 2.0, c0[1] - shift[1] / 2.0];
+        recording(200, start, shift, phi0, turn, seed)
+    }
+
+    fn features_of(frames: Vec<TaxelFrame>, cfg: &DosFeatureConfig) -> FeatureVector {
+        let mut x = DosFeatureExtractor::try_new(cfg, &Layout::biotac_sp()).unwrap();
+        for f in frames {
+            x.push(f).unwrap();
+        }
+        x.features()
+    }
+
+    fn motion_config() -> DosFeatureConfig {
+        DosFeatureConfig {
+            features: vec![Feature::Rate, Feature::TrackDx, Feature::TrackDy, Feature::Rotation],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn synthetic_tracks_give_the_mapped_classes() {
+        let cfg = motion_config();
+        let mut train = Vec::new();
+        for (i, c0) in [[-1.0, 0.0], [1.0, 0.5], [0.0, -0.5]].into_iter().enumerate() {
+            for class in DosClass::ALL {
+                let fv = features_of(synthetic(class, c0, 0.3 * i as f64, 10 + i as u64), &cfg);
+                train.push((class, fv.select(&cfg.features)));
+            }
+        }
+        let model = DosModel::calibrate(cfg.clone(), &train).unwrap();
+        assert_eq!(model.parameter_count(), 8 * 4);
+        // fresh recordings: other positions, orientations and noise
+        for (c0, phi0, seed) in [([0.5, 0.0], 0.15, 99), ([-0.5, 0.3], 0.5, 7)] {
+            for class in DosClass::ALL {
+                let fv = features_of(synthetic(class, c0, phi0, seed), &cfg);
+                let d = model.classify_vector(&fv).unwrap();
+                assert_eq!(
+                    d.class,
+                    class,
+                    "{class} at {c0:?}: features {:?}, decision {d:?}",
+                    fv.select(&cfg.features)
+                );
+                let s: f64 = d.posterior.iter().sum();
+                assert!((s - 1.0).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn track_features_follow_the_contact() {
+        let cfg = motion_config();
+        let plus_x = features_of(synthetic(DosClass::N, [0.0, 0.0], 0.0, 1), &cfg);
+        assert!(plus_x.get(Feature::TrackDx) > 2.0, "{plus_x:?}");
+        assert!(plus_x.get(Feature::TrackDx).abs() > 3.0 * plus_x.get(Feature::TrackDy).abs(), "{plus_x:?}");
+        let plus_y = features_of(synthetic(DosClass::E, [0.0, 0.0], 0.0, 2), &cfg);
+        assert!(plus_y.get(Feature::TrackDy) > 2.0, "{plus_y:?}");
+        let cw = features_of(synthetic(DosClass::Cw, [0.0, 0.0], 0.0, 3), &cfg);
+        let aw = features_of(synthetic(DosClass::Aw, [0.0, 0.0], 0.0, 3), &cfg);
+        assert!(cw.get(Feature::Rotation) > 0.2 && aw.get(Feature::Rotation) < -0.2, "{cw:?} {aw:?}");
+        let still = features_of(synthetic(DosClass::T, [0.0, 0.0], 0.0, 4), &cfg);
+        assert!(still.get(Feature::Rate) < 0.5 * plus_x.get(Feature::Rate), "{still:?} {plus_x:?}");
+    }
+
+    #[test]
+    fn calibrate_recovers_planted_parameters() {
+        let cfg = DosFeatureConfig {
+            features: vec![Feature::Rate, Feature::PositiveX, Feature::NegativeY],
+            ..Default::default()
+        };
+        let sd = [0.5, 2.0, 0.1];
+        let planted: Vec<[f64; 3]> = (0..7).map(|k| [k as f64, 10.0 - 3.0 * k as f64, 0.01 * (k * k) as f64]).collect();
+        let mut rng = Lcg(42);
+        let n = 2000;
+        let mut samples = Vec::new();
+        for (k, class) in DosClass::ALL.into_iter().enumerate() {
+            for _ in 0..n {
+                samples.push((class, (0..3).map(|j| planted[k][j] + sd[j] * rng.normal()).collect::<Vec<_>>()));
+            }
+        }
+        let m = DosModel::calibrate(cfg, &samples).unwrap();
+        assert_eq!(m.classes, DosClass::ALL.to_vec());
+        assert_eq!(m.recordings, 7 * n);
+        for (k, (fitted, truth)) in m.means.iter().zip(&planted).enumerate() {
+            for (j, (a, b)) in fitted.iter().zip(truth).enumerate() {
+                let tol = 5.0 * sd[j] / (n as f64).sqrt();
+                assert!((a - b).abs() < tol, "mean {k},{j}: {a} vs {b}");
+            }
+        }
+        for (j, (v, s)) in m.variances.iter().zip(sd).enumerate() {
+            assert!((v / (s * s) - 1.0).abs() < 0.05, "variance {j}: {v} vs {}", s * s);
+        }
+        // the planted means are classified as their classes
+        for (k, class) in DosClass::ALL.into_iter().enumerate() {
+            assert_eq!(m.classify(&planted[k]).unwrap().class, class);
+        }
+    }
+
+    #[test]
+    fn model_round_trips_and_bad_files_are_refused() {
+        let cfg = DosFeatureConfig { features: vec![Feature::TrackDx, Feature::Rotation], ..Default::default() };
+        let samples =
+            vec![(DosClass::N, vec![1.0, 0.0]), (DosClass::N, vec![2.0, 0.1]), (DosClass::Cw, vec![0.0, 1.0])];
+        let m = DosModel::calibrate(cfg, &samples).unwrap();
+        let json = serde_json::to_string(&m).unwrap();
+        let back: DosModel = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, m);
+        assert!(json.contains("\"track_dx\"") && json.contains("\"cw\""), "{json}");
+        let bad = json.replace("\"variances\":[", "\"variances\":[0.0,");
+        let e = serde_json::from_str::<DosModel>(&bad).unwrap_err();
+        assert!(e.to_string().contains("variances"), "{e}");
+        let unknown = json.replace("\"recordings\"", "\"colour\":1,\"recordings\"");
+        assert!(serde_json::from_str::<DosModel>(&unknown).is_err());
+        // classify checks its input
+        assert!(m.classify(&[1.0]).is_err());
+        assert!(m.classify(&[1.0, f64::NAN]).is_err());
+    }
+
+    #[test]
+    fn invalid_input_is_refused() {
+        let ok = DosFeatureConfig::default();
+        let l = Layout::biotac_sp();
+        for bad in [
+            DosFeatureConfig { threshold: 0.0, ..ok.clone() },
+            DosFeatureConfig { threshold: f64::NAN, ..ok.clone() },
+            DosFeatureConfig { track_window_frames: 1, ..ok.clone() },
+            DosFeatureConfig { grid_nx: 2, ..ok.clone() },
+            DosFeatureConfig { min_area_mm2: -1.0, ..ok.clone() },
+            DosFeatureConfig { features: vec![], ..ok.clone() },
+            DosFeatureConfig { features: vec![Feature::Rate, Feature::Rate], ..ok.clone() },
+        ] {
+            assert!(DosFeatureExtractor::try_new(&bad, &l).is_err(), "{bad:?}");
+        }
+        // calibration: one class, too few samples, wrong length, non-finite
+        let one = vec![(DosClass::N, vec![0.0; 6]), (DosClass::N, vec![1.0; 6])];
+        assert!(DosModel::calibrate(ok.clone(), &one).is_err());
+        let few = vec![(DosClass::N, vec![0.0; 6]), (DosClass::S, vec![1.0; 6])];
+        assert!(DosModel::calibrate(ok.clone(), &few).is_err());
+        let short = vec![(DosClass::N, vec![0.0; 5]), (DosClass::S, vec![1.0; 6]), (DosClass::S, vec![2.0; 6])];
+        assert!(DosModel::calibrate(ok.clone(), &short).unwrap_err().to_string().contains("sample 0"));
+        let nan = vec![(DosClass::N, vec![0.0; 6]), (DosClass::S, vec![1.0; 6]), (DosClass::S, vec![f64::NAN; 6])];
+        assert!(DosModel::calibrate(ok.clone(), &nan).is_err());
+        // frames: wrong taxel count and non-finite values name the frame
+        let mut x = DosFeatureExtractor::try_new(&ok, &l).unwrap();
+        let e = x.push(TaxelFrame::new("ff".into(), Timestamp(0), 3, vec![1.0; 23])).unwrap_err();
+        assert!(e.to_string().contains("frame 3"), "{e}");
+        let mut v = vec![3000.0; 24];
+        v[5] = f64::INFINITY;
+        let e = x.push(TaxelFrame::new("ff".into(), Timestamp(0), 4, v)).unwrap_err();
+        assert!(e.to_string().contains("frame 4") && e.to_string().contains("taxel 5"), "{e}");
+    }
+
+    #[test]
+    fn features_are_finite_at_the_extremes() {
+        let l = Layout::biotac_sp();
+        for centroid in [CentroidMethod::Taxels, CentroidMethod::Surface, CentroidMethod::MaxContour] {
+            let cfg = DosFeatureConfig { centroid, ..Default::default() };
+            type Signal = Box<dyn Fn(usize, usize) -> f64>;
+            let cases: Vec<(&str, Signal)> = vec![
+                ("constant", Box::new(|_, _| 3000.0)),
+                ("zero", Box::new(|_, _| 0.0)),
+                ("negative", Box::new(|k, i| -((k + i) as f64))),
+                ("huge", Box::new(|k, i| 1e300 * (1.0 + ((k * 7 + i) % 5) as f64))),
+                ("tiny", Box::new(|k, i| 1e-300 * (1.0 + ((k * 3 + i) % 4) as f64))),
+                ("saturating", Box::new(|k, i| if (k / 10 + i) % 2 == 0 { 4095.0 } else { 1.0 })),
+            ];
+            for (name, f) in cases {
+                let mut x = DosFeatureExtractor::try_new(&cfg, &l).unwrap();
+                assert!(x.features().all.iter().all(|v| v.is_finite()), "{name}: empty span");
+                for k in 0..60 {
+                    let v = (0..24).map(|i| f(k, i)).collect();
+                    x.push(TaxelFrame::new("ff".into(), Timestamp::at_rate(k as u64, 100.0), k as u64, v)).unwrap();
+                }
+                let fv = x.features();
+                assert!(fv.all.iter().all(|v| v.is_finite()), "{name} {centroid:?}: {fv:?}");
+                if name == "constant" {
+                    assert_eq!(fv.events, 0);
+                    assert_eq!(fv.get(Feature::Rate), 0.0);
+                    assert_eq!(fv.get(Feature::PositiveFraction), 0.5);
+                    assert_eq!([fv.get(Feature::PositiveX), fv.get(Feature::PositiveY)], l.extent().centre());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn stage_decides_per_span_and_chunking_does_not_matter() {
+        let cfg = motion_config();
+        let mut train = Vec::new();
+        for (i, c0) in [[-1.0, 0.0], [1.0, 0.5]].into_iter().enumerate() {
+            for class in DosClass::ALL {
+                train.push((class, features_of(synthetic(class, c0, 0.2, 20 + i as u64), &cfg).select(&cfg.features)));
+            }
+        }
+        let model = DosModel::calibrate(cfg, &train).unwrap();
+        let l = Layout::biotac_sp();
+        let input = synthetic(DosClass::N, [0.0, 0.0], 0.1, 5);
+        // one decision for the whole recording at finish
+        let mut whole = DosClassifier::try_new(model.clone(), &l, None).unwrap();
+        let out = whole.run_all(input.clone()).unwrap();
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].decision.class, DosClass::N);
+        assert_eq!((out[0].frames, out[0].seq, out[0].start, out[0].end), (200, 199, input[0].time, input[199].time));
+        // tumbling spans of 64 frames: 3 full spans and a remainder at finish
+        let mut spans = DosClassifier::try_new(model.clone(), &l, Some(64)).unwrap();
+        let all = spans.run_all(input.clone()).unwrap();
+        assert_eq!(all.iter().map(|d| d.frames).collect::<Vec<_>>(), [64, 64, 64, 8]);
+        for cut in [1, 5, 63, 64, 65, 199] {
+            let mut s = DosClassifier::try_new(model.clone(), &l, Some(64)).unwrap();
+            let mut out = Vec::new();
+            for chunk in input.chunks(cut) {
+                let mut part = Vec::new();
+                for f in chunk {
+                    s.push(f.clone(), &mut part).unwrap();
+                }
+                out.extend(part);
+            }
+            s.finish(&mut out).unwrap();
+            assert_eq!(out, all, "chunks of {cut}");
+        }
+        // reset drops the open span
+        let mut s = DosClassifier::try_new(model.clone(), &l, None).unwrap();
+        let mut out = Vec::new();
+        for f in input.iter().take(50) {
+            s.push(f.clone(), &mut out).unwrap();
+        }
+        s.reset();
+        s.finish(&mut out).unwrap();
+        assert!(out.is_empty());
+        assert!(DosClassifier::try_new(model, &l, Some(0)).is_err());
+    }
+
+    #[test]
+    fn class_names_and_directions() {
+        for c in DosClass::ALL {
+            assert_eq!(c.as_str().parse::<DosClass>().unwrap(), c);
+            assert_eq!(c.to_string(), c.as_str());
+            if let Some(d) = c.direction() {
+                assert_eq!(DosClass::from_direction(d), Some(c));
+                assert_eq!(DosClass::from_direction([3.0 * d[0] + 0.5 * d[1], 3.0 * d[1] - 0.5 * d[0]]), Some(c));
+            }
+        }
+        assert_eq!(DosClass::from_direction([0.0, 0.0]), None);
+        assert_eq!(DosClass::from_direction([f64::NAN, 1.0]), None);
+        assert!("north".parse::<DosClass>().is_err());
+        assert_eq!(serde_json::to_string(&DosClass::Aw).unwrap(), "\"aw\"");
+        assert_eq!(wrap_half_pi(3.0), 3.0 - std::f64::consts::PI);
+        assert_eq!(wrap_half_pi(-0.25), -0.25);
     }
 }
