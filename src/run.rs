@@ -13,11 +13,12 @@
 
 use crate::chain::SensorChain;
 use crate::plan::{Plan, SensorPlan};
-use crate::scene::{Scene, SourceSpec};
+use crate::scene::{BusSource, BusSpec, Scene, SourceSpec};
 use crate::sinks::Sinks;
 use crate::Error;
 use futures::StreamExt;
 use gradtac_io::arrow_ipc::ArrowIpcConfig;
+use gradtac_io::can::{CandumpConfig, StatsHandle};
 use gradtac_io::npy::{NpyFrames, NpySourceConfig};
 use gradtac_io::{CsvFrames, CsvProgress, CsvSourceConfig};
 use gradtac_stream::{merge_streams, SensorId, TaxelFrame};
@@ -40,6 +41,8 @@ pub struct RunReport {
     pub frames: Vec<(String, u64)>,
     /// Final files and rows written per output (one file, or an archive's files).
     pub outputs: Vec<(Vec<PathBuf>, u64)>,
+    /// Per CAN bus: its name and fault counts (one line).
+    pub buses: Vec<(String, String)>,
     /// Wall-clock seconds.
     pub seconds: f64,
     /// True when Ctrl-C ended the run early.
@@ -58,6 +61,9 @@ impl fmt::Display for RunReport {
         )?;
         for (s, n) in &self.frames {
             writeln!(f, "  sensor {s}: {n} frames")?;
+        }
+        for (b, stats) in &self.buses {
+            writeln!(f, "  bus {b}: {stats}")?;
         }
         for (files, n) in &self.outputs {
             match files.as_slice() {
@@ -158,23 +164,62 @@ fn open_source(scene: &Scene, p: &SensorPlan) -> Result<(FrameIter, Option<usize
             let n = frames.taxel_count();
             (Box::new(frames.map(move |r| r.map_err(err))), Some(n), None)
         }
+        SourceSpec::Bus { .. } => unreachable!("bus sources are opened per bus by open_sources"),
         SourceSpec::Arrow(cfg) => {
             let mut cfg = ArrowIpcConfig { path: scene.resolve(&cfg.path), ..cfg.clone() };
             if cfg.columns.is_none() && cfg.sensors.is_none() {
                 cfg.sensors = Some(vec![p.name.clone()]);
             }
             let frames = gradtac_io::arrow_ipc::open(&cfg, sensor)?;
-            let n = frames.taxel_count();
+            let n = frames.decoder().taxel_count();
             (Box::new(frames.map(move |r| r.map_err(err))), n, None)
         }
     })
 }
 
-/// Open the sources of the sensors the plan runs: a stream per sensor plus progress handles.
-fn open_sources(scene: &Scene, plan: &Plan) -> Result<(Vec<FrameStream>, Vec<CsvProgress>), Error> {
+/// A bus being read, and where its fault counts go.
+struct OpenBus {
+    name: String,
+    stats_path: Option<PathBuf>,
+    stats: StatsHandle,
+}
+
+/// Open one CAN bus as a stream of the frames of every sensor it carries.
+fn open_bus(scene: &Scene, bus: &BusSpec) -> Result<(FrameStream, OpenBus), Error> {
+    let err = |e: gradtac_io::Error| gradtac_stream::Error::from(e);
+    let (stream, stats): (FrameStream, StatsHandle) = match &bus.source {
+        BusSource::Candump(cfg) => {
+            let cfg = CandumpConfig { path: scene.resolve(&cfg.path), ..cfg.clone() };
+            let s = gradtac_io::can::candump::replay(&cfg)?;
+            let h = s.stats_handle();
+            (Box::pin(s.map(move |r| r.map_err(err))), h)
+        }
+        BusSource::Live(cfg) => {
+            let s = gradtac_io::can::socketcan::open(cfg)?;
+            let h = s.stats_handle();
+            (Box::pin(s.map(move |r| r.map_err(err))), h)
+        }
+    };
+    let stats_path = bus.stats.as_ref().map(|p| scene.resolve(p));
+    Ok((stream, OpenBus { name: bus.name.clone(), stats_path, stats }))
+}
+
+/// Open the sources of the sensors the plan runs: a stream per file source and per bus
+/// (opened once, whatever the number of its sensors), plus progress handles.
+fn open_sources(scene: &Scene, plan: &Plan) -> Result<(Vec<FrameStream>, Vec<CsvProgress>, Vec<OpenBus>), Error> {
     let mut streams: Vec<FrameStream> = Vec::new();
     let mut progress = Vec::new();
+    let mut buses: Vec<OpenBus> = Vec::new();
     for p in plan.sensors.iter().filter(|p| p.deepest.is_some()) {
+        if let SourceSpec::Bus { bus } = &scene.sensors[p.index].source {
+            if !buses.iter().any(|b| &b.name == bus) {
+                let spec = scene.buses.iter().find(|b| &b.name == bus).expect("validated by Scene");
+                let (stream, open) = open_bus(scene, spec)?;
+                streams.push(stream);
+                buses.push(open);
+            }
+            continue;
+        }
         let (it, taxels, prog) = open_source(scene, p)?;
         if let Some(n) = taxels.filter(|&n| n != p.layout.len()) {
             return Err(Error::Scene {
@@ -190,13 +235,27 @@ fn open_sources(scene: &Scene, plan: &Plan) -> Result<(Vec<FrameStream>, Vec<Csv
         progress.extend(prog);
         streams.push(Box::pin(gradtac_io::blocking_stream(it, 1024)));
     }
-    Ok((streams, progress))
+    Ok((streams, progress, buses))
+}
+
+/// Report each bus's fault counts, and write them where the scene asks.
+fn report_buses(buses: &[OpenBus]) -> Result<Vec<(String, String)>, Error> {
+    let mut lines = Vec::new();
+    for b in buses {
+        let stats = b.stats.snapshot();
+        if let Some(p) = &b.stats_path {
+            let json = serde_json::to_string_pretty(&stats).expect("stats serialise");
+            std::fs::write(p, json).map_err(|source| Error::Io { path: p.clone(), source })?;
+        }
+        lines.push((b.name.clone(), stats.to_string()));
+    }
+    Ok(lines)
 }
 
 /// Run a scene on a tokio runtime (see the [module docs](self)).
 pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunReport, Error> {
     let start = Instant::now();
-    let (streams, progress) = open_sources(scene, plan)?;
+    let (streams, progress, buses) = open_sources(scene, plan)?;
     let mut runner = Runner::new(scene, plan)?;
     let bar = opts.progress.then(|| {
         let total: u64 = progress.iter().filter_map(CsvProgress::total_bytes).sum();
@@ -229,6 +288,7 @@ pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunRep
             if let Some(b) = &bar {
                 b.abandon_with_message("failed");
             }
+            let _ = report_buses(&buses);
             let partial = runner.abort();
             tracing::warn!(?partial, "run failed; outputs left under their temporary names");
             return Err(e);
@@ -244,7 +304,8 @@ pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunRep
     }
     let frames = runner.frames_in();
     let outputs = runner.finish()?;
-    Ok(RunReport { frames, outputs, seconds: start.elapsed().as_secs_f64(), interrupted })
+    let buses = report_buses(&buses)?;
+    Ok(RunReport { frames, outputs, buses, seconds: start.elapsed().as_secs_f64(), interrupted })
 }
 
 /// [`run`] on a fresh tokio runtime, for synchronous callers (the CLI).

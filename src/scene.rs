@@ -23,6 +23,8 @@
 use crate::Error;
 use gradtac_io::archive::ArchiveConfig;
 use gradtac_io::arrow_ipc::ArrowIpcConfig;
+use gradtac_io::can::socketcan::SocketCanConfig;
+use gradtac_io::can::{CanCodec, CandumpConfig};
 use gradtac_io::npy::NpySourceConfig;
 use gradtac_io::CsvSourceConfig;
 use gradtac_stages::contour::ContourConfig;
@@ -43,6 +45,10 @@ pub struct Scene {
     /// The sensors, each with its own source.
     #[serde(rename = "sensor", default)]
     pub sensors: Vec<SensorSpec>,
+    /// CAN buses (candump logs or live SocketCAN interfaces) that sensors read with
+    /// `source = { bus = "<name>" }`.
+    #[serde(rename = "bus", default)]
+    pub buses: Vec<BusSpec>,
     /// Stage settings shared by every sensor.
     #[serde(default)]
     pub stages: StageSettings,
@@ -91,10 +97,81 @@ pub enum SourceSpec {
     Npy(NpySourceConfig),
     /// An Arrow IPC file or stream.
     Arrow(ArrowIpcConfig),
+    /// A sensor decoded from a CAN bus of the scene (`source = { bus = "hand" }`).
+    Bus {
+        /// The bus's name.
+        bus: String,
+    },
 }
 
 /// Source kinds, by their key.
-pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow"];
+pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow", "bus"];
+
+/// A CAN bus shared by several sensors: a candump log (`candump = "log.txt"`, replayed as fast
+/// as possible or with `timing = "original"`) or a live SocketCAN interface
+/// (`interface = "can0"`), with its frame codec (see `docs/can.md`).
+///
+/// ```toml
+/// [[bus]]
+/// name = "hand"
+/// candump = "grasp.log"
+/// codec = { preset = { kind = "biotac-mux", sensors = ["ff", "th"] } }
+/// stats = "out/can-stats.json"      # optional: fault counts written at the end of the run
+/// ```
+///
+/// Frames of sensors that no output uses are decoded (they share the bus) but not processed.
+#[derive(Clone, Debug, Serialize)]
+pub struct BusSpec {
+    /// The bus's name, referenced by sensors.
+    pub name: String,
+    /// Where to write the bus's fault counts (JSON) at the end of a run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stats: Option<PathBuf>,
+    /// The traffic.
+    pub source: BusSource,
+}
+
+/// Where a bus's CAN frames come from.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+#[non_exhaustive]
+pub enum BusSource {
+    /// A can-utils `candump -l` log.
+    Candump(CandumpConfig),
+    /// A live SocketCAN interface.
+    Live(SocketCanConfig),
+}
+
+impl<'de> Deserialize<'de> for BusSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let mut table = toml::Table::deserialize(d)?;
+        let name = match table.remove("name") {
+            Some(toml::Value::String(n)) => n,
+            _ => return Err(D::Error::custom("a [[bus]] needs name = \"…\"")),
+        };
+        let stats = match table.remove("stats") {
+            Some(toml::Value::String(p)) => Some(PathBuf::from(p)),
+            None => None,
+            Some(_) => return Err(D::Error::custom(format!("bus {name:?}: stats must be a path"))),
+        };
+        let v = toml::Value::Table(table.clone());
+        let source = if table.contains_key("candump") {
+            BusSource::Candump(
+                CandumpConfig::deserialize(v).map_err(|e| D::Error::custom(format!("bus {name:?}: {e}")))?,
+            )
+        } else if table.contains_key("interface") {
+            BusSource::Live(
+                SocketCanConfig::deserialize(v).map_err(|e| D::Error::custom(format!("bus {name:?}: {e}")))?,
+            )
+        } else {
+            return Err(D::Error::custom(format!(
+                "bus {name:?} names no traffic: give candump = \"log\" or interface = \"can0\""
+            )));
+        };
+        Ok(BusSpec { name, stats, source })
+    }
+}
 
 impl<'de> Deserialize<'de> for SourceSpec {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -109,6 +186,12 @@ impl<'de> Deserialize<'de> for SourceSpec {
             Some("csv") => return CsvSourceConfig::deserialize(v).map(SourceSpec::Csv).map_err(D::Error::custom),
             Some("npy") => return NpySourceConfig::deserialize(v).map(SourceSpec::Npy).map_err(D::Error::custom),
             Some("arrow") => return ArrowIpcConfig::deserialize(v).map(SourceSpec::Arrow).map_err(D::Error::custom),
+            Some("bus") => {
+                return match v.as_table().map(|t| (t.len(), t.get("bus"))) {
+                    Some((1, Some(toml::Value::String(b)))) => Ok(SourceSpec::Bus { bus: b.clone() }),
+                    _ => Err(D::Error::custom("a bus source is just { bus = \"<name of a [[bus]]>\" }")),
+                }
+            }
             _ => {}
         }
         Err(D::Error::custom(format!(
@@ -125,6 +208,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => c.rate_hz,
             SourceSpec::Npy(c) => c.rate_hz,
             SourceSpec::Arrow(c) => c.rate_hz,
+            SourceSpec::Bus { .. } => None,
         }
     }
 
@@ -134,6 +218,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => &c.path,
             SourceSpec::Npy(c) => &c.path,
             SourceSpec::Arrow(c) => &c.path,
+            SourceSpec::Bus { bus } => Path::new(bus),
         }
     }
 
@@ -143,6 +228,7 @@ impl SourceSpec {
             SourceSpec::Csv(_) => "csv",
             SourceSpec::Npy(_) => "npy",
             SourceSpec::Arrow(_) => "arrow",
+            SourceSpec::Bus { .. } => "bus",
         }
     }
 
@@ -155,6 +241,7 @@ impl SourceSpec {
                 _ => Ok(()),
             },
             SourceSpec::Arrow(c) => c.layout(gradtac_stream::SensorId::new("_")).map(|_| ()).map_err(|e| e.to_string()),
+            SourceSpec::Bus { .. } => Ok(()),
         }
     }
 }
@@ -257,6 +344,21 @@ impl Scene {
                 return Err(bad(format!("sensor {:?} is declared twice", s.name)));
             }
             s.source.validate().map_err(|r| bad(format!("sensor {:?}: source: {r}", s.name)))?;
+            if let SourceSpec::Bus { bus } = &s.source {
+                if !self.buses.iter().any(|b| &b.name == bus) {
+                    return Err(bad(format!("sensor {:?} reads bus {bus:?}, which is not declared", s.name)));
+                }
+            }
+        }
+        for (i, b) in self.buses.iter().enumerate() {
+            if self.buses[..i].iter().any(|o| o.name == b.name) {
+                return Err(bad(format!("bus {:?} is declared twice", b.name)));
+            }
+            let codec = match &b.source {
+                BusSource::Candump(c) => &c.codec,
+                BusSource::Live(c) => &c.codec,
+            };
+            CanCodec::try_new(codec).map_err(|e| bad(format!("bus {:?}: {e}", b.name)))?;
         }
         if self.outputs.is_empty() {
             return Err(bad("no [[output]]: nothing would be computed".into()));
