@@ -112,8 +112,8 @@ pub struct SensorModel {
     pub drift_counts_per_s: f64,
     /// Standard deviation of the Gaussian noise (counts, ≥ 0). Default 2.
     pub noise_counts: f64,
-    /// Full scale of the ADC (counts); values are clamped to `[0, adc_max]`. Default 4095
-    /// (12 bit).
+    /// Full scale of the ADC (counts, a whole number ≥ 1); values are clamped to
+    /// `[0, adc_max]`. Default 4095 (12 bit).
     pub adc_max: f64,
 }
 
@@ -141,8 +141,8 @@ impl SensorModel {
         if !(fin(self.rate_hz) && self.rate_hz > 0.0) {
             return bad(format!("`rate_hz` = {} must be finite and > 0", self.rate_hz));
         }
-        if !(fin(self.adc_max) && self.adc_max >= 1.0) {
-            return bad(format!("`adc_max` = {} must be finite and ≥ 1", self.adc_max));
+        if !(fin(self.adc_max) && self.adc_max >= 1.0 && self.adc_max.fract() == 0.0) {
+            return bad(format!("`adc_max` = {} must be a whole number of counts ≥ 1", self.adc_max));
         }
         let [b0, b1] = self.baseline_counts;
         if !(fin(b0) && fin(b1) && 0.0 <= b0 && b0 <= b1 && b1 <= self.adc_max) {
@@ -812,6 +812,8 @@ mod tests {
             SensorModel { gain_counts_per_n: [50.0, 10.0], ..Default::default() },
             SensorModel { flip_fraction: 1.5, ..Default::default() },
             SensorModel { noise_counts: f64::NAN, ..Default::default() },
+            // proptest regression: a fractional full scale let round() exceed it (311.84 → 312)
+            SensorModel { adc_max: 311.84, baseline_counts: [0.0, 100.0], ..Default::default() },
         ] {
             assert!(Simulator::try_new(l.clone(), m, 0).is_err());
         }

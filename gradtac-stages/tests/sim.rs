@@ -340,3 +340,60 @@ fn trajectories_are_tracked_in_the_scripted_direction() {
         assert!(err < 2.5, "{kind:?}: {err} mm");
     }
 }
+
+mod props {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+        /// Any valid model, seed, indenter and force: every value is an integer count in
+        /// `[0, adc_max]`, and the same seed gives the same recording.
+        #[test]
+        fn any_model_gives_in_range_integers_deterministically(
+            seed in any::<u64>(),
+            adc_max in (1u32..8192).prop_map(f64::from),
+            b in (0.0f64..1.0, 0.0f64..1.0),
+            g in (0.0f64..500.0, 0.0f64..500.0),
+            flip in 0.0f64..=1.0,
+            noise in 0.0f64..100.0,
+            drift in 0.0f64..50.0,
+            damping in 0.0f64..0.5,
+            force in 0.0f64..200.0,
+            diameter in 0.0f64..20.0,
+            at in (-30.0f64..30.0, -30.0f64..30.0),
+        ) {
+            let (b0, b1) = (b.0.min(b.1) * adc_max, b.0.max(b.1) * adc_max);
+            let model = SensorModel {
+                adc_max,
+                baseline_counts: [b0, b1],
+                gain_counts_per_n: [g.0.min(g.1), g.0.max(g.1)],
+                flip_fraction: flip,
+                noise_counts: noise,
+                drift_counts_per_s: drift,
+                damping_s: damping,
+                ..Default::default()
+            };
+            let scene = Scene {
+                name: "prop".into(),
+                duration_s: 0.3,
+                fingers: vec![Finger {
+                    sensor: "ff".into(),
+                    diameter_mm: diameter,
+                    path: Path::Line { from: [at.0, at.1], to: [0.0, 0.0], t0_s: 0.0, t1_s: 0.3 },
+                    force: ForceProfile(vec![(0.0, 0.0), (0.2, force)]),
+                }],
+                slip: None,
+            };
+            let s = Simulator::try_new(Layout::biotac_sp(), model, seed).unwrap();
+            let a = s.run(&scene).unwrap();
+            for f in &a.frames {
+                for &v in &f.frame.values {
+                    prop_assert!(v >= 0.0 && v <= adc_max && v.fract() == 0.0, "{v}");
+                }
+            }
+            prop_assert_eq!(a, s.run(&scene).unwrap());
+        }
+    }
+}

@@ -1,0 +1,125 @@
+//! Cost of the simulator and the task stages (slip, force, servo), and of a whole simulated
+//! two-finger grasp through the chain.
+//!
+//! Run: `cargo bench -p gradtac-stages --bench tasks`. Inputs are built outside the timed
+//! region (`iter_batched`); `Throughput::Elements` gives frames (or points) per second.
+//!
+//! - `sim/grasp`: simulating a 2 s two-finger grasp (2 × 200 frames of 24 taxels);
+//! - `slip/points`: the slip classifier over that grasp's 400 track points;
+//! - `force/<method>`: predicting 4096 areas with each fitted model;
+//! - `servo/points`: the servo over the 400 track points;
+//! - `chain/grasp`: raw frames → savgol → events → window → natural neighbour 32 × 32 →
+//!   contour → track (per sensor) → slip, for the whole grasp, building both sensors' chains
+//!   (natural-neighbour weight tables included) inside the timed region.
+//!
+//! Medians measured on the 2-core development machine (criterion, 3 s measurement):
+//!
+//! | bench | median | per item |
+//! |---|---|---|
+//! | `sim/grasp` (400 frames) | 169 µs | 0.42 µs per frame |
+//! | `slip/points` (400 points) | 14.3 µs | 36 ns per point |
+//! | `servo/points` (400 points) | 5.6 µs | 14 ns per point |
+//! | `force/Linear` (4096 areas) | 24.1 µs | 5.9 ns |
+//! | `force/PowerLaw` | 52.3 µs | 12.8 ns |
+//! | `force/Exponential` | 29.8 µs | 7.3 ns |
+//! | `force/Isotonic` (≈ 200 knots) | 42.0 µs | 10.2 ns |
+//! | `chain/grasp` (400 frames) | 3.17 ms | 7.9 µs per frame (≈ 1/1260 of the 10 ms frame period) |
+//!
+//! The task stages cost nothing next to the chain before them: slip adds < 0.5 % to a frame.
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use gradtac_stages::contour::{Contour, ContourConfig};
+use gradtac_stages::events::{Events, EventsConfig, Threshold};
+use gradtac_stages::force::{ForceMethod, ForceModel, ForceSample};
+use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
+use gradtac_stages::savgol::{SavGol, SavGolConfig};
+use gradtac_stages::servo::{Servo, ServoConfig};
+use gradtac_stages::sim::{GraspConfig, Scene, SensorModel, Simulator};
+use gradtac_stages::slip::{Slip, SlipClass, SlipConfig};
+use gradtac_stages::track::{Track, TrackConfig, TrackPoint};
+use gradtac_stages::window::{Aggregate, Window, WindowConfig};
+use gradtac_stream::{Keyed, Layout, SensorId, Stage, StageExt, TaxelFrame};
+use std::hint::black_box;
+
+fn track_chain(layout: &Layout) -> impl Stage<In = TaxelFrame, Out = TrackPoint, Error = gradtac_stream::Error> {
+    let sg = SavGol::try_with_rate(layout.len(), SavGolConfig::default(), 100.0).unwrap();
+    let ev = Events::try_new(layout.len(), EventsConfig { threshold: Threshold::Uniform(0.002), ..Default::default() })
+        .unwrap();
+    let w =
+        Window::try_new(&WindowConfig { frames: Some(10), aggregate: Aggregate::Count, ..Default::default() }).unwrap();
+    let icfg = InterpolateConfig {
+        grid: GridConfig { nx: 32, ..Default::default() },
+        incremental: true,
+        ..Default::default()
+    };
+    let i = Interpolate::try_new(&icfg, layout).unwrap();
+    let c = Contour::try_new(&ContourConfig { min_peak: 2.0, min_area_mm2: 60.0, ..Default::default() }).unwrap();
+    let t = Track::try_new(&TrackConfig::default()).unwrap();
+    sg.then(ev).then(w).then(i).then(c).then(t)
+}
+
+fn bench(c: &mut Criterion) {
+    let layout = Layout::biotac_sp();
+    let sim = Simulator::try_new(layout.clone(), SensorModel::default(), 1).unwrap();
+    let scene = Scene::grasp(SlipClass::LongitudinalDown, &GraspConfig::default(), &layout);
+    let rec = sim.run(&scene).unwrap();
+    let frames = rec.taxel_frames();
+    let points = Keyed::new(|_: &SensorId| track_chain(&layout)).run_all(frames.clone()).unwrap();
+
+    let mut g = c.benchmark_group("sim");
+    g.throughput(Throughput::Elements(frames.len() as u64));
+    g.bench_function("grasp", |b| b.iter(|| black_box(sim.run(black_box(&scene)).unwrap())));
+    g.finish();
+
+    let mut g = c.benchmark_group("slip");
+    g.throughput(Throughput::Elements(points.len() as u64));
+    g.bench_function("points", |b| {
+        b.iter_batched(
+            || points.clone(),
+            |p| black_box(Slip::try_new(&SlipConfig::default()).unwrap().run_all(p).unwrap()),
+            BatchSize::SmallInput,
+        )
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("servo");
+    g.throughput(Throughput::Elements(points.len() as u64));
+    g.bench_function("points", |b| {
+        b.iter_batched(
+            || points.clone(),
+            |p| black_box(Servo::try_new(&ServoConfig::default(), &layout).unwrap().run_all(p).unwrap()),
+            BatchSize::SmallInput,
+        )
+    });
+    g.finish();
+
+    let samples: Vec<ForceSample> =
+        (1..=200).map(|k| ForceSample { area_mm2: k as f64, force_n: (k as f64 / 40.0).exp() }).collect();
+    let areas: Vec<f64> = (0..4096).map(|k| k as f64 * 0.05).collect();
+    let mut g = c.benchmark_group("force");
+    g.throughput(Throughput::Elements(areas.len() as u64));
+    for m in ForceMethod::ALL {
+        let model = ForceModel::fit(m, &samples).unwrap();
+        g.bench_function(format!("{m:?}"), |b| {
+            b.iter(|| areas.iter().map(|&a| model.predict(black_box(a))).sum::<f64>())
+        });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("chain");
+    g.throughput(Throughput::Elements(frames.len() as u64));
+    g.sample_size(20);
+    g.bench_function("grasp", |b| {
+        b.iter_batched(
+            || frames.clone(),
+            |f| {
+                let keyed = Keyed::new(|_: &SensorId| track_chain(&layout));
+                black_box(keyed.then(Slip::try_new(&SlipConfig::default()).unwrap()).run_all(f).unwrap())
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
