@@ -3,7 +3,9 @@
 //! Every type a sink can write implements [`ArrowRecord`] in its own file under
 //! `src/records/`: frames ([`frame`], `frame/1`), events ([`events`], `event/1`), window
 //! aggregates ([`window`], `window/1`), surfaces ([`surface`], `surface/1`), contours
-//! ([`contour`], `contour/1`) and tracks ([`track`], `track/1`). The trait gives
+//! ([`contour`], `contour/1`), tracks ([`track`], `track/1`), slip events ([`slip`],
+//! `slip/1`), forces ([`force`], `force/1`), servo commands ([`servo`], `servo/1`) and
+//! slip-direction decisions ([`dos`], `dos/1`). The trait gives
 //! - a schema id stored in files under the key `gradtac.schema` (`frame/1`: name and
 //!   version; bump the version on any incompatible change),
 //! - the Arrow [`Schema`](arrow_schema::Schema), which may depend on a per-sink **shape**
@@ -35,15 +37,23 @@
 
 mod columns;
 pub mod contour;
+pub mod dos;
 pub mod events;
+pub mod force;
 pub mod frame;
+pub mod servo;
+pub mod slip;
 pub mod surface;
 pub mod track;
 pub mod window;
 
 pub use contour::ContourBuilder;
+pub use dos::{DosBuilder, DosShape};
 pub use events::{EventBuilder, EventShape};
+pub use force::ForceBuilder;
 pub use frame::{FrameBuilder, FrameShape};
+pub use servo::ServoBuilder;
+pub use slip::{SlipBuilder, SlipShape};
 pub use surface::{SurfaceBuilder, SurfaceShape};
 pub use track::TrackBuilder;
 pub use window::{WindowBuilder, WindowShape};

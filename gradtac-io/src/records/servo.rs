@@ -1,0 +1,145 @@
+//! [`ServoCommand`] as Arrow: schema `servo/1`, one row per command (one per track point).
+//!
+//! | column | Arrow type | meaning |
+//! |---|---|---|
+//! | `sensor` | `Utf8`, not null | the sensor's name |
+//! | `time_ns` | `Int64`, not null | the track point's time; `gradtac.unit = ns` |
+//! | `seq` | `UInt64`, not null | index of the newest source frame |
+//! | `action` | `Utf8`, not null | `move` ([`ServoAction::Move`]) or `no_contact` ([`ServoAction::NoContact`]: no contact, or a gated point; no command) |
+//! | `offset_x_mm`, `offset_y_mm` | `Float64`, nullable | contact minus centre ([`Motion::offset_mm`], mm, layout plane); `gradtac.unit = mm` |
+//! | `distance_mm` | `Float64`, nullable | length of the offset ([`Motion::distance_mm`], mm); `gradtac.unit = mm` |
+//! | `direction_x`, `direction_y` | `Float64`, nullable | unit vector along the offset ([`Motion::direction`]; `[0, 0]` for a zero offset; dimensionless, no unit) |
+//! | `motion_x_mm`, `motion_y_mm` | `Float64`, nullable | the commanded sensor motion ([`Motion::motion_mm`], mm; zero inside the deadband); `gradtac.unit = mm` |
+//!
+//! The seven motion columns are null exactly when `action` is `no_contact`; with `move` they
+//! hold the [`Motion`]'s values bit-exactly (NaN included), so a file reads back into the same
+//! commands. The shape is `()`; every command fits, so [`RecordBuilder::append`] never
+//! rejects.
+
+use super::columns::{ns_field, schema_with_id, unit_field};
+use super::{arrow_error, ArrowRecord, RecordBuilder};
+use crate::Result;
+use arrow_array::builder::{ArrayBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder};
+use arrow_array::{ArrayRef, RecordBatch};
+use arrow_schema::{DataType, Field, SchemaRef};
+use gradtac_stages::servo::{Motion, ServoAction, ServoCommand};
+use std::sync::Arc;
+
+/// The `action` column's text for a [`ServoAction`] (as in serde: `no_contact`, `move`).
+pub fn servo_action_name(a: &ServoAction) -> &'static str {
+    match a {
+        ServoAction::NoContact => "no_contact",
+        ServoAction::Move(_) => "move",
+    }
+}
+
+impl ArrowRecord for ServoCommand {
+    type Shape = ();
+    type Builder = ServoBuilder;
+    const SCHEMA_ID: &'static str = "servo/1";
+
+    fn schema(_: &()) -> SchemaRef {
+        let mm = |name: &str| unit_field(name, DataType::Float64, true, "mm");
+        schema_with_id(
+            vec![
+                Field::new("sensor", DataType::Utf8, false),
+                ns_field("time_ns"),
+                Field::new("seq", DataType::UInt64, false),
+                Field::new("action", DataType::Utf8, false),
+                mm("offset_x_mm"),
+                mm("offset_y_mm"),
+                mm("distance_mm"),
+                Field::new("direction_x", DataType::Float64, true),
+                Field::new("direction_y", DataType::Float64, true),
+                mm("motion_x_mm"),
+                mm("motion_y_mm"),
+            ],
+            Self::SCHEMA_ID,
+            vec![],
+        )
+    }
+
+    fn builder(_: &(), capacity: usize) -> ServoBuilder {
+        let floats = || Float64Builder::with_capacity(capacity);
+        ServoBuilder {
+            schema: Self::schema(&()),
+            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
+            time: Int64Builder::with_capacity(capacity),
+            seq: UInt64Builder::with_capacity(capacity),
+            action: StringBuilder::with_capacity(capacity, capacity * 6),
+            offset_x: floats(),
+            offset_y: floats(),
+            distance: floats(),
+            direction_x: floats(),
+            direction_y: floats(),
+            motion_x: floats(),
+            motion_y: floats(),
+        }
+    }
+}
+
+/// Builds `servo/1` batches (see the [module documentation](self)).
+pub struct ServoBuilder {
+    schema: SchemaRef,
+    sensor: StringBuilder,
+    time: Int64Builder,
+    seq: UInt64Builder,
+    action: StringBuilder,
+    offset_x: Float64Builder,
+    offset_y: Float64Builder,
+    distance: Float64Builder,
+    direction_x: Float64Builder,
+    direction_y: Float64Builder,
+    motion_x: Float64Builder,
+    motion_y: Float64Builder,
+}
+
+impl std::fmt::Debug for ServoBuilder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ServoBuilder").field("pending", &self.len()).finish()
+    }
+}
+
+impl RecordBuilder<ServoCommand> for ServoBuilder {
+    fn schema(&self) -> SchemaRef {
+        self.schema.clone()
+    }
+
+    /// Never rejects: every command fits `servo/1`.
+    fn append(&mut self, c: &ServoCommand) -> Result<()> {
+        self.sensor.append_value(c.sensor.as_str());
+        self.time.append_value(c.time.as_nanos());
+        self.seq.append_value(c.seq);
+        self.action.append_value(servo_action_name(&c.action));
+        let m: Option<&Motion> = c.motion();
+        self.offset_x.append_option(m.map(|m| m.offset_mm[0]));
+        self.offset_y.append_option(m.map(|m| m.offset_mm[1]));
+        self.distance.append_option(m.map(|m| m.distance_mm));
+        self.direction_x.append_option(m.map(|m| m.direction[0]));
+        self.direction_y.append_option(m.map(|m| m.direction[1]));
+        self.motion_x.append_option(m.map(|m| m.motion_mm[0]));
+        self.motion_y.append_option(m.map(|m| m.motion_mm[1]));
+        Ok(())
+    }
+
+    fn len(&self) -> usize {
+        self.seq.len()
+    }
+
+    fn finish(&mut self) -> Result<RecordBatch> {
+        let columns: Vec<ArrayRef> = vec![
+            Arc::new(self.sensor.finish()),
+            Arc::new(self.time.finish()),
+            Arc::new(self.seq.finish()),
+            Arc::new(self.action.finish()),
+            Arc::new(self.offset_x.finish()),
+            Arc::new(self.offset_y.finish()),
+            Arc::new(self.distance.finish()),
+            Arc::new(self.direction_x.finish()),
+            Arc::new(self.direction_y.finish()),
+            Arc::new(self.motion_x.finish()),
+            Arc::new(self.motion_y.finish()),
+        ];
+        RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(ServoCommand::SCHEMA_ID, e))
+    }
+}
