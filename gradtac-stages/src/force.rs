@@ -24,13 +24,13 @@
 //! → cumulative event counts → natural-neighbour 32 × 32 → maximal contour at one explicit
 //! level (5 events). Each simulated sensor is calibrated on its own 3 ramps at three points of
 //! the pad and tested on 2 held-out ramps at two other points; held-out MAPE (%) averaged over
-//! 3 sensors (≈ 750 training and 500 test pairs per sensor):
+//! 3 sensors (1.5 s ramps, ≈ 450 training and 300 test pairs per sensor):
 //!
 //! | indenter | linear | power law | exponential | isotonic |
 //! |---|---|---|---|---|
-//! | 1 mm | 22.7 | 24.7 | **11.5** | 12.8 |
-//! | 2 mm | 21.6 | 22.5 | **10.1** | 10.4 |
-//! | 5 mm | 20.8 | 17.6 | 8.2 | **7.0** |
+//! | 1 mm | 23.1 | 25.6 | **11.5** | 12.6 |
+//! | 2 mm | 21.9 | 23.2 | **10.1** | 10.4 |
+//! | 5 mm | 21.0 | 18.1 | 7.9 | **6.8** |
 //!
 //! The log-change events make the cumulative count at a taxel grow like `ln F`, so the area
 //! above a fixed level grows roughly like `ln F` too: `exponential` (`ln F` linear in area)

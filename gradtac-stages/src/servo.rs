@@ -7,6 +7,8 @@
 //!   and unit direction, and `motion = gain · offset` clipped to `max_step_mm`. Moving the
 //!   *sensor* by `motion` (expressed in its own layout frame) brings a stationary contact back
 //!   toward the centre. Inside `deadband_mm` the motion is zero (the offset is still reported);
+//! - the contact position may be smoothed first (`smoothing`, an exponential filter that
+//!   restarts with each contact);
 //! - without contact (or a gated, repeated point when `hold_gated = false`): no command, as
 //!   data ([`ServoAction::NoContact`]) — the controller decides what "lost the edge" means.
 //!
@@ -25,6 +27,7 @@
 //! | `gain` | slow, steady convergence | fast; overshoots with a lagging track |
 //! | `deadband_mm` | reacts to contour jitter | ignores small real offsets |
 //! | `max_step_mm` | safe, slow recovery from large offsets | large jumps on a spurious contour |
+//! | `smoothing` | steady commands, lagging the contact | immediate, jittery commands |
 
 use crate::track::{ContactState, TrackPoint};
 use crate::{Error, Result};
@@ -49,11 +52,22 @@ pub struct ServoConfig {
     /// Whether a gated track point (the tracker repeating its last accepted position after a
     /// jump) still commands a motion. Default false.
     pub hold_gated: bool,
+    /// Smoothing `α` in `(0, 1]` of the contact position within one contact:
+    /// `p ← α·p_new + (1 − α)·p` (1 = none); restarts after a point without contact.
+    /// Default 1.
+    pub smoothing: f64,
 }
 
 impl Default for ServoConfig {
     fn default() -> Self {
-        ServoConfig { centre_mm: None, gain: 1.0, deadband_mm: 0.5, max_step_mm: 5.0, hold_gated: false }
+        ServoConfig {
+            centre_mm: None,
+            gain: 1.0,
+            deadband_mm: 0.5,
+            max_step_mm: 5.0,
+            hold_gated: false,
+            smoothing: 1.0,
+        }
     }
 }
 
@@ -122,6 +136,7 @@ impl HasSensor for ServoCommand {
 pub struct Servo {
     cfg: ServoConfig,
     centre: [f64; 2],
+    smoothed: Option<[f64; 2]>,
 }
 
 impl Servo {
@@ -134,6 +149,9 @@ impl Servo {
         if !(cfg.deadband_mm.is_finite() && cfg.deadband_mm >= 0.0) {
             return bad(format!("`deadband_mm` = {} must be finite and ≥ 0", cfg.deadband_mm));
         }
+        if !(cfg.smoothing > 0.0 && cfg.smoothing <= 1.0) {
+            return bad(format!("`smoothing` = {} must be in (0, 1]", cfg.smoothing));
+        }
         if !(cfg.max_step_mm.is_finite() && cfg.max_step_mm > 0.0) {
             return bad(format!("`max_step_mm` = {} must be finite and > 0", cfg.max_step_mm));
         }
@@ -142,7 +160,7 @@ impl Servo {
             Some(c) => return bad(format!("`centre_mm` = {c:?} must be finite")),
             None => layout.extent().centre(),
         };
-        Ok(Servo { cfg: cfg.clone(), centre })
+        Ok(Servo { cfg: cfg.clone(), centre, smoothed: None })
     }
 
     /// The point the servo keeps the contact at (mm).
@@ -176,12 +194,27 @@ impl Stage for Servo {
             && p.x_mm.is_finite()
             && p.y_mm.is_finite()
             && (!p.gated || self.cfg.hold_gated);
-        let action = if usable { ServoAction::Move(self.motion([p.x_mm, p.y_mm])) } else { ServoAction::NoContact };
+        let action = if usable {
+            let a = self.cfg.smoothing;
+            let q = match self.smoothed {
+                Some(s) => [a * p.x_mm + (1.0 - a) * s[0], a * p.y_mm + (1.0 - a) * s[1]],
+                None => [p.x_mm, p.y_mm],
+            };
+            self.smoothed = Some(q);
+            ServoAction::Move(self.motion(q))
+        } else {
+            if p.state != ContactState::Contact {
+                self.smoothed = None;
+            }
+            ServoAction::NoContact
+        };
         out.push(ServoCommand { sensor: p.sensor, time: p.time, seq: p.seq, action });
         Ok(())
     }
 
-    fn reset(&mut self) {}
+    fn reset(&mut self) {
+        self.smoothed = None;
+    }
 
     fn delay(&self) -> Delay {
         Delay::ZERO
@@ -251,6 +284,25 @@ mod tests {
         assert_eq!(out[2].action, ServoAction::NoContact);
         let mut s = Servo::try_new(&ServoConfig { hold_gated: true, ..cfg }, &l).unwrap();
         assert!(s.run_all([point(2, Some([1.0, 0.0]), true)]).unwrap()[0].motion().is_some());
+    }
+
+    #[test]
+    fn smoothing_filters_within_a_contact_and_restarts_after() {
+        let l = Layout::biotac_sp();
+        let cfg = ServoConfig { centre_mm: Some([0.0, 0.0]), deadband_mm: 0.0, smoothing: 0.5, ..Default::default() };
+        let mut s = Servo::try_new(&cfg, &l).unwrap();
+        let out = s
+            .run_all([
+                point(0, Some([2.0, 0.0]), false),
+                point(1, Some([4.0, 0.0]), false),
+                point(2, None, false),
+                point(3, Some([4.0, 0.0]), false),
+            ])
+            .unwrap();
+        assert_eq!(out[0].motion().unwrap().offset_mm, [2.0, 0.0]);
+        assert_eq!(out[1].motion().unwrap().offset_mm, [3.0, 0.0]);
+        assert_eq!(out[3].motion().unwrap().offset_mm, [4.0, 0.0]);
+        assert!(Servo::try_new(&ServoConfig { smoothing: 0.0, ..Default::default() }, &l).is_err());
     }
 
     #[test]

@@ -34,6 +34,10 @@
 //! - [`Scene::grasp`]: two fingertips (`th`, `ff`) facing each other, stable or slipping
 //!   ([`SlipClass`]).
 //!
+//! For closed loops (a servo moving the sensor) [`Simulator::sensor`] gives a [`SimSensor`]
+//! advanced one frame at a time with the contact the caller decides; [`Simulator::run`] is
+//! built on it, so both produce the same numbers.
+//!
 //! Orientation on the layout plane: **right = +x, up = +y** (the plane as plots draw it),
 //! angles from +x toward +y (counter-clockwise positive).
 //!
@@ -71,7 +75,7 @@
 
 use crate::slip::SlipClass;
 use crate::{Error, Result};
-use gradtac_stream::{Layout, SensorId, TaxelFrame, Timestamp};
+use gradtac_stream::{HasSensor, Layout, SensorId, TaxelFrame, Timed, Timestamp};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -573,6 +577,18 @@ pub struct SimFrame {
     pub truth: Truth,
 }
 
+impl Timed for SimFrame {
+    fn time(&self) -> Timestamp {
+        self.frame.time
+    }
+}
+
+impl HasSensor for SimFrame {
+    fn sensor(&self) -> &SensorId {
+        &self.frame.sensor
+    }
+}
+
 /// A simulated recording: frames of every finger interleaved in time order (at each time step
 /// one frame per finger, in the scene's finger order).
 #[derive(Clone, Debug, PartialEq)]
@@ -709,63 +725,41 @@ impl Simulator {
         SensorParams { baseline, gain, drift }
     }
 
+    /// A steppable sensor (for closed loops: the caller decides the contact frame by frame).
+    /// Its parameters and noise are those [`Simulator::run`] uses for a finger of that name.
+    pub fn sensor(&self, name: impl Into<SensorId>) -> SimSensor {
+        let name = name.into();
+        let m = &self.model;
+        SimSensor {
+            params: self.params(name.as_str()),
+            lag: vec![0.0; self.layout.len()],
+            rng: StdRng::seed_from_u64(self.seed ^ name_hash(name.as_str()) ^ 0x9e37_79b9_7f4a_7c15),
+            noise: Normal::new(0.0, m.noise_counts).expect("validated: finite, ≥ 0"),
+            alpha: if m.damping_s > 0.0 { 1.0 - (-1.0 / (m.rate_hz * m.damping_s)).exp() } else { 1.0 },
+            positions: self.layout.positions().to_vec(),
+            model: m.clone(),
+            name,
+            k: 0,
+        }
+    }
+
     /// Simulate a scene.
     pub fn run(&self, scene: &Scene) -> Result<Recording> {
         scene.validate()?;
-        let m = &self.model;
-        let n_steps = scene.frames_at(m.rate_hz);
-        let dt = 1.0 / m.rate_hz;
-        let alpha = if m.damping_s > 0.0 { 1.0 - (-dt / m.damping_s).exp() } else { 1.0 };
-        let noise = Normal::new(0.0, m.noise_counts)
-            .map_err(|e| Error::InvalidConfig { stage: STAGE, reason: format!("noise: {e}") })?;
-        let pos = self.layout.positions();
+        let n_steps = scene.frames_at(self.model.rate_hz);
         let onset = scene.slip.and_then(|s| Timestamp::from_secs_f64(s.onset_s));
-        struct St {
-            params: SensorParams,
-            lag: Vec<f64>,
-            rng: StdRng,
-            w2: f64,
-        }
-        let mut st: Vec<St> = scene
-            .fingers
-            .iter()
-            .map(|f| {
-                let w2 = m.skin_spread_mm.powi(2) + (f.diameter_mm / 2.0).powi(2);
-                St {
-                    params: self.params(f.sensor.as_str()),
-                    lag: vec![0.0; pos.len()],
-                    rng: StdRng::seed_from_u64(self.seed ^ name_hash(f.sensor.as_str()) ^ 0x9e37_79b9_7f4a_7c15),
-                    w2,
-                }
-            })
-            .collect();
+        let mut sensors: Vec<SimSensor> = scene.fingers.iter().map(|f| self.sensor(f.sensor.clone())).collect();
         let mut frames = Vec::with_capacity(n_steps * scene.fingers.len());
         for k in 0..n_steps {
-            let time = Timestamp::at_rate(k as u64, m.rate_hz);
-            let t = time.as_secs_f64();
+            let t = Timestamp::at_rate(k as u64, self.model.rate_hz).as_secs_f64();
             let slip = scene.slip_at(t);
-            for (f, s) in scene.fingers.iter().zip(&mut st) {
-                let force = f.force.at(t);
-                let c = f.path.at(t);
-                let values = pos
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| {
-                        let r2 = (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2);
-                        let u = force * (-r2 / (2.0 * s.w2)).exp();
-                        s.lag[i] += alpha * (u - s.lag[i]);
-                        let v = s.params.baseline[i]
-                            + s.params.gain[i] * s.lag[i]
-                            + s.params.drift[i] * t
-                            + noise.sample(&mut s.rng);
-                        v.clamp(0.0, m.adc_max).round()
-                    })
-                    .collect();
+            for (f, s) in scene.fingers.iter().zip(&mut sensors) {
+                let contact = Contact { at_mm: f.path.at(t), force_n: f.force.at(t), diameter_mm: f.diameter_mm };
                 frames.push(SimFrame {
-                    frame: TaxelFrame::new(f.sensor.clone(), time, k as u64, values),
+                    frame: s.step(Some(contact)),
                     truth: Truth {
-                        contact_mm: (force > 0.0).then_some(c),
-                        force_n: force,
+                        contact_mm: (contact.force_n > 0.0).then_some(contact.at_mm),
+                        force_n: contact.force_n,
                         diameter_mm: f.diameter_mm,
                         slip,
                         slip_onset: onset,
@@ -775,11 +769,81 @@ impl Simulator {
         }
         Ok(Recording {
             scene: scene.name.clone(),
-            rate_hz: m.rate_hz,
+            rate_hz: self.model.rate_hz,
             sensors: scene.fingers.iter().map(|f| f.sensor.clone()).collect(),
             taxel_names: self.layout.names().to_vec(),
             frames,
         })
+    }
+}
+
+/// One indenter's contact at one instant (for [`SimSensor::step`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Contact {
+    /// Indenter centre (mm, layout plane).
+    pub at_mm: [f64; 2],
+    /// Force (N, ≥ 0; negative or NaN counts as 0).
+    pub force_n: f64,
+    /// Indenter diameter (mm).
+    pub diameter_mm: f64,
+}
+
+/// One simulated sensor advanced a frame at a time ([`Simulator::sensor`]): the same model
+/// and numbers as [`Simulator::run`], for loops whose contact depends on the output (a servo
+/// moving the sensor).
+#[derive(Debug)]
+pub struct SimSensor {
+    name: SensorId,
+    model: SensorModel,
+    params: SensorParams,
+    positions: Vec<[f64; 2]>,
+    lag: Vec<f64>,
+    rng: StdRng,
+    noise: Normal<f64>,
+    alpha: f64,
+    k: u64,
+}
+
+impl SimSensor {
+    /// The sensor's parameters.
+    pub fn params(&self) -> &SensorParams {
+        &self.params
+    }
+
+    /// Index of the next frame.
+    pub fn next_seq(&self) -> u64 {
+        self.k
+    }
+
+    /// The next frame (time `k / rate_hz`), with `contact` (or none) applied.
+    pub fn step(&mut self, contact: Option<Contact>) -> TaxelFrame {
+        let m = &self.model;
+        let time = Timestamp::at_rate(self.k, m.rate_hz);
+        let t = time.as_secs_f64();
+        let (c, force, w2) = match contact {
+            Some(c) if c.force_n > 0.0 => {
+                (c.at_mm, c.force_n, m.skin_spread_mm.powi(2) + (c.diameter_mm.max(0.0) / 2.0).powi(2))
+            }
+            _ => ([0.0, 0.0], 0.0, 1.0),
+        };
+        let values = self
+            .positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let r2 = (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2);
+                let u = force * (-r2 / (2.0 * w2)).exp();
+                self.lag[i] += self.alpha * (u - self.lag[i]);
+                let v = self.params.baseline[i]
+                    + self.params.gain[i] * self.lag[i]
+                    + self.params.drift[i] * t
+                    + self.noise.sample(&mut self.rng);
+                v.clamp(0.0, m.adc_max).round()
+            })
+            .collect();
+        let frame = TaxelFrame::new(self.name.clone(), time, self.k, values);
+        self.k += 1;
+        frame
     }
 }
 

@@ -34,6 +34,43 @@
 //!
 //! The state starts stable, so a grasp that never slips yields no event at all.
 //!
+//! # Example: a simulated grasp, end to end
+//! The settings are those `tests/slip.rs` measures (all electrodes changing the same way,
+//! so signed event sums; with mixed signs aggregate by `count` instead).
+//! ```
+//! use gradtac_stages::contour::{Contour, ContourConfig};
+//! use gradtac_stages::events::{Events, EventsConfig, Threshold};
+//! use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
+//! use gradtac_stages::savgol::{SavGol, SavGolConfig};
+//! use gradtac_stages::sim::{GraspConfig, Scene, SensorModel, Simulator};
+//! use gradtac_stages::slip::{Slip, SlipClass, SlipConfig};
+//! use gradtac_stages::track::{Track, TrackConfig};
+//! use gradtac_stages::window::{Window, WindowConfig};
+//! use gradtac_stream::{Keyed, Layout, SensorId, StageExt};
+//!
+//! let layout = Layout::biotac_sp();
+//! let model = SensorModel { flip_fraction: 0.0, ..Default::default() };
+//! let sim = Simulator::try_new(layout.clone(), model, 1)?;
+//! let rec = sim.run(&Scene::grasp(SlipClass::RotationalCw, &GraspConfig::default(), &layout))?;
+//!
+//! // one chain per fingertip (th, ff), then the slip classifier over both tracks
+//! let per_sensor = Keyed::new(|_: &SensorId| {
+//!     let n = layout.len();
+//!     SavGol::try_with_rate(n, SavGolConfig::default(), 100.0).unwrap()
+//!         .then(Events::try_new(n, EventsConfig { threshold: Threshold::Uniform(0.002), ..Default::default() }).unwrap())
+//!         .then(Window::try_new(&WindowConfig { frames: Some(10), ..Default::default() }).unwrap())
+//!         .then(Interpolate::try_new(&InterpolateConfig { grid: GridConfig { nx: 32, ..Default::default() }, ..Default::default() }, &layout).unwrap())
+//!         .then(Contour::try_new(&ContourConfig { min_peak: 2.0, min_area_mm2: 60.0, ..Default::default() }).unwrap())
+//!         .then(Track::try_new(&TrackConfig::default()).unwrap())
+//! });
+//! let mut chain = per_sensor.then(Slip::try_new(&SlipConfig::default())?);
+//! let events = chain.run_all(rec.taxel_frames())?;
+//! assert_eq!(events[0].class, SlipClass::RotationalCw);
+//! let onset = events[0].onset.as_secs_f64();
+//! assert!((1.0..1.12).contains(&onset), "{onset}"); // the truth: 1.0 s
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! # Units
 //! Positions mm, velocities mm/s, times ns ([`Timestamp`]); configuration in seconds.
 //!
