@@ -15,6 +15,24 @@
 //! `numpy.linspace`), so `values.reshape(ny, nx)` in NumPy gives `[row (y), col (x)]` like
 //! [`Surface::values`]. A surface on another grid (another size or extent) is rejected with
 //! [`Error::Record`](crate::Error::Record).
+//!
+//! ```
+//! use gradtac_io::records::{to_batch, SurfaceShape};
+//! use gradtac_stages::interpolate::{Grid, Surface};
+//! use gradtac_stream::{Extent, SensorId, Timestamp};
+//! use std::sync::Arc;
+//!
+//! let grid = Arc::new(Grid::try_new(Extent { x_min: 0.0, x_max: 2.0, y_min: 0.0, y_max: 1.0 }, 3, 2).unwrap());
+//! let shape = SurfaceShape::new(grid.clone());
+//! // values[[row, col]] = 10·row + col
+//! let values = ndarray::Array2::from_shape_fn((2, 3), |(r, c)| (10 * r + c) as f64);
+//! let s = Surface { sensor: SensorId::new("ff"), start: Timestamp(0), end: Timestamp(9), seq: 9, grid, values };
+//! let batch = to_batch(&shape, &[s]).unwrap();
+//! let flat = arrow_array::cast::AsArray::as_fixed_size_list(batch.column(4)).value(0);
+//! let flat = arrow_array::cast::AsArray::as_primitive::<arrow_array::types::Float64Type>(&flat).values().to_vec();
+//! assert_eq!(flat, [0.0, 1.0, 2.0, 10.0, 11.0, 12.0]); // row-major: row·nx + col
+//! assert!(batch.schema().metadata()["gradtac.grid"].contains("\"nx\":3"));
+//! ```
 
 use super::columns::{f64_list, item_field, ns_field, record_error, schema_with_id};
 use super::{arrow_error, ArrowRecord, RecordBuilder};
