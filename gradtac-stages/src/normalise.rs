@@ -18,7 +18,8 @@
 //! exactly as IEEE 754 rounds it.
 //!
 //! **Bad input:** a non-finite value is an error naming sensor, frame index and taxel.
-//! `clamp = true` clips the output to `[0, 1]`.
+//! `clamp = true` clips the output to `[0, 1]`. `bypass = true` passes frames through
+//! unchanged (log-change events are scale-free, so they may act on raw counts directly).
 
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Stage, TaxelFrame};
@@ -76,6 +77,10 @@ pub struct NormaliseConfig {
     /// Clip outputs to `[0, 1]`; default false.
     #[serde(default)]
     pub clamp: bool,
+    /// Pass frames through unchanged (still checking taxel count and finiteness): for
+    /// pipelines whose events act on the log of raw counts. Default false.
+    #[serde(default)]
+    pub bypass: bool,
 }
 
 /// Default number of calibration frames.
@@ -111,6 +116,7 @@ pub struct Normalise {
     bounds: Bounds,
     min_span: f64,
     clamp: bool,
+    bypass: bool,
     lo: Vec<f64>,
     hi: Vec<f64>,
     /// True once `lo`/`hi` hold usable bounds.
@@ -148,11 +154,24 @@ impl Normalise {
             }
             _ => {}
         }
-        Ok(Normalise { taxels, bounds, min_span, clamp: config.clamp, lo, hi, ready, held: Vec::new() })
+        Ok(Normalise {
+            taxels,
+            bounds,
+            min_span,
+            clamp: config.clamp,
+            bypass: config.bypass,
+            lo,
+            hi,
+            ready,
+            held: Vec::new(),
+        })
     }
 
     /// Number of frames held back at start-up (calibration), 0 for other bounds.
     pub fn startup_frames(&self) -> usize {
+        if self.bypass {
+            return 0;
+        }
         match self.bounds {
             Bounds::Calibrate { frames } => frames,
             _ => 0,
@@ -219,6 +238,10 @@ impl Stage for Normalise {
 
     fn push(&mut self, mut f: TaxelFrame, out: &mut Vec<TaxelFrame>) -> Result<()> {
         self.check(&f)?;
+        if self.bypass {
+            out.push(f);
+            return Ok(());
+        }
         match self.bounds {
             Bounds::Given { .. } => {}
             Bounds::Running => {
@@ -343,6 +366,15 @@ mod tests {
         assert_eq!(e, "normalise: sensor ff frame 41 taxel 1: not a finite number (value NaN)");
         let e = n.push(frames(&[vec![1.0]]).remove(0), &mut out).unwrap_err().to_string();
         assert!(e.contains("expected 2 taxels, got 1"), "{e}");
+    }
+
+    #[test]
+    fn bypass_passes_frames_through_but_still_checks_them() {
+        let cfg = NormaliseConfig { bypass: true, ..Default::default() };
+        let rows = [vec![3000.0, 12.5], vec![0.0, 4095.0]];
+        let out = Normalise::try_new(2, &cfg).unwrap().run_all(frames(&rows)).unwrap();
+        assert_eq!(out, frames(&rows));
+        assert!(Normalise::try_new(2, &cfg).unwrap().run_all(frames(&[vec![f64::INFINITY, 0.0]])).is_err());
     }
 
     #[test]

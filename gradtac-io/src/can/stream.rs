@@ -259,44 +259,59 @@ mod tests {
 
     #[tokio::test]
     async fn wall_clock_expiry_closes_sets_while_the_bus_is_quiet() {
-        let (tx, rx) = feed_partial().await;
-        let mut s = CanStream::new(rx, decoder()).with_wall_clock_expiry().flagged();
-        let first = s.next().await.unwrap().unwrap();
-        assert!(first.is_complete());
-        // the sender stays open and silent: only the system clock can close the second set
-        let second = tokio::time::timeout(Duration::from_secs(5), s.next()).await.expect("expired by the clock");
-        let second = second.unwrap().unwrap();
-        assert_eq!(second.carried, (12..24).collect::<Vec<u32>>());
-        assert_eq!(s.stats_handle().snapshot().incomplete.count, 1);
-        drop(tx);
-        assert!(s.next().await.is_none());
+        // bounded: a regression must fail, not hang the suite
+        tokio::time::timeout(Duration::from_secs(30), async {
+            let (tx, rx) = feed_partial().await;
+            let mut s = CanStream::new(rx, decoder()).with_wall_clock_expiry().flagged();
+            let first = s.next().await.unwrap().unwrap();
+            assert!(first.is_complete());
+            // the sender stays open and silent: only the system clock can close the second set
+            let second = tokio::time::timeout(Duration::from_secs(5), s.next()).await.expect("expired by the clock");
+            let second = second.unwrap().unwrap();
+            assert_eq!(second.carried, (12..24).collect::<Vec<u32>>());
+            assert_eq!(s.stats_handle().snapshot().incomplete.count, 1);
+            drop(tx);
+            assert!(s.next().await.is_none());
+        })
+        .await
+        .expect("test timed out");
     }
 
     #[tokio::test]
     async fn without_wall_clock_expiry_a_quiet_bus_waits_for_frames() {
-        let (tx, rx) = feed_partial().await;
-        let mut s = CanStream::new(rx, decoder());
-        assert!(s.next().await.unwrap().is_ok());
-        assert!(tokio::time::timeout(Duration::from_millis(60), s.next()).await.is_err());
-        drop(tx); // end of stream: finish() carries the open set
-        assert_eq!(s.next().await.unwrap().unwrap().values.len(), 24);
-        assert_eq!(s.stats().sets_carried, 1);
+        // bounded: a regression must fail, not hang the suite
+        tokio::time::timeout(Duration::from_secs(30), async {
+            let (tx, rx) = feed_partial().await;
+            let mut s = CanStream::new(rx, decoder());
+            assert!(s.next().await.unwrap().is_ok());
+            assert!(tokio::time::timeout(Duration::from_millis(60), s.next()).await.is_err());
+            drop(tx); // end of stream: finish() carries the open set
+            assert_eq!(s.next().await.unwrap().unwrap().values.len(), 24);
+            assert_eq!(s.stats().sets_carried, 1);
+        })
+        .await
+        .expect("test timed out");
     }
 
     #[tokio::test]
     async fn original_timing_spaces_frames_out() {
-        let (tx, rx) = frame_channel(32); // holds all 18 frames: no consumer runs yet
-        for k in 0..3i64 {
-            for m in 0..6 {
-                tx.send(mux_frame(m, Timestamp(k * 40_000_000 + i64::from(m)))).await.unwrap();
+        // bounded: a regression must fail, not hang the suite
+        tokio::time::timeout(Duration::from_secs(30), async {
+            let (tx, rx) = frame_channel(32); // holds all 18 frames: no consumer runs yet
+            for k in 0..3i64 {
+                for m in 0..6 {
+                    tx.send(mux_frame(m, Timestamp(k * 40_000_000 + i64::from(m)))).await.unwrap();
+                }
             }
-        }
-        drop(tx);
-        let start = tokio::time::Instant::now();
-        let s = CanStream::new(rx, decoder()).with_timing(Timing::Original, 2.0).unwrap();
-        let got: Vec<TaxelFrame> = s.map(|r| r.unwrap()).collect().await;
-        assert_eq!(got.len(), 3);
-        // 80 ms of recording at 2× speed: at least 40 ms
-        assert!(start.elapsed() >= Duration::from_millis(40), "{:?}", start.elapsed());
+            drop(tx);
+            let start = tokio::time::Instant::now();
+            let s = CanStream::new(rx, decoder()).with_timing(Timing::Original, 2.0).unwrap();
+            let got: Vec<TaxelFrame> = s.map(|r| r.unwrap()).collect().await;
+            assert_eq!(got.len(), 3);
+            // 80 ms of recording at 2× speed: at least 40 ms
+            assert!(start.elapsed() >= Duration::from_millis(40), "{:?}", start.elapsed());
+        })
+        .await
+        .expect("test timed out");
     }
 }
