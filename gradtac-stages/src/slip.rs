@@ -101,6 +101,16 @@
 //! defaults, 10-frame event window): `onset` 0.03–0.09 s after the true onset, `time`
 //! (decision) 0.20–0.32 s after it.
 //!
+//! Slip speed against the default 5 mm/s threshold (`tests/slip.rs`, `speed_sweep`, 12 grasps
+//! each; stable grasps silent throughout):
+//!
+//! | slip speed | right, signed sums (same-sign electrodes) | onset lag | right, counts (mixed signs) | onset lag |
+//! |---|---|---|---|---|
+//! | 5 mm/s | 3/12 | 0.49–0.75 s | 7/12 | 0.10–0.46 s |
+//! | 10 mm/s | 12/12 | 0.05–0.20 s | 12/12 | 0.05–0.22 s |
+//! | 20 mm/s | 12/12 | 0.03–0.04 s | 12/12 | 0.03–0.09 s |
+//! | 40 mm/s | 12/12 | 0.01–0.02 s | 12/12 | 0.01–0.03 s |
+//!
 //! # Trade-offs
 //! | knob | lower | higher |
 //! |---|---|---|
