@@ -15,7 +15,7 @@
 //! | gain | `gᵢ = σᵢ·Gᵢ`, `Gᵢ ~ U[gain_counts_per_n]`, sign `σᵢ = −1` (value falls under pressure) except a fraction `flip_fraction` of taxels with `+1` | counts/N | `gain_counts_per_n`, `flip_fraction` |
 //! | drift | `δᵢ · t`, `δᵢ ~ N(0, drift_counts_per_s²)` | counts | `drift_counts_per_s` |
 //! | noise | `nᵢ[k] ~ N(0, noise_counts²)`, independent | counts | `noise_counts` |
-//! | ADC | `round(clamp(bᵢ + gᵢ·ũᵢ + δᵢ·t + nᵢ, 0, 4095))` | counts | `adc_max` |
+//! | ADC | `round(clamp(bᵢ + gᵢ·ũᵢ + δᵢ·t + nᵢ, 0, adc_max))`, `adc_max` = 4095 (12 bit) by default | counts | `adc_max` |
 //!
 //! The sign of a taxel's change depends on the electrode (method.md): here a per-taxel sign
 //! drawn once per sensor. Pipelines that must not care about it aggregate events by
