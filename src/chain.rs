@@ -6,9 +6,11 @@ use crate::sinks::Sinks;
 use crate::Error;
 use gradtac_stages::contour::{Contour, ContourFrame, Levels};
 use gradtac_stages::events::{Events, Threshold};
+use gradtac_stages::force::{Force, ForceEstimate, ForceModel};
 use gradtac_stages::interpolate::{Interpolate, Surface};
 use gradtac_stages::normalise::{Bounds, Normalise};
 use gradtac_stages::savgol::SavGol;
+use gradtac_stages::servo::{Servo, ServoCommand};
 use gradtac_stages::track::{Track, TrackPoint};
 use gradtac_stages::window::{Window, WindowAggregate};
 use gradtac_stages::EventBatch;
@@ -19,7 +21,7 @@ use gradtac_stream::{Delay, SensorId, Stage, TaxelFrame};
 pub struct SensorChain {
     sensor: SensorId,
     /// Output indices tapping each stage (indexed by `Tap as usize`).
-    taps: [Vec<usize>; 8],
+    taps: [Vec<usize>; 11],
     normalise: Option<Normalise>,
     savgol: Option<SavGol>,
     events: Option<Events>,
@@ -27,6 +29,8 @@ pub struct SensorChain {
     surface: Option<Interpolate>,
     contour: Option<Contour>,
     track: Option<Track>,
+    force: Option<Force>,
+    servo: Option<Servo>,
     raw: Vec<TaxelFrame>,
     normalised: Vec<TaxelFrame>,
     smoothed: Vec<TaxelFrame>,
@@ -35,6 +39,8 @@ pub struct SensorChain {
     surfaces: Vec<Surface>,
     contours: Vec<ContourFrame>,
     points: Vec<TrackPoint>,
+    forces: Vec<ForceEstimate>,
+    commands: Vec<ServoCommand>,
     frames_in: u64,
 }
 
@@ -59,7 +65,7 @@ impl SensorChain {
         let n = plan.layout.len();
         let runs = |t| plan.runs(t);
         let rate = scene.sensors[plan.index].source.rate_hz();
-        let mut taps: [Vec<usize>; 8] = Default::default();
+        let mut taps: [Vec<usize>; 11] = Default::default();
         for &i in &plan.outputs {
             if let Some(t) = Tap::parse(&scene.outputs[i].tap) {
                 taps[t as usize].push(i);
@@ -80,6 +86,19 @@ impl SensorChain {
             surface: runs(Tap::Surface).then(|| Interpolate::try_new(&st.surface, &plan.layout)).transpose()?,
             contour: runs(Tap::Contour).then(|| Contour::try_new(&st.contour)).transpose()?,
             track: runs(Tap::Track).then(|| Track::try_new(&st.track)).transpose()?,
+            force: match (runs(Tap::Force), &st.force) {
+                (false, _) => None,
+                (true, Some(cfg)) => Some(Force::try_new(cfg)?),
+                (true, None) => {
+                    return Err(Error::Scene {
+                        path: scene.base_dir.clone(),
+                        reason: "the force tap needs a calibrated model: [stages.force] model = { method = …, … } \
+                                 (fit one from labelled data with ForceModel::fit, see the force stage docs)"
+                            .into(),
+                    })
+                }
+            },
+            servo: runs(Tap::Servo).then(|| Servo::try_new(&st.servo, &plan.layout)).transpose()?,
             raw: Vec::new(),
             normalised: Vec::new(),
             smoothed: Vec::new(),
@@ -88,6 +107,8 @@ impl SensorChain {
             surfaces: Vec::new(),
             contours: Vec::new(),
             points: Vec::new(),
+            forces: Vec::new(),
+            commands: Vec::new(),
             frames_in: 0,
         })
     }
@@ -114,6 +135,12 @@ impl SensorChain {
             + d(self.track.as_ref().map(Stage::delay))
     }
 
+    /// The track points the last [`process`](Self::process) produced (for the cross-sensor
+    /// slip stage); empty unless the chain runs to `track`.
+    pub fn take_points(&mut self) -> std::vec::Drain<'_, TrackPoint> {
+        self.points.drain(..)
+    }
+
     /// Frames held once at start-up (normalisation calibration).
     pub fn startup_frames(&self) -> usize {
         self.normalise.as_ref().map_or(0, Normalise::startup_frames)
@@ -123,6 +150,7 @@ impl SensorChain {
     pub fn describe(&self, tap: Tap, st: &StageSettings) -> String {
         match tap {
             Tap::Source => "read frames".into(),
+            Tap::Normalise if st.normalise.bypass => "bypassed: raw values pass through".into(),
             Tap::Normalise => match st.normalise.bounds(0) {
                 Ok(Bounds::Calibrate { frames }) => format!("min–max, bounds from the first {frames} frames"),
                 Ok(Bounds::Given { .. }) => "min–max, given bounds".into(),
@@ -175,6 +203,17 @@ impl SensorChain {
                 Some(j) => format!("gate jumps > {j} mm ({:?})", st.track.gate).to_lowercase(),
                 None => "no jump gating".into(),
             },
+            Tap::Force => st.force.as_ref().map_or("no model".into(), |f| {
+                let m = match &f.model {
+                    ForceModel::Linear { .. } => "linear",
+                    ForceModel::PowerLaw { .. } => "power law",
+                    ForceModel::Exponential { .. } => "exponential",
+                    ForceModel::Isotonic { .. } => "isotonic",
+                };
+                format!("contour area → N, {m} model")
+            }),
+            Tap::Servo => format!("offset from centre, gain {}, deadband {} mm", st.servo.gain, st.servo.deadband_mm),
+            Tap::Slip => format!("two-finger slip of {} and {}", st.slip.first, st.slip.second),
         }
     }
 
@@ -184,6 +223,7 @@ impl SensorChain {
         if frame.is_some() {
             self.frames_in += 1;
         }
+        self.points.clear();
         self.raw.extend(frame);
         sinks.write_all(&self.taps[Tap::Source as usize], &self.raw)?;
         let Some(st) = &mut self.normalise else {
@@ -222,13 +262,23 @@ impl SensorChain {
         };
         feed(st, &mut self.surfaces, &mut self.contours, finish)?;
         sinks.write_all(&self.taps[Tap::Contour as usize], &self.contours)?;
+        if let Some(f) = &mut self.force {
+            feed(f, &mut self.contours.clone(), &mut self.forces, finish)?;
+            sinks.write_all(&self.taps[Tap::Force as usize], &self.forces)?;
+            self.forces.clear();
+        }
         let Some(st) = &mut self.track else {
             self.contours.clear();
             return Ok(());
         };
         feed(st, &mut self.contours, &mut self.points, finish)?;
         sinks.write_all(&self.taps[Tap::Track as usize], &self.points)?;
-        self.points.clear();
+        if let Some(sv) = &mut self.servo {
+            feed(sv, &mut self.points.clone(), &mut self.commands, finish)?;
+            sinks.write_all(&self.taps[Tap::Servo as usize], &self.commands)?;
+            self.commands.clear();
+        }
+        // the points stay for the runner's slip stage (take_points), cleared on the next call
         Ok(())
     }
 }

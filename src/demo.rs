@@ -1,73 +1,225 @@
-//! The embedded default: a synthetic recording and a scene over it, run by `gradtac demo`.
+//! The embedded default run by `gradtac demo`: a simulated two-finger grasp that slips,
+//! through the whole pipeline, with outputs, plots and errors against ground truth.
 //!
-//! The recording is a small forward model of one BioTac SP fingertip (until the full
-//! simulator lands): a round indenter presses, circles once around the pad centre and lifts,
-//! and each electrode reads `baseline − gain · F(t) · exp(−d² / 2σ²) + noise`, quantised to
-//! 12-bit counts. `d` is the electrode's distance (mm, layout plane) from the indenter, `F`
-//! a smooth force envelope, σ = 4 mm. Deterministic for a seed.
+//! 1. [`gradtac_stages::sim`] simulates a first finger (`ff`) and a thumb (`th`) holding an
+//!    object (5 N, 5 mm contacts) that slips down 6 mm at 20 mm/s from t = 1 s; the raw
+//!    counts go to `recording.csv`, the ground truth to `truth.csv`.
+//! 2. The embedded [`DEMO_SCENE`] reads the recording per sensor and writes events, surfaces,
+//!    contours, tracks and slip events to Parquet (`out/`). Its stage settings are the ones
+//!    the slip tests measure (see `gradtac_stages::slip`).
+//! 3. The demo reads the tracks and slip events back and compares them with the truth:
+//!    contact localisation error (mm and fraction of sensor width) and slip class and onset.
 
-use crate::Error;
+use crate::run::{run_blocking, RunOptions, RunReport};
+use crate::{Error, Plan, Scene};
+use arrow_array::{Array, Float64Array, Int64Array, StringArray, UInt64Array};
+use gradtac_stages::sim::{GraspConfig, Recording, Scene as SimScene, SensorModel, Simulator};
+use gradtac_stages::slip::SlipClass;
 use gradtac_stream::Layout;
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Sample rate of the synthetic recording (Hz).
+/// Sample rate of the simulated recording (Hz).
 pub const RATE_HZ: f64 = 100.0;
 
-/// Write a synthetic one-fingertip recording as CSV (`ff_e1..ff_e24`, no time column, 100 Hz)
-/// and return the number of frames.
-pub fn write_recording(path: &Path, seconds: f64, seed: u64) -> Result<usize, Error> {
-    let layout = Layout::biotac_sp();
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
-    let mut w = csv::Writer::from_path(path).map_err(|e| io(std::io::Error::other(e)))?;
-    let header: Vec<String> = (1..=layout.len()).map(|i| format!("ff_e{i}")).collect();
-    w.write_record(&header).map_err(|e| io(std::io::Error::other(e)))?;
-    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let noise = Normal::new(0.0, 2.0).expect("valid sigma");
-    let baseline: Vec<f64> = (0..layout.len()).map(|i| 2800.0 + 37.0 * ((i * 7) % 13) as f64).collect();
-    let gain: Vec<f64> = (0..layout.len()).map(|i| 260.0 + 11.0 * ((i * 5) % 7) as f64).collect();
-    let n = (seconds * RATE_HZ).round() as usize;
-    let [cx, cy] = layout.extent().centre();
-    for k in 0..n {
-        let t = k as f64 / n as f64; // 0..1 over the recording
-        let force = (std::f64::consts::PI * t).sin().powi(2); // press, hold, lift
-        let angle = 2.0 * std::f64::consts::PI * t;
-        let (ix, iy) = (cx + 5.0 * angle.cos(), cy + 5.0 * angle.sin());
-        let row: Vec<String> = layout
-            .positions()
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let d2 = (p[0] - ix).powi(2) + (p[1] - iy).powi(2);
-                let v = baseline[i] - gain[i] * force * (-d2 / (2.0 * 16.0)).exp() + noise.sample(&mut rng);
-                format!("{}", v.round().clamp(0.0, 4095.0))
-            })
-            .collect();
-        w.write_record(&row).map_err(|e| io(std::io::Error::other(e)))?;
-    }
-    w.flush().map_err(io)?;
-    Ok(n)
-}
+/// The slip the demo simulates.
+pub const DEMO_SLIP: SlipClass = SlipClass::LongitudinalDown;
 
 /// The demo's scene, over `recording.csv` in the same directory.
-pub const DEMO_SCENE: &str = r#"# gradtac demo scene: one synthetic BioTac SP fingertip.
+pub const DEMO_SCENE: &str = r#"# gradtac demo: a simulated two-finger grasp (first finger `ff`, thumb `th`) that slips.
 [[sensor]]
 name = "ff"
 layout = "biotac-sp"
 source = { csv = "recording.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }
 
+[[sensor]]
+name = "th"
+layout = "biotac-sp"
+source = { csv = "recording.csv", columns = "th_e{1..24}", rate_hz = 100.0 }
+
 [stages.normalise]
-calibrate_frames = 20
+bypass = true            # log-change events are scale-free: they act on ln(raw counts)
+
+[stages.events]
+threshold = 0.002
+
+[stages.window]
+frames = 10
+aggregate = "count"      # electrodes change in both directions under a contact
+
+[stages.surface]
+grid = { nx = 32 }
+incremental = true
+
+[stages.contour]
+min_peak = 2.0
+min_area_mm2 = 60.0
+
+[stages.slip]
+first = "ff"
+second = "th"
 
 [[output]]
-tap = "source"
-path = "out/raw.parquet"
+tap = "events"
+path = "out/events.parquet"
 
 [[output]]
-tap = "normalise"
-path = "out/normalised.parquet"
+tap = "surface"
+path = "out/surfaces.parquet"
+
+[[output]]
+tap = "contour"
+path = "out/contours.parquet"
+
+[[output]]
+tap = "track"
+path = "out/tracks.parquet"
+
+[[output]]
+tap = "slip"
+path = "out/slip.parquet"
 "#;
+
+/// What the demo did and how well.
+#[derive(Clone, Debug)]
+pub struct DemoReport {
+    /// The run's report.
+    pub run: RunReport,
+    /// The scene file written.
+    pub scene: PathBuf,
+    /// The recording and its ground truth.
+    pub recording: PathBuf,
+    /// The ground-truth CSV.
+    pub truth: PathBuf,
+    /// Per sensor: contact frames compared, mean and worst localisation error (mm).
+    pub localisation: Vec<(String, usize, f64, f64)>,
+    /// Sensor width used for the ratios (mm).
+    pub sensor_width_mm: f64,
+    /// The first slip event: class and onset (s), if any.
+    pub first_slip: Option<(String, f64)>,
+    /// The simulated slip and its onset (s).
+    pub true_slip: (SlipClass, f64),
+}
+
+impl std::fmt::Display for DemoReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.run)?;
+        writeln!(f, "errors against ground truth (sensor width {:.1} mm):", self.sensor_width_mm)?;
+        for (s, n, mean, worst) in &self.localisation {
+            writeln!(
+                f,
+                "  {s}: contact location over {n} frames: mean {mean:.2} mm ({:.3} of width), worst {worst:.2} mm ({:.3})",
+                mean / self.sensor_width_mm,
+                worst / self.sensor_width_mm
+            )?;
+        }
+        let (class, onset) = self.true_slip;
+        match &self.first_slip {
+            Some((c, t)) => writeln!(
+                f,
+                "  slip: detected {c} with onset {t:.3} s; truth {} at {onset:.3} s (onset error {:+.3} s){}",
+                class.name(),
+                t - onset,
+                if c == class.name() { "" } else { "  <- wrong class" }
+            ),
+            None => writeln!(f, "  slip: none detected; truth {} at {onset:.3} s", class.name()),
+        }
+    }
+}
+
+/// The sensor width the demo and the trade-off table use: the across-finger span (y) of the
+/// layout's taxels (23.3 mm for the BioTac SP).
+pub fn sensor_width_mm(layout: &Layout) -> f64 {
+    let ys = layout.positions().iter().map(|p| p[1]);
+    ys.clone().fold(f64::NEG_INFINITY, f64::max) - ys.fold(f64::INFINITY, f64::min)
+}
+
+/// Simulate the demo's grasp (deterministic for `seed`).
+pub fn simulate(seed: u64) -> Result<Recording, Error> {
+    let layout = Layout::biotac_sp();
+    let sim = Simulator::try_new(layout.clone(), SensorModel::default(), seed)?;
+    Ok(sim.run(&SimScene::grasp(DEMO_SLIP, &GraspConfig::default(), &layout))?)
+}
+
+/// Run the demo in `dir` (created if missing).
+pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| Error::Io { path, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let rec = simulate(7)?;
+    let (recording, truth) = (dir.join("recording.csv"), dir.join("truth.csv"));
+    rec.write_csv(&recording, &truth).map_err(io(&recording))?;
+    let scene_path = dir.join("scene.toml");
+    std::fs::write(&scene_path, DEMO_SCENE).map_err(io(&scene_path))?;
+    let scene = Scene::load(&scene_path)?;
+    let plan = Plan::new(&scene)?;
+    let run = run_blocking(&scene, &plan, &RunOptions { progress })?;
+
+    let layout = Layout::biotac_sp();
+    let mut localisation = Vec::new();
+    let tracks = read_tracks(&dir.join("out/tracks.parquet"))?;
+    for sensor in ["ff", "th"] {
+        let errs: Vec<f64> = tracks
+            .iter()
+            .filter(|t| t.0 == sensor && t.2.is_finite())
+            .filter_map(|(s, seq, x, y)| {
+                let [tx, ty] = rec.truth(s, *seq)?.contact_mm?;
+                Some((x - tx).hypot(y - ty))
+            })
+            .collect();
+        let mean = errs.iter().sum::<f64>() / errs.len().max(1) as f64;
+        let worst = errs.iter().copied().fold(0.0, f64::max);
+        localisation.push((sensor.to_string(), errs.len(), mean, worst));
+    }
+    let first_slip = read_first_slip(&dir.join("out/slip.parquet"))?;
+    let onset = GraspConfig::default().onset_s;
+    Ok(DemoReport {
+        run,
+        scene: scene_path,
+        recording,
+        truth,
+        localisation,
+        sensor_width_mm: sensor_width_mm(&layout),
+        first_slip,
+        true_slip: (DEMO_SLIP, onset),
+    })
+}
+
+fn parquet_batches(path: &Path) -> Result<Vec<arrow_array::RecordBatch>, Error> {
+    let bad = |e: &dyn std::fmt::Display| Error::Scene { path: path.to_path_buf(), reason: e.to_string() };
+    let file = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| bad(&e))?.build().map_err(|e| bad(&e))?;
+    reader.map(|b| b.map_err(|e| bad(&e))).collect()
+}
+
+fn column<'a, T: 'static>(b: &'a arrow_array::RecordBatch, name: &str) -> &'a T {
+    b.column_by_name(name).and_then(|c| c.as_any().downcast_ref::<T>()).expect("schema documented in docs/schemas.md")
+}
+
+/// (sensor, seq, x, y) of every track point.
+fn read_tracks(path: &Path) -> Result<Vec<(String, u64, f64, f64)>, Error> {
+    let mut out = Vec::new();
+    for b in parquet_batches(path)? {
+        let (s, q) = (column::<StringArray>(&b, "sensor"), column::<UInt64Array>(&b, "seq"));
+        let (x, y) = (column::<Float64Array>(&b, "x_mm"), column::<Float64Array>(&b, "y_mm"));
+        out.extend((0..b.num_rows()).map(|i| (s.value(i).to_string(), q.value(i), x.value(i), y.value(i))));
+    }
+    Ok(out)
+}
+
+/// The first slip event's class and onset (s).
+fn read_first_slip(path: &Path) -> Result<Option<(String, f64)>, Error> {
+    for b in parquet_batches(path)? {
+        let (c, o) = (column::<StringArray>(&b, "class"), column::<Int64Array>(&b, "onset_ns"));
+        if let Some(i) = (0..b.num_rows()).find(|&i| c.is_valid(i) && c.value(i) != "stable") {
+            return Ok(Some((c.value(i).to_string(), o.value(i) as f64 * 1e-9)));
+        }
+    }
+    Ok(None)
+}
 
 /// A fresh directory for a demo run under the system's temporary directory.
 pub fn fresh_dir() -> Result<PathBuf, Error> {
@@ -82,4 +234,19 @@ pub fn fresh_dir() -> Result<PathBuf, Error> {
         }
     }
     Err(Error::Io { path: base, source: std::io::Error::other("no fresh directory name left") })
+}
+
+/// The demo's closing lines: where everything is.
+pub fn where_lines(r: &DemoReport, dir: &Path) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "demo directory: {}", dir.display());
+    let _ = writeln!(s, "  scene:     {}", r.scene.display());
+    let _ = writeln!(s, "  recording: {}", r.recording.display());
+    let _ = writeln!(s, "  truth:     {}", r.truth.display());
+    for (files, _) in &r.run.outputs {
+        for f in files {
+            let _ = writeln!(s, "  output:    {}", f.display());
+        }
+    }
+    s
 }

@@ -85,29 +85,17 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
         }
         Command::Demo { dir, quiet } => {
             let dir = match dir {
-                Some(d) => {
-                    std::fs::create_dir_all(&d).map_err(|source| gradtac::Error::Io { path: d.clone(), source })?;
-                    d
-                }
+                Some(d) => d,
                 None => demo::fresh_dir()?,
             };
-            let recording = dir.join("recording.csv");
-            let frames = demo::write_recording(&recording, 6.0, 7)?;
-            let scene_path = dir.join("scene.toml");
-            std::fs::write(&scene_path, demo::DEMO_SCENE)
-                .map_err(|source| gradtac::Error::Io { path: scene_path.clone(), source })?;
-            let scene = Scene::load(&scene_path)?;
-            let plan = Plan::new(&scene)?;
-            println!("gradtac demo: synthetic recording of {frames} frames at {} Hz", demo::RATE_HZ);
-            print!("{}", plan.explain(&scene));
-            let report = run::run_blocking(&scene, &plan, &run::RunOptions { progress: !quiet })?;
+            println!(
+                "gradtac demo: a simulated two-finger grasp that slips ({}), at {} Hz",
+                demo::DEMO_SLIP.name(),
+                demo::RATE_HZ
+            );
+            let report = demo::run_demo(&dir, !quiet)?;
             print!("{report}");
-            println!("demo directory: {}", dir.display());
-            println!("  scene:     {}", scene_path.display());
-            println!("  recording: {}", recording.display());
-            for o in &scene.outputs {
-                println!("  output:    {}", scene.resolve(&o.path).display());
-            }
+            print!("{}", demo::where_lines(&report, &dir));
             Ok(ExitCode::SUCCESS)
         }
     }

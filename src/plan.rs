@@ -30,12 +30,51 @@ pub enum Tap {
     Contour,
     /// Contact track points.
     Track,
+    /// Force estimates from the maximal contour's area (needs a calibrated model).
+    Force,
+    /// Edge-following motion commands from the contact's offset.
+    Servo,
+    /// Two-finger slip events (a pair of sensors: `[stages.slip] first`, `second`).
+    Slip,
 }
 
 impl Tap {
     /// Every tap, in chain order.
-    pub const ALL: [Tap; 8] =
-        [Tap::Source, Tap::Normalise, Tap::Savgol, Tap::Events, Tap::Window, Tap::Surface, Tap::Contour, Tap::Track];
+    pub const ALL: [Tap; 11] = [
+        Tap::Source,
+        Tap::Normalise,
+        Tap::Savgol,
+        Tap::Events,
+        Tap::Window,
+        Tap::Surface,
+        Tap::Contour,
+        Tap::Track,
+        Tap::Force,
+        Tap::Servo,
+        Tap::Slip,
+    ];
+
+    /// The stage whose output this one consumes (`None` for the source). Stages form a tree:
+    /// the chain source → … → contour → track, with `force` on contours, `servo` and `slip` on
+    /// tracks.
+    pub fn parent(self) -> Option<Tap> {
+        Some(match self {
+            Tap::Source => return None,
+            Tap::Normalise => Tap::Source,
+            Tap::Savgol => Tap::Normalise,
+            Tap::Events => Tap::Savgol,
+            Tap::Window => Tap::Events,
+            Tap::Surface => Tap::Window,
+            Tap::Contour => Tap::Surface,
+            Tap::Track | Tap::Force => Tap::Contour,
+            Tap::Servo | Tap::Slip => Tap::Track,
+        })
+    }
+
+    /// This stage and every stage it depends on.
+    pub fn with_ancestors(self) -> impl Iterator<Item = Tap> {
+        std::iter::successors(Some(self), |t| t.parent())
+    }
 
     /// The tap's name in scenes.
     pub fn name(self) -> &'static str {
@@ -48,6 +87,9 @@ impl Tap {
             Tap::Surface => "surface",
             Tap::Contour => "contour",
             Tap::Track => "track",
+            Tap::Force => "force",
+            Tap::Servo => "servo",
+            Tap::Slip => "slip",
         }
     }
 
@@ -71,8 +113,8 @@ pub struct SensorPlan {
     pub name: String,
     /// Its layout.
     pub layout: Layout,
-    /// The last stage it runs (`None`: not read at all).
-    pub deepest: Option<Tap>,
+    /// The stages it runs (empty: not read at all), in [`Tap::ALL`] order.
+    pub needed: Vec<Tap>,
     /// Indices (into the scene's outputs) of the outputs that take data from this sensor.
     pub outputs: Vec<usize>,
 }
@@ -80,12 +122,17 @@ pub struct SensorPlan {
 impl SensorPlan {
     /// True when the sensor runs `tap` (the source counts as a stage).
     pub fn runs(&self, tap: Tap) -> bool {
-        self.deepest.is_some_and(|d| tap <= d)
+        self.needed.contains(&tap)
+    }
+
+    /// True when the sensor is read at all.
+    pub fn is_read(&self) -> bool {
+        !self.needed.is_empty()
     }
 
     /// The stages it runs, in order.
     pub fn stages(&self) -> impl Iterator<Item = Tap> + '_ {
-        Tap::ALL.into_iter().filter(|t| self.runs(*t))
+        self.needed.iter().copied()
     }
 }
 
@@ -103,18 +150,44 @@ impl Plan {
         let mut sensors = Vec::new();
         for (index, spec) in scene.sensors.iter().enumerate() {
             let layout = scene.layout(spec)?;
+            let slip_pair = [&scene.stages.slip.first, &scene.stages.slip.second];
             let outputs: Vec<usize> = scene
                 .outputs
                 .iter()
                 .enumerate()
-                .filter(|(_, o)| o.sensors.as_ref().is_none_or(|v| v.contains(&spec.name)))
+                .filter(|(_, o)| match Tap::parse(&o.tap) {
+                    // a slip output takes the tracks of its two sensors
+                    Some(Tap::Slip) => slip_pair.contains(&&spec.name),
+                    _ => o.sensors.as_ref().is_none_or(|v| v.contains(&spec.name)),
+                })
                 .map(|(i, _)| i)
                 .collect();
-            let deepest = outputs.iter().filter_map(|&i| Tap::parse(&scene.outputs[i].tap)).max();
-            let plan = SensorPlan { index, name: spec.name.clone(), layout, deepest, outputs };
+            let mut needed: Vec<Tap> = outputs
+                .iter()
+                .filter_map(|&i| Tap::parse(&scene.outputs[i].tap))
+                .flat_map(Tap::with_ancestors)
+                .collect();
+            needed.sort();
+            needed.dedup();
+            let plan = SensorPlan { index, name: spec.name.clone(), layout, needed, outputs };
             // Construct each stage once now, so a bad setting is reported before any data moves.
             SensorChain::build(scene, &plan)?;
             sensors.push(plan);
+        }
+        if scene.outputs.iter().any(|o| o.tap == Tap::Slip.name()) {
+            let c = &scene.stages.slip;
+            for name in [&c.first, &c.second] {
+                if !sensors.iter().any(|p| &p.name == name) {
+                    return Err(Error::Scene {
+                        path: scene.base_dir.clone(),
+                        reason: format!(
+                            "a slip output needs the sensors [stages.slip] first = {:?} and second = {:?}; {name:?} is not declared",
+                            c.first, c.second
+                        ),
+                    });
+                }
+            }
+            let _validated = gradtac_stages::slip::Slip::try_new(c)?;
         }
         Ok(Plan { sensors })
     }
@@ -133,10 +206,10 @@ impl Plan {
                 spec.source.kind(),
                 scene.resolve(spec.source.path()).display()
             );
-            let Some(deepest) = p.deepest else {
+            if !p.is_read() {
                 let _ = writeln!(s, "  not read: no output uses this sensor");
                 continue;
-            };
+            }
             let chain = SensorChain::build(scene, p).expect("validated by Plan::new");
             for tap in p.stages() {
                 let tapped_by: Vec<String> = p
@@ -148,13 +221,13 @@ impl Plan {
                 let why = if !tapped_by.is_empty() {
                     format!("written to {}", tapped_by.join(", "))
                 } else {
-                    let next = Tap::ALL.into_iter().find(|t| *t > tap).map_or("", Tap::name);
-                    format!("feeds {next}")
+                    let next: Vec<&str> = p.stages().filter(|t| t.parent() == Some(tap)).map(Tap::name).collect();
+                    format!("feeds {}", next.join(", "))
                 };
                 let _ = writeln!(s, "  {:<10} {:<52} {}", tap.name(), chain.describe(tap, &scene.stages), why);
             }
             let delay = chain.delay();
-            let later: Vec<&str> = Tap::ALL.into_iter().filter(|t| *t > deepest).map(Tap::name).collect();
+            let later: Vec<&str> = Tap::ALL.into_iter().filter(|t| !p.runs(*t)).map(Tap::name).collect();
             if !later.is_empty() {
                 let _ = writeln!(s, "  not built: {} (no output needs them)", later.join(", "));
             }

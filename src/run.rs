@@ -12,7 +12,7 @@
 //! outputs are finished (renamed): they hold everything read so far.
 
 use crate::chain::SensorChain;
-use crate::plan::{Plan, SensorPlan};
+use crate::plan::{Plan, SensorPlan, Tap};
 use crate::scene::{BusSource, BusSpec, Scene, SourceSpec};
 use crate::sinks::Sinks;
 use crate::Error;
@@ -21,7 +21,8 @@ use gradtac_io::arrow_ipc::ArrowIpcConfig;
 use gradtac_io::can::{CandumpConfig, StatsHandle};
 use gradtac_io::npy::{NpyFrames, NpySourceConfig};
 use gradtac_io::{CsvFrames, CsvProgress, CsvSourceConfig};
-use gradtac_stream::{merge_streams, SensorId, TaxelFrame};
+use gradtac_stages::slip::{Slip, SlipEvent};
+use gradtac_stream::{merge_streams, SensorId, Stage, TaxelFrame};
 use std::fmt;
 use std::path::PathBuf;
 use std::pin::Pin;
@@ -80,9 +81,19 @@ impl fmt::Display for RunReport {
     }
 }
 
+/// The cross-sensor two-finger slip stage and the outputs that tap it.
+struct SlipNode {
+    stage: Slip,
+    first: SensorId,
+    second: SensorId,
+    outputs: Vec<usize>,
+    events: Vec<SlipEvent>,
+}
+
 /// The synchronous core of a run (see the [module docs](self)).
 pub struct Runner {
     chains: Vec<SensorChain>,
+    slip: Option<SlipNode>,
     sinks: Sinks,
     last: usize,
 }
@@ -93,11 +104,43 @@ impl Runner {
         let chains = plan
             .sensors
             .iter()
-            .filter(|p| p.deepest.is_some())
+            .filter(|p| p.is_read())
             .map(|p| SensorChain::build(scene, p))
             .collect::<Result<Vec<_>, _>>()?;
+        let slip_outputs: Vec<usize> =
+            scene.outputs.iter().enumerate().filter(|(_, o)| o.tap == Tap::Slip.name()).map(|(i, _)| i).collect();
+        let slip = if slip_outputs.is_empty() {
+            None
+        } else {
+            let c = &scene.stages.slip;
+            Some(SlipNode {
+                stage: Slip::try_new(c)?,
+                first: SensorId::new(&c.first),
+                second: SensorId::new(&c.second),
+                outputs: slip_outputs,
+                events: Vec::new(),
+            })
+        };
         let sinks = Sinks::open(scene, plan)?;
-        Ok(Runner { chains, sinks, last: 0 })
+        Ok(Runner { chains, slip, sinks, last: 0 })
+    }
+
+    /// Hand the track points chain `i` just produced to the slip stage, if its sensor is one
+    /// of the pair.
+    fn feed_slip(&mut self, i: usize, finish: bool) -> Result<(), Error> {
+        let Some(node) = &mut self.slip else { return Ok(()) };
+        let chain = &mut self.chains[i];
+        if chain.sensor() == &node.first || chain.sensor() == &node.second {
+            for p in chain.take_points() {
+                node.stage.push(p, &mut node.events)?;
+            }
+        }
+        if finish {
+            node.stage.finish(&mut node.events)?;
+        }
+        self.sinks.write_all(&node.outputs, &node.events)?;
+        node.events.clear();
+        Ok(())
     }
 
     fn chain_index(&mut self, s: &SensorId) -> Option<usize> {
@@ -113,7 +156,8 @@ impl Runner {
     /// Push one frame. Frames of sensors the plan does not run are ignored.
     pub fn push(&mut self, frame: TaxelFrame) -> Result<(), Error> {
         let Some(i) = self.chain_index(&frame.sensor) else { return Ok(()) };
-        self.chains[i].process(Some(frame), false, &mut self.sinks)
+        self.chains[i].process(Some(frame), false, &mut self.sinks)?;
+        self.feed_slip(i, false)
     }
 
     /// Frames pushed so far, per sensor.
@@ -124,8 +168,11 @@ impl Runner {
     /// End of input: flush every stage, finish every output (rename to its final name). On a
     /// flush error the outputs are left as `.partial` files.
     pub fn finish(mut self) -> Result<Vec<(Vec<PathBuf>, u64)>, Error> {
-        for i in 0..self.chains.len() {
-            if let Err(e) = self.chains[i].process(None, true, &mut self.sinks) {
+        let n = self.chains.len();
+        for i in 0..n {
+            let flushed =
+                self.chains[i].process(None, true, &mut self.sinks).and_then(|()| self.feed_slip(i, i + 1 == n));
+            if let Err(e) = flushed {
                 self.sinks.abort();
                 return Err(e);
             }
@@ -210,7 +257,7 @@ fn open_sources(scene: &Scene, plan: &Plan) -> Result<(Vec<FrameStream>, Vec<Csv
     let mut streams: Vec<FrameStream> = Vec::new();
     let mut progress = Vec::new();
     let mut buses: Vec<OpenBus> = Vec::new();
-    for p in plan.sensors.iter().filter(|p| p.deepest.is_some()) {
+    for p in plan.sensors.iter().filter(|p| p.is_read()) {
         if let SourceSpec::Bus { bus } = &scene.sensors[p.index].source {
             if !buses.iter().any(|b| &b.name == bus) {
                 let spec = scene.buses.iter().find(|b| &b.name == bus).expect("validated by Scene");

@@ -29,9 +29,12 @@ use gradtac_io::npy::NpySourceConfig;
 use gradtac_io::CsvSourceConfig;
 use gradtac_stages::contour::ContourConfig;
 use gradtac_stages::events::EventsConfig;
+use gradtac_stages::force::ForceConfig;
 use gradtac_stages::interpolate::InterpolateConfig;
 use gradtac_stages::normalise::NormaliseConfig;
 use gradtac_stages::savgol::SavGolConfig;
+use gradtac_stages::servo::ServoConfig;
+use gradtac_stages::slip::SlipConfig;
 use gradtac_stages::track::TrackConfig;
 use gradtac_stages::window::WindowConfig;
 use gradtac_stream::Layout;
@@ -272,6 +275,15 @@ pub struct StageSettings {
     /// Contact tracks ([`TrackConfig`]).
     #[serde(default)]
     pub track: TrackConfig,
+    /// Force from contour area ([`ForceConfig`]: a calibrated model; required by the force tap).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force: Option<ForceConfig>,
+    /// Edge-following servo commands ([`ServoConfig`]).
+    #[serde(default)]
+    pub servo: ServoConfig,
+    /// Two-finger slip ([`SlipConfig`]: which two sensors, thresholds).
+    #[serde(default)]
+    pub slip: SlipConfig,
 }
 
 /// One output: a tap on a stage, written to a file.

@@ -4,10 +4,13 @@ use crate::plan::{Plan, Tap};
 use crate::scene::{OutputSpec, Scene};
 use crate::Error;
 use gradtac_io::archive::{ParquetArchive, RecordSink};
-use gradtac_io::records::SurfaceShape;
+use gradtac_io::records::{SlipShape, SurfaceShape};
 use gradtac_io::{ArrowRecord, FrameShape, ParquetSink};
 use gradtac_stages::contour::ContourFrame;
+use gradtac_stages::force::ForceEstimate;
 use gradtac_stages::interpolate::{Grid, Surface};
+use gradtac_stages::servo::ServoCommand;
+use gradtac_stages::slip::SlipEvent;
 use gradtac_stages::track::TrackPoint;
 use gradtac_stages::window::WindowAggregate;
 use gradtac_stages::EventBatch;
@@ -31,10 +34,16 @@ pub enum OutputSink {
     Contours(Box<dyn RecordSink<ContourFrame>>),
     /// Track points, `track/1`.
     Tracks(Box<dyn RecordSink<TrackPoint>>),
+    /// Force estimates, `force/1`.
+    Forces(Box<dyn RecordSink<ForceEstimate>>),
+    /// Servo commands, `servo/1`.
+    Servo(Box<dyn RecordSink<ServoCommand>>),
+    /// Two-finger slip events, `slip/1` (always one file: the events belong to a pair).
+    Slip(Box<dyn RecordSink<SlipEvent>>),
 }
 
 /// An output type the runner can write: finds its own sink among the variants.
-pub trait Record: ArrowRecord + HasSensor + Timed + Send + 'static {
+pub trait Record: ArrowRecord + Send + 'static {
     /// The typed sink, when `s` writes this type.
     fn sink(s: &mut OutputSink) -> Option<&mut Box<dyn RecordSink<Self>>>;
 }
@@ -57,6 +66,9 @@ record!(WindowAggregate, Windows);
 record!(Surface, Surfaces);
 record!(ContourFrame, Contours);
 record!(TrackPoint, Tracks);
+record!(ForceEstimate, Forces);
+record!(ServoCommand, Servo);
+record!(SlipEvent, Slip);
 
 macro_rules! each_sink {
     ($s:expr, $v:ident => $e:expr) => {
@@ -67,6 +79,9 @@ macro_rules! each_sink {
             OutputSink::Surfaces($v) => $e,
             OutputSink::Contours($v) => $e,
             OutputSink::Tracks($v) => $e,
+            OutputSink::Forces($v) => $e,
+            OutputSink::Servo($v) => $e,
+            OutputSink::Slip($v) => $e,
         }
     };
 }
@@ -135,6 +150,18 @@ impl Sinks {
                 }
                 Tap::Contour => OutputSink::Contours(open(&path, (), o)?),
                 Tap::Track => OutputSink::Tracks(open(&path, (), o)?),
+                Tap::Force => OutputSink::Forces(open(&path, (), o)?),
+                Tap::Servo => OutputSink::Servo(open(&path, (), o)?),
+                Tap::Slip => {
+                    if o.archive.is_some() {
+                        return Err(bad(format!(
+                            "output #{}: slip events belong to a sensor pair; write one file (no archive)",
+                            i + 1
+                        )));
+                    }
+                    let c = &scene.stages.slip;
+                    OutputSink::Slip(open_file(&path, SlipShape::new(&c.first, &c.second), o)?)
+                }
             };
             sink.set_metadata("gradtac.scene".into(), scene.text.clone());
             sink.set_metadata("gradtac.tap".into(), tap.name().into());
@@ -180,22 +207,37 @@ impl Sinks {
     }
 }
 
+/// Rows per row group of surface outputs unless the scene says otherwise: a 64×64 surface is
+/// 32 KiB, and a sink buffers up to a row group (at most 8192 rows) before writing.
+const SURFACE_ROW_GROUP: usize = 256;
+
+fn row_group(o: &OutputSpec) -> Option<usize> {
+    o.row_group_size.or((o.tap == Tap::Surface.name()).then_some(SURFACE_ROW_GROUP))
+}
+
 /// One output's sink: an archive directory when the output has `archive` settings, else one file.
-fn open<T: Record>(path: &Path, shape: T::Shape, o: &OutputSpec) -> Result<Box<dyn RecordSink<T>>, Error> {
+fn open<T: Record + HasSensor + Timed>(
+    path: &Path,
+    shape: T::Shape,
+    o: &OutputSpec,
+) -> Result<Box<dyn RecordSink<T>>, Error> {
     Ok(match &o.archive {
         Some(cfg) => {
             let mut a = ParquetArchive::from_config(path, shape, cfg)?;
-            if let Some(n) = o.row_group_size {
+            if let Some(n) = row_group(o) {
                 a = a.with_row_group_size(n)?;
             }
             Box::new(a)
         }
-        None => {
-            let mut s = ParquetSink::try_new(path, shape)?;
-            if let Some(n) = o.row_group_size {
-                s = s.with_row_group_size(n)?;
-            }
-            Box::new(s)
-        }
+        None => open_file(path, shape, o)?,
     })
+}
+
+/// One output's sink as a single file.
+fn open_file<T: Record>(path: &Path, shape: T::Shape, o: &OutputSpec) -> Result<Box<dyn RecordSink<T>>, Error> {
+    let mut s = ParquetSink::try_new(path, shape)?;
+    if let Some(n) = row_group(o) {
+        s = s.with_row_group_size(n)?;
+    }
+    Ok(Box::new(s))
 }

@@ -188,8 +188,18 @@ fn demo_runs_without_arguments_and_says_where() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains(&format!("demo directory: {}", dir.path().display())), "{text}");
-    let rows = read_frames(&dir.path().join("out/normalised.parquet"));
-    assert_eq!(rows.len(), 600);
+    for f in ["events", "surfaces", "contours", "tracks", "slip"] {
+        assert!(dir.path().join(format!("out/{f}.parquet")).is_file(), "{f}\n{text}");
+    }
+    // the simulated slip is found, with the right class, and contacts are located
+    assert!(text.contains("slip: detected longitudinal_down"), "{text}");
+    let fractions: Vec<f64> = text
+        .lines()
+        .filter(|l| l.contains("contact location over"))
+        .map(|l| l.split("mm (").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(fractions.len(), 2, "{text}");
+    assert!(fractions.iter().all(|&f| f < 0.1), "mean error as a fraction of sensor width: {fractions:?}");
 }
 
 #[test]
