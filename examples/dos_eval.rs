@@ -22,13 +22,20 @@ use gradtac::io::{ColumnSelector, CsvFrames, CsvSourceConfig};
 use gradtac::stages::dos::{
     CentroidMethod, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature, FeatureVector,
 };
-use gradtac::stream::{Layout, SensorId};
+use gradtac::stream::{Layout, SensorId, TaxelFrame};
 use std::collections::BTreeMap;
 use std::error::Error;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// One labelled recording.
+/// One labelled recording's frames.
+struct Raw {
+    class: DosClass,
+    object: String,
+    frames: Vec<TaxelFrame>,
+}
+
+/// One labelled recording's features.
 struct Recording {
     class: DosClass,
     object: String,
@@ -42,10 +49,10 @@ fn object_of(path: &Path) -> Option<String> {
     (!name.is_empty()).then_some(name)
 }
 
-fn load(dir: &Path, cfg: &DosFeatureConfig, layout: &Layout) -> Result<Vec<Recording>, Box<dyn Error>> {
+/// Read every `<class>/<object><n>.csv` with [`CsvFrames`] (100 Hz, columns `ff_e1..ff_e24`).
+fn read_all(dir: &Path) -> Result<Vec<Raw>, Box<dyn Error>> {
     let columns: ColumnSelector = "ff_e{1..24}".parse()?;
     let mut out = Vec::new();
-    let mut extractor = DosFeatureExtractor::try_new(cfg, layout)?;
     for class in DosClass::ALL {
         let class_dir = dir.join(class.as_str());
         if !class_dir.is_dir() {
@@ -59,22 +66,38 @@ fn load(dir: &Path, cfg: &DosFeatureConfig, layout: &Layout) -> Result<Vec<Recor
         for path in files {
             let object = object_of(&path).ok_or_else(|| format!("{}: no object name", path.display()))?;
             let config = CsvSourceConfig::new(&path, columns.clone()).with_rate_hz(100.0);
-            extractor.reset();
-            for frame in CsvFrames::open(&config, SensorId::new("ff"))? {
-                extractor.push(frame?)?;
-            }
-            out.push(Recording { class, object, features: extractor.features() });
+            let frames = CsvFrames::open(&config, SensorId::new("ff"))?.collect::<Result<Vec<_>, _>>()?;
+            out.push(Raw { class, object, frames });
         }
     }
     Ok(out)
 }
 
+/// Features of every recording, and the extraction time per frame (µs).
+fn extract(raw: &[Raw], cfg: &DosFeatureConfig, layout: &Layout) -> Result<(Vec<Recording>, f64), Box<dyn Error>> {
+    let mut extractor = DosFeatureExtractor::try_new(cfg, layout)?;
+    let t = Instant::now();
+    let mut out = Vec::with_capacity(raw.len());
+    let mut frames = 0usize;
+    for r in raw {
+        extractor.reset();
+        for f in &r.frames {
+            extractor.push(f.clone())?;
+        }
+        frames += r.frames.len();
+        out.push(Recording { class: r.class, object: r.object.clone(), features: extractor.features() });
+    }
+    Ok((out, t.elapsed().as_secs_f64() * 1e6 / frames.max(1) as f64))
+}
+
+/// One fold: held-out object, correct, total.
+type Fold = (String, usize, usize);
+/// Rows true class, columns predicted, [`DosClass::ALL`] order.
+type Confusion = [[usize; 7]; 7];
+
 /// Leave-one-object-out: per fold (object, correct, total) and the confusion matrix
 /// (rows true class, columns predicted, [`DosClass::ALL`] order).
-fn cross_validate(
-    recs: &[Recording],
-    cfg: &DosFeatureConfig,
-) -> Result<(Vec<(String, usize, usize)>, [[usize; 7]; 7]), Box<dyn Error>> {
+fn cross_validate(recs: &[Recording], cfg: &DosFeatureConfig) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
     let objects: Vec<String> = {
         let mut o: Vec<String> = recs.iter().map(|r| r.object.clone()).collect();
         o.sort();
@@ -100,7 +123,7 @@ fn cross_validate(
     Ok((folds, cm))
 }
 
-fn accuracy(folds: &[(String, usize, usize)]) -> f64 {
+fn accuracy(folds: &[Fold]) -> f64 {
     let ok: usize = folds.iter().map(|f| f.1).sum();
     let n: usize = folds.iter().map(|f| f.2).sum();
     100.0 * ok as f64 / n.max(1) as f64
@@ -154,24 +177,27 @@ fn main() -> Result<(), Box<dyn Error>> {
     cfg.validate()?;
     let layout = Layout::biotac_sp();
     let t0 = Instant::now();
-    let recs = load(&dir, &cfg, &layout)?;
-    let t_load = t0.elapsed();
-    if recs.is_empty() {
+    let raw = read_all(&dir)?;
+    let t_read = t0.elapsed();
+    if raw.is_empty() {
         println!("skipped: no recordings under {}", dir.display());
         return Ok(());
     }
-    let frames: u64 = recs.iter().map(|r| r.features.frames).sum();
+    let frames: usize = raw.iter().map(|r| r.frames.len()).sum();
+    let (recs, us_per_frame) = extract(&raw, &cfg, &layout)?;
     println!(
-        "BioTacSP-DoS at {}: {} recordings, {} frames; features extracted in {:.2} s ({:.1} µs/frame)",
+        "BioTacSP-DoS at {}: {} recordings, {} frames read in {:.2} s; features {:.2} µs/frame",
         dir.display(),
         recs.len(),
         frames,
-        t_load.as_secs_f64(),
-        t_load.as_secs_f64() * 1e6 / frames.max(1) as f64
+        t_read.as_secs_f64(),
+        us_per_frame
     );
     println!(
-        "features ({}): {}; parameters per model: (7 + 1) × {} = {}",
+        "features ({}, centroid {:?}, τ = {}): {}; parameters per model: (7 + 1) × {} = {}",
         cfg.features.len(),
+        cfg.centroid,
+        cfg.threshold,
         cfg.features.iter().map(|f| f.name()).collect::<Vec<_>>().join(", "),
         cfg.features.len(),
         8 * cfg.features.len()
@@ -196,23 +222,46 @@ fn main() -> Result<(), Box<dyn Error>> {
         println!("| {} | {} | {:.0} % |", names[i], cells.join(" | "), 100.0 * row[i] as f64 / n.max(1) as f64);
     }
 
-    // Feature sets compared (features are extracted once; only the selection changes).
+    // Feature sets × centroid methods (features are extracted once per method; only the
+    // selection changes between sets).
     use Feature::*;
     let sets: Vec<(&str, Vec<Feature>)> = vec![
-        ("default: rate, positive fraction, positive/negative centroids", Feature::DEFAULT.to_vec()),
-        ("+ track displacement", [Feature::DEFAULT.as_slice(), &[TrackDx, TrackDy]].concat()),
-        ("+ rotation", [Feature::DEFAULT.as_slice(), &[Rotation]].concat()),
-        ("+ track displacement + rotation", [Feature::DEFAULT.as_slice(), &[TrackDx, TrackDy, Rotation]].concat()),
-        ("+ activity centroid", [Feature::DEFAULT.as_slice(), &[ActivityX, ActivityY]].concat()),
+        ("rate, positive fraction, positive/negative centroids (default)", Feature::DEFAULT.to_vec()),
+        ("default + track displacement", [Feature::DEFAULT.as_slice(), &[TrackDx, TrackDy]].concat()),
+        ("default + rotation", [Feature::DEFAULT.as_slice(), &[Rotation]].concat()),
+        (
+            "default + track displacement + rotation",
+            [Feature::DEFAULT.as_slice(), &[TrackDx, TrackDy, Rotation]].concat(),
+        ),
+        ("default + activity centroid", [Feature::DEFAULT.as_slice(), &[ActivityX, ActivityY]].concat()),
         ("rate, activity centroid", vec![Rate, ActivityX, ActivityY]),
         ("rate, track displacement, rotation", vec![Rate, TrackDx, TrackDy, Rotation]),
         ("all 11", Feature::ALL.to_vec()),
     ];
-    println!("\n| feature set | features | parameters | LOOO accuracy |\n|---|---|---|---|");
-    for (name, set) in sets {
-        let c = DosFeatureConfig { features: set.clone(), ..cfg.clone() };
-        let (f, _) = cross_validate(&recs, &c)?;
-        println!("| {name} | {} | {} | {:.1} % |", set.len(), 8 * set.len(), accuracy(&f));
+    let methods = [CentroidMethod::Taxels, CentroidMethod::Surface, CentroidMethod::MaxContour];
+    let mut by_method = Vec::new();
+    for m in methods {
+        let c = DosFeatureConfig { centroid: m, ..cfg.clone() };
+        by_method.push(extract(&raw, &c, &layout)?);
+    }
+    println!("\nLOOO accuracy by feature set and centroid method (τ = {}):\n", cfg.threshold);
+    println!("| feature set | features | parameters | taxels | surface | max contour |\n|---|---|---|---|---|---|");
+    for (name, set) in &sets {
+        let mut cells = Vec::new();
+        for (m, (recs_m, _)) in methods.iter().zip(&by_method) {
+            let c = DosFeatureConfig { features: set.clone(), centroid: *m, ..cfg.clone() };
+            cells.push(format!("{:.1} %", accuracy(&cross_validate(recs_m, &c)?.0)));
+        }
+        println!("| {name} | {} | {} | {} |", set.len(), 8 * set.len(), cells.join(" | "));
+    }
+    let costs: Vec<String> = by_method.iter().map(|(_, us)| format!("{us:.2}")).collect();
+    println!("| feature extraction, µs per frame | | | {} |", costs.join(" | "));
+
+    println!("\nevent threshold τ (configured features and centroid):\n\n| τ | LOOO accuracy |\n|---|---|");
+    for tau in [0.002, 0.003, 0.005, 0.008, 0.012] {
+        let c = DosFeatureConfig { threshold: tau, ..cfg.clone() };
+        let (r, _) = extract(&raw, &c, &layout)?;
+        println!("| {tau} | {:.1} % |", accuracy(&cross_validate(&r, &c)?.0));
     }
 
     // Per-class means of the direction features (the evidence for the class → direction map).

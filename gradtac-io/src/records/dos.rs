@@ -24,7 +24,7 @@
 //! schema metadata under `gradtac.dos.classes` as a JSON array of class names, so element `i`
 //! of `distances` and `posterior` belongs to class `classes[i]`. A decision with another
 //! number of distances or posteriors, a class not among the shape's, or features of another
-//! frame count than `frames` is rejected with [`Error::Record`](crate::Error::Record).
+//! frame count than `frames` is rejected with [`Error::Record`].
 //! Floats are stored bit-exactly, so a file reads back into the same decisions.
 //!
 //! ```

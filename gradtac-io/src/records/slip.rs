@@ -7,7 +7,7 @@
 //! | `time_ns` | `Int64`, not null | when the change was decided ([`SlipEvent::time`]); `gradtac.unit = ns` |
 //! | `onset_ns` | `Int64`, not null | estimated start of the new state ([`SlipEvent::onset`]); `gradtac.unit = ns` |
 //! | `first_seen_ns` | `Int64`, not null | when the new state was first seen ([`SlipEvent::first_seen`]); `gradtac.unit = ns` |
-//! | `class` | `Utf8`, not null | the new state: `stable`, `longitudinal_up`, `longitudinal_down`, `rotational_cw`, `rotational_ccw` ([`SlipClass::name`]) |
+//! | `class` | `Utf8`, not null | the new state: `stable`, `longitudinal_up`, `longitudinal_down`, `rotational_cw`, `rotational_ccw` ([`SlipClass::name`](gradtac_stages::slip::SlipClass::name)) |
 //! | `previous` | `Utf8`, not null | the state before (same names) |
 //! | `common_mm_s` | `Float64`, not null | common-mode speed `L` along world up (mm/s); **NaN** when a finger's velocity is missing; `gradtac.unit = mm/s` |
 //! | `differential_mm_s` | `Float64`, not null | differential speed `R` (mm/s); NaN when a velocity is missing; `gradtac.unit = mm/s` |
