@@ -5,6 +5,7 @@ use crate::scene::{Scene, StageSettings};
 use crate::sinks::Sinks;
 use crate::Error;
 use gradtac_stages::contour::{Contour, ContourFrame, Levels};
+use gradtac_stages::dos::{DosClassifier, DosDecision};
 use gradtac_stages::events::{Events, Threshold};
 use gradtac_stages::force::{Force, ForceEstimate, ForceModel};
 use gradtac_stages::interpolate::{Interpolate, Surface};
@@ -21,7 +22,7 @@ use gradtac_stream::{Delay, SensorId, Stage, TaxelFrame};
 pub struct SensorChain {
     sensor: SensorId,
     /// Output indices tapping each stage (indexed by `Tap as usize`).
-    taps: [Vec<usize>; 11],
+    taps: [Vec<usize>; 12],
     normalise: Option<Normalise>,
     savgol: Option<SavGol>,
     events: Option<Events>,
@@ -31,6 +32,7 @@ pub struct SensorChain {
     track: Option<Track>,
     force: Option<Force>,
     servo: Option<Servo>,
+    dos: Option<DosClassifier>,
     raw: Vec<TaxelFrame>,
     normalised: Vec<TaxelFrame>,
     smoothed: Vec<TaxelFrame>,
@@ -41,6 +43,7 @@ pub struct SensorChain {
     points: Vec<TrackPoint>,
     forces: Vec<ForceEstimate>,
     commands: Vec<ServoCommand>,
+    decisions: Vec<DosDecision>,
     frames_in: u64,
 }
 
@@ -65,7 +68,7 @@ impl SensorChain {
         let n = plan.layout.len();
         let runs = |t| plan.runs(t);
         let rate = scene.sensors[plan.index].source.rate_hz();
-        let mut taps: [Vec<usize>; 11] = Default::default();
+        let mut taps: [Vec<usize>; 12] = Default::default();
         for &i in &plan.outputs {
             if let Some(t) = Tap::parse(&scene.outputs[i].tap) {
                 taps[t as usize].push(i);
@@ -99,6 +102,20 @@ impl SensorChain {
                 }
             },
             servo: runs(Tap::Servo).then(|| Servo::try_new(&st.servo, &plan.layout)).transpose()?,
+            dos: match (runs(Tap::Dos), &st.dos) {
+                (false, _) => None,
+                (true, Some(d)) => {
+                    let model = crate::calibrate::read_model(&scene.resolve(&d.model))?;
+                    Some(DosClassifier::try_new(model, &plan.layout, d.decision_frames)?)
+                }
+                (true, None) => {
+                    return Err(Error::Scene {
+                        path: scene.base_dir.clone(),
+                        reason: "the dos tap needs [stages.dos] model = \"….json\" (write one with gradtac calibrate)"
+                            .into(),
+                    })
+                }
+            },
             raw: Vec::new(),
             normalised: Vec::new(),
             smoothed: Vec::new(),
@@ -109,6 +126,7 @@ impl SensorChain {
             points: Vec::new(),
             forces: Vec::new(),
             commands: Vec::new(),
+            decisions: Vec::new(),
             frames_in: 0,
         })
     }
@@ -214,6 +232,16 @@ impl SensorChain {
             }),
             Tap::Servo => format!("offset from centre, gain {}, deadband {} mm", st.servo.gain, st.servo.deadband_mm),
             Tap::Slip => format!("two-finger slip of {} and {}", st.slip.first, st.slip.second),
+            Tap::Dos => match (&self.dos, &st.dos) {
+                (Some(c), Some(d)) => format!(
+                    "slip direction, {} classes, {} parameters, {}",
+                    c.model().classes.len(),
+                    c.model().parameter_count(),
+                    d.decision_frames
+                        .map_or("one decision per recording".into(), |n| format!("a decision per {n} frames"))
+                ),
+                _ => String::new(),
+            },
         }
     }
 
@@ -226,6 +254,11 @@ impl SensorChain {
         self.points.clear();
         self.raw.extend(frame);
         sinks.write_all(&self.taps[Tap::Source as usize], &self.raw)?;
+        if let Some(d) = &mut self.dos {
+            feed(d, &mut self.raw.clone(), &mut self.decisions, finish)?;
+            sinks.write_all(&self.taps[Tap::Dos as usize], &self.decisions)?;
+            self.decisions.clear();
+        }
         let Some(st) = &mut self.normalise else {
             self.raw.clear();
             return Ok(());

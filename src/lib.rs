@@ -25,6 +25,7 @@ pub use gradtac_io as io;
 pub use gradtac_stages as stages;
 pub use gradtac_stream as stream;
 
+pub mod calibrate;
 pub mod chain;
 pub mod demo;
 mod error;

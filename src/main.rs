@@ -28,6 +28,22 @@ enum Command {
         /// The scene file (TOML).
         scene: PathBuf,
     },
+    /// Fit the one-fingertip slip-direction model from labelled recordings
+    /// (`DIR/<class>/<name>.csv`, classes n e s w cw aw t) and write it as JSON for a scene's
+    /// `[stages.dos] model = "…"`.
+    Calibrate {
+        /// Directory of labelled recordings (e.g. BioTacSP-DoS).
+        data: PathBuf,
+        /// Where to write the model.
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Taxel columns of the recordings.
+        #[arg(long, default_value = "ff_e{1..24}")]
+        columns: String,
+        /// Sample rate of the recordings (Hz).
+        #[arg(long, default_value_t = 100.0)]
+        rate_hz: f64,
+    },
     /// Run the embedded demo scene on a synthetic recording, in a fresh directory.
     Demo {
         /// Where to put the demo (default: a fresh directory under the system temp dir).
@@ -75,6 +91,24 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             if !quiet {
                 print!("{report}");
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Calibrate { data, out, columns, rate_hz } => {
+            let opts = gradtac::calibrate::CalibrateOptions {
+                columns: columns.parse().map_err(gradtac::Error::Io2)?,
+                rate_hz,
+                ..Default::default()
+            };
+            let layout = gradtac::stream::Layout::biotac_sp();
+            let (model, n) = gradtac::calibrate::calibrate_dos(&data, &layout, &opts)?;
+            gradtac::calibrate::write_model(&model, &out)?;
+            println!(
+                "calibrated on {n} recordings: {} classes, {} features, {} parameters -> {}",
+                model.classes.len(),
+                model.config.features.len(),
+                model.parameter_count(),
+                out.display()
+            );
             Ok(ExitCode::SUCCESS)
         }
         Command::Explain { scene } => {

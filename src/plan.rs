@@ -36,11 +36,14 @@ pub enum Tap {
     Servo,
     /// Two-finger slip events (a pair of sensors: `[stages.slip] first`, `second`).
     Slip,
+    /// One-fingertip slip direction (BioTacSP-DoS classes) from a calibrated model
+    /// (`[stages.dos] model = "…json"`, written by `gradtac calibrate`); on raw frames.
+    Dos,
 }
 
 impl Tap {
     /// Every tap, in chain order.
-    pub const ALL: [Tap; 11] = [
+    pub const ALL: [Tap; 12] = [
         Tap::Source,
         Tap::Normalise,
         Tap::Savgol,
@@ -52,6 +55,7 @@ impl Tap {
         Tap::Force,
         Tap::Servo,
         Tap::Slip,
+        Tap::Dos,
     ];
 
     /// The stage whose output this one consumes (`None` for the source). Stages form a tree:
@@ -60,7 +64,7 @@ impl Tap {
     pub fn parent(self) -> Option<Tap> {
         Some(match self {
             Tap::Source => return None,
-            Tap::Normalise => Tap::Source,
+            Tap::Normalise | Tap::Dos => Tap::Source,
             Tap::Savgol => Tap::Normalise,
             Tap::Events => Tap::Savgol,
             Tap::Window => Tap::Events,
@@ -90,6 +94,7 @@ impl Tap {
             Tap::Force => "force",
             Tap::Servo => "servo",
             Tap::Slip => "slip",
+            Tap::Dos => "dos",
         }
     }
 

@@ -284,6 +284,26 @@ pub struct StageSettings {
     /// Two-finger slip ([`SlipConfig`]: which two sensors, thresholds).
     #[serde(default)]
     pub slip: SlipConfig,
+    /// One-fingertip slip direction ([`DosSettings`]; required by the dos tap).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dos: Option<DosSettings>,
+}
+
+/// `[stages.dos]`: the one-fingertip slip-direction classifier.
+///
+/// ```toml
+/// [stages.dos]
+/// model = "dos-model.json"     # written by `gradtac calibrate`
+/// decision_frames = 100        # one decision per 100 frames; omit for one per recording
+/// ```
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DosSettings {
+    /// The model file (JSON), relative to the scene.
+    pub model: PathBuf,
+    /// Frames per decision (≥ 1); `None`: one decision at the end of each recording.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decision_frames: Option<u64>,
 }
 
 /// One output: a tap on a stage, written to a file.

@@ -4,9 +4,10 @@ use crate::plan::{Plan, Tap};
 use crate::scene::{OutputSpec, Scene};
 use crate::Error;
 use gradtac_io::archive::{ParquetArchive, RecordSink};
-use gradtac_io::records::{SlipShape, SurfaceShape};
+use gradtac_io::records::{DosShape, SlipShape, SurfaceShape};
 use gradtac_io::{ArrowRecord, FrameShape, ParquetSink};
 use gradtac_stages::contour::ContourFrame;
+use gradtac_stages::dos::DosDecision;
 use gradtac_stages::force::ForceEstimate;
 use gradtac_stages::interpolate::{Grid, Surface};
 use gradtac_stages::servo::ServoCommand;
@@ -40,6 +41,8 @@ pub enum OutputSink {
     Servo(Box<dyn RecordSink<ServoCommand>>),
     /// Two-finger slip events, `slip/1` (always one file: the events belong to a pair).
     Slip(Box<dyn RecordSink<SlipEvent>>),
+    /// One-fingertip slip-direction decisions, `dos/1`.
+    Dos(Box<dyn RecordSink<DosDecision>>),
 }
 
 /// An output type the runner can write: finds its own sink among the variants.
@@ -69,6 +72,7 @@ record!(TrackPoint, Tracks);
 record!(ForceEstimate, Forces);
 record!(ServoCommand, Servo);
 record!(SlipEvent, Slip);
+record!(DosDecision, Dos);
 
 macro_rules! each_sink {
     ($s:expr, $v:ident => $e:expr) => {
@@ -82,6 +86,7 @@ macro_rules! each_sink {
             OutputSink::Forces($v) => $e,
             OutputSink::Servo($v) => $e,
             OutputSink::Slip($v) => $e,
+            OutputSink::Dos($v) => $e,
         }
     };
 }
@@ -152,6 +157,12 @@ impl Sinks {
                 Tap::Track => OutputSink::Tracks(open(&path, (), o)?),
                 Tap::Force => OutputSink::Forces(open(&path, (), o)?),
                 Tap::Servo => OutputSink::Servo(open(&path, (), o)?),
+                Tap::Dos => {
+                    let d =
+                        scene.stages.dos.as_ref().ok_or_else(|| bad("the dos tap needs [stages.dos] model".into()))?;
+                    let model = crate::calibrate::read_model(&scene.resolve(&d.model))?;
+                    OutputSink::Dos(open(&path, DosShape::from_model(&model)?, o)?)
+                }
                 Tap::Slip => {
                     if o.archive.is_some() {
                         return Err(bad(format!(

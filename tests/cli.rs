@@ -488,3 +488,78 @@ path = "out/raw.parquet"
     assert!(stderr.contains("\"can0\""), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// Write simulated one-fingertip recordings as `<class>/<name>.csv` (columns ff_e1..ff_e24).
+fn simulated_labelled(dir: &Path, seeds: std::ops::Range<u64>) {
+    use gradtac::stages::sim::{Scene as SimScene, SensorModel, Simulator, Trajectory};
+    let layout = gradtac::stream::Layout::biotac_sp();
+    // the classes' contact motions in the layout's axes (gradtac_stages::dos): n = +x, e = +y
+    for (class, kind) in
+        [("n", Trajectory::Right), ("s", Trajectory::Left), ("e", Trajectory::Up), ("w", Trajectory::Down)]
+    {
+        fs::create_dir_all(dir.join(class)).unwrap();
+        for seed in seeds.clone() {
+            // every electrode's count falls under pressure, as on the BioTac (no flipped taxels)
+            let model = SensorModel { flip_fraction: 0.0, ..Default::default() };
+            let sim = Simulator::try_new(layout.clone(), model, seed).unwrap();
+            let rec = sim.run(&SimScene::trajectory(kind, 5.0, 5.0, &layout)).unwrap();
+            let mut text: String = (1..=24).map(|i| format!("ff_e{i}")).collect::<Vec<_>>().join(",");
+            text.push('\n');
+            for f in rec.of_sensor(rec.sensors[0].as_str()) {
+                text.push_str(&f.frame.values.iter().map(|v| format!("{v}")).collect::<Vec<_>>().join(","));
+                text.push('\n');
+            }
+            fs::write(dir.join(class).join(format!("sim{seed}.csv")), text).unwrap();
+        }
+    }
+}
+
+#[test]
+fn calibrate_writes_a_model_that_a_dos_scene_uses() {
+    use gradtac::stages::dos::DosClassifier;
+    use gradtac::stream::{Layout, SensorId, StageExt};
+    let dir = tempfile::tempdir().unwrap();
+    let train = dir.path().join("train");
+    simulated_labelled(&train, 0..3);
+    let model_path = dir.path().join("model.json");
+    let out = gradtac().arg("calibrate").arg(&train).arg("--out").arg(&model_path).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("calibrated on 12 recordings: 4 classes"), "{text}");
+    let model = gradtac::calibrate::read_model(&model_path).unwrap();
+    let test = dir.path().join("test");
+    simulated_labelled(&test, 10..11);
+    for class in ["n", "s", "e", "w"] {
+        let csv = test.join(class).join("sim10.csv");
+        let scene = format!(
+            "[[sensor]]\nname = \"ff\"\nsource = {{ csv = \"{}\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\
+             [stages.dos]\nmodel = \"{}\"\n[[output]]\ntap = \"dos\"\npath = \"out/{class}.parquet\"\n",
+            csv.display(),
+            model_path.display()
+        );
+        let sc = dir.path().join("scene.toml");
+        fs::write(&sc, scene).unwrap();
+        let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let file = fs::File::open(dir.path().join(format!("out/{class}.parquet"))).unwrap();
+        let batch = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap().next().unwrap().unwrap();
+        assert_eq!(batch.num_rows(), 1, "one decision per recording");
+        let got = batch.column_by_name("class").unwrap().as_any().downcast_ref::<StringArray>().unwrap().value(0);
+        // the scene's decision is the library's decision on the same frames
+        let frames: Vec<_> = read_csv_numbers(&csv)
+            .into_iter()
+            .enumerate()
+            .map(|(k, v)| {
+                gradtac::stream::TaxelFrame::new(
+                    SensorId::new("ff"),
+                    gradtac::stream::Timestamp::at_rate(k as u64, 100.0),
+                    k as u64,
+                    v,
+                )
+            })
+            .collect();
+        let mut direct = DosClassifier::try_new(model.clone(), &Layout::biotac_sp(), None).unwrap();
+        let want = direct.run_all(frames).unwrap();
+        assert_eq!(got, want[0].decision.class.as_str(), "{class}");
+    }
+}
