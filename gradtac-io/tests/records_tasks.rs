@@ -1,12 +1,14 @@
 //! Round trips of the task-stage schemas (`slip/1`, `force/1`, `servo/1`, `dos/1`) through
 //! `ParquetSink` and the Parquet reader, bit-exact (NaN payloads included), with records made
 //! by hand and by the stages themselves; proptests for every schema; rejection of `dos/1`
-//! decisions that do not fit the sink's classes; and (when installed) pyarrow reading one file
+//! decisions that do not fit the sink's classes; forces, servo commands and dos decisions
+//! through sensor-partitioned rolled archives; and (when installed) pyarrow reading one file
 //! of each kind, plus two slip files of different pairs read as one dataset.
 
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float64Type, Int64Type, UInt64Type};
 use arrow_array::{Array, RecordBatch};
+use gradtac_io::archive::{ParquetArchive, Partitioning};
 use gradtac_io::records::dos::DOS_CLASSES_KEY;
 use gradtac_io::records::frame::UNIT_KEY;
 use gradtac_io::records::servo::servo_action_name;
@@ -21,7 +23,7 @@ use gradtac_stages::force::{Force, ForceConfig, ForceEstimate, ForceModel};
 use gradtac_stages::servo::{Motion, Servo, ServoAction, ServoCommand, ServoConfig};
 use gradtac_stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent};
 use gradtac_stages::track::{ContactState, TrackPoint};
-use gradtac_stream::{Layout, SensorId, Stage, TaxelFrame, Timestamp};
+use gradtac_stream::{HasSensor, Layout, SensorId, Stage, TaxelFrame, Timed, Timestamp};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use proptest::prelude::*;
 use std::collections::HashMap;
@@ -673,6 +675,52 @@ fn the_dos_classifiers_decisions_come_back() {
     let dir = tempfile::tempdir().unwrap();
     let r = read(&write(&dir.path().join("dos.parquet"), shape, &out, 2));
     assert_eq!(dos_of(&r), out);
+}
+
+// ---------------------------------------------------------------------------------------------
+// archives: the types with a sensor and a time go to sensor-partitioned, rolled archives
+
+/// `input` through a sensor-partitioned archive rolling every 5 rows; then, per sensor, the
+/// files read back in name order and decoded with `of`, compared (by `key`) with that sensor's
+/// records in input order.
+fn archive_round_trip<T, K: PartialEq + std::fmt::Debug>(
+    shape: T::Shape,
+    input: &[T],
+    of: impl Fn(&ReadBack) -> Vec<T>,
+    key: impl Fn(&[T]) -> Vec<K>,
+) where
+    T: ArrowRecord + HasSensor + Timed + Clone + Send + 'static,
+{
+    let dir = tempfile::tempdir().unwrap();
+    let mut archive = ParquetArchive::<T>::try_new(dir.path(), shape)
+        .unwrap()
+        .with_partitioning(Partitioning::Sensor)
+        .unwrap()
+        .with_roll_rows(5)
+        .unwrap();
+    for r in input {
+        archive.push(r).unwrap();
+    }
+    let mut files = archive.finish().unwrap();
+    files.sort();
+    let mut sensors: Vec<String> = input.iter().map(|r| r.sensor().to_string()).collect();
+    sensors.sort();
+    sensors.dedup();
+    for s in sensors {
+        let part = dir.path().join(format!("sensor={s}"));
+        let back: Vec<T> =
+            files.iter().filter(|f| f.parent() == Some(part.as_path())).flat_map(|f| of(&read(f))).collect();
+        let expected: Vec<T> = input.iter().filter(|r| r.sensor().as_str() == s).cloned().collect();
+        assert_eq!(key(&back), key(&expected), "sensor {s}");
+    }
+}
+
+#[test]
+fn forces_servo_commands_and_dos_decisions_go_to_sensor_partitioned_archives() {
+    archive_round_trip((), &some_forces(), forces_of, force_keys);
+    archive_round_trip((), &some_servos(), servos_of, servo_keys);
+    let classes = vec![DosClass::S, DosClass::T];
+    archive_round_trip(DosShape::new(classes.clone()).unwrap(), &some_dos(&classes), dos_of, dos_keys);
 }
 
 // ---------------------------------------------------------------------------------------------
