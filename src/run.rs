@@ -253,7 +253,7 @@ fn open_bus(scene: &Scene, bus: &BusSpec) -> Result<(FrameStream, OpenBus), Erro
 
 /// Open the sources of the sensors the plan runs: a stream per file source and per bus
 /// (opened once, whatever the number of its sensors), plus progress handles.
-fn open_sources(scene: &Scene, plan: &Plan) -> Result<(Vec<FrameStream>, Vec<CsvProgress>, Vec<OpenBus>), Error> {
+fn open_sources(scene: &Scene, plan: &Plan) -> Result<OpenSources, Error> {
     let mut streams: Vec<FrameStream> = Vec::new();
     let mut progress = Vec::new();
     let mut buses: Vec<OpenBus> = Vec::new();
@@ -282,7 +282,17 @@ fn open_sources(scene: &Scene, plan: &Plan) -> Result<(Vec<FrameStream>, Vec<Csv
         progress.extend(prog);
         streams.push(Box::pin(gradtac_io::blocking_stream(it, 1024)));
     }
-    Ok((streams, progress, buses))
+    Ok(OpenSources { streams, progress, buses })
+}
+
+/// What [`open_sources`] opened.
+struct OpenSources {
+    /// One stream per file source and per bus.
+    streams: Vec<FrameStream>,
+    /// Progress of the CSV sources.
+    progress: Vec<CsvProgress>,
+    /// The buses, for their fault counts.
+    buses: Vec<OpenBus>,
 }
 
 /// Report each bus's fault counts, and write them where the scene asks.
@@ -302,7 +312,7 @@ fn report_buses(buses: &[OpenBus]) -> Result<Vec<(String, String)>, Error> {
 /// Run a scene on a tokio runtime (see the [module docs](self)).
 pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunReport, Error> {
     let start = Instant::now();
-    let (streams, progress, buses) = open_sources(scene, plan)?;
+    let OpenSources { streams, progress, buses } = open_sources(scene, plan)?;
     let mut runner = Runner::new(scene, plan)?;
     let bar = opts.progress.then(|| {
         let total: u64 = progress.iter().filter_map(CsvProgress::total_bytes).sum();
