@@ -34,6 +34,8 @@ where
     }
 
     /// The sensors seen so far, in order of first sight.
+    ///
+    /// (See also [`Keyed::cloning`] for the common case of one configured prototype.)
     pub fn sensors(&self) -> impl Iterator<Item = &SensorId> {
         self.states.iter().map(|(k, _)| k)
     }
@@ -66,6 +68,25 @@ where
         };
         self.last = i;
         i
+    }
+}
+
+impl<S: Stage + Clone> Keyed<S, Box<dyn FnMut(&SensorId) -> S + Send>> {
+    /// A keyed stage whose per-sensor instances are clones of `prototype` (a configured,
+    /// fresh stage).
+    ///
+    /// ```
+    /// use gradtac_stream::{map_stage, Keyed, SensorId, StageExt, TaxelFrame, Timestamp};
+    /// let mut per_sensor = Keyed::cloning(map_stage(|f: TaxelFrame| f.values[0] * 2.0));
+    /// let f = |s: &str, v| TaxelFrame::new(SensorId::new(s), Timestamp(0), 0, vec![v]);
+    /// assert_eq!(per_sensor.run_all([f("ff", 1.0), f("th", 2.0), f("ff", 3.0)]).unwrap(), vec![2.0, 4.0, 6.0]);
+    /// assert_eq!(per_sensor.sensors().count(), 2);
+    /// ```
+    pub fn cloning(prototype: S) -> Self
+    where
+        S: Send + 'static,
+    {
+        Keyed::new(Box::new(move |_: &SensorId| prototype.clone()))
     }
 }
 

@@ -79,6 +79,27 @@ impl Add<i64> for Timestamp {
     }
 }
 
+impl Sub<i64> for Timestamp {
+    type Output = Timestamp;
+    /// `ns` nanoseconds earlier.
+    fn sub(self, ns: i64) -> Timestamp {
+        Timestamp(self.0 - ns)
+    }
+}
+
+impl Timestamp {
+    /// This time moved later by a [`Duration`](std::time::Duration) (saturating at the `i64` range).
+    pub fn after(self, d: std::time::Duration) -> Timestamp {
+        Timestamp(self.0.saturating_add(i64::try_from(d.as_nanos()).unwrap_or(i64::MAX)))
+    }
+
+    /// The non-negative [`Duration`](std::time::Duration) from `earlier` to this time (zero
+    /// when `earlier` is later).
+    pub fn since(self, earlier: Timestamp) -> std::time::Duration {
+        std::time::Duration::from_nanos(self.0.saturating_sub(earlier.0).max(0) as u64)
+    }
+}
+
 impl Sub for Timestamp {
     type Output = i64;
     /// The difference in nanoseconds.
@@ -111,5 +132,10 @@ mod tests {
         assert_eq!(Timestamp::from_secs_f64(f64::NAN), None);
         assert_eq!(Timestamp::from_secs_f64(1e300), None);
         assert_eq!(Timestamp(2_000_000_000) - Timestamp(500), 1_999_999_500);
+        assert_eq!(Timestamp(2_000) - 500, Timestamp(1_500));
+        let d = std::time::Duration::from_millis(10);
+        assert_eq!(Timestamp(5).after(d), Timestamp(10_000_005));
+        assert_eq!(Timestamp(10_000_005).since(Timestamp(5)), d);
+        assert_eq!(Timestamp(5).since(Timestamp(10)), std::time::Duration::ZERO);
     }
 }
