@@ -146,8 +146,10 @@ struct Reaction {
     revealing_sample: Timestamp,
     /// CAN frame out of the transport → command issued.
     latency: Duration,
-    /// The same, of which the synchronous pipeline push.
+    /// The same, of which the synchronous pipeline push …
     push: Duration,
+    /// … and handing the command to the gripper task (a cross-thread wake-up).
+    handoff: Duration,
     /// Sample time → command issued (wall clock): includes the simulated hand's scheduling.
     since_sample: Duration,
 }
@@ -264,6 +266,7 @@ async fn run() -> Result<(), BoxError> {
             } else {
                 (grip_n, "grasp stable again: hold".to_string())
             };
+            let before_send = std::time::Instant::now();
             grip_tx.send(GripCommand { force_n, why })?;
             let issued = std::time::Instant::now();
             reactions.push(Reaction {
@@ -271,6 +274,7 @@ async fn run() -> Result<(), BoxError> {
                 revealing_sample: sample,
                 latency: issued - available,
                 push: pushed - before_push,
+                handoff: issued - before_send,
                 since_sample: Duration::from_nanos((wall_now() - sample).max(0) as u64),
                 event,
             });
@@ -334,9 +338,11 @@ async fn run() -> Result<(), BoxError> {
             println!("first slip reaction:");
             println!(
                 "  reaction latency (CAN frame out of the transport → grip command): {:.0} µs, of which the \
-                 pipeline push {:.0} µs — budget one frame period, {:.0} µs",
+                 pipeline push {:.0} µs and the hand-off to the gripper task {:.0} µs — budget one frame period, \
+                 {:.0} µs",
                 us(r.latency),
                 us(r.push),
+                us(r.handoff),
                 us(BUDGET)
             );
             println!(
