@@ -61,7 +61,6 @@ struct Contact {
 
 /// The seven stages, each validated at construction (a bad value fails here, naming the
 /// stage and the field, never later on a frame).
-#[derive(Clone)]
 struct Stages {
     normalise: Normalise,
     savgol: SavGol,
@@ -87,12 +86,14 @@ fn build_stages(layout: &Layout) -> Result<Stages, BoxError> {
     // 2. Savitzky–Golay — smooth every taxel with a cubic (polyorder 3) least-squares fit over
     //    11 samples (110 ms at 100 Hz). Centred mode evaluates the fit in the middle of the
     //    window: least noise, but each output describes the frame (11 − 1)/2 = 5 frames ago
-    //    (50 ms). `causal` would have no delay and 2–4× the noise variance.
+    //    (50 ms). `causal` would have no delay but ≈ 3.8× the noise variance (0.79 vs 0.21 of
+    //    the input's, for window 11 and order 3).
     let savgol = SavGol::try_with_rate(taxels, SavGolConfig::default(), RATE_HZ)?;
 
     // 3. Events — the DVS rule per taxel: one event of polarity ±1 each time ln(value) moves
-    //    by τ = 0.002 (0.2 %) from its reference. Dimensionless; scaling the input (step 1)
-    //    does not change the events, since ln(a·x) − ln(a·y) = ln x − ln y. Delay: none.
+    //    by τ = 0.002 (0.2 %) from its reference. Dimensionless; the fixed scale of step 1
+    //    does not matter here, since ln(a·x) − ln(a·y) = ln x − ln y (up to rounding at a
+    //    threshold's edge). Delay: none.
     let events = Events::try_new(taxels, EventsConfig { threshold: Threshold::Uniform(0.002), ..Default::default() })?;
 
     // 4. Window — per taxel, the number of events (`count`: the sign of an electrode's change
@@ -275,7 +276,7 @@ async fn main() -> Result<(), BoxError> {
             failures.push(format!("{sensor}: only {} contact points while moving", moving.len()));
         }
         // The stages' own tests bound the error on these trajectories at 2.5 mm.
-        if !(err < 2.5) {
+        if err.is_nan() || err >= 2.5 {
             failures.push(format!("{sensor}: mean localisation error {err:.2} mm ≥ 2.5 mm"));
         }
     }

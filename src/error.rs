@@ -34,6 +34,14 @@ pub enum Error {
     /// The run was interrupted (Ctrl-C); finished outputs were kept.
     #[error("interrupted")]
     Interrupted,
+    /// A plot could not be made: an unreadable or unknown input file, or a drawing failure.
+    #[error("plot {path}: {reason}")]
+    Plot {
+        /// The input (or output) file.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
 }
 
 impl Error {

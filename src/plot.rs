@@ -1,0 +1,1466 @@
+//! PNG plots of gradtac outputs (`gradtac plot`) and of the demo's results, drawn with
+//! [`plotters`] into a pixel buffer and encoded with [`png`].
+//!
+//! [`plot_parquet`] reads any Parquet file a gradtac sink wrote, detects its schema from the
+//! `gradtac.schema` key-value metadata (`docs/schemas.md`) and draws:
+//!
+//! | schema | plot | size (px, `s` = sensors drawn, at most [`MAX_SENSORS`]) |
+//! |---|---|---|
+//! | `frame/1` | one line per taxel over time, one panel per sensor | 1200 × 340·s |
+//! | `event/1` | raster: time × taxel, red = +1, blue = −1, one panel per sensor | 1200 × 340·s |
+//! | `window/1` | heat strip: time × taxel, colour = aggregate (diverging for `signed`), one panel per sensor | 1320 × 340·s |
+//! | `surface/1` | the surface at 4 instants (evenly spaced over the rows with a contact, else over all rows) with 10 iso-lines and the maximal contour (bold) recomputed from the surface, taxels as circles; one row per sensor | 1640 × (40 + 400·s) |
+//! | `contour/1` | left: centroid paths on the layout plane with the outlines of 4 contours; right: area (mm²) over time; sensors in colours | 1400 × 620 |
+//! | `track/1` | trajectory on the layout plane coloured by time, taxels as labelled circles; one panel per sensor | 640·s + 120 × 680 |
+//!
+//! Times are drawn in seconds from the first row of the file (its epoch may be Unix time).
+//! The layout comes from the file's `gradtac.layout.<sensor>` or `gradtac.layout` metadata (CSV,
+//! as the CLI writes it) and falls back to the built-in BioTac SP layout when the file has none
+//! and the taxel count matches (or for `contour/1` and `track/1`, which carry no taxel count).
+//! Large files are decimated for drawing (at most [`MAX_POINTS`] points per series, every k-th
+//! row); [`PlotSummary::notes`] says when.
+//!
+//! The demo's plots take plain data, not files: [`plot_surface_with_contours`],
+//! [`plot_trajectory_vs_truth`] and [`plot_slip_timeline`].
+//!
+//! Text uses DejaVu Sans from the [`dejavu`] crate, registered with plotters' `ab_glyph`
+//! renderer: no system font library is needed.
+//!
+//! Output files are written to `<name>.partial` and renamed, so a PNG under its final name is
+//! complete. The PNG format is used whatever the file's extension.
+
+use crate::Error;
+use arrow_array::cast::AsArray;
+use arrow_array::types::{Float64Type, Int64Type, Int8Type, UInt16Type, UInt64Type};
+use arrow_array::{Array, ArrayRef, RecordBatch};
+use arrow_schema::SchemaRef;
+use gradtac_stages::contour::{isolines, ContourConfig, ContourOutcome, MaxContourFinder, Saddle};
+use gradtac_stages::interpolate::Grid;
+use gradtac_stages::slip::{SlipClass, SlipEvent};
+use gradtac_stream::{Extent, Layout};
+use ndarray::ArrayView2;
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::collections::HashMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// At most this many sensors of one file are drawn (the rest are named in the notes).
+pub const MAX_SENSORS: usize = 4;
+/// At most this many points per drawn series (events: per panel); more rows are decimated.
+pub const MAX_POINTS: usize = 20_000;
+/// Number of iso-lines drawn on a surface (evenly spaced strictly between its minimum and
+/// maximum, as the contour stage's default `levels = 10`).
+pub const ISO_LEVELS: usize = 10;
+
+const PANEL_W: u32 = 1200;
+const STRIP_H: u32 = 340;
+const BAR_W: u32 = 120;
+const SURF_PANEL: u32 = 380;
+const SURF_ROW_H: u32 = 400;
+const TITLE_H: u32 = 40;
+const TRACK_PANEL: u32 = 640;
+const TRACK_H: u32 = 680;
+
+/// What a plot drew.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlotSummary {
+    /// The schema id of the input (`frame/1`, …), or the plot's kind for the direct
+    /// functions (`surface`, `trajectory`, `slip timeline`).
+    pub kind: String,
+    /// Rows (or points) read.
+    pub rows: u64,
+    /// Rows (or points) drawn, after decimation.
+    pub drawn: u64,
+    /// Sensors drawn, in order of first appearance.
+    pub sensors: Vec<String>,
+    /// Image width (px).
+    pub width: u32,
+    /// Image height (px).
+    pub height: u32,
+    /// Remarks: decimation, sensors left out, the layout used, contours recomputed.
+    pub notes: Vec<String>,
+}
+
+impl fmt::Display for PlotSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{}: {} rows, {} drawn, sensors [{}], {}×{} px",
+            self.kind,
+            self.rows,
+            self.drawn,
+            self.sensors.join(", "),
+            self.width,
+            self.height
+        )?;
+        for n in &self.notes {
+            writeln!(f, "  {n}")?;
+        }
+        Ok(())
+    }
+}
+
+/// One instant of [`plot_surface_with_contours`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfacePanel {
+    /// Panel title, e.g. `"t = 1.20 s"`.
+    pub label: String,
+    /// The surface on the grid, row-major (`row·nx + col` is the value at `(x(col), y(row))`),
+    /// as in `surface/1`; NaN is drawn grey (outside the taxels' hull).
+    pub values: Vec<f64>,
+    /// The maximal contour's outline (mm) if known; `None`: found with the contour stage's
+    /// defaults (10 levels, min area 1 mm², any peak).
+    pub contour: Option<Vec<[f64; 2]>>,
+    /// A true contact position to mark (mm), e.g. the simulator's.
+    pub truth: Option<[f64; 2]>,
+}
+
+/// A sensor's track for [`plot_slip_timeline`]: `(t s, x mm, y mm)`, NaN without contact.
+#[derive(Clone, Copy, Debug)]
+pub struct TimelineTrack<'a> {
+    /// Sensor name (legend).
+    pub sensor: &'a str,
+    /// Its points.
+    pub points: &'a [(f64, f64, f64)],
+}
+
+/// Drawing errors without a path; [`Error::Plot`] adds it.
+#[derive(Debug)]
+struct PlotErr(String);
+
+impl<E: std::error::Error + Send + Sync> From<DrawingAreaErrorKind<E>> for PlotErr {
+    fn from(e: DrawingAreaErrorKind<E>) -> Self {
+        PlotErr(format!("drawing failed: {e}"))
+    }
+}
+
+impl From<String> for PlotErr {
+    fn from(s: String) -> Self {
+        PlotErr(s)
+    }
+}
+
+type R<T> = std::result::Result<T, PlotErr>;
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+fn plot_error(path: &Path, e: PlotErr) -> Error {
+    Error::Plot { path: path.to_path_buf(), reason: e.0 }
+}
+
+fn register_fonts() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // DejaVu Sans ships inside the `dejavu` crate; registering valid TTF bytes cannot fail.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold());
+    });
+}
+
+/// Render into an RGB buffer with `draw`, then write it as PNG via `<out>.partial` + rename.
+fn render(out: &Path, (w, h): (u32, u32), draw: impl FnOnce(&Area<'_>) -> R<()>) -> Result<(), Error> {
+    register_fonts();
+    let mut buf = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(out, e.into()))?;
+        draw(&root).map_err(|e| plot_error(out, e))?;
+        root.present().map_err(|e| plot_error(out, e.into()))?;
+    }
+    let mut tmp = out.as_os_str().to_owned();
+    tmp.push(".partial");
+    let tmp = PathBuf::from(tmp);
+    let io = |source: std::io::Error| Error::Io { path: tmp.clone(), source };
+    let file = std::fs::File::create(&tmp).map_err(io)?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let png_err = |e: png::EncodingError| plot_error(out, PlotErr(format!("PNG encoding failed: {e}")));
+    let mut writer = enc.write_header().map_err(png_err)?;
+    writer.write_image_data(&buf).map_err(png_err)?;
+    writer.finish().map_err(png_err)?;
+    std::fs::rename(&tmp, out).map_err(|source| Error::Io { path: out.to_path_buf(), source })?;
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// colours
+
+fn lerp_table(table: &[(u8, u8, u8)], t: f64) -> RGBColor {
+    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
+    let x = t * (table.len() - 1) as f64;
+    let i = (x.floor() as usize).min(table.len() - 2);
+    let f = x - i as f64;
+    let (a, b) = (table[i], table[i + 1]);
+    let m = |p: u8, q: u8| (p as f64 + (q as f64 - p as f64) * f).round() as u8;
+    RGBColor(m(a.0, b.0), m(a.1, b.1), m(a.2, b.2))
+}
+
+/// Viridis (matplotlib's), 9 anchors, `t` in [0, 1].
+fn viridis(t: f64) -> RGBColor {
+    const V: [(u8, u8, u8); 9] = [
+        (68, 1, 84),
+        (71, 44, 122),
+        (59, 81, 139),
+        (44, 113, 142),
+        (33, 144, 141),
+        (39, 173, 129),
+        (92, 200, 99),
+        (170, 220, 50),
+        (253, 231, 37),
+    ];
+    lerp_table(&V, t)
+}
+
+/// Blue – white – red, `t` in [0, 1] (0.5 white).
+fn diverging(t: f64) -> RGBColor {
+    const D: [(u8, u8, u8); 5] = [(33, 102, 172), (146, 197, 222), (247, 247, 247), (244, 165, 130), (178, 24, 43)];
+    lerp_table(&D, t)
+}
+
+const NAN_GREY: RGBColor = RGBColor(225, 225, 225);
+
+fn series_colour(i: usize) -> RGBColor {
+    let c = Palette99::pick(i).to_rgba();
+    RGBColor(c.0, c.1, c.2)
+}
+
+fn slip_colour(c: SlipClass) -> RGBColor {
+    match c {
+        SlipClass::Stable => RGBColor(200, 200, 200),
+        SlipClass::LongitudinalUp => RGBColor(31, 119, 180),
+        SlipClass::LongitudinalDown => RGBColor(255, 127, 14),
+        SlipClass::RotationalCw => RGBColor(44, 160, 44),
+        SlipClass::RotationalCcw => RGBColor(214, 39, 40),
+    }
+}
+
+/// A value range `[lo, hi]` with `hi > lo` from finite values (a flat or empty set is widened).
+fn range_of(values: impl IntoIterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.into_iter().filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if lo > hi {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 * (1.0 + lo.abs().max(hi.abs())) {
+        let d = if lo == 0.0 { 1.0 } else { lo.abs() * 0.05 };
+        return (lo - d, hi + d);
+    }
+    (lo, hi)
+}
+
+fn padded((lo, hi): (f64, f64), f: f64) -> (f64, f64) {
+    let d = (hi - lo) * f;
+    (lo - d, hi + d)
+}
+
+/// A vertical colour bar for `[lo, hi]` with its label.
+fn colour_bar(area: &Area<'_>, lo: f64, hi: f64, cmap: fn(f64) -> RGBColor, label: &str) -> R<()> {
+    let mut chart = ChartBuilder::on(area)
+        .margin_top(30)
+        .margin_bottom(50)
+        .margin_right(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..1.0, lo..hi)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_labels(6)
+        .y_desc(label)
+        .label_style(("sans-serif", 13))
+        .draw()?;
+    let n = 100;
+    chart.draw_series((0..n).map(|i| {
+        let a = lo + (hi - lo) * i as f64 / n as f64;
+        let b = lo + (hi - lo) * (i + 1) as f64 / n as f64;
+        Rectangle::new([(0.0, a), (1.0, b)], cmap((i as f64 + 0.5) / n as f64).filled())
+    }))?;
+    Ok(())
+}
+
+/// Ranges for an equal-aspect chart of `extent` in a plot area of `w × h` px.
+fn equal_aspect(e: Extent, w: f64, h: f64) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
+    let (ew, eh) = (e.width(), e.height());
+    let s = (ew / w.max(1.0)).max(eh / h.max(1.0));
+    let (cx, cy) = (0.5 * (e.x_min + e.x_max), 0.5 * (e.y_min + e.y_max));
+    let (hw, hh) = (0.5 * s * w, 0.5 * s * h);
+    (cx - hw..cx + hw, cy - hh..cy + hh)
+}
+
+/// Taxels as grey circles, labelled when `names`.
+fn draw_taxels<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    layout: &Layout,
+    names: bool,
+) -> R<()>
+where
+    DB::ErrorType: 'static,
+{
+    let grey = RGBColor(90, 90, 90);
+    chart
+        .draw_series(layout.positions().iter().map(|p| Circle::new((p[0], p[1]), 5, grey.stroke_width(1))))
+        .map_err(|e| PlotErr(format!("drawing failed: {e}")))?;
+    if names {
+        let style = ("sans-serif", 11).into_font().color(&grey);
+        chart
+            .draw_series(layout.positions().iter().zip(layout.names()).map(|(p, n)| {
+                Text::new(n.clone(), (p[0], p[1]), style.clone().pos(Pos::new(HPos::Left, VPos::Bottom)))
+            }))
+            .map_err(|e| PlotErr(format!("drawing failed: {e}")))?;
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// reading Parquet
+
+struct Table {
+    schema_id: String,
+    kv: HashMap<String, String>,
+    schema: SchemaRef,
+    batches: Vec<RecordBatch>,
+}
+
+impl Table {
+    fn rows(&self) -> usize {
+        self.batches.iter().map(RecordBatch::num_rows).sum()
+    }
+
+    /// The layout for `sensor`: its own metadata, the file's, or the BioTac SP when `taxels`
+    /// (if given) matches its count.
+    fn layout(&self, sensor: &str, taxels: Option<usize>, notes: &mut Vec<String>) -> Option<Layout> {
+        for key in [format!("gradtac.layout.{sensor}"), "gradtac.layout".to_string()] {
+            if let Some(csv) = self.kv.get(&key) {
+                match Layout::from_csv_reader("layout", csv.as_bytes(), Path::new(&key)) {
+                    Ok(l) if taxels.is_none_or(|n| n == l.len()) => return Some(l),
+                    Ok(l) => notes.push(format!("{key}: {} taxels, the data has {taxels:?}; ignored", l.len())),
+                    Err(e) => notes.push(format!("{key} is not a layout CSV ({e}); ignored")),
+                }
+            }
+        }
+        let b = Layout::biotac_sp();
+        if taxels.is_none_or(|n| n == b.len()) {
+            notes.push(format!("{sensor}: no layout in the file; the built-in BioTac SP layout is drawn"));
+            Some(b)
+        } else {
+            None
+        }
+    }
+}
+
+fn read_table(path: &Path) -> R<Table> {
+    let file = std::fs::File::open(path).map_err(|e| PlotErr(format!("cannot open: {e}")))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
+        .map_err(|e| PlotErr(format!("not a readable Parquet file: {e}")))?;
+    let kv: HashMap<String, String> = builder
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .map(|v| v.iter().filter_map(|kv| Some((kv.key.clone(), kv.value.clone()?))).collect())
+        .unwrap_or_default();
+    let schema = builder.schema().clone();
+    let schema_id = kv
+        .get(gradtac_io::records::SCHEMA_KEY)
+        .or_else(|| schema.metadata().get(gradtac_io::records::SCHEMA_KEY))
+        .cloned()
+        .ok_or_else(|| {
+            PlotErr(format!("no `{}` metadata: not a file written by a gradtac sink", gradtac_io::records::SCHEMA_KEY))
+        })?;
+    if !matches!(schema_id.as_str(), "frame/1" | "event/1" | "window/1" | "surface/1" | "contour/1" | "track/1") {
+        return Err(PlotErr(format!(
+            "unknown schema {schema_id:?} (known: frame/1, event/1, window/1, surface/1, contour/1, track/1)"
+        )));
+    }
+    let reader = builder.build().map_err(|e| PlotErr(format!("cannot read: {e}")))?;
+    let batches =
+        reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| PlotErr(format!("cannot read rows: {e}")))?;
+    Ok(Table { schema_id, kv, schema, batches })
+}
+
+fn column<'a>(b: &'a RecordBatch, name: &str) -> R<&'a ArrayRef> {
+    b.column_by_name(name).ok_or_else(|| PlotErr(format!("no column `{name}`")))
+}
+
+fn wrong(name: &str, a: &ArrayRef) -> PlotErr {
+    PlotErr(format!("column `{name}` has type {}, not the schema's", a.data_type()))
+}
+
+fn strings(b: &RecordBatch, name: &str) -> R<Vec<String>> {
+    let a = column(b, name)?;
+    if let Some(s) = a.as_string_opt::<i32>() {
+        return Ok((0..s.len()).map(|i| s.value(i).to_string()).collect());
+    }
+    if let Some(s) = a.as_string_opt::<i64>() {
+        return Ok((0..s.len()).map(|i| s.value(i).to_string()).collect());
+    }
+    if let Some(d) = a.as_any_dictionary_opt() {
+        if let Some(v) = d.values().as_string_opt::<i32>() {
+            return Ok(d.normalized_keys().into_iter().map(|k| v.value(k).to_string()).collect());
+        }
+    }
+    Err(wrong(name, a))
+}
+
+fn i64s(b: &RecordBatch, name: &str) -> R<Vec<i64>> {
+    let a = column(b, name)?;
+    let p = a.as_primitive_opt::<Int64Type>().ok_or_else(|| wrong(name, a))?;
+    Ok(p.values().to_vec())
+}
+
+fn u64s(b: &RecordBatch, name: &str) -> R<Vec<u64>> {
+    let a = column(b, name)?;
+    let p = a.as_primitive_opt::<UInt64Type>().ok_or_else(|| wrong(name, a))?;
+    Ok(p.values().to_vec())
+}
+
+/// A Float64 column, null as NaN.
+fn f64s(b: &RecordBatch, name: &str) -> R<Vec<f64>> {
+    let a = column(b, name)?;
+    let p = a.as_primitive_opt::<Float64Type>().ok_or_else(|| wrong(name, a))?;
+    Ok((0..p.len()).map(|i| if p.is_null(i) { f64::NAN } else { p.value(i) }).collect())
+}
+
+/// A `FixedSizeList<Float64, n>` column: `(n, values of every row, concatenated)`.
+fn fixed_lists(b: &RecordBatch, name: &str) -> R<(usize, Vec<f64>)> {
+    let a = column(b, name)?;
+    let l = a.as_fixed_size_list_opt().ok_or_else(|| wrong(name, a))?;
+    let n = l.value_length() as usize;
+    let mut out = Vec::with_capacity(l.len() * n);
+    for i in 0..l.len() {
+        let v = l.value(i);
+        let p = v.as_primitive_opt::<Float64Type>().ok_or_else(|| wrong(name, a))?;
+        out.extend(p.values().iter().copied());
+    }
+    Ok((n, out))
+}
+
+/// A `List<FixedSizeList<Float64, 2>>` column (polygons), null as empty.
+fn polygons(b: &RecordBatch, name: &str) -> R<Vec<Vec<[f64; 2]>>> {
+    let a = column(b, name)?;
+    let l = a.as_list_opt::<i32>().ok_or_else(|| wrong(name, a))?;
+    let mut out = Vec::with_capacity(l.len());
+    for i in 0..l.len() {
+        if l.is_null(i) {
+            out.push(Vec::new());
+            continue;
+        }
+        let pts = l.value(i);
+        let f = pts.as_fixed_size_list_opt().ok_or_else(|| wrong(name, a))?;
+        let mut poly = Vec::with_capacity(f.len());
+        for j in 0..f.len() {
+            let xy = f.value(j);
+            let p = xy.as_primitive_opt::<Float64Type>().ok_or_else(|| wrong(name, a))?;
+            if p.len() == 2 {
+                poly.push([p.value(0), p.value(1)]);
+            }
+        }
+        out.push(poly);
+    }
+    Ok(out)
+}
+
+/// Taxel names from a field's `gradtac.taxels` metadata.
+fn taxel_names(schema: &SchemaRef, field: &str) -> Option<Vec<String>> {
+    let f = schema.field_with_name(field).ok()?;
+    let json = f.metadata().get("gradtac.taxels")?;
+    serde_json::from_str(json).ok()
+}
+
+/// Rows grouped by sensor (first appearance order), each a list of `(batch, row)`.
+fn by_sensor(t: &Table) -> R<Vec<(String, Vec<(usize, usize)>)>> {
+    let mut order: Vec<(String, Vec<(usize, usize)>)> = Vec::new();
+    let mut index: HashMap<String, usize> = HashMap::new();
+    for (bi, b) in t.batches.iter().enumerate() {
+        for (ri, s) in strings(b, "sensor")?.into_iter().enumerate() {
+            let k = *index.entry(s.clone()).or_insert_with(|| {
+                order.push((s, Vec::new()));
+                order.len() - 1
+            });
+            order[k].1.push((bi, ri));
+        }
+    }
+    Ok(order)
+}
+
+/// Every `k`-th index so that at most `max` remain.
+fn stride(len: usize, max: usize) -> usize {
+    len.div_ceil(max.max(1)).max(1)
+}
+
+fn limit_sensors<T>(mut s: Vec<(String, T)>, notes: &mut Vec<String>) -> Vec<(String, T)> {
+    if s.len() > MAX_SENSORS {
+        let rest: Vec<String> = s[MAX_SENSORS..].iter().map(|(n, _)| n.clone()).collect();
+        notes.push(format!("only the first {MAX_SENSORS} sensors are drawn; left out: {}", rest.join(", ")));
+        s.truncate(MAX_SENSORS);
+    }
+    s
+}
+
+fn secs(t_ns: i64, t0: i64) -> f64 {
+    (t_ns - t0) as f64 * 1e-9
+}
+
+// ---------------------------------------------------------------------------------------------
+// plot_parquet
+
+/// Plot a Parquet file written by a gradtac sink (see the [module docs](self) for what each
+/// schema gives) as a PNG at `output_png`.
+///
+/// # Errors
+/// [`Error::Plot`] when the file cannot be read, has no `gradtac.schema` metadata, an unknown
+/// schema, or columns that do not match it, or drawing fails; [`Error::Io`] when the PNG
+/// cannot be written.
+pub fn plot_parquet(input: &Path, output_png: &Path) -> Result<PlotSummary, Error> {
+    let table = read_table(input).map_err(|e| plot_error(input, e))?;
+    let mut notes = Vec::new();
+    let plan = match table.schema_id.as_str() {
+        "frame/1" => frames_plot(&table, &mut notes),
+        "event/1" => events_plot(&table, &mut notes),
+        "window/1" => window_plot(&table, &mut notes),
+        "surface/1" => surface_plot(&table, &mut notes),
+        "contour/1" => contour_plot(&table, &mut notes),
+        "track/1" => track_plot(&table, &mut notes),
+        other => Err(PlotErr(format!("unknown schema {other:?}"))),
+    }
+    .map_err(|e| plot_error(input, e))?;
+    let Prepared { size, sensors, drawn, draw } = plan;
+    render(output_png, size, |root| draw(root))?;
+    Ok(PlotSummary {
+        kind: table.schema_id.clone(),
+        rows: table.rows() as u64,
+        drawn,
+        sensors,
+        width: size.0,
+        height: size.1,
+        notes,
+    })
+}
+
+/// A plot read and laid out, ready to draw.
+struct Prepared {
+    size: (u32, u32),
+    sensors: Vec<String>,
+    drawn: u64,
+    draw: Box<dyn FnOnce(&Area<'_>) -> R<()>>,
+}
+
+fn no_rows(t: &Table) -> R<()> {
+    if t.rows() == 0 {
+        return Err(PlotErr(format!("{} file without rows: nothing to plot", t.schema_id)));
+    }
+    Ok(())
+}
+
+fn frames_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
+    no_rows(t)?;
+    let names = taxel_names(&t.schema, "values");
+    let groups = limit_sensors(by_sensor(t)?, notes);
+    let cols: Vec<(Vec<i64>, (usize, Vec<f64>))> =
+        t.batches.iter().map(|b| Ok((i64s(b, "time_ns")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
+    let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
+    let n = cols.iter().map(|c| c.1 .0).max().unwrap_or(0);
+    let mut series = Vec::new();
+    let mut drawn = 0u64;
+    for (sensor, rows) in &groups {
+        let k = stride(rows.len(), MAX_POINTS);
+        if k > 1 {
+            notes.push(format!("{sensor}: every {k}th of {} frames drawn", rows.len()));
+        }
+        let pts: Vec<(f64, Vec<f64>)> = rows
+            .iter()
+            .step_by(k)
+            .map(|&(bi, ri)| {
+                let (times, (m, v)) = &cols[bi];
+                (secs(times[ri], t0), v[ri * m..(ri + 1) * m].to_vec())
+            })
+            .collect();
+        drawn += pts.len() as u64;
+        series.push((sensor.clone(), pts));
+    }
+    let size = (PANEL_W, STRIP_H * series.len() as u32);
+    let sensors = groups.iter().map(|g| g.0.clone()).collect();
+    Ok(Prepared {
+        size,
+        sensors,
+        drawn,
+        draw: Box::new(move |root| {
+            for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
+                let (x0, x1) = range_of(pts.iter().map(|p| p.0));
+                let (y0, y1) = padded(range_of(pts.iter().flat_map(|p| p.1.iter().copied())), 0.05);
+                let mut chart = ChartBuilder::on(area)
+                    .caption(format!("{sensor}: {n} taxels (frame/1)"), ("sans-serif", 18))
+                    .margin(12)
+                    .x_label_area_size(36)
+                    .y_label_area_size(70)
+                    .build_cartesian_2d(x0..x1, y0..y1)?;
+                chart
+                    .configure_mesh()
+                    .x_desc("time (s from the first row)")
+                    .y_desc("value")
+                    .label_style(("sans-serif", 13))
+                    .draw()?;
+                for i in 0..n {
+                    let c = series_colour(i);
+                    let label = names.as_ref().and_then(|v| v.get(i).cloned()).unwrap_or(format!("{i}"));
+                    let s = chart.draw_series(LineSeries::new(
+                        pts.iter().filter(|p| p.1[i].is_finite()).map(|p| (p.0, p.1[i])),
+                        c.stroke_width(1),
+                    ))?;
+                    if n <= 24 {
+                        s.label(label).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c));
+                    }
+                }
+                if n <= 24 {
+                    chart
+                        .configure_series_labels()
+                        .position(SeriesLabelPosition::UpperRight)
+                        .background_style(WHITE.mix(0.8))
+                        .border_style(BLACK.mix(0.3))
+                        .label_font(("sans-serif", 10))
+                        .draw()?;
+                }
+            }
+            Ok(())
+        }),
+    })
+}
+
+fn events_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
+    no_rows(t)?;
+    let names = taxel_names(&t.schema, "taxel");
+    let groups = limit_sensors(by_sensor(t)?, notes);
+    let cols: Vec<(Vec<i64>, Vec<u16>, Vec<i8>)> = t
+        .batches
+        .iter()
+        .map(|b| {
+            let ta = column(b, "taxel")?;
+            let taxel = ta.as_primitive_opt::<UInt16Type>().ok_or_else(|| wrong("taxel", ta))?.values().to_vec();
+            let pa = column(b, "polarity")?;
+            let pol = pa.as_primitive_opt::<Int8Type>().ok_or_else(|| wrong("polarity", pa))?.values().to_vec();
+            Ok((i64s(b, "time_ns")?, taxel, pol))
+        })
+        .collect::<R<_>>()?;
+    let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
+    let n = names
+        .as_ref()
+        .map(Vec::len)
+        .unwrap_or_else(|| cols.iter().flat_map(|c| c.1.iter()).max().map_or(1, |&m| m as usize + 1));
+    let mut series = Vec::new();
+    let mut drawn = 0u64;
+    for (sensor, rows) in &groups {
+        let k = stride(rows.len(), MAX_POINTS * 10);
+        if k > 1 {
+            notes.push(format!("{sensor}: every {k}th of {} events drawn", rows.len()));
+        }
+        let pts: Vec<(f64, u16, i8)> = rows
+            .iter()
+            .step_by(k)
+            .map(|&(bi, ri)| (secs(cols[bi].0[ri], t0), cols[bi].1[ri], cols[bi].2[ri]))
+            .collect();
+        drawn += pts.len() as u64;
+        series.push((sensor.clone(), pts));
+    }
+    let size = (PANEL_W, STRIP_H * series.len() as u32);
+    let sensors = groups.iter().map(|g| g.0.clone()).collect();
+    Ok(Prepared {
+        size,
+        sensors,
+        drawn,
+        draw: Box::new(move |root| {
+            let label = |v: &f64| {
+                let i = v.round();
+                if (v - i).abs() > 1e-9 || i < 0.0 {
+                    return String::new();
+                }
+                names.as_ref().and_then(|nm| nm.get(i as usize).cloned()).unwrap_or_else(|| format!("{i}"))
+            };
+            for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
+                let (x0, x1) = range_of(pts.iter().map(|p| p.0));
+                let pos = pts.iter().filter(|p| p.2 > 0).count();
+                let mut chart = ChartBuilder::on(area)
+                    .caption(
+                        format!(
+                            "{sensor}: {} events, {pos} up (red), {} down (blue) (event/1)",
+                            pts.len(),
+                            pts.len() - pos
+                        ),
+                        ("sans-serif", 18),
+                    )
+                    .margin(12)
+                    .x_label_area_size(36)
+                    .y_label_area_size(60)
+                    .build_cartesian_2d(x0..x1, -0.5..(n as f64 - 0.5))?;
+                chart
+                    .configure_mesh()
+                    .x_desc("time (s from the first event)")
+                    .y_desc("taxel")
+                    .y_labels(n.min(24))
+                    .y_label_formatter(&label)
+                    .label_style(("sans-serif", 11))
+                    .light_line_style(WHITE)
+                    .draw()?;
+                let up = RGBColor(200, 30, 30);
+                let down = RGBColor(30, 60, 200);
+                chart.draw_series(pts.iter().map(|&(x, taxel, p)| {
+                    let c = if p > 0 { up } else { down };
+                    let y = taxel as f64 + if p > 0 { 0.15 } else { -0.15 };
+                    Circle::new((x, y), 1, c.filled())
+                }))?;
+            }
+            Ok(())
+        }),
+    })
+}
+
+fn window_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
+    no_rows(t)?;
+    let names = taxel_names(&t.schema, "values");
+    let groups = limit_sensors(by_sensor(t)?, notes);
+    let cols: Vec<(Vec<i64>, Vec<String>, (usize, Vec<f64>))> = t
+        .batches
+        .iter()
+        .map(|b| Ok((i64s(b, "end_ns")?, strings(b, "aggregate")?, fixed_lists(b, "values")?)))
+        .collect::<R<_>>()?;
+    let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
+    let n = cols.iter().map(|c| c.2 .0).max().unwrap_or(0).max(1);
+    let mut series = Vec::new();
+    let mut drawn = 0u64;
+    let mut signed = false;
+    for (sensor, rows) in &groups {
+        let k = stride(rows.len(), 2000);
+        if k > 1 {
+            notes.push(format!("{sensor}: every {k}th of {} windows drawn", rows.len()));
+        }
+        let pts: Vec<(f64, Vec<f64>)> = rows
+            .iter()
+            .step_by(k)
+            .map(|&(bi, ri)| {
+                let (times, agg, (m, v)) = &cols[bi];
+                signed |= agg[ri] == "signed" || agg[ri] == "split";
+                (secs(times[ri], t0), v[ri * m..(ri + 1) * m].to_vec())
+            })
+            .collect();
+        drawn += pts.len() as u64;
+        series.push((sensor.clone(), pts));
+    }
+    let all = series.iter().flat_map(|s| s.1.iter().flat_map(|p| p.1.iter().copied()));
+    let (mut lo, mut hi) = range_of(all);
+    let cmap: fn(f64) -> RGBColor = if signed {
+        let m = lo.abs().max(hi.abs());
+        (lo, hi) = (-m, m);
+        diverging
+    } else {
+        lo = lo.min(0.0);
+        viridis
+    };
+    let size = (PANEL_W + BAR_W, STRIP_H * series.len() as u32);
+    let sensors = groups.iter().map(|g| g.0.clone()).collect();
+    Ok(Prepared {
+        size,
+        sensors,
+        drawn,
+        draw: Box::new(move |root| {
+            let (main, bar) = root.split_horizontally(PANEL_W);
+            colour_bar(&bar, lo, hi, cmap, "events")?;
+            let label = |v: &f64| {
+                let i = v.round();
+                if (v - i).abs() > 1e-9 || i < 0.0 {
+                    return String::new();
+                }
+                names.as_ref().and_then(|nm| nm.get(i as usize).cloned()).unwrap_or_else(|| format!("{i}"))
+            };
+            for (area, (sensor, pts)) in main.split_evenly((series.len(), 1)).iter().zip(&series) {
+                let dt = if pts.len() > 1 { (pts[pts.len() - 1].0 - pts[0].0) / (pts.len() - 1) as f64 } else { 1.0 };
+                let x0 = pts.first().map_or(0.0, |p| p.0 - dt);
+                let x1 = pts.last().map_or(1.0, |p| p.0).max(x0 + 1e-9);
+                let mut chart = ChartBuilder::on(area)
+                    .caption(format!("{sensor}: {} windows (window/1)", pts.len()), ("sans-serif", 18))
+                    .margin(12)
+                    .x_label_area_size(36)
+                    .y_label_area_size(60)
+                    .build_cartesian_2d(x0..x1, -0.5..(n as f64 - 0.5))?;
+                chart
+                    .configure_mesh()
+                    .disable_mesh()
+                    .x_desc("window end (s from the first row)")
+                    .y_desc("taxel")
+                    .y_labels(n.min(24))
+                    .y_label_formatter(&label)
+                    .label_style(("sans-serif", 11))
+                    .draw()?;
+                let mut prev = x0;
+                let mut rects = Vec::with_capacity(pts.len() * n);
+                for (x, v) in pts {
+                    for (i, &val) in v.iter().enumerate() {
+                        let c = if val.is_finite() { cmap((val - lo) / (hi - lo)) } else { NAN_GREY };
+                        rects.push(Rectangle::new([(prev, i as f64 - 0.5), (*x, i as f64 + 0.5)], c.filled()));
+                    }
+                    prev = *x;
+                }
+                chart.draw_series(rects)?;
+            }
+            Ok(())
+        }),
+    })
+}
+
+/// The grid of a `surface/1` file from its `gradtac.grid` schema metadata.
+fn grid_of(t: &Table) -> R<Grid> {
+    let json = t
+        .schema
+        .metadata()
+        .get(gradtac_io::records::surface::GRID_KEY)
+        .or_else(|| t.kv.get(gradtac_io::records::surface::GRID_KEY))
+        .ok_or_else(|| PlotErr("surface file without `gradtac.grid` metadata".into()))?;
+    let v: serde_json::Value = serde_json::from_str(json).map_err(|e| PlotErr(format!("`gradtac.grid`: {e}")))?;
+    let num = |k: &str| {
+        v.get(k).and_then(serde_json::Value::as_f64).ok_or_else(|| PlotErr(format!("`gradtac.grid` has no `{k}`")))
+    };
+    let extent = Extent { x_min: num("x_min")?, x_max: num("x_max")?, y_min: num("y_min")?, y_max: num("y_max")? };
+    Grid::try_new(extent, num("nx")? as usize, num("ny")? as usize).map_err(|e| PlotErr(format!("`gradtac.grid`: {e}")))
+}
+
+/// The maximal contour of a surface with the contour stage's defaults but any peak.
+fn max_contour(grid: &Grid, values: &[f64]) -> Option<Vec<[f64; 2]>> {
+    let z = ArrayView2::from_shape((grid.ny(), grid.nx()), values).ok()?;
+    let cfg = ContourConfig { min_peak: -f64::MAX, ..Default::default() };
+    let mut f = MaxContourFinder::try_new(&cfg).ok()?;
+    match f.find(z, grid) {
+        ContourOutcome::Contact(c) => Some(c.polygon),
+        ContourOutcome::NoContact(_) => None,
+    }
+}
+
+fn surface_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
+    no_rows(t)?;
+    let grid = grid_of(t)?;
+    let groups = limit_sensors(by_sensor(t)?, notes);
+    let cols: Vec<(Vec<i64>, (usize, Vec<f64>))> =
+        t.batches.iter().map(|b| Ok((i64s(b, "end_ns")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
+    let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
+    let m = grid.len();
+    if cols.iter().any(|c| c.1 .0 != m) {
+        return Err(PlotErr(format!("surface rows do not hold nx·ny = {m} values")));
+    }
+    notes.push(format!(
+        "maximal contours recomputed from the surfaces ({ISO_LEVELS} levels, min area 1 mm², any peak): the file does not store the contour settings"
+    ));
+    let mut rows_out = Vec::new();
+    for (sensor, rows) in &groups {
+        let contour_of = |&(bi, ri): &(usize, usize)| max_contour(&grid, &cols[bi].1 .1[ri * m..(ri + 1) * m]);
+        // instants: evenly spaced over the rows with a contact (else over all rows)
+        let peak_of = |&(bi, ri): &(usize, usize)| range_of(cols[bi].1 .1[ri * m..(ri + 1) * m].iter().copied()).1;
+        let candidates: Vec<(usize, usize)> = {
+            let k = stride(rows.len(), 400);
+            let sampled: Vec<(usize, usize)> = rows.iter().step_by(k).copied().collect();
+            // a contact: a maximal contour on a surface whose peak is at least a quarter of the
+            // highest peak (so near-empty windows between contacts are not picked)
+            let top = sampled.iter().map(peak_of).fold(f64::NEG_INFINITY, f64::max);
+            let with: Vec<(usize, usize)> = sampled
+                .iter()
+                .copied()
+                .filter(|r| (top <= 0.0 || peak_of(r) >= 0.25 * top) && contour_of(r).is_some())
+                .collect();
+            if with.is_empty() {
+                sampled
+            } else {
+                with
+            }
+        };
+        let picks: Vec<(usize, usize)> = if candidates.len() <= 4 {
+            candidates
+        } else {
+            (0..4).map(|i| candidates[(i * (candidates.len() - 1)) / 3]).collect()
+        };
+        let layout = t.layout(sensor, None, notes);
+        let panels: Vec<SurfacePanel> = picks
+            .iter()
+            .map(|&(bi, ri)| SurfacePanel {
+                label: format!("{sensor}, t = {:.2} s", secs(cols[bi].0[ri], t0)),
+                values: cols[bi].1 .1[ri * m..(ri + 1) * m].to_vec(),
+                contour: None,
+                truth: None,
+            })
+            .collect();
+        rows_out.push((panels, layout));
+    }
+    let drawn = rows_out.iter().map(|r| r.0.len() as u64).sum();
+    let size = (4 * SURF_PANEL + BAR_W, TITLE_H + SURF_ROW_H * rows_out.len() as u32);
+    let sensors = groups.iter().map(|g| g.0.clone()).collect();
+    let title = format!("surfaces on a {}×{} grid (surface/1)", grid.nx(), grid.ny());
+    Ok(Prepared {
+        size,
+        sensors,
+        drawn,
+        draw: Box::new(move |root| {
+            let rows: Vec<(&[SurfacePanel], Option<&Layout>)> =
+                rows_out.iter().map(|(p, l)| (p.as_slice(), l.as_ref())).collect();
+            draw_surfaces(root, &grid, &rows, &title)
+        }),
+    })
+}
+
+/// Rows of surface panels (a common colour scale) with a colour bar and a title.
+fn draw_surfaces(root: &Area<'_>, grid: &Grid, rows: &[(&[SurfacePanel], Option<&Layout>)], title: &str) -> R<()> {
+    let (top, body) = root.split_vertically(TITLE_H);
+    top.draw(&Text::new(title.to_string(), (12, 10), ("sans-serif", 20).into_font()))?;
+    let (main, bar) = body.split_horizontally(4 * SURF_PANEL);
+    let (lo, hi) = range_of(rows.iter().flat_map(|r| r.0.iter().flat_map(|p| p.values.iter().copied())));
+    colour_bar(&bar, lo, hi, viridis, "surface value")?;
+    for (row_area, (panels, layout)) in main.split_evenly((rows.len().max(1), 1)).iter().zip(rows) {
+        for (area, p) in row_area.split_evenly((1, 4)).iter().zip(panels.iter()) {
+            draw_surface_panel(area, grid, p, *layout, (lo, hi))?;
+        }
+    }
+    Ok(())
+}
+
+fn draw_surface_panel(
+    area: &Area<'_>,
+    grid: &Grid,
+    p: &SurfacePanel,
+    layout: Option<&Layout>,
+    (lo, hi): (f64, f64),
+) -> R<()> {
+    let (nx, ny) = (grid.nx(), grid.ny());
+    if p.values.len() != nx * ny {
+        return Err(PlotErr(format!("panel {:?}: {} values for a {nx}×{ny} grid", p.label, p.values.len())));
+    }
+    let (w, h) = area.dim_in_pixel();
+    let (xr, yr) = equal_aspect(grid.extent(), w as f64 - 60.0, h as f64 - 70.0);
+    let mut chart = ChartBuilder::on(area)
+        .caption(&p.label, ("sans-serif", 15))
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(40)
+        .build_cartesian_2d(xr, yr)?;
+    chart.configure_mesh().disable_mesh().x_desc("x (mm)").y_desc("y (mm)").label_style(("sans-serif", 11)).draw()?;
+    let (dx, dy) = (grid.dx(), grid.dy());
+    let mut cells = Vec::with_capacity(nx * ny);
+    for r in 0..ny {
+        for c in 0..nx {
+            let v = p.values[r * nx + c];
+            let col = if v.is_finite() { viridis((v - lo) / (hi - lo)) } else { NAN_GREY };
+            let (x, y) = (grid.x(c), grid.y(r));
+            cells.push(Rectangle::new([(x - dx / 2.0, y - dy / 2.0), (x + dx / 2.0, y + dy / 2.0)], col.filled()));
+        }
+    }
+    chart.draw_series(cells)?;
+    // iso-lines at ISO_LEVELS levels between this surface's finite min and max
+    let z = ArrayView2::from_shape((ny, nx), &p.values[..]).map_err(|e| PlotErr(e.to_string()))?;
+    let (zmin, zmax) = range_of(p.values.iter().copied());
+    let line = RGBColor(255, 255, 255).mix(0.7);
+    for k in 1..=ISO_LEVELS {
+        let level = zmin + (zmax - zmin) * k as f64 / (ISO_LEVELS + 1) as f64;
+        for iso in isolines(z, level, Saddle::Centre) {
+            let mut pts: Vec<(f64, f64)> = iso
+                .points
+                .iter()
+                .map(|q| {
+                    let m = grid.index_to_mm(q[0], q[1]);
+                    (m[0], m[1])
+                })
+                .collect();
+            if iso.closed {
+                if let Some(&f) = pts.first() {
+                    pts.push(f);
+                }
+            }
+            chart.draw_series(std::iter::once(PathElement::new(pts, line.stroke_width(1))))?;
+        }
+    }
+    let contour = p.contour.clone().or_else(|| max_contour(grid, &p.values));
+    if let Some(poly) = contour.filter(|c| c.len() > 2) {
+        let mut pts: Vec<(f64, f64)> = poly.iter().map(|q| (q[0], q[1])).collect();
+        pts.push(pts[0]);
+        chart.draw_series(std::iter::once(PathElement::new(pts, RED.stroke_width(3))))?;
+        let a = gradtac_stages::contour::polygon_area(&poly).abs();
+        if a > 0.0 {
+            let (cx, cy) = centroid(&poly);
+            chart.draw_series(std::iter::once(Cross::new((cx, cy), 6, RED.stroke_width(2))))?;
+        }
+    }
+    if let Some(l) = layout {
+        draw_taxels(&mut chart, l, false)?;
+    }
+    if let Some(tr) = p.truth {
+        chart.draw_series(std::iter::once(TriangleMarker::new((tr[0], tr[1]), 7, BLACK.filled())))?;
+    }
+    Ok(())
+}
+
+fn centroid(poly: &[[f64; 2]]) -> (f64, f64) {
+    let (mut a, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    let o = poly[0];
+    for i in 0..poly.len() {
+        let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+        let (x0, y0, x1, y1) = (p[0] - o[0], p[1] - o[1], q[0] - o[0], q[1] - o[1]);
+        let c = x0 * y1 - x1 * y0;
+        a += c;
+        cx += (x0 + x1) * c;
+        cy += (y0 + y1) * c;
+    }
+    if a == 0.0 {
+        return (o[0], o[1]);
+    }
+    (o[0] + cx / (3.0 * a), o[1] + cy / (3.0 * a))
+}
+
+fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
+    no_rows(t)?;
+    let groups = limit_sensors(by_sensor(t)?, notes);
+    struct Col {
+        end: Vec<i64>,
+        cx: Vec<f64>,
+        cy: Vec<f64>,
+        area: Vec<f64>,
+        poly: Vec<Vec<[f64; 2]>>,
+    }
+    let cols: Vec<Col> = t
+        .batches
+        .iter()
+        .map(|b| {
+            Ok(Col {
+                end: i64s(b, "end_ns")?,
+                cx: f64s(b, "centroid_x_mm")?,
+                cy: f64s(b, "centroid_y_mm")?,
+                area: f64s(b, "area_mm2")?,
+                poly: polygons(b, "polygon")?,
+            })
+        })
+        .collect::<R<_>>()?;
+    let t0 = cols.iter().flat_map(|c| c.end.iter().copied()).min().unwrap_or(0);
+    type Pt = (f64, f64, f64, f64);
+    let mut series: Vec<(String, Vec<Pt>, Vec<Vec<[f64; 2]>>)> = Vec::new();
+    let mut drawn = 0u64;
+    let mut layout = None;
+    for (sensor, rows) in &groups {
+        if layout.is_none() {
+            layout = t.layout(sensor, None, notes);
+        }
+        let k = stride(rows.len(), MAX_POINTS);
+        if k > 1 {
+            notes.push(format!("{sensor}: every {k}th of {} contours drawn", rows.len()));
+        }
+        let pts: Vec<Pt> = rows
+            .iter()
+            .step_by(k)
+            .map(|&(bi, ri)| {
+                let c = &cols[bi];
+                (secs(c.end[ri], t0), c.cx[ri], c.cy[ri], c.area[ri])
+            })
+            .collect();
+        let with: Vec<&(usize, usize)> = rows.iter().filter(|&&(bi, ri)| !cols[bi].poly[ri].is_empty()).collect();
+        let outlines: Vec<Vec<[f64; 2]>> = if with.is_empty() {
+            Vec::new()
+        } else {
+            let mut idx: Vec<usize> = (0..4).map(|i| i * (with.len() - 1) / 3).collect();
+            idx.dedup();
+            idx.into_iter().map(|i| cols[with[i].0].poly[with[i].1].clone()).collect()
+        };
+        drawn += pts.len() as u64;
+        series.push((sensor.clone(), pts, outlines));
+    }
+    let layout = layout.unwrap_or_else(Layout::biotac_sp);
+    let size = (1400, 620);
+    let sensors = groups.iter().map(|g| g.0.clone()).collect();
+    Ok(Prepared {
+        size,
+        sensors,
+        drawn,
+        draw: Box::new(move |root| {
+            let (left, right) = root.split_horizontally(600);
+            let (w, h) = left.dim_in_pixel();
+            let (xr, yr) = equal_aspect(layout.extent(), w as f64 - 80.0, h as f64 - 90.0);
+            let mut plane = ChartBuilder::on(&left)
+                .caption("contact centroids (contour/1)", ("sans-serif", 18))
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(44)
+                .build_cartesian_2d(xr, yr)?;
+            plane.configure_mesh().x_desc("x (mm)").y_desc("y (mm)").label_style(("sans-serif", 12)).draw()?;
+            draw_taxels(&mut plane, &layout, true)?;
+            for (i, (sensor, pts, outlines)) in series.iter().enumerate() {
+                let c = series_colour(i);
+                for o in outlines {
+                    let mut v: Vec<(f64, f64)> = o.iter().map(|q| (q[0], q[1])).collect();
+                    if let Some(&f) = v.first() {
+                        v.push(f);
+                    }
+                    plane.draw_series(std::iter::once(PathElement::new(v, c.mix(0.5).stroke_width(1))))?;
+                }
+                for seg in segments(pts.iter().map(|p| (p.1, p.2))) {
+                    plane.draw_series(std::iter::once(PathElement::new(seg, c.stroke_width(2))))?;
+                }
+                plane
+                    .draw_series(
+                        pts.iter().filter(|p| p.1.is_finite()).map(|p| Circle::new((p.1, p.2), 2, c.filled())),
+                    )?
+                    .label(sensor.clone())
+                    .legend(move |(x, y)| Circle::new((x + 7, y), 4, c.filled()));
+            }
+            plane
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK.mix(0.3))
+                .label_font(("sans-serif", 12))
+                .draw()?;
+            let (x0, x1) = range_of(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)));
+            let (a0, a1) = range_of(series.iter().flat_map(|s| s.1.iter().map(|p| p.3)).chain([0.0]));
+            let mut chart = ChartBuilder::on(&right)
+                .caption("contour area", ("sans-serif", 18))
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(60)
+                .build_cartesian_2d(x0..x1, a0..a1 * 1.05)?;
+            chart
+                .configure_mesh()
+                .x_desc("time (s from the first row)")
+                .y_desc("area (mm²)")
+                .label_style(("sans-serif", 12))
+                .draw()?;
+            for (i, (sensor, pts, _)) in series.iter().enumerate() {
+                let c = series_colour(i);
+                for seg in segments(pts.iter().map(|p| (p.0, p.3))) {
+                    chart.draw_series(std::iter::once(PathElement::new(seg, c.stroke_width(2))))?;
+                }
+                chart
+                    .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+                    .label(sensor.clone())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c.stroke_width(2)));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK.mix(0.3))
+                .label_font(("sans-serif", 12))
+                .draw()?;
+            Ok(())
+        }),
+    })
+}
+
+/// Runs of finite points (a NaN breaks the line).
+fn segments(pts: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
+    let mut out = vec![Vec::new()];
+    for p in pts {
+        if p.0.is_finite() && p.1.is_finite() {
+            out.last_mut().expect("non-empty").push(p);
+        } else if !out.last().expect("non-empty").is_empty() {
+            out.push(Vec::new());
+        }
+    }
+    out.retain(|s| s.len() > 1);
+    out
+}
+
+fn track_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
+    no_rows(t)?;
+    let groups = limit_sensors(by_sensor(t)?, notes);
+    let cols: Vec<(Vec<i64>, Vec<f64>, Vec<f64>, Vec<u64>)> = t
+        .batches
+        .iter()
+        .map(|b| Ok((i64s(b, "time_ns")?, f64s(b, "x_mm")?, f64s(b, "y_mm")?, u64s(b, "seq")?)))
+        .collect::<R<_>>()?;
+    let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
+    let mut panels = Vec::new();
+    let mut drawn = 0u64;
+    for (sensor, rows) in &groups {
+        let layout = t.layout(sensor, None, notes).unwrap_or_else(Layout::biotac_sp);
+        let k = stride(rows.len(), MAX_POINTS);
+        if k > 1 {
+            notes.push(format!("{sensor}: every {k}th of {} points drawn", rows.len()));
+        }
+        let pts: Vec<(f64, f64, f64)> = rows
+            .iter()
+            .step_by(k)
+            .map(|&(bi, ri)| (secs(cols[bi].0[ri], t0), cols[bi].1[ri], cols[bi].2[ri]))
+            .collect();
+        drawn += pts.iter().filter(|p| p.1.is_finite()).count() as u64;
+        panels.push((sensor.clone(), pts, layout));
+    }
+    let (tl, th) = range_of(panels.iter().flat_map(|p| p.1.iter().filter(|q| q.1.is_finite()).map(|q| q.0)));
+    let size = (TRACK_PANEL * panels.len() as u32 + BAR_W, TRACK_H);
+    let sensors = groups.iter().map(|g| g.0.clone()).collect();
+    Ok(Prepared {
+        size,
+        sensors,
+        drawn,
+        draw: Box::new(move |root| {
+            let (main, bar) = root.split_horizontally(TRACK_PANEL * panels.len() as u32);
+            colour_bar(&bar, tl, th, viridis, "time (s)")?;
+            for (area, (sensor, pts, layout)) in main.split_evenly((1, panels.len())).iter().zip(&panels) {
+                draw_trajectory(area, &format!("{sensor}: contact track (track/1)"), pts, &[], layout, (tl, th))?;
+            }
+            Ok(())
+        }),
+    })
+}
+
+/// One layout-plane panel: taxels, the truth (dashed black), the track coloured by time.
+fn draw_trajectory(
+    area: &Area<'_>,
+    title: &str,
+    track: &[(f64, f64, f64)],
+    truth: &[(f64, f64, f64)],
+    layout: &Layout,
+    (t0, t1): (f64, f64),
+) -> R<()> {
+    let (w, h) = area.dim_in_pixel();
+    let (xr, yr) = equal_aspect(layout.extent(), w as f64 - 80.0, h as f64 - 90.0);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(44)
+        .build_cartesian_2d(xr, yr)?;
+    chart.configure_mesh().x_desc("x (mm)").y_desc("y (mm)").label_style(("sans-serif", 12)).draw()?;
+    draw_taxels(&mut chart, layout, true)?;
+    let mut labelled = false;
+    for seg in segments(truth.iter().map(|p| (p.1, p.2))) {
+        let s = chart.draw_series(DashedLineSeries::new(seg, 6, 4, BLACK.stroke_width(2)))?;
+        if !labelled {
+            s.label("truth").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], BLACK.stroke_width(2)));
+            labelled = true;
+        }
+    }
+    let grey = RGBColor(150, 150, 150);
+    for seg in segments(track.iter().map(|p| (p.1, p.2))) {
+        chart.draw_series(std::iter::once(PathElement::new(seg, grey.stroke_width(1))))?;
+    }
+    let span = (t1 - t0).max(1e-12);
+    let s = chart.draw_series(
+        track
+            .iter()
+            .filter(|p| p.1.is_finite() && p.2.is_finite())
+            .map(|p| Circle::new((p.1, p.2), 3, viridis((p.0 - t0) / span).filled())),
+    )?;
+    if !truth.is_empty() {
+        s.label("track (colour: time)").legend(|(x, y)| Circle::new((x + 7, y), 4, viridis(0.5).filled()));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.3))
+            .label_font(("sans-serif", 12))
+            .draw()?;
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// plots from plain data (the demo)
+
+/// Surfaces at a few instants on `grid` (one row of up to 4 panels, a common colour scale):
+/// each with [`ISO_LEVELS`] iso-lines (white), the maximal contour (red, bold; the panel's own
+/// or recomputed) and its centroid (red cross), the taxels of `layout` (grey circles) and the
+/// true contact (black triangle) when given — the paper's contour-pipeline figure.
+///
+/// Size: `(4·380 + 120) × (40 + 400)` px. Panels after the 4th are not drawn.
+///
+/// # Errors
+/// [`Error::Plot`] when a panel does not hold `nx·ny` values or drawing fails, [`Error::Io`]
+/// when the file cannot be written.
+pub fn plot_surface_with_contours(
+    grid: &Grid,
+    panels: &[SurfacePanel],
+    layout: Option<&Layout>,
+    title: &str,
+    out: &Path,
+) -> Result<PlotSummary, Error> {
+    let panels = &panels[..panels.len().min(4)];
+    let size = (4 * SURF_PANEL + BAR_W, TITLE_H + SURF_ROW_H);
+    render(out, size, |root| draw_surfaces(root, grid, &[(panels, layout)], title))?;
+    Ok(PlotSummary {
+        kind: "surface".into(),
+        rows: panels.len() as u64,
+        drawn: panels.len() as u64,
+        sensors: Vec::new(),
+        width: size.0,
+        height: size.1,
+        notes: Vec::new(),
+    })
+}
+
+/// A contact track against the ground truth on the layout plane: `track` and `truth` are
+/// `(t s, x mm, y mm)` (NaN x or y: no contact, the line breaks); the track's points are
+/// coloured by time (colour bar), the truth is a dashed black line, the taxels labelled circles.
+///
+/// Size: 760 × 680 px.
+///
+/// # Errors
+/// [`Error::Plot`] when drawing fails, [`Error::Io`] when the file cannot be written.
+pub fn plot_trajectory_vs_truth(
+    track: &[(f64, f64, f64)],
+    truth: &[(f64, f64, f64)],
+    layout: &Layout,
+    out: &Path,
+) -> Result<PlotSummary, Error> {
+    let size = (TRACK_PANEL + BAR_W, TRACK_H);
+    let (t0, t1) = range_of(track.iter().filter(|p| p.1.is_finite()).map(|p| p.0));
+    render(out, size, |root| {
+        let (main, bar) = root.split_horizontally(TRACK_PANEL);
+        colour_bar(&bar, t0, t1, viridis, "time (s)")?;
+        draw_trajectory(&main, "contact track vs truth", track, truth, layout, (t0, t1))
+    })?;
+    Ok(PlotSummary {
+        kind: "trajectory".into(),
+        rows: track.len() as u64,
+        drawn: track.iter().filter(|p| p.1.is_finite() && p.2.is_finite()).count() as u64,
+        sensors: Vec::new(),
+        width: size.0,
+        height: size.1,
+        notes: Vec::new(),
+    })
+}
+
+/// A two-finger slip timeline: top, each sensor's contact `y` (solid) and `x` (dashed) over
+/// time; bottom, two class strips — the ground truth (`truth`: `(t s, class)` samples, each
+/// class holding until the next sample) and the detector's state (from each event's decision
+/// `time` on) — with the detected onsets as vertical dashed lines in both panels. Times in
+/// seconds, on the tracks' time base (`Timestamp::as_secs_f64` of the same source).
+///
+/// Size: 1200 × 700 px.
+///
+/// # Errors
+/// [`Error::Plot`] when drawing fails, [`Error::Io`] when the file cannot be written.
+pub fn plot_slip_timeline(
+    tracks: &[TimelineTrack<'_>],
+    events: &[SlipEvent],
+    truth: &[(f64, SlipClass)],
+    out: &Path,
+) -> Result<PlotSummary, Error> {
+    let size = (1200, 700);
+    let times = tracks
+        .iter()
+        .flat_map(|t| t.points.iter().map(|p| p.0))
+        .chain(truth.iter().map(|p| p.0))
+        .chain(events.iter().flat_map(|e| [e.time.as_secs_f64(), e.onset.as_secs_f64()]));
+    let (t0, t1) = range_of(times);
+    render(out, size, |root| {
+        let (top, bottom) = root.split_vertically(440);
+        let (y0, y1) = padded(range_of(tracks.iter().flat_map(|t| t.points.iter().flat_map(|p| [p.1, p.2]))), 0.05);
+        let mut chart = ChartBuilder::on(&top)
+            .caption("contact position per finger", ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(t0..t1, y0..y1)?;
+        chart.configure_mesh().y_desc("position (mm)").label_style(("sans-serif", 12)).draw()?;
+        for (i, tr) in tracks.iter().enumerate() {
+            let c = series_colour(i);
+            let mut first = true;
+            for seg in segments(tr.points.iter().map(|p| (p.0, p.2))) {
+                let s = chart.draw_series(std::iter::once(PathElement::new(seg, c.stroke_width(2))))?;
+                if first {
+                    s.label(format!("{} y", tr.sensor))
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c.stroke_width(2)));
+                    first = false;
+                }
+            }
+            let mut first = true;
+            for seg in segments(tr.points.iter().map(|p| (p.0, p.1))) {
+                let s = chart.draw_series(DashedLineSeries::new(seg, 5, 4, c.mix(0.6).stroke_width(1)))?;
+                if first {
+                    s.label(format!("{} x", tr.sensor))
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c.mix(0.6).stroke_width(1)));
+                    first = false;
+                }
+            }
+        }
+        for e in events.iter().filter(|e| e.class.is_slip()) {
+            let x = e.onset.as_secs_f64();
+            chart.draw_series(DashedLineSeries::new(vec![(x, y0), (x, y1)], 4, 4, BLACK.mix(0.6).stroke_width(1)))?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.3))
+            .label_font(("sans-serif", 12))
+            .draw()?;
+
+        let mut strip = ChartBuilder::on(&bottom)
+            .caption("slip class: truth (top) and detected (bottom); dashed: detected onsets", ("sans-serif", 16))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(60)
+            .build_cartesian_2d(t0..t1, 0.0..2.0)?;
+        strip
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("time (s)")
+            .y_labels(5)
+            .y_label_formatter(&|v: &f64| {
+                if (v - 1.5).abs() < 0.26 {
+                    "truth".into()
+                } else if (v - 0.5).abs() < 0.26 {
+                    "detected".into()
+                } else {
+                    String::new()
+                }
+            })
+            .label_style(("sans-serif", 12))
+            .draw()?;
+        let steps = |pts: Vec<(f64, SlipClass)>| {
+            let mut out = Vec::new();
+            for (i, &(t, c)) in pts.iter().enumerate() {
+                let end = pts.get(i + 1).map_or(t1, |p| p.0);
+                if end > t {
+                    out.push((t, end, c));
+                }
+            }
+            out
+        };
+        let mut truth_sorted = truth.to_vec();
+        truth_sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut det = vec![(t0, events.first().map_or(SlipClass::Stable, |e| e.previous))];
+        det.extend(events.iter().map(|e| (e.time.as_secs_f64(), e.class)));
+        for (band, pts) in [(1.0, steps(truth_sorted)), (0.0, steps(det))] {
+            strip.draw_series(
+                pts.iter()
+                    .map(|&(a, b, c)| Rectangle::new([(a, band + 0.1), (b, band + 0.9)], slip_colour(c).filled())),
+            )?;
+        }
+        for e in events.iter().filter(|e| e.class.is_slip()) {
+            let x = e.onset.as_secs_f64();
+            strip.draw_series(DashedLineSeries::new(vec![(x, 0.0), (x, 2.0)], 4, 4, BLACK.stroke_width(1)))?;
+        }
+        for c in SlipClass::ALL {
+            let col = slip_colour(c);
+            strip
+                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+                .label(c.name())
+                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], col.filled()));
+        }
+        strip
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK.mix(0.3))
+            .label_font(("sans-serif", 11))
+            .draw()?;
+        Ok(())
+    })?;
+    Ok(PlotSummary {
+        kind: "slip timeline".into(),
+        rows: tracks.iter().map(|t| t.points.len() as u64).sum(),
+        drawn: tracks.iter().map(|t| t.points.len() as u64).sum(),
+        sensors: tracks.iter().map(|t| t.sensor.to_string()).collect(),
+        width: size.0,
+        height: size.1,
+        notes: Vec::new(),
+    })
+}
