@@ -10,12 +10,18 @@
 //! 3. The demo reads the tracks and slip events back and compares them with the truth:
 //!    contact localisation error (mm and fraction of sensor width) and slip class and onset.
 
+use crate::plot::{
+    plot_slip_timeline, plot_surface_with_contours, plot_trajectory_vs_truth, SurfacePanel, TimelineTrack,
+};
 use crate::run::{run_blocking, RunOptions, RunReport};
 use crate::{Error, Plan, Scene};
-use arrow_array::{Array, Float64Array, Int64Array, StringArray, UInt64Array};
+use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, StringArray, UInt64Array};
+use gradtac_stages::interpolate::Grid;
 use gradtac_stages::sim::{GraspConfig, Recording, Scene as SimScene, SensorModel, Simulator};
 use gradtac_stages::slip::SlipClass;
+use gradtac_stages::slip::SlipEvent;
 use gradtac_stream::Layout;
+use gradtac_stream::Timestamp;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -100,6 +106,8 @@ pub struct DemoReport {
     pub first_slip: Option<(String, f64)>,
     /// The simulated slip and its onset (s).
     pub true_slip: (SlipClass, f64),
+    /// The PNG plots written.
+    pub plots: Vec<PathBuf>,
 }
 
 impl std::fmt::Display for DemoReport {
@@ -164,8 +172,8 @@ pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
     for sensor in ["ff", "th"] {
         let errs: Vec<f64> = tracks
             .iter()
-            .filter(|t| t.0 == sensor && t.2.is_finite())
-            .filter_map(|(s, seq, x, y)| {
+            .filter(|t| t.0 == sensor && t.3.is_finite())
+            .filter_map(|(s, seq, _, x, y)| {
                 let [tx, ty] = rec.truth(s, *seq)?.contact_mm?;
                 Some((x - tx).hypot(y - ty))
             })
@@ -174,8 +182,11 @@ pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
         let worst = errs.iter().copied().fold(0.0, f64::max);
         localisation.push((sensor.to_string(), errs.len(), mean, worst));
     }
-    let first_slip = read_first_slip(&dir.join("out/slip.parquet"))?;
+    let slips = read_slip_events(&dir.join("out/slip.parquet"))?;
+    let first_slip =
+        slips.iter().find(|e| e.class.is_slip()).map(|e| (e.class.name().to_string(), e.onset.as_secs_f64()));
     let onset = GraspConfig::default().onset_s;
+    let plots = draw_plots(dir, &scene, &rec, &tracks, &slips)?;
     Ok(DemoReport {
         run,
         scene: scene_path,
@@ -185,7 +196,70 @@ pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
         sensor_width_mm: sensor_width_mm(&layout),
         first_slip,
         true_slip: (DEMO_SLIP, onset),
+        plots,
     })
+}
+
+/// The demo's figures: ff's surface and maximal contour at four instants, each finger's track
+/// against the truth, and the slip timeline.
+fn draw_plots(
+    dir: &Path,
+    scene: &Scene,
+    rec: &Recording,
+    tracks: &[(String, u64, f64, f64, f64)],
+    slips: &[SlipEvent],
+) -> Result<Vec<PathBuf>, Error> {
+    let layout = Layout::biotac_sp();
+    let out = dir.join("plots");
+    std::fs::create_dir_all(&out).map_err(|source| Error::Io { path: out.clone(), source })?;
+    let mut written = Vec::new();
+
+    // surfaces at a few instants around the slip
+    let grid = Grid::from_config(&scene.stages.surface.grid, &layout)?;
+    let surfaces = read_surfaces(&dir.join("out/surfaces.parquet"), "ff")?;
+    let panels: Vec<SurfacePanel> = [0.6, 1.05, 1.2, 1.35]
+        .iter()
+        .filter_map(|&t| {
+            let (seq, values) = surfaces.iter().min_by_key(|(q, _)| (*q as f64 - t * RATE_HZ).abs() as u64)?;
+            let truth = rec.truth("ff", *seq).and_then(|tr| tr.contact_mm);
+            Some(SurfacePanel {
+                label: format!("t = {:.2} s", *seq as f64 / RATE_HZ),
+                values: values.clone(),
+                contour: None,
+                truth,
+            })
+        })
+        .collect();
+    let p = out.join("surfaces_ff.png");
+    plot_surface_with_contours(&grid, &panels, Some(&layout), "ff: event surface and maximal contour", &p)?;
+    written.push(p);
+
+    // each finger's track against the truth
+    let mut per_sensor = Vec::new();
+    for sensor in ["ff", "th"] {
+        let track: Vec<(f64, f64, f64)> = tracks.iter().filter(|t| t.0 == sensor).map(|t| (t.2, t.3, t.4)).collect();
+        let truth: Vec<(f64, f64, f64)> = rec
+            .of_sensor(sensor)
+            .map(|f| {
+                let [x, y] = f.truth.contact_mm.unwrap_or([f64::NAN, f64::NAN]);
+                (f.frame.time.as_secs_f64(), x, y)
+            })
+            .collect();
+        let p = out.join(format!("trajectory_{sensor}.png"));
+        plot_trajectory_vs_truth(&track, &truth, &layout, &p)?;
+        written.push(p);
+        per_sensor.push((sensor, track));
+    }
+
+    // the slip timeline
+    let lines: Vec<TimelineTrack<'_>> =
+        per_sensor.iter().map(|(s, points)| TimelineTrack { sensor: s, points }).collect();
+    let truth: Vec<(f64, SlipClass)> =
+        rec.of_sensor("ff").map(|f| (f.frame.time.as_secs_f64(), f.truth.slip)).collect();
+    let p = out.join("slip_timeline.png");
+    plot_slip_timeline(&lines, slips, &truth, &p)?;
+    written.push(p);
+    Ok(written)
 }
 
 fn parquet_batches(path: &Path) -> Result<Vec<arrow_array::RecordBatch>, Error> {
@@ -199,26 +273,58 @@ fn column<'a, T: 'static>(b: &'a arrow_array::RecordBatch, name: &str) -> &'a T 
     b.column_by_name(name).and_then(|c| c.as_any().downcast_ref::<T>()).expect("schema documented in docs/schemas.md")
 }
 
-/// (sensor, seq, x, y) of every track point.
-fn read_tracks(path: &Path) -> Result<Vec<(String, u64, f64, f64)>, Error> {
+/// (sensor, seq, t s, x, y) of every track point (`track/1`).
+fn read_tracks(path: &Path) -> Result<Vec<(String, u64, f64, f64, f64)>, Error> {
     let mut out = Vec::new();
     for b in parquet_batches(path)? {
-        let (s, q) = (column::<StringArray>(&b, "sensor"), column::<UInt64Array>(&b, "seq"));
+        let (s, q, t) = (
+            column::<StringArray>(&b, "sensor"),
+            column::<UInt64Array>(&b, "seq"),
+            column::<Int64Array>(&b, "time_ns"),
+        );
         let (x, y) = (column::<Float64Array>(&b, "x_mm"), column::<Float64Array>(&b, "y_mm"));
-        out.extend((0..b.num_rows()).map(|i| (s.value(i).to_string(), q.value(i), x.value(i), y.value(i))));
+        out.extend(
+            (0..b.num_rows())
+                .map(|i| (s.value(i).to_string(), q.value(i), t.value(i) as f64 * 1e-9, x.value(i), y.value(i))),
+        );
     }
     Ok(out)
 }
 
-/// The first slip event's class and onset (s).
-fn read_first_slip(path: &Path) -> Result<Option<(String, f64)>, Error> {
+/// (seq, row-major values) of one sensor's surfaces (`surface/1`).
+fn read_surfaces(path: &Path, sensor: &str) -> Result<Vec<(u64, Vec<f64>)>, Error> {
+    let mut out = Vec::new();
     for b in parquet_batches(path)? {
-        let (c, o) = (column::<StringArray>(&b, "class"), column::<Int64Array>(&b, "onset_ns"));
-        if let Some(i) = (0..b.num_rows()).find(|&i| c.is_valid(i) && c.value(i) != "stable") {
-            return Ok(Some((c.value(i).to_string(), o.value(i) as f64 * 1e-9)));
+        let (s, q) = (column::<StringArray>(&b, "sensor"), column::<UInt64Array>(&b, "seq"));
+        let v = column::<FixedSizeListArray>(&b, "values");
+        for i in (0..b.num_rows()).filter(|&i| s.value(i) == sensor) {
+            let row = v.value(i);
+            let row = row.as_any().downcast_ref::<Float64Array>().expect("surface/1 values are f64");
+            out.push((q.value(i), row.values().to_vec()));
         }
     }
-    Ok(None)
+    Ok(out)
+}
+
+/// The slip events (`slip/1`).
+fn read_slip_events(path: &Path) -> Result<Vec<SlipEvent>, Error> {
+    let class = |name: &str| SlipClass::ALL.into_iter().find(|c| c.name() == name).unwrap_or_default();
+    let mut out = Vec::new();
+    for b in parquet_batches(path)? {
+        let (c, p) = (column::<StringArray>(&b, "class"), column::<StringArray>(&b, "previous"));
+        let ns = |name: &str, i: usize| Timestamp(column::<Int64Array>(&b, name).value(i));
+        let (l, r) = (column::<Float64Array>(&b, "common_mm_s"), column::<Float64Array>(&b, "differential_mm_s"));
+        out.extend((0..b.num_rows()).map(|i| SlipEvent {
+            time: ns("time_ns", i),
+            onset: ns("onset_ns", i),
+            first_seen: ns("first_seen_ns", i),
+            class: class(c.value(i)),
+            previous: class(p.value(i)),
+            common_mm_s: l.value(i),
+            differential_mm_s: r.value(i),
+        }));
+    }
+    Ok(out)
 }
 
 /// A fresh directory for a demo run under the system's temporary directory.
@@ -247,6 +353,9 @@ pub fn where_lines(r: &DemoReport, dir: &Path) -> String {
         for f in files {
             let _ = writeln!(s, "  output:    {}", f.display());
         }
+    }
+    for p in &r.plots {
+        let _ = writeln!(s, "  plot:      {}", p.display());
     }
     s
 }

@@ -30,6 +30,7 @@ pub mod chain;
 pub mod demo;
 mod error;
 pub mod plan;
+pub mod plot;
 pub mod run;
 pub mod scene;
 pub mod sinks;

@@ -44,6 +44,15 @@ enum Command {
         #[arg(long, default_value_t = 100.0)]
         rate_hz: f64,
     },
+    /// Render a gradtac Parquet output (any schema: frame, event, window, surface, contour,
+    /// track) as a PNG.
+    Plot {
+        /// The Parquet file.
+        input: PathBuf,
+        /// The PNG to write (default: the input with `.png`).
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+    },
     /// Run the embedded demo scene on a synthetic recording, in a fresh directory.
     Demo {
         /// Where to put the demo (default: a fresh directory under the system temp dir).
@@ -109,6 +118,13 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 model.parameter_count(),
                 out.display()
             );
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Plot { input, out } => {
+            let out = out.unwrap_or_else(|| input.with_extension("png"));
+            let summary = gradtac::plot::plot_parquet(&input, &out)?;
+            print!("{summary}");
+            println!("wrote {}", out.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Explain { scene } => {
