@@ -31,7 +31,7 @@
 
 use crate::Error;
 use arrow_array::cast::AsArray;
-use arrow_array::types::{Float64Type, Int64Type, Int8Type, UInt16Type, UInt64Type};
+use arrow_array::types::{Float64Type, Int64Type, Int8Type, UInt16Type};
 use arrow_array::{Array, ArrayRef, RecordBatch};
 use arrow_schema::SchemaRef;
 use gradtac_stages::contour::{isolines, ContourConfig, ContourOutcome, MaxContourFinder, Saddle};
@@ -145,6 +145,13 @@ impl From<String> for PlotErr {
 
 type R<T> = std::result::Result<T, PlotErr>;
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+/// Rows of each sensor, `(batch, row)`, in order of first appearance.
+type Groups = Vec<(String, Vec<(usize, usize)>)>;
+/// A `FixedSizeList<Float64, n>` column: `n` and the concatenated values.
+type ListCol = (usize, Vec<f64>);
+/// A polygon (mm).
+type Outline = Vec<[f64; 2]>;
+type DrawFn = Box<dyn FnOnce(&Area<'_>) -> R<()>>;
 
 fn plot_error(path: &Path, e: PlotErr) -> Error {
     Error::Plot { path: path.to_path_buf(), reason: e.0 }
@@ -247,11 +254,33 @@ fn range_of(values: impl IntoIterator<Item = f64>) -> (f64, f64) {
     if lo > hi {
         return (0.0, 1.0);
     }
+    // beyond ±1e300 the chart's arithmetic overflows: such values are drawn at the edge
+    let (lo, hi) = (lo.clamp(-BIG, BIG), hi.clamp(-BIG, BIG));
     if hi - lo < 1e-12 * (1.0 + lo.abs().max(hi.abs())) {
         let d = if lo == 0.0 { 1.0 } else { lo.abs() * 0.05 };
         return (lo - d, hi + d);
     }
     (lo, hi)
+}
+
+/// Largest magnitude a plotted value keeps; larger ones are clamped to it.
+const BIG: f64 = 1e300;
+
+/// `v` clamped into `r` widened by twice its span on each side (a point far outside a chart
+/// would overflow plotters' pixel arithmetic; the widened band keeps lines' directions), NaN
+/// kept (callers skip it).
+fn clampr(v: f64, r: (f64, f64)) -> f64 {
+    let s = 2.0 * (r.1 - r.0);
+    if v.is_nan() {
+        v
+    } else {
+        v.clamp(r.0 - s, r.1 + s)
+    }
+}
+
+/// A point clamped into a chart's widened box (see [`clampr`]).
+fn clamp_pt((x, y): (f64, f64), xr: (f64, f64), yr: (f64, f64)) -> (f64, f64) {
+    (clampr(x, xr), clampr(y, yr))
 }
 
 fn padded((lo, hi): (f64, f64), f: f64) -> (f64, f64) {
@@ -417,12 +446,6 @@ fn i64s(b: &RecordBatch, name: &str) -> R<Vec<i64>> {
     Ok(p.values().to_vec())
 }
 
-fn u64s(b: &RecordBatch, name: &str) -> R<Vec<u64>> {
-    let a = column(b, name)?;
-    let p = a.as_primitive_opt::<UInt64Type>().ok_or_else(|| wrong(name, a))?;
-    Ok(p.values().to_vec())
-}
-
 /// A Float64 column, null as NaN.
 fn f64s(b: &RecordBatch, name: &str) -> R<Vec<f64>> {
     let a = column(b, name)?;
@@ -477,8 +500,8 @@ fn taxel_names(schema: &SchemaRef, field: &str) -> Option<Vec<String>> {
 }
 
 /// Rows grouped by sensor (first appearance order), each a list of `(batch, row)`.
-fn by_sensor(t: &Table) -> R<Vec<(String, Vec<(usize, usize)>)>> {
-    let mut order: Vec<(String, Vec<(usize, usize)>)> = Vec::new();
+fn by_sensor(t: &Table) -> R<Groups> {
+    let mut order: Groups = Vec::new();
     let mut index: HashMap<String, usize> = HashMap::new();
     for (bi, b) in t.batches.iter().enumerate() {
         for (ri, s) in strings(b, "sensor")?.into_iter().enumerate() {
@@ -551,7 +574,7 @@ struct Prepared {
     size: (u32, u32),
     sensors: Vec<String>,
     drawn: u64,
-    draw: Box<dyn FnOnce(&Area<'_>) -> R<()>>,
+    draw: DrawFn,
 }
 
 fn no_rows(t: &Table) -> R<()> {
@@ -565,7 +588,7 @@ fn frames_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     no_rows(t)?;
     let names = taxel_names(&t.schema, "values");
     let groups = limit_sensors(by_sensor(t)?, notes);
-    let cols: Vec<(Vec<i64>, (usize, Vec<f64>))> =
+    let cols: Vec<(Vec<i64>, ListCol)> =
         t.batches.iter().map(|b| Ok((i64s(b, "time_ns")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let n = cols.iter().map(|c| c.1 .0).max().unwrap_or(0);
@@ -612,10 +635,8 @@ fn frames_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
                 for i in 0..n {
                     let c = series_colour(i);
                     let label = names.as_ref().and_then(|v| v.get(i).cloned()).unwrap_or(format!("{i}"));
-                    let s = chart.draw_series(LineSeries::new(
-                        pts.iter().filter(|p| p.1[i].is_finite()).map(|p| (p.0, p.1[i])),
-                        c.stroke_width(1),
-                    ))?;
+                    let segs = segments(pts.iter().map(|p| (p.0, p.1[i])), (x0, x1), (y0, y1));
+                    let s = chart.draw_series(segs.into_iter().map(|seg| PathElement::new(seg, c.stroke_width(1))))?;
                     if n <= 24 {
                         s.label(label).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c));
                     }
@@ -726,7 +747,7 @@ fn window_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     no_rows(t)?;
     let names = taxel_names(&t.schema, "values");
     let groups = limit_sensors(by_sensor(t)?, notes);
-    let cols: Vec<(Vec<i64>, Vec<String>, (usize, Vec<f64>))> = t
+    let cols: Vec<(Vec<i64>, Vec<String>, ListCol)> = t
         .batches
         .iter()
         .map(|b| Ok((i64s(b, "end_ns")?, strings(b, "aggregate")?, fixed_lists(b, "values")?)))
@@ -845,7 +866,7 @@ fn surface_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     no_rows(t)?;
     let grid = grid_of(t)?;
     let groups = limit_sensors(by_sensor(t)?, notes);
-    let cols: Vec<(Vec<i64>, (usize, Vec<f64>))> =
+    let cols: Vec<(Vec<i64>, ListCol)> =
         t.batches.iter().map(|b| Ok((i64s(b, "end_ns")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let m = grid.len();
@@ -938,6 +959,7 @@ fn draw_surface_panel(
     }
     let (w, h) = area.dim_in_pixel();
     let (xr, yr) = equal_aspect(grid.extent(), w as f64 - 60.0, h as f64 - 70.0);
+    let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
     let mut chart = ChartBuilder::on(area)
         .caption(&p.label, ("sans-serif", 15))
         .margin(8)
@@ -981,20 +1003,21 @@ fn draw_surface_panel(
     }
     let contour = p.contour.clone().or_else(|| max_contour(grid, &p.values));
     if let Some(poly) = contour.filter(|c| c.len() > 2) {
-        let mut pts: Vec<(f64, f64)> = poly.iter().map(|q| (q[0], q[1])).collect();
-        pts.push(pts[0]);
-        chart.draw_series(std::iter::once(PathElement::new(pts, RED.stroke_width(3))))?;
+        let closed = poly.iter().chain(poly.first()).map(|q| (q[0], q[1]));
+        for seg in segments(closed, bx, by) {
+            chart.draw_series(std::iter::once(PathElement::new(seg, RED.stroke_width(3))))?;
+        }
         let a = gradtac_stages::contour::polygon_area(&poly).abs();
-        if a > 0.0 {
-            let (cx, cy) = centroid(&poly);
-            chart.draw_series(std::iter::once(Cross::new((cx, cy), 6, RED.stroke_width(2))))?;
+        let (cx, cy) = centroid(&poly);
+        if a > 0.0 && cx.is_finite() && cy.is_finite() {
+            chart.draw_series(std::iter::once(Cross::new(clamp_pt((cx, cy), bx, by), 6, RED.stroke_width(2))))?;
         }
     }
     if let Some(l) = layout {
         draw_taxels(&mut chart, l, false)?;
     }
-    if let Some(tr) = p.truth {
-        chart.draw_series(std::iter::once(TriangleMarker::new((tr[0], tr[1]), 7, BLACK.filled())))?;
+    if let Some(tr) = p.truth.filter(|t| t[0].is_finite() && t[1].is_finite()) {
+        chart.draw_series(std::iter::once(TriangleMarker::new(clamp_pt((tr[0], tr[1]), bx, by), 7, BLACK.filled())))?;
     }
     Ok(())
 }
@@ -1041,7 +1064,7 @@ fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         .collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.end.iter().copied()).min().unwrap_or(0);
     type Pt = (f64, f64, f64, f64);
-    let mut series: Vec<(String, Vec<Pt>, Vec<Vec<[f64; 2]>>)> = Vec::new();
+    let mut series: Vec<(String, Vec<Pt>, Vec<Outline>)> = Vec::new();
     let mut drawn = 0u64;
     let mut layout = None;
     for (sensor, rows) in &groups {
@@ -1082,6 +1105,7 @@ fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             let (left, right) = root.split_horizontally(600);
             let (w, h) = left.dim_in_pixel();
             let (xr, yr) = equal_aspect(layout.extent(), w as f64 - 80.0, h as f64 - 90.0);
+            let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
             let mut plane = ChartBuilder::on(&left)
                 .caption("contact centroids (contour/1)", ("sans-serif", 18))
                 .margin(12)
@@ -1093,18 +1117,19 @@ fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             for (i, (sensor, pts, outlines)) in series.iter().enumerate() {
                 let c = series_colour(i);
                 for o in outlines {
-                    let mut v: Vec<(f64, f64)> = o.iter().map(|q| (q[0], q[1])).collect();
-                    if let Some(&f) = v.first() {
-                        v.push(f);
+                    let closed = o.iter().chain(o.first()).map(|q| (q[0], q[1]));
+                    for v in segments(closed, bx, by) {
+                        plane.draw_series(std::iter::once(PathElement::new(v, c.mix(0.5).stroke_width(1))))?;
                     }
-                    plane.draw_series(std::iter::once(PathElement::new(v, c.mix(0.5).stroke_width(1))))?;
                 }
-                for seg in segments(pts.iter().map(|p| (p.1, p.2))) {
+                for seg in segments(pts.iter().map(|p| (p.1, p.2)), bx, by) {
                     plane.draw_series(std::iter::once(PathElement::new(seg, c.stroke_width(2))))?;
                 }
                 plane
                     .draw_series(
-                        pts.iter().filter(|p| p.1.is_finite()).map(|p| Circle::new((p.1, p.2), 2, c.filled())),
+                        pts.iter()
+                            .filter(|p| p.1.is_finite() && p.2.is_finite())
+                            .map(|p| Circle::new(clamp_pt((p.1, p.2), bx, by), 2, c.filled())),
                     )?
                     .label(sensor.clone())
                     .legend(move |(x, y)| Circle::new((x + 7, y), 4, c.filled()));
@@ -1132,7 +1157,7 @@ fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
                 .draw()?;
             for (i, (sensor, pts, _)) in series.iter().enumerate() {
                 let c = series_colour(i);
-                for seg in segments(pts.iter().map(|p| (p.0, p.3))) {
+                for seg in segments(pts.iter().map(|p| (p.0, p.3)), (x0, x1), (a0, a1)) {
                     chart.draw_series(std::iter::once(PathElement::new(seg, c.stroke_width(2))))?;
                 }
                 chart
@@ -1152,12 +1177,12 @@ fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     })
 }
 
-/// Runs of finite points (a NaN breaks the line).
-fn segments(pts: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
+/// Runs of finite points (a NaN or ±∞ breaks the line), clamped into the chart's box `xr × yr`.
+fn segments(pts: impl Iterator<Item = (f64, f64)>, xr: (f64, f64), yr: (f64, f64)) -> Vec<Vec<(f64, f64)>> {
     let mut out = vec![Vec::new()];
     for p in pts {
         if p.0.is_finite() && p.1.is_finite() {
-            out.last_mut().expect("non-empty").push(p);
+            out.last_mut().expect("non-empty").push(clamp_pt(p, xr, yr));
         } else if !out.last().expect("non-empty").is_empty() {
             out.push(Vec::new());
         }
@@ -1169,11 +1194,8 @@ fn segments(pts: impl Iterator<Item = (f64, f64)>) -> Vec<Vec<(f64, f64)>> {
 fn track_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     no_rows(t)?;
     let groups = limit_sensors(by_sensor(t)?, notes);
-    let cols: Vec<(Vec<i64>, Vec<f64>, Vec<f64>, Vec<u64>)> = t
-        .batches
-        .iter()
-        .map(|b| Ok((i64s(b, "time_ns")?, f64s(b, "x_mm")?, f64s(b, "y_mm")?, u64s(b, "seq")?)))
-        .collect::<R<_>>()?;
+    let cols: Vec<(Vec<i64>, Vec<f64>, Vec<f64>)> =
+        t.batches.iter().map(|b| Ok((i64s(b, "time_ns")?, f64s(b, "x_mm")?, f64s(b, "y_mm")?))).collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let mut panels = Vec::new();
     let mut drawn = 0u64;
@@ -1220,6 +1242,7 @@ fn draw_trajectory(
 ) -> R<()> {
     let (w, h) = area.dim_in_pixel();
     let (xr, yr) = equal_aspect(layout.extent(), w as f64 - 80.0, h as f64 - 90.0);
+    let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 18))
         .margin(12)
@@ -1229,7 +1252,7 @@ fn draw_trajectory(
     chart.configure_mesh().x_desc("x (mm)").y_desc("y (mm)").label_style(("sans-serif", 12)).draw()?;
     draw_taxels(&mut chart, layout, true)?;
     let mut labelled = false;
-    for seg in segments(truth.iter().map(|p| (p.1, p.2))) {
+    for seg in segments(truth.iter().map(|p| (p.1, p.2)), bx, by) {
         let s = chart.draw_series(DashedLineSeries::new(seg, 6, 4, BLACK.stroke_width(2)))?;
         if !labelled {
             s.label("truth").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], BLACK.stroke_width(2)));
@@ -1237,7 +1260,7 @@ fn draw_trajectory(
         }
     }
     let grey = RGBColor(150, 150, 150);
-    for seg in segments(track.iter().map(|p| (p.1, p.2))) {
+    for seg in segments(track.iter().map(|p| (p.1, p.2)), bx, by) {
         chart.draw_series(std::iter::once(PathElement::new(seg, grey.stroke_width(1))))?;
     }
     let span = (t1 - t0).max(1e-12);
@@ -1245,7 +1268,7 @@ fn draw_trajectory(
         track
             .iter()
             .filter(|p| p.1.is_finite() && p.2.is_finite())
-            .map(|p| Circle::new((p.1, p.2), 3, viridis((p.0 - t0) / span).filled())),
+            .map(|p| Circle::new(clamp_pt((p.1, p.2), bx, by), 3, viridis((p.0 - t0) / span).filled())),
     )?;
     if !truth.is_empty() {
         s.label("track (colour: time)").legend(|(x, y)| Circle::new((x + 7, y), 4, viridis(0.5).filled()));
@@ -1362,7 +1385,7 @@ pub fn plot_slip_timeline(
         for (i, tr) in tracks.iter().enumerate() {
             let c = series_colour(i);
             let mut first = true;
-            for seg in segments(tr.points.iter().map(|p| (p.0, p.2))) {
+            for seg in segments(tr.points.iter().map(|p| (p.0, p.2)), (t0, t1), (y0, y1)) {
                 let s = chart.draw_series(std::iter::once(PathElement::new(seg, c.stroke_width(2))))?;
                 if first {
                     s.label(format!("{} y", tr.sensor))
@@ -1371,7 +1394,7 @@ pub fn plot_slip_timeline(
                 }
             }
             let mut first = true;
-            for seg in segments(tr.points.iter().map(|p| (p.0, p.1))) {
+            for seg in segments(tr.points.iter().map(|p| (p.0, p.1)), (t0, t1), (y0, y1)) {
                 let s = chart.draw_series(DashedLineSeries::new(seg, 5, 4, c.mix(0.6).stroke_width(1)))?;
                 if first {
                     s.label(format!("{} x", tr.sensor))
