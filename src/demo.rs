@@ -136,11 +136,11 @@ impl std::fmt::Display for DemoReport {
     }
 }
 
-/// The sensor width the demo and the trade-off table use: the across-finger span (y) of the
-/// layout's taxels (23.3 mm for the BioTac SP).
+/// The sensor width the demo and the trade-off table (`docs/tradeoff.md`) use: the layout's
+/// extent along x, i.e. the taxels' bounding box plus the layout's 2 mm margin on each side
+/// (26.6 mm for the BioTac SP; the taxels alone span 22.6 mm).
 pub fn sensor_width_mm(layout: &Layout) -> f64 {
-    let ys = layout.positions().iter().map(|p| p[1]);
-    ys.clone().fold(f64::NEG_INFINITY, f64::max) - ys.fold(f64::INFINITY, f64::min)
+    layout.extent().width()
 }
 
 /// Simulate the demo's grasp (deterministic for `seed`).

@@ -563,3 +563,25 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
         assert_eq!(got, want[0].decision.class.as_str(), "{class}");
     }
 }
+
+#[test]
+fn an_events_only_scene_builds_no_interpolation() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rec.csv");
+    synthetic_csv(&csv, 10);
+    let sc = dir.path().join("scene.toml");
+    fs::write(
+        &sc,
+        format!(
+            "[[sensor]]\nname = \"ff\"\nsource = {{ csv = \"{}\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\
+             [[output]]\ntap = \"events\"\npath = \"out/events.parquet\"\n",
+            csv.display()
+        ),
+    )
+    .unwrap();
+    let plan = gradtac::Plan::new(&gradtac::Scene::load(&sc).unwrap()).unwrap();
+    let built: Vec<&str> = plan.sensors[0].stages().map(|t| t.name()).collect();
+    assert_eq!(built, ["source", "normalise", "savgol", "events"]);
+    let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
+    assert!(text.contains("not built: window, surface, contour, track, force, servo, slip, dos"), "{text}");
+}

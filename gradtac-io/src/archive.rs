@@ -99,7 +99,10 @@
 //! assert!(dir.path().join("sensor=ff/part-000001.parquet").exists());
 //! ```
 
-use crate::parquet_sink::{ParquetSink, DEFAULT_ROW_GROUP_SIZE, DEFAULT_ZSTD_LEVEL, PARTIAL_SUFFIX};
+use crate::parquet_sink::{
+    check_row_group_size, check_zstd_level, set_pair, ParquetSink, DEFAULT_ROW_GROUP_SIZE, DEFAULT_ZSTD_LEVEL,
+    PARTIAL_SUFFIX,
+};
 use crate::records::ArrowRecord;
 use crate::{Error, Result};
 use arrow_schema::SchemaRef;
@@ -356,9 +359,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
     /// Rows per row group of every file (≥ 1; default 65 536). Before the first record.
     pub fn with_row_group_size(mut self, rows: usize) -> Result<Self> {
         self.check_not_started("row_group_size")?;
-        if rows == 0 {
-            return Err(Error::InvalidConfig("row_group_size must be at least 1".into()));
-        }
+        check_row_group_size(rows)?;
         self.row_group_size = rows;
         Ok(self)
     }
@@ -367,8 +368,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
     /// record.
     pub fn with_zstd_level(mut self, level: i32) -> Result<Self> {
         self.check_not_started("zstd level")?;
-        parquet::basic::ZstdLevel::try_new(level)
-            .map_err(|e| Error::InvalidConfig(format!("zstd level {level}: {e}")))?;
+        check_zstd_level(level)?;
         self.zstd_level = level;
         Ok(self)
     }
@@ -383,11 +383,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
 
     /// [`with_metadata`](Self::with_metadata) through `&mut`.
     pub fn set_metadata(&mut self, key: impl Into<String>, value: impl Into<String>) {
-        let (key, value) = (key.into(), value.into());
-        match self.metadata.iter_mut().find(|(k, _)| *k == key) {
-            Some(kv) => kv.1 = value,
-            None => self.metadata.push((key, value)),
-        }
+        set_pair(&mut self.metadata, key.into(), value.into());
     }
 
     /// The archive's directory.

@@ -7,6 +7,7 @@
 
 pub mod archive;
 pub mod arrow_ipc;
+pub mod batches;
 pub mod blocking;
 pub mod can;
 pub mod csv_source;

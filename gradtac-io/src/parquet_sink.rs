@@ -161,9 +161,7 @@ impl<T: ArrowRecord> ParquetSink<T> {
     /// reaches the writer (the first `min(rows, 8192)` pushes); set it right after
     /// [`try_new`](Self::try_new).
     pub fn with_row_group_size(mut self, rows: usize) -> Result<Self> {
-        if rows == 0 {
-            return Err(Error::InvalidConfig("row_group_size must be at least 1".into()));
-        }
+        check_row_group_size(rows)?;
         if self.writer.is_some() {
             return Err(Error::InvalidConfig("row_group_size must be set before writing starts".into()));
         }
@@ -175,7 +173,7 @@ impl<T: ArrowRecord> ParquetSink<T> {
     /// [`DEFAULT_ZSTD_LEVEL`]; 0 means zstd's own default).
     /// Set it before writing starts, like [`with_row_group_size`](Self::with_row_group_size).
     pub fn with_zstd_level(mut self, level: i32) -> Result<Self> {
-        ZstdLevel::try_new(level).map_err(|e| Error::InvalidConfig(format!("zstd level {level}: {e}")))?;
+        check_zstd_level(level)?;
         if self.writer.is_some() {
             return Err(Error::InvalidConfig("zstd level must be set before writing starts".into()));
         }
@@ -193,11 +191,7 @@ impl<T: ArrowRecord> ParquetSink<T> {
 
     /// [`with_metadata`](Self::with_metadata) through `&mut`.
     pub fn set_metadata(&mut self, key: impl Into<String>, value: impl Into<String>) {
-        let (key, value) = (key.into(), value.into());
-        match self.metadata.iter_mut().find(|(k, _)| *k == key) {
-            Some(kv) => kv.1 = value,
-            None => self.metadata.push((key, value)),
-        }
+        set_pair(&mut self.metadata, key.into(), value.into());
     }
 
     /// The final path ([`finish`](Self::finish) renames to it).
@@ -310,6 +304,31 @@ impl<T: ArrowRecord> ParquetSink<T> {
         });
         self.failed = true; // closed: nothing more may be written
         result
+    }
+}
+
+/// Checks a row-group size (at least 1 row); shared with
+/// [`ParquetArchive`](crate::archive::ParquetArchive).
+pub(crate) fn check_row_group_size(rows: usize) -> Result<()> {
+    if rows == 0 {
+        return Err(Error::InvalidConfig("row_group_size must be at least 1".into()));
+    }
+    Ok(())
+}
+
+/// Checks a zstd level (any level zstd accepts); shared with
+/// [`ParquetArchive`](crate::archive::ParquetArchive).
+pub(crate) fn check_zstd_level(level: i32) -> Result<()> {
+    ZstdLevel::try_new(level).map_err(|e| Error::InvalidConfig(format!("zstd level {level}: {e}")))?;
+    Ok(())
+}
+
+/// Sets `key` to `value` in key-value `metadata`, in place when the key is there already (a key
+/// given twice keeps the last value), appended otherwise.
+pub(crate) fn set_pair(metadata: &mut Vec<(String, String)>, key: String, value: String) {
+    match metadata.iter_mut().find(|(k, _)| *k == key) {
+        Some(kv) => kv.1 = value,
+        None => metadata.push((key, value)),
     }
 }
 

@@ -11,7 +11,9 @@ use proptest::prelude::*;
 use std::collections::HashMap;
 use std::fs::File;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+mod common;
+use common::{pyarrow_available, python_float_hex, run_python};
 
 /// Frames whose values exercise every corner of f64: subnormals, −0.0, extremes, NaN with a
 /// payload, and values that are not short decimals.
@@ -229,10 +231,7 @@ fn another_taxel_count_is_an_error_not_a_panic() {
 /// CSV in, Parquet out, pyarrow reads it back (when pyarrow is installed): every value equal.
 #[test]
 fn pyarrow_reads_what_we_write() {
-    let ok =
-        Command::new("python3").args(["-c", "import pyarrow"]).output().map(|o| o.status.success()).unwrap_or(false);
-    if !ok {
-        eprintln!("skipped: python3 with pyarrow is not available");
+    if !pyarrow_available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -269,9 +268,7 @@ out = {
 }
 print(json.dumps(out))
 "#;
-    let out = Command::new("python3").arg("-c").arg(script).arg(&target).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = run_python(script, [&target]);
     assert_eq!(v["kv"]["gradtac.schema"], "frame/1");
     assert_eq!(v["kv"]["gradtac.scene"], "test");
     assert_eq!(v["row_groups"], serde_json::json!([128, 128, 44]));
@@ -294,29 +291,6 @@ print(json.dumps(out))
             }
         }
     }
-}
-
-/// Python's `float.hex` of a finite `x`: always 13 hex digits (`0x1.8000000000000p+1`), zero
-/// as `-0x0.0p+0`, subnormals as `0x0.…p-1022`.
-fn python_float_hex(x: f64) -> String {
-    let sign = if x.is_sign_negative() { "-" } else { "" };
-    let bits = x.to_bits();
-    let exp = ((bits >> 52) & 0x7ff) as i64;
-    let mant = bits & ((1u64 << 52) - 1);
-    if exp == 0 && mant == 0 {
-        return format!("{sign}0x0.0p+0");
-    }
-    let (lead, e) = if exp == 0 { (0, -1022) } else { (1, exp - 1023) };
-    format!("{sign}0x{lead}.{mant:013x}p{}{}", if e >= 0 { "+" } else { "-" }, e.abs())
-}
-
-#[test]
-fn python_float_hex_matches_known_values() {
-    assert_eq!(python_float_hex(3.0), "0x1.8000000000000p+1");
-    assert_eq!(python_float_hex(1.0), "0x1.0000000000000p+0");
-    assert_eq!(python_float_hex(-0.0), "-0x0.0p+0");
-    assert_eq!(python_float_hex(0.1), "0x1.999999999999ap-4");
-    assert_eq!(python_float_hex(5e-324), "0x0.0000000000001p-1022");
 }
 
 /// A whole BioTacSP-DoS recording through CSV source and Parquet sink, when present.

@@ -4,11 +4,11 @@
 //! (when installed) pyarrow reading one file of each kind.
 
 use arrow_array::cast::AsArray;
-use arrow_array::types::{Float64Type, Int64Type, Int8Type, UInt16Type, UInt64Type};
+use arrow_array::types::{Float64Type, Int8Type, UInt16Type};
 use arrow_array::{Array, RecordBatch};
-use gradtac_io::records::frame::{TAXELS_KEY, UNIT_KEY};
+use gradtac_io::records::frame::TAXELS_KEY;
 use gradtac_io::records::surface::GRID_KEY;
-use gradtac_io::records::{ArrowRecord, EventShape, SurfaceShape, WindowShape, SCHEMA_KEY};
+use gradtac_io::records::{EventShape, SurfaceShape, WindowShape};
 use gradtac_io::{Error, ParquetSink};
 use gradtac_stages::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
 use gradtac_stages::interpolate::{Grid, Surface};
@@ -17,100 +17,17 @@ use gradtac_stages::window::{Aggregate, Split, WindowAggregate};
 use gradtac_stages::{EventBatch, TactileEvent};
 use gradtac_stream::{Extent, Layout, SensorId, Timestamp};
 use ndarray::{Array2, ShapeBuilder};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use proptest::prelude::*;
-use std::collections::HashMap;
-use std::fs::File;
-use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::Arc;
 
+mod common;
+use common::*;
+
 // ---------------------------------------------------------------------------------------------
-// writing and reading
-
-const SPECIALS: [f64; 9] =
-    [f64::MIN_POSITIVE / 3.0, -0.0, f64::MAX, f64::MIN, f64::INFINITY, f64::NEG_INFINITY, 0.1 + 0.2, -1e-300, f64::NAN];
-
-/// A NaN with a payload, to check NaNs are stored bit-exactly.
-fn odd_nan() -> f64 {
-    f64::from_bits(0x7ff8_0000_dead_beef)
-}
-
-fn special(k: usize) -> f64 {
-    if k % 10 == 9 {
-        odd_nan()
-    } else {
-        SPECIALS[k % SPECIALS.len()]
-    }
-}
-
-fn write<T: ArrowRecord>(path: &Path, shape: T::Shape, records: &[T], row_group: usize) -> PathBuf {
-    let mut sink = ParquetSink::<T>::try_new(path, shape).unwrap().with_row_group_size(row_group).unwrap();
-    for r in records {
-        sink.push(r).unwrap();
-    }
-    sink.finish().unwrap()
-}
-
-struct ReadBack {
-    batches: Vec<RecordBatch>,
-    kv: HashMap<String, String>,
-    /// The reader's schema (restored from `ARROW:schema`, with schema and field metadata).
-    schema: arrow_schema::SchemaRef,
-}
-
-impl ReadBack {
-    fn schema(&self) -> arrow_schema::SchemaRef {
-        self.schema.clone()
-    }
-}
-
-fn read(path: &Path) -> ReadBack {
-    let builder = ParquetRecordBatchReaderBuilder::try_new(File::open(path).unwrap()).unwrap();
-    let kv = builder
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .map(|kv| kv.iter().map(|kv| (kv.key.clone(), kv.value.clone().unwrap_or_default())).collect())
-        .unwrap_or_default();
-    let schema = builder.schema().clone();
-    let mut batches = builder.build().unwrap().collect::<Result<Vec<_>, _>>().unwrap();
-    if batches.is_empty() {
-        batches.push(RecordBatch::new_empty(schema.clone()));
-    }
-    ReadBack { batches, kv, schema }
-}
-
-fn col<'a>(b: &'a RecordBatch, name: &str) -> &'a Arc<dyn Array> {
-    b.column_by_name(name).unwrap_or_else(|| panic!("no column {name}"))
-}
-
-fn strs(b: &RecordBatch, name: &str) -> Vec<Option<String>> {
-    col(b, name).as_string::<i32>().iter().map(|s| s.map(str::to_string)).collect()
-}
-
-fn i64s(b: &RecordBatch, name: &str) -> Vec<i64> {
-    let a = col(b, name).as_primitive::<Int64Type>();
-    assert_eq!(a.null_count(), 0, "{name}");
-    a.values().to_vec()
-}
-
-fn u64s(b: &RecordBatch, name: &str) -> Vec<Option<u64>> {
-    col(b, name).as_primitive::<UInt64Type>().iter().collect()
-}
-
-fn f64s(b: &RecordBatch, name: &str) -> Vec<Option<f64>> {
-    col(b, name).as_primitive::<Float64Type>().iter().collect()
-}
+// reading (the shared helpers are in `common`)
 
 fn bools(b: &RecordBatch, name: &str) -> Vec<Option<bool>> {
     col(b, name).as_boolean().iter().collect()
-}
-
-/// A `FixedSizeList<Float64>` column as one `Option<Vec<f64>>` per row.
-fn f64_lists(b: &RecordBatch, name: &str) -> Vec<Option<Vec<f64>>> {
-    let a = col(b, name).as_fixed_size_list();
-    (0..a.len()).map(|r| a.is_valid(r).then(|| a.value(r).as_primitive::<Float64Type>().values().to_vec())).collect()
 }
 
 /// A `List<FixedSizeList<Float64>[2]>` value as points.
@@ -123,21 +40,8 @@ fn ring(a: &dyn Array) -> Vec<[f64; 2]> {
     (0..points.len()).map(|i| [flat.value(off + 2 * i), flat.value(off + 2 * i + 1)]).collect()
 }
 
-fn bits(v: &[f64]) -> Vec<u64> {
-    v.iter().map(|x| x.to_bits()).collect()
-}
-
 fn pbits(v: &[[f64; 2]]) -> Vec<[u64; 2]> {
     v.iter().map(|p| [p[0].to_bits(), p[1].to_bits()]).collect()
-}
-
-fn schema_id(r: &ReadBack) -> String {
-    assert_eq!(r.schema().metadata().get(SCHEMA_KEY), r.kv.get(SCHEMA_KEY), "schema id in Arrow and Parquet metadata");
-    r.kv[SCHEMA_KEY].clone()
-}
-
-fn unit(r: &ReadBack, name: &str) -> Option<String> {
-    r.schema().field_with_name(name).unwrap().metadata().get(UNIT_KEY).cloned()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -163,7 +67,7 @@ fn event_rows(r: &ReadBack) -> Vec<EventRow> {
     for b in &r.batches {
         let sensor = strs(b, "sensor");
         let (t, ft) = (i64s(b, "time_ns"), i64s(b, "frame_time_ns"));
-        let seq = u64s(b, "seq");
+        let seq = opt_u64s(b, "seq");
         let taxel = col(b, "taxel").as_primitive::<UInt16Type>().values().to_vec();
         let pol = col(b, "polarity").as_primitive::<Int8Type>().values().to_vec();
         for i in 0..b.num_rows() {
@@ -298,9 +202,10 @@ fn windows_of(r: &ReadBack) -> Vec<WindowAggregate> {
     for b in &r.batches {
         let sensor = strs(b, "sensor");
         let (start, end) = (i64s(b, "start_ns"), i64s(b, "end_ns"));
-        let (seq, frames) = (u64s(b, "seq"), u64s(b, "frames"));
+        let (seq, frames) = (opt_u64s(b, "seq"), opt_u64s(b, "frames"));
         let aggregate = strs(b, "aggregate");
-        let (values, pos, neg) = (f64_lists(b, "values"), f64_lists(b, "positive"), f64_lists(b, "negative"));
+        let (values, pos, neg) =
+            (opt_f64_lists(b, "values"), opt_f64_lists(b, "positive"), opt_f64_lists(b, "negative"));
         for i in 0..b.num_rows() {
             assert_eq!(pos[i].is_some(), neg[i].is_some(), "positive and negative are null together");
             out.push(WindowAggregate {
@@ -437,8 +342,8 @@ fn surfaces_of(r: &ReadBack, g: &Arc<Grid>) -> Vec<Surface> {
     for b in &r.batches {
         let sensor = strs(b, "sensor");
         let (start, end) = (i64s(b, "start_ns"), i64s(b, "end_ns"));
-        let seq = u64s(b, "seq");
-        let values = f64_lists(b, "values");
+        let seq = opt_u64s(b, "seq");
+        let values = opt_f64_lists(b, "values");
         for i in 0..b.num_rows() {
             out.push(Surface {
                 sensor: SensorId::new(sensor[i].as_deref().unwrap()),
@@ -474,7 +379,7 @@ fn surfaces_round_trip_row_major_with_the_grid_in_metadata() {
     assert_eq!(schema_id(&r), "surface/1");
     assert_eq!(surface_keys(&surfaces_of(&r, &g)), surface_keys(&input));
     // element row·nx + col is values[[row, col]]
-    let flat = f64_lists(&r.batches[0], "values")[1].clone().unwrap();
+    let flat = opt_f64_lists(&r.batches[0], "values")[1].clone().unwrap();
     assert_eq!(flat[2 * 7 + 3].to_bits(), input[1].values[[2, 3]].to_bits());
     // the grid, from the metadata alone
     let md: serde_json::Value = serde_json::from_str(&r.schema().metadata()[GRID_KEY]).unwrap();
@@ -531,7 +436,7 @@ fn contours_of(r: &ReadBack) -> Vec<ContourFrame> {
     for b in &r.batches {
         let sensor = strs(b, "sensor");
         let (start, end) = (i64s(b, "start_ns"), i64s(b, "end_ns"));
-        let seq = u64s(b, "seq");
+        let seq = opt_u64s(b, "seq");
         let contact = bools(b, "contact");
         let no_contact = strs(b, "no_contact");
         let names = [
@@ -676,9 +581,9 @@ fn tracks_of(r: &ReadBack) -> Vec<TrackPoint> {
     for b in &r.batches {
         let sensor = strs(b, "sensor");
         let (time, start) = (i64s(b, "time_ns"), i64s(b, "start_ns"));
-        let seq = u64s(b, "seq");
+        let seq = opt_u64s(b, "seq");
         let (state, no_contact) = (strs(b, "state"), strs(b, "no_contact"));
-        let track = u64s(b, "track");
+        let track = opt_u64s(b, "track");
         let [x, y, area, orientation, peak, vx, vy] =
             ["x_mm", "y_mm", "area_mm2", "orientation_rad", "peak", "vx_mm_s", "vy_mm_s"].map(|n| f64s(b, n));
         let gated = bools(b, "gated");
@@ -929,54 +834,11 @@ proptest! {
 // ---------------------------------------------------------------------------------------------
 // pyarrow
 
-/// Python's `float.hex` of `x`.
-fn python_float_hex(x: f64) -> String {
-    if x.is_nan() {
-        return "nan".into();
-    }
-    if x.is_infinite() {
-        return if x > 0.0 { "inf" } else { "-inf" }.into();
-    }
-    let sign = if x.is_sign_negative() { "-" } else { "" };
-    let bits = x.to_bits();
-    let exp = ((bits >> 52) & 0x7ff) as i64;
-    let mant = bits & ((1u64 << 52) - 1);
-    if exp == 0 && mant == 0 {
-        return format!("{sign}0x0.0p+0");
-    }
-    let (lead, e) = if exp == 0 { (0, -1022) } else { (1, exp - 1023) };
-    format!("{sign}0x{lead}.{mant:013x}p{}{}", if e >= 0 { "+" } else { "-" }, e.abs())
-}
-
-#[test]
-fn python_float_hex_matches_known_values() {
-    assert_eq!(python_float_hex(3.0), "0x1.8000000000000p+1");
-    assert_eq!(python_float_hex(-0.0), "-0x0.0p+0");
-    assert_eq!(python_float_hex(0.1), "0x1.999999999999ap-4");
-    assert_eq!(python_float_hex(5e-324), "0x0.0000000000001p-1022");
-    assert_eq!(python_float_hex(f64::NEG_INFINITY), "-inf");
-}
-
-fn h(x: f64) -> serde_json::Value {
-    serde_json::Value::String(python_float_hex(x))
-}
-
-fn hs(v: &[f64]) -> serde_json::Value {
-    v.iter().copied().map(h).collect()
-}
-
-fn hp(v: &[[f64; 2]]) -> serde_json::Value {
-    v.iter().map(|p| hs(p)).collect()
-}
-
 /// pyarrow reads a file of each schema; every row, as Python sees it, equals what was written.
 #[test]
 fn pyarrow_reads_every_schema() {
     use serde_json::{json, Value};
-    let ok =
-        Command::new("python3").args(["-c", "import pyarrow"]).output().map(|o| o.status.success()).unwrap_or(false);
-    if !ok {
-        eprintln!("skipped: python3 with pyarrow is not available");
+    if !pyarrow_available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -993,34 +855,8 @@ fn pyarrow_reads_every_schema() {
         write(&dir.path().join("contour.parquet"), (), &contours, 16),
         write(&dir.path().join("track.parquet"), (), &tracks, 16),
     ];
-    let script = r#"
-import json, sys
-import pyarrow.parquet as pq
-
-def conv(v):
-    if isinstance(v, float):
-        return float.hex(v)
-    if isinstance(v, list):
-        return [conv(x) for x in v]
-    if isinstance(v, dict):
-        return {k: conv(x) for k, x in v.items()}
-    return v
-
-out = []
-for path in sys.argv[1:]:
-    t = pq.read_table(path)
-    md = pq.read_metadata(path).metadata
-    out.append({
-        "schema": md[b"gradtac.schema"].decode(),
-        "arrow_md": {k.decode(): v.decode() for k, v in (t.schema.metadata or {}).items() if k != b"ARROW:schema"},
-        "types": {f.name: str(f.type) for f in t.schema},
-        "rows": conv(t.to_pylist()),
-    })
-print(json.dumps(out))
-"#;
-    let out = Command::new("python3").arg("-c").arg(script).args(&paths).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let script = format!("{PY_DESCRIBE}\nprint(json.dumps([describe(p) for p in sys.argv[1:]]))\n");
+    let v = run_python(&script, &paths);
 
     // event/1
     let e = &v[0];

@@ -5,15 +5,11 @@
 //! through sensor-partitioned rolled archives; and (when installed) pyarrow reading one file
 //! of each kind, plus two slip files of different pairs read as one dataset.
 
-use arrow_array::cast::AsArray;
-use arrow_array::types::{Float64Type, Int64Type, UInt64Type};
-use arrow_array::{Array, RecordBatch};
 use gradtac_io::archive::{ParquetArchive, Partitioning};
 use gradtac_io::records::dos::DOS_CLASSES_KEY;
-use gradtac_io::records::frame::UNIT_KEY;
 use gradtac_io::records::servo::servo_action_name;
 use gradtac_io::records::slip::{SLIP_FIRST_KEY, SLIP_SECOND_KEY};
-use gradtac_io::records::{ArrowRecord, DosShape, SlipShape, SCHEMA_KEY};
+use gradtac_io::records::{ArrowRecord, DosShape, SlipShape};
 use gradtac_io::{Error, ParquetSink};
 use gradtac_stages::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
 use gradtac_stages::dos::{
@@ -24,113 +20,10 @@ use gradtac_stages::servo::{Motion, Servo, ServoAction, ServoCommand, ServoConfi
 use gradtac_stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent};
 use gradtac_stages::track::{ContactState, TrackPoint};
 use gradtac_stream::{HasSensor, Layout, SensorId, Stage, TaxelFrame, Timed, Timestamp};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use proptest::prelude::*;
-use std::collections::HashMap;
-use std::fs::File;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::sync::Arc;
 
-// ---------------------------------------------------------------------------------------------
-// writing and reading
-
-const SPECIALS: [f64; 9] =
-    [f64::MIN_POSITIVE / 3.0, -0.0, f64::MAX, f64::MIN, f64::INFINITY, f64::NEG_INFINITY, 0.1 + 0.2, -1e-300, f64::NAN];
-
-/// A NaN with a payload, to check NaNs are stored bit-exactly.
-fn odd_nan() -> f64 {
-    f64::from_bits(0x7ff8_0000_dead_beef)
-}
-
-fn special(k: usize) -> f64 {
-    if k % 10 == 9 {
-        odd_nan()
-    } else {
-        SPECIALS[k % SPECIALS.len()]
-    }
-}
-
-fn write<T: ArrowRecord>(path: &Path, shape: T::Shape, records: &[T], row_group: usize) -> PathBuf {
-    let mut sink = ParquetSink::<T>::try_new(path, shape).unwrap().with_row_group_size(row_group).unwrap();
-    for r in records {
-        sink.push(r).unwrap();
-    }
-    sink.finish().unwrap()
-}
-
-struct ReadBack {
-    batches: Vec<RecordBatch>,
-    kv: HashMap<String, String>,
-    /// The reader's schema (restored from `ARROW:schema`, with schema and field metadata).
-    schema: arrow_schema::SchemaRef,
-}
-
-fn read(path: &Path) -> ReadBack {
-    let builder = ParquetRecordBatchReaderBuilder::try_new(File::open(path).unwrap()).unwrap();
-    let kv = builder
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .map(|kv| kv.iter().map(|kv| (kv.key.clone(), kv.value.clone().unwrap_or_default())).collect())
-        .unwrap_or_default();
-    let schema = builder.schema().clone();
-    let batches = builder.build().unwrap().collect::<Result<Vec<_>, _>>().unwrap();
-    ReadBack { batches, kv, schema }
-}
-
-fn col<'a>(b: &'a RecordBatch, name: &str) -> &'a Arc<dyn Array> {
-    b.column_by_name(name).unwrap_or_else(|| panic!("no column {name}"))
-}
-
-fn strs(b: &RecordBatch, name: &str) -> Vec<Option<String>> {
-    col(b, name).as_string::<i32>().iter().map(|s| s.map(str::to_string)).collect()
-}
-
-fn i64s(b: &RecordBatch, name: &str) -> Vec<i64> {
-    let a = col(b, name).as_primitive::<Int64Type>();
-    assert_eq!(a.null_count(), 0, "{name}");
-    a.values().to_vec()
-}
-
-fn u64s(b: &RecordBatch, name: &str) -> Vec<u64> {
-    let a = col(b, name).as_primitive::<UInt64Type>();
-    assert_eq!(a.null_count(), 0, "{name}");
-    a.values().to_vec()
-}
-
-fn f64s(b: &RecordBatch, name: &str) -> Vec<Option<f64>> {
-    col(b, name).as_primitive::<Float64Type>().iter().collect()
-}
-
-/// A not-null `FixedSizeList<Float64>` column as one `Vec<f64>` per row.
-fn f64_lists(b: &RecordBatch, name: &str) -> Vec<Vec<f64>> {
-    let a = col(b, name).as_fixed_size_list();
-    assert_eq!(a.null_count(), 0, "{name}");
-    (0..a.len()).map(|r| a.value(r).as_primitive::<Float64Type>().values().to_vec()).collect()
-}
-
-fn bits(v: &[f64]) -> Vec<u64> {
-    v.iter().map(|x| x.to_bits()).collect()
-}
-
-fn schema_id(r: &ReadBack) -> String {
-    assert_eq!(r.schema.metadata().get(SCHEMA_KEY), r.kv.get(SCHEMA_KEY), "schema id in Arrow and Parquet metadata");
-    assert_eq!(r.kv["gradtac.version"], env!("CARGO_PKG_VERSION"));
-    r.kv[SCHEMA_KEY].clone()
-}
-
-fn unit(r: &ReadBack, name: &str) -> Option<String> {
-    r.schema.field_with_name(name).unwrap().metadata().get(UNIT_KEY).cloned()
-}
-
-fn nullable(r: &ReadBack, name: &str) -> bool {
-    r.schema.field_with_name(name).unwrap().is_nullable()
-}
-
-fn rows(r: &ReadBack) -> usize {
-    r.batches.iter().map(RecordBatch::num_rows).sum()
-}
+mod common;
+use common::*;
 
 // ---------------------------------------------------------------------------------------------
 // slip/1
@@ -852,51 +745,12 @@ proptest! {
 // ---------------------------------------------------------------------------------------------
 // pyarrow
 
-/// Python's `float.hex` of `x`.
-fn python_float_hex(x: f64) -> String {
-    if x.is_nan() {
-        return "nan".into();
-    }
-    if x.is_infinite() {
-        return if x > 0.0 { "inf" } else { "-inf" }.into();
-    }
-    let sign = if x.is_sign_negative() { "-" } else { "" };
-    let bits = x.to_bits();
-    let exp = ((bits >> 52) & 0x7ff) as i64;
-    let mant = bits & ((1u64 << 52) - 1);
-    if exp == 0 && mant == 0 {
-        return format!("{sign}0x0.0p+0");
-    }
-    let (lead, e) = if exp == 0 { (0, -1022) } else { (1, exp - 1023) };
-    format!("{sign}0x{lead}.{mant:013x}p{}{}", if e >= 0 { "+" } else { "-" }, e.abs())
-}
-
-#[test]
-fn python_float_hex_matches_known_values() {
-    assert_eq!(python_float_hex(3.0), "0x1.8000000000000p+1");
-    assert_eq!(python_float_hex(-0.0), "-0x0.0p+0");
-    assert_eq!(python_float_hex(0.1), "0x1.999999999999ap-4");
-    assert_eq!(python_float_hex(5e-324), "0x0.0000000000001p-1022");
-    assert_eq!(python_float_hex(f64::NEG_INFINITY), "-inf");
-}
-
-fn h(x: f64) -> serde_json::Value {
-    serde_json::Value::String(python_float_hex(x))
-}
-
-fn hs(v: &[f64]) -> serde_json::Value {
-    v.iter().copied().map(h).collect()
-}
-
 /// pyarrow reads a file of each schema (every row, as Python sees it, equals what was
 /// written), and two slip files of different pairs as one dataset.
 #[test]
 fn pyarrow_reads_every_task_schema() {
     use serde_json::{json, Value};
-    let ok =
-        Command::new("python3").args(["-c", "import pyarrow"]).output().map(|o| o.status.success()).unwrap_or(false);
-    if !ok {
-        eprintln!("skipped: python3 with pyarrow is not available");
+    if !pyarrow_available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -915,36 +769,16 @@ fn pyarrow_reads_every_task_schema() {
     std::fs::create_dir(&pairs).unwrap();
     write(&pairs.join("ff-th.parquet"), SlipShape::new("ff", "th"), &slips[..3], 16);
     write(&pairs.join("mf-th.parquet"), SlipShape::new("mf", "th"), &slips[3..5], 16);
-    let script = r#"
-import json, sys
+    let script = format!(
+        "{PY_DESCRIBE}{}",
+        r#"
 import pyarrow.dataset as ds
-import pyarrow.parquet as pq
-
-def conv(v):
-    if isinstance(v, float):
-        return float.hex(v)
-    if isinstance(v, list):
-        return [conv(x) for x in v]
-    if isinstance(v, dict):
-        return {k: conv(x) for k, x in v.items()}
-    return v
-
-out = []
-for path in sys.argv[2:]:
-    t = pq.read_table(path)
-    md = pq.read_metadata(path).metadata
-    out.append({
-        "schema": md[b"gradtac.schema"].decode(),
-        "arrow_md": {k.decode(): v.decode() for k, v in (t.schema.metadata or {}).items() if k != b"ARROW:schema"},
-        "types": {f.name: str(f.type) for f in t.schema},
-        "rows": conv(t.to_pylist()),
-    })
+out = [describe(p) for p in sys.argv[2:]]
 pairs = ds.dataset(sys.argv[1], format="parquet").to_table(columns=["first", "second", "time_ns"]).to_pylist()
 print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["time_ns"]) for r in pairs)}))
-"#;
-    let out = Command::new("python3").arg("-c").arg(script).arg(&pairs).args(&paths).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+"#
+    );
+    let v = run_python(&script, std::iter::once(pairs.as_os_str()).chain(paths.iter().map(|p| p.as_os_str())));
     let files = &v["files"];
 
     // slip/1

@@ -19,11 +19,11 @@
 //! [`RecordBuilder::len`] counts pending **rows** (events), so a sink cuts row groups by
 //! events, not by batches.
 
-use super::columns::{ns_field, record_error, schema_with_id, with_taxels};
+use super::columns::{record_error, schema_with_id, with_lead, with_taxels, LeadBuilder};
 use super::{arrow_error, ArrowRecord, FrameShape, RecordBuilder};
 use crate::Result;
-use arrow_array::builder::{ArrayBuilder, Int64Builder, Int8Builder, StringBuilder, UInt16Builder, UInt64Builder};
-use arrow_array::{ArrayRef, RecordBatch};
+use arrow_array::builder::{Int8Builder, UInt16Builder};
+use arrow_array::RecordBatch;
 use arrow_schema::{DataType, Field, SchemaRef};
 use gradtac_stages::{EventBatch, TactileEvent};
 use std::sync::Arc;
@@ -40,14 +40,13 @@ impl ArrowRecord for EventBatch {
 
     fn schema(shape: &EventShape) -> SchemaRef {
         schema_with_id(
-            vec![
-                Field::new("sensor", DataType::Utf8, false),
-                ns_field("time_ns"),
-                ns_field("frame_time_ns"),
-                Field::new("seq", DataType::UInt64, false),
-                with_taxels(Field::new("taxel", DataType::UInt16, false), shape),
-                Field::new("polarity", DataType::Int8, false),
-            ],
+            with_lead(
+                ["time_ns", "frame_time_ns"],
+                vec![
+                    with_taxels(Field::new("taxel", DataType::UInt16, false), shape),
+                    Field::new("polarity", DataType::Int8, false),
+                ],
+            ),
             Self::SCHEMA_ID,
             vec![],
         )
@@ -57,10 +56,7 @@ impl ArrowRecord for EventBatch {
         EventBuilder {
             schema: Self::schema(shape),
             n: shape.len(),
-            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            time: Int64Builder::with_capacity(capacity),
-            frame_time: Int64Builder::with_capacity(capacity),
-            seq: UInt64Builder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(capacity),
             taxel: UInt16Builder::with_capacity(capacity),
             polarity: Int8Builder::with_capacity(capacity),
         }
@@ -71,10 +67,8 @@ impl ArrowRecord for EventBatch {
 pub struct EventBuilder {
     schema: SchemaRef,
     n: usize,
-    sensor: StringBuilder,
-    time: Int64Builder,
-    frame_time: Int64Builder,
-    seq: UInt64Builder,
+    /// `sensor`, `time_ns`, `frame_time_ns`, `seq`.
+    lead: LeadBuilder<2>,
     taxel: UInt16Builder,
     polarity: Int8Builder,
 }
@@ -110,10 +104,7 @@ impl EventBuilder {
     }
 
     fn push_event(&mut self, b: &EventBatch, e: &TactileEvent) {
-        self.sensor.append_value(b.sensor.as_str());
-        self.time.append_value(e.time.as_nanos());
-        self.frame_time.append_value(b.time.as_nanos());
-        self.seq.append_value(b.seq);
+        self.lead.append(&b.sensor, [e.time, b.time], b.seq);
         self.taxel.append_value(e.taxel);
         self.polarity.append_value(e.polarity);
     }
@@ -134,18 +125,11 @@ impl RecordBuilder<EventBatch> for EventBuilder {
 
     /// Pending rows (events), not batches.
     fn len(&self) -> usize {
-        self.time.len()
+        self.lead.rows()
     }
 
     fn finish(&mut self) -> Result<RecordBatch> {
-        let columns: Vec<ArrayRef> = vec![
-            Arc::new(self.sensor.finish()),
-            Arc::new(self.time.finish()),
-            Arc::new(self.frame_time.finish()),
-            Arc::new(self.seq.finish()),
-            Arc::new(self.taxel.finish()),
-            Arc::new(self.polarity.finish()),
-        ];
+        let columns = self.lead.finish(vec![Arc::new(self.taxel.finish()), Arc::new(self.polarity.finish())]);
         RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(EventBatch::SCHEMA_ID, e))
     }
 }

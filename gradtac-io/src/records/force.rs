@@ -12,12 +12,12 @@
 //! is null), so a file reads back into the same estimates. The shape is `()`; every estimate
 //! fits, so [`RecordBuilder::append`] never rejects.
 
-use super::columns::{ns_field, schema_with_id, unit_field};
+use super::columns::{schema_with_id, unit_field, with_lead, LeadBuilder};
 use super::{arrow_error, ArrowRecord, RecordBuilder};
 use crate::Result;
-use arrow_array::builder::{ArrayBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder};
-use arrow_array::{ArrayRef, RecordBatch};
-use arrow_schema::{DataType, Field, SchemaRef};
+use arrow_array::builder::Float64Builder;
+use arrow_array::RecordBatch;
+use arrow_schema::{DataType, SchemaRef};
 use gradtac_stages::force::ForceEstimate;
 use std::sync::Arc;
 
@@ -28,13 +28,13 @@ impl ArrowRecord for ForceEstimate {
 
     fn schema(_: &()) -> SchemaRef {
         schema_with_id(
-            vec![
-                Field::new("sensor", DataType::Utf8, false),
-                ns_field("time_ns"),
-                Field::new("seq", DataType::UInt64, false),
-                unit_field("area_mm2", DataType::Float64, false, "mm2"),
-                unit_field("force_n", DataType::Float64, true, "N"),
-            ],
+            with_lead(
+                ["time_ns"],
+                vec![
+                    unit_field("area_mm2", DataType::Float64, false, "mm2"),
+                    unit_field("force_n", DataType::Float64, true, "N"),
+                ],
+            ),
             Self::SCHEMA_ID,
             vec![],
         )
@@ -43,9 +43,7 @@ impl ArrowRecord for ForceEstimate {
     fn builder(_: &(), capacity: usize) -> ForceBuilder {
         ForceBuilder {
             schema: Self::schema(&()),
-            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            time: Int64Builder::with_capacity(capacity),
-            seq: UInt64Builder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(capacity),
             area: Float64Builder::with_capacity(capacity),
             force: Float64Builder::with_capacity(capacity),
         }
@@ -55,9 +53,8 @@ impl ArrowRecord for ForceEstimate {
 /// Builds `force/1` batches (see the [module documentation](self)).
 pub struct ForceBuilder {
     schema: SchemaRef,
-    sensor: StringBuilder,
-    time: Int64Builder,
-    seq: UInt64Builder,
+    /// `sensor`, `time_ns`, `seq`.
+    lead: LeadBuilder<1>,
     area: Float64Builder,
     force: Float64Builder,
 }
@@ -75,26 +72,18 @@ impl RecordBuilder<ForceEstimate> for ForceBuilder {
 
     /// Never rejects: every estimate fits `force/1`.
     fn append(&mut self, e: &ForceEstimate) -> Result<()> {
-        self.sensor.append_value(e.sensor.as_str());
-        self.time.append_value(e.time.as_nanos());
-        self.seq.append_value(e.seq);
+        self.lead.append(&e.sensor, [e.time], e.seq);
         self.area.append_value(e.area_mm2);
         self.force.append_option(e.force_n);
         Ok(())
     }
 
     fn len(&self) -> usize {
-        self.seq.len()
+        self.lead.rows()
     }
 
     fn finish(&mut self) -> Result<RecordBatch> {
-        let columns: Vec<ArrayRef> = vec![
-            Arc::new(self.sensor.finish()),
-            Arc::new(self.time.finish()),
-            Arc::new(self.seq.finish()),
-            Arc::new(self.area.finish()),
-            Arc::new(self.force.finish()),
-        ];
+        let columns = self.lead.finish(vec![Arc::new(self.area.finish()), Arc::new(self.force.finish())]);
         RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(ForceEstimate::SCHEMA_ID, e))
     }
 }

@@ -10,12 +10,11 @@
 //! The schema's metadata holds `gradtac.schema = frame/1`. `n` is fixed per sink by its
 //! [`FrameShape`]; a frame with another count is rejected with [`Error::Record`].
 
+use super::columns::{with_lead, LeadBuilder};
 use super::{arrow_error, ArrowRecord, RecordBuilder, SCHEMA_KEY};
 use crate::{Error, Result};
-use arrow_array::builder::{
-    ArrayBuilder, FixedSizeListBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder,
-};
-use arrow_array::{ArrayRef, RecordBatch};
+use arrow_array::builder::{FixedSizeListBuilder, Float64Builder};
+use arrow_array::RecordBatch;
 use arrow_schema::{DataType, Field, FieldRef, Schema, SchemaRef};
 use gradtac_stream::{Layout, TaxelFrame};
 use std::collections::HashMap;
@@ -89,14 +88,11 @@ impl ArrowRecord for TaxelFrame {
         let taxels = serde_json::to_string(shape.names()).expect("a list of strings serialises");
         let n = shape.len() as i32;
         Arc::new(Schema::new_with_metadata(
-            vec![
-                Field::new("sensor", DataType::Utf8, false),
-                Field::new("time_ns", DataType::Int64, false)
-                    .with_metadata(HashMap::from([(UNIT_KEY.to_string(), "ns".to_string())])),
-                Field::new("seq", DataType::UInt64, false),
-                Field::new("values", DataType::FixedSizeList(item_field(), n), false)
-                    .with_metadata(HashMap::from([(TAXELS_KEY.to_string(), taxels)])),
-            ],
+            with_lead(
+                ["time_ns"],
+                vec![Field::new("values", DataType::FixedSizeList(item_field(), n), false)
+                    .with_metadata(HashMap::from([(TAXELS_KEY.to_string(), taxels)]))],
+            ),
             HashMap::from([(SCHEMA_KEY.to_string(), Self::SCHEMA_ID.to_string())]),
         ))
     }
@@ -106,9 +102,7 @@ impl ArrowRecord for TaxelFrame {
         FrameBuilder {
             schema: Self::schema(shape),
             n,
-            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            time: Int64Builder::with_capacity(capacity),
-            seq: UInt64Builder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(capacity),
             values: FixedSizeListBuilder::with_capacity(
                 Float64Builder::with_capacity(capacity * n),
                 n as i32,
@@ -123,9 +117,8 @@ impl ArrowRecord for TaxelFrame {
 pub struct FrameBuilder {
     schema: SchemaRef,
     n: usize,
-    sensor: StringBuilder,
-    time: Int64Builder,
-    seq: UInt64Builder,
+    /// `sensor`, `time_ns`, `seq`.
+    lead: LeadBuilder<1>,
     values: FixedSizeListBuilder<Float64Builder>,
 }
 
@@ -153,25 +146,18 @@ impl RecordBuilder<TaxelFrame> for FrameBuilder {
                 ),
             });
         }
-        self.sensor.append_value(frame.sensor.as_str());
-        self.time.append_value(frame.time.as_nanos());
-        self.seq.append_value(frame.seq);
+        self.lead.append(&frame.sensor, [frame.time], frame.seq);
         self.values.values().append_slice(&frame.values);
         self.values.append(true);
         Ok(())
     }
 
     fn len(&self) -> usize {
-        self.time.len()
+        self.lead.rows()
     }
 
     fn finish(&mut self) -> Result<RecordBatch> {
-        let columns: Vec<ArrayRef> = vec![
-            Arc::new(self.sensor.finish()),
-            Arc::new(self.time.finish()),
-            Arc::new(self.seq.finish()),
-            Arc::new(self.values.finish()),
-        ];
+        let columns = self.lead.finish(vec![Arc::new(self.values.finish())]);
         RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(TaxelFrame::SCHEMA_ID, e))
     }
 }

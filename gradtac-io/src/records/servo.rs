@@ -16,11 +16,11 @@
 //! commands. The shape is `()`; every command fits, so [`RecordBuilder::append`] never
 //! rejects.
 
-use super::columns::{ns_field, schema_with_id, unit_field};
+use super::columns::{schema_with_id, unit_field, with_lead, LeadBuilder};
 use super::{arrow_error, ArrowRecord, RecordBuilder};
 use crate::Result;
-use arrow_array::builder::{ArrayBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder};
-use arrow_array::{ArrayRef, RecordBatch};
+use arrow_array::builder::{Float64Builder, StringBuilder};
+use arrow_array::RecordBatch;
 use arrow_schema::{DataType, Field, SchemaRef};
 use gradtac_stages::servo::{Motion, ServoAction, ServoCommand};
 use std::sync::Arc;
@@ -41,19 +41,19 @@ impl ArrowRecord for ServoCommand {
     fn schema(_: &()) -> SchemaRef {
         let mm = |name: &str| unit_field(name, DataType::Float64, true, "mm");
         schema_with_id(
-            vec![
-                Field::new("sensor", DataType::Utf8, false),
-                ns_field("time_ns"),
-                Field::new("seq", DataType::UInt64, false),
-                Field::new("action", DataType::Utf8, false),
-                mm("offset_x_mm"),
-                mm("offset_y_mm"),
-                mm("distance_mm"),
-                Field::new("direction_x", DataType::Float64, true),
-                Field::new("direction_y", DataType::Float64, true),
-                mm("motion_x_mm"),
-                mm("motion_y_mm"),
-            ],
+            with_lead(
+                ["time_ns"],
+                vec![
+                    Field::new("action", DataType::Utf8, false),
+                    mm("offset_x_mm"),
+                    mm("offset_y_mm"),
+                    mm("distance_mm"),
+                    Field::new("direction_x", DataType::Float64, true),
+                    Field::new("direction_y", DataType::Float64, true),
+                    mm("motion_x_mm"),
+                    mm("motion_y_mm"),
+                ],
+            ),
             Self::SCHEMA_ID,
             vec![],
         )
@@ -63,9 +63,7 @@ impl ArrowRecord for ServoCommand {
         let floats = || Float64Builder::with_capacity(capacity);
         ServoBuilder {
             schema: Self::schema(&()),
-            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            time: Int64Builder::with_capacity(capacity),
-            seq: UInt64Builder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(capacity),
             action: StringBuilder::with_capacity(capacity, capacity * 6),
             offset_x: floats(),
             offset_y: floats(),
@@ -81,9 +79,8 @@ impl ArrowRecord for ServoCommand {
 /// Builds `servo/1` batches (see the [module documentation](self)).
 pub struct ServoBuilder {
     schema: SchemaRef,
-    sensor: StringBuilder,
-    time: Int64Builder,
-    seq: UInt64Builder,
+    /// `sensor`, `time_ns`, `seq`.
+    lead: LeadBuilder<1>,
     action: StringBuilder,
     offset_x: Float64Builder,
     offset_y: Float64Builder,
@@ -107,9 +104,7 @@ impl RecordBuilder<ServoCommand> for ServoBuilder {
 
     /// Never rejects: every command fits `servo/1`.
     fn append(&mut self, c: &ServoCommand) -> Result<()> {
-        self.sensor.append_value(c.sensor.as_str());
-        self.time.append_value(c.time.as_nanos());
-        self.seq.append_value(c.seq);
+        self.lead.append(&c.sensor, [c.time], c.seq);
         self.action.append_value(servo_action_name(&c.action));
         let m: Option<&Motion> = c.motion();
         self.offset_x.append_option(m.map(|m| m.offset_mm[0]));
@@ -123,14 +118,11 @@ impl RecordBuilder<ServoCommand> for ServoBuilder {
     }
 
     fn len(&self) -> usize {
-        self.seq.len()
+        self.lead.rows()
     }
 
     fn finish(&mut self) -> Result<RecordBatch> {
-        let columns: Vec<ArrayRef> = vec![
-            Arc::new(self.sensor.finish()),
-            Arc::new(self.time.finish()),
-            Arc::new(self.seq.finish()),
+        let columns = self.lead.finish(vec![
             Arc::new(self.action.finish()),
             Arc::new(self.offset_x.finish()),
             Arc::new(self.offset_y.finish()),
@@ -139,7 +131,7 @@ impl RecordBuilder<ServoCommand> for ServoBuilder {
             Arc::new(self.direction_y.finish()),
             Arc::new(self.motion_x.finish()),
             Arc::new(self.motion_y.finish()),
-        ];
+        ]);
         RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(ServoCommand::SCHEMA_ID, e))
     }
 }

@@ -34,14 +34,12 @@
 //! assert!(batch.schema().metadata()["gradtac.grid"].contains("\"nx\":3"));
 //! ```
 
-use super::columns::{f64_list, item_field, ns_field, record_error, schema_with_id};
+use super::columns::{f64_list, item_field, record_error, schema_with_id, with_lead, LeadBuilder};
 use super::{arrow_error, ArrowRecord, RecordBuilder};
 use crate::Result;
-use arrow_array::builder::{
-    ArrayBuilder, FixedSizeListBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder,
-};
-use arrow_array::{ArrayRef, RecordBatch};
-use arrow_schema::{DataType, Field, SchemaRef};
+use arrow_array::builder::{FixedSizeListBuilder, Float64Builder};
+use arrow_array::RecordBatch;
+use arrow_schema::{Field, SchemaRef};
 use gradtac_stages::interpolate::{Grid, Surface};
 use std::sync::Arc;
 
@@ -88,13 +86,7 @@ impl ArrowRecord for Surface {
 
     fn schema(shape: &SurfaceShape) -> SchemaRef {
         schema_with_id(
-            vec![
-                Field::new("sensor", DataType::Utf8, false),
-                ns_field("start_ns"),
-                ns_field("end_ns"),
-                Field::new("seq", DataType::UInt64, false),
-                Field::new("values", f64_list(shape.grid.len()), false),
-            ],
+            with_lead(["start_ns", "end_ns"], vec![Field::new("values", f64_list(shape.grid.len()), false)]),
             Self::SCHEMA_ID,
             vec![(GRID_KEY.to_string(), shape.grid_json())],
         )
@@ -107,10 +99,7 @@ impl ArrowRecord for Surface {
         SurfaceBuilder {
             schema: Self::schema(shape),
             grid: shape.grid.clone(),
-            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            start: Int64Builder::with_capacity(capacity),
-            end: Int64Builder::with_capacity(capacity),
-            seq: UInt64Builder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(capacity),
             values: FixedSizeListBuilder::with_capacity(
                 Float64Builder::with_capacity(reserve),
                 // A grid holds at most 2^24 points, so this fits an i32 list size.
@@ -126,10 +115,8 @@ impl ArrowRecord for Surface {
 pub struct SurfaceBuilder {
     schema: SchemaRef,
     grid: Arc<Grid>,
-    sensor: StringBuilder,
-    start: Int64Builder,
-    end: Int64Builder,
-    seq: UInt64Builder,
+    /// `sensor`, `start_ns`, `end_ns`, `seq`.
+    lead: LeadBuilder<2>,
     values: FixedSizeListBuilder<Float64Builder>,
 }
 
@@ -182,10 +169,7 @@ impl RecordBuilder<Surface> for SurfaceBuilder {
                 ),
             ));
         }
-        self.sensor.append_value(s.sensor.as_str());
-        self.start.append_value(s.start.as_nanos());
-        self.end.append_value(s.end.as_nanos());
-        self.seq.append_value(s.seq);
+        self.lead.append(&s.sensor, [s.start, s.end], s.seq);
         match s.values.as_slice() {
             Some(flat) => self.values.values().append_slice(flat),
             // Not in standard layout (a transposed view): logical row-major order.
@@ -196,17 +180,11 @@ impl RecordBuilder<Surface> for SurfaceBuilder {
     }
 
     fn len(&self) -> usize {
-        self.seq.len()
+        self.lead.rows()
     }
 
     fn finish(&mut self) -> Result<RecordBatch> {
-        let columns: Vec<ArrayRef> = vec![
-            Arc::new(self.sensor.finish()),
-            Arc::new(self.start.finish()),
-            Arc::new(self.end.finish()),
-            Arc::new(self.seq.finish()),
-            Arc::new(self.values.finish()),
-        ];
+        let columns = self.lead.finish(vec![Arc::new(self.values.finish())]);
         RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(Surface::SCHEMA_ID, e))
     }
 }

@@ -19,12 +19,12 @@
 //! Columns map one to one onto [`TrackPoint`]'s fields (NaN stays NaN, `None` is null), so a
 //! file reads back into the same points bit-exactly. The shape is `()`.
 
-use super::columns::{ns_field, schema_with_id, unit_field};
+use super::columns::{schema_with_id, unit_field, with_lead, LeadBuilder};
 use super::contour::no_contact_name;
 use super::{arrow_error, ArrowRecord, RecordBuilder};
 use crate::Result;
-use arrow_array::builder::{ArrayBuilder, BooleanBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder};
-use arrow_array::{ArrayRef, RecordBatch};
+use arrow_array::builder::{BooleanBuilder, Float64Builder, StringBuilder, UInt64Builder};
+use arrow_array::RecordBatch;
 use arrow_schema::{DataType, Field, SchemaRef};
 use gradtac_stages::track::{ContactState, TrackPoint};
 use std::sync::Arc;
@@ -45,23 +45,22 @@ impl ArrowRecord for TrackPoint {
     fn schema(_: &()) -> SchemaRef {
         let f = |name: &str, unit: &str| unit_field(name, DataType::Float64, false, unit);
         schema_with_id(
-            vec![
-                Field::new("sensor", DataType::Utf8, false),
-                ns_field("time_ns"),
-                ns_field("start_ns"),
-                Field::new("seq", DataType::UInt64, false),
-                Field::new("state", DataType::Utf8, false),
-                Field::new("no_contact", DataType::Utf8, true),
-                Field::new("track", DataType::UInt64, true),
-                f("x_mm", "mm"),
-                f("y_mm", "mm"),
-                f("area_mm2", "mm2"),
-                f("orientation_rad", "rad"),
-                Field::new("peak", DataType::Float64, false),
-                unit_field("vx_mm_s", DataType::Float64, true, "mm/s"),
-                unit_field("vy_mm_s", DataType::Float64, true, "mm/s"),
-                Field::new("gated", DataType::Boolean, false),
-            ],
+            with_lead(
+                ["time_ns", "start_ns"],
+                vec![
+                    Field::new("state", DataType::Utf8, false),
+                    Field::new("no_contact", DataType::Utf8, true),
+                    Field::new("track", DataType::UInt64, true),
+                    f("x_mm", "mm"),
+                    f("y_mm", "mm"),
+                    f("area_mm2", "mm2"),
+                    f("orientation_rad", "rad"),
+                    Field::new("peak", DataType::Float64, false),
+                    unit_field("vx_mm_s", DataType::Float64, true, "mm/s"),
+                    unit_field("vy_mm_s", DataType::Float64, true, "mm/s"),
+                    Field::new("gated", DataType::Boolean, false),
+                ],
+            ),
             Self::SCHEMA_ID,
             vec![],
         )
@@ -71,10 +70,7 @@ impl ArrowRecord for TrackPoint {
         let floats = || Float64Builder::with_capacity(capacity);
         TrackBuilder {
             schema: Self::schema(&()),
-            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            time: Int64Builder::with_capacity(capacity),
-            start: Int64Builder::with_capacity(capacity),
-            seq: UInt64Builder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(capacity),
             state: StringBuilder::with_capacity(capacity, capacity * 10),
             no_contact: StringBuilder::new(),
             track: UInt64Builder::with_capacity(capacity),
@@ -93,10 +89,8 @@ impl ArrowRecord for TrackPoint {
 /// Builds `track/1` batches (see the [module documentation](self)).
 pub struct TrackBuilder {
     schema: SchemaRef,
-    sensor: StringBuilder,
-    time: Int64Builder,
-    start: Int64Builder,
-    seq: UInt64Builder,
+    /// `sensor`, `time_ns`, `start_ns`, `seq`.
+    lead: LeadBuilder<2>,
     state: StringBuilder,
     no_contact: StringBuilder,
     track: UInt64Builder,
@@ -123,10 +117,7 @@ impl RecordBuilder<TrackPoint> for TrackBuilder {
 
     /// Never rejects: every track point fits `track/1`.
     fn append(&mut self, p: &TrackPoint) -> Result<()> {
-        self.sensor.append_value(p.sensor.as_str());
-        self.time.append_value(p.time.as_nanos());
-        self.start.append_value(p.start.as_nanos());
-        self.seq.append_value(p.seq);
+        self.lead.append(&p.sensor, [p.time, p.start], p.seq);
         self.state.append_value(contact_state_name(p.state));
         self.no_contact.append_option(p.no_contact.map(no_contact_name));
         self.track.append_option(p.track);
@@ -142,15 +133,11 @@ impl RecordBuilder<TrackPoint> for TrackBuilder {
     }
 
     fn len(&self) -> usize {
-        self.seq.len()
+        self.lead.rows()
     }
 
     fn finish(&mut self) -> Result<RecordBatch> {
-        let columns: Vec<ArrayRef> = vec![
-            Arc::new(self.sensor.finish()),
-            Arc::new(self.time.finish()),
-            Arc::new(self.start.finish()),
-            Arc::new(self.seq.finish()),
+        let columns = self.lead.finish(vec![
             Arc::new(self.state.finish()),
             Arc::new(self.no_contact.finish()),
             Arc::new(self.track.finish()),
@@ -162,7 +149,7 @@ impl RecordBuilder<TrackPoint> for TrackBuilder {
             Arc::new(self.vx.finish()),
             Arc::new(self.vy.finish()),
             Arc::new(self.gated.finish()),
-        ];
+        ]);
         RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(TrackPoint::SCHEMA_ID, e))
     }
 }

@@ -15,13 +15,11 @@
 //! `n` is fixed per sink by its [`WindowShape`]; an aggregate with another number of values
 //! (or a split of another length) is rejected with [`Error::Record`](crate::Error::Record).
 
-use super::columns::{f64_list, item_field, ns_field, record_error, schema_with_id, with_taxels};
+use super::columns::{f64_list, item_field, record_error, schema_with_id, with_lead, with_taxels, LeadBuilder};
 use super::{arrow_error, ArrowRecord, FrameShape, RecordBuilder};
 use crate::Result;
-use arrow_array::builder::{
-    ArrayBuilder, FixedSizeListBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder,
-};
-use arrow_array::{ArrayRef, RecordBatch};
+use arrow_array::builder::{FixedSizeListBuilder, Float64Builder, StringBuilder, UInt64Builder};
+use arrow_array::RecordBatch;
 use arrow_schema::{DataType, Field, SchemaRef};
 use gradtac_stages::window::{Aggregate, WindowAggregate};
 use std::sync::Arc;
@@ -53,17 +51,16 @@ impl ArrowRecord for WindowAggregate {
     fn schema(shape: &WindowShape) -> SchemaRef {
         let n = shape.len();
         schema_with_id(
-            vec![
-                Field::new("sensor", DataType::Utf8, false),
-                ns_field("start_ns"),
-                ns_field("end_ns"),
-                Field::new("seq", DataType::UInt64, false),
-                Field::new("frames", DataType::UInt64, false),
-                Field::new("aggregate", DataType::Utf8, false),
-                with_taxels(Field::new("values", f64_list(n), false), shape),
-                with_taxels(Field::new("positive", f64_list(n), true), shape),
-                with_taxels(Field::new("negative", f64_list(n), true), shape),
-            ],
+            with_lead(
+                ["start_ns", "end_ns"],
+                vec![
+                    Field::new("frames", DataType::UInt64, false),
+                    Field::new("aggregate", DataType::Utf8, false),
+                    with_taxels(Field::new("values", f64_list(n), false), shape),
+                    with_taxels(Field::new("positive", f64_list(n), true), shape),
+                    with_taxels(Field::new("negative", f64_list(n), true), shape),
+                ],
+            ),
             Self::SCHEMA_ID,
             vec![],
         )
@@ -74,10 +71,7 @@ impl ArrowRecord for WindowAggregate {
         WindowBuilder {
             schema: Self::schema(shape),
             n,
-            sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            start: Int64Builder::with_capacity(capacity),
-            end: Int64Builder::with_capacity(capacity),
-            seq: UInt64Builder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(capacity),
             frames: UInt64Builder::with_capacity(capacity),
             aggregate: StringBuilder::with_capacity(capacity, capacity * 6),
             values: list_builder(n, capacity),
@@ -91,10 +85,8 @@ impl ArrowRecord for WindowAggregate {
 pub struct WindowBuilder {
     schema: SchemaRef,
     n: usize,
-    sensor: StringBuilder,
-    start: Int64Builder,
-    end: Int64Builder,
-    seq: UInt64Builder,
+    /// `sensor`, `start_ns`, `end_ns`, `seq`.
+    lead: LeadBuilder<2>,
     frames: UInt64Builder,
     aggregate: StringBuilder,
     values: FixedSizeListBuilder<Float64Builder>,
@@ -149,10 +141,7 @@ impl RecordBuilder<WindowAggregate> for WindowBuilder {
                 return Err(misfit("negative counts", s.negative.len()));
             }
         }
-        self.sensor.append_value(w.sensor.as_str());
-        self.start.append_value(w.start.as_nanos());
-        self.end.append_value(w.end.as_nanos());
-        self.seq.append_value(w.seq);
+        self.lead.append(&w.sensor, [w.start, w.end], w.seq);
         self.frames.append_value(w.frames);
         self.aggregate.append_value(aggregate_name(w.aggregate));
         append_list(&mut self.values, Some(&w.values), n);
@@ -162,21 +151,17 @@ impl RecordBuilder<WindowAggregate> for WindowBuilder {
     }
 
     fn len(&self) -> usize {
-        self.seq.len()
+        self.lead.rows()
     }
 
     fn finish(&mut self) -> Result<RecordBatch> {
-        let columns: Vec<ArrayRef> = vec![
-            Arc::new(self.sensor.finish()),
-            Arc::new(self.start.finish()),
-            Arc::new(self.end.finish()),
-            Arc::new(self.seq.finish()),
+        let columns = self.lead.finish(vec![
             Arc::new(self.frames.finish()),
             Arc::new(self.aggregate.finish()),
             Arc::new(self.values.finish()),
             Arc::new(self.positive.finish()),
             Arc::new(self.negative.finish()),
-        ];
+        ]);
         RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(WindowAggregate::SCHEMA_ID, e))
     }
 }
