@@ -1,0 +1,335 @@
+//! `gradtac::plot`: every output schema renders to a PNG of the documented size with real
+//! content, from Parquet files written by `ParquetSink` with the records of a simulated
+//! trajectory run through the whole chain; an unknown schema, a file without gradtac metadata
+//! and a non-Parquet file are refused with a clear error; the demo's plain-data plots render.
+
+use gradtac::io::records::{FrameShape, SurfaceShape};
+use gradtac::io::{ArrowRecord, ParquetSink};
+use gradtac::plot::{
+    plot_parquet, plot_slip_timeline, plot_surface_with_contours, plot_trajectory_vs_truth, PlotSummary, SurfacePanel,
+    TimelineTrack,
+};
+use gradtac::stages::contour::{Contour, ContourConfig, ContourFrame};
+use gradtac::stages::events::{Events, EventsConfig, Threshold};
+use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig, Surface};
+use gradtac::stages::savgol::{SavGol, SavGolConfig};
+use gradtac::stages::sim::{GraspConfig, Scene, SensorModel, Simulator, Trajectory};
+use gradtac::stages::slip::{Slip, SlipClass, SlipConfig};
+use gradtac::stages::track::{Track, TrackConfig, TrackPoint};
+use gradtac::stages::window::{Aggregate, Window, WindowAggregate, WindowConfig};
+use gradtac::stages::EventBatch;
+use gradtac::stream::{Keyed, Layout, SensorId, StageExt, TaxelFrame};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Everything one simulated circle produces, stage by stage.
+struct Outputs {
+    frames: Vec<TaxelFrame>,
+    batches: Vec<EventBatch>,
+    windows: Vec<WindowAggregate>,
+    surfaces: Vec<Surface>,
+    contours: Vec<ContourFrame>,
+    points: Vec<TrackPoint>,
+    truth: Vec<(f64, f64, f64)>,
+}
+
+fn simulate(layout: &Layout) -> Outputs {
+    let sim = Simulator::try_new(layout.clone(), SensorModel::default(), 3).unwrap();
+    let scene = Scene::trajectory(Trajectory::CircleCcw, 2.0, 4.0, layout);
+    let rec = sim.run(&scene).unwrap();
+    let frames = rec.taxel_frames();
+    let truth = rec
+        .frames
+        .iter()
+        .map(|f| {
+            let c = f.truth.contact_mm.unwrap_or([f64::NAN; 2]);
+            (f.frame.time.as_secs_f64(), c[0], c[1])
+        })
+        .collect();
+    let mut sg = SavGol::try_with_rate(24, SavGolConfig::default(), 100.0).unwrap();
+    let smoothed = sg.run_all(frames.clone()).unwrap();
+    let mut ev =
+        Events::try_new(24, EventsConfig { threshold: Threshold::Uniform(0.002), ..Default::default() }).unwrap();
+    let batches = ev.run_all(smoothed).unwrap();
+    let mut w =
+        Window::try_new(&WindowConfig { frames: Some(10), aggregate: Aggregate::Count, ..Default::default() }).unwrap();
+    let windows = w.run_all(batches.clone()).unwrap();
+    let icfg = InterpolateConfig { grid: GridConfig { nx: 32, ..Default::default() }, ..Default::default() };
+    let mut i = Interpolate::try_new(&icfg, layout).unwrap();
+    let surfaces = i.run_all(windows.clone()).unwrap();
+    let mut c = Contour::try_new(&ContourConfig { min_peak: 2.0, min_area_mm2: 30.0, ..Default::default() }).unwrap();
+    let contours = c.run_all(surfaces.clone()).unwrap();
+    let mut t = Track::try_new(&TrackConfig::default()).unwrap();
+    let points = t.run_all(contours.clone()).unwrap();
+    Outputs { frames, batches, windows, surfaces, contours, points, truth }
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gradtac-plot-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write<T: ArrowRecord>(path: &Path, shape: T::Shape, records: &[T], layout: Option<&Layout>) {
+    let mut sink = ParquetSink::<T>::try_new(path, shape).unwrap().with_row_group_size(64).unwrap();
+    if let Some(l) = layout {
+        sink.set_metadata("gradtac.layout", l.to_csv());
+    }
+    for r in records {
+        sink.push(r).unwrap();
+    }
+    sink.finish().unwrap();
+}
+
+/// Decode a PNG: (width, height, RGB bytes).
+fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = dec.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+/// The PNG has the summary's size, which is `want`, and real content: many colours and a
+/// good share of non-white pixels (a blank or text-only image fails).
+fn check_png(path: &Path, s: &PlotSummary, want: (u32, u32), min_ink: f64) {
+    let (w, h, rgb) = decode(path);
+    assert_eq!((w, h), (s.width, s.height), "{}", s.kind);
+    assert_eq!((w, h), want, "{}", s.kind);
+    let px: Vec<[u8; 3]> = rgb.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let ink = px.iter().filter(|p| **p != [255, 255, 255]).count() as f64 / px.len() as f64;
+    let mut colours: Vec<[u8; 3]> = px.clone();
+    colours.sort_unstable();
+    colours.dedup();
+    eprintln!("{}: {w}×{h}, {:.1} % ink, {} colours; {s}", s.kind, 100.0 * ink, colours.len());
+    assert!(ink > min_ink, "{}: only {:.2} % of the pixels are drawn", s.kind, 100.0 * ink);
+    assert!(colours.len() > 20, "{}: {} colours", s.kind, colours.len());
+    assert!(!path.with_extension("png.partial").exists());
+}
+
+#[test]
+fn every_schema_renders_a_png_of_the_documented_size() {
+    let layout = Layout::biotac_sp();
+    let o = simulate(&layout);
+    assert!(o.points.iter().filter(|p| p.x_mm.is_finite()).count() > 100, "the chain found contacts");
+    let d = dir("schemas");
+    let shape = FrameShape::from_layout(&layout);
+    let grid = o.surfaces[0].grid.clone();
+
+    write(&d.join("frames.parquet"), shape.clone(), &o.frames, Some(&layout));
+    write(&d.join("events.parquet"), shape.clone(), &o.batches, None);
+    write(&d.join("window.parquet"), shape, &o.windows, None);
+    write(&d.join("surface.parquet"), SurfaceShape::new(grid.clone()), &o.surfaces, Some(&layout));
+    write(&d.join("contour.parquet"), (), &o.contours, None);
+    write(&d.join("track.parquet"), (), &o.points, Some(&layout));
+
+    let cases: [(&str, &str, (u32, u32), f64); 6] = [
+        ("frames", "frame/1", (1200, 340), 0.05),
+        ("events", "event/1", (1200, 340), 0.02),
+        ("window", "window/1", (1320, 340), 0.3),
+        ("surface", "surface/1", (4 * 380 + 120, 40 + 400), 0.3),
+        ("contour", "contour/1", (1400, 620), 0.03),
+        ("track", "track/1", (640 + 120, 680), 0.03),
+    ];
+    for (name, schema, size, ink) in cases {
+        let png = d.join(format!("{name}.png"));
+        let s = plot_parquet(&d.join(format!("{name}.parquet")), &png).unwrap();
+        assert_eq!(s.kind, schema);
+        assert_eq!(s.sensors, vec!["ff".to_string()]);
+        assert!(s.rows > 0 && s.drawn > 0 && s.drawn <= s.rows.max(4), "{s}");
+        check_png(&png, &s, size, ink);
+    }
+    // the surface plot drew 4 instants; the window plot one row per window
+    let s = plot_parquet(&d.join("surface.parquet"), &d.join("surface.png")).unwrap();
+    assert_eq!(s.drawn, 4);
+    assert!(s.notes.iter().any(|n| n.contains("recomputed")), "{s}");
+    // without layout metadata the built-in layout is used, and said so
+    let s = plot_parquet(&d.join("contour.parquet"), &d.join("contour.png")).unwrap();
+    assert!(s.notes.iter().any(|n| n.contains("BioTac SP")), "{s}");
+    if std::env::var_os("GRADTAC_KEEP_PLOTS").is_none() {
+        std::fs::remove_dir_all(&d).unwrap();
+    } else {
+        eprintln!("plots kept in {}", d.display());
+    }
+}
+
+/// Two sensors in one file: one panel each (the height doubles), both named.
+#[test]
+fn two_sensors_give_two_panels() {
+    let layout = Layout::biotac_sp();
+    let sim = Simulator::try_new(layout.clone(), SensorModel::default(), 5).unwrap();
+    let rec = sim.run(&Scene::grasp(SlipClass::RotationalCw, &GraspConfig::default(), &layout)).unwrap();
+    let d = dir("two");
+    write(&d.join("frames.parquet"), FrameShape::from_layout(&layout), &rec.taxel_frames(), None);
+    let s = plot_parquet(&d.join("frames.parquet"), &d.join("frames.png")).unwrap();
+    assert_eq!(s.sensors, vec!["th".to_string(), "ff".to_string()]);
+    check_png(&d.join("frames.png"), &s, (1200, 680), 0.05);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn unknown_or_foreign_files_are_refused_clearly() {
+    use arrow_array::{Int64Array, RecordBatch};
+    use arrow_schema::{DataType, Field, Schema};
+    use parquet::arrow::ArrowWriter;
+    use parquet::file::metadata::KeyValue;
+    use parquet::file::properties::WriterProperties;
+
+    let d = dir("unknown");
+    let schema = Arc::new(Schema::new(vec![Field::new("x", DataType::Int64, false)]));
+    let batch = RecordBatch::try_new(schema.clone(), vec![Arc::new(Int64Array::from(vec![1, 2, 3]))]).unwrap();
+    for (name, kv) in [("bogus.parquet", Some("bogus/9")), ("plain.parquet", None)] {
+        let props = WriterProperties::builder()
+            .set_key_value_metadata(kv.map(|v| vec![KeyValue::new("gradtac.schema".into(), v.to_string())]))
+            .build();
+        let mut w =
+            ArrowWriter::try_new(std::fs::File::create(d.join(name)).unwrap(), schema.clone(), Some(props)).unwrap();
+        w.write(&batch).unwrap();
+        w.close().unwrap();
+    }
+    let e = plot_parquet(&d.join("bogus.parquet"), &d.join("bogus.png")).unwrap_err().to_string();
+    assert!(e.contains("unknown schema \"bogus/9\"") && e.contains("bogus.parquet"), "{e}");
+    let e = plot_parquet(&d.join("plain.parquet"), &d.join("plain.png")).unwrap_err().to_string();
+    assert!(e.contains("no `gradtac.schema` metadata"), "{e}");
+    std::fs::write(d.join("text.parquet"), "not parquet").unwrap();
+    let e = plot_parquet(&d.join("text.parquet"), &d.join("text.png")).unwrap_err().to_string();
+    assert!(e.contains("not a readable Parquet file"), "{e}");
+    let e = plot_parquet(&d.join("missing.parquet"), &d.join("m.png")).unwrap_err().to_string();
+    assert!(e.contains("cannot open"), "{e}");
+    assert!(!d.join("bogus.png").exists() && !d.join("plain.png").exists());
+    // a file of a known schema with no rows: nothing to plot, said so
+    let layout = Layout::biotac_sp();
+    write::<TaxelFrame>(&d.join("empty.parquet"), FrameShape::from_layout(&layout), &[], None);
+    let e = plot_parquet(&d.join("empty.parquet"), &d.join("empty.png")).unwrap_err().to_string();
+    assert!(e.contains("without rows"), "{e}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn demo_plots_from_plain_data() {
+    let layout = Layout::biotac_sp();
+    let o = simulate(&layout);
+    let d = dir("demo");
+    // surfaces at 4 instants with contact, with the stage's own maximal contours and the truth
+    let with: Vec<usize> = (0..o.contours.len()).filter(|&k| o.contours[k].outcome.contact().is_some()).collect();
+    let panels: Vec<SurfacePanel> = (0..4)
+        .map(|i| {
+            let k = with[i * (with.len() - 1) / 3];
+            let s = &o.surfaces[k];
+            let t = s.end.as_secs_f64();
+            let truth = o.truth.iter().find(|p| (p.0 - t).abs() < 1e-9).map(|p| [p.1, p.2]);
+            SurfacePanel {
+                label: format!("t = {t:.2} s"),
+                values: s.values.iter().copied().collect(),
+                contour: o.contours[k].outcome.contact().map(|c| c.polygon.clone()),
+                truth,
+            }
+        })
+        .collect();
+    let grid = o.surfaces[0].grid.clone();
+    let s = plot_surface_with_contours(&grid, &panels, Some(&layout), "circle CCW", &d.join("surface.png")).unwrap();
+    check_png(&d.join("surface.png"), &s, (1640, 440), 0.3);
+    // a panel of the wrong size is an error, not a panic
+    let bad = [SurfacePanel { label: "bad".into(), values: vec![0.0; 3], contour: None, truth: None }];
+    assert!(plot_surface_with_contours(&grid, &bad, None, "x", &d.join("bad.png")).is_err());
+
+    let track: Vec<(f64, f64, f64)> = o.points.iter().map(|p| (p.time.as_secs_f64(), p.x_mm, p.y_mm)).collect();
+    let s = plot_trajectory_vs_truth(&track, &o.truth, &layout, &d.join("trajectory.png")).unwrap();
+    check_png(&d.join("trajectory.png"), &s, (760, 680), 0.03);
+    assert!(s.drawn > 100);
+
+    // a slipping grasp through two keyed chains and the slip stage
+    let sim = Simulator::try_new(layout.clone(), SensorModel { flip_fraction: 0.0, ..Default::default() }, 1).unwrap();
+    let rec = sim.run(&Scene::grasp(SlipClass::LongitudinalUp, &GraspConfig::default(), &layout)).unwrap();
+    let l2 = layout.clone();
+    let mut keyed = Keyed::new(move |_: &SensorId| {
+        let sg = SavGol::try_with_rate(24, SavGolConfig::default(), 100.0).unwrap();
+        let ev =
+            Events::try_new(24, EventsConfig { threshold: Threshold::Uniform(0.002), ..Default::default() }).unwrap();
+        let w = Window::try_new(&WindowConfig { frames: Some(10), ..Default::default() }).unwrap();
+        let icfg = InterpolateConfig {
+            grid: GridConfig { nx: 32, ..Default::default() },
+            incremental: true,
+            ..Default::default()
+        };
+        let i = Interpolate::try_new(&icfg, &l2).unwrap();
+        let c = Contour::try_new(&ContourConfig { min_peak: 2.0, min_area_mm2: 60.0, ..Default::default() }).unwrap();
+        let t = Track::try_new(&TrackConfig::default()).unwrap();
+        sg.then(ev).then(w).then(i).then(c).then(t)
+    });
+    let pts = keyed.run_all(rec.taxel_frames()).unwrap();
+    let mut slip = Slip::try_new(&SlipConfig::default()).unwrap();
+    let events = slip.run_all(pts.clone()).unwrap();
+    assert!(events.iter().any(|e| e.class == SlipClass::LongitudinalUp), "{events:?}");
+    let of = |s: &str| -> Vec<(f64, f64, f64)> {
+        pts.iter().filter(|p| p.sensor.as_str() == s).map(|p| (p.time.as_secs_f64(), p.x_mm, p.y_mm)).collect()
+    };
+    let (th, ff) = (of("th"), of("ff"));
+    let truth: Vec<(f64, SlipClass)> =
+        rec.of_sensor("ff").map(|f| (f.frame.time.as_secs_f64(), f.truth.slip)).collect();
+    let tracks = [TimelineTrack { sensor: "th", points: &th }, TimelineTrack { sensor: "ff", points: &ff }];
+    let s = plot_slip_timeline(&tracks, &events, &truth, &d.join("slip.png")).unwrap();
+    check_png(&d.join("slip.png"), &s, (1200, 700), 0.05);
+    if std::env::var_os("GRADTAC_KEEP_PLOTS").is_none() {
+        std::fs::remove_dir_all(&d).unwrap();
+    } else {
+        eprintln!("plots kept in {}", d.display());
+    }
+}
+
+/// Numerical extremes: NaN, ±∞, ±f64::MAX, a constant signal, a single row, an all-NaN
+/// surface and a track without any contact all render (an image of the documented size),
+/// never panic.
+#[test]
+fn extremes_render_without_panicking() {
+    use gradtac::stages::interpolate::Grid;
+    use gradtac::stream::{Extent, Timestamp};
+    let layout = Layout::biotac_sp();
+    let d = dir("extremes");
+    let ff = SensorId::new("ff");
+    let weird = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, f64::MAX, -f64::MAX, 0.0, -0.0, 5e-324];
+    let frames: Vec<TaxelFrame> = (0..3u64)
+        .map(|k| {
+            let v = (0..24).map(|i| if i < 8 { weird[i] } else { 7.0 }).collect();
+            TaxelFrame::new(ff.clone(), Timestamp(k as i64), k, v)
+        })
+        .collect();
+    write(&d.join("frames.parquet"), FrameShape::from_layout(&layout), &frames, None);
+    let s = plot_parquet(&d.join("frames.parquet"), &d.join("frames.png")).unwrap();
+    assert_eq!((s.width, s.height), (1200, 340));
+    // one row, constant
+    write(&d.join("one.parquet"), FrameShape::from_layout(&layout), &frames[..1], None);
+    assert_eq!(plot_parquet(&d.join("one.parquet"), &d.join("one.png")).unwrap().rows, 1);
+
+    let grid = Arc::new(Grid::try_new(Extent { x_min: 0.0, x_max: 1.0, y_min: 0.0, y_max: 1.0 }, 4, 3).unwrap());
+    let surfaces: Vec<Surface> = [f64::NAN, f64::INFINITY, 1.0]
+        .iter()
+        .enumerate()
+        .map(|(k, &v)| Surface {
+            sensor: ff.clone(),
+            start: Timestamp(0),
+            end: Timestamp(k as i64),
+            seq: k as u64,
+            grid: grid.clone(),
+            values: ndarray::Array2::from_elem((3, 4), v),
+        })
+        .collect();
+    write(&d.join("surface.parquet"), SurfaceShape::new(grid.clone()), &surfaces, None);
+    let s = plot_parquet(&d.join("surface.parquet"), &d.join("surface.png")).unwrap();
+    assert_eq!((s.width, s.height), (1640, 440));
+
+    let o = simulate(&layout);
+    let lost: Vec<TrackPoint> = o.points.iter().filter(|p| p.x_mm.is_nan()).take(20).cloned().collect();
+    assert_eq!(lost.len(), 20);
+    write(&d.join("track.parquet"), (), &lost, None);
+    let s = plot_parquet(&d.join("track.parquet"), &d.join("track.png")).unwrap();
+    assert_eq!((s.drawn, s.width, s.height), (0, 760, 680));
+    let s = plot_trajectory_vs_truth(&[], &[], &layout, &d.join("empty.png")).unwrap();
+    assert_eq!((s.width, s.height), (760, 680));
+    let s = plot_slip_timeline(&[], &[], &[], &d.join("slip.png")).unwrap();
+    assert_eq!((s.width, s.height), (1200, 700));
+    std::fs::remove_dir_all(&d).unwrap();
+}
