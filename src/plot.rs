@@ -12,6 +12,10 @@
 //! | `surface/1` | the surface at 4 instants (evenly spaced over the rows with a contact, else over all rows) with 10 iso-lines and the maximal contour (bold) recomputed from the surface, taxels as circles; one row per sensor | 1640 × (40 + 400·s) |
 //! | `contour/1` | left: centroid paths on the layout plane with the outlines of 4 contours; right: area (mm²) over time; sensors in colours | 1400 × 620 |
 //! | `track/1` | trajectory on the layout plane coloured by time, taxels as labelled circles; one panel per sensor | 640·s + 120 × 680 |
+//! | `slip/1` | the grasp's state over time (a class strip from each event's decision time) and the common / differential speeds at the events | 1200 × 560 |
+//! | `force/1` | force (N) and contour area (mm²) over time, sensors in colours | 1200 × 680 |
+//! | `servo/1` | commanded motion (x, y) and contact offset (x, y, distance) over time, sensors in colours | 1200 × 680 |
+//! | `dos/1` | decided class over time per sensor (one row per class of `gradtac.dos.classes`), marker shade = posterior of the decided class | 1200 × 340·s |
 //!
 //! Times are drawn in seconds from the first row of the file (its epoch may be Unix time).
 //! The layout comes from the file's `gradtac.layout.<sensor>` or `gradtac.layout` metadata (CSV,
@@ -46,6 +50,10 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
+
+/// The schemas [`plot_parquet`] knows.
+pub const KNOWN: [&str; 10] =
+    ["frame/1", "event/1", "window/1", "surface/1", "contour/1", "track/1", "slip/1", "force/1", "servo/1", "dos/1"];
 
 /// At most this many sensors of one file are drawn (the rest are named in the notes).
 pub const MAX_SENSORS: usize = 4;
@@ -405,10 +413,8 @@ fn read_table(path: &Path) -> R<Table> {
         .ok_or_else(|| {
             PlotErr(format!("no `{}` metadata: not a file written by a gradtac sink", gradtac_io::records::SCHEMA_KEY))
         })?;
-    if !matches!(schema_id.as_str(), "frame/1" | "event/1" | "window/1" | "surface/1" | "contour/1" | "track/1") {
-        return Err(PlotErr(format!(
-            "unknown schema {schema_id:?} (known: frame/1, event/1, window/1, surface/1, contour/1, track/1)"
-        )));
+    if !KNOWN.contains(&schema_id.as_str()) {
+        return Err(PlotErr(format!("unknown schema {schema_id:?} (known: {})", KNOWN.join(", "))));
     }
     let reader = builder.build().map_err(|e| PlotErr(format!("cannot read: {e}")))?;
     let batches =
@@ -553,6 +559,23 @@ pub fn plot_parquet(input: &Path, output_png: &Path) -> Result<PlotSummary, Erro
         "surface/1" => surface_plot(&table, &mut notes),
         "contour/1" => contour_plot(&table, &mut notes),
         "track/1" => track_plot(&table, &mut notes),
+        "slip/1" => slip_plot(&table),
+        "force/1" => series_plot(
+            &table,
+            &mut notes,
+            "time_ns",
+            &[("estimated force (force/1)", "force (N)", &["force_n"]), ("contour area", "area (mm²)", &["area_mm2"])],
+        ),
+        "servo/1" => series_plot(
+            &table,
+            &mut notes,
+            "time_ns",
+            &[
+                ("commanded motion (servo/1)", "motion (mm)", &["motion_x_mm", "motion_y_mm"]),
+                ("contact offset from the servo centre", "offset (mm)", &["offset_x_mm", "offset_y_mm", "distance_mm"]),
+            ],
+        ),
+        "dos/1" => dos_plot(&table, &mut notes),
         other => Err(PlotErr(format!("unknown schema {other:?}"))),
     }
     .map_err(|e| plot_error(input, e))?;
@@ -1225,6 +1248,278 @@ fn track_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             colour_bar(&bar, tl, th, viridis, "time (s)")?;
             for (area, (sensor, pts, layout)) in main.split_evenly((1, panels.len())).iter().zip(&panels) {
                 draw_trajectory(area, &format!("{sensor}: contact track (track/1)"), pts, &[], layout, (tl, th))?;
+            }
+            Ok(())
+        }),
+    })
+}
+
+/// Stacked time-series panels of Float64 columns (null as a gap), one line per sensor and
+/// column; `panels`: (title, y label, columns).
+fn series_plot(t: &Table, notes: &mut Vec<String>, time: &str, panels: &[(&str, &str, &[&str])]) -> R<Prepared> {
+    no_rows(t)?;
+    let groups = limit_sensors(by_sensor(t)?, notes);
+    let names: Vec<&str> = panels.iter().flat_map(|p| p.2.iter().copied()).collect();
+    let cols: Vec<(Vec<i64>, Vec<Vec<f64>>)> = t
+        .batches
+        .iter()
+        .map(|b| Ok((i64s(b, time)?, names.iter().map(|c| f64s(b, c)).collect::<R<Vec<_>>>()?)))
+        .collect::<R<_>>()?;
+    let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
+    // per sensor: times and each column
+    let mut data: Vec<(String, Vec<f64>, Vec<Vec<f64>>)> = Vec::new();
+    let mut drawn = 0u64;
+    for (sensor, rows) in &groups {
+        let k = stride(rows.len(), MAX_POINTS);
+        if k > 1 {
+            notes.push(format!("{sensor}: every {k}th of {} rows drawn", rows.len()));
+        }
+        let picked: Vec<(usize, usize)> = rows.iter().step_by(k).copied().collect();
+        let ts = picked.iter().map(|&(bi, ri)| secs(cols[bi].0[ri], t0)).collect();
+        let vs = (0..names.len()).map(|j| picked.iter().map(|&(bi, ri)| cols[bi].1[j][ri]).collect()).collect();
+        drawn += picked.len() as u64;
+        data.push((sensor.clone(), ts, vs));
+    }
+    let panels: Vec<(String, String, Vec<usize>)> = {
+        let mut j = 0;
+        panels
+            .iter()
+            .map(|(title, y, cs)| {
+                let idx = (j..j + cs.len()).collect();
+                j += cs.len();
+                (title.to_string(), y.to_string(), idx)
+            })
+            .collect()
+    };
+    let names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
+    let size = (PANEL_W, STRIP_H * panels.len() as u32);
+    Ok(Prepared {
+        size,
+        sensors: groups.iter().map(|g| g.0.clone()).collect(),
+        drawn,
+        draw: Box::new(move |root| {
+            let (x0, x1) = range_of(data.iter().flat_map(|d| d.1.iter().copied()));
+            for (area, (title, ydesc, idx)) in root.split_evenly((panels.len(), 1)).iter().zip(&panels) {
+                let (y0, y1) =
+                    padded(range_of(data.iter().flat_map(|d| idx.iter().flat_map(|&j| d.2[j].iter().copied()))), 0.05);
+                let mut chart = ChartBuilder::on(area)
+                    .caption(title.as_str(), ("sans-serif", 18))
+                    .margin(12)
+                    .x_label_area_size(36)
+                    .y_label_area_size(70)
+                    .build_cartesian_2d(x0..x1, y0..y1)?;
+                chart
+                    .configure_mesh()
+                    .x_desc("time (s from the first row)")
+                    .y_desc(ydesc.as_str())
+                    .label_style(("sans-serif", 12))
+                    .draw()?;
+                let mut k = 0;
+                for (sensor, ts, vs) in &data {
+                    for &j in idx {
+                        let c = series_colour(k);
+                        k += 1;
+                        let segs = segments(ts.iter().copied().zip(vs[j].iter().copied()), (x0, x1), (y0, y1));
+                        chart
+                            .draw_series(segs.into_iter().map(|seg| PathElement::new(seg, c.stroke_width(2))))?
+                            .label(format!("{sensor} {}", names[j]))
+                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c.stroke_width(2)));
+                    }
+                }
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::UpperRight)
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK.mix(0.3))
+                    .label_font(("sans-serif", 12))
+                    .draw()?;
+            }
+            Ok(())
+        }),
+    })
+}
+
+fn slip_class(name: &str) -> Option<SlipClass> {
+    SlipClass::ALL.into_iter().find(|c| c.name() == name)
+}
+
+/// `slip/1`: the state strip and the speeds at the events.
+fn slip_plot(t: &Table) -> R<Prepared> {
+    no_rows(t)?;
+    let mut ev: Vec<(f64, f64, SlipClass, SlipClass, f64, f64)> = Vec::new();
+    let mut pair = None;
+    let mut raw: Vec<(i64, i64, String, String, f64, f64)> = Vec::new();
+    for b in &t.batches {
+        let (time, onset) = (i64s(b, "time_ns")?, i64s(b, "onset_ns")?);
+        let (class, prev) = (strings(b, "class")?, strings(b, "previous")?);
+        let (l, r) = (f64s(b, "common_mm_s")?, f64s(b, "differential_mm_s")?);
+        if pair.is_none() {
+            let (f, s) = (strings(b, "first")?, strings(b, "second")?);
+            pair = f.first().cloned().zip(s.first().cloned());
+        }
+        for i in 0..time.len() {
+            raw.push((time[i], onset[i], class[i].clone(), prev[i].clone(), l[i], r[i]));
+        }
+    }
+    let t0 = raw.iter().map(|r| r.0.min(r.1)).min().unwrap_or(0);
+    for (time, onset, c, p, l, r) in &raw {
+        let bad = |n: &str| PlotErr(format!("slip/1: unknown class {n:?}"));
+        ev.push((
+            secs(*time, t0),
+            secs(*onset, t0),
+            slip_class(c).ok_or_else(|| bad(c))?,
+            slip_class(p).ok_or_else(|| bad(p))?,
+            *l,
+            *r,
+        ));
+    }
+    let (first, second) = pair.unwrap_or_default();
+    let drawn = ev.len() as u64;
+    Ok(Prepared {
+        size: (PANEL_W, 560),
+        sensors: vec![first.clone(), second.clone()],
+        drawn,
+        draw: Box::new(move |root| {
+            let (top, bottom) = root.split_vertically(300);
+            let (x0, x1) = padded(range_of(ev.iter().flat_map(|e| [e.0, e.1])), 0.05);
+            let (y0, y1) = padded(range_of(ev.iter().flat_map(|e| [e.4, e.5]).chain([0.0])), 0.1);
+            let mut chart = ChartBuilder::on(&top)
+                .caption(format!("slip events of the pair {first}/{second} (slip/1)"), ("sans-serif", 18))
+                .margin(12)
+                .x_label_area_size(30)
+                .y_label_area_size(70)
+                .build_cartesian_2d(x0..x1, y0..y1)?;
+            chart.configure_mesh().y_desc("speed (mm/s)").label_style(("sans-serif", 12)).draw()?;
+            for (k, (name, f)) in [("common L", 4usize), ("differential R", 5)].into_iter().enumerate() {
+                let c = series_colour(k);
+                chart
+                    .draw_series(ev.iter().filter(|e| if f == 4 { e.4.is_finite() } else { e.5.is_finite() }).map(
+                        |e| {
+                            let v = if f == 4 { e.4 } else { e.5 };
+                            Circle::new(clamp_pt((e.0, v), (x0, x1), (y0, y1)), 5, c.filled())
+                        },
+                    ))?
+                    .label(name)
+                    .legend(move |(x, y)| Circle::new((x + 7, y), 4, c.filled()));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK.mix(0.3))
+                .label_font(("sans-serif", 12))
+                .draw()?;
+            let mut strip = ChartBuilder::on(&bottom)
+                .caption("state from each decision on; dashed: onsets", ("sans-serif", 16))
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(70)
+                .build_cartesian_2d(x0..x1, 0.0..1.0)?;
+            strip
+                .configure_mesh()
+                .disable_mesh()
+                .disable_y_axis()
+                .x_desc("time (s from the first event)")
+                .label_style(("sans-serif", 12))
+                .draw()?;
+            let mut steps = vec![(x0, ev.first().map_or(SlipClass::Stable, |e| e.3))];
+            steps.extend(ev.iter().map(|e| (e.0, e.2)));
+            for (i, &(a, c)) in steps.iter().enumerate() {
+                let b = steps.get(i + 1).map_or(x1, |s| s.0);
+                if b > a {
+                    strip.draw_series(std::iter::once(Rectangle::new(
+                        [(a, 0.15), (b, 0.85)],
+                        slip_colour(c).filled(),
+                    )))?;
+                }
+            }
+            for e in ev.iter().filter(|e| e.2.is_slip()) {
+                strip.draw_series(DashedLineSeries::new(vec![(e.1, 0.0), (e.1, 1.0)], 4, 4, BLACK.stroke_width(1)))?;
+            }
+            for c in SlipClass::ALL {
+                let col = slip_colour(c);
+                strip
+                    .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+                    .label(c.name())
+                    .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], col.filled()));
+            }
+            strip
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK.mix(0.3))
+                .label_font(("sans-serif", 11))
+                .draw()?;
+            Ok(())
+        }),
+    })
+}
+
+/// `dos/1`: decided class over time per sensor, shade = posterior of the decided class.
+fn dos_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
+    no_rows(t)?;
+    let classes: Vec<String> = t
+        .schema
+        .metadata()
+        .get(gradtac_io::records::dos::DOS_CLASSES_KEY)
+        .and_then(|j| serde_json::from_str(j).ok())
+        .ok_or_else(|| PlotErr(format!("dos file without `{}` metadata", gradtac_io::records::dos::DOS_CLASSES_KEY)))?;
+    let groups = limit_sensors(by_sensor(t)?, notes);
+    let cols: Vec<(Vec<i64>, Vec<String>, ListCol)> = t
+        .batches
+        .iter()
+        .map(|b| Ok((i64s(b, "end_ns")?, strings(b, "class")?, fixed_lists(b, "posterior")?)))
+        .collect::<R<_>>()?;
+    let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
+    let mut series = Vec::new();
+    let mut drawn = 0u64;
+    for (sensor, rows) in &groups {
+        let k = stride(rows.len(), MAX_POINTS);
+        let pts: Vec<(f64, usize, f64)> = rows
+            .iter()
+            .step_by(k)
+            .filter_map(|&(bi, ri)| {
+                let (ts, cl, (m, post)) = &cols[bi];
+                let c = classes.iter().position(|x| x == &cl[ri])?;
+                let p = post.get(ri * m + c).copied().unwrap_or(f64::NAN);
+                Some((secs(ts[ri], t0), c, p))
+            })
+            .collect();
+        drawn += pts.len() as u64;
+        series.push((sensor.clone(), pts));
+    }
+    let n = classes.len().max(1);
+    Ok(Prepared {
+        size: (PANEL_W, STRIP_H * series.len() as u32),
+        sensors: groups.iter().map(|g| g.0.clone()).collect(),
+        drawn,
+        draw: Box::new(move |root| {
+            let label = |v: &f64| {
+                let i = v.round();
+                if (v - i).abs() > 1e-9 || i < 0.0 {
+                    return String::new();
+                }
+                classes.get(i as usize).cloned().unwrap_or_default()
+            };
+            for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
+                let (x0, x1) = padded(range_of(pts.iter().map(|p| p.0)), 0.02);
+                let mut chart = ChartBuilder::on(area)
+                    .caption(format!("{sensor}: {} decisions (dos/1); shade: posterior", pts.len()), ("sans-serif", 18))
+                    .margin(12)
+                    .x_label_area_size(36)
+                    .y_label_area_size(50)
+                    .build_cartesian_2d(x0..x1, -0.5..(n as f64 - 0.5))?;
+                chart
+                    .configure_mesh()
+                    .x_desc("decision time (s from the first row)")
+                    .y_labels(n)
+                    .y_label_formatter(&label)
+                    .label_style(("sans-serif", 12))
+                    .draw()?;
+                chart.draw_series(pts.iter().map(|&(x, c, p)| {
+                    let shade = if p.is_finite() { 0.25 + 0.75 * p.clamp(0.0, 1.0) } else { 0.25 };
+                    Circle::new((x, c as f64), 5, series_colour(c).mix(shade).filled())
+                }))?;
             }
             Ok(())
         }),

@@ -333,3 +333,111 @@ fn extremes_render_without_panicking() {
     assert_eq!((s.width, s.height), (1200, 700));
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// The task schemas: slip/1 (from a simulated slipping grasp through the chain and the slip
+/// stage), force/1 and servo/1 (from the simulated circle's track), dos/1 (hand-made
+/// decisions): each renders at its documented size with content.
+#[test]
+fn task_schemas_render() {
+    use gradtac::io::records::{DosShape, SlipShape};
+    use gradtac::stages::dos::{Decision, DosClass, DosDecision, FeatureVector};
+    use gradtac::stages::force::ForceEstimate;
+    use gradtac::stages::servo::{Motion, ServoAction, ServoCommand};
+    use gradtac::stream::Timestamp;
+
+    let layout = Layout::biotac_sp();
+    let d = dir("tasks");
+    let o = simulate(&layout);
+
+    // slip/1
+    let sim = Simulator::try_new(layout.clone(), SensorModel { flip_fraction: 0.0, ..Default::default() }, 2).unwrap();
+    let rec = sim.run(&Scene::grasp(SlipClass::RotationalCcw, &GraspConfig::default(), &layout)).unwrap();
+    let l2 = layout.clone();
+    let mut keyed = Keyed::new(move |_: &SensorId| {
+        let sg = SavGol::try_with_rate(24, SavGolConfig::default(), 100.0).unwrap();
+        let ev =
+            Events::try_new(24, EventsConfig { threshold: Threshold::Uniform(0.002), ..Default::default() }).unwrap();
+        let w = Window::try_new(&WindowConfig { frames: Some(10), ..Default::default() }).unwrap();
+        let icfg = InterpolateConfig { grid: GridConfig { nx: 32, ..Default::default() }, ..Default::default() };
+        let i = Interpolate::try_new(&icfg, &l2).unwrap();
+        let c = Contour::try_new(&ContourConfig { min_peak: 2.0, min_area_mm2: 60.0, ..Default::default() }).unwrap();
+        sg.then(ev).then(w).then(i).then(c).then(Track::try_new(&TrackConfig::default()).unwrap())
+    });
+    let pts = keyed.run_all(rec.taxel_frames()).unwrap();
+    let slips = Slip::try_new(&SlipConfig::default()).unwrap().run_all(pts).unwrap();
+    assert!(!slips.is_empty());
+    write(&d.join("slip.parquet"), SlipShape::new("ff", "th"), &slips, None);
+
+    // force/1 and servo/1 from the circle's track
+    let forces: Vec<ForceEstimate> = o
+        .points
+        .iter()
+        .map(|p| ForceEstimate {
+            sensor: p.sensor.clone(),
+            time: p.time,
+            seq: p.seq,
+            area_mm2: p.area_mm2,
+            force_n: p.area_mm2.is_finite().then_some(0.05 * p.area_mm2),
+        })
+        .collect();
+    write(&d.join("force.parquet"), (), &forces, None);
+    let [cx, cy] = layout.extent().centre();
+    let servos: Vec<ServoCommand> = o
+        .points
+        .iter()
+        .map(|p| {
+            let action = if p.x_mm.is_finite() {
+                let off = [p.x_mm - cx, p.y_mm - cy];
+                let dist = off[0].hypot(off[1]);
+                ServoAction::Move(Motion {
+                    offset_mm: off,
+                    distance_mm: dist,
+                    direction: if dist > 0.0 { [off[0] / dist, off[1] / dist] } else { [0.0, 0.0] },
+                    motion_mm: [0.5 * off[0], 0.5 * off[1]],
+                })
+            } else {
+                ServoAction::NoContact
+            };
+            ServoCommand { sensor: p.sensor.clone(), time: p.time, seq: p.seq, action }
+        })
+        .collect();
+    write(&d.join("servo.parquet"), (), &servos, None);
+
+    // dos/1
+    let classes = DosClass::ALL.to_vec();
+    let decisions: Vec<DosDecision> = (0..40u64)
+        .map(|j| {
+            let c = (j as usize / 6) % classes.len();
+            let mut posterior = vec![0.02; classes.len()];
+            posterior[c] = 0.5 + 0.01 * j as f64;
+            DosDecision {
+                sensor: SensorId::new("ff"),
+                start: Timestamp(j as i64 * 500_000_000),
+                end: Timestamp(j as i64 * 500_000_000 + 490_000_000),
+                seq: 50 * j + 49,
+                frames: 50,
+                decision: Decision { class: classes[c], distances: vec![1.0; classes.len()], posterior },
+                features: FeatureVector { all: std::array::from_fn(|f| f as f64), frames: 50, events: 3 * j },
+            }
+        })
+        .collect();
+    write(&d.join("dos.parquet"), DosShape::new(classes).unwrap(), &decisions, None);
+
+    for (name, schema, size, ink) in [
+        ("slip", "slip/1", (1200, 560), 0.05),
+        ("force", "force/1", (1200, 680), 0.03),
+        ("servo", "servo/1", (1200, 680), 0.03),
+        ("dos", "dos/1", (1200, 340), 0.02),
+    ] {
+        let png = d.join(format!("{name}.png"));
+        let s = plot_parquet(&d.join(format!("{name}.parquet")), &png).unwrap();
+        assert_eq!(s.kind, schema);
+        assert!(s.drawn > 0, "{s}");
+        check_png(&png, &s, size, ink);
+    }
+    if std::env::var_os("GRADTAC_KEEP_PLOTS").is_none() {
+        std::fs::remove_dir_all(&d).unwrap();
+    } else {
+        eprintln!("plots kept in {}", d.display());
+    }
+}
