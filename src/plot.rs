@@ -21,8 +21,10 @@
 //! The layout comes from the file's `gradtac.layout.<sensor>` or `gradtac.layout` metadata (CSV,
 //! as the CLI writes it) and falls back to the built-in BioTac SP layout when the file has none
 //! and the taxel count matches (or for `contour/1` and `track/1`, which carry no taxel count).
-//! Large files are decimated for drawing (at most [`MAX_POINTS`] points per series, every k-th
-//! row); [`PlotSummary::notes`] says when.
+//! Large files are decimated while reading (every k-th row, k a prime ≥ 11 so interleaved sensors
+//! are all sampled; at most `MAX_POINTS · MAX_SENSORS` rows, ten times that for events, a tenth
+//! for windows, ≈ 64 MB of values for surfaces), so memory stays bounded for long archives, and
+//! again for drawing (at most [`MAX_POINTS`] points per series); [`PlotSummary::notes`] says when.
 //!
 //! The demo's plots take plain data, not files: [`plot_surface_with_contours`],
 //! [`plot_trajectory_vs_truth`] and [`plot_slip_timeline`].
@@ -43,7 +45,7 @@ use gradtac_stages::interpolate::Grid;
 use gradtac_stages::slip::{SlipClass, SlipEvent};
 use gradtac_stream::{Extent, Layout};
 use ndarray::ArrayView2;
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use parquet::arrow::arrow_reader::{ParquetRecordBatchReaderBuilder, RowSelection, RowSelector};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -365,7 +367,12 @@ struct Table {
     schema_id: String,
     kv: HashMap<String, String>,
     schema: SchemaRef,
+    /// The rows read (all, or every `stride`-th).
     batches: Vec<RecordBatch>,
+    /// Rows in the file.
+    total_rows: usize,
+    /// Every this many rows were read (`None`: all).
+    stride: Option<usize>,
 }
 
 impl Table {
@@ -416,10 +423,54 @@ fn read_table(path: &Path) -> R<Table> {
     if !KNOWN.contains(&schema_id.as_str()) {
         return Err(PlotErr(format!("unknown schema {schema_id:?} (known: {})", KNOWN.join(", "))));
     }
+    // Large files are decimated while reading (memory stays bounded): every k-th row, k a prime
+    // ≥ 11 so that rows of up to 10 interleaved sensors are all sampled.
+    let total_rows = usize::try_from(builder.metadata().file_metadata().num_rows()).unwrap_or(0);
+    let budget = read_budget(&schema_id, &schema);
+    let (builder, stride) = if total_rows > budget {
+        let k = next_prime(total_rows.div_ceil(budget).max(11));
+        let mut sel = Vec::with_capacity(2 * (total_rows / k + 1));
+        let mut i = 0;
+        while i < total_rows {
+            sel.push(RowSelector::select(1));
+            let skip = (k - 1).min(total_rows - i - 1);
+            if skip > 0 {
+                sel.push(RowSelector::skip(skip));
+            }
+            i += k;
+        }
+        (builder.with_row_selection(RowSelection::from(sel)), Some(k))
+    } else {
+        (builder, None)
+    };
     let reader = builder.build().map_err(|e| PlotErr(format!("cannot read: {e}")))?;
     let batches =
         reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| PlotErr(format!("cannot read rows: {e}")))?;
-    Ok(Table { schema_id, kv, schema, batches })
+    Ok(Table { schema_id, kv, schema, batches, total_rows, stride })
+}
+
+/// At most this many rows of a file are read: [`MAX_POINTS`] per drawn sensor (ten times that
+/// for events, a tenth for windows), and for surfaces about 64 MB of values.
+fn read_budget(schema_id: &str, schema: &SchemaRef) -> usize {
+    let rows = MAX_POINTS * MAX_SENSORS;
+    match schema_id {
+        "event/1" => 10 * rows,
+        "window/1" => rows / 10,
+        "surface/1" => {
+            let n = match schema.field_with_name("values").map(|f| f.data_type().clone()) {
+                Ok(arrow_schema::DataType::FixedSizeList(_, n)) => n.max(1) as usize,
+                _ => 1,
+            };
+            (64_000_000 / (8 * n)).clamp(64, 1600)
+        }
+        _ => rows,
+    }
+}
+
+/// The smallest prime ≥ `n`.
+fn next_prime(n: usize) -> usize {
+    let is_prime = |m: usize| m >= 2 && (2..).take_while(|d| d * d <= m).all(|d| m % d != 0);
+    (n..).find(|&m| is_prime(m)).unwrap_or(n)
 }
 
 fn column<'a>(b: &'a RecordBatch, name: &str) -> R<&'a ArrayRef> {
@@ -552,6 +603,9 @@ fn secs(t_ns: i64, t0: i64) -> f64 {
 pub fn plot_parquet(input: &Path, output_png: &Path) -> Result<PlotSummary, Error> {
     let table = read_table(input).map_err(|e| plot_error(input, e))?;
     let mut notes = Vec::new();
+    if let Some(k) = table.stride {
+        notes.push(format!("large file: every {k}th of its {} rows read", table.total_rows));
+    }
     let plan = match table.schema_id.as_str() {
         "frame/1" => frames_plot(&table, &mut notes),
         "event/1" => events_plot(&table, &mut notes),
@@ -583,7 +637,7 @@ pub fn plot_parquet(input: &Path, output_png: &Path) -> Result<PlotSummary, Erro
     render(output_png, size, |root| draw(root))?;
     Ok(PlotSummary {
         kind: table.schema_id.clone(),
-        rows: table.rows() as u64,
+        rows: table.total_rows as u64,
         drawn,
         sensors,
         width: size.0,

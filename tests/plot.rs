@@ -441,3 +441,29 @@ fn task_schemas_render() {
         eprintln!("plots kept in {}", d.display());
     }
 }
+
+/// A long file of two interleaved sensors is decimated while reading (every 11th row, a prime,
+/// so both sensors are sampled) and again for drawing; the summary counts every row.
+#[test]
+fn long_files_are_decimated_and_keep_every_sensor() {
+    use gradtac::stream::Timestamp;
+    let d = dir("long");
+    let rows = 200_000u64;
+    let shape = FrameShape::unnamed(4).unwrap();
+    let mut sink = ParquetSink::<TaxelFrame>::try_new(d.join("long.parquet"), shape).unwrap();
+    let (th, ff) = (SensorId::new("th"), SensorId::new("ff"));
+    for k in 0..rows {
+        let s = if k % 2 == 0 { &th } else { &ff };
+        let t = (k / 2) as f64 * 0.01;
+        let v = (0..4).map(|i| (t + i as f64).sin()).collect();
+        sink.push(&TaxelFrame::new(s.clone(), Timestamp((k / 2) as i64 * 10_000_000), k / 2, v)).unwrap();
+    }
+    sink.finish().unwrap();
+    let s = plot_parquet(&d.join("long.parquet"), &d.join("long.png")).unwrap();
+    assert_eq!(s.rows, rows);
+    assert_eq!(s.sensors, vec!["th".to_string(), "ff".to_string()]);
+    assert!(s.notes.iter().any(|n| n.contains("every 11th of its 200000 rows")), "{s}");
+    assert!(s.drawn <= 2 * gradtac::plot::MAX_POINTS as u64 && s.drawn > 10_000, "{s}");
+    check_png(&d.join("long.png"), &s, (1200, 680), 0.05);
+    std::fs::remove_dir_all(&d).unwrap();
+}
