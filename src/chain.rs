@@ -1,4 +1,4 @@
-//! One sensor's chain of stages, built only as deep as its outputs need.
+//! One sensor's stages, built only where its outputs need them (the tap tree of [`Tap::parent`]).
 
 use crate::plan::{SensorPlan, Tap};
 use crate::scene::{Scene, StageSettings};
@@ -17,12 +17,12 @@ use gradtac_stages::window::{Window, WindowAggregate};
 use gradtac_stages::EventBatch;
 use gradtac_stream::{Delay, SensorId, Stage, TaxelFrame};
 
-/// The stages of one sensor, `None` past the deepest tap its outputs need, with a reusable
-/// buffer between each pair.
+/// The stages of one sensor, `None` where no output needs them, with a reusable buffer after
+/// each stage.
 pub struct SensorChain {
     sensor: SensorId,
     /// Output indices tapping each stage (indexed by `Tap as usize`).
-    taps: [Vec<usize>; 12],
+    taps: [Vec<usize>; TAPS],
     normalise: Option<Normalise>,
     savgol: Option<SavGol>,
     events: Option<Events>,
@@ -47,6 +47,9 @@ pub struct SensorChain {
     frames_in: u64,
 }
 
+/// Number of taps.
+const TAPS: usize = Tap::ALL.len();
+
 fn feed<S>(stage: &mut S, input: &mut Vec<S::In>, out: &mut Vec<S::Out>, finish: bool) -> Result<(), Error>
 where
     S: Stage,
@@ -68,7 +71,7 @@ impl SensorChain {
         let n = plan.layout.len();
         let runs = |t| plan.runs(t);
         let rate = scene.sensors[plan.index].source.rate_hz();
-        let mut taps: [Vec<usize>; 12] = Default::default();
+        let mut taps: [Vec<usize>; TAPS] = std::array::from_fn(|_| Vec::new());
         for &i in &plan.outputs {
             if let Some(t) = Tap::parse(&scene.outputs[i].tap) {
                 taps[t as usize].push(i);
