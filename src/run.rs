@@ -241,6 +241,7 @@ fn open_bus(scene: &Scene, bus: &BusSpec) -> Result<(FrameStream, OpenBus), Erro
             let h = s.stats_handle();
             (Box::pin(s.map(move |r| r.map_err(err))), h)
         }
+        #[cfg(target_os = "linux")]
         BusSource::Live(cfg) => {
             let s = gradtac_io::can::socketcan::open(cfg)?;
             let h = s.stats_handle();

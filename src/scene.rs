@@ -23,6 +23,7 @@
 use crate::Error;
 use gradtac_io::archive::ArchiveConfig;
 use gradtac_io::arrow_ipc::ArrowIpcConfig;
+#[cfg(target_os = "linux")]
 use gradtac_io::can::socketcan::SocketCanConfig;
 use gradtac_io::can::{CanCodec, CandumpConfig};
 use gradtac_io::npy::NpySourceConfig;
@@ -142,6 +143,7 @@ pub enum BusSource {
     /// A can-utils `candump -l` log.
     Candump(CandumpConfig),
     /// A live SocketCAN interface.
+    #[cfg(target_os = "linux")]
     Live(SocketCanConfig),
 }
 
@@ -164,9 +166,17 @@ impl<'de> Deserialize<'de> for BusSpec {
                 CandumpConfig::deserialize(v).map_err(|e| D::Error::custom(format!("bus {name:?}: {e}")))?,
             )
         } else if table.contains_key("interface") {
-            BusSource::Live(
-                SocketCanConfig::deserialize(v).map_err(|e| D::Error::custom(format!("bus {name:?}: {e}")))?,
-            )
+            #[cfg(target_os = "linux")]
+            {
+                BusSource::Live(
+                    SocketCanConfig::deserialize(v).map_err(|e| D::Error::custom(format!("bus {name:?}: {e}")))?,
+                )
+            }
+            #[cfg(not(target_os = "linux"))]
+            {
+                drop(v);
+                return Err(D::Error::custom(format!("bus {name:?}: live SocketCAN interfaces need Linux")));
+            }
         } else {
             return Err(D::Error::custom(format!(
                 "bus {name:?} names no traffic: give candump = \"log\" or interface = \"can0\""
@@ -388,6 +398,7 @@ impl Scene {
             }
             let codec = match &b.source {
                 BusSource::Candump(c) => &c.codec,
+                #[cfg(target_os = "linux")]
                 BusSource::Live(c) => &c.codec,
             };
             CanCodec::try_new(codec).map_err(|e| bad(format!("bus {:?}: {e}", b.name)))?;
