@@ -11,7 +11,8 @@
 //! ([`DosFeatureExtractor`]), and for every object (bottle, cardboard, case, hd, pen, sponge)
 //! a [`DosModel`] is calibrated on the other objects' recordings and tested on that object's.
 //! Prints the overall and per-fold accuracy, the 7 × 7 confusion matrix, a comparison of
-//! feature sets, and the per-class means of the direction features. `--model-out` writes the
+//! feature sets, the accuracy by variance shrinkage λ (with a nested choice of λ inside each
+//! fold), the accuracy by event threshold, and the per-class means of the direction features. `--model-out` writes the
 //! model calibrated on all recordings as JSON (the file a scene loads). Exits 0 with
 //! "skipped: data not present" when the directory is absent.
 //!
@@ -95,22 +96,35 @@ type Fold = (String, usize, usize);
 /// Rows true class, columns predicted, [`DosClass::ALL`] order.
 type Confusion = [[usize; 7]; 7];
 
-/// Leave-one-object-out: per fold (object, correct, total) and the confusion matrix
-/// (rows true class, columns predicted, [`DosClass::ALL`] order).
+/// The objects of `recs`, sorted.
+fn objects_of(recs: &[Recording]) -> Vec<String> {
+    let mut o: Vec<String> = recs.iter().map(|r| r.object.clone()).collect();
+    o.sort();
+    o.dedup();
+    o
+}
+
+/// Leave-one-object-out with the default shrinkage ([`DosModel::calibrate`]).
 fn cross_validate(recs: &[Recording], cfg: &DosFeatureConfig) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
-    let objects: Vec<String> = {
-        let mut o: Vec<String> = recs.iter().map(|r| r.object.clone()).collect();
-        o.sort();
-        o.dedup();
-        o
-    };
+    cross_validate_with(recs, cfg, &|_| DosModel::DEFAULT_SHRINKAGE)
+}
+
+/// Leave-one-object-out: per fold (object, correct, total) and the confusion matrix
+/// (rows true class, columns predicted, [`DosClass::ALL`] order); `shrinkage(object)` gives
+/// the variance shrinkage λ of the fold that holds `object` out.
+fn cross_validate_with(
+    recs: &[Recording],
+    cfg: &DosFeatureConfig,
+    shrinkage: &dyn Fn(&str) -> f64,
+) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
+    let objects = objects_of(recs);
     let idx = |c: DosClass| DosClass::ALL.iter().position(|&x| x == c).unwrap_or(0);
     let mut folds = Vec::new();
     let mut cm = [[0usize; 7]; 7];
     for obj in &objects {
         let train: Vec<(DosClass, Vec<f64>)> =
             recs.iter().filter(|r| &r.object != obj).map(|r| (r.class, r.features.select(&cfg.features))).collect();
-        let model = DosModel::calibrate(cfg.clone(), &train)?;
+        let model = DosModel::calibrate_with_shrinkage(cfg.clone(), &train, shrinkage(obj))?;
         let (mut ok, mut n) = (0, 0);
         for r in recs.iter().filter(|r| &r.object == obj) {
             let d = model.classify_vector(&r.features)?;
@@ -193,14 +207,17 @@ fn main() -> Result<(), Box<dyn Error>> {
         t_read.as_secs_f64(),
         us_per_frame
     );
+    let params = |features: &[Feature]| 2 * DosClass::ALL.len() * features.len();
     println!(
-        "features ({}, centroid {:?}, τ = {}): {}; parameters per model: (7 + 1) × {} = {}",
+        "features ({}, centroid {:?}, τ = {}): {}; per-class variances shrunk by λ = {} toward the pooled ones; \
+         parameters per model: 2 × 7 × {} = {}",
         cfg.features.len(),
         cfg.centroid,
         cfg.threshold,
         cfg.features.iter().map(|f| f.name()).collect::<Vec<_>>().join(", "),
+        DosModel::DEFAULT_SHRINKAGE,
         cfg.features.len(),
-        8 * cfg.features.len()
+        params(&cfg.features)
     );
 
     let (folds, cm) = cross_validate(&recs, &cfg)?;
@@ -252,10 +269,41 @@ fn main() -> Result<(), Box<dyn Error>> {
             let c = DosFeatureConfig { features: set.clone(), centroid: *m, ..cfg.clone() };
             cells.push(format!("{:.1} %", accuracy(&cross_validate(recs_m, &c)?.0)));
         }
-        println!("| {name} | {} | {} | {} |", set.len(), 8 * set.len(), cells.join(" | "));
+        println!("| {name} | {} | {} | {} |", set.len(), params(set), cells.join(" | "));
     }
     let costs: Vec<String> = by_method.iter().map(|(_, us)| format!("{us:.2}")).collect();
     println!("| feature extraction, µs per frame | | | {} |", costs.join(" | "));
+
+    // Variance shrinkage λ: 1 is the pooled model of (7 + 1) × features parameters.
+    println!("\nvariance shrinkage λ (configured features and centroid):\n\n| λ | parameters | LOOO accuracy |\n|---|---|---|");
+    let grid = [0.0, 0.25, 0.5, 0.75, 1.0];
+    for lam in grid {
+        let p = if lam < 1.0 { params(&cfg.features) } else { 8 * cfg.features.len() };
+        println!("| {lam} | {p} | {:.1} % |", accuracy(&cross_validate_with(&recs, &cfg, &|_| lam)?.0));
+    }
+    // Nested: each outer fold picks λ by leave-one-object-out on its five training objects.
+    let mut chosen = BTreeMap::new();
+    for obj in objects_of(&recs) {
+        let inner: Vec<Recording> = recs
+            .iter()
+            .filter(|r| r.object != obj)
+            .map(|r| Recording { class: r.class, object: r.object.clone(), features: r.features })
+            .collect();
+        let mut best = (grid[0], -1.0);
+        for lam in grid {
+            let a = accuracy(&cross_validate_with(&inner, &cfg, &|_| lam)?.0);
+            if a > best.1 {
+                best = (lam, a);
+            }
+        }
+        chosen.insert(obj, best.0);
+    }
+    let nested = cross_validate_with(&recs, &cfg, &|o| chosen.get(o).copied().unwrap_or(DosModel::DEFAULT_SHRINKAGE))?;
+    println!(
+        "\nnested (λ chosen per outer fold by inner leave-one-object-out, {:?}): {:.1} %",
+        chosen,
+        accuracy(&nested.0)
+    );
 
     println!("\nevent threshold τ (configured features and centroid):\n\n| τ | LOOO accuracy |\n|---|---|");
     for tau in [0.002, 0.003, 0.005, 0.008, 0.012] {

@@ -2,8 +2,8 @@
 //! (Zapata-Impata, Gil and Torres, Sensors 19(3):523, 2019), read from `../shared/data` when
 //! present; the test passes (with a printed note) without it.
 //!
-//! Leave-one-object-out over the six objects with the default features: the accuracy must be
-//! well above chance (1/7). The full evaluation with the confusion matrix is the root
+//! Leave-one-object-out over the six objects with the default features and decision rule: the
+//! accuracy must be well above chance (1/7) and above the previous pooled model's 71.9 %. The full evaluation with the confusion matrix is the root
 //! package's `cargo run --release --example dos_eval`.
 
 use gradtac_stages::dos::{DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature, FeatureVector};
@@ -68,7 +68,7 @@ fn leave_one_object_out_is_well_above_chance() {
     for obj in &objects {
         let train: Vec<_> = recs.iter().filter(|r| r.1 != *obj).map(|r| (r.0, r.2.select(&cfg.features))).collect();
         let model = DosModel::calibrate(cfg.clone(), &train).unwrap();
-        assert_eq!(model.parameter_count(), 48);
+        assert_eq!(model.parameter_count(), 84);
         let (mut fold_ok, mut fold_n) = (0, 0);
         for r in recs.iter().filter(|r| r.1 == *obj) {
             fold_ok += usize::from(model.classify_vector(&r.2).unwrap().class == r.0);
@@ -81,8 +81,8 @@ fn leave_one_object_out_is_well_above_chance() {
     }
     let acc = ok as f64 / n as f64;
     eprintln!("leave-one-object-out accuracy {:.1} % ({ok}/{n})", 100.0 * acc);
-    // measured 71.9 %; chance is 14.3 %
-    assert!(acc > 0.6, "accuracy {acc}");
+    // measured 73.1 % (122/167); chance is 14.3 %; the pooled nearest-mean model 71.9 %
+    assert!(acc > 0.72, "accuracy {acc}");
 }
 
 /// The data behind the class → direction map: events gather on the side the contact leaves,
