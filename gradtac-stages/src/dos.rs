@@ -65,18 +65,19 @@
 //! (72.5 % nested over `λ` only). Per class (recall): `e` 96 %, `t` 92 %, `w` 91 %, `n` 75 %,
 //! `cw` 58 %, `s` 54 % (confused with `t` and `cw`), `aw` 46 % (confused with `cw` and `n`).
 //!
-//! Tried on the same protocol without gain (in a numpy prototype of these features, which
-//! scores the pooled default at 72.5 % against this implementation's 71.9 %): a regularised LDA with full covariance (69–71 %),
-//! multinomial logistic regression (≤ 69.5 %), k-nearest neighbours (≤ 69.5 %); extra
-//! features — first-half and second-half locations, the angular motion of the activity
+//! Tried on the same protocol without gain (in a numpy prototype of these features, which scores
+//! the pooled default at 72.5 % against this implementation's 71.9 %): a regularised LDA with full
+//! covariance (69–71 %), multinomial logistic regression (≤ 69.5 %), k-nearest neighbours
+//! (≤ 69.5 %); extra features — first-half and second-half locations, the angular motion of the activity
 //! location about its mean, the direction from the positive- to the negative-event location in
 //! windows of 10, 25 or 50 frames (its mean, and its turning between windows; the mean's y
-//! component is +0.9 mm for `cw` and −2.6 mm for `aw` on average, with spreads of ≈ 2 mm), quadrupole and dipole moments of the net (negative − positive)
-//! events about the activity centre (the dipole's y component does separate `cw` from `aw` on
-//! average, but with spreads three times the difference), per-taxel event fractions (24 or 48
-//! features), the net log-change of every electrode, the spread of the event distributions,
-//! sub-spans of the recording, and count weights `w^γ` (γ 0.5…2) for the locations — all
-//! 65–72 %. Where the events lie separates translations and touch well; the track and
+//! component is +0.9 mm for `cw` and −2.6 mm for `aw` on average, with spreads of ≈ 2 mm),
+//! quadrupole and dipole moments of the net (negative − positive) events about the activity centre
+//! (the dipole's y component does separate `cw` from `aw` on average, but with spreads three times
+//! the difference), per-taxel event fractions (24 or 48 features), the net log-change of every
+//! electrode, the spread of the event distributions, sub-spans of the recording, and count weights
+//! `w^γ` (γ 0.5…2) for the locations — all 65–72 %.
+//! Where the events lie separates translations and touch well; the track and
 //! rotation features, which separate synthetic contacts cleanly (unit tests), add nothing on
 //! these recordings: rotational slip of a real object barely moves or turns the event
 //! distribution of the BioTac's 24 electrodes. The maximal contour locates the *busiest*
