@@ -3,8 +3,9 @@
 //! present; the test passes (with a printed note) without it.
 //!
 //! Leave-one-object-out over the six objects with the default features and decision rule: the
-//! accuracy must be well above chance (1/7) and above the previous pooled model's 71.9 %. The full evaluation with the confusion matrix is the root
-//! package's `cargo run --release --example dos_eval`.
+//! accuracy must be well above chance (1/7) and above the previous pooled model's 71.9 %. The
+//! full evaluation with the confusion matrix is the root package's
+//! `cargo run --release --example dos_eval`.
 
 use gradtac_stages::dos::{DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature, FeatureVector};
 use gradtac_stream::{Layout, TaxelFrame, Timestamp};
