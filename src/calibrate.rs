@@ -4,9 +4,10 @@
 //! Labelled recordings are laid out as BioTacSP-DoS is: `<dir>/<class>/<name>.csv` with a
 //! class directory per [`DosClass`] (`n`, `e`, `s`, `w`, `cw`, `aw`, `t`), one recording per
 //! file. Each recording's features are extracted by the same [`DosFeatureExtractor`] the
-//! scene's `dos` stage runs; [`DosModel::calibrate`] then fits a mean per class and a pooled
-//! variance per feature: `(classes + 1) × features` numbers (48 with the default six
-//! features and seven classes).
+//! scene's `dos` stage runs; [`DosModel::calibrate`] then fits, per class and feature, a mean
+//! and a variance shrunk halfway toward the pooled within-class variance:
+//! `2 × classes × features` numbers (84 with the default six features and seven classes;
+//! [`DosModel::parameter_count`] says which).
 
 use crate::Error;
 use gradtac_io::{ColumnSelector, CsvFrames, CsvSourceConfig};
