@@ -244,6 +244,34 @@ fn series_colour(i: usize) -> RGBColor {
     RGBColor(c.0, c.1, c.2)
 }
 
+/// The legend of the slip-class colours ([`slip_colour`]) on a class strip.
+fn slip_legend<'a, 'b>(
+    strip: &mut ChartContext<
+        'a,
+        BitMapBackend<'b>,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+) -> R<()>
+where
+    'b: 'a,
+{
+    for c in SlipClass::ALL {
+        let col = slip_colour(c);
+        strip
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+            .label(c.name())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], col.filled()));
+    }
+    strip
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK.mix(0.3))
+        .label_font(("sans-serif", 11))
+        .draw()?;
+    Ok(())
+}
+
 fn slip_colour(c: SlipClass) -> RGBColor {
     match c {
         SlipClass::Stable => RGBColor(200, 200, 200),
@@ -1490,21 +1518,7 @@ fn slip_plot(t: &Table) -> R<Prepared> {
             for e in ev.iter().filter(|e| e.2.is_slip()) {
                 strip.draw_series(DashedLineSeries::new(vec![(e.1, 0.0), (e.1, 1.0)], 4, 4, BLACK.stroke_width(1)))?;
             }
-            for c in SlipClass::ALL {
-                let col = slip_colour(c);
-                strip
-                    .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
-                    .label(c.name())
-                    .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], col.filled()));
-            }
-            strip
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK.mix(0.3))
-                .label_font(("sans-serif", 11))
-                .draw()?;
-            Ok(())
+            slip_legend(&mut strip)
         }),
     })
 }
@@ -1810,21 +1824,7 @@ pub fn plot_slip_timeline(
             let x = e.onset.as_secs_f64();
             strip.draw_series(DashedLineSeries::new(vec![(x, 0.0), (x, 2.0)], 4, 4, BLACK.stroke_width(1)))?;
         }
-        for c in SlipClass::ALL {
-            let col = slip_colour(c);
-            strip
-                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
-                .label(c.name())
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], col.filled()));
-        }
-        strip
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 11))
-            .draw()?;
-        Ok(())
+        slip_legend(&mut strip)
     })?;
     Ok(PlotSummary {
         kind: "slip timeline".into(),
