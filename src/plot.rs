@@ -244,14 +244,15 @@ fn series_colour(i: usize) -> RGBColor {
     RGBColor(c.0, c.1, c.2)
 }
 
+/// A chart with f64 axes on the bitmap backend.
+type Strip<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
 /// The legend of the slip-class colours ([`slip_colour`]) on a class strip.
-fn slip_legend<'a, 'b>(
-    strip: &mut ChartContext<
-        'a,
-        BitMapBackend<'b>,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
-) -> R<()>
+fn slip_legend<'a, 'b>(strip: &mut Strip<'a, 'b>) -> R<()>
 where
     'b: 'a,
 {
