@@ -206,7 +206,7 @@ fn draw_plots(
     dir: &Path,
     scene: &Scene,
     rec: &Recording,
-    tracks: &[(String, u64, f64, f64, f64)],
+    tracks: &[TrackRow],
     slips: &[SlipEvent],
 ) -> Result<Vec<PathBuf>, Error> {
     let layout = Layout::biotac_sp();
@@ -273,8 +273,11 @@ fn column<'a, T: 'static>(b: &'a arrow_array::RecordBatch, name: &str) -> &'a T 
     b.column_by_name(name).and_then(|c| c.as_any().downcast_ref::<T>()).expect("schema documented in docs/schemas.md")
 }
 
-/// (sensor, seq, t s, x, y) of every track point (`track/1`).
-fn read_tracks(path: &Path) -> Result<Vec<(String, u64, f64, f64, f64)>, Error> {
+/// (sensor, seq, t s, x mm, y mm) of one track point.
+type TrackRow = (String, u64, f64, f64, f64);
+
+/// Every track point of a `track/1` file.
+fn read_tracks(path: &Path) -> Result<Vec<TrackRow>, Error> {
     let mut out = Vec::new();
     for b in parquet_batches(path)? {
         let (s, q, t) = (
