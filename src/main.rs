@@ -45,11 +45,14 @@ enum Command {
         rate_hz: f64,
     },
     /// Render a gradtac Parquet output (any schema: frame, event, window, surface, contour,
-    /// track) as a PNG.
+    /// track, slip, force, servo, dos) as a PNG: one file, or an archive directory (its
+    /// finished `*.parquet` files, recursively, including `sensor=<name>/` partitions, read as
+    /// one table; they must share one schema).
     Plot {
-        /// The Parquet file.
+        /// The Parquet file or archive directory.
         input: PathBuf,
-        /// The PNG to write (default: the input with `.png`).
+        /// The PNG to write (default: the input with `.png`; for a directory, `<dir>.png`
+        /// beside it).
         #[arg(long, short)]
         out: Option<PathBuf>,
     },
@@ -121,7 +124,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Plot { input, out } => {
-            let out = out.unwrap_or_else(|| input.with_extension("png"));
+            let out = out.unwrap_or_else(|| default_png(&input));
             let summary = gradtac::plot::plot_parquet(&input, &out)?;
             print!("{summary}");
             println!("wrote {}", out.display());
@@ -148,5 +151,25 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             print!("{}", demo::where_lines(&report, &dir));
             Ok(ExitCode::SUCCESS)
         }
+    }
+}
+
+/// The default PNG of `gradtac plot`: a file's path with `.png`; for a directory, `<dir>.png`
+/// beside it (`.` and `..` resolved to their names first).
+fn default_png(input: &std::path::Path) -> PathBuf {
+    if !input.is_dir() {
+        return input.with_extension("png");
+    }
+    let dir = match input.file_name() {
+        Some(_) => input.to_path_buf(),
+        None => input.canonicalize().unwrap_or_else(|_| input.to_path_buf()),
+    };
+    match dir.file_name() {
+        Some(name) => {
+            let mut png = name.to_os_string();
+            png.push(".png");
+            dir.with_file_name(png)
+        }
+        None => dir.join("plot.png"),
     }
 }

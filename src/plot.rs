@@ -1,8 +1,10 @@
 //! PNG plots of gradtac outputs (`gradtac plot`) and of the demo's results, drawn with
 //! [`plotters`] into a pixel buffer and encoded with [`png`].
 //!
-//! [`plot_parquet`] reads any Parquet file a gradtac sink wrote, detects its schema from the
-//! `gradtac.schema` key-value metadata (`docs/schemas.md`) and draws:
+//! [`plot_parquet`] reads any Parquet file a gradtac sink wrote, or a directory of them (an
+//! archive: rolled files, optionally hive-partitioned `sensor=<name>/`, read as one table),
+//! detects its schema from the `gradtac.schema` key-value metadata (`docs/schemas.md`) and
+//! draws:
 //!
 //! | schema | plot | size (px, `s` = sensors drawn, at most [`MAX_SENSORS`]) |
 //! |---|---|---|
@@ -18,10 +20,13 @@
 //! | `dos/1` | decided class over time per sensor (one row per class of `gradtac.dos.classes`), marker shade = posterior of the decided class | 1200 × 340·s |
 //!
 //! Times are drawn in seconds from the first row of the file (its epoch may be Unix time).
+//! An archive's finished `*.parquet` files are found recursively in lexical path order
+//! (hidden and `_` names, such as the `.partial` files being written, are skipped) and must
+//! share one schema; their rows count together for decimation.
 //! The layout comes from the file's `gradtac.layout.<sensor>` or `gradtac.layout` metadata (CSV,
 //! as the CLI writes it) and falls back to the built-in BioTac SP layout when the file has none
 //! and the taxel count matches (or for `contour/1` and `track/1`, which carry no taxel count).
-//! Large files are decimated while reading (every k-th row, k a prime ≥ 11 so interleaved sensors
+//! Large files (and archives) are decimated while reading (every k-th row, k a prime ≥ 11 so interleaved sensors
 //! are all sampled; at most `MAX_POINTS · MAX_SENSORS` rows, ten times that for events, a tenth
 //! for windows, ≈ 64 MB of values for surfaces), so memory stays bounded for long archives, and
 //! again for drawing (at most [`MAX_POINTS`] points per series); [`PlotSummary::notes`] says when.
@@ -392,16 +397,21 @@ where
 // ---------------------------------------------------------------------------------------------
 // reading Parquet
 
+/// What [`read_table`] read: one file, or the files of an archive directory as one table.
 struct Table {
     schema_id: String,
+    /// Key-value metadata: the file's, or for an archive the union over its files (the first
+    /// file holding a key gives its value).
     kv: HashMap<String, String>,
     schema: SchemaRef,
-    /// The rows read (all, or every `stride`-th).
+    /// The rows read (all, or every `stride`-th), in file order.
     batches: Vec<RecordBatch>,
-    /// Rows in the file.
+    /// Rows in the file (in all the archive's files).
     total_rows: usize,
     /// Every this many rows were read (`None`: all).
     stride: Option<usize>,
+    /// For a directory, its Parquet files read, in order (relative to the directory).
+    files: Option<Vec<PathBuf>>,
 }
 
 impl Table {
@@ -431,7 +441,28 @@ impl Table {
     }
 }
 
+/// Read a Parquet file, or every finished Parquet file of a directory (an archive) as one
+/// table; see [`plot_parquet`].
 fn read_table(path: &Path) -> R<Table> {
+    if path.is_dir() {
+        read_archive(path)
+    } else {
+        read_file(path)
+    }
+}
+
+/// A Parquet file opened for reading (footer parsed, no rows read yet).
+struct Opened {
+    builder: ParquetRecordBatchReaderBuilder<std::fs::File>,
+    kv: HashMap<String, String>,
+    schema: SchemaRef,
+    /// Its `gradtac.schema`, one of [`KNOWN`].
+    schema_id: String,
+    rows: usize,
+}
+
+/// Open a Parquet file and check that it is a gradtac file of a known schema.
+fn open_parquet(path: &Path) -> R<Opened> {
     let file = std::fs::File::open(path).map_err(|e| PlotErr(format!("cannot open: {e}")))?;
     let builder = ParquetRecordBatchReaderBuilder::try_new(file)
         .map_err(|e| PlotErr(format!("not a readable Parquet file: {e}")))?;
@@ -452,34 +483,183 @@ fn read_table(path: &Path) -> R<Table> {
     if !KNOWN.contains(&schema_id.as_str()) {
         return Err(PlotErr(format!("unknown schema {schema_id:?} (known: {})", KNOWN.join(", "))));
     }
-    // Large files are decimated while reading (memory stays bounded): every k-th row, k a prime
-    // ≥ 11 so that rows of up to 10 interleaved sensors are all sampled.
-    let total_rows = usize::try_from(builder.metadata().file_metadata().num_rows()).unwrap_or(0);
-    let budget = read_budget(&schema_id, &schema);
-    let (builder, stride) = if total_rows > budget {
-        let k = next_prime(total_rows.div_ceil(budget).max(11));
-        let mut sel = Vec::with_capacity(2 * (total_rows / k + 1));
-        let mut i = 0;
-        while i < total_rows {
-            sel.push(RowSelector::select(1));
-            let skip = (k - 1).min(total_rows - i - 1);
-            if skip > 0 {
-                sel.push(RowSelector::skip(skip));
-            }
-            i += k;
-        }
-        (builder.with_row_selection(RowSelection::from(sel)), Some(k))
-    } else {
-        (builder, None)
-    };
-    let reader = builder.build().map_err(|e| PlotErr(format!("cannot read: {e}")))?;
-    let batches =
-        reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| PlotErr(format!("cannot read rows: {e}")))?;
-    Ok(Table { schema_id, kv, schema, batches, total_rows, stride })
+    let rows = usize::try_from(builder.metadata().file_metadata().num_rows()).unwrap_or(0);
+    Ok(Opened { builder, kv, schema, schema_id, rows })
 }
 
-/// At most this many rows of a file are read: [`MAX_POINTS`] per drawn sensor (ten times that
-/// for events, a tenth for windows), and for surfaces about 64 MB of values.
+/// The decimation stride for `total_rows` rows of a table (`None`: read them all). Large
+/// tables are decimated while reading (memory stays bounded): every k-th row, k a prime ≥ 11
+/// so that rows of up to 10 interleaved sensors are all sampled.
+fn read_stride(total_rows: usize, schema_id: &str, schema: &SchemaRef) -> Option<usize> {
+    let budget = read_budget(schema_id, schema);
+    (total_rows > budget).then(|| next_prime(total_rows.div_ceil(budget).max(11)))
+}
+
+/// The rows of a file of `rows` rows whose index in the whole table (`first` + the index in
+/// the file) is a multiple of `k`.
+fn every_kth(rows: usize, first: usize, k: usize) -> RowSelection {
+    let lead = (k - first % k) % k;
+    if lead >= rows {
+        return RowSelection::from(vec![RowSelector::skip(rows)]);
+    }
+    let mut sel = Vec::with_capacity(2 * (rows / k + 2));
+    if lead > 0 {
+        sel.push(RowSelector::skip(lead));
+    }
+    let mut i = lead;
+    while i < rows {
+        sel.push(RowSelector::select(1));
+        let skip = (k - 1).min(rows - i - 1);
+        if skip > 0 {
+            sel.push(RowSelector::skip(skip));
+        }
+        i += k;
+    }
+    RowSelection::from(sel)
+}
+
+/// Read an opened file's rows: all, or those [`every_kth`] selects.
+fn read_rows(o: Opened, first: usize, stride: Option<usize>) -> R<Vec<RecordBatch>> {
+    let builder = match stride {
+        Some(k) => o.builder.with_row_selection(every_kth(o.rows, first, k)),
+        None => o.builder,
+    };
+    let reader = builder.build().map_err(|e| PlotErr(format!("cannot read: {e}")))?;
+    reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| PlotErr(format!("cannot read rows: {e}")))
+}
+
+fn read_file(path: &Path) -> R<Table> {
+    let o = open_parquet(path)?;
+    let (schema_id, kv, schema, total_rows) = (o.schema_id.clone(), o.kv.clone(), o.schema.clone(), o.rows);
+    let stride = read_stride(total_rows, &schema_id, &schema);
+    let batches = read_rows(o, 0, stride)?;
+    Ok(Table { schema_id, kv, schema, batches, total_rows, stride, files: None })
+}
+
+/// Does a file or directory name mark something dataset readers skip (hidden, or `_`-prefixed
+/// like `_SUCCESS`)?
+fn skipped_name(name: &std::ffi::OsStr) -> bool {
+    let b = name.as_encoded_bytes();
+    b.first().is_some_and(|c| *c == b'.' || *c == b'_')
+}
+
+/// The finished Parquet files under `dir`, recursively, in lexical order of their path
+/// components (an archive's write order), relative to `dir`; and how many `.partial` files
+/// were skipped. Names starting with `.` or `_` are skipped (files and directories), as are
+/// files not ending in `.parquet`; symbolic links to files are followed, to directories not.
+fn archive_files(dir: &Path) -> R<(Vec<PathBuf>, usize)> {
+    fn walk(root: &Path, rel: &Path, files: &mut Vec<PathBuf>, partial: &mut usize) -> R<()> {
+        let here = root.join(rel);
+        let rd = std::fs::read_dir(&here).map_err(|e| PlotErr(format!("cannot list {}: {e}", here.display())))?;
+        let mut entries = rd
+            .collect::<std::io::Result<Vec<_>>>()
+            .map_err(|e| PlotErr(format!("cannot list {}: {e}", here.display())))?;
+        entries.sort_by_key(|e| e.file_name());
+        for e in entries {
+            let name = e.file_name();
+            let path = rel.join(&name);
+            let ft = e.file_type().map_err(|err| PlotErr(format!("{}: {err}", path.display())))?;
+            if name.as_encoded_bytes().ends_with(gradtac_io::parquet_sink::PARTIAL_SUFFIX.as_bytes()) {
+                *partial += 1;
+            } else if skipped_name(&name) {
+            } else if ft.is_dir() {
+                walk(root, &path, files, partial)?;
+            } else if (ft.is_file() || (ft.is_symlink() && e.path().is_file()))
+                && name.as_encoded_bytes().ends_with(b".parquet")
+            {
+                files.push(path);
+            }
+        }
+        Ok(())
+    }
+    let (mut files, mut partial) = (Vec::new(), 0);
+    walk(dir, Path::new(""), &mut files, &mut partial)?;
+    Ok((files, partial))
+}
+
+/// Read every finished Parquet file under `dir` as one table: they must share one
+/// `gradtac.schema` and the same columns; decimation counts the rows of all files.
+fn read_archive(dir: &Path) -> R<Table> {
+    let (files, partial) = archive_files(dir)?;
+    if files.is_empty() {
+        let reason = if partial > 0 {
+            let s = if partial == 1 { "" } else { "s" };
+            format!(
+                "no finished Parquet file to plot, only {partial} unfinished `.partial` file{s} (being written, or \
+                 left by a crash)"
+            )
+        } else if std::fs::read_dir(dir).map(|mut d| d.next().is_none()).unwrap_or(false) {
+            "empty directory: no finished Parquet file to plot".to_string()
+        } else {
+            "no finished Parquet file to plot (`*.parquet`; names starting with `.` or `_` are skipped)".to_string()
+        };
+        return Err(PlotErr(reason));
+    }
+    let in_file = |f: &Path, e: PlotErr| PlotErr(format!("{}: {}", f.display(), e.0));
+    // Pass 1: footers only — the common schema, the total row count, the merged metadata.
+    let mut first: Option<Opened> = None;
+    let mut kv = HashMap::new();
+    let mut rows = Vec::with_capacity(files.len());
+    for f in &files {
+        let o = open_parquet(&dir.join(f)).map_err(|e| in_file(f, e))?;
+        if let Some(p) = &first {
+            let same_columns = p.schema.fields().len() == o.schema.fields().len()
+                && p.schema
+                    .fields()
+                    .iter()
+                    .zip(o.schema.fields())
+                    .all(|(a, b)| a.name() == b.name() && a.data_type() == b.data_type());
+            if o.schema_id != p.schema_id {
+                return Err(PlotErr(format!(
+                    "{}: schema {} differs from {} of {} (the archive's first file); an archive's files must share one \
+                     `gradtac.schema`",
+                    f.display(),
+                    o.schema_id,
+                    p.schema_id,
+                    files[0].display()
+                )));
+            }
+            if !same_columns {
+                return Err(PlotErr(format!(
+                    "{}: schema {} with other columns (or column types) than {} (the archive's first file)",
+                    f.display(),
+                    o.schema_id,
+                    files[0].display()
+                )));
+            }
+        }
+        for (k, v) in &o.kv {
+            kv.entry(k.clone()).or_insert_with(|| v.clone());
+        }
+        rows.push(o.rows);
+        if first.is_none() {
+            first = Some(o);
+        }
+    }
+    let first = first.expect("files is not empty");
+    let (schema_id, schema) = (first.schema_id.clone(), first.schema.clone());
+    drop(first);
+    let total_rows: usize = rows.iter().sum();
+    let stride = read_stride(total_rows, &schema_id, &schema);
+    // Pass 2: the rows, every k-th of the whole table.
+    let mut batches = Vec::new();
+    let mut offset = 0;
+    for (f, n) in files.iter().zip(&rows) {
+        if *n > 0 {
+            let o = open_parquet(&dir.join(f)).map_err(|e| in_file(f, e))?;
+            if o.rows != *n {
+                return Err(in_file(f, PlotErr(format!("changed while read ({n} rows, then {})", o.rows))));
+            }
+            batches.extend(read_rows(o, offset, stride).map_err(|e| in_file(f, e))?);
+        }
+        offset += n;
+    }
+    Ok(Table { schema_id, kv, schema, batches, total_rows, stride, files: Some(files) })
+}
+
+/// At most this many rows of a file (or of all an archive's files) are read: [`MAX_POINTS`] per
+/// drawn sensor (ten times that for events, a tenth for windows), and for surfaces about 64 MB
+/// of values.
 fn read_budget(schema_id: &str, schema: &SchemaRef) -> usize {
     let rows = MAX_POINTS * MAX_SENSORS;
     match schema_id {
@@ -622,18 +802,35 @@ fn secs(t_ns: i64, t0: i64) -> f64 {
 // ---------------------------------------------------------------------------------------------
 // plot_parquet
 
-/// Plot a Parquet file written by a gradtac sink (see the [module docs](self) for what each
-/// schema gives) as a PNG at `output_png`.
+/// Plot a Parquet file written by a gradtac sink, or a directory of them (an archive written
+/// by [`ParquetArchive`](gradtac_io::ParquetArchive)), as a PNG at `output_png`; see the
+/// [module docs](self) for what each schema gives.
+///
+/// A directory is read as one table: its finished `*.parquet` files, found recursively (so
+/// hive partitions `sensor=<name>/` are included; each file keeps its `sensor` column) in
+/// lexical order of their paths, which is an archive's write order; names starting with `.`
+/// or `_` (the archive's `.<name>.partial` files being written, `_SUCCESS`) are skipped. The
+/// files must share one `gradtac.schema` and the same columns. Their key-value metadata is
+/// merged (the first file holding a key gives its value). Decimation counts the rows of all
+/// files, so memory stays bounded however many files there are. [`PlotSummary::rows`] is the
+/// sum over the files; the notes say how many files were read.
 ///
 /// # Errors
-/// [`Error::Plot`] when the file cannot be read, has no `gradtac.schema` metadata, an unknown
-/// schema, or columns that do not match it, or drawing fails; [`Error::Io`] when the PNG
-/// cannot be written.
+/// [`Error::Plot`] (naming `input`, and for a directory the file at fault relative to it) when
+/// a file cannot be read, has no `gradtac.schema` metadata, an unknown schema, or columns that
+/// do not match it; when a directory holds no finished Parquet file, or files of different
+/// schemas; or when drawing fails. [`Error::Io`] when the PNG cannot be written.
 pub fn plot_parquet(input: &Path, output_png: &Path) -> Result<PlotSummary, Error> {
     let table = read_table(input).map_err(|e| plot_error(input, e))?;
     let mut notes = Vec::new();
+    if let Some(files) = &table.files {
+        let n = files.len();
+        let s = if n == 1 { "" } else { "s" };
+        notes.push(format!("archive: {n} Parquet file{s} read as one table"));
+    }
     if let Some(k) = table.stride {
-        notes.push(format!("large file: every {k}th of its {} rows read", table.total_rows));
+        let what = if table.files.is_some() { "archive" } else { "file" };
+        notes.push(format!("large {what}: every {k}th of its {} rows read", table.total_rows));
     }
     let plan = match table.schema_id.as_str() {
         "frame/1" => frames_plot(&table, &mut notes),
@@ -1836,4 +2033,39 @@ pub fn plot_slip_timeline(
         height: size.1,
         notes: Vec::new(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Selecting file by file with the running offset picks exactly every k-th row of the
+    /// concatenated table, whatever the file sizes (empty files, files shorter than k).
+    #[test]
+    fn every_kth_spans_file_boundaries() {
+        for (sizes, k) in [
+            (vec![100], 11),
+            (vec![25, 25, 25, 10], 11),
+            (vec![3, 0, 5, 1, 40, 7], 11),
+            (vec![10, 11, 12, 13], 13),
+            (vec![1, 1, 1, 1, 1], 2),
+        ] {
+            let mut picked = Vec::new();
+            let mut first = 0;
+            for n in sizes.iter().copied() {
+                let sel = every_kth(n, first, k);
+                assert_eq!(sel.iter().map(|s| s.row_count).sum::<usize>(), n, "{sizes:?}");
+                let mut i = first;
+                for s in sel.iter() {
+                    if !s.skip {
+                        picked.extend(i..i + s.row_count);
+                    }
+                    i += s.row_count;
+                }
+                first += n;
+            }
+            let want: Vec<usize> = (0..first).step_by(k).collect();
+            assert_eq!(picked, want, "{sizes:?} k={k}");
+        }
+    }
 }

@@ -1,8 +1,10 @@
 //! `gradtac::plot`: every output schema renders to a PNG of the documented size with real
 //! content, from Parquet files written by `ParquetSink` with the records of a simulated
 //! trajectory run through the whole chain; an unknown schema, a file without gradtac metadata
-//! and a non-Parquet file are refused with a clear error; the demo's plain-data plots render.
+//! and a non-Parquet file are refused with a clear error; archive directories (rolled,
+//! partitioned) plot as one table, bad ones are refused; the demo's plain-data plots render.
 
+use gradtac::io::archive::{ParquetArchive, Partitioning};
 use gradtac::io::records::{FrameShape, SurfaceShape};
 use gradtac::io::{ArrowRecord, ParquetSink};
 use gradtac::plot::{
@@ -465,5 +467,163 @@ fn long_files_are_decimated_and_keep_every_sensor() {
     assert!(s.notes.iter().any(|n| n.contains("every 11th of its 200000 rows")), "{s}");
     assert!(s.drawn <= 2 * gradtac::plot::MAX_POINTS as u64 && s.drawn > 10_000, "{s}");
     check_png(&d.join("long.png"), &s, (1200, 680), 0.05);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Rows of a Parquet file, from its footer.
+fn parquet_rows(path: &Path) -> u64 {
+    let b = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(path).unwrap())
+        .unwrap();
+    b.metadata().file_metadata().num_rows() as u64
+}
+
+/// Write `frames` to an archive in `dir`, rolled every `roll_rows` records; the finished files.
+fn archive(dir: &Path, frames: &[TaxelFrame], roll_rows: u64, partitioning: Partitioning) -> Vec<PathBuf> {
+    let shape = FrameShape::from_layout(&Layout::biotac_sp());
+    let mut a = ParquetArchive::<TaxelFrame>::try_new(dir, shape)
+        .unwrap()
+        .with_partitioning(partitioning)
+        .unwrap()
+        .with_roll_rows(roll_rows)
+        .unwrap();
+    for f in frames {
+        a.push(f).unwrap();
+    }
+    a.finish().unwrap()
+}
+
+/// An archive directory plots as one table: rolled files and hive partitions (two sensors)
+/// are all read, in order, the rows summed over the files; `.partial` and `_` files are
+/// skipped (the garbage ones here would fail to parse).
+#[test]
+fn an_archive_directory_plots_as_one_table() {
+    let layout = Layout::biotac_sp();
+    let sim = Simulator::try_new(layout.clone(), SensorModel::default(), 5).unwrap();
+    let frames =
+        sim.run(&Scene::grasp(SlipClass::RotationalCw, &GraspConfig::default(), &layout)).unwrap().taxel_frames();
+    assert!(frames.len() > 300, "{}", frames.len());
+    let d = dir("archive");
+    for (name, partitioning, sensors) in
+        [("rolled", Partitioning::None, ["th", "ff"]), ("by-sensor", Partitioning::Sensor, ["ff", "th"])]
+    {
+        let a = d.join(name);
+        let files = archive(&a, &frames, 100, partitioning);
+        assert!(files.len() >= 4, "{name}: {files:?}");
+        if partitioning == Partitioning::Sensor {
+            assert!(
+                a.join("sensor=ff/part-000000.parquet").exists() && a.join("sensor=th/part-000000.parquet").exists()
+            );
+        }
+        let sum: u64 = files.iter().map(|f| parquet_rows(f)).sum();
+        assert_eq!(sum, frames.len() as u64);
+        std::fs::write(a.join(".part-000999.parquet.partial"), "half written").unwrap();
+        std::fs::write(a.join("_SUCCESS"), "").unwrap();
+        std::fs::write(a.join("_metadata.parquet"), "not parquet").unwrap();
+        let png = d.join(format!("{name}.png"));
+        let s = plot_parquet(&a, &png).unwrap();
+        assert_eq!(s.kind, "frame/1", "{s}");
+        assert_eq!(s.rows, sum, "{s}");
+        assert_eq!(s.sensors, sensors.map(String::from).to_vec(), "{s}");
+        let note = format!("archive: {} Parquet files read as one table", files.len());
+        assert!(s.notes.contains(&note), "{s}");
+        check_png(&png, &s, (1200, 680), 0.05);
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// Decimation counts the rows of all the archive's files: every 11th row of the whole table,
+/// across file boundaries (per-file restarts would read 10 002 rows here, not 10 000).
+#[test]
+fn a_long_archive_is_decimated_over_all_its_files() {
+    use gradtac::stream::Timestamp;
+    let d = dir("long-archive");
+    let rows = 110_000u64;
+    let mut a = ParquetArchive::<TaxelFrame>::try_new(&d, FrameShape::unnamed(4).unwrap())
+        .unwrap()
+        .with_roll_rows(25_000)
+        .unwrap();
+    let (th, ff) = (SensorId::new("th"), SensorId::new("ff"));
+    for k in 0..rows {
+        let s = if k % 2 == 0 { &th } else { &ff };
+        let t = (k / 2) as f64 * 0.01;
+        let v = (0..4).map(|i| (t + i as f64).sin()).collect();
+        a.push(&TaxelFrame::new(s.clone(), Timestamp((k / 2) as i64 * 10_000_000), k / 2, v)).unwrap();
+    }
+    assert_eq!(a.finish().unwrap().len(), 5);
+    let s = plot_parquet(&d, &d.with_extension("png")).unwrap();
+    assert_eq!(s.rows, rows);
+    assert_eq!(s.sensors, vec!["th".to_string(), "ff".to_string()]);
+    assert!(s.notes.iter().any(|n| n.contains("every 11th of its 110000 rows")), "{s}");
+    assert!(s.notes.iter().any(|n| n.contains("archive: 5 Parquet files")), "{s}");
+    assert_eq!(s.drawn, rows.div_ceil(11), "{s}");
+    check_png(&d.with_extension("png"), &s, (1200, 680), 0.05);
+    std::fs::remove_file(d.with_extension("png")).unwrap();
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// An empty directory, one with only unfinished files, and one whose files differ in schema
+/// or columns are refused, naming the directory and the file at fault.
+#[test]
+fn bad_archive_directories_are_refused_clearly() {
+    let d = dir("bad-archive");
+    let shape = FrameShape::from_layout(&Layout::biotac_sp());
+
+    let empty = d.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let e = plot_parquet(&empty, &d.join("empty.png")).unwrap_err().to_string();
+    assert!(e.contains("empty directory") && e.contains(&*empty.to_string_lossy()), "{e}");
+
+    let partial = d.join("partial");
+    std::fs::create_dir_all(&partial).unwrap();
+    std::fs::write(partial.join(".part-000000.parquet.partial"), "half").unwrap();
+    let e = plot_parquet(&partial, &d.join("partial.png")).unwrap_err().to_string();
+    assert!(e.contains("unfinished") && e.contains("no finished Parquet file"), "{e}");
+    assert!(e.contains(&*partial.to_string_lossy()), "{e}");
+
+    let mixed = d.join("mixed");
+    std::fs::create_dir_all(&mixed).unwrap();
+    let sim = Simulator::try_new(Layout::biotac_sp(), SensorModel::default(), 3).unwrap();
+    let frames =
+        sim.run(&Scene::trajectory(Trajectory::CircleCcw, 2.0, 4.0, &Layout::biotac_sp())).unwrap().taxel_frames();
+    write(&mixed.join("a-frames.parquet"), shape.clone(), &frames, None);
+    write::<EventBatch>(&mixed.join("b-events.parquet"), shape.clone(), &[], None);
+    let e = plot_parquet(&mixed, &d.join("mixed.png")).unwrap_err().to_string();
+    assert!(e.contains(&*mixed.to_string_lossy()), "{e}");
+    assert!(e.contains("b-events.parquet: schema event/1 differs from frame/1 of a-frames.parquet"), "{e}");
+
+    let columns = d.join("columns");
+    std::fs::create_dir_all(columns.join("sensor=th")).unwrap();
+    write(&columns.join("part-000000.parquet"), shape, &frames, None);
+    let narrow: Vec<TaxelFrame> =
+        frames.iter().map(|f| TaxelFrame { values: f.values[..3].to_vec(), ..f.clone() }).collect();
+    write(&columns.join("sensor=th/part-000000.parquet"), FrameShape::unnamed(3).unwrap(), &narrow, None);
+    let e = plot_parquet(&columns, &d.join("columns.png")).unwrap_err().to_string();
+    assert!(e.contains("other columns") && e.contains("part-000000.parquet"), "{e}");
+    assert!(e.contains(&*std::path::Path::new("sensor=th").join("part-000000.parquet").to_string_lossy()), "{e}");
+    assert!(!d.join("mixed.png").exists() && !d.join("columns.png").exists());
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// `gradtac plot <dir>` plots an archive and writes `<dir>.png` beside it by default (also for
+/// a path ending in `/.`).
+#[test]
+fn the_cli_plots_an_archive_directory_beside_it() {
+    let layout = Layout::biotac_sp();
+    let sim = Simulator::try_new(layout.clone(), SensorModel::default(), 3).unwrap();
+    let frames = sim.run(&Scene::trajectory(Trajectory::CircleCcw, 2.0, 4.0, &layout)).unwrap().taxel_frames();
+    let d = dir("cli-archive");
+    let a = d.join("run.archive");
+    let files = archive(&a, &frames, 50, Partitioning::Sensor);
+    for input in [a.clone(), a.join(".")] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_gradtac")).arg("plot").arg(&input).output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+        assert!(stdout.contains(&format!("frame/1: {} rows", frames.len())), "{stdout}");
+        assert!(stdout.contains(&format!("archive: {} Parquet files read as one table", files.len())), "{stdout}");
+        let png = d.join("run.archive.png");
+        assert!(stdout.contains(&*png.to_string_lossy()), "{stdout}");
+        assert_eq!(decode(&png).0, 1200);
+        std::fs::remove_file(&png).unwrap();
+    }
     std::fs::remove_dir_all(&d).unwrap();
 }
