@@ -31,9 +31,9 @@ use arrow_array::cast::AsArray;
 use arrow_array::types::*;
 use arrow_array::{Array, ArrayRef, RecordBatch};
 use arrow_schema::{ArrowError, DataType, TimeUnit as ArrowTimeUnit};
-use gradtac_stream::{SensorId, Stage, TaxelFrame, Timestamp};
+use gradtac_stream::{IteratorStageExt, SensorId, Stage, StageIter, TaxelFrame, Timestamp};
 use serde::{Deserialize, Serialize};
-use std::collections::{HashMap, HashSet, VecDeque};
+use std::collections::{HashMap, HashSet};
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
@@ -226,19 +226,58 @@ pub struct BatchDecoder {
 }
 
 /// Taxel frames from an iterator of record batches (see the [module docs](self)): an
-/// [`Iterator`] of `Result<TaxelFrame>` that stops after the first error.
+/// [`Iterator`] of `Result<TaxelFrame>` that stops after the first error. A batch that fails
+/// to decode yields none of its frames; the frames of the batches before it are all yielded
+/// first.
 #[must_use = "iterators are lazy and do nothing unless consumed"]
 pub struct BatchFrames<I> {
-    batches: I,
-    decoder: BatchDecoder,
-    ready: VecDeque<TaxelFrame>,
-    buf: Vec<TaxelFrame>,
-    done: bool,
+    /// The batches, their read errors tagged, driving the decoder.
+    frames: StageIter<std::iter::Map<I, TagRead>, Decoding>,
+}
+
+/// A batch or the error reading it, tagged so [`BatchFrames`] can name the batch (which only
+/// the decoder knows) when it yields the error.
+type TagRead = fn(std::result::Result<RecordBatch, ArrowError>) -> std::result::Result<RecordBatch, Failed>;
+
+/// Why [`BatchFrames`] stops: the batches could not be read, or a batch could not be decoded.
+enum Failed {
+    Read(ArrowError),
+    Decode(Error),
+}
+
+impl From<Error> for Failed {
+    fn from(e: Error) -> Self {
+        Failed::Decode(e)
+    }
+}
+
+/// [`BatchDecoder`] as [`BatchFrames`] drives it: `finish` does not reset it, so
+/// [`BatchFrames::decoder`] still tells the taxel count after the last batch (the decoder
+/// holds no frames back, so there is nothing to flush).
+#[derive(Debug)]
+struct Decoding(BatchDecoder);
+
+impl Stage for Decoding {
+    type In = RecordBatch;
+    type Out = TaxelFrame;
+    type Error = Error;
+
+    fn push(&mut self, batch: RecordBatch, out: &mut Vec<TaxelFrame>) -> Result<()> {
+        self.0.push(batch, out)
+    }
+
+    fn finish(&mut self, _out: &mut Vec<TaxelFrame>) -> Result<()> {
+        Ok(())
+    }
+
+    fn reset(&mut self) {
+        self.0.reset();
+    }
 }
 
 impl<I> std::fmt::Debug for BatchFrames<I> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("BatchFrames").field("decoder", &self.decoder).finish_non_exhaustive()
+        f.debug_struct("BatchFrames").field("decoder", &StageIter::stage(&self.frames).0).finish_non_exhaustive()
     }
 }
 
@@ -281,18 +320,13 @@ where
 {
     /// Frames from `batches`; `origin` names the source in errors.
     pub fn new(batches: I, origin: impl Into<PathBuf>, layout: BatchLayout) -> Self {
-        BatchFrames {
-            batches,
-            decoder: BatchDecoder::new(origin, layout),
-            ready: VecDeque::new(),
-            buf: Vec::new(),
-            done: false,
-        }
+        let tag: TagRead = |r| r.map_err(Failed::Read);
+        BatchFrames { frames: batches.map(tag).stage(Decoding(BatchDecoder::new(origin, layout))) }
     }
 
     /// The decoder (rows read, taxel count).
     pub fn decoder(&self) -> &BatchDecoder {
-        &self.decoder
+        &StageIter::stage(&self.frames).0
     }
 }
 
@@ -482,33 +516,11 @@ where
     type Item = Result<TaxelFrame>;
 
     fn next(&mut self) -> Option<Result<TaxelFrame>> {
-        loop {
-            if let Some(f) = self.ready.pop_front() {
-                return Some(Ok(f));
-            }
-            if self.done {
-                return None;
-            }
-            match self.batches.next() {
-                None => {
-                    self.done = true;
-                    return None;
-                }
-                Some(Err(e)) => {
-                    self.done = true;
-                    return Some(Err(self.decoder.err(None, e.to_string())));
-                }
-                Some(Ok(b)) => {
-                    let r = self.decoder.decode(&b, &mut self.buf);
-                    if let Err(e) = r {
-                        self.done = true;
-                        self.buf.clear();
-                        return Some(Err(e));
-                    }
-                    self.ready.extend(self.buf.drain(..));
-                }
-            }
-        }
+        Some(self.frames.next()?.map_err(|e| match e {
+            // named after the batches decoded so far, as the decoder's own errors
+            Failed::Read(e) => StageIter::stage(&self.frames).0.err(None, e.to_string()),
+            Failed::Decode(e) => e,
+        }))
     }
 }
 

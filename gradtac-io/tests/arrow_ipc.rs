@@ -230,6 +230,32 @@ fn bad_batches_are_errors_naming_batch_and_row() {
     assert!(e.contains("w: batch 1 row 0 (row 2 of the source): time 500000000 ns is earlier"), "{e}");
 }
 
+/// The frames of the batches before an error are all yielded first, none of the failing
+/// batch's; the error comes once, then nothing. After a clean end the decoder still tells the
+/// taxel count and the rows read.
+#[test]
+fn errors_come_once_after_the_frames_before_them() {
+    let ok = || long_batch(vec![Some(vec![Some(1.0), Some(2.0)]), Some(vec![Some(3.0), Some(4.0)])], 2, vec![0, 1]);
+    let bad = long_batch(vec![Some(vec![Some(5.0), Some(6.0)]), Some(vec![Some(f64::NAN), Some(0.0)])], 2, vec![2, 3]);
+    for (third, msg) in [
+        (Ok(bad), "bad.arrow: batch 2 row 1 (row 5 of the source): taxel 0: value NaN is not finite"),
+        (Err(ArrowError::IpcError("truncated".into())), "bad.arrow: batch 2"),
+    ] {
+        let batches = vec![Ok(ok()), Ok(ok()), third, Ok(ok())];
+        let mut it = BatchFrames::new(batches.into_iter(), "bad.arrow", BatchLayout::Long { sensors: None });
+        let items: Vec<Result<TaxelFrame, gradtac_io::Error>> = it.by_ref().collect();
+        assert_eq!(items.len(), 5, "four frames, then the error");
+        let firsts: Vec<f64> = items[..4].iter().map(|r| r.as_ref().unwrap().values[0]).collect();
+        assert_eq!(firsts, vec![1.0, 3.0, 1.0, 3.0]);
+        let e = items[4].as_ref().unwrap_err().to_string();
+        assert!(e.starts_with(msg), "{e}");
+        assert!(it.next().is_none() && it.next().is_none());
+    }
+    let mut it = BatchFrames::new([Ok(ok()), Ok(ok())].into_iter(), "ok.arrow", BatchLayout::Long { sensors: None });
+    assert_eq!(it.by_ref().count(), 4);
+    assert_eq!((it.decoder().taxel_count(), it.decoder().rows_read()), (Some(2), 4));
+}
+
 #[test]
 fn garbage_files_and_config_errors() {
     let dir = tempfile::tempdir().unwrap();

@@ -261,6 +261,33 @@ fn a_corrupt_line_is_an_error_naming_file_and_line() {
     assert!(src.next().is_none());
 }
 
+/// The frames completed before a corrupt line are all yielded before its error (the decoder
+/// is not flushed: the log did not end), the error comes once, then nothing; the reader's
+/// counts stay readable.
+#[test]
+fn frames_before_a_corrupt_line_are_kept_and_the_error_comes_once() {
+    let (text, _) = recording();
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines[99] = "(1700000000.5) can0 10#00";
+    let bad = lines.join("\n");
+    let before: Vec<CanFrame> =
+        CandumpReader::new("x.log", lines[..99].join("\n").as_bytes()).collect::<Result<_, _>>().unwrap();
+    let n_before = before.len() as u64;
+    let mut dec = CanDecoder::new(codec(IncompletePolicy::Drop));
+    let mut want = Vec::new();
+    for f in before {
+        gradtac_stream::Stage::push(&mut dec, f, &mut want).unwrap();
+    }
+    assert!(want.len() > 10, "{}", want.len());
+    let reader = CandumpReader::new("three-finger.log", bad.as_bytes());
+    let mut src = CandumpSource::new(reader, CanDecoder::new(codec(IncompletePolicy::Drop)));
+    let got: Vec<TaxelFrame> = src.by_ref().map_while(Result::ok).collect();
+    assert_eq!(got, want);
+    assert!(src.next().is_none() && src.next().is_none());
+    assert_eq!((src.reader_stats().lines, src.reader_stats().frames), (100, n_before));
+    assert_eq!(src.stats(), dec.stats());
+}
+
 #[tokio::test]
 async fn replay_from_a_file_matches_the_iterator_fast_and_original_timing() {
     let (text, _) = recording();

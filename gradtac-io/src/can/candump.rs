@@ -38,9 +38,8 @@ use crate::can::reassembly::CanDecoder;
 use crate::can::stats::{CanStats, StatsHandle};
 use crate::can::stream::{CanStream, Timing};
 use crate::{Error, Result};
-use gradtac_stream::{Stage, TaxelFrame, Timestamp};
+use gradtac_stream::{IteratorStageExt, StageIter, TaxelFrame, Timestamp};
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
 use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -439,15 +438,13 @@ impl CandumpConfig {
 
 /// Taxel frames from a candump log, offline (an [`Iterator`]): [`CandumpReader`] →
 /// [`CanDecoder`]. Bad traffic is counted in [`stats`](Self::stats); a malformed line ends
-/// the iteration with an error naming file:line.
+/// the iteration with an error naming file:line (the frames decoded before it are yielded
+/// first).
 #[must_use = "iterators are lazy and do nothing unless consumed"]
 #[derive(Debug)]
 pub struct CandumpSource<R = BufReader<File>> {
-    reader: CandumpReader<R>,
-    decoder: CanDecoder,
-    ready: VecDeque<TaxelFrame>,
-    buf: Vec<TaxelFrame>,
-    done: bool,
+    /// The reader driving the decoder ([`StageIter`] flushes the decoder at the end of the log).
+    frames: StageIter<CandumpReader<R>, CanDecoder>,
 }
 
 impl CandumpSource {
@@ -461,52 +458,32 @@ impl CandumpSource {
 impl<R: BufRead> CandumpSource<R> {
     /// A source from a reader and a decoder.
     pub fn new(reader: CandumpReader<R>, decoder: CanDecoder) -> Self {
-        CandumpSource { reader, decoder, ready: VecDeque::new(), buf: Vec::new(), done: false }
+        CandumpSource { frames: reader.stage(decoder) }
     }
 
     /// The decoder's counts so far.
     pub fn stats(&self) -> CanStats {
-        self.decoder.stats()
+        StageIter::stage(&self.frames).stats()
     }
 
     /// A shared handle on the decoder's counts.
     pub fn stats_handle(&self) -> StatsHandle {
-        self.decoder.stats_handle()
+        StageIter::stage(&self.frames).stats_handle()
     }
 
     /// The reader's counts (lines, skipped remote/error/FD frames).
     pub fn reader_stats(&self) -> &CandumpStats {
-        self.reader.stats()
+        self.frames.inner().stats()
     }
 }
 
 impl<R: BufRead> Iterator for CandumpSource<R> {
     type Item = Result<TaxelFrame>;
 
+    /// The next frame; a reader error is yielded once, then the iteration ends. (The decoder
+    /// itself never fails on traffic: bad traffic is counted, not an error.)
     fn next(&mut self) -> Option<Result<TaxelFrame>> {
-        loop {
-            if let Some(f) = self.ready.pop_front() {
-                return Some(Ok(f));
-            }
-            if self.done {
-                return None;
-            }
-            match self.reader.next() {
-                Some(Ok(frame)) => {
-                    // CanDecoder never fails on traffic
-                    let _ = self.decoder.push(frame, &mut self.buf);
-                }
-                Some(Err(e)) => {
-                    self.done = true;
-                    return Some(Err(e));
-                }
-                None => {
-                    self.done = true;
-                    let _ = self.decoder.finish(&mut self.buf);
-                }
-            }
-            self.ready.extend(self.buf.drain(..));
-        }
+        self.frames.next()
     }
 }
 
