@@ -11,9 +11,12 @@
 //! ([`DosFeatureExtractor`]), and for every object (bottle, cardboard, case, hd, pen, sponge)
 //! a [`DosModel`] is calibrated on the other objects' recordings and tested on that object's.
 //! Prints the overall and per-fold accuracy, the 7 × 7 confusion matrix, a comparison of
-//! feature sets, the accuracy by variance shrinkage λ (with a nested choice of λ inside each
-//! fold), the accuracy by event threshold, and the per-class means of the direction features. `--model-out` writes the
-//! model calibrated on all recordings as JSON (the file a scene loads). Exits 0 with
+//! feature sets and centroid methods, the accuracy by variance shrinkage λ and class density
+//! (Student t / Gaussian), by the Student t's ν, a nested choice of λ inside each fold, the
+//! accuracy by event threshold and by drift lags, the latency trade (accuracy of a decision
+//! after the first N frames), and the per-class means of the direction features.
+//! `--model-out` writes the model calibrated on all recordings as JSON (the file a scene
+//! loads). Exits 0 with
 //! "skipped: data not present" when the directory is absent.
 //!
 //! Data: B. S. Zapata-Impata, P. Gil, F. Torres, "Learning Spatio Temporal Tactile Features
@@ -76,16 +79,27 @@ fn read_all(dir: &Path) -> Result<Vec<Raw>, Box<dyn Error>> {
 
 /// Features of every recording, and the extraction time per frame (µs).
 fn extract(raw: &[Raw], cfg: &DosFeatureConfig, layout: &Layout) -> Result<(Vec<Recording>, f64), Box<dyn Error>> {
+    extract_first(raw, cfg, layout, usize::MAX)
+}
+
+/// Features of the first `span` frames of every recording (all of a shorter one).
+fn extract_first(
+    raw: &[Raw],
+    cfg: &DosFeatureConfig,
+    layout: &Layout,
+    span: usize,
+) -> Result<(Vec<Recording>, f64), Box<dyn Error>> {
     let mut extractor = DosFeatureExtractor::try_new(cfg, layout)?;
     let t = Instant::now();
     let mut out = Vec::with_capacity(raw.len());
     let mut frames = 0usize;
     for r in raw {
         extractor.reset();
-        for f in &r.frames {
+        let used = &r.frames[..r.frames.len().min(span)];
+        for f in used {
             extractor.push(f.clone())?;
         }
-        frames += r.frames.len();
+        frames += used.len();
         out.push(Recording { class: r.class, object: r.object.clone(), features: extractor.features() });
     }
     Ok((out, t.elapsed().as_secs_f64() * 1e6 / frames.max(1) as f64))
@@ -104,18 +118,29 @@ fn objects_of(recs: &[Recording]) -> Vec<String> {
     o
 }
 
-/// Leave-one-object-out with the default shrinkage ([`DosModel::calibrate`]).
+/// Leave-one-object-out with the default decision rule ([`DosModel::calibrate`]).
 fn cross_validate(recs: &[Recording], cfg: &DosFeatureConfig) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
     cross_validate_with(recs, cfg, &|_| DosModel::DEFAULT_SHRINKAGE)
 }
 
-/// Leave-one-object-out: per fold (object, correct, total) and the confusion matrix
-/// (rows true class, columns predicted, [`DosClass::ALL`] order); `shrinkage(object)` gives
-/// the variance shrinkage λ of the fold that holds `object` out.
+/// Leave-one-object-out with the default class density and `shrinkage(object)` per fold.
 fn cross_validate_with(
     recs: &[Recording],
     cfg: &DosFeatureConfig,
     shrinkage: &dyn Fn(&str) -> f64,
+) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
+    cross_validate_rule(recs, cfg, shrinkage, Some(DosModel::DEFAULT_STUDENT_T_DOF))
+}
+
+/// Leave-one-object-out: per fold (object, correct, total) and the confusion matrix
+/// (rows true class, columns predicted, [`DosClass::ALL`] order); `shrinkage(object)` gives
+/// the variance shrinkage λ of the fold that holds `object` out; `dof` the class densities
+/// (`Some(ν)` Student t, `None` Gaussian).
+fn cross_validate_rule(
+    recs: &[Recording],
+    cfg: &DosFeatureConfig,
+    shrinkage: &dyn Fn(&str) -> f64,
+    dof: Option<f64>,
 ) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
     let objects = objects_of(recs);
     let idx = |c: DosClass| DosClass::ALL.iter().position(|&x| x == c).unwrap_or(0);
@@ -124,7 +149,7 @@ fn cross_validate_with(
     for obj in &objects {
         let train: Vec<(DosClass, Vec<f64>)> =
             recs.iter().filter(|r| &r.object != obj).map(|r| (r.class, r.features.select(&cfg.features))).collect();
-        let model = DosModel::calibrate_with_shrinkage(cfg.clone(), &train, shrinkage(obj))?;
+        let model = DosModel::calibrate_with_shrinkage(cfg.clone(), &train, shrinkage(obj))?.with_student_t_dof(dof)?;
         let (mut ok, mut n) = (0, 0);
         for r in recs.iter().filter(|r| &r.object == obj) {
             let d = model.classify_vector(&r.features)?;
@@ -243,17 +268,15 @@ fn main() -> Result<(), Box<dyn Error>> {
     // selection changes between sets).
     use Feature::*;
     let sets: Vec<(&str, Vec<Feature>)> = vec![
-        ("rate, positive fraction, positive/negative centroids (default)", Feature::DEFAULT.to_vec()),
+        ("drift map + positive-event centroid (default)", Feature::DEFAULT.to_vec()),
+        ("drift map only", Feature::DRIFT.to_vec()),
+        ("rate, positive fraction, positive/negative event centroids (the earlier default)", Feature::EVENTS.to_vec()),
+        ("drift map + the earlier default", [Feature::DRIFT.as_slice(), &Feature::EVENTS].concat()),
         ("default + track displacement", [Feature::DEFAULT.as_slice(), &[TrackDx, TrackDy]].concat()),
         ("default + rotation", [Feature::DEFAULT.as_slice(), &[Rotation]].concat()),
-        (
-            "default + track displacement + rotation",
-            [Feature::DEFAULT.as_slice(), &[TrackDx, TrackDy, Rotation]].concat(),
-        ),
-        ("default + activity centroid", [Feature::DEFAULT.as_slice(), &[ActivityX, ActivityY]].concat()),
-        ("rate, activity centroid", vec![Rate, ActivityX, ActivityY]),
+        ("default + negative-event centroid", [Feature::DEFAULT.as_slice(), &[NegativeX, NegativeY]].concat()),
         ("rate, track displacement, rotation", vec![Rate, TrackDx, TrackDy, Rotation]),
-        ("all 11", Feature::ALL.to_vec()),
+        ("all 18", Feature::ALL.to_vec()),
     ];
     let methods = [CentroidMethod::Taxels, CentroidMethod::Surface, CentroidMethod::MaxContour];
     let mut by_method = Vec::new();
@@ -274,12 +297,24 @@ fn main() -> Result<(), Box<dyn Error>> {
     let costs: Vec<String> = by_method.iter().map(|(_, us)| format!("{us:.2}")).collect();
     println!("| feature extraction, µs per frame | | | {} |", costs.join(" | "));
 
-    // Variance shrinkage λ: 1 is the pooled model of (7 + 1) × features parameters.
-    println!("\nvariance shrinkage λ (configured features and centroid):\n\n| λ | parameters | LOOO accuracy |\n|---|---|---|");
+    // Variance shrinkage λ × class density: λ = 1 is the pooled model of (7 + 1) × features
+    // parameters.
+    println!(
+        "\nvariance shrinkage λ × class density (configured features and centroid; ν is fixed, not fitted):\n\n\
+         | λ | parameters | Student t, ν = {} (default) | Gaussian |\n|---|---|---|---|",
+        DosModel::DEFAULT_STUDENT_T_DOF
+    );
     let grid = [0.0, 0.25, 0.5, 0.75, 1.0];
     for lam in grid {
         let p = if lam < 1.0 { params(&cfg.features) } else { 8 * cfg.features.len() };
-        println!("| {lam} | {p} | {:.1} % |", accuracy(&cross_validate_with(&recs, &cfg, &|_| lam)?.0));
+        let t = accuracy(&cross_validate_with(&recs, &cfg, &|_| lam)?.0);
+        let g = accuracy(&cross_validate_rule(&recs, &cfg, &|_| lam, None)?.0);
+        println!("| {lam} | {p} | {t:.1} % | {g:.1} % |");
+    }
+    println!("\nStudent t by ν (λ = {}):\n\n| ν | LOOO accuracy |\n|---|---|", DosModel::DEFAULT_SHRINKAGE);
+    for nu in [1.0, 2.0, 3.0, 5.0, 10.0, 30.0] {
+        let a = cross_validate_rule(&recs, &cfg, &|_| DosModel::DEFAULT_SHRINKAGE, Some(nu))?;
+        println!("| {nu} | {:.1} % |", accuracy(&a.0));
     }
     // Nested: each outer fold picks λ by leave-one-object-out on its five training objects.
     let mut chosen = BTreeMap::new();
@@ -312,9 +347,44 @@ fn main() -> Result<(), Box<dyn Error>> {
         println!("| {tau} | {:.1} % |", accuracy(&cross_validate(&r, &c)?.0));
     }
 
+    println!("\ndrift lags (frames; configured features and rule):\n\n| lags | LOOO accuracy |\n|---|---|");
+    for lags in
+        [&[30u64][..], &[60], &[90], &[120], &[30, 60], &[60, 120], &[20, 40, 80], &[30, 60, 120], &[30, 60, 120, 240]]
+    {
+        let c = DosFeatureConfig { drift_lags: lags.to_vec(), ..cfg.clone() };
+        let (r, _) = extract(&raw, &c, &layout)?;
+        println!("| {lags:?} | {:.1} % |", accuracy(&cross_validate(&r, &c)?.0));
+    }
+
+    // The latency trade: a decision after the first N frames (calibrated on the same span).
+    println!(
+        "\ndecision span — the model calibrated and tested on the first N frames of every recording \
+         (configured features and rule; 100 frames = 1 s):\n\n| span (frames) | LOOO accuracy |\n|---|---|"
+    );
+    for span in [25usize, 50, 100, 150, 200, 250, usize::MAX] {
+        let (r, _) = extract_first(&raw, &cfg, &layout, span)?;
+        let label = if span == usize::MAX { "whole recording (270–281)".to_string() } else { span.to_string() };
+        println!("| {label} | {:.1} % |", accuracy(&cross_validate(&r, &cfg)?.0));
+    }
+
     // Per-class means of the direction features (the evidence for the class → direction map).
-    println!("\nper-class means (mm, rad):\n");
-    let shown = [PositiveX, PositiveY, NegativeX, NegativeY, ActivityX, ActivityY, TrackDx, TrackDy, Rotation, Rate];
+    println!("\nper-class means (mm, mm², rad; drift_level and rate dimensionless):\n");
+    let shown = [
+        DriftLevel,
+        DriftX,
+        DriftY,
+        DriftAnisotropy,
+        DriftCross,
+        DriftSignedY,
+        PositiveX,
+        PositiveY,
+        NegativeX,
+        NegativeY,
+        TrackDx,
+        TrackDy,
+        Rotation,
+        Rate,
+    ];
     println!("| class | {} |", shown.map(|f| f.name()).join(" | "));
     println!("|---|{}", "---|".repeat(shown.len()));
     let mut by_class: BTreeMap<DosClass, Vec<&Recording>> = BTreeMap::new();

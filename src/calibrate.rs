@@ -4,10 +4,13 @@
 //! Labelled recordings are laid out as BioTacSP-DoS is: `<dir>/<class>/<name>.csv` with a
 //! class directory per [`DosClass`] (`n`, `e`, `s`, `w`, `cw`, `aw`, `t`), one recording per
 //! file. Each recording's features are extracted by the same [`DosFeatureExtractor`] the
-//! scene's `dos` stage runs; [`DosModel::calibrate`] then fits, per class and feature, a mean
-//! and a variance shrunk halfway toward the pooled within-class variance:
-//! `2 × classes × features` numbers (84 with the default six features and seven classes;
-//! [`DosModel::parameter_count`] says which).
+//! scene's `dos` stage runs (by default the seven drift-map features and the positive-event
+//! centroid); [`DosModel::calibrate`] then fits, per class and feature, a mean and a variance
+//! shrunk halfway toward the pooled within-class variance: `2 × classes × features` numbers
+//! (126 with the default nine features and seven classes; [`DosModel::parameter_count`] says
+//! which). The model decides with Student-t class densities (`ν` = 3, fixed); it is written as
+//! JSON with its feature configuration, so a scene computes exactly the features it was fitted
+//! on.
 
 use crate::Error;
 use gradtac_io::{ColumnSelector, CsvFrames, CsvSourceConfig};

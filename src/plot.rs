@@ -17,7 +17,7 @@
 //! | `slip/1` | the grasp's state over time (a class strip from each event's decision time) and the common / differential speeds at the events | 1200 × 560 |
 //! | `force/1` | force (N) and contour area (mm²) over time, sensors in colours | 1200 × 680 |
 //! | `servo/1` | commanded motion (x, y) and contact offset (x, y, distance) over time, sensors in colours | 1200 × 680 |
-//! | `dos/1` | decided class over time per sensor (one row per class of `gradtac.dos.classes`), marker shade = posterior of the decided class | 1200 × 340·s |
+//! | `dos/2` (and `dos/1`) | decided class over time per sensor (one row per class of `gradtac.dos.classes`), marker shade = posterior of the decided class | 1200 × 340·s |
 //!
 //! Times are drawn in seconds from the first row of the file (its epoch may be Unix time).
 //! An archive's finished `*.parquet` files are found recursively in lexical path order
@@ -59,8 +59,19 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 /// The schemas [`plot_parquet`] knows.
-pub const KNOWN: [&str; 10] =
-    ["frame/1", "event/1", "window/1", "surface/1", "contour/1", "track/1", "slip/1", "force/1", "servo/1", "dos/1"];
+pub const KNOWN: [&str; 11] = [
+    "frame/1",
+    "event/1",
+    "window/1",
+    "surface/1",
+    "contour/1",
+    "track/1",
+    "slip/1",
+    "force/1",
+    "servo/1",
+    "dos/1",
+    "dos/2",
+];
 
 /// At most this many sensors of one file are drawn (the rest are named in the notes).
 pub const MAX_SENSORS: usize = 4;
@@ -855,7 +866,7 @@ pub fn plot_parquet(input: &Path, output_png: &Path) -> Result<PlotSummary, Erro
                 ("contact offset from the servo centre", "offset (mm)", &["offset_x_mm", "offset_y_mm", "distance_mm"]),
             ],
         ),
-        "dos/1" => dos_plot(&table, &mut notes),
+        "dos/1" | "dos/2" => dos_plot(&table, &mut notes),
         other => Err(PlotErr(format!("unknown schema {other:?}"))),
     }
     .map_err(|e| plot_error(input, e))?;
@@ -1721,7 +1732,7 @@ fn slip_plot(t: &Table) -> R<Prepared> {
     })
 }
 
-/// `dos/1`: decided class over time per sensor, shade = posterior of the decided class.
+/// `dos/2` (and the older `dos/1`): decided class over time per sensor, shade = posterior of the decided class.
 fn dos_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     no_rows(t)?;
     let classes: Vec<String> = t
@@ -1755,6 +1766,7 @@ fn dos_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         series.push((sensor.clone(), pts));
     }
     let n = classes.len().max(1);
+    let schema_id = t.schema_id.clone();
     Ok(Prepared {
         size: (PANEL_W, STRIP_H * series.len() as u32),
         sensors: groups.iter().map(|g| g.0.clone()).collect(),
@@ -1770,7 +1782,10 @@ fn dos_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
                 let (x0, x1) = padded(range_of(pts.iter().map(|p| p.0)), 0.02);
                 let mut chart = ChartBuilder::on(area)
-                    .caption(format!("{sensor}: {} decisions (dos/1); shade: posterior", pts.len()), ("sans-serif", 18))
+                    .caption(
+                        format!("{sensor}: {} decisions ({schema_id}); shade: posterior", pts.len()),
+                        ("sans-serif", 18),
+                    )
                     .margin(12)
                     .x_label_area_size(36)
                     .y_label_area_size(50)

@@ -41,7 +41,7 @@ pub enum OutputSink {
     Servo(Box<dyn RecordSink<ServoCommand>>),
     /// Two-finger slip events, `slip/1` (always one file: the events belong to a pair).
     Slip(Box<dyn RecordSink<SlipEvent>>),
-    /// One-fingertip slip-direction decisions, `dos/1`.
+    /// One-fingertip slip-direction decisions, `dos/2`.
     Dos(Box<dyn RecordSink<DosDecision>>),
 }
 

@@ -337,7 +337,7 @@ fn extremes_render_without_panicking() {
 }
 
 /// The task schemas: slip/1 (from a simulated slipping grasp through the chain and the slip
-/// stage), force/1 and servo/1 (from the simulated circle's track), dos/1 (hand-made
+/// stage), force/1 and servo/1 (from the simulated circle's track), dos/2 (hand-made
 /// decisions): each renders at its documented size with content.
 #[test]
 fn task_schemas_render() {
@@ -405,7 +405,7 @@ fn task_schemas_render() {
         .collect();
     write(&d.join("servo.parquet"), (), &servos, None);
 
-    // dos/1
+    // dos/2
     let classes = DosClass::ALL.to_vec();
     let decisions: Vec<DosDecision> = (0..40u64)
         .map(|j| {
@@ -429,7 +429,7 @@ fn task_schemas_render() {
         ("slip", "slip/1", (1200, 560), 0.05),
         ("force", "force/1", (1200, 680), 0.03),
         ("servo", "servo/1", (1200, 680), 0.03),
-        ("dos", "dos/1", (1200, 340), 0.02),
+        ("dos", "dos/2", (1200, 340), 0.02),
     ] {
         let png = d.join(format!("{name}.png"));
         let s = plot_parquet(&d.join(format!("{name}.parquet")), &png).unwrap();

@@ -1,6 +1,6 @@
-//! Round trips of the task-stage schemas (`slip/1`, `force/1`, `servo/1`, `dos/1`) through
+//! Round trips of the task-stage schemas (`slip/1`, `force/1`, `servo/1`, `dos/2`) through
 //! `ParquetSink` and the Parquet reader, bit-exact (NaN payloads included), with records made
-//! by hand and by the stages themselves; proptests for every schema; rejection of `dos/1`
+//! by hand and by the stages themselves; proptests for every schema; rejection of `dos/2`
 //! decisions that do not fit the sink's classes; forces, servo commands and dos decisions
 //! through sensor-partitioned rolled archives; and (when installed) pyarrow reading one file
 //! of each kind, plus two slip files of different pairs read as one dataset.
@@ -384,7 +384,7 @@ fn the_servo_stages_commands_come_back() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// dos/1
+// dos/2
 
 fn dos_class(s: &str) -> DosClass {
     s.parse().unwrap_or_else(|e| panic!("{e}"))
@@ -477,7 +477,7 @@ fn dos_decisions_round_trip_bit_exact_with_the_classes_in_metadata() {
     let classes = vec![DosClass::T, DosClass::Cw, DosClass::N, DosClass::W];
     let input = some_dos(&classes);
     let r = read(&write(&dir.path().join("dos.parquet"), DosShape::new(classes).unwrap(), &input, 5));
-    assert_eq!(schema_id(&r), "dos/1");
+    assert_eq!(schema_id(&r), "dos/2");
     assert_eq!(rows(&r), input.len());
     assert_eq!(r.schema.metadata()[DOS_CLASSES_KEY], r#"["t","cw","n","w"]"#);
     assert_eq!(dos_keys(&dos_of(&r)), dos_keys(&input));
@@ -684,7 +684,7 @@ fn any_dos() -> impl Strategy<Value = (Vec<DosClass>, Vec<DosDecision>)> {
                 proptest::sample::select(classes.clone()),
                 proptest::collection::vec(any_f64(), k),
                 proptest::collection::vec(any_f64(), k),
-                proptest::collection::vec(any_f64(), 11),
+                proptest::collection::vec(any_f64(), Feature::ALL.len()),
             )
                 .prop_map(|((sensor, start, end, seq, frames, events), class, distances, posterior, f)| DosDecision {
                     sensor: SensorId::new(sensor),
@@ -827,9 +827,9 @@ print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["tim
         .collect();
     assert_eq!(c["rows"], Value::Array(rows));
 
-    // dos/1
+    // dos/2
     let d = &files[3];
-    assert_eq!(d["schema"], "dos/1");
+    assert_eq!(d["schema"], "dos/2");
     assert_eq!(d["arrow_md"][DOS_CLASSES_KEY], r#"["n","e","t"]"#);
     assert_eq!(d["types"]["posterior"], "fixed_size_list<item: double not null>[3]");
     let rows: Vec<Value> = dos

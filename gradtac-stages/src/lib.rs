@@ -2,7 +2,8 @@
 //!
 //! The signal-processing stages of GradTac, each a synchronous [`Stage`](gradtac_stream::Stage)
 //! in its own module: [`normalise`] → [`savgol`] → [`events`] → [`window`] →
-//! [`interpolate`] → [`contour`] → [`track`]. No async runtime and no Arrow here: stages are
+//! [`interpolate`] → [`contour`] → [`track`], and the tasks built on them ([`slip`], [`force`],
+//! [`servo`], [`dos`] with its [`drift`] map). No async runtime and no Arrow here: stages are
 //! plain state machines, driven by the adapters of `gradtac-stream`.
 //!
 //! The method each stage implements is specified in the repository's `docs/method.md`
@@ -15,6 +16,7 @@ pub mod event;
 
 pub mod contour;
 pub mod dos;
+pub mod drift;
 pub mod events;
 pub mod force;
 pub mod interpolate;

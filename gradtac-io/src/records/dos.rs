@@ -1,4 +1,4 @@
-//! [`DosDecision`] as Arrow: schema `dos/1`, one row per slip-direction decision of the
+//! [`DosDecision`] as Arrow: schema `dos/2`, one row per slip-direction decision of the
 //! one-fingertip classifier ([`gradtac_stages::dos`]: one per span of `decision_frames`
 //! frames, or one per recording).
 //!
@@ -16,8 +16,12 @@
 //! | `rate`, `positive_fraction` | `Float64`, not null | features (dimensionless) |
 //! | `positive_x`, `positive_y`, `negative_x`, `negative_y`, `activity_x`, `activity_y`, `track_dx`, `track_dy` | `Float64`, not null | features (mm); `gradtac.unit = mm` |
 //! | `rotation` | `Float64`, not null | feature (rad); `gradtac.unit = rad` |
+//! | `drift_level`, `drift_spread` | `Float64`, not null | features (dimensionless: `ln(1 + …)`) |
+//! | `drift_x`, `drift_y`, `drift_signed_y` | `Float64`, not null | features (mm); `gradtac.unit = mm` |
+//! | `drift_anisotropy`, `drift_cross` | `Float64`, not null | features (mm²); `gradtac.unit = mm2` |
 //!
-//! The eleven feature columns are [`FeatureVector::all`] in [`Feature::ALL`] order, named by
+//! `dos/2` differs from `dos/1` only by the seven `drift_*` columns (added with the drift
+//! features of [`gradtac_stages::drift`]). The eighteen feature columns are [`FeatureVector::all`] in [`Feature::ALL`] order, named by
 //! [`Feature::name`] (the names of model files), whichever features the model uses.
 //!
 //! The shape ([`DosShape`]) is the model's classes, in decision order; it is stored in the
@@ -40,7 +44,7 @@
 //!     seq: 279,
 //!     frames: 280,
 //!     decision: Decision { class: DosClass::T, distances: vec![9.0, 1.0], posterior: vec![0.018, 0.982] },
-//!     features: FeatureVector { all: [0.5; 11], frames: 280, events: 12 },
+//!     features: FeatureVector { all: [0.5; 18], frames: 280, events: 12 },
 //! };
 //! let batch = to_batch(&shape, &[d]).unwrap();
 //! assert_eq!(batch.schema().metadata()["gradtac.dos.classes"], r#"["n","t"]"#);
@@ -57,7 +61,7 @@ use arrow_schema::{DataType, Field, SchemaRef};
 use gradtac_stages::dos::{Decision, DosClass, DosDecision, DosModel, Feature, FeatureVector};
 use std::sync::Arc;
 
-/// Schema-metadata key of the classes of a `dos/1` file (JSON array of class names).
+/// Schema-metadata key of the classes of a `dos/2` file (JSON array of class names).
 pub const DOS_CLASSES_KEY: &str = "gradtac.dos.classes";
 
 /// The classes of the model whose decisions one sink writes, in the model's decision order
@@ -111,8 +115,9 @@ impl DosShape {
 /// The unit of a feature column (`None`: dimensionless).
 fn feature_unit(f: Feature) -> Option<&'static str> {
     match f {
-        Feature::Rate | Feature::PositiveFraction => None,
+        Feature::Rate | Feature::PositiveFraction | Feature::DriftLevel | Feature::DriftSpread => None,
         Feature::Rotation => Some("rad"),
+        Feature::DriftAnisotropy | Feature::DriftCross => Some("mm2"),
         _ => Some("mm"),
     }
 }
@@ -120,7 +125,7 @@ fn feature_unit(f: Feature) -> Option<&'static str> {
 impl ArrowRecord for DosDecision {
     type Shape = DosShape;
     type Builder = DosBuilder;
-    const SCHEMA_ID: &'static str = "dos/1";
+    const SCHEMA_ID: &'static str = "dos/2";
 
     fn schema(shape: &DosShape) -> SchemaRef {
         let mut fields = vec![
@@ -165,7 +170,7 @@ impl ArrowRecord for DosDecision {
     }
 }
 
-/// Builds `dos/1` batches (see the [module documentation](self)).
+/// Builds `dos/2` batches (see the [module documentation](self)).
 pub struct DosBuilder {
     schema: SchemaRef,
     shape: DosShape,
@@ -278,7 +283,7 @@ mod tests {
             seq: 7,
             frames,
             decision: Decision { class, distances: vec![1.0; k], posterior: vec![0.5; k] },
-            features: FeatureVector { all: [0.0; 11], frames: 8, events: 3 },
+            features: FeatureVector { all: [0.0; 18], frames: 8, events: 3 },
         }
     }
 
@@ -296,7 +301,7 @@ mod tests {
         let mut b = DosDecision::builder(&shape, 2);
         b.append(&decision(DosClass::S, 3, 8)).unwrap();
         let e = b.append(&decision(DosClass::S, 2, 8)).unwrap_err().to_string();
-        assert!(e.contains("dos/1") && e.contains("frame 7") && e.contains("2 distances"), "{e}");
+        assert!(e.contains("dos/2") && e.contains("frame 7") && e.contains("2 distances"), "{e}");
         let mut d = decision(DosClass::S, 3, 8);
         d.decision.posterior.push(0.0);
         let e = b.append(&d).unwrap_err().to_string();
@@ -309,7 +314,7 @@ mod tests {
         b.append(&decision(DosClass::T, 3, 8)).unwrap();
         let batch = b.finish().unwrap();
         assert_eq!(batch.num_rows(), 2);
-        assert_eq!(batch.num_columns(), 9 + 11);
+        assert_eq!(batch.num_columns(), 9 + 18);
         assert!(b.is_empty());
     }
 }

@@ -5,7 +5,7 @@
 //! aggregates ([`window`], `window/1`), surfaces ([`surface`], `surface/1`), contours
 //! ([`contour`], `contour/1`), tracks ([`track`], `track/1`), slip events ([`slip`],
 //! `slip/1`), forces ([`force`], `force/1`), servo commands ([`servo`], `servo/1`) and
-//! slip-direction decisions ([`dos`], `dos/1`). The trait gives
+//! slip-direction decisions ([`dos`], `dos/2`). The trait gives
 //! - a schema id stored in files under the key `gradtac.schema` (`frame/1`: name and
 //!   version; bump the version on any incompatible change),
 //! - the Arrow [`Schema`](arrow_schema::Schema), which may depend on a per-sink **shape**
