@@ -304,8 +304,8 @@ mod tests {
         }
         let (w, _) = oracle(&f, &[30, 60, 120], 1e-3);
         let snap = m.snapshot();
-        for i in 0..3 {
-            approx::assert_relative_eq!(snap.weights[i], w[i], max_relative = 1e-12, epsilon = 1e-15);
+        for (got, want) in snap.weights.iter().zip(&w) {
+            approx::assert_relative_eq!(*got, *want, max_relative = 1e-12, epsilon = 1e-15);
         }
         let mut fresh = DriftMap::try_new(3, &[30, 60, 120], 1e-3).unwrap();
         assert_eq!(fresh.snapshot().weights, vec![0.0; 3]);
