@@ -49,8 +49,9 @@
 //! A distribution without weight (no events; no contour reaching `min_peak`; no drift) is
 //! located at the centre of the layout's extent (with zero drift moments); a span with fewer
 //! than two track windows has zero displacement and rotation; a span shorter than a drift lag
-//! averages the lags it has. Every feature is finite for any finite input (tested at 0,
-//! negative, 1e±300 and saturating counts). The drift features agree with an independent numpy
+//! averages the lags it has. Every computed feature is finite for any finite input (tested at
+//! 0, negative, 1e±300 and saturating counts); the extractor computes only the parts its
+//! configured features need (see [`DosFeatureExtractor`]) and leaves the others NaN. The drift features agree with an independent numpy
 //! implementation to 1e-12 (`tests/dos_drift_reference.rs`, vectors and script in
 //! `tests/reference/`).
 //!
@@ -428,8 +429,12 @@ impl Feature {
     }
 }
 
-/// Every feature of one span (see [`Feature`]); select with [`FeatureVector::select`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// Every feature of one span (see [`Feature`]); select with [`FeatureVector::select`]. A
+/// feature whose part the extractor did not build (see [`DosFeatureExtractor`]) is NaN.
+///
+/// Equality compares the values bit for bit: NaN (not computed) equals NaN, `0.0` and `−0.0`
+/// differ — two vectors are equal when they would be stored identically.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct FeatureVector {
     /// The values in [`Feature::ALL`] order.
     pub all: [f64; 18],
@@ -439,7 +444,20 @@ pub struct FeatureVector {
     pub events: u64,
 }
 
+impl PartialEq for FeatureVector {
+    fn eq(&self, other: &Self) -> bool {
+        self.frames == other.frames
+            && self.events == other.events
+            && self.all.iter().zip(&other.all).all(|(a, b)| a.to_bits() == b.to_bits())
+    }
+}
+
 impl FeatureVector {
+    /// Whether every feature was computed and is finite.
+    pub fn is_complete(&self) -> bool {
+        self.all.iter().all(|v| v.is_finite())
+    }
+
     /// One feature's value.
     pub fn get(&self, f: Feature) -> f64 {
         self.all[f.index()]
@@ -561,17 +579,26 @@ struct TrackSample {
 }
 
 /// Extracts a [`FeatureVector`] from raw frames of one sensor: events → split counts → surfaces
-/// → maximal contours. A plain state machine: [`push`](Self::push) frames, read
-/// [`features`](Self::features) for the span so far, [`clear_span`](Self::clear_span) to start
-/// a new span without losing the event references, [`reset`](Self::reset) on a discontinuity.
+/// → maximal contours, and the drift map. A plain state machine: [`push`](Self::push) frames,
+/// read [`features`](Self::features) for the span so far, [`clear_span`](Self::clear_span) to
+/// start a new span without losing the event references, [`reset`](Self::reset) on a
+/// discontinuity.
+///
+/// It builds and runs only what its configured features need: the events always (they check
+/// the input and give the event features), the track window and its per-window locations only
+/// for `track_dx`, `track_dy` or `rotation`, the drift map only for a `drift_*` feature, and
+/// surfaces and contours only for the `surface` and `max_contour` [`CentroidMethod`]s. The
+/// features of a part that was not built are NaN in the [`FeatureVector`]; to compute every
+/// feature (e.g. to compare feature sets), configure [`Feature::ALL`].
 #[derive(Clone, Debug)]
 pub struct DosFeatureExtractor {
     cfg: DosFeatureConfig,
     taxels: usize,
     events: Events,
-    window: Window,
-    interp: Interpolator,
-    finder: MaxContourFinder,
+    /// Track window (`None`: no track feature configured).
+    window: Option<Window>,
+    /// Surfaces and contours (`None` with [`CentroidMethod::Taxels`]).
+    spatial: Option<(Interpolator, MaxContourFinder)>,
     centre: [f64; 2],
     positions: Vec<[f64; 2]>,
     seconds: (Option<Timestamp>, Option<Timestamp>),
@@ -581,10 +608,19 @@ pub struct DosFeatureExtractor {
     track: Vec<TrackSample>,
     batches: Vec<EventBatch>,
     windows: Vec<WindowAggregate>,
-    drift: DriftMap,
+    /// Drift map (`None`: no drift feature configured).
+    drift: Option<DriftMap>,
     /// The pushed frame's values (the frame itself moves into the events stage).
     values: Vec<f64>,
 }
+
+/// Whether `features` use any of `part`.
+fn uses(features: &[Feature], part: &[Feature]) -> bool {
+    features.iter().any(|f| part.contains(f))
+}
+
+/// The features computed from the track windows.
+const TRACK: [Feature; 3] = [Feature::TrackDx, Feature::TrackDy, Feature::Rotation];
 
 impl DosFeatureExtractor {
     /// An extractor for `layout`'s sensor (validating the configuration).
@@ -595,30 +631,44 @@ impl DosFeatureExtractor {
             taxels,
             EventsConfig { threshold: Threshold::Uniform(cfg.threshold), ..Default::default() },
         )?;
-        let window = Window::try_new(&WindowConfig {
-            kind: WindowKind::Tumbling,
-            frames: Some(cfg.track_window_frames),
-            duration_ms: None,
-            step: 1,
-            aggregate: Aggregate::Split,
-        })?;
-        let grid =
-            crate::interpolate::Grid::from_config(&GridConfig { nx: cfg.grid_nx, ..Default::default() }, layout)?;
-        let interp = Interpolator::try_new(layout, Arc::new(grid), Method::NaturalNeighbour, Outside::Nan, 2.0, 0.0)?;
-        let finder = MaxContourFinder::try_new(&ContourConfig {
-            levels: Levels::Count(10),
-            min_area_mm2: cfg.min_area_mm2,
-            min_peak: cfg.min_peak,
-            saddle: Saddle::Centre,
-            peak_only: true,
-        })?;
+        let window = if uses(&cfg.features, &TRACK) {
+            Some(Window::try_new(&WindowConfig {
+                kind: WindowKind::Tumbling,
+                frames: Some(cfg.track_window_frames),
+                duration_ms: None,
+                step: 1,
+                aggregate: Aggregate::Split,
+            })?)
+        } else {
+            None
+        };
+        let spatial = if cfg.centroid == CentroidMethod::Taxels {
+            None
+        } else {
+            let grid =
+                crate::interpolate::Grid::from_config(&GridConfig { nx: cfg.grid_nx, ..Default::default() }, layout)?;
+            let interp =
+                Interpolator::try_new(layout, Arc::new(grid), Method::NaturalNeighbour, Outside::Nan, 2.0, 0.0)?;
+            let finder = MaxContourFinder::try_new(&ContourConfig {
+                levels: Levels::Count(10),
+                min_area_mm2: cfg.min_area_mm2,
+                min_peak: cfg.min_peak,
+                saddle: Saddle::Centre,
+                peak_only: true,
+            })?;
+            Some((interp, finder))
+        };
+        let drift = if uses(&cfg.features, &Feature::DRIFT) {
+            Some(DriftMap::try_new(taxels, &cfg.drift_lags, EventsConfig::default().floor)?)
+        } else {
+            None
+        };
         Ok(DosFeatureExtractor {
             cfg: cfg.clone(),
             taxels,
             events,
             window,
-            interp,
-            finder,
+            spatial,
             centre: layout.extent().centre(),
             positions: layout.positions().to_vec(),
             seconds: (None, None),
@@ -628,7 +678,7 @@ impl DosFeatureExtractor {
             track: Vec::new(),
             batches: Vec::new(),
             windows: Vec::new(),
-            drift: DriftMap::try_new(taxels, &cfg.drift_lags, EventsConfig::default().floor)?,
+            drift,
             values: vec![0.0; taxels],
         })
     }
@@ -659,8 +709,10 @@ impl DosFeatureExtractor {
         let time = frame.time;
         self.values.copy_from_slice(&frame.values);
         self.events.push(frame, &mut self.batches)?;
-        // The events stage refuses non-finite values (its default policy), so this cannot fail.
-        self.drift.push(&self.values)?;
+        if let Some(drift) = &mut self.drift {
+            // The events stage refuses non-finite values (its default policy), so this cannot fail.
+            drift.push(&self.values)?;
+        }
         self.seconds = (self.seconds.0.or(Some(time)), Some(time));
         self.frames += 1;
         for b in self.batches.drain(..) {
@@ -672,7 +724,9 @@ impl DosFeatureExtractor {
                     self.neg[t] += 1.0;
                 }
             }
-            self.window.push(b, &mut self.windows)?;
+            if let Some(window) = &mut self.window {
+                window.push(b, &mut self.windows)?;
+            }
         }
         let mut windows = std::mem::take(&mut self.windows);
         for w in &windows {
@@ -705,7 +759,7 @@ impl DosFeatureExtractor {
         all[Feature::NegativeY.index()] = nc[1];
         all[Feature::ActivityX.index()] = ac[0];
         all[Feature::ActivityY.index()] = ac[1];
-        let (d, rot) = track_motion(&self.track);
+        let (d, rot) = if self.window.is_some() { track_motion(&self.track) } else { ([f64::NAN; 2], f64::NAN) };
         all[Feature::TrackDx.index()] = d[0];
         all[Feature::TrackDy.index()] = d[1];
         all[Feature::Rotation.index()] = rot;
@@ -724,22 +778,30 @@ impl DosFeatureExtractor {
         self.frames = 0;
         self.seconds = (None, None);
         self.track.clear();
-        self.drift.clear_span();
+        if let Some(d) = &mut self.drift {
+            d.clear_span();
+        }
     }
 
     /// Forget everything (a discontinuity in the stream).
     pub fn reset(&mut self) {
         self.clear_span();
         self.events.reset();
-        self.window.reset();
-        self.drift.reset();
+        if let Some(w) = &mut self.window {
+            w.reset();
+        }
+        if let Some(d) = &mut self.drift {
+            d.reset();
+        }
     }
 
     /// The seven drift features ([`Feature::DRIFT`] order) of the span so far: the
     /// [drift map](crate::drift)'s weights `w_i` and signs `s_i` located on the layout. Without
-    /// weight the centroid is the layout's centre and the moments are zero.
+    /// weight the centroid is the layout's centre and the moments are zero; NaN without a drift
+    /// map.
     fn drift_features(&self) -> [f64; 7] {
-        let snap = self.drift.snapshot();
+        let Some(drift) = &self.drift else { return [f64::NAN; 7] };
+        let snap = drift.snapshot();
         let total: f64 = snap.weights.iter().sum();
         let level = total.ln_1p();
         if !(total > 0.0 && total.is_finite()) {
@@ -779,20 +841,17 @@ impl DosFeatureExtractor {
 
     /// Location, orientation and eccentricity of a count distribution by the configured method.
     fn locate(&mut self, values: &[f64]) -> Option<TrackSample> {
-        match self.cfg.centroid {
-            CentroidMethod::MaxContour => contour(&self.interp, &mut self.finder, values).map(|c| TrackSample {
-                centroid: c.centroid_mm,
-                orientation: c.orientation_rad,
-                eccentricity: c.eccentricity,
+        match (&mut self.spatial, self.cfg.centroid) {
+            (Some((interp, finder)), CentroidMethod::MaxContour) => contour(interp, finder, values).map(|c| {
+                TrackSample { centroid: c.centroid_mm, orientation: c.orientation_rad, eccentricity: c.eccentricity }
             }),
-            CentroidMethod::Surface => {
-                let z = self.interp.surface(values);
-                let g = self.interp.grid();
+            (Some((interp, _)), CentroidMethod::Surface) => {
+                let z = interp.surface(values);
+                let g = interp.grid();
                 weighted_moments(z.indexed_iter().map(|((j, i), &v)| (g.x(i), g.y(j), v)))
             }
-            CentroidMethod::Taxels => {
-                weighted_moments(values.iter().zip(&self.positions).map(|(&v, p)| (p[0], p[1], v)))
-            }
+            // Taxels (try_new builds the surfaces for every other method)
+            _ => weighted_moments(values.iter().zip(&self.positions).map(|(&v, p)| (p[0], p[1], v))),
         }
     }
 }
@@ -1574,10 +1633,38 @@ mod tests {
     }
 
     #[test]
+    fn only_the_parts_the_features_need_are_built() {
+        let l = Layout::biotac_sp();
+        let run = |features: Vec<Feature>, centroid: CentroidMethod| {
+            let cfg = DosFeatureConfig { features, centroid, ..Default::default() };
+            let mut x = DosFeatureExtractor::try_new(&cfg, &l).unwrap();
+            for k in 0..200u64 {
+                let v = (0..24).map(|i| 3000.0 + 40.0 * ((k as f64 / 20.0) + i as f64).sin()).collect();
+                x.push(TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, v)).unwrap();
+            }
+            (x.window.is_some(), x.drift.is_some(), x.spatial.is_some(), x.features())
+        };
+        let (track, drift, spatial, fv) = run(Feature::DEFAULT.to_vec(), CentroidMethod::Taxels);
+        assert!(!track && drift && !spatial);
+        assert!(fv.get(Feature::TrackDx).is_nan() && fv.get(Feature::Rotation).is_nan());
+        assert!(fv.select(&Feature::DEFAULT).iter().all(|v| v.is_finite()) && fv.get(Feature::Rate).is_finite());
+        let (track, drift, spatial, fv) = run(vec![Feature::Rate, Feature::Rotation], CentroidMethod::Surface);
+        assert!(track && !drift && spatial);
+        assert!(fv.get(Feature::Rotation).is_finite() && fv.get(Feature::DriftLevel).is_nan());
+        let (.., all) = run(Feature::ALL.to_vec(), CentroidMethod::Taxels);
+        assert!(all.is_complete());
+        // what is computed does not depend on what else is: the default's values are the same
+        for f in Feature::DEFAULT {
+            assert_eq!(all.get(f).to_bits(), run(Feature::DEFAULT.to_vec(), CentroidMethod::Taxels).3.get(f).to_bits());
+        }
+        assert_eq!(fv, fv, "NaN features compare equal bit for bit");
+    }
+
+    #[test]
     fn features_are_finite_at_the_extremes() {
         let l = Layout::biotac_sp();
         for centroid in [CentroidMethod::Taxels, CentroidMethod::Surface, CentroidMethod::MaxContour] {
-            let cfg = DosFeatureConfig { centroid, ..Default::default() };
+            let cfg = DosFeatureConfig { centroid, features: Feature::ALL.to_vec(), ..Default::default() };
             type Signal = Box<dyn Fn(usize, usize) -> f64>;
             let cases: Vec<(&str, Signal)> = vec![
                 ("constant", Box::new(|_, _| 3000.0)),

@@ -49,7 +49,7 @@ fn load(root: &Path, cfg: &DosFeatureConfig) -> Vec<(DosClass, String, FeatureVe
                     .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
             }
             let fv = x.features();
-            assert!(fv.all.iter().all(|v| v.is_finite()), "{}: {fv:?}", f.display());
+            assert!(fv.select(&cfg.features).iter().all(|v| v.is_finite()), "{}: {fv:?}", f.display());
             out.push((class, object, fv));
         }
     }
