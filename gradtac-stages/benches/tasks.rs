@@ -8,6 +8,9 @@
 //! - `slip/points`: the slip classifier over that grasp's 400 track points;
 //! - `force/<method>`: predicting 4096 areas with each fitted model;
 //! - `servo/points`: the servo over the 400 track points;
+//! - `dos/extract-*`: the one-fingertip slip-direction feature extractor over the grasp's first
+//!   sensor (200 frames) with the default features, every feature, every feature with surface
+//!   centroids; `dos/drift-map` the drift map alone; `dos/classify` one decision;
 //! - `chain/grasp`: raw frames → savgol → events → window → natural neighbour 32 × 32 →
 //!   contour → track (per sensor) → slip, for the whole grasp, building both sensors' chains
 //!   (natural-neighbour weight tables included) inside the timed region.
@@ -24,10 +27,17 @@
 //! | `force/Exponential` | 29.8 µs | 7.3 ns |
 //! | `force/Isotonic` (≈ 200 knots) | 42.0 µs | 10.2 ns |
 //! | `chain/grasp` (400 frames) | 3.17 ms | 7.9 µs per frame (≈ 1/1260 of the 10 ms frame period) |
+//! | `dos/extract-default` (200 frames, events + drift map) | 56.7 µs | 0.28 µs per frame |
+//! | `dos/extract-all-taxels` (every feature) | 60.6 µs | 0.30 µs per frame |
+//! | `dos/extract-all-surface` (every feature, 32 × 32 surfaces per track window) | 129 µs | 0.65 µs per frame |
+//! | `dos/drift-map` (200 frames, lags 30/60/120) | 28.0 µs | 0.14 µs per frame |
+//! | `dos/classify` (one decision, 7 classes × 9 features, Student t) | 347 ns | |
 //!
 //! The task stages cost nothing next to the chain before them: slip adds < 0.5 % to a frame.
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use gradtac_stages::contour::{Contour, ContourConfig};
+use gradtac_stages::dos::{CentroidMethod, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature};
+use gradtac_stages::drift::DriftMap;
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
 use gradtac_stages::force::{ForceMethod, ForceModel, ForceSample};
 use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
@@ -103,6 +113,52 @@ fn bench(c: &mut Criterion) {
             b.iter(|| areas.iter().map(|&a| model.predict(black_box(a))).sum::<f64>())
         });
     }
+    g.finish();
+
+    // One fingertip's raw frames (the grasp's first sensor) through the slip-direction
+    // extractor, and one decision.
+    let ff: Vec<TaxelFrame> = frames.iter().filter(|f| f.sensor == frames[0].sensor).cloned().collect();
+    let mut g = c.benchmark_group("dos");
+    g.throughput(Throughput::Elements(ff.len() as u64));
+    for (name, features, centroid) in [
+        ("extract-default", Feature::DEFAULT.to_vec(), CentroidMethod::Taxels),
+        ("extract-all-taxels", Feature::ALL.to_vec(), CentroidMethod::Taxels),
+        ("extract-all-surface", Feature::ALL.to_vec(), CentroidMethod::Surface),
+    ] {
+        let cfg = DosFeatureConfig { features, centroid, ..Default::default() };
+        g.bench_function(name, |b| {
+            b.iter_batched(
+                || (DosFeatureExtractor::try_new(&cfg, &layout).unwrap(), ff.clone()),
+                |(mut x, f)| {
+                    for fr in f {
+                        x.push(fr).unwrap();
+                    }
+                    black_box(x.features())
+                },
+                BatchSize::SmallInput,
+            )
+        });
+    }
+    let values: Vec<Vec<f64>> = ff.iter().map(|f| f.values.to_vec()).collect();
+    g.bench_function("drift-map", |b| {
+        b.iter_batched(
+            || DriftMap::try_new(24, &[30, 60, 120], 1e-3).unwrap(),
+            |mut m| {
+                for v in &values {
+                    m.push(v).unwrap();
+                }
+                black_box(m.snapshot())
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    g.throughput(Throughput::Elements(1));
+    let samples: Vec<(DosClass, Vec<f64>)> = (0..70)
+        .map(|k| (DosClass::ALL[k % 7], (0..9).map(|j| ((k * 7 + j * 3) % 11) as f64 + (k % 7) as f64).collect()))
+        .collect();
+    let model = DosModel::calibrate(DosFeatureConfig::default(), &samples).unwrap();
+    let probe: Vec<f64> = (0..9).map(|j| j as f64 * 0.7).collect();
+    g.bench_function("classify", |b| b.iter(|| black_box(model.classify(black_box(&probe)).unwrap())));
     g.finish();
 
     let mut g = c.benchmark_group("chain");
