@@ -25,7 +25,8 @@
 
 use gradtac::io::{ColumnSelector, CsvFrames, CsvSourceConfig};
 use gradtac::stages::dos::{
-    CentroidMethod, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature, FeatureVector,
+    cross_validate as leave_one_group_out, CentroidMethod, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel,
+    Feature, FeatureVector, LabelledSpan,
 };
 use gradtac::stream::{Layout, SensorId, TaxelFrame};
 use std::collections::BTreeMap;
@@ -153,8 +154,9 @@ fn cross_validate_rule(
     cross_validate_groups(recs, cfg, &|o| o.to_string(), shrinkage, dof)
 }
 
-/// Leave-one-group-out, the group of a recording being `group(object)`: per fold (group,
-/// correct, total) and the confusion matrix; `shrinkage(group)` as in [`cross_validate_rule`].
+/// Leave-one-group-out ([`leave_one_group_out`]), the group of a recording being `group(object)`:
+/// per fold (group, correct, total) and the confusion matrix; `shrinkage(group)` as in
+/// [`cross_validate_rule`].
 fn cross_validate_groups(
     recs: &[Recording],
     cfg: &DosFeatureConfig,
@@ -162,27 +164,10 @@ fn cross_validate_groups(
     shrinkage: &dyn Fn(&str) -> f64,
     dof: Option<f64>,
 ) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
-    let mut groups: Vec<String> = recs.iter().map(|r| group(&r.object)).collect();
-    groups.sort();
-    groups.dedup();
-    let idx = |c: DosClass| DosClass::ALL.iter().position(|&x| x == c).unwrap_or(0);
-    let mut folds = Vec::new();
-    let mut cm = [[0usize; 7]; 7];
-    for g in &groups {
-        let held = |r: &Recording| group(&r.object) == *g;
-        let train: Vec<(DosClass, Vec<f64>)> =
-            recs.iter().filter(|r| !held(r)).map(|r| (r.class, r.features.select(&cfg.features))).collect();
-        let model = DosModel::calibrate_with_shrinkage(cfg.clone(), &train, shrinkage(g))?.with_student_t_dof(dof)?;
-        let (mut ok, mut n) = (0, 0);
-        for r in recs.iter().filter(|r| held(r)) {
-            let d = model.classify_vector(&r.features)?;
-            cm[idx(r.class)][idx(d.class)] += 1;
-            ok += usize::from(d.class == r.class);
-            n += 1;
-        }
-        folds.push((g.clone(), ok, n));
-    }
-    Ok((folds, cm))
+    let spans: Vec<LabelledSpan> =
+        recs.iter().map(|r| LabelledSpan { class: r.class, group: group(&r.object), features: r.features }).collect();
+    let cv = leave_one_group_out(cfg, &spans, shrinkage, dof)?;
+    Ok((cv.folds, cv.confusion))
 }
 
 /// The BioTacSP-DoS object set of an object (`basic`: case, hd, pen, sponge; `solids`: bottle,
