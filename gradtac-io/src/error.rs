@@ -57,6 +57,18 @@ pub enum Error {
         /// The OS error.
         source: std::io::Error,
     },
+    /// Taxel values that cannot be encoded into CAN frames (not finite, outside the valid
+    /// range of their field, a value count that is not the sensor's taxel count): names the
+    /// sensor and, where one value is at fault, the taxel and the CAN id it would go to.
+    #[error("CAN encoding of sensor {sensor:?}{}: {reason}", taxel.map(|t| format!(" taxel {t}")).unwrap_or_default())]
+    CanEncode {
+        /// The sensor's name (or `index N` for an index the codec does not have).
+        sensor: String,
+        /// The taxel whose value does not fit, if the fault is one value's.
+        taxel: Option<u32>,
+        /// What is wrong.
+        reason: String,
+    },
     /// A malformed binary file (NumPy `.npy`, Arrow IPC): the file and the byte offset.
     #[error("{path} at byte {offset}: {reason}")]
     Binary {

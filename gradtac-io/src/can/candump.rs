@@ -1,6 +1,6 @@
 //! can-utils `candump -l` log files: a streaming parser ([`CandumpReader`]), an offline
-//! source of taxel frames ([`CandumpSource`]) and a replay stream with original timing
-//! ([`replay`]).
+//! source of taxel frames ([`CandumpSource`]), a replay stream with original timing
+//! ([`replay`]) and a writer ([`CandumpWriter`], [`write_candump`]).
 //!
 //! # Format
 //! One frame per line, as written by `candump -l` (and read by `canplayer`):
@@ -30,6 +30,12 @@
 //!
 //! Any other malformed line is an [`Error::Parse`] naming `file:line` and what is wrong; the
 //! reader then stops (a corrupt log is not guessed at).
+//!
+//! # Writing
+//! [`CandumpWriter`] writes classic data frames as `candump -l` does (3- or 8-digit id,
+//! upper-case hex, time with 6 fraction digits, truncated to the µs), so `canplayer` and
+//! [`CandumpReader`] read them back; frames whose times are whole µs read back identical.
+//! Times before the Unix epoch cannot be written (an error naming the frame).
 
 use crate::blocking::{blocking_stream, BlockingStream};
 use crate::can::codec::{CanCodec, CodecConfig};
@@ -41,7 +47,7 @@ use crate::{Error, Result};
 use gradtac_stream::{IteratorStageExt, StageIter, TaxelFrame, Timestamp};
 use serde::{Deserialize, Serialize};
 use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// CAN error frame flag in a logged identifier.
@@ -372,6 +378,108 @@ impl<R: BufRead> Iterator for CandumpReader<R> {
         }
         None
     }
+}
+
+/// Writes [`CanFrame`]s as a `candump -l` log, one line per frame (see [Writing](self#writing)).
+///
+/// ```
+/// use gradtac_io::can::{CanFrame, CandumpReader, CandumpWriter};
+/// use gradtac_stream::Timestamp;
+///
+/// let f = CanFrame::standard(0x101, &[5, 0x12, 0x34], Timestamp(1_700_000_000_123_456_000))?;
+/// let mut w = CandumpWriter::new("out.log", Vec::new(), "vcan0")?;
+/// w.write(&f)?;
+/// let text = w.finish()?;
+/// assert_eq!(text, b"(1700000000.123456) vcan0 101#051234\n");
+/// let back: Vec<CanFrame> = CandumpReader::new("out.log", &text[..]).collect::<Result<_, _>>()?;
+/// assert_eq!(back, vec![f]);
+/// # Ok::<(), gradtac_io::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct CandumpWriter<W: Write> {
+    writer: W,
+    name: PathBuf,
+    interface: String,
+    frames: u64,
+    line: String,
+}
+
+impl CandumpWriter<BufWriter<File>> {
+    /// Create (or truncate) a log file.
+    pub fn create(path: impl AsRef<Path>, interface: &str) -> Result<Self> {
+        let path = path.as_ref();
+        let f = File::create(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        Self::new(path, BufWriter::with_capacity(64 * 1024, f), interface)
+    }
+}
+
+impl<W: Write> CandumpWriter<W> {
+    /// A writer into any output; `name` names it in errors. The interface name must be one
+    /// non-empty token without whitespace (as it is one field of the line).
+    pub fn new(name: impl Into<PathBuf>, writer: W, interface: &str) -> Result<Self> {
+        if interface.is_empty() || interface.chars().any(char::is_whitespace) {
+            return Err(Error::InvalidConfig(format!(
+                "candump interface name {interface:?} must be one non-empty word without whitespace"
+            )));
+        }
+        Ok(CandumpWriter { writer, name: name.into(), interface: interface.into(), frames: 0, line: String::new() })
+    }
+
+    /// Write one frame as one line. A time before the Unix epoch is an [`Error::Record`]
+    /// naming the frame (nothing is written).
+    pub fn write(&mut self, frame: &CanFrame) -> Result<()> {
+        use std::fmt::Write as _;
+        let ns = frame.time().as_nanos();
+        if ns < 0 {
+            return Err(Error::Record {
+                schema: "candump".into(),
+                reason: format!(
+                    "frame {} (id {}) at {ns} ns is before the Unix epoch; a candump log cannot hold it",
+                    self.frames,
+                    frame.id_string()
+                ),
+            });
+        }
+        self.line.clear();
+        let _ = write!(
+            self.line,
+            "({}.{:06}) {} {}#",
+            ns / 1_000_000_000,
+            (ns % 1_000_000_000) / 1000,
+            self.interface,
+            frame.id_string()
+        );
+        for b in frame.data() {
+            let _ = write!(self.line, "{b:02X}");
+        }
+        self.line.push('\n');
+        self.writer.write_all(self.line.as_bytes()).map_err(|source| Error::Io { path: self.name.clone(), source })?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Frames written so far.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// Flush and return the output.
+    pub fn finish(mut self) -> Result<W> {
+        self.writer.flush().map_err(|source| Error::Io { path: self.name.clone(), source })?;
+        Ok(self.writer)
+    }
+}
+
+/// Write `frames` (each with its own time) to `writer` as a `candump -l` log of interface
+/// `interface`; returns the number of lines written. See [`CandumpWriter`].
+pub fn write_candump<W: Write>(frames: impl IntoIterator<Item = CanFrame>, interface: &str, writer: W) -> Result<u64> {
+    let mut w = CandumpWriter::new("candump output", writer, interface)?;
+    for f in frames {
+        w.write(&f)?;
+    }
+    let n = w.frames();
+    w.finish()?;
+    Ok(n)
 }
 
 fn one() -> f64 {

@@ -39,10 +39,20 @@
 //! outside `[raw_min, raw_max]` is *out of range*: it is counted and its taxel gets no value
 //! from this frame (the set is then incomplete, see [`IncompletePolicy`]). A valid value
 //! becomes `raw · scale + offset` in the sensor's unit.
+//!
+//! # Encoding
+//! [`CanCodec::encode`] is the inverse: one sensor's values (in the sensor's unit) become the
+//! CAN frames that decode back to them — `raw = round((value − offset) / scale)`, checked
+//! against `[raw_min, raw_max]`, packed in the message's bit numbering, with the id index in
+//! the free id bits and the block in the multiplexer byte. Bits no field uses are zero;
+//! multiplexer values in `ignore` are never produced. [`CanEncoder`](super::CanEncoder) adds
+//! lookup by [`SensorId`], an optional clamping mode with counts, and the
+//! [`Stage`](gradtac_stream::Stage) from taxel frames to CAN frames; see
+//! [`encode`](super::encode).
 
 use crate::can::frame::{fmt_id, CanFrame, MAX_EXTENDED_ID, MAX_STANDARD_ID};
 use crate::{Error, Result};
-use gradtac_stream::SensorId;
+use gradtac_stream::{SensorId, Timestamp};
 use serde::{Deserialize, Serialize};
 
 /// Byte (and bit) order of a message's fields; see the [module docs](self) for the numbering.
@@ -384,6 +394,55 @@ struct Message {
     stride: u32,
 }
 
+impl Message {
+    /// The decoded value of a raw value (exactly as [`CanCodec::decode`] computes it).
+    fn value(&self, raw: i64) -> f64 {
+        raw as f64 * self.scale + self.offset
+    }
+
+    /// The raw value encoding `v`, and whether it was clamped; `Err` says why `v` does not fit.
+    fn quantise(&self, v: f64, clamp: bool) -> std::result::Result<(i64, bool), String> {
+        if !v.is_finite() {
+            return Err(format!("value {v} is not finite"));
+        }
+        let x = ((v - self.offset) / self.scale).round();
+        let (lo, hi) = (self.raw_min as f64, self.raw_max as f64);
+        // Within one level of the range the neighbours decide; beyond it `v` is out of range
+        // (this also keeps `x as i64` exact: the range lies inside ±2^32).
+        let raw = if x >= lo - 1.0 && x <= hi + 1.0 {
+            let r0 = x as i64;
+            let mut best = (r0, (self.value(r0) - v).abs());
+            for c in [r0 - 1, r0 + 1] {
+                let e = (self.value(c) - v).abs();
+                if e < best.1 {
+                    best = (c, e);
+                }
+            }
+            best.0
+        } else if x < lo {
+            self.raw_min - 1
+        } else {
+            self.raw_max + 1
+        };
+        if (self.raw_min..=self.raw_max).contains(&raw) {
+            return Ok((raw, false));
+        }
+        if clamp {
+            return Ok((raw.clamp(self.raw_min, self.raw_max), true));
+        }
+        let (a, b) = (self.value(self.raw_min), self.value(self.raw_max));
+        Err(format!(
+            "value {v} is outside the field's valid range {} … {} (raw {} … {}, scale {}, offset {})",
+            a.min(b),
+            a.max(b),
+            self.raw_min,
+            self.raw_max,
+            self.scale,
+            self.offset
+        ))
+    }
+}
+
 /// A validated sensor.
 #[derive(Clone, Debug)]
 pub(crate) struct Sensor {
@@ -542,6 +601,108 @@ impl CanCodec {
 
     pub(crate) fn sensor(&self, i: usize) -> &Sensor {
         &self.sensors[i]
+    }
+
+    /// The index of the sensor named `id`, if the codec has it.
+    pub fn sensor_index(&self, id: &SensorId) -> Option<usize> {
+        self.sensors.iter().position(|s| s.id == *id)
+    }
+
+    /// Encode one set of sensor `sensor`'s taxel values (in the sensor's unit, i.e. after
+    /// `scale` and `offset`) into the CAN frames that [`decode`](Self::decode) reads back as
+    /// those values, appending them to `out`, all stamped `time`.
+    ///
+    /// Each value becomes `raw = round((value − offset) / scale)` (to the nearest level; of
+    /// the levels next to it, the one whose decoded value is closest, so a value the decoder
+    /// produced encodes back to its own raw value even where `(value − offset) / scale` is a
+    /// few ulps off). Frames come in message order and, per message, in block order
+    /// (`id_index`, then multiplexer value); bits no field or multiplexer uses are zero.
+    ///
+    /// Errors ([`Error::CanEncode`], naming the sensor, taxel and CAN id): `sensor` is not an
+    /// index of the codec, `values` does not hold exactly one value per taxel, or a value is
+    /// not finite or lies outside the valid range (a raw value outside `[raw_min, raw_max]`
+    /// after rounding, i.e. more than half a quantum past the outermost level). Nothing is
+    /// clamped; [`CanEncoder`](super::CanEncoder) offers an explicit clamping mode. On error
+    /// `out` is left as it was.
+    pub fn encode(&self, sensor: usize, values: &[f64], time: Timestamp, out: &mut Vec<CanFrame>) -> Result<()> {
+        self.encode_with(sensor, values, time, false, out).map(|_| ())
+    }
+
+    /// [`encode`](Self::encode), optionally clamping out-of-range (finite) values to the
+    /// nearest valid raw value; returns the number of clamped values.
+    pub(crate) fn encode_with(
+        &self,
+        sensor: usize,
+        values: &[f64],
+        time: Timestamp,
+        clamp: bool,
+        out: &mut Vec<CanFrame>,
+    ) -> Result<u64> {
+        let Some(s) = self.sensors.get(sensor) else {
+            return Err(Error::CanEncode {
+                sensor: format!("index {sensor}"),
+                taxel: None,
+                reason: format!("the codec has {} sensors", self.sensors.len()),
+            });
+        };
+        let fail =
+            |taxel: Option<u32>, reason: String| Error::CanEncode { sensor: s.id.as_str().to_string(), taxel, reason };
+        if values.len() != s.taxels as usize {
+            return Err(fail(None, format!("{} values, but the sensor has {} taxels", values.len(), s.taxels)));
+        }
+        let start = out.len();
+        let mut clamped = 0;
+        for m in self.messages.iter().filter(|m| m.sensor == sensor) {
+            let mux_groups = m.mux.as_ref().map_or(1, |x| x.1);
+            // The id bits that hold the id index (the free bits from `shift` up).
+            let index_bits = ((!m.mask & width_mask(m.extended)) >> m.shift) << m.shift;
+            let fmask = (1u64 << m.bits) - 1;
+            for id_index in 0..m.id_groups {
+                let id = (m.id & !index_bits) | (id_index << m.shift);
+                for mux in 0..mux_groups {
+                    let base = m.first_taxel + (id_index * mux_groups + mux) * m.stride;
+                    let mut word = 0u64;
+                    for k in 0..m.count {
+                        let t = base + k;
+                        let raw = match m.quantise(values[t as usize], clamp) {
+                            Ok((raw, c)) => {
+                                clamped += u64::from(c);
+                                raw
+                            }
+                            Err(reason) => {
+                                out.truncate(start);
+                                let mux = if m.mux.is_some() { format!(", mux {mux}") } else { String::new() };
+                                return Err(fail(
+                                    Some(t),
+                                    format!("{reason} (CAN id {}{mux})", fmt_id(id, m.extended)),
+                                ));
+                            }
+                        };
+                        let u = raw as u64 & fmask;
+                        let p = m.start_bit + k * m.bits;
+                        word |= match m.order {
+                            ByteOrder::Big => u << (64 - p - m.bits),
+                            ByteOrder::Little => u << p,
+                        };
+                    }
+                    let mut bytes = match m.order {
+                        ByteOrder::Big => word.to_be_bytes(),
+                        ByteOrder::Little => word.to_le_bytes(),
+                    };
+                    if let Some((byte, _, _)) = &m.mux {
+                        bytes[*byte as usize] = mux as u8;
+                    }
+                    match CanFrame::try_new(id, m.extended, &bytes[..m.length as usize], time) {
+                        Ok(f) => out.push(f),
+                        Err(e) => {
+                            out.truncate(start);
+                            return Err(e);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(clamped)
     }
 
     /// Decode one frame: append its fields to `out` (cleared first) and say what it was.

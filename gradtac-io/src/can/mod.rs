@@ -17,9 +17,13 @@
 //!   counts faults in [`CanStats`].
 //! - [`CandumpSource`] (iterator), [`candump::replay`] (tokio stream with original or fast
 //!   timing), [`frame_channel`] + [`CanStream`] (in-memory), `socketcan::open` (live).
+//! - The way back ([`encode`]): [`CanEncoder`] / [`CanCodec::encode`] turn taxel values into
+//!   the CAN frames the codec decodes back to them (simulated hands, replay onto a bus), and
+//!   [`CandumpWriter`] / [`write_candump`] write frames as a `candump -l` log.
 
 pub mod candump;
 pub mod codec;
+pub mod encode;
 pub mod frame;
 pub mod presets;
 pub mod reassembly;
@@ -29,10 +33,11 @@ pub mod stats;
 pub mod stream;
 pub mod transport;
 
-pub use candump::{CandumpConfig, CandumpReader, CandumpSource, CandumpStats, FdPolicy};
+pub use candump::{write_candump, CandumpConfig, CandumpReader, CandumpSource, CandumpStats, CandumpWriter, FdPolicy};
 pub use codec::{
     ByteOrder, CanCodec, CodecConfig, IncompletePolicy, MessageSpec, MuxSpec, PresetConfig, PresetKind, SensorSpec,
 };
+pub use encode::{CanEncoder, EncodeStats, OutOfRangePolicy};
 pub use frame::CanFrame;
 pub use reassembly::{CanDecoder, DecodedFrame, FlaggedDecoder};
 pub use stats::{CanStats, Fault, FaultKind, FaultSite, StatsHandle};
