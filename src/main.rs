@@ -43,6 +43,24 @@ enum Command {
         /// Sample rate of the recordings (Hz).
         #[arg(long, default_value_t = 100.0)]
         rate_hz: f64,
+        /// Feature settings: a TOML file with the fields of the model's `config` (e.g.
+        /// `drift_lags = [30, 60, 120]`, `features = ["drift_level", …]`); default: the
+        /// built-in settings.
+        #[arg(long)]
+        settings: Option<PathBuf>,
+        /// Variance shrinkage λ in [0, 1] toward the pooled within-class variances.
+        #[arg(long, default_value_t = gradtac::stages::dos::DosModel::DEFAULT_SHRINKAGE)]
+        shrinkage: f64,
+        /// Gaussian class densities instead of Student t.
+        #[arg(long, conflicts_with = "student_t")]
+        gaussian: bool,
+        /// Degrees of freedom ν of the Student-t class densities.
+        #[arg(long, default_value_t = gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF)]
+        student_t: f64,
+        /// Before fitting, print a leave-one-object-out cross-validation (objects: the leading
+        /// letters of the file names, `bottle12.csv` → `bottle`).
+        #[arg(long)]
+        cross_validate: bool,
     },
     /// Render a gradtac Parquet output (any schema: frame, event, window, surface, contour,
     /// track, slip, force, servo, dos) as a PNG: one file, or an archive directory (its
@@ -105,17 +123,38 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Calibrate { data, out, columns, rate_hz } => {
-            let opts = gradtac::calibrate::CalibrateOptions {
+        Command::Calibrate {
+            data,
+            out,
+            columns,
+            rate_hz,
+            settings,
+            shrinkage,
+            gaussian,
+            student_t,
+            cross_validate,
+        } => {
+            let mut opts = gradtac::calibrate::CalibrateOptions {
                 columns: columns.parse().map_err(gradtac::Error::Io2)?,
                 rate_hz,
+                shrinkage,
+                student_t_dof: (!gaussian).then_some(student_t),
                 ..Default::default()
             };
+            if let Some(path) = settings {
+                opts = opts.with_settings_file(&path)?;
+            }
             let layout = gradtac::stream::Layout::biotac_sp();
-            let (model, n) = gradtac::calibrate::calibrate_dos(&data, &layout, &opts)?;
+            let spans = gradtac::calibrate::labelled_spans(&data, &layout, &opts)?;
+            if cross_validate {
+                print!("{}", gradtac::calibrate::cross_validate_spans(&spans, &opts)?);
+                println!();
+            }
+            let model = gradtac::calibrate::calibrate_spans(&spans, &opts)?;
             gradtac::calibrate::write_model(&model, &out)?;
             println!(
-                "calibrated on {n} recordings: {} classes, {} features, {} parameters -> {}",
+                "calibrated on {} recordings: {} classes, {} features, {} parameters -> {}",
+                spans.len(),
                 model.classes.len(),
                 model.config.features.len(),
                 model.parameter_count(),

@@ -577,3 +577,62 @@ fn an_events_only_scene_builds_no_interpolation() {
     let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
     assert!(text.contains("not built: window, surface, contour, track, force, servo, slip, dos"), "{text}");
 }
+
+#[test]
+fn calibrate_cross_validates_and_takes_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = dir.path().join("train");
+    simulated_labelled(&train, 0..3);
+    // three "objects": the leading letters of the file names group the recordings
+    for class in ["n", "s", "e", "w"] {
+        for (seed, object) in [(0, "alpha"), (1, "beta"), (2, "gamma")] {
+            let d = train.join(class);
+            fs::rename(d.join(format!("sim{seed}.csv")), d.join(format!("{object}{seed}.csv"))).unwrap();
+        }
+    }
+    let settings = dir.path().join("settings.toml");
+    fs::write(&settings, "drift_lags = [20, 40]\nfeatures = [\"drift_level\", \"drift_x\", \"drift_y\"]\n").unwrap();
+    let model_path = dir.path().join("model.json");
+    let out = gradtac()
+        .args(["calibrate", "--cross-validate", "--gaussian", "--shrinkage", "0.25", "--settings"])
+        .arg(&settings)
+        .arg(&train)
+        .arg("--out")
+        .arg(&model_path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("leave-one-group-out accuracy"), "{text}");
+    for object in ["| alpha | ", "| beta | ", "| gamma | "] {
+        assert!(text.contains(object), "{object}: {text}");
+    }
+    assert!(text.contains("calibrated on 12 recordings: 4 classes, 3 features, 24 parameters"), "{text}");
+    let model = gradtac::calibrate::read_model(&model_path).unwrap();
+    assert_eq!(model.config.drift_lags, [20, 40]);
+    assert_eq!(model.student_t_dof, None, "--gaussian");
+    // the CLI passed every option on: the library, given the same options, fits the same model
+    let opts = gradtac::calibrate::CalibrateOptions { shrinkage: 0.25, student_t_dof: None, ..Default::default() }
+        .with_settings_file(&settings)
+        .unwrap();
+    let spans = gradtac::calibrate::labelled_spans(&train, &gradtac::stream::Layout::biotac_sp(), &opts).unwrap();
+    assert_eq!(gradtac::calibrate::calibrate_spans(&spans, &opts).unwrap(), model);
+    let default = gradtac::calibrate::CalibrateOptions { shrinkage: 0.5, ..opts.clone() };
+    assert_ne!(gradtac::calibrate::calibrate_spans(&spans, &default).unwrap().class_variances, model.class_variances);
+
+    // errors name what is wrong
+    fs::write(&settings, "drift_lag = [20]\n").unwrap();
+    let out =
+        gradtac().arg("calibrate").arg("--settings").arg(&settings).arg(&train).arg("--out").arg(&model_path).output();
+    let out = out.unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("settings.toml") && err.contains("drift_lag"), "{err}");
+    let one = dir.path().join("one");
+    simulated_labelled(&one, 0..2);
+    let out = gradtac().arg("calibrate").arg("--cross-validate").arg(&one).arg("--out").arg(&model_path).output();
+    let out = out.unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("at least two groups"), "{err}");
+}

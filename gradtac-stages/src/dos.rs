@@ -1742,6 +1742,27 @@ mod tests {
     }
 
     #[test]
+    fn model_files_keep_every_bit() {
+        // awkward values: a JSON parser without correct rounding is off by an ulp on some of them
+        let mut x = 0.1f64;
+        let samples: Vec<(DosClass, Vec<f64>)> = (0..40)
+            .map(|k| {
+                x = (x * 3.7 + 0.123_456_789).fract() + 1e-17 * k as f64;
+                (DosClass::ALL[k % 3], vec![x * 1e-3, x.sqrt() * 7.0, (x + 1.0).ln() / 3.0])
+            })
+            .collect();
+        let cfg =
+            DosFeatureConfig { features: vec![Feature::Rate, Feature::DriftX, Feature::DriftY], ..Default::default() };
+        let model = DosModel::calibrate(cfg, &samples).unwrap();
+        let back: DosModel = serde_json::from_str(&serde_json::to_string_pretty(&model).unwrap()).unwrap();
+        let bits = |m: &DosModel| -> Vec<u64> {
+            m.means.iter().chain(&m.class_variances).flatten().chain(&m.variances).map(|v| v.to_bits()).collect()
+        };
+        assert_eq!(bits(&back), bits(&model));
+        assert_eq!(back, model);
+    }
+
+    #[test]
     fn cross_validation_holds_each_group_out() {
         let cfg = DosFeatureConfig { features: vec![Feature::Rate], ..Default::default() };
         let span = |class: DosClass, group: &str, v: f64| {
