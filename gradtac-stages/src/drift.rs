@@ -13,11 +13,12 @@
 //! | sign `s_{S,i}` | `2·Σ max(0, r_t − r_{t−S}) / Σ |r_t − r_{t−S}| − 1` | `+1`: the value only rose over lag `S`, `−1`: only fell (0 without change) |
 //!
 //! [`DriftMap::snapshot`] returns `w_i` and `s_i`, each the mean over the lags that have at least
-//! one difference in the span. A slow, steady change (contact sliding over the taxel) has
-//! `D_S ≈ S·n` or more and weighs `≈ ln S`; pure noise has `D_S ≈ √S·n`-ish or less and, after
-//! the clip, little weight — and because both are measured on the same taxel in the same span,
-//! the weight does not depend on the taxel's gain, baseline or the object's stiffness. This is
-//! the evidence the one-fingertip slip classifier ([`crate::dos`]) locates on the layout.
+//! one difference in the span. White noise has `D_S ≈ n` and weighs ≈ 0; a random walk has
+//! `D_S ≈ √S·n` (weight `≈ ½ ln S`); a slow, steady change (a contact sliding over the taxel)
+//! has `D_S ≈ S·n` or more and weighs `≈ ln S` or more. Both terms are measured on the same taxel
+//! in the same span, so the weight does not depend on the taxel's gain or baseline, nor on how
+//! hard the object presses. This is the evidence the one-fingertip slip classifier
+//! ([`crate::dos`]) locates on the layout.
 //!
 //! # State, units, delay, cost
 //! A plain state machine: [`push`](DriftMap::push) one frame of raw values (any positive unit;
