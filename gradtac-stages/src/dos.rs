@@ -903,6 +903,22 @@ fn contour(interp: &Interpolator, finder: &mut MaxContourFinder, values: &[f64])
     finder.find(z.view(), interp.grid()).contact().cloned()
 }
 
+/// `ln Σ_j (f_j − μ_j)² / v_j` without overflow for any finite `f`, `μ` and `v > 0`
+/// (`−∞` when `f = μ`): each term's log from halved operands, summed by log-sum-exp.
+fn ln_mahalanobis(means: &[f64], features: &[f64], vars: &[f64]) -> f64 {
+    let terms: Vec<f64> = means
+        .iter()
+        .zip(features)
+        .zip(vars)
+        .map(|((mu, f), v)| 2.0 * ((f / 2.0 - mu / 2.0).abs().ln() + std::f64::consts::LN_2) - v.ln())
+        .collect();
+    let top = terms.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if top == f64::NEG_INFINITY {
+        return top;
+    }
+    top + terms.iter().map(|t| (t - top).exp()).sum::<f64>().ln()
+}
+
 /// Track displacement (last third minus first third of the samples) and eccentricity-weighted
 /// rotation (sum of wrapped orientation changes).
 fn track_motion(track: &[TrackSample]) -> ([f64; 2], f64) {
@@ -1214,7 +1230,9 @@ impl DosModel {
         if let Some(j) = features.iter().position(|v| !v.is_finite()) {
             return Err(invalid(format!("feature {} is {}", self.config.features[j].name(), features[j])));
         }
-        let distances: Vec<f64> = self
+        // (D_c, ln m_c): ln m_c only where m_c overflows (features near ±f64::MAX), to keep
+        // the decision and the posterior defined there.
+        let scored: Vec<(f64, f64)> = self
             .means
             .iter()
             .enumerate()
@@ -1225,22 +1243,34 @@ impl DosModel {
                 };
                 let maha: f64 = m.iter().zip(features).zip(vars).map(|((mu, f), v)| (f - mu).powi(2) / v).sum();
                 let log_det: f64 = if own { vars.iter().map(|v| v.ln()).sum() } else { 0.0 };
-                match self.student_t_dof {
-                    Some(nu) => log_det + (nu + d as f64) * (maha / nu).ln_1p(),
-                    None => log_det + maha,
-                }
+                let ln_maha = if maha.is_finite() { maha.ln() } else { ln_mahalanobis(m, features, vars) };
+                let dist = match (self.student_t_dof, maha.is_finite()) {
+                    (Some(nu), true) => log_det + (nu + d as f64) * (maha / nu).ln_1p(),
+                    // m/ν ≥ 1e308/ν: ln(1 + m/ν) = ln m − ln ν to double precision
+                    (Some(nu), false) => log_det + (nu + d as f64) * (ln_maha - nu.ln()),
+                    (None, _) => log_det + maha,
+                };
+                (dist, ln_maha)
             })
             .collect();
         let mut best = 0;
-        for (k, &dk) in distances.iter().enumerate() {
-            if dk < distances[best] {
+        for (k, s) in scored.iter().enumerate() {
+            let b = scored[best];
+            if s.0 < b.0 || (s.0 == b.0 && s.0.is_infinite() && s.1 < b.1) {
                 best = k;
             }
         }
+        let distances: Vec<f64> = scored.iter().map(|s| s.0).collect();
         let dmin = distances[best];
-        let w: Vec<f64> = distances.iter().map(|&dk| (-(dk - dmin) / 2.0).exp()).collect();
-        let s: f64 = w.iter().sum();
-        Ok(Decision { class: self.classes[best], posterior: w.iter().map(|x| x / s).collect(), distances })
+        let posterior: Vec<f64> = if dmin.is_finite() {
+            let w: Vec<f64> = distances.iter().map(|&dk| (-(dk - dmin) / 2.0).exp()).collect();
+            let s: f64 = w.iter().sum();
+            w.iter().map(|x| x / s).collect()
+        } else {
+            // every Gaussian distance overflowed: the decided class takes all the weight
+            (0..distances.len()).map(|k| if k == best { 1.0 } else { 0.0 }).collect()
+        };
+        Ok(Decision { class: self.classes[best], posterior, distances })
     }
 
     /// Classify the full feature vector of a span.
@@ -1742,6 +1772,37 @@ mod tests {
         v[5] = f64::INFINITY;
         let e = x.push(TaxelFrame::new("ff".into(), Timestamp(0), 4, v)).unwrap_err();
         assert!(e.to_string().contains("frame 4") && e.to_string().contains("taxel 5"), "{e}");
+    }
+
+    #[test]
+    fn decisions_stay_defined_for_features_near_the_largest_floats() {
+        let cfg = DosFeatureConfig { features: vec![Feature::Rate], ..Default::default() };
+        let samples = vec![
+            (DosClass::N, vec![-1.0]),
+            (DosClass::N, vec![1.0]),
+            (DosClass::S, vec![7.0]),
+            (DosClass::S, vec![13.0]),
+        ];
+        let own_t = DosModel::calibrate_with_shrinkage(cfg, &samples, 0.0).unwrap();
+        let own_g = own_t.clone().with_student_t_dof(None).unwrap();
+        for model in [&own_t, &own_g] {
+            for f in [1e300, -1e300, f64::MAX, f64::MIN, 1e154] {
+                let d = model.classify(&[f]).unwrap();
+                assert!(d.posterior.iter().all(|p| p.is_finite() && *p >= 0.0), "{f}: {d:?}");
+                assert!((d.posterior.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{f}: {d:?}");
+                assert!(d.distances.iter().all(|x| !x.is_nan()), "{f}: {d:?}");
+                // far from both means, the wider class (s, variance 9 against 1) is the likelier
+                assert_eq!(d.class, DosClass::S, "{f} {:?}", model.student_t_dof);
+            }
+            if model.student_t_dof.is_some() {
+                assert!(model.classify(&[f64::MAX]).unwrap().distances.iter().all(|x| x.is_finite()));
+            }
+        }
+        // the overflow-free log agrees with the direct sum where both work
+        let (m, f, v): ([f64; 2], [f64; 2], [f64; 2]) = ([0.5, -3.0], [2.0, 4.0], [0.3, 7.0]);
+        let direct: f64 = (0..2).map(|j| (f[j] - m[j]).powi(2) / v[j]).sum::<f64>().ln();
+        assert!((ln_mahalanobis(&m, &f, &v) - direct).abs() < 1e-14);
+        assert_eq!(ln_mahalanobis(&m, &m, &v), f64::NEG_INFINITY);
     }
 
     #[test]
