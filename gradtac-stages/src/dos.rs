@@ -75,7 +75,7 @@
 //! | default + track displacement | 154 | 84.4 % | 82.0 % | 80.2 % |
 //! | default + rotation | 140 | 83.2 % | 81.4 % | 77.2 % |
 //! | all 18 | 252 | 79.0 % | 76.6 % | 75.4 % |
-//! | extraction cost, µs per frame (release) | | 0.32 | 0.67 | 0.62 |
+//! | extraction of the default features, µs per frame (release) | | 0.26 | 0.34 | 0.33 |
 //!
 //! | `λ` | Student t, `ν` = 3 (**default**) | Gaussian |
 //! |---|---|---|
@@ -173,8 +173,9 @@
 //! 1e-3). The extractor has no delay of its own: a decision covers the span pushed so far
 //! ([`DosClassifier`]: every `decision_frames` frames, or at `finish`), and needs more than
 //! the shortest drift lag (0.3 s) of it to weigh anything — see the latency trade above.
-//! Extraction costs 0.3 µs per frame with the default (taxel) locations, ~0.65 µs with surfaces
-//! or contours (32 × 32 natural neighbour; the table above); the drift map keeps the last
+//! Extracting the default features costs 0.26–0.28 µs per frame (`dos_eval`; criterion
+//! `--bench tasks`: 0.28 µs, of which the drift map 0.14 µs), every feature with surface
+//! locations of the track windows 0.65 µs (32 × 32 natural neighbour); the drift map keeps the last
 //! `max(drift_lags)` frames (120 × 24 values). A decision is `classes × features`
 //! multiply-adds and `classes` logarithms (plus `classes × features` with per-class variances).
 //!
