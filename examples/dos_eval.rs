@@ -180,6 +180,19 @@ fn object_set(object: &str) -> String {
     }
 }
 
+/// The 95 % Wilson score interval of a proportion `ok / n` (how far the accuracy of `n`
+/// recordings can be from the accuracy on endless recordings of the same kind).
+fn wilson_interval(ok: usize, n: usize) -> (f64, f64) {
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let (z, n) = (1.959_963_984_540_054, n as f64);
+    let p = ok as f64 / n;
+    let centre = (p + z * z / (2.0 * n)) / (1.0 + z * z / n);
+    let half = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / (1.0 + z * z / n);
+    (centre - half, centre + half)
+}
+
 fn accuracy(folds: &[Fold]) -> f64 {
     let ok: usize = folds.iter().map(|f| f.1).sum();
     let n: usize = folds.iter().map(|f| f.2).sum();
@@ -264,9 +277,14 @@ fn main() -> Result<(), Box<dyn Error>> {
     );
 
     let (folds, cm) = cross_validate(&recs, &cfg)?;
+    let (ok, n) = folds.iter().fold((0, 0), |a, f| (a.0 + f.1, a.1 + f.2));
+    let (lo, hi) = wilson_interval(ok, n);
     println!(
-        "\nleave-one-object-out accuracy: {:.1} % (chance 14.3 %; published ConvLSTM on unseen objects: 82.56 %)",
-        accuracy(&folds)
+        "\nleave-one-object-out accuracy: {:.1} % ({ok}/{n}; 95 % Wilson interval {:.1}–{:.1} %) (chance 14.3 %; \
+         published ConvLSTM on unseen objects: 82.56 %)",
+        accuracy(&folds),
+        100.0 * lo,
+        100.0 * hi
     );
     println!("\n| held-out object | correct | recordings | accuracy |\n|---|---|---|---|");
     for (obj, ok, n) in &folds {

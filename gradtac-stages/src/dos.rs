@@ -60,8 +60,8 @@
 //! tables; chance 14.3 %; the published ConvLSTM reached 82.56 % on unseen objects of other
 //! object sets, a different protocol): **83.2 %** (139/167) with the defaults; per class
 //! (recall) `e` 100 %, `w` 96 %, `t` 92 %, `n` 83 %, `s` 79 %, `cw` 71 %, `aw` 62 %. With 167
-//! recordings one recording is 0.6 points and the standard error of an accuracy near 83 % is
-//! about 3 points: the defaults and the ConvLSTM are not distinguishable on this set. Leaving a
+//! recordings one recording is 0.6 points and the 95 % (Wilson) interval of 139/167 is
+//! 76.8–88.1 %: the defaults and the ConvLSTM are not distinguishable on this set. Leaving a
 //! whole object *set* out (closer to the published protocol, with far less training data):
 //! trained on *Solids* (2 objects), tested on *Basic* 74.8 %; trained on *Basic* (4 objects),
 //! tested on *Solids* 82.1 % — against 60.4 % and 66.1 % for the earlier event-only features.
