@@ -109,7 +109,11 @@ impl SensorChain {
                 (false, _) => None,
                 (true, Some(d)) => {
                     let model = crate::calibrate::read_model(&scene.resolve(&d.model))?;
-                    Some(DosClassifier::try_new(model, &plan.layout, d.decision_frames)?)
+                    let c = DosClassifier::try_new(model, &plan.layout, d.decision_frames)?;
+                    Some(match d.hop_frames {
+                        Some(hop) => c.with_hop(hop)?,
+                        None => c,
+                    })
                 }
                 (true, None) => {
                     return Err(Error::Scene {
@@ -240,8 +244,11 @@ impl SensorChain {
                     "slip direction, {} classes, {} parameters, {}",
                     c.model().classes.len(),
                     c.model().parameter_count(),
-                    d.decision_frames
-                        .map_or("one decision per recording".into(), |n| format!("a decision per {n} frames"))
+                    match (d.decision_frames, d.hop_frames) {
+                        (None, _) => "one decision per recording".to_string(),
+                        (Some(n), None) => format!("a decision per {n} frames"),
+                        (Some(n), Some(h)) => format!("a decision every {h} frames over the last {n}"),
+                    }
                 ),
                 _ => String::new(),
             },

@@ -304,7 +304,8 @@ pub struct StageSettings {
 /// ```toml
 /// [stages.dos]
 /// model = "dos-model.json"     # written by `gradtac calibrate`
-/// decision_frames = 100        # one decision per 100 frames; omit for one per recording
+/// decision_frames = 250        # one decision per 250 frames; omit for one per recording
+/// hop_frames = 10              # optional: a decision every 10 frames over the last 250 (sliding)
 /// ```
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -314,6 +315,11 @@ pub struct DosSettings {
     /// Frames per decision (≥ 1); `None`: one decision at the end of each recording.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub decision_frames: Option<u64>,
+    /// Sliding decisions: one every `hop_frames` frames (≥ 1) over the last `decision_frames`
+    /// frames, each extracted as a fresh recording (needs `decision_frames`; see
+    /// `gradtac_stages::dos::DosClassifier`). `None`: tumbling spans.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hop_frames: Option<u64>,
 }
 
 /// One output: a tap on a stage, written to a file.

@@ -636,3 +636,44 @@ fn calibrate_cross_validates_and_takes_settings() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("at least two groups"), "{err}");
 }
+
+#[test]
+fn dos_scene_decides_on_a_sliding_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let train = dir.path().join("train");
+    simulated_labelled(&train, 0..2);
+    let opts = gradtac::calibrate::CalibrateOptions::default();
+    let (model, _) = gradtac::calibrate::calibrate_dos(&train, &gradtac::stream::Layout::biotac_sp(), &opts).unwrap();
+    let model_path = dir.path().join("model.json");
+    gradtac::calibrate::write_model(&model, &model_path).unwrap();
+    let csv = train.join("n").join("sim0.csv");
+    let frames = read_csv_numbers(&csv).len();
+    let scene = |extra: &str| {
+        format!(
+            "[[sensor]]\nname = \"ff\"\nsource = {{ csv = \"{}\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\
+             [stages.dos]\nmodel = \"{}\"\n{extra}\n[[output]]\ntap = \"dos\"\npath = \"out/dos.parquet\"\n",
+            csv.display(),
+            model_path.display()
+        )
+    };
+    let sc = dir.path().join("scene.toml");
+    fs::write(&sc, scene("decision_frames = 60\nhop_frames = 20")).unwrap();
+    let out = gradtac().arg("explain").arg(&sc).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("a decision every 20 frames over the last 60"), "{text}");
+    let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let file = fs::File::open(dir.path().join("out/dos.parquet")).unwrap();
+    let rows: usize =
+        ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap().map(|b| b.unwrap().num_rows()).sum();
+    // decisions at frames 59, 79, …, and one more at the end if frames came after the last
+    let hops = (frames - 60) / 20 + 1;
+    let want = hops + usize::from((frames - 60) % 20 != 0);
+    assert_eq!(rows, want, "{frames} frames");
+    // a hop without the window it slides over is a scene error
+    fs::write(&sc, scene("hop_frames = 20")).unwrap();
+    let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("hop needs decision_frames"), "{err}");
+}
