@@ -11,6 +11,7 @@
 //! - `dos/extract-*`: the one-fingertip slip-direction feature extractor over the grasp's first
 //!   sensor (200 frames) with the default features, every feature, every feature with surface
 //!   centroids; `dos/drift-map` the drift map alone; `dos/classify` one decision;
+//!   `dos/sliding-100-hop-10` the classifier stage deciding every 10 frames about the last 100;
 //! - `chain/grasp`: raw frames → savgol → events → window → natural neighbour 32 × 32 →
 //!   contour → track (per sensor) → slip, for the whole grasp, building both sensors' chains
 //!   (natural-neighbour weight tables included) inside the timed region.
@@ -32,11 +33,14 @@
 //! | `dos/extract-all-surface` (every feature, 32 × 32 surfaces per track window) | 129 µs | 0.65 µs per frame |
 //! | `dos/drift-map` (200 frames, lags 30/60/120) | 28.0 µs | 0.14 µs per frame |
 //! | `dos/classify` (one decision, 7 classes × 9 features, Student t) | 347 ns | |
+//! | `dos/sliding-100-hop-10` (200 frames: 11 decisions over 100-frame windows) | 295 µs | 1.5 µs per frame, 27 µs per decision |
 //!
 //! The task stages cost nothing next to the chain before them: slip adds < 0.5 % to a frame.
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use gradtac_stages::contour::{Contour, ContourConfig};
-use gradtac_stages::dos::{CentroidMethod, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature};
+use gradtac_stages::dos::{
+    CentroidMethod, DosClass, DosClassifier, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature,
+};
 use gradtac_stages::drift::DriftMap;
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
 use gradtac_stages::force::{ForceMethod, ForceModel, ForceSample};
@@ -152,11 +156,21 @@ fn bench(c: &mut Criterion) {
             BatchSize::SmallInput,
         )
     });
-    g.throughput(Throughput::Elements(1));
     let samples: Vec<(DosClass, Vec<f64>)> = (0..70)
         .map(|k| (DosClass::ALL[k % 7], (0..9).map(|j| ((k * 7 + j * 3) % 11) as f64 + (k % 7) as f64).collect()))
         .collect();
     let model = DosModel::calibrate(DosFeatureConfig::default(), &samples).unwrap();
+    g.bench_function("sliding-100-hop-10", |b| {
+        b.iter_batched(
+            || {
+                let c = DosClassifier::try_new(model.clone(), &layout, Some(100)).unwrap();
+                (c.with_hop(10).unwrap(), ff.clone())
+            },
+            |(c, f)| black_box({ c }.run_all(f).unwrap()),
+            BatchSize::SmallInput,
+        )
+    });
+    g.throughput(Throughput::Elements(1));
     let probe: Vec<f64> = (0..9).map(|j| j as f64 * 0.7).collect();
     g.bench_function("classify", |b| b.iter(|| black_box(model.classify(black_box(&probe)).unwrap())));
     g.finish();
