@@ -1753,16 +1753,22 @@ mod tests {
         }
     }
 
-    #[test]
-    fn shrinkage_mixes_own_and_pooled_variances() {
+    /// One feature (`rate`), class n spread 1 around 0 (own variance 1), class s spread 3
+    /// around 10 (own variance 9).
+    fn two_classes() -> (DosFeatureConfig, Vec<(DosClass, Vec<f64>)>) {
         let cfg = DosFeatureConfig { features: vec![Feature::Rate], ..Default::default() };
-        // class n: spread 1 around 0 (own variance 1); class s: spread 3 around 10 (own 9)
         let samples = vec![
             (DosClass::N, vec![-1.0]),
             (DosClass::N, vec![1.0]),
             (DosClass::S, vec![7.0]),
             (DosClass::S, vec![13.0]),
         ];
+        (cfg, samples)
+    }
+
+    #[test]
+    fn shrinkage_mixes_own_and_pooled_variances() {
+        let (cfg, samples) = two_classes();
         // pooled: (2 + 18) / (4 − 2) = 10
         let pooled = DosModel::calibrate_with_shrinkage(cfg.clone(), &samples, 1.0).unwrap();
         assert_eq!(pooled.variances, [10.0]);
@@ -1878,14 +1884,7 @@ mod tests {
 
     #[test]
     fn sliding_decisions_are_fresh_recordings_of_their_window() {
-        let cfg = motion_config();
-        let mut train = Vec::new();
-        for (i, c0) in [[-1.0, 0.0], [1.0, 0.5]].into_iter().enumerate() {
-            for class in DosClass::ALL {
-                train.push((class, features_of(synthetic(class, c0, 0.2, 20 + i as u64), &cfg).select(&cfg.features)));
-            }
-        }
-        let model = DosModel::calibrate(cfg.clone(), &train).unwrap();
+        let (cfg, model) = motion_model();
         let l = Layout::biotac_sp();
         let input = synthetic(DosClass::N, [0.0, 0.0], 0.1, 5);
         let (n, hop) = (80usize, 16u64);
@@ -1941,13 +1940,7 @@ mod tests {
 
     #[test]
     fn decisions_stay_defined_for_features_near_the_largest_floats() {
-        let cfg = DosFeatureConfig { features: vec![Feature::Rate], ..Default::default() };
-        let samples = vec![
-            (DosClass::N, vec![-1.0]),
-            (DosClass::N, vec![1.0]),
-            (DosClass::S, vec![7.0]),
-            (DosClass::S, vec![13.0]),
-        ];
+        let (cfg, samples) = two_classes();
         let own_t = DosModel::calibrate_with_shrinkage(cfg, &samples, 0.0).unwrap();
         let own_g = own_t.clone().with_student_t_dof(None).unwrap();
         for model in [&own_t, &own_g] {
@@ -2087,8 +2080,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn stage_decides_per_span_and_chunking_does_not_matter() {
+    /// A model of the motion features calibrated on synthetic recordings of every class.
+    fn motion_model() -> (DosFeatureConfig, DosModel) {
         let cfg = motion_config();
         let mut train = Vec::new();
         for (i, c0) in [[-1.0, 0.0], [1.0, 0.5]].into_iter().enumerate() {
@@ -2096,7 +2089,13 @@ mod tests {
                 train.push((class, features_of(synthetic(class, c0, 0.2, 20 + i as u64), &cfg).select(&cfg.features)));
             }
         }
-        let model = DosModel::calibrate(cfg, &train).unwrap();
+        let model = DosModel::calibrate(cfg.clone(), &train).unwrap();
+        (cfg, model)
+    }
+
+    #[test]
+    fn stage_decides_per_span_and_chunking_does_not_matter() {
+        let (_, model) = motion_model();
         let l = Layout::biotac_sp();
         let input = synthetic(DosClass::N, [0.0, 0.0], 0.1, 5);
         // one decision for the whole recording at finish
