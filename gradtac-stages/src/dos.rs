@@ -51,9 +51,9 @@
 //! than two track windows has zero displacement and rotation; a span shorter than a drift lag
 //! averages the lags it has. Every computed feature is finite for any finite input (tested at
 //! 0, negative, 1e±300 and saturating counts); the extractor computes only the parts its
-//! configured features need (see [`DosFeatureExtractor`]) and leaves the others NaN. The drift features agree with an independent numpy
-//! implementation to 1e-12 (`tests/dos_drift_reference.rs`, vectors and script in
-//! `tests/reference/`).
+//! configured features need (see [`DosFeatureExtractor`]) and leaves the others NaN. The
+//! drift features agree with an independent numpy implementation to 1e-12
+//! (`tests/dos_drift_reference.rs`, vectors and script in `tests/reference/`).
 //!
 //! **Measured.** Leave-one-object-out accuracy on the BioTacSP-DoS development subset (167
 //! recordings, six objects; `cargo run --release --example dos_eval`, which prints these
@@ -127,7 +127,9 @@
 //! priors. One feature far off its class mean costs logarithmically, not quadratically, so a
 //! recording that is unusual in one feature (an object-specific offset) is not thrown out of
 //! its class by it. [`DosModel::with_student_t_dof`]`(None)` (and model files without
-//! `student_t_dof`) use the Gaussian `D_c = Σ_j ln σ²_{c,j} + m_c`. With `λ = 1` (or a model
+//! `student_t_dof`) use the Gaussian `D_c = Σ_j ln σ²_{c,j} + m_c`. Where `m_c` overflows
+//! (features near ±`f64::MAX`) it is evaluated as `ln m_c` by log-sum-exp, so the decision
+//! and the posterior stay defined. With `λ = 1` (or a model
 //! file without `class_variances`) every class shares `σ²_j`, the log terms drop and the rule is
 //! the nearest class mean in `m_c`. [`Decision::posterior`] gives `softmax(−D_c/2)`.
 //!
