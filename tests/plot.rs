@@ -66,11 +66,33 @@ fn simulate(layout: &Layout) -> Outputs {
     Outputs { frames, batches, windows, surfaces, contours, points, truth }
 }
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gradtac-plot-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh scratch directory, removed when the test ends (pass or fail).
+struct Scratch(tempfile::TempDir);
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl Scratch {
+    /// With `GRADTAC_KEEP_PLOTS` set, keep the directory (and say where) instead of removing it.
+    fn keep_if_asked(self) {
+        if std::env::var_os("GRADTAC_KEEP_PLOTS").is_some() {
+            eprintln!("plots kept in {}", self.0.keep().display());
+        }
+    }
+}
+
+fn dir(name: &str) -> Scratch {
+    Scratch(tempfile::Builder::new().prefix(&format!("gradtac-plot-{name}-")).tempdir().unwrap())
 }
 
 fn write<T: ArrowRecord>(path: &Path, shape: T::Shape, records: &[T], layout: Option<&Layout>) {
@@ -151,11 +173,7 @@ fn every_schema_renders_a_png_of_the_documented_size() {
     // without layout metadata the built-in layout is used, and said so
     let s = plot_parquet(&d.join("contour.parquet"), &d.join("contour.png")).unwrap();
     assert!(s.notes.iter().any(|n| n.contains("BioTac SP")), "{s}");
-    if std::env::var_os("GRADTAC_KEEP_PLOTS").is_none() {
-        std::fs::remove_dir_all(&d).unwrap();
-    } else {
-        eprintln!("plots kept in {}", d.display());
-    }
+    d.keep_if_asked();
 }
 
 /// Two sensors in one file: one panel each (the height doubles), both named.
@@ -169,7 +187,6 @@ fn two_sensors_give_two_panels() {
     let s = plot_parquet(&d.join("frames.parquet"), &d.join("frames.png")).unwrap();
     assert_eq!(s.sensors, vec!["th".to_string(), "ff".to_string()]);
     check_png(&d.join("frames.png"), &s, (1200, 680), 0.05);
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -207,7 +224,6 @@ fn unknown_or_foreign_files_are_refused_clearly() {
     write::<TaxelFrame>(&d.join("empty.parquet"), FrameShape::from_layout(&layout), &[], None);
     let e = plot_parquet(&d.join("empty.parquet"), &d.join("empty.png")).unwrap_err().to_string();
     assert!(e.contains("without rows"), "{e}");
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -275,11 +291,7 @@ fn demo_plots_from_plain_data() {
     let tracks = [TimelineTrack { sensor: "th", points: &th }, TimelineTrack { sensor: "ff", points: &ff }];
     let s = plot_slip_timeline(&tracks, &events, &truth, &d.join("slip.png")).unwrap();
     check_png(&d.join("slip.png"), &s, (1200, 700), 0.05);
-    if std::env::var_os("GRADTAC_KEEP_PLOTS").is_none() {
-        std::fs::remove_dir_all(&d).unwrap();
-    } else {
-        eprintln!("plots kept in {}", d.display());
-    }
+    d.keep_if_asked();
 }
 
 /// Numerical extremes: NaN, ±∞, ±f64::MAX, a constant signal, a single row, an all-NaN
@@ -333,7 +345,6 @@ fn extremes_render_without_panicking() {
     assert_eq!((s.width, s.height), (760, 680));
     let s = plot_slip_timeline(&[], &[], &[], &d.join("slip.png")).unwrap();
     assert_eq!((s.width, s.height), (1200, 700));
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// The task schemas: slip/1 (from a simulated slipping grasp through the chain and the slip
@@ -437,11 +448,7 @@ fn task_schemas_render() {
         assert!(s.drawn > 0, "{s}");
         check_png(&png, &s, size, ink);
     }
-    if std::env::var_os("GRADTAC_KEEP_PLOTS").is_none() {
-        std::fs::remove_dir_all(&d).unwrap();
-    } else {
-        eprintln!("plots kept in {}", d.display());
-    }
+    d.keep_if_asked();
 }
 
 /// A long file of two interleaved sensors is decimated while reading (every 11th row, a prime,
@@ -467,7 +474,6 @@ fn long_files_are_decimated_and_keep_every_sensor() {
     assert!(s.notes.iter().any(|n| n.contains("every 11th of its 200000 rows")), "{s}");
     assert!(s.drawn <= 2 * gradtac::plot::MAX_POINTS as u64 && s.drawn > 10_000, "{s}");
     check_png(&d.join("long.png"), &s, (1200, 680), 0.05);
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// Rows of a Parquet file, from its footer.
@@ -528,7 +534,6 @@ fn an_archive_directory_plots_as_one_table() {
         assert!(s.notes.contains(&note), "{s}");
         check_png(&png, &s, (1200, 680), 0.05);
     }
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// Decimation counts the rows of all the archive's files: every 11th row of the whole table,
@@ -558,7 +563,6 @@ fn a_long_archive_is_decimated_over_all_its_files() {
     assert_eq!(s.drawn, rows.div_ceil(11), "{s}");
     check_png(&d.with_extension("png"), &s, (1200, 680), 0.05);
     std::fs::remove_file(d.with_extension("png")).unwrap();
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// An empty directory, one with only unfinished files, and one whose files differ in schema
@@ -601,7 +605,6 @@ fn bad_archive_directories_are_refused_clearly() {
     assert!(e.contains("other columns") && e.contains("part-000000.parquet"), "{e}");
     assert!(e.contains(&*std::path::Path::new("sensor=th").join("part-000000.parquet").to_string_lossy()), "{e}");
     assert!(!d.join("mixed.png").exists() && !d.join("columns.png").exists());
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// `gradtac plot <dir>` plots an archive and writes `<dir>.png` beside it by default (also for
@@ -625,5 +628,4 @@ fn the_cli_plots_an_archive_directory_beside_it() {
         assert_eq!(decode(&png).0, 1200);
         std::fs::remove_file(&png).unwrap();
     }
-    std::fs::remove_dir_all(&d).unwrap();
 }
