@@ -723,8 +723,8 @@ struct TimeCol<'a> {
 }
 
 enum TimeKind {
-    Int { mul: i64 },
-    Float { mul: f64 },
+    Int(TimeUnit),
+    Float(TimeUnit),
 }
 
 impl TimeCol<'_> {
@@ -734,7 +734,7 @@ impl TimeCol<'_> {
         }
         let a = self.array;
         match self.kind {
-            TimeKind::Int { mul } => {
+            TimeKind::Int(unit) => {
                 let v: i128 = match a.data_type() {
                     DataType::Int64 | DataType::Timestamp(..) => i128::from(int64_value(a, r)),
                     DataType::Int32 => i128::from(a.as_primitive::<Int32Type>().value(r)),
@@ -742,21 +742,14 @@ impl TimeCol<'_> {
                     DataType::UInt64 => i128::from(a.as_primitive::<UInt64Type>().value(r)),
                     _ => return Err("unsupported".into()),
                 };
-                v.checked_mul(i128::from(mul))
-                    .and_then(|x| i64::try_from(x).ok())
-                    .ok_or_else(|| format!("{v} does not fit i64 nanoseconds"))
+                unit.int_to_nanos(v).ok_or_else(|| format!("{v} does not fit i64 nanoseconds"))
             }
-            TimeKind::Float { mul } => {
+            TimeKind::Float(unit) => {
                 let x = match a.data_type() {
                     DataType::Float32 => f64::from(a.as_primitive::<Float32Type>().value(r)),
                     _ => a.as_primitive::<Float64Type>().value(r),
                 };
-                let ns = (x * mul).round();
-                if ns.is_finite() && ns >= i64::MIN as f64 && ns < i64::MAX as f64 {
-                    Ok(ns as i64)
-                } else {
-                    Err(format!("{x} is not finite or does not fit i64 nanoseconds"))
-                }
+                unit.float_to_nanos(x).ok_or_else(|| format!("{x} is not finite or does not fit i64 nanoseconds"))
             }
         }
     }
@@ -773,23 +766,16 @@ fn int64_value(a: &dyn Array, r: usize) -> i64 {
 }
 
 fn time_col(a: &ArrayRef, unit: TimeUnit) -> std::result::Result<TimeCol<'_>, String> {
-    let mul = match unit {
-        TimeUnit::Seconds => 1_000_000_000,
-        TimeUnit::Milliseconds => 1_000_000,
-        TimeUnit::Microseconds => 1_000,
-        TimeUnit::Nanoseconds => 1,
-    };
     let kind = match a.data_type() {
-        DataType::Timestamp(u, _) => TimeKind::Int {
-            mul: match u {
-                ArrowTimeUnit::Second => 1_000_000_000,
-                ArrowTimeUnit::Millisecond => 1_000_000,
-                ArrowTimeUnit::Microsecond => 1_000,
-                ArrowTimeUnit::Nanosecond => 1,
-            },
-        },
-        DataType::Int64 | DataType::Int32 | DataType::UInt32 | DataType::UInt64 => TimeKind::Int { mul },
-        DataType::Float64 | DataType::Float32 => TimeKind::Float { mul: mul as f64 },
+        // an Arrow timestamp carries its own unit
+        DataType::Timestamp(u, _) => TimeKind::Int(match u {
+            ArrowTimeUnit::Second => TimeUnit::Seconds,
+            ArrowTimeUnit::Millisecond => TimeUnit::Milliseconds,
+            ArrowTimeUnit::Microsecond => TimeUnit::Microseconds,
+            ArrowTimeUnit::Nanosecond => TimeUnit::Nanoseconds,
+        }),
+        DataType::Int64 | DataType::Int32 | DataType::UInt32 | DataType::UInt64 => TimeKind::Int(unit),
+        DataType::Float64 | DataType::Float32 => TimeKind::Float(unit),
         other => return Err(format!("type {other} is not a time (use an integer, float or Timestamp column)")),
     };
     Ok(TimeCol { array: a.as_ref(), kind })

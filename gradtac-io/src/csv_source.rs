@@ -377,11 +377,24 @@ impl TimeUnit {
     /// (`1.5e9`) go through `f64`. `None` for text that is not a finite number or does not
     /// fit `i64` nanoseconds.
     pub fn parse_nanos(self, text: &str) -> Option<i64> {
-        parse_decimal_scaled(text, self.digits()).or_else(|| {
-            let x: f64 = text.parse().ok()?;
-            let ns = (x * 10f64.powi(self.digits() as i32)).round();
-            (ns.is_finite() && ns >= i64::MIN as f64 && ns < i64::MAX as f64).then_some(ns as i64)
-        })
+        parse_decimal_scaled(text, self.digits()).or_else(|| self.float_to_nanos(text.parse().ok()?))
+    }
+
+    /// Nanoseconds in one unit (10⁹ for seconds).
+    pub fn nanos_per_unit(self) -> i64 {
+        10i64.pow(self.digits())
+    }
+
+    /// A whole number of this unit as nanoseconds; `None` when it does not fit `i64`.
+    pub fn int_to_nanos(self, v: i128) -> Option<i64> {
+        v.checked_mul(i128::from(self.nanos_per_unit())).and_then(|x| i64::try_from(x).ok())
+    }
+
+    /// A number of this unit rounded to the nearest nanosecond; `None` when it is not finite or
+    /// does not fit `i64`.
+    pub fn float_to_nanos(self, x: f64) -> Option<i64> {
+        let ns = (x * self.nanos_per_unit() as f64).round();
+        (ns.is_finite() && ns >= i64::MIN as f64 && ns < i64::MAX as f64).then_some(ns as i64)
     }
 }
 
@@ -958,6 +971,21 @@ mod tests {
         assert_eq!(ns.parse_nanos("12.5"), Some(13));
         assert_eq!(TimeUnit::Milliseconds.parse_nanos("1.0000015"), Some(1_000_002));
         assert_eq!(TimeUnit::Microseconds.parse_nanos("3"), Some(3_000));
+    }
+
+    #[test]
+    fn unit_conversions_shared_by_the_sources() {
+        let s = TimeUnit::Seconds;
+        assert_eq!(s.nanos_per_unit(), 1_000_000_000);
+        assert_eq!(TimeUnit::Nanoseconds.nanos_per_unit(), 1);
+        assert_eq!(s.int_to_nanos(9), Some(9_000_000_000));
+        assert_eq!(s.int_to_nanos(9_223_372_037), None, "beyond i64 nanoseconds");
+        assert_eq!(TimeUnit::Nanoseconds.int_to_nanos(i128::from(i64::MIN)), Some(i64::MIN));
+        assert_eq!(TimeUnit::Milliseconds.float_to_nanos(1.0000015), Some(1_000_002));
+        assert_eq!(s.float_to_nanos(-2.5e-9), Some(-3), "ties away from zero");
+        for bad in [f64::NAN, f64::INFINITY, 1e10] {
+            assert_eq!(s.float_to_nanos(bad), None, "{bad}");
+        }
     }
 
     #[test]

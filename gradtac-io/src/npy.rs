@@ -355,70 +355,49 @@ fn parse_dict(s: &str) -> std::result::Result<Dict, (usize, String)> {
     Ok((dtype, big, fortran, shape))
 }
 
+/// The first `$n` bytes of `$b` as a `$t`, big-endian when `$big`.
+macro_rules! read_bytes {
+    ($t:ty, $n:expr, $b:expr, $big:expr) => {{
+        let mut a = [0u8; $n];
+        a.copy_from_slice(&$b[..$n]);
+        if $big {
+            <$t>::from_be_bytes(a)
+        } else {
+            <$t>::from_le_bytes(a)
+        }
+    }};
+}
+
 fn element(dtype: NpyDtype, big: bool, b: &[u8]) -> f64 {
-    macro_rules! get {
-        ($t:ty, $n:expr) => {{
-            let mut a = [0u8; $n];
-            a.copy_from_slice(&b[..$n]);
-            if big {
-                <$t>::from_be_bytes(a)
-            } else {
-                <$t>::from_le_bytes(a)
-            }
-        }};
-    }
     match dtype {
-        NpyDtype::F64 => get!(f64, 8),
-        NpyDtype::F32 => f64::from(get!(f32, 4)),
+        NpyDtype::F64 => read_bytes!(f64, 8, b, big),
+        NpyDtype::F32 => f64::from(read_bytes!(f32, 4, b, big)),
         NpyDtype::I8 => f64::from(b[0] as i8),
         NpyDtype::U8 => f64::from(b[0]),
-        NpyDtype::I16 => f64::from(get!(i16, 2)),
-        NpyDtype::U16 => f64::from(get!(u16, 2)),
-        NpyDtype::I32 => f64::from(get!(i32, 4)),
-        NpyDtype::U32 => f64::from(get!(u32, 4)),
-        NpyDtype::I64 => get!(i64, 8) as f64,
-        NpyDtype::U64 => get!(u64, 8) as f64,
+        NpyDtype::I16 => f64::from(read_bytes!(i16, 2, b, big)),
+        NpyDtype::U16 => f64::from(read_bytes!(u16, 2, b, big)),
+        NpyDtype::I32 => f64::from(read_bytes!(i32, 4, b, big)),
+        NpyDtype::U32 => f64::from(read_bytes!(u32, 4, b, big)),
+        NpyDtype::I64 => read_bytes!(i64, 8, b, big) as f64,
+        NpyDtype::U64 => read_bytes!(u64, 8, b, big) as f64,
     }
 }
 
 /// A timestamp element in `unit` as integer ns; `Err` says why not.
 fn timestamp(dtype: NpyDtype, big: bool, b: &[u8], unit: TimeUnit) -> std::result::Result<i64, String> {
-    let mul: i64 = match unit {
-        TimeUnit::Seconds => 1_000_000_000,
-        TimeUnit::Milliseconds => 1_000_000,
-        TimeUnit::Microseconds => 1_000,
-        TimeUnit::Nanoseconds => 1,
-    };
-    macro_rules! get {
-        ($t:ty, $n:expr) => {{
-            let mut a = [0u8; $n];
-            a.copy_from_slice(&b[..$n]);
-            if big {
-                <$t>::from_be_bytes(a)
-            } else {
-                <$t>::from_le_bytes(a)
-            }
-        }};
-    }
     let int = |v: i128| {
-        v.checked_mul(i128::from(mul))
-            .and_then(|x| i64::try_from(x).ok())
-            .ok_or_else(|| format!("timestamp {v} {} does not fit i64 nanoseconds", unit.as_str()))
+        unit.int_to_nanos(v).ok_or_else(|| format!("timestamp {v} {} does not fit i64 nanoseconds", unit.as_str()))
     };
     match dtype {
         NpyDtype::F64 => {
-            let x = get!(f64, 8);
-            let ns = (x * mul as f64).round();
-            if ns.is_finite() && ns >= i64::MIN as f64 && ns < i64::MAX as f64 {
-                Ok(ns as i64)
-            } else {
-                Err(format!("timestamp {x} {} is not finite or does not fit i64 nanoseconds", unit.as_str()))
-            }
+            let x = read_bytes!(f64, 8, b, big);
+            unit.float_to_nanos(x)
+                .ok_or_else(|| format!("timestamp {x} {} is not finite or does not fit i64 nanoseconds", unit.as_str()))
         }
-        NpyDtype::I64 => int(i128::from(get!(i64, 8))),
-        NpyDtype::U64 => int(i128::from(get!(u64, 8))),
-        NpyDtype::I32 => int(i128::from(get!(i32, 4))),
-        NpyDtype::U32 => int(i128::from(get!(u32, 4))),
+        NpyDtype::I64 => int(i128::from(read_bytes!(i64, 8, b, big))),
+        NpyDtype::U64 => int(i128::from(read_bytes!(u64, 8, b, big))),
+        NpyDtype::I32 => int(i128::from(read_bytes!(i32, 4, b, big))),
+        NpyDtype::U32 => int(i128::from(read_bytes!(u32, 4, b, big))),
         other => Err(format!("timestamps of dtype {} are not supported (use f8, i8, u8, i4 or u4)", other.code())),
     }
 }
