@@ -708,15 +708,7 @@ impl DosFeatureExtractor {
     /// Push one raw frame (counts). Errors name the sensor, frame and taxel (wrong taxel count,
     /// non-finite value, time going backwards).
     pub fn push(&mut self, frame: TaxelFrame) -> Result<()> {
-        if frame.values.len() != self.taxels {
-            return Err(Error::TaxelCount {
-                stage: STAGE,
-                sensor: frame.sensor.to_string(),
-                seq: frame.seq,
-                expected: self.taxels,
-                got: frame.values.len(),
-            });
-        }
+        crate::error::check_taxel_count(STAGE, &frame.sensor, frame.seq, self.taxels, frame.values.len())?;
         self.batches.clear();
         let time = frame.time;
         self.values.copy_from_slice(&frame.values);

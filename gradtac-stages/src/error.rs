@@ -66,3 +66,19 @@ impl From<Error> for gradtac_stream::Error {
 
 /// `Result` with [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The input check every stage makes: `got` taxels where the stage was built for `expected`
+/// is an [`Error::TaxelCount`] naming the stage, sensor and frame.
+pub(crate) fn check_taxel_count(
+    stage: &'static str,
+    sensor: &dyn std::fmt::Display,
+    seq: u64,
+    expected: usize,
+    got: usize,
+) -> Result<()> {
+    if got == expected {
+        Ok(())
+    } else {
+        Err(Error::TaxelCount { stage, sensor: sensor.to_string(), seq, expected, got })
+    }
+}

@@ -532,15 +532,7 @@ impl Stage for Events {
 
     fn push(&mut self, frame: TaxelFrame, out: &mut Vec<EventBatch>) -> Result<()> {
         let n = self.taxels;
-        if frame.values.len() != n {
-            return Err(Error::TaxelCount {
-                stage: STAGE,
-                sensor: frame.sensor.to_string(),
-                seq: frame.seq,
-                expected: n,
-                got: frame.values.len(),
-            });
-        }
+        crate::error::check_taxel_count(STAGE, &frame.sensor, frame.seq, n, frame.values.len())?;
         if let Some((t, seq)) = self.last_frame {
             let dt = frame.time - t;
             let gap = frame.seq != seq.wrapping_add(1) || self.max_gap_ns.is_some_and(|g| dt > g);

@@ -728,15 +728,7 @@ impl<I: TaxelValues> Stage for Interpolate<I> {
     fn push(&mut self, input: I, out: &mut Vec<Surface>) -> Result<()> {
         let v = input.taxel_values();
         let n = self.interp.table.taxels();
-        if v.len() != n {
-            return Err(Error::TaxelCount {
-                stage: STAGE,
-                sensor: input.sensor().to_string(),
-                seq: input.seq(),
-                expected: n,
-                got: v.len(),
-            });
-        }
+        crate::error::check_taxel_count(STAGE, input.sensor(), input.seq(), n, v.len())?;
         if let Some(k) = v.iter().position(|x| !x.is_finite()) {
             return Err(Error::BadValue {
                 stage: STAGE,

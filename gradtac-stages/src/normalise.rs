@@ -184,15 +184,7 @@ impl Normalise {
     }
 
     fn check(&self, f: &TaxelFrame) -> Result<()> {
-        if f.values.len() != self.taxels {
-            return Err(Error::TaxelCount {
-                stage: STAGE,
-                sensor: f.sensor.to_string(),
-                seq: f.seq,
-                expected: self.taxels,
-                got: f.values.len(),
-            });
-        }
+        crate::error::check_taxel_count(STAGE, &f.sensor, f.seq, self.taxels, f.values.len())?;
         if let Some(i) = f.values.iter().position(|v| !v.is_finite()) {
             return Err(Error::BadValue {
                 stage: STAGE,

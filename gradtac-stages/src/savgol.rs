@@ -669,15 +669,7 @@ impl Stage for SavGol {
     type Error = Error;
 
     fn push(&mut self, frame: TaxelFrame, out: &mut Vec<TaxelFrame>) -> Result<()> {
-        if frame.values.len() != self.taxels {
-            return Err(Error::TaxelCount {
-                stage: STAGE,
-                sensor: frame.sensor.to_string(),
-                seq: frame.seq,
-                expected: self.taxels,
-                got: frame.values.len(),
-            });
-        }
+        crate::error::check_taxel_count(STAGE, &frame.sensor, frame.seq, self.taxels, frame.values.len())?;
         if self.is_gap(&frame) {
             self.flush(out);
         }
