@@ -23,10 +23,11 @@
 //! Data: B. S. Zapata-Impata, P. Gil, F. Torres, "Learning Spatio Temporal Tactile Features
 //! with a ConvLSTM for the Direction Of Slip Detection", Sensors 19(3):523, 2019.
 
+use gradtac::calibrate::{labelled_files, object_of};
 use gradtac::io::{ColumnSelector, CsvFrames, CsvSourceConfig};
 use gradtac::stages::dos::{
-    cross_validate as leave_one_group_out, CentroidMethod, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel,
-    Feature, FeatureVector, LabelledSpan,
+    cross_validate as leave_one_group_out, CentroidMethod, CrossValidation, DosClass, DosFeatureConfig,
+    DosFeatureExtractor, DosModel, Feature, FeatureVector, LabelledSpan,
 };
 use gradtac::stream::{Layout, SensorId, TaxelFrame};
 use std::collections::BTreeMap;
@@ -48,76 +49,67 @@ struct Recording {
     features: FeatureVector,
 }
 
-/// `bottle12.csv` → `bottle`.
-fn object_of(path: &Path) -> Option<String> {
-    let stem = path.file_stem()?.to_str()?;
-    let name: String = stem.chars().take_while(|c| c.is_ascii_alphabetic()).collect();
-    (!name.is_empty()).then_some(name)
-}
-
-/// Read every `<class>/<object><n>.csv` with [`CsvFrames`] (100 Hz, columns `ff_e1..ff_e24`).
+/// Read every labelled recording ([`labelled_files`]: `<class>/<object><n>.csv`, grouped by
+/// [`object_of`]) with [`CsvFrames`] (100 Hz, columns `ff_e1..ff_e24`); none when the
+/// directory holds no labelled recordings.
 fn read_all(dir: &Path) -> Result<Vec<Raw>, Box<dyn Error>> {
+    let files = match labelled_files(dir) {
+        Ok(f) => f,
+        Err(gradtac::Error::Scene { .. }) => return Ok(Vec::new()),
+        Err(e) => return Err(e.into()),
+    };
     let columns: ColumnSelector = "ff_e{1..24}".parse()?;
-    let mut out = Vec::new();
-    for class in DosClass::ALL {
-        let class_dir = dir.join(class.as_str());
-        if !class_dir.is_dir() {
-            continue;
-        }
-        let mut files: Vec<PathBuf> = std::fs::read_dir(&class_dir)?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|x| x == "csv"))
-            .collect();
-        files.sort();
-        for path in files {
-            let object = object_of(&path).ok_or_else(|| format!("{}: no object name", path.display()))?;
-            let config = CsvSourceConfig::new(&path, columns.clone()).with_rate_hz(100.0);
-            let frames = CsvFrames::open(&config, SensorId::new("ff"))?.collect::<Result<Vec<_>, _>>()?;
-            out.push(Raw { class, object, frames });
-        }
+    let mut out = Vec::with_capacity(files.len());
+    for (class, path) in files {
+        let config = CsvSourceConfig::new(&path, columns.clone()).with_rate_hz(100.0);
+        let frames = CsvFrames::open(&config, SensorId::new("ff"))?.collect::<Result<Vec<_>, _>>()?;
+        out.push(Raw { class, object: object_of(&path), frames });
     }
     Ok(out)
 }
 
-/// Features of every recording, and the extraction time per frame (µs).
-fn extract(raw: &[Raw], cfg: &DosFeatureConfig, layout: &Layout) -> Result<(Vec<Recording>, f64), Box<dyn Error>> {
+/// Every feature ([`Feature::ALL`]) of every recording, whatever `cfg.features` says (the
+/// tables select from them).
+fn extract(raw: &[Raw], cfg: &DosFeatureConfig, layout: &Layout) -> Result<Vec<Recording>, Box<dyn Error>> {
     extract_first(raw, cfg, layout, usize::MAX)
 }
 
-/// Every feature ([`Feature::ALL`]) of the first `span` frames of every recording (all of a
-/// shorter one), and the time per frame (µs) of extracting only `cfg`'s features (the extractor
-/// builds only what its features need).
+/// [`extract`] over the first `span` frames of every recording (all of a shorter one).
 fn extract_first(
     raw: &[Raw],
     cfg: &DosFeatureConfig,
     layout: &Layout,
     span: usize,
-) -> Result<(Vec<Recording>, f64), Box<dyn Error>> {
-    let run = |c: &DosFeatureConfig| -> Result<(Vec<Recording>, f64), Box<dyn Error>> {
-        let mut extractor = DosFeatureExtractor::try_new(c, layout)?;
-        let t = Instant::now();
-        let mut out = Vec::with_capacity(raw.len());
-        let mut frames = 0usize;
-        for r in raw {
-            extractor.reset();
-            let used = &r.frames[..r.frames.len().min(span)];
-            for f in used {
-                extractor.push(f.clone())?;
-            }
-            frames += used.len();
-            out.push(Recording { class: r.class, object: r.object.clone(), features: extractor.features() });
+) -> Result<Vec<Recording>, Box<dyn Error>> {
+    let all = DosFeatureConfig { features: Feature::ALL.to_vec(), ..cfg.clone() };
+    let mut extractor = DosFeatureExtractor::try_new(&all, layout)?;
+    let mut out = Vec::with_capacity(raw.len());
+    for r in raw {
+        extractor.reset();
+        for f in &r.frames[..r.frames.len().min(span)] {
+            extractor.push(f.clone())?;
         }
-        Ok((out, t.elapsed().as_secs_f64() * 1e6 / frames.max(1) as f64))
-    };
-    let (_, us) = run(cfg)?;
-    let (all, _) = run(&DosFeatureConfig { features: Feature::ALL.to_vec(), ..cfg.clone() })?;
-    Ok((all, us))
+        out.push(Recording { class: r.class, object: r.object.clone(), features: extractor.features() });
+    }
+    Ok(out)
 }
 
-/// One fold: held-out object, correct, total.
-type Fold = (String, usize, usize);
-/// Rows true class, columns predicted, [`DosClass::ALL`] order.
-type Confusion = [[usize; 7]; 7];
+/// Time per frame (µs) of extracting only `cfg`'s features from every recording (the
+/// extractor builds only what its features need).
+fn cost_us_per_frame(raw: &[Raw], cfg: &DosFeatureConfig, layout: &Layout) -> Result<f64, Box<dyn Error>> {
+    let mut extractor = DosFeatureExtractor::try_new(cfg, layout)?;
+    let t = Instant::now();
+    let mut frames = 0usize;
+    for r in raw {
+        extractor.reset();
+        for f in &r.frames {
+            extractor.push(f.clone())?;
+        }
+        std::hint::black_box(extractor.features());
+        frames += r.frames.len();
+    }
+    Ok(t.elapsed().as_secs_f64() * 1e6 / frames.max(1) as f64)
+}
 
 /// The objects of `recs`, sorted.
 fn objects_of(recs: &[Recording]) -> Vec<String> {
@@ -128,7 +120,7 @@ fn objects_of(recs: &[Recording]) -> Vec<String> {
 }
 
 /// Leave-one-object-out with the default decision rule ([`DosModel::calibrate`]).
-fn cross_validate(recs: &[Recording], cfg: &DosFeatureConfig) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
+fn cross_validate(recs: &[Recording], cfg: &DosFeatureConfig) -> Result<CrossValidation, Box<dyn Error>> {
     cross_validate_with(recs, cfg, &|_| DosModel::DEFAULT_SHRINKAGE)
 }
 
@@ -137,37 +129,33 @@ fn cross_validate_with(
     recs: &[Recording],
     cfg: &DosFeatureConfig,
     shrinkage: &dyn Fn(&str) -> f64,
-) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
+) -> Result<CrossValidation, Box<dyn Error>> {
     cross_validate_rule(recs, cfg, shrinkage, Some(DosModel::DEFAULT_STUDENT_T_DOF))
 }
 
-/// Leave-one-object-out: per fold (object, correct, total) and the confusion matrix
-/// (rows true class, columns predicted, [`DosClass::ALL`] order); `shrinkage(object)` gives
-/// the variance shrinkage λ of the fold that holds `object` out; `dof` the class densities
-/// (`Some(ν)` Student t, `None` Gaussian).
+/// Leave-one-object-out; `shrinkage(object)` gives the variance shrinkage λ of the fold that
+/// holds `object` out; `dof` the class densities (`Some(ν)` Student t, `None` Gaussian).
 fn cross_validate_rule(
     recs: &[Recording],
     cfg: &DosFeatureConfig,
     shrinkage: &dyn Fn(&str) -> f64,
     dof: Option<f64>,
-) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
+) -> Result<CrossValidation, Box<dyn Error>> {
     cross_validate_groups(recs, cfg, &|o| o.to_string(), shrinkage, dof)
 }
 
-/// Leave-one-group-out ([`leave_one_group_out`]), the group of a recording being `group(object)`:
-/// per fold (group, correct, total) and the confusion matrix; `shrinkage(group)` as in
-/// [`cross_validate_rule`].
+/// Leave-one-group-out ([`leave_one_group_out`]), the group of a recording being
+/// `group(object)`; `shrinkage(group)` as in [`cross_validate_rule`].
 fn cross_validate_groups(
     recs: &[Recording],
     cfg: &DosFeatureConfig,
     group: &dyn Fn(&str) -> String,
     shrinkage: &dyn Fn(&str) -> f64,
     dof: Option<f64>,
-) -> Result<(Vec<Fold>, Confusion), Box<dyn Error>> {
+) -> Result<CrossValidation, Box<dyn Error>> {
     let spans: Vec<LabelledSpan> =
         recs.iter().map(|r| LabelledSpan { class: r.class, group: group(&r.object), features: r.features }).collect();
-    let cv = leave_one_group_out(cfg, &spans, shrinkage, dof)?;
-    Ok((cv.folds, cv.confusion))
+    Ok(leave_one_group_out(cfg, &spans, shrinkage, dof)?)
 }
 
 /// The BioTacSP-DoS object set of an object (`basic`: case, hd, pen, sponge; `solids`: bottle,
@@ -193,10 +181,9 @@ fn wilson_interval(ok: usize, n: usize) -> (f64, f64) {
     (centre - half, centre + half)
 }
 
-fn accuracy(folds: &[Fold]) -> f64 {
-    let ok: usize = folds.iter().map(|f| f.1).sum();
-    let n: usize = folds.iter().map(|f| f.2).sum();
-    100.0 * ok as f64 / n.max(1) as f64
+/// Accuracy in percent.
+fn accuracy(cv: &CrossValidation) -> f64 {
+    100.0 * cv.accuracy()
 }
 
 fn parse_features(s: &str) -> Result<Vec<Feature>, Box<dyn Error>> {
@@ -254,7 +241,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         return Ok(());
     }
     let frames: usize = raw.iter().map(|r| r.frames.len()).sum();
-    let (recs, us_per_frame) = extract(&raw, &cfg, &layout)?;
+    let recs = extract(&raw, &cfg, &layout)?;
+    let us_per_frame = cost_us_per_frame(&raw, &cfg, &layout)?;
     println!(
         "BioTacSP-DoS at {}: {} recordings, {} frames read in {:.2} s; features {:.2} µs/frame",
         dir.display(),
@@ -276,23 +264,20 @@ fn main() -> Result<(), Box<dyn Error>> {
         params(&cfg.features)
     );
 
-    let (folds, cm) = cross_validate(&recs, &cfg)?;
-    let (ok, n) = folds.iter().fold((0, 0), |a, f| (a.0 + f.1, a.1 + f.2));
+    let cv = cross_validate(&recs, &cfg)?;
+    let (ok, n) = cv.folds.iter().fold((0, 0), |a, f| (a.0 + f.1, a.1 + f.2));
     let (lo, hi) = wilson_interval(ok, n);
     println!(
         "\nleave-one-object-out accuracy: {:.1} % ({ok}/{n}; 95 % Wilson interval {:.1}–{:.1} %) (chance 14.3 %; \
          published ConvLSTM on unseen objects: 82.56 %)",
-        accuracy(&folds),
+        accuracy(&cv),
         100.0 * lo,
         100.0 * hi
     );
-    println!("\n| held-out object | correct | recordings | accuracy |\n|---|---|---|---|");
-    for (obj, ok, n) in &folds {
-        println!("| {obj} | {ok} | {n} | {:.1} % |", 100.0 * *ok as f64 / *n as f64);
-    }
+    print!("\nfolds (one held-out object each) and confusion matrix (rows: true class):\n\n{cv}");
     // Closer to the published protocol (train on some object sets, test on an unseen one):
     // leave one object SET out — five objects' worth of training becomes two or four.
-    let (sets_folds, _) = cross_validate_groups(
+    let sets = cross_validate_groups(
         &recs,
         &cfg,
         &object_set,
@@ -301,7 +286,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     )?;
     println!(
         "\nleave-one-object-SET-out: {} — {:.1} % overall",
-        sets_folds
+        sets.folds
             .iter()
             .map(|(g, ok, n)| format!(
                 "trained without {g}, tested on it: {ok}/{n} = {:.1} %",
@@ -309,34 +294,25 @@ fn main() -> Result<(), Box<dyn Error>> {
             ))
             .collect::<Vec<_>>()
             .join("; "),
-        accuracy(&sets_folds)
+        accuracy(&sets)
     );
-    let earlier = DosFeatureConfig { features: Feature::EVENTS.to_vec(), ..cfg.clone() };
-    let (earlier_folds, _) = cross_validate_groups(
+    let earlier_cfg = DosFeatureConfig { features: Feature::EVENTS.to_vec(), ..cfg.clone() };
+    let earlier = cross_validate_groups(
         &recs,
-        &earlier,
+        &earlier_cfg,
         &object_set,
         &|_| DosModel::DEFAULT_SHRINKAGE,
         Some(DosModel::DEFAULT_STUDENT_T_DOF),
     )?;
     println!(
         "(the earlier event-only features on the same split: {})",
-        earlier_folds
+        earlier
+            .folds
             .iter()
             .map(|(g, ok, n)| format!("{g} {:.1} %", 100.0 * *ok as f64 / *n as f64))
             .collect::<Vec<_>>()
             .join(", ")
     );
-    println!("\nconfusion matrix (rows: true class, columns: predicted)\n");
-    let names = DosClass::ALL.map(|c| c.as_str());
-    println!("| true \\ pred | {} | recall |", names.join(" | "));
-    println!("|---|{}---|", "---|".repeat(7));
-    for (i, row) in cm.iter().enumerate() {
-        let n: usize = row.iter().sum();
-        let cells: Vec<String> = row.iter().map(|v| v.to_string()).collect();
-        println!("| {} | {} | {:.0} % |", names[i], cells.join(" | "), 100.0 * row[i] as f64 / n.max(1) as f64);
-    }
-
     // Feature sets × centroid methods (features are extracted once per method; only the
     // selection changes between sets).
     use Feature::*;
@@ -355,7 +331,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut by_method = Vec::new();
     for m in methods {
         let c = DosFeatureConfig { centroid: m, ..cfg.clone() };
-        by_method.push(extract(&raw, &c, &layout)?);
+        by_method.push((extract(&raw, &c, &layout)?, cost_us_per_frame(&raw, &c, &layout)?));
     }
     println!("\nLOOO accuracy by feature set and centroid method (τ = {}):\n", cfg.threshold);
     println!("| feature set | features | parameters | taxels | surface | max contour |\n|---|---|---|---|---|---|");
@@ -363,7 +339,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         let mut cells = Vec::new();
         for (m, (recs_m, _)) in methods.iter().zip(&by_method) {
             let c = DosFeatureConfig { features: set.clone(), centroid: *m, ..cfg.clone() };
-            cells.push(format!("{:.1} %", accuracy(&cross_validate(recs_m, &c)?.0)));
+            cells.push(format!("{:.1} %", accuracy(&cross_validate(recs_m, &c)?)));
         }
         println!("| {name} | {} | {} | {} |", set.len(), params(set), cells.join(" | "));
     }
@@ -380,14 +356,14 @@ fn main() -> Result<(), Box<dyn Error>> {
     let grid = [0.0, 0.25, 0.5, 0.75, 1.0];
     for lam in grid {
         let p = if lam < 1.0 { params(&cfg.features) } else { 8 * cfg.features.len() };
-        let t = accuracy(&cross_validate_with(&recs, &cfg, &|_| lam)?.0);
-        let g = accuracy(&cross_validate_rule(&recs, &cfg, &|_| lam, None)?.0);
+        let t = accuracy(&cross_validate_with(&recs, &cfg, &|_| lam)?);
+        let g = accuracy(&cross_validate_rule(&recs, &cfg, &|_| lam, None)?);
         println!("| {lam} | {p} | {t:.1} % | {g:.1} % |");
     }
     println!("\nStudent t by ν (λ = {}):\n\n| ν | LOOO accuracy |\n|---|---|", DosModel::DEFAULT_SHRINKAGE);
     for nu in [1.0, 2.0, 3.0, 5.0, 10.0, 30.0] {
         let a = cross_validate_rule(&recs, &cfg, &|_| DosModel::DEFAULT_SHRINKAGE, Some(nu))?;
-        println!("| {nu} | {:.1} % |", accuracy(&a.0));
+        println!("| {nu} | {:.1} % |", accuracy(&a));
     }
     // Nested: each outer fold picks λ by leave-one-object-out on its five training objects.
     let mut chosen = BTreeMap::new();
@@ -399,7 +375,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             .collect();
         let mut best = (grid[0], -1.0);
         for lam in grid {
-            let a = accuracy(&cross_validate_with(&inner, &cfg, &|_| lam)?.0);
+            let a = accuracy(&cross_validate_with(&inner, &cfg, &|_| lam)?);
             if a > best.1 {
                 best = (lam, a);
             }
@@ -410,14 +386,14 @@ fn main() -> Result<(), Box<dyn Error>> {
     println!(
         "\nnested (λ chosen per outer fold by inner leave-one-object-out, {:?}): {:.1} %",
         chosen,
-        accuracy(&nested.0)
+        accuracy(&nested)
     );
 
     println!("\nevent threshold τ (configured features and centroid):\n\n| τ | LOOO accuracy |\n|---|---|");
     for tau in [0.002, 0.003, 0.005, 0.008, 0.012] {
         let c = DosFeatureConfig { threshold: tau, ..cfg.clone() };
-        let (r, _) = extract(&raw, &c, &layout)?;
-        println!("| {tau} | {:.1} % |", accuracy(&cross_validate(&r, &c)?.0));
+        let r = extract(&raw, &c, &layout)?;
+        println!("| {tau} | {:.1} % |", accuracy(&cross_validate(&r, &c)?));
     }
 
     println!("\ndrift lags (frames; configured features and rule):\n\n| lags | LOOO accuracy |\n|---|---|");
@@ -425,8 +401,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         [&[30u64][..], &[60], &[90], &[120], &[30, 60], &[60, 120], &[20, 40, 80], &[30, 60, 120], &[30, 60, 120, 240]]
     {
         let c = DosFeatureConfig { drift_lags: lags.to_vec(), ..cfg.clone() };
-        let (r, _) = extract(&raw, &c, &layout)?;
-        println!("| {lags:?} | {:.1} % |", accuracy(&cross_validate(&r, &c)?.0));
+        let r = extract(&raw, &c, &layout)?;
+        println!("| {lags:?} | {:.1} % |", accuracy(&cross_validate(&r, &c)?));
     }
 
     // The latency trade: a decision after the first N frames (calibrated on the same span).
@@ -435,9 +411,9 @@ fn main() -> Result<(), Box<dyn Error>> {
          (configured features and rule; 100 frames = 1 s):\n\n| span (frames) | LOOO accuracy |\n|---|---|"
     );
     for span in [25usize, 50, 100, 150, 200, 250, usize::MAX] {
-        let (r, _) = extract_first(&raw, &cfg, &layout, span)?;
+        let r = extract_first(&raw, &cfg, &layout, span)?;
         let label = if span == usize::MAX { "whole recording (270–281)".to_string() } else { span.to_string() };
-        println!("| {label} | {:.1} % |", accuracy(&cross_validate(&r, &cfg)?.0));
+        println!("| {label} | {:.1} % |", accuracy(&cross_validate(&r, &cfg)?));
     }
 
     // Per-class means of the direction features (the evidence for the class → direction map).

@@ -711,7 +711,9 @@ impl DosFeatureExtractor {
         crate::error::check_taxel_count(STAGE, &frame.sensor, frame.seq, self.taxels, frame.values.len())?;
         self.batches.clear();
         let time = frame.time;
-        self.values.copy_from_slice(&frame.values);
+        if self.drift.is_some() {
+            self.values.copy_from_slice(&frame.values);
+        }
         self.events.push(frame, &mut self.batches)?;
         if let Some(drift) = &mut self.drift {
             // The events stage refuses non-finite values (its default policy), so this cannot fail.
