@@ -10,26 +10,10 @@
 
 use gradtac_stages::dos::{DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature, FeatureVector};
 use gradtac_stream::{Layout, TaxelFrame, Timestamp};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn read(path: &Path) -> Vec<Vec<f64>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    text.lines()
-        .skip(1)
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| l.split(',').map(|v| v.trim().parse().unwrap()).collect())
-        .collect()
-}
-
-fn data_dir() -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/biotacsp-dos");
-    if root.is_dir() {
-        Some(root)
-    } else {
-        eprintln!("skipped: {} not present", root.display());
-        None
-    }
-}
+mod common;
+use common::{data_dir, read};
 
 /// (class, object, features) of every recording.
 fn load(root: &Path, cfg: &DosFeatureConfig) -> Vec<(DosClass, String, FeatureVector)> {

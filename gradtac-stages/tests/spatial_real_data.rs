@@ -12,24 +12,13 @@ use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac_stages::track::{ContactState, Track, TrackConfig};
 use gradtac_stages::window::{Window, WindowConfig};
 use gradtac_stream::{Layout, StageExt, TaxelFrame, Timestamp};
-use std::path::Path;
 
-fn read(path: &Path) -> Vec<Vec<f64>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    text.lines()
-        .skip(1)
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| l.split(',').map(|v| v.trim().parse().unwrap()).collect())
-        .collect()
-}
+mod common;
+use common::{data_dir, read};
 
 #[test]
 fn real_recordings_run_through_the_spatial_chain() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/biotacsp-dos");
-    if !root.is_dir() {
-        eprintln!("skipped: {} not present", root.display());
-        return;
-    }
+    let Some(root) = data_dir() else { return };
     let l = Layout::biotac_sp();
     let mut frames_total = 0usize;
     let mut contact_total = 0usize;
