@@ -434,6 +434,31 @@ fn slip_legend<'a, DB: DrawingBackend + 'a>(strip: &mut Chart<'a, DB>) -> R<()> 
     draw_legend(strip, SeriesLabelPosition::UpperRight, 0.9, 11)
 }
 
+/// Each sensor's rows of `groups`, every [`draw_stride`]-th (at most `max`; `what` names them in
+/// the note), as the points `point(batch, row)` gives; and how many points there are in all.
+fn thin_rows<T>(
+    groups: &Groups,
+    max: usize,
+    what: &str,
+    notes: &mut Vec<String>,
+    mut point: impl FnMut(usize, usize) -> T,
+) -> (Vec<(String, Vec<T>)>, u64) {
+    let mut series = Vec::new();
+    let mut drawn = 0u64;
+    for (sensor, rows) in groups {
+        let k = draw_stride(sensor, rows.len(), max, what, notes);
+        let pts: Vec<T> = rows.iter().step_by(k).map(|&(bi, ri)| point(bi, ri)).collect();
+        drawn += pts.len() as u64;
+        series.push((sensor.clone(), pts));
+    }
+    (series, drawn)
+}
+
+/// The values of row `ri` of a [`ListCol`].
+fn list_row((m, v): &ListCol, ri: usize) -> &[f64] {
+    &v[ri * m..(ri + 1) * m]
+}
+
 /// The stride that draws at most `max` of a sensor's `rows` rows; above 1, a note says so
 /// (`what`: the rows' noun, plural).
 fn draw_stride(sensor: &str, rows: usize, max: usize, what: &str, notes: &mut Vec<String>) -> usize {
@@ -1053,21 +1078,10 @@ fn frames_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         t.batches.iter().map(|b| Ok((i64s(b, "time_ns")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let n = cols.iter().map(|c| c.1 .0).max().unwrap_or(0);
-    let mut series = Vec::new();
-    let mut drawn = 0u64;
-    for (sensor, rows) in &groups {
-        let k = draw_stride(sensor, rows.len(), MAX_POINTS, "frames", notes);
-        let pts: Vec<(f64, Vec<f64>)> = rows
-            .iter()
-            .step_by(k)
-            .map(|&(bi, ri)| {
-                let (times, (m, v)) = &cols[bi];
-                (secs(times[ri], t0), v[ri * m..(ri + 1) * m].to_vec())
-            })
-            .collect();
-        drawn += pts.len() as u64;
-        series.push((sensor.clone(), pts));
-    }
+    let (series, drawn) = thin_rows(&groups, MAX_POINTS, "frames", notes, |bi, ri| {
+        let (times, values) = &cols[bi];
+        (secs(times[ri], t0), list_row(values, ri).to_vec())
+    });
     let size = (PANEL_W, STRIP_H * series.len() as u32);
     let sensors = groups.iter().map(|g| g.0.clone()).collect();
     Ok(Prepared {
@@ -1119,18 +1133,9 @@ fn events_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         .as_ref()
         .map(Vec::len)
         .unwrap_or_else(|| cols.iter().flat_map(|c| c.1.iter()).max().map_or(1, |&m| m as usize + 1));
-    let mut series = Vec::new();
-    let mut drawn = 0u64;
-    for (sensor, rows) in &groups {
-        let k = draw_stride(sensor, rows.len(), MAX_POINTS * 10, "events", notes);
-        let pts: Vec<(f64, u16, i8)> = rows
-            .iter()
-            .step_by(k)
-            .map(|&(bi, ri)| (secs(cols[bi].0[ri], t0), cols[bi].1[ri], cols[bi].2[ri]))
-            .collect();
-        drawn += pts.len() as u64;
-        series.push((sensor.clone(), pts));
-    }
+    let (series, drawn) = thin_rows(&groups, MAX_POINTS * 10, "events", notes, |bi, ri| {
+        (secs(cols[bi].0[ri], t0), cols[bi].1[ri], cols[bi].2[ri])
+    });
     let size = (PANEL_W, STRIP_H * series.len() as u32);
     let sensors = groups.iter().map(|g| g.0.clone()).collect();
     Ok(Prepared {
@@ -1181,23 +1186,12 @@ fn window_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         .collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let n = cols.iter().map(|c| c.2 .0).max().unwrap_or(0).max(1);
-    let mut series = Vec::new();
-    let mut drawn = 0u64;
     let mut signed = false;
-    for (sensor, rows) in &groups {
-        let k = draw_stride(sensor, rows.len(), 2000, "windows", notes);
-        let pts: Vec<(f64, Vec<f64>)> = rows
-            .iter()
-            .step_by(k)
-            .map(|&(bi, ri)| {
-                let (times, agg, (m, v)) = &cols[bi];
-                signed |= agg[ri] == "signed" || agg[ri] == "split";
-                (secs(times[ri], t0), v[ri * m..(ri + 1) * m].to_vec())
-            })
-            .collect();
-        drawn += pts.len() as u64;
-        series.push((sensor.clone(), pts));
-    }
+    let (series, drawn) = thin_rows(&groups, 2000, "windows", notes, |bi, ri| {
+        let (times, agg, values) = &cols[bi];
+        signed |= agg[ri] == "signed" || agg[ri] == "split";
+        (secs(times[ri], t0), list_row(values, ri).to_vec())
+    });
     let all = series.iter().flat_map(|s| s.1.iter().flat_map(|p| p.1.iter().copied()));
     let (mut lo, mut hi) = range_of(all);
     let cmap: fn(f64) -> RGBColor = if signed {
