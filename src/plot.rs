@@ -51,11 +51,13 @@ use gradtac_stages::slip::{SlipClass, SlipEvent};
 use gradtac_stream::{Extent, Layout};
 use ndarray::ArrayView2;
 use parquet::arrow::arrow_reader::{ParquetRecordBatchReaderBuilder, RowSelection, RowSelector};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::collections::HashMap;
 use std::fmt;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// The schemas [`plot_parquet`] knows.
@@ -260,33 +262,211 @@ fn series_colour(i: usize) -> RGBColor {
     RGBColor(c.0, c.1, c.2)
 }
 
-/// A chart with f64 axes on the bitmap backend.
-type Strip<'a, 'b> = ChartContext<
-    'a,
-    BitMapBackend<'b>,
-    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
->;
+// ---------------------------------------------------------------------------------------------
+// chart scaffolding shared by the panels
 
-/// The legend of the slip-class colours ([`slip_colour`]) on a class strip.
-fn slip_legend<'a, 'b>(strip: &mut Strip<'a, 'b>) -> R<()>
-where
-    'b: 'a,
-{
-    for c in SlipClass::ALL {
-        let col = slip_colour(c);
-        strip
-            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
-            .label(c.name())
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], col.filled()));
+/// A point on a backend (px), as plotters' `BackendCoord`: where legend keys are drawn.
+type BackendCoord = (i32, i32);
+
+/// A chart's box along one axis, `(from, to)`, as [`clamp_pt`] and [`segments`] take it.
+type Bounds = (f64, f64);
+
+/// A chart with f64 axes on the backend `DB`.
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// The sizes (px) around a chart: its caption's font, the margin on every side, and the label
+/// areas below the plot (x axis) and left of it (y axis).
+#[derive(Clone, Copy)]
+struct Frame {
+    caption: i32,
+    margin: i32,
+    x_area: i32,
+    y_area: i32,
+}
+
+/// The frame of most panels: an 18 px caption, 12 px margins, 36 px of x labels, 60 px of y
+/// labels (others are this with a field changed).
+const PANEL: Frame = Frame { caption: 18, margin: 12, x_area: 36, y_area: 60 };
+
+/// A chart of `xr × yr` on `area`, `caption` above it in sans-serif, sized by `frame`.
+fn chart_on<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: impl AsRef<str>,
+    frame: Frame,
+    xr: Range<f64>,
+    yr: Range<f64>,
+) -> R<Chart<'a, DB>> {
+    Ok(ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", frame.caption))
+        .margin(frame.margin)
+        .x_label_area_size(frame.x_area)
+        .y_label_area_size(frame.y_area)
+        .build_cartesian_2d(xr, yr)?)
+}
+
+/// The mesh (grid lines and both axes) of `chart`, with the axis descriptions `x_desc` (none:
+/// `None`) and `y_desc`, labels in `label_px` sans-serif.
+fn draw_axes<DB: DrawingBackend>(
+    chart: &mut Chart<'_, DB>,
+    x_desc: Option<&str>,
+    y_desc: &str,
+    label_px: i32,
+) -> R<()> {
+    let mut mesh = chart.configure_mesh();
+    if let Some(d) = x_desc {
+        mesh.x_desc(d);
     }
-    strip
+    mesh.y_desc(y_desc).label_style(("sans-serif", label_px)).draw()?;
+    Ok(())
+}
+
+/// The legend of `chart`'s labelled series at `position`: a white box of opacity `background`
+/// with a thin grey border, labels in `font_px` sans-serif.
+fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+    background: f64,
+    font_px: i32,
+) -> R<()> {
+    chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.9))
+        .position(position)
+        .background_style(WHITE.mix(background))
         .border_style(BLACK.mix(0.3))
-        .label_font(("sans-serif", 11))
+        .label_font(("sans-serif", font_px))
         .draw()?;
     Ok(())
+}
+
+/// A legend entry without data: `label` with the key `key` (e.g. [`line_key`]).
+fn legend_entry<'a, DB, E, F>(chart: &mut Chart<'a, DB>, label: impl Into<String>, key: F) -> R<()>
+where
+    DB: DrawingBackend + 'a,
+    E: IntoDynElement<'a, DB, BackendCoord>,
+    F: Fn(BackendCoord) -> E + 'a,
+{
+    chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?.label(label).legend(key);
+    Ok(())
+}
+
+/// A legend key: a 14 px line drawn with `style`.
+fn line_key(style: impl Into<ShapeStyle>) -> impl Fn(BackendCoord) -> PathElement<BackendCoord> {
+    let style = style.into();
+    move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], style)
+}
+
+/// A legend key: a dot of `colour`.
+fn dot_key(colour: RGBColor) -> impl Fn(BackendCoord) -> Circle<BackendCoord, i32> {
+    move |(x, y)| Circle::new((x + 7, y), 4, colour.filled())
+}
+
+/// The row index an axis value `v` labels: `v` itself when it is whole and not negative, else
+/// `None` (a tick between rows, left blank).
+fn row_index(v: f64) -> Option<f64> {
+    let i = v.round();
+    if (v - i).abs() > 1e-9 || i < 0.0 {
+        None
+    } else {
+        Some(i)
+    }
+}
+
+/// A taxel axis label: the name of the taxel row `v` (its index when `names` has none), blank
+/// between rows.
+fn taxel_label(names: Option<&[String]>, v: f64) -> String {
+    match row_index(v) {
+        None => String::new(),
+        Some(i) => names.and_then(|nm| nm.get(i as usize).cloned()).unwrap_or_else(|| format!("{i}")),
+    }
+}
+
+/// An equal-aspect chart of `layout`'s plane (axes in mm) on `area`, `title` above, with the
+/// taxels as labelled circles; and the chart's box `(x, y)` for [`clamp_pt`] and [`segments`].
+fn plane_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    layout: &Layout,
+) -> R<(Chart<'a, DB>, Bounds, Bounds)>
+where
+    DB::ErrorType: 'static,
+{
+    let (w, h) = area.dim_in_pixel();
+    let (xr, yr) = equal_aspect(layout.extent(), w as f64 - 80.0, h as f64 - 90.0);
+    let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
+    let mut chart = chart_on(area, title, Frame { y_area: 44, ..PANEL }, xr, yr)?;
+    draw_axes(&mut chart, Some("x (mm)"), "y (mm)", 12)?;
+    draw_taxels(&mut chart, layout, true)?;
+    Ok((chart, bx, by))
+}
+
+/// Vertical dashed lines (4 px dashes, 4 px gaps) in `style` at each of `xs`, from `y0` to `y1`.
+fn draw_onsets<DB: DrawingBackend>(
+    chart: &mut Chart<'_, DB>,
+    xs: impl IntoIterator<Item = f64>,
+    (y0, y1): (f64, f64),
+    style: ShapeStyle,
+) -> R<()> {
+    for x in xs {
+        chart.draw_series(DashedLineSeries::new(vec![(x, y0), (x, y1)], 4, 4, style))?;
+    }
+    Ok(())
+}
+
+/// The spans `(from, to, class)` of a class held from each `(time, class)` of `steps` (in time
+/// order) to the next one's time, the last to `end`; empty spans are left out.
+fn class_spans(steps: &[(f64, SlipClass)], end: f64) -> Vec<(f64, f64, SlipClass)> {
+    let mut out = Vec::new();
+    for (i, &(t, c)) in steps.iter().enumerate() {
+        let to = steps.get(i + 1).map_or(end, |p| p.0);
+        if to > t {
+            out.push((t, to, c));
+        }
+    }
+    out
+}
+
+/// The legend of the slip-class colours ([`slip_colour`]) on a class strip.
+fn slip_legend<'a, DB: DrawingBackend + 'a>(strip: &mut Chart<'a, DB>) -> R<()> {
+    for c in SlipClass::ALL {
+        let col = slip_colour(c);
+        legend_entry(strip, c.name(), move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], col.filled()))?;
+    }
+    draw_legend(strip, SeriesLabelPosition::UpperRight, 0.9, 11)
+}
+
+/// Each sensor's rows of `groups`, every [`draw_stride`]-th (at most `max`; `what` names them in
+/// the note), as the points `point(batch, row)` gives; and how many points there are in all.
+fn thin_rows<T>(
+    groups: &Groups,
+    max: usize,
+    what: &str,
+    notes: &mut Vec<String>,
+    mut point: impl FnMut(usize, usize) -> T,
+) -> (Vec<(String, Vec<T>)>, u64) {
+    let mut series = Vec::new();
+    let mut drawn = 0u64;
+    for (sensor, rows) in groups {
+        let k = draw_stride(sensor, rows.len(), max, what, notes);
+        let pts: Vec<T> = rows.iter().step_by(k).map(|&(bi, ri)| point(bi, ri)).collect();
+        drawn += pts.len() as u64;
+        series.push((sensor.clone(), pts));
+    }
+    (series, drawn)
+}
+
+/// The values of row `ri` of a [`ListCol`].
+fn list_row((m, v): &ListCol, ri: usize) -> &[f64] {
+    &v[ri * m..(ri + 1) * m]
+}
+
+/// The stride that draws at most `max` of a sensor's `rows` rows; above 1, a note says so
+/// (`what`: the rows' noun, plural).
+fn draw_stride(sensor: &str, rows: usize, max: usize, what: &str, notes: &mut Vec<String>) -> usize {
+    let k = stride(rows, max);
+    if k > 1 {
+        notes.push(format!("{sensor}: every {k}th of {rows} {what} drawn"));
+    }
+    k
 }
 
 fn slip_colour(c: SlipClass) -> RGBColor {
@@ -378,15 +558,7 @@ fn equal_aspect(e: Extent, w: f64, h: f64) -> (std::ops::Range<f64>, std::ops::R
 }
 
 /// Taxels as grey circles, labelled when `names`.
-fn draw_taxels<DB: DrawingBackend>(
-    chart: &mut ChartContext<
-        '_,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
-    layout: &Layout,
-    names: bool,
-) -> R<()>
+fn draw_taxels<DB: DrawingBackend>(chart: &mut Chart<'_, DB>, layout: &Layout, names: bool) -> R<()>
 where
     DB::ErrorType: 'static,
 {
@@ -906,24 +1078,10 @@ fn frames_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         t.batches.iter().map(|b| Ok((i64s(b, "time_ns")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let n = cols.iter().map(|c| c.1 .0).max().unwrap_or(0);
-    let mut series = Vec::new();
-    let mut drawn = 0u64;
-    for (sensor, rows) in &groups {
-        let k = stride(rows.len(), MAX_POINTS);
-        if k > 1 {
-            notes.push(format!("{sensor}: every {k}th of {} frames drawn", rows.len()));
-        }
-        let pts: Vec<(f64, Vec<f64>)> = rows
-            .iter()
-            .step_by(k)
-            .map(|&(bi, ri)| {
-                let (times, (m, v)) = &cols[bi];
-                (secs(times[ri], t0), v[ri * m..(ri + 1) * m].to_vec())
-            })
-            .collect();
-        drawn += pts.len() as u64;
-        series.push((sensor.clone(), pts));
-    }
+    let (series, drawn) = thin_rows(&groups, MAX_POINTS, "frames", notes, |bi, ri| {
+        let (times, values) = &cols[bi];
+        (secs(times[ri], t0), list_row(values, ri).to_vec())
+    });
     let size = (PANEL_W, STRIP_H * series.len() as u32);
     let sensors = groups.iter().map(|g| g.0.clone()).collect();
     Ok(Prepared {
@@ -934,35 +1092,20 @@ fn frames_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
                 let (x0, x1) = range_of(pts.iter().map(|p| p.0));
                 let (y0, y1) = padded(range_of(pts.iter().flat_map(|p| p.1.iter().copied())), 0.05);
-                let mut chart = ChartBuilder::on(area)
-                    .caption(format!("{sensor}: {n} taxels (frame/1)"), ("sans-serif", 18))
-                    .margin(12)
-                    .x_label_area_size(36)
-                    .y_label_area_size(70)
-                    .build_cartesian_2d(x0..x1, y0..y1)?;
-                chart
-                    .configure_mesh()
-                    .x_desc("time (s from the first row)")
-                    .y_desc("value")
-                    .label_style(("sans-serif", 13))
-                    .draw()?;
+                let frame = Frame { y_area: 70, ..PANEL };
+                let mut chart = chart_on(area, format!("{sensor}: {n} taxels (frame/1)"), frame, x0..x1, y0..y1)?;
+                draw_axes(&mut chart, Some("time (s from the first row)"), "value", 13)?;
                 for i in 0..n {
                     let c = series_colour(i);
                     let label = names.as_ref().and_then(|v| v.get(i).cloned()).unwrap_or(format!("{i}"));
                     let segs = segments(pts.iter().map(|p| (p.0, p.1[i])), (x0, x1), (y0, y1));
                     let s = chart.draw_series(segs.into_iter().map(|seg| PathElement::new(seg, c.stroke_width(1))))?;
                     if n <= 24 {
-                        s.label(label).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c));
+                        s.label(label).legend(line_key(c));
                     }
                 }
                 if n <= 24 {
-                    chart
-                        .configure_series_labels()
-                        .position(SeriesLabelPosition::UpperRight)
-                        .background_style(WHITE.mix(0.8))
-                        .border_style(BLACK.mix(0.3))
-                        .label_font(("sans-serif", 10))
-                        .draw()?;
+                    draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.8, 10)?;
                 }
             }
             Ok(())
@@ -990,21 +1133,9 @@ fn events_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         .as_ref()
         .map(Vec::len)
         .unwrap_or_else(|| cols.iter().flat_map(|c| c.1.iter()).max().map_or(1, |&m| m as usize + 1));
-    let mut series = Vec::new();
-    let mut drawn = 0u64;
-    for (sensor, rows) in &groups {
-        let k = stride(rows.len(), MAX_POINTS * 10);
-        if k > 1 {
-            notes.push(format!("{sensor}: every {k}th of {} events drawn", rows.len()));
-        }
-        let pts: Vec<(f64, u16, i8)> = rows
-            .iter()
-            .step_by(k)
-            .map(|&(bi, ri)| (secs(cols[bi].0[ri], t0), cols[bi].1[ri], cols[bi].2[ri]))
-            .collect();
-        drawn += pts.len() as u64;
-        series.push((sensor.clone(), pts));
-    }
+    let (series, drawn) = thin_rows(&groups, MAX_POINTS * 10, "events", notes, |bi, ri| {
+        (secs(cols[bi].0[ri], t0), cols[bi].1[ri], cols[bi].2[ri])
+    });
     let size = (PANEL_W, STRIP_H * series.len() as u32);
     let sensors = groups.iter().map(|g| g.0.clone()).collect();
     Ok(Prepared {
@@ -1012,29 +1143,16 @@ fn events_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         sensors,
         drawn,
         draw: Box::new(move |root| {
-            let label = |v: &f64| {
-                let i = v.round();
-                if (v - i).abs() > 1e-9 || i < 0.0 {
-                    return String::new();
-                }
-                names.as_ref().and_then(|nm| nm.get(i as usize).cloned()).unwrap_or_else(|| format!("{i}"))
-            };
+            let label = |v: &f64| taxel_label(names.as_deref(), *v);
             for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
                 let (x0, x1) = range_of(pts.iter().map(|p| p.0));
                 let pos = pts.iter().filter(|p| p.2 > 0).count();
-                let mut chart = ChartBuilder::on(area)
-                    .caption(
-                        format!(
-                            "{sensor}: {} events, {pos} up (red), {} down (blue) (event/1)",
-                            pts.len(),
-                            pts.len() - pos
-                        ),
-                        ("sans-serif", 18),
-                    )
-                    .margin(12)
-                    .x_label_area_size(36)
-                    .y_label_area_size(60)
-                    .build_cartesian_2d(x0..x1, -0.5..(n as f64 - 0.5))?;
+                let caption = format!(
+                    "{sensor}: {} events, {pos} up (red), {} down (blue) (event/1)",
+                    pts.len(),
+                    pts.len() - pos
+                );
+                let mut chart = chart_on(area, caption, PANEL, x0..x1, -0.5..(n as f64 - 0.5))?;
                 chart
                     .configure_mesh()
                     .x_desc("time (s from the first event)")
@@ -1068,26 +1186,12 @@ fn window_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         .collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let n = cols.iter().map(|c| c.2 .0).max().unwrap_or(0).max(1);
-    let mut series = Vec::new();
-    let mut drawn = 0u64;
     let mut signed = false;
-    for (sensor, rows) in &groups {
-        let k = stride(rows.len(), 2000);
-        if k > 1 {
-            notes.push(format!("{sensor}: every {k}th of {} windows drawn", rows.len()));
-        }
-        let pts: Vec<(f64, Vec<f64>)> = rows
-            .iter()
-            .step_by(k)
-            .map(|&(bi, ri)| {
-                let (times, agg, (m, v)) = &cols[bi];
-                signed |= agg[ri] == "signed" || agg[ri] == "split";
-                (secs(times[ri], t0), v[ri * m..(ri + 1) * m].to_vec())
-            })
-            .collect();
-        drawn += pts.len() as u64;
-        series.push((sensor.clone(), pts));
-    }
+    let (series, drawn) = thin_rows(&groups, 2000, "windows", notes, |bi, ri| {
+        let (times, agg, values) = &cols[bi];
+        signed |= agg[ri] == "signed" || agg[ri] == "split";
+        (secs(times[ri], t0), list_row(values, ri).to_vec())
+    });
     let all = series.iter().flat_map(|s| s.1.iter().flat_map(|p| p.1.iter().copied()));
     let (mut lo, mut hi) = range_of(all);
     let cmap: fn(f64) -> RGBColor = if signed {
@@ -1107,23 +1211,13 @@ fn window_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         draw: Box::new(move |root| {
             let (main, bar) = root.split_horizontally(PANEL_W);
             colour_bar(&bar, lo, hi, cmap, "events")?;
-            let label = |v: &f64| {
-                let i = v.round();
-                if (v - i).abs() > 1e-9 || i < 0.0 {
-                    return String::new();
-                }
-                names.as_ref().and_then(|nm| nm.get(i as usize).cloned()).unwrap_or_else(|| format!("{i}"))
-            };
+            let label = |v: &f64| taxel_label(names.as_deref(), *v);
             for (area, (sensor, pts)) in main.split_evenly((series.len(), 1)).iter().zip(&series) {
                 let dt = if pts.len() > 1 { (pts[pts.len() - 1].0 - pts[0].0) / (pts.len() - 1) as f64 } else { 1.0 };
                 let x0 = pts.first().map_or(0.0, |p| p.0 - dt);
                 let x1 = pts.last().map_or(1.0, |p| p.0).max(x0 + 1e-9);
-                let mut chart = ChartBuilder::on(area)
-                    .caption(format!("{sensor}: {} windows (window/1)", pts.len()), ("sans-serif", 18))
-                    .margin(12)
-                    .x_label_area_size(36)
-                    .y_label_area_size(60)
-                    .build_cartesian_2d(x0..x1, -0.5..(n as f64 - 0.5))?;
+                let caption = format!("{sensor}: {} windows (window/1)", pts.len());
+                let mut chart = chart_on(area, caption, PANEL, x0..x1, -0.5..(n as f64 - 0.5))?;
                 chart
                     .configure_mesh()
                     .disable_mesh()
@@ -1274,12 +1368,7 @@ fn draw_surface_panel(
     let (w, h) = area.dim_in_pixel();
     let (xr, yr) = equal_aspect(grid.extent(), w as f64 - 60.0, h as f64 - 70.0);
     let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
-    let mut chart = ChartBuilder::on(area)
-        .caption(&p.label, ("sans-serif", 15))
-        .margin(8)
-        .x_label_area_size(30)
-        .y_label_area_size(40)
-        .build_cartesian_2d(xr, yr)?;
+    let mut chart = chart_on(area, &p.label, Frame { caption: 15, margin: 8, x_area: 30, y_area: 40 }, xr, yr)?;
     chart.configure_mesh().disable_mesh().x_desc("x (mm)").y_desc("y (mm)").label_style(("sans-serif", 11)).draw()?;
     let (dx, dy) = (grid.dx(), grid.dy());
     let mut cells = Vec::with_capacity(nx * ny);
@@ -1385,10 +1474,7 @@ fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         if layout.is_none() {
             layout = t.layout(sensor, None, notes);
         }
-        let k = stride(rows.len(), MAX_POINTS);
-        if k > 1 {
-            notes.push(format!("{sensor}: every {k}th of {} contours drawn", rows.len()));
-        }
+        let k = draw_stride(sensor, rows.len(), MAX_POINTS, "contours", notes);
         let pts: Vec<Pt> = rows
             .iter()
             .step_by(k)
@@ -1417,17 +1503,7 @@ fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         drawn,
         draw: Box::new(move |root| {
             let (left, right) = root.split_horizontally(600);
-            let (w, h) = left.dim_in_pixel();
-            let (xr, yr) = equal_aspect(layout.extent(), w as f64 - 80.0, h as f64 - 90.0);
-            let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
-            let mut plane = ChartBuilder::on(&left)
-                .caption("contact centroids (contour/1)", ("sans-serif", 18))
-                .margin(12)
-                .x_label_area_size(36)
-                .y_label_area_size(44)
-                .build_cartesian_2d(xr, yr)?;
-            plane.configure_mesh().x_desc("x (mm)").y_desc("y (mm)").label_style(("sans-serif", 12)).draw()?;
-            draw_taxels(&mut plane, &layout, true)?;
+            let (mut plane, bx, by) = plane_chart(&left, "contact centroids (contour/1)", &layout)?;
             for (i, (sensor, pts, outlines)) in series.iter().enumerate() {
                 let c = series_colour(i);
                 for o in outlines {
@@ -1446,47 +1522,21 @@ fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
                             .map(|p| Circle::new(clamp_pt((p.1, p.2), bx, by), 2, c.filled())),
                     )?
                     .label(sensor.clone())
-                    .legend(move |(x, y)| Circle::new((x + 7, y), 4, c.filled()));
+                    .legend(dot_key(c));
             }
-            plane
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK.mix(0.3))
-                .label_font(("sans-serif", 12))
-                .draw()?;
+            draw_legend(&mut plane, SeriesLabelPosition::UpperRight, 0.8, 12)?;
             let (x0, x1) = range_of(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)));
             let (a0, a1) = range_of(series.iter().flat_map(|s| s.1.iter().map(|p| p.3)).chain([0.0]));
-            let mut chart = ChartBuilder::on(&right)
-                .caption("contour area", ("sans-serif", 18))
-                .margin(12)
-                .x_label_area_size(36)
-                .y_label_area_size(60)
-                .build_cartesian_2d(x0..x1, a0..a1 * 1.05)?;
-            chart
-                .configure_mesh()
-                .x_desc("time (s from the first row)")
-                .y_desc("area (mm²)")
-                .label_style(("sans-serif", 12))
-                .draw()?;
+            let mut chart = chart_on(&right, "contour area", PANEL, x0..x1, a0..a1 * 1.05)?;
+            draw_axes(&mut chart, Some("time (s from the first row)"), "area (mm²)", 12)?;
             for (i, (sensor, pts, _)) in series.iter().enumerate() {
                 let c = series_colour(i);
                 for seg in segments(pts.iter().map(|p| (p.0, p.3)), (x0, x1), (a0, a1)) {
                     chart.draw_series(std::iter::once(PathElement::new(seg, c.stroke_width(2))))?;
                 }
-                chart
-                    .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
-                    .label(sensor.clone())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c.stroke_width(2)));
+                legend_entry(&mut chart, sensor.clone(), line_key(c.stroke_width(2)))?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK.mix(0.3))
-                .label_font(("sans-serif", 12))
-                .draw()?;
-            Ok(())
+            draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.8, 12)
         }),
     })
 }
@@ -1515,10 +1565,7 @@ fn track_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     let mut drawn = 0u64;
     for (sensor, rows) in &groups {
         let layout = t.layout(sensor, None, notes).unwrap_or_else(Layout::biotac_sp);
-        let k = stride(rows.len(), MAX_POINTS);
-        if k > 1 {
-            notes.push(format!("{sensor}: every {k}th of {} points drawn", rows.len()));
-        }
+        let k = draw_stride(sensor, rows.len(), MAX_POINTS, "points", notes);
         let pts: Vec<(f64, f64, f64)> = rows
             .iter()
             .step_by(k)
@@ -1561,10 +1608,7 @@ fn series_plot(t: &Table, notes: &mut Vec<String>, time: &str, panels: &[(&str, 
     let mut data: Vec<(String, Vec<f64>, Vec<Vec<f64>>)> = Vec::new();
     let mut drawn = 0u64;
     for (sensor, rows) in &groups {
-        let k = stride(rows.len(), MAX_POINTS);
-        if k > 1 {
-            notes.push(format!("{sensor}: every {k}th of {} rows drawn", rows.len()));
-        }
+        let k = draw_stride(sensor, rows.len(), MAX_POINTS, "rows", notes);
         let picked: Vec<(usize, usize)> = rows.iter().step_by(k).copied().collect();
         let ts = picked.iter().map(|&(bi, ri)| secs(cols[bi].0[ri], t0)).collect();
         let vs = (0..names.len()).map(|j| picked.iter().map(|&(bi, ri)| cols[bi].1[j][ri]).collect()).collect();
@@ -1593,18 +1637,8 @@ fn series_plot(t: &Table, notes: &mut Vec<String>, time: &str, panels: &[(&str, 
             for (area, (title, ydesc, idx)) in root.split_evenly((panels.len(), 1)).iter().zip(&panels) {
                 let (y0, y1) =
                     padded(range_of(data.iter().flat_map(|d| idx.iter().flat_map(|&j| d.2[j].iter().copied()))), 0.05);
-                let mut chart = ChartBuilder::on(area)
-                    .caption(title.as_str(), ("sans-serif", 18))
-                    .margin(12)
-                    .x_label_area_size(36)
-                    .y_label_area_size(70)
-                    .build_cartesian_2d(x0..x1, y0..y1)?;
-                chart
-                    .configure_mesh()
-                    .x_desc("time (s from the first row)")
-                    .y_desc(ydesc.as_str())
-                    .label_style(("sans-serif", 12))
-                    .draw()?;
+                let mut chart = chart_on(area, title, Frame { y_area: 70, ..PANEL }, x0..x1, y0..y1)?;
+                draw_axes(&mut chart, Some("time (s from the first row)"), ydesc, 12)?;
                 let mut k = 0;
                 for (sensor, ts, vs) in &data {
                     for &j in idx {
@@ -1614,16 +1648,10 @@ fn series_plot(t: &Table, notes: &mut Vec<String>, time: &str, panels: &[(&str, 
                         chart
                             .draw_series(segs.into_iter().map(|seg| PathElement::new(seg, c.stroke_width(2))))?
                             .label(format!("{sensor} {}", names[j]))
-                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c.stroke_width(2)));
+                            .legend(line_key(c.stroke_width(2)));
                     }
                 }
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK.mix(0.3))
-                    .label_font(("sans-serif", 12))
-                    .draw()?;
+                draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.85, 12)?;
             }
             Ok(())
         }),
@@ -1674,13 +1702,9 @@ fn slip_plot(t: &Table) -> R<Prepared> {
             let (top, bottom) = root.split_vertically(300);
             let (x0, x1) = padded(range_of(ev.iter().flat_map(|e| [e.0, e.1])), 0.05);
             let (y0, y1) = padded(range_of(ev.iter().flat_map(|e| [e.4, e.5]).chain([0.0])), 0.1);
-            let mut chart = ChartBuilder::on(&top)
-                .caption(format!("slip events of the pair {first}/{second} (slip/1)"), ("sans-serif", 18))
-                .margin(12)
-                .x_label_area_size(30)
-                .y_label_area_size(70)
-                .build_cartesian_2d(x0..x1, y0..y1)?;
-            chart.configure_mesh().y_desc("speed (mm/s)").label_style(("sans-serif", 12)).draw()?;
+            let caption = format!("slip events of the pair {first}/{second} (slip/1)");
+            let mut chart = chart_on(&top, caption, Frame { x_area: 30, y_area: 70, ..PANEL }, x0..x1, y0..y1)?;
+            draw_axes(&mut chart, None, "speed (mm/s)", 12)?;
             for (k, (name, f)) in [("common L", 4usize), ("differential R", 5)].into_iter().enumerate() {
                 let c = series_colour(k);
                 chart
@@ -1691,21 +1715,11 @@ fn slip_plot(t: &Table) -> R<Prepared> {
                         },
                     ))?
                     .label(name)
-                    .legend(move |(x, y)| Circle::new((x + 7, y), 4, c.filled()));
+                    .legend(dot_key(c));
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK.mix(0.3))
-                .label_font(("sans-serif", 12))
-                .draw()?;
-            let mut strip = ChartBuilder::on(&bottom)
-                .caption("state from each decision on; dashed: onsets", ("sans-serif", 16))
-                .margin(12)
-                .x_label_area_size(36)
-                .y_label_area_size(70)
-                .build_cartesian_2d(x0..x1, 0.0..1.0)?;
+            draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.85, 12)?;
+            let frame = Frame { caption: 16, y_area: 70, ..PANEL };
+            let mut strip = chart_on(&bottom, "state from each decision on; dashed: onsets", frame, x0..x1, 0.0..1.0)?;
             strip
                 .configure_mesh()
                 .disable_mesh()
@@ -1715,18 +1729,15 @@ fn slip_plot(t: &Table) -> R<Prepared> {
                 .draw()?;
             let mut steps = vec![(x0, ev.first().map_or(SlipClass::Stable, |e| e.3))];
             steps.extend(ev.iter().map(|e| (e.0, e.2)));
-            for (i, &(a, c)) in steps.iter().enumerate() {
-                let b = steps.get(i + 1).map_or(x1, |s| s.0);
-                if b > a {
-                    strip.draw_series(std::iter::once(Rectangle::new(
-                        [(a, 0.15), (b, 0.85)],
-                        slip_colour(c).filled(),
-                    )))?;
-                }
+            for (a, b, c) in class_spans(&steps, x1) {
+                strip.draw_series(std::iter::once(Rectangle::new([(a, 0.15), (b, 0.85)], slip_colour(c).filled())))?;
             }
-            for e in ev.iter().filter(|e| e.2.is_slip()) {
-                strip.draw_series(DashedLineSeries::new(vec![(e.1, 0.0), (e.1, 1.0)], 4, 4, BLACK.stroke_width(1)))?;
-            }
+            draw_onsets(
+                &mut strip,
+                ev.iter().filter(|e| e.2.is_slip()).map(|e| e.1),
+                (0.0, 1.0),
+                BLACK.stroke_width(1),
+            )?;
             slip_legend(&mut strip)
         }),
     })
@@ -1772,24 +1783,12 @@ fn dos_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         sensors: groups.iter().map(|g| g.0.clone()).collect(),
         drawn,
         draw: Box::new(move |root| {
-            let label = |v: &f64| {
-                let i = v.round();
-                if (v - i).abs() > 1e-9 || i < 0.0 {
-                    return String::new();
-                }
-                classes.get(i as usize).cloned().unwrap_or_default()
-            };
+            let label = |v: &f64| row_index(*v).and_then(|i| classes.get(i as usize).cloned()).unwrap_or_default();
             for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
                 let (x0, x1) = padded(range_of(pts.iter().map(|p| p.0)), 0.02);
-                let mut chart = ChartBuilder::on(area)
-                    .caption(
-                        format!("{sensor}: {} decisions ({schema_id}); shade: posterior", pts.len()),
-                        ("sans-serif", 18),
-                    )
-                    .margin(12)
-                    .x_label_area_size(36)
-                    .y_label_area_size(50)
-                    .build_cartesian_2d(x0..x1, -0.5..(n as f64 - 0.5))?;
+                let caption = format!("{sensor}: {} decisions ({schema_id}); shade: posterior", pts.len());
+                let frame = Frame { y_area: 50, ..PANEL };
+                let mut chart = chart_on(area, caption, frame, x0..x1, -0.5..(n as f64 - 0.5))?;
                 chart
                     .configure_mesh()
                     .x_desc("decision time (s from the first row)")
@@ -1816,22 +1815,12 @@ fn draw_trajectory(
     layout: &Layout,
     (t0, t1): (f64, f64),
 ) -> R<()> {
-    let (w, h) = area.dim_in_pixel();
-    let (xr, yr) = equal_aspect(layout.extent(), w as f64 - 80.0, h as f64 - 90.0);
-    let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(44)
-        .build_cartesian_2d(xr, yr)?;
-    chart.configure_mesh().x_desc("x (mm)").y_desc("y (mm)").label_style(("sans-serif", 12)).draw()?;
-    draw_taxels(&mut chart, layout, true)?;
+    let (mut chart, bx, by) = plane_chart(area, title, layout)?;
     let mut labelled = false;
     for seg in segments(truth.iter().map(|p| (p.1, p.2)), bx, by) {
         let s = chart.draw_series(DashedLineSeries::new(seg, 6, 4, BLACK.stroke_width(2)))?;
         if !labelled {
-            s.label("truth").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], BLACK.stroke_width(2)));
+            s.label("truth").legend(line_key(BLACK.stroke_width(2)));
             labelled = true;
         }
     }
@@ -1847,14 +1836,8 @@ fn draw_trajectory(
             .map(|p| Circle::new(clamp_pt((p.1, p.2), bx, by), 3, viridis((p.0 - t0) / span).filled())),
     )?;
     if !truth.is_empty() {
-        s.label("track (colour: time)").legend(|(x, y)| Circle::new((x + 7, y), 4, viridis(0.5).filled()));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 12))
-            .draw()?;
+        s.label("track (colour: time)").legend(dot_key(viridis(0.5)));
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.85, 12)?;
     }
     Ok(())
 }
@@ -1951,21 +1934,15 @@ pub fn plot_slip_timeline(
     render(out, size, |root| {
         let (top, bottom) = root.split_vertically(440);
         let (y0, y1) = padded(range_of(tracks.iter().flat_map(|t| t.points.iter().flat_map(|p| [p.1, p.2]))), 0.05);
-        let mut chart = ChartBuilder::on(&top)
-            .caption("contact position per finger", ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(30)
-            .y_label_area_size(60)
-            .build_cartesian_2d(t0..t1, y0..y1)?;
-        chart.configure_mesh().y_desc("position (mm)").label_style(("sans-serif", 12)).draw()?;
+        let mut chart = chart_on(&top, "contact position per finger", Frame { x_area: 30, ..PANEL }, t0..t1, y0..y1)?;
+        draw_axes(&mut chart, None, "position (mm)", 12)?;
         for (i, tr) in tracks.iter().enumerate() {
             let c = series_colour(i);
             let mut first = true;
             for seg in segments(tr.points.iter().map(|p| (p.0, p.2)), (t0, t1), (y0, y1)) {
                 let s = chart.draw_series(std::iter::once(PathElement::new(seg, c.stroke_width(2))))?;
                 if first {
-                    s.label(format!("{} y", tr.sensor))
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c.stroke_width(2)));
+                    s.label(format!("{} y", tr.sensor)).legend(line_key(c.stroke_width(2)));
                     first = false;
                 }
             }
@@ -1973,30 +1950,17 @@ pub fn plot_slip_timeline(
             for seg in segments(tr.points.iter().map(|p| (p.0, p.1)), (t0, t1), (y0, y1)) {
                 let s = chart.draw_series(DashedLineSeries::new(seg, 5, 4, c.mix(0.6).stroke_width(1)))?;
                 if first {
-                    s.label(format!("{} x", tr.sensor))
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], c.mix(0.6).stroke_width(1)));
+                    s.label(format!("{} x", tr.sensor)).legend(line_key(c.mix(0.6).stroke_width(1)));
                     first = false;
                 }
             }
         }
-        for e in events.iter().filter(|e| e.class.is_slip()) {
-            let x = e.onset.as_secs_f64();
-            chart.draw_series(DashedLineSeries::new(vec![(x, y0), (x, y1)], 4, 4, BLACK.mix(0.6).stroke_width(1)))?;
-        }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 12))
-            .draw()?;
+        let onsets = || events.iter().filter(|e| e.class.is_slip()).map(|e| e.onset.as_secs_f64());
+        draw_onsets(&mut chart, onsets(), (y0, y1), BLACK.mix(0.6).stroke_width(1))?;
+        draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, 0.85, 12)?;
 
-        let mut strip = ChartBuilder::on(&bottom)
-            .caption("slip class: truth (top) and detected (bottom); dashed: detected onsets", ("sans-serif", 16))
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(60)
-            .build_cartesian_2d(t0..t1, 0.0..2.0)?;
+        let caption = "slip class: truth (top) and detected (bottom); dashed: detected onsets";
+        let mut strip = chart_on(&bottom, caption, Frame { caption: 16, ..PANEL }, t0..t1, 0.0..2.0)?;
         strip
             .configure_mesh()
             .disable_mesh()
@@ -2013,30 +1977,17 @@ pub fn plot_slip_timeline(
             })
             .label_style(("sans-serif", 12))
             .draw()?;
-        let steps = |pts: Vec<(f64, SlipClass)>| {
-            let mut out = Vec::new();
-            for (i, &(t, c)) in pts.iter().enumerate() {
-                let end = pts.get(i + 1).map_or(t1, |p| p.0);
-                if end > t {
-                    out.push((t, end, c));
-                }
-            }
-            out
-        };
         let mut truth_sorted = truth.to_vec();
         truth_sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
         let mut det = vec![(t0, events.first().map_or(SlipClass::Stable, |e| e.previous))];
         det.extend(events.iter().map(|e| (e.time.as_secs_f64(), e.class)));
-        for (band, pts) in [(1.0, steps(truth_sorted)), (0.0, steps(det))] {
+        for (band, pts) in [(1.0, class_spans(&truth_sorted, t1)), (0.0, class_spans(&det, t1))] {
             strip.draw_series(
                 pts.iter()
                     .map(|&(a, b, c)| Rectangle::new([(a, band + 0.1), (b, band + 0.9)], slip_colour(c).filled())),
             )?;
         }
-        for e in events.iter().filter(|e| e.class.is_slip()) {
-            let x = e.onset.as_secs_f64();
-            strip.draw_series(DashedLineSeries::new(vec![(x, 0.0), (x, 2.0)], 4, 4, BLACK.stroke_width(1)))?;
-        }
+        draw_onsets(&mut strip, onsets(), (0.0, 2.0), BLACK.stroke_width(1))?;
         slip_legend(&mut strip)
     })?;
     Ok(PlotSummary {
