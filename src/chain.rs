@@ -97,7 +97,7 @@ impl SensorChain {
                 (true, Some(cfg)) => Some(Force::try_new(cfg)?),
                 (true, None) => {
                     return Err(Error::Scene {
-                        path: scene.base_dir.clone(),
+                        path: scene.origin.clone(),
                         reason: "the force tap needs a calibrated model: [stages.force] model = { method = …, … } \
                                  (fit one from labelled data with ForceModel::fit, see the force stage docs)"
                             .into(),
@@ -117,7 +117,7 @@ impl SensorChain {
                 }
                 (true, None) => {
                     return Err(Error::Scene {
-                        path: scene.base_dir.clone(),
+                        path: scene.origin.clone(),
                         reason: "the dos tap needs [stages.dos] model = \"….json\" (write one with gradtac calibrate)"
                             .into(),
                     })

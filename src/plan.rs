@@ -152,6 +152,8 @@ impl Plan {
     /// Plan a scene: validate every stage setting that will be used (invalid configuration
     /// fails here, before anything is read) and decide what each sensor runs.
     pub fn new(scene: &Scene) -> Result<Plan, Error> {
+        // Before anything is read: no output may replace an input, another output or a non-file.
+        crate::guard::check_outputs(scene)?;
         let mut sensors = Vec::new();
         for (index, spec) in scene.sensors.iter().enumerate() {
             let layout = scene.layout(spec)?;
@@ -184,7 +186,7 @@ impl Plan {
             for name in [&c.first, &c.second] {
                 if !sensors.iter().any(|p| &p.name == name) {
                     return Err(Error::Scene {
-                        path: scene.base_dir.clone(),
+                        path: scene.origin.clone(),
                         reason: format!(
                             "a slip output needs the sensors [stages.slip] first = {:?} and second = {:?}; {name:?} is not declared",
                             c.first, c.second

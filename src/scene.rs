@@ -65,6 +65,10 @@ pub struct Scene {
     /// The TOML text the scene was parsed from (stored in output metadata).
     #[serde(skip)]
     pub text: String,
+    /// The scene file the scene was read from (empty when parsed from text without one);
+    /// named by planner errors and protected from being written over (see [`crate::guard`]).
+    #[serde(skip)]
+    pub origin: PathBuf,
 }
 
 /// One sensor of a scene.
@@ -351,6 +355,7 @@ impl Scene {
             .map_err(|e| Error::Scene { path: origin.to_path_buf(), reason: e.to_string().trim_end().to_string() })?;
         scene.base_dir = base_dir.into();
         scene.text = text.to_string();
+        scene.origin = origin.to_path_buf();
         scene.validate(origin)?;
         Ok(scene)
     }

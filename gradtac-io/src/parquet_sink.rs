@@ -136,6 +136,7 @@ impl<T: ArrowRecord> ParquetSink<T> {
         if path.is_dir() {
             return Err(Error::InvalidConfig(format!("output path {} is a directory", path.display())));
         }
+        check_replaceable(&partial)?;
         let file = File::create(&partial).map_err(|source| Error::Io { path: partial.clone(), source })?;
         let schema = T::schema(&shape);
         Ok(ParquetSink {
@@ -242,6 +243,7 @@ impl<T: ArrowRecord> ParquetSink<T> {
     /// `<path>.partial` to `<path>` and `fsync` the directory. Returns the final path.
     pub fn finish(mut self) -> Result<PathBuf> {
         self.close()?;
+        check_replaceable(&self.path)?;
         fs::rename(&self.partial, &self.path).map_err(|source| Error::Io { path: self.path.clone(), source })?;
         sync_parent(&self.path)?;
         Ok(self.path.clone())
@@ -332,6 +334,29 @@ pub(crate) fn set_pair(metadata: &mut Vec<(String, String)>, key: String, value:
     }
 }
 
+/// Refuse to replace (by rename or truncation) anything at `path` but a regular file or a
+/// symbolic link to one: a device (`/dev/null`), a FIFO, a socket or a directory is never
+/// replaced, whoever runs the program.
+pub fn check_replaceable(path: &Path) -> Result<()> {
+    let refuse = |what: &str| {
+        Err(Error::InvalidConfig(format!(
+            "{} exists and is {what}; refusing to replace it with an output file",
+            path.display()
+        )))
+    };
+    match fs::symlink_metadata(path) {
+        Err(_) => Ok(()),
+        Ok(m) if m.is_file() => Ok(()),
+        Ok(m) if m.file_type().is_symlink() => match fs::metadata(path) {
+            Ok(t) if t.is_file() => Ok(()),
+            Ok(_) => refuse("a symbolic link to something other than a regular file"),
+            Err(_) => refuse("a dangling symbolic link"),
+        },
+        Ok(m) if m.is_dir() => refuse("a directory"),
+        Ok(_) => refuse("not a regular file (a device, FIFO or socket)"),
+    }
+}
+
 /// `fsync` the directory holding `path`, so a rename in it is durable (Unix only).
 fn sync_parent(path: &Path) -> Result<()> {
     #[cfg(unix)]
@@ -404,6 +429,50 @@ mod tests {
         assert!(temp.exists() && !path.exists());
         assert_eq!(sink.finish().unwrap(), path);
         assert!(path.exists() && !temp.exists());
+    }
+
+    /// A FIFO made with `mkfifo` (None where the tool is missing).
+    fn fifo(path: &Path) -> Option<()> {
+        let ok = std::process::Command::new("mkfifo").arg(path).status().ok()?.success();
+        ok.then_some(())
+    }
+
+    #[test]
+    fn finish_never_renames_over_a_fifo_a_directory_or_a_link_to_a_device() {
+        let dir = tempfile::tempdir().unwrap();
+        let shape = FrameShape::unnamed(1).unwrap();
+        let frame = TaxelFrame::new(SensorId::new("ff"), Timestamp(0), 0, vec![1.0]);
+        // the target turns into something else while the run writes its .partial
+        let mut targets: Vec<(PathBuf, &str)> = Vec::new();
+        let d = dir.path().join("is-a-dir.parquet");
+        targets.push((d, "a directory"));
+        let f = dir.path().join("fifo.parquet");
+        if fifo(&f).is_some() {
+            targets.push((f, "not a regular file"));
+        }
+        #[cfg(unix)]
+        {
+            let l = dir.path().join("null.parquet");
+            std::os::unix::fs::symlink("/dev/null", &l).unwrap();
+            targets.push((l, "symbolic link to something other than a regular file"));
+        }
+        for (path, expect) in targets {
+            let mut sink = ParquetSink::<TaxelFrame>::try_new(&path, shape.clone()).unwrap();
+            sink.push(&frame).unwrap();
+            if expect == "a directory" {
+                fs::create_dir(&path).unwrap();
+            }
+            let e = sink.finish().unwrap_err().to_string();
+            assert!(e.contains(expect) && e.contains("refusing to replace"), "{e}");
+            let m = fs::symlink_metadata(&path).unwrap();
+            assert!(!m.is_file(), "{} was replaced", path.display());
+        }
+        // a FIFO where the temporary file goes is not opened (that would block) nor replaced
+        let p = dir.path().join("t.parquet");
+        if fifo(&partial_path(&p).unwrap()).is_some() {
+            let e = ParquetSink::<TaxelFrame>::try_new(&p, shape).unwrap_err().to_string();
+            assert!(e.contains("refusing to replace"), "{e}");
+        }
     }
 
     #[test]
