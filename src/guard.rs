@@ -72,7 +72,7 @@ pub fn resolve(p: &Path) -> PathBuf {
     if let Ok(c) = fs::canonicalize(&abs) {
         return c;
     }
-    let comps: Vec<Component> = abs.components().collect();
+    let comps: Vec<Component<'_>> = abs.components().collect();
     for split in (0..comps.len()).rev() {
         let head: PathBuf = comps[..split].iter().collect();
         let Ok(mut base) = fs::canonicalize(&head) else { continue };
