@@ -95,10 +95,15 @@ fn main() -> ExitCode {
     match execute(cli.command) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("gradtac: error: {e}");
+            let top = e.to_string();
+            eprintln!("gradtac: error: {top}");
             let mut src = std::error::Error::source(&e);
             while let Some(s) = src {
-                eprintln!("  caused by: {s}");
+                // say it once: a cause the message already quotes is not repeated
+                let cause = s.to_string();
+                if !top.contains(&cause) {
+                    eprintln!("  caused by: {cause}");
+                }
                 src = s.source();
             }
             ExitCode::FAILURE

@@ -156,7 +156,14 @@ impl Plan {
         crate::guard::check_outputs(scene)?;
         let mut sensors = Vec::new();
         for (index, spec) in scene.sensors.iter().enumerate() {
-            let layout = scene.layout(spec)?;
+            // errors name the scene file and the sensor
+            let at = |e: Error| match e {
+                Error::Scene { .. } => e,
+                other => {
+                    Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {other}", spec.name) }
+                }
+            };
+            let layout = scene.layout(spec).map_err(at)?;
             let slip_pair = [&scene.stages.slip.first, &scene.stages.slip.second];
             let outputs: Vec<usize> = scene
                 .outputs
@@ -178,7 +185,7 @@ impl Plan {
             needed.dedup();
             let plan = SensorPlan { index, name: spec.name.clone(), layout, needed, outputs };
             // Construct each stage once now, so a bad setting is reported before any data moves.
-            SensorChain::build(scene, &plan)?;
+            SensorChain::build(scene, &plan).map_err(at)?;
             sensors.push(plan);
         }
         if scene.outputs.iter().any(|o| o.tap == Tap::Slip.name()) {

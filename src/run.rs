@@ -234,16 +234,19 @@ struct OpenBus {
 /// Open one CAN bus as a stream of the frames of every sensor it carries.
 fn open_bus(scene: &Scene, bus: &BusSpec) -> Result<(FrameStream, OpenBus), Error> {
     let err = |e: gradtac_io::Error| gradtac_stream::Error::from(e);
+    // an error opening the bus names the scene file and the bus
+    let at =
+        |e: gradtac_io::Error| Error::Scene { path: scene.origin.clone(), reason: format!("bus {:?}: {e}", bus.name) };
     let (stream, stats): (FrameStream, StatsHandle) = match &bus.source {
         BusSource::Candump(cfg) => {
             let cfg = CandumpConfig { path: scene.resolve(&cfg.path), ..cfg.clone() };
-            let s = gradtac_io::can::candump::replay(&cfg)?;
+            let s = gradtac_io::can::candump::replay(&cfg).map_err(at)?;
             let h = s.stats_handle();
             (Box::pin(s.map(move |r| r.map_err(err))), h)
         }
         #[cfg(target_os = "linux")]
         BusSource::Live(cfg) => {
-            let s = gradtac_io::can::socketcan::open(cfg)?;
+            let s = gradtac_io::can::socketcan::open(cfg).map_err(at)?;
             let h = s.stats_handle();
             (Box::pin(s.map(move |r| r.map_err(err))), h)
         }

@@ -21,7 +21,9 @@
 //! Records are buffered in Arrow builders and handed to [`ArrowWriter`] every
 //! `min(row_group_size, 8192)` rows; the writer keeps the current row group encoded and
 //! compressed in memory until it holds `row_group_size` rows. Memory is bounded by one row
-//! group, whatever the length of the stream.
+//! group, whatever the length of the stream — and for wide records (surfaces) by
+//! [`MAX_BATCH_BYTES`] of buffered records and [`MAX_ROW_GROUP_BYTES`] of row group, whatever
+//! `row_group_size` says (a row group is closed early when it reaches that size).
 //!
 //! # Metadata
 //! The file's key-value metadata holds `gradtac.version` (this crate's version),
@@ -69,6 +71,26 @@ pub const DEFAULT_ZSTD_LEVEL: i32 = 3;
 pub const PARTIAL_SUFFIX: &str = ".partial";
 /// Largest batch handed to the Parquet writer at once.
 const MAX_BATCH_ROWS: usize = 8192;
+/// Most bytes of records buffered in the Arrow builder (estimated from the schema's fixed
+/// widths): wide records (surfaces of 1024² points are 8 MiB each) go to the writer in
+/// smaller batches, so the buffer never holds 8192 of them.
+pub const MAX_BATCH_BYTES: usize = 32 << 20;
+/// Most bytes of a row group the Parquet writer may hold in memory before it is closed,
+/// whatever `row_group_size` says: memory stays bounded for wide records.
+pub const MAX_ROW_GROUP_BYTES: usize = 128 << 20;
+
+/// Bytes one row of `schema` takes at least (fixed-width columns; 16 per string or list).
+fn row_bytes(schema: &arrow_schema::Schema) -> usize {
+    use arrow_schema::DataType;
+    fn width(dt: &DataType) -> usize {
+        match dt {
+            DataType::FixedSizeList(f, n) => (*n).max(0) as usize * width(f.data_type()),
+            DataType::Struct(fs) => fs.iter().map(|f| width(f.data_type())).sum(),
+            other => other.primitive_width().unwrap_or(16),
+        }
+    }
+    schema.fields().iter().map(|f| width(f.data_type())).sum::<usize>().max(1)
+}
 
 /// Writes records of type `T` to a Parquet file (see the [module documentation](self)).
 #[must_use = "a sink writes nothing final until `finish` is called"]
@@ -80,6 +102,8 @@ pub struct ParquetSink<T: ArrowRecord> {
     builder: T::Builder,
     schema: SchemaRef,
     row_group_size: usize,
+    /// Rows per batch handed to the writer: `MAX_BATCH_ROWS`, fewer for wide records.
+    batch_rows: usize,
     zstd_level: i32,
     metadata: Vec<(String, String)>,
     rows: u64,
@@ -139,8 +163,10 @@ impl<T: ArrowRecord> ParquetSink<T> {
         check_replaceable(&partial)?;
         let file = File::create(&partial).map_err(|source| Error::Io { path: partial.clone(), source })?;
         let schema = T::schema(&shape);
+        let batch_rows = (MAX_BATCH_BYTES / row_bytes(&schema)).clamp(1, MAX_BATCH_ROWS);
         Ok(ParquetSink {
-            builder: T::builder(&shape, MAX_BATCH_ROWS.min(DEFAULT_ROW_GROUP_SIZE)),
+            batch_rows,
+            builder: T::builder(&shape, MAX_BATCH_ROWS.min(DEFAULT_ROW_GROUP_SIZE).min(batch_rows)),
             path,
             partial,
             file: Some(file),
@@ -233,8 +259,14 @@ impl<T: ArrowRecord> ParquetSink<T> {
         self.check_usable()?;
         self.builder.append(record)?;
         self.rows += 1;
-        if self.builder.len() >= self.row_group_size.min(MAX_BATCH_ROWS) {
+        if self.builder.len() >= self.row_group_size.min(self.batch_rows) {
             self.flush_batch()?;
+            if let Some(w) = self.writer.as_mut().filter(|w| w.in_progress_size() > MAX_ROW_GROUP_BYTES) {
+                let context = self.partial.display().to_string();
+                let flushed = w.flush().map_err(|e| arrow_error(context, e));
+                self.failed |= flushed.is_err();
+                flushed?;
+            }
         }
         Ok(())
     }
@@ -473,6 +505,23 @@ mod tests {
             let e = ParquetSink::<TaxelFrame>::try_new(&p, shape).unwrap_err().to_string();
             assert!(e.contains("refusing to replace"), "{e}");
         }
+    }
+
+    #[test]
+    fn wide_records_are_batched_by_bytes() {
+        use arrow_schema::{DataType, Field, Schema};
+        let wide = Schema::new(vec![
+            Field::new("t", DataType::Int64, false),
+            Field::new(
+                "v",
+                DataType::FixedSizeList(Field::new("item", DataType::Float64, false).into(), 1 << 20),
+                false,
+            ),
+        ]);
+        assert_eq!(row_bytes(&wide), 8 + 8 * (1 << 20));
+        assert_eq!((MAX_BATCH_BYTES / row_bytes(&wide)).clamp(1, MAX_BATCH_ROWS), 3);
+        let narrow = Schema::new(vec![Field::new("t", DataType::Int64, false)]);
+        assert_eq!((MAX_BATCH_BYTES / row_bytes(&narrow)).clamp(1, MAX_BATCH_ROWS), MAX_BATCH_ROWS);
     }
 
     #[test]
