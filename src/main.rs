@@ -96,13 +96,14 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) => {
             let top = e.to_string();
-            eprintln!("gradtac: error: {top}");
+            // a last guard: whatever an error quotes from an input, the line stays readable
+            eprintln!("gradtac: error: {}", gradtac::io::excerpt(&top, 4000));
             let mut src = std::error::Error::source(&e);
             while let Some(s) = src {
                 // say it once: a cause the message already quotes is not repeated
                 let cause = s.to_string();
                 if !top.contains(&cause) {
-                    eprintln!("  caused by: {cause}");
+                    eprintln!("  caused by: {}", gradtac::io::excerpt(&cause, 4000));
                 }
                 src = s.source();
             }

@@ -254,6 +254,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => c.validate().map_err(|e| e.to_string()),
             SourceSpec::Npy(c) => match (c.rate_hz, &c.timestamps) {
                 (Some(_), Some(_)) => Err("give rate_hz or timestamps, not both".into()),
+                (Some(r), None) => gradtac_stream::Timestamp::check_rate_hz(r),
                 (None, None) => Err("give rate_hz (Hz) or timestamps (a 1-D .npy)".into()),
                 _ => Ok(()),
             },
