@@ -234,3 +234,55 @@ pub fn check_outputs(scene: &Scene) -> Result<(), Error> {
     }
     Ok(())
 }
+
+/// For the commands that write one file (`gradtac plot --out`, `gradtac calibrate --out`):
+/// refuse `out` when it resolves to one of `inputs` (a file, or any file inside an input
+/// directory) or exists and is not a regular file. Call it before reading anything.
+pub fn check_output_file(out: &Path, inputs: &[(&str, &Path)]) -> Result<(), Error> {
+    let bad = |reason: String| Error::Scene { path: out.to_path_buf(), reason };
+    must_be_file_if_present("the output", out).map_err(bad)?;
+    let o = Named::new("the output".into(), out.to_path_buf());
+    for (what, p) in inputs {
+        let i = Named::new(what.to_string(), p.to_path_buf());
+        let inside = fs::metadata(p).is_ok_and(|m| m.is_dir()) && o.key.starts_with(&i.key);
+        if o.same_file(&i) || inside {
+            return Err(bad(format!(
+                "the output would {} {what} ({}); refusing to replace an input",
+                if inside { "be written inside" } else { "replace" },
+                p.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paths_that_do_not_exist_resolve_through_their_nearest_existing_ancestor() {
+        let dir = tempfile::tempdir().unwrap();
+        let base = fs::canonicalize(dir.path()).unwrap();
+        fs::create_dir(dir.path().join("a")).unwrap();
+        assert_eq!(resolve(&dir.path().join("a/./b/../c.parquet")), base.join("a/c.parquet"));
+        assert_eq!(resolve(&dir.path().join("x/y/../z")), base.join("x/z"));
+        assert_eq!(resolve(&dir.path().join("a/../a")), base.join("a"));
+    }
+
+    #[test]
+    fn a_single_output_file_may_not_replace_or_enter_an_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.parquet");
+        fs::write(&input, "x").unwrap();
+        let e = check_output_file(&input, &[("the plotted input", &input)]).unwrap_err().to_string();
+        assert!(e.contains("would replace the plotted input"), "{e}");
+        let data = dir.path().join("data");
+        fs::create_dir(&data).unwrap();
+        let e = check_output_file(&data.join("m.json"), &[("the data directory", &data)]).unwrap_err().to_string();
+        assert!(e.contains("inside the data directory"), "{e}");
+        let e = check_output_file(&data, &[]).unwrap_err().to_string();
+        assert!(e.contains("is a directory"), "{e}");
+        assert!(check_output_file(&dir.path().join("in.png"), &[("the plotted input", &input)]).is_ok());
+    }
+}

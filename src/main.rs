@@ -148,6 +148,9 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 student_t_dof: (!gaussian).then_some(student_t),
                 ..Default::default()
             };
+            let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];
+            reads.extend(settings.as_deref().map(|s| ("the settings file", s)));
+            gradtac::guard::check_output_file(&out, &reads)?;
             if let Some(path) = settings {
                 opts = opts.with_settings_file(&path)?;
             }
@@ -171,6 +174,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
         }
         Command::Plot { input, out } => {
             let out = out.unwrap_or_else(|| default_png(&input));
+            gradtac::guard::check_output_file(&out, &[("the plotted input", &input)])?;
             let summary = gradtac::plot::plot_parquet(&input, &out)?;
             print!("{summary}");
             println!("wrote {}", out.display());

@@ -206,6 +206,26 @@ fn outputs_over_devices_fifos_and_directories_are_refused() {
     assert_ne!(fs::read(dir.path().join("o.parquet")).unwrap(), b"old");
 }
 
+/// `gradtac plot --out` and `gradtac calibrate --out` write one file each: not over what they read.
+#[test]
+fn plot_and_calibrate_do_not_write_over_their_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    csv(dir.path(), "rec.csv", 30);
+    assert!(run(&scene(dir.path(), "", &output("o.parquet"))).status.success());
+    let o = dir.path().join("o.parquet");
+    let before = fs::read(&o).unwrap();
+    let e = failed(&gradtac(&["plot".as_ref(), o.as_os_str(), "--out".as_ref(), o.as_os_str()]));
+    assert!(e.contains("would replace the plotted input"), "{e}");
+    assert_eq!(fs::read(&o).unwrap(), before);
+    let data = dir.path().join("data");
+    fs::create_dir_all(data.join("n")).unwrap();
+    let m = data.join("n/rec.csv");
+    fs::copy(dir.path().join("rec.csv"), &m).unwrap();
+    let e = failed(&gradtac(&["calibrate".as_ref(), data.as_os_str(), "--out".as_ref(), m.as_os_str()]));
+    assert!(e.contains("inside the data directory"), "{e}");
+    assert_eq!(fs::read(&m).unwrap(), fs::read(dir.path().join("rec.csv")).unwrap());
+}
+
 // ---- 2, 3. geometry and sizes are bounded -------------------------------------------------
 
 /// A grid extent or `margin_mm` around 1e160 panicked inside spade, even in `explain`.
