@@ -87,22 +87,6 @@ impl From<Error> for gradtac_stream::Error {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_megabyte_cell_gives_a_short_error_line() {
-        assert_eq!(excerpt("short", 80), "short");
-        let cell = "x".repeat(1 << 20);
-        let cut = excerpt(&cell, 80);
-        assert!(cut.ends_with("… (1048576 bytes)") && cut.len() < 120, "{cut}");
-        assert_eq!(excerpt("ééé", 2), "éé… (6 bytes)");
-        let e = Error::Parse { path: "a.csv".into(), line: 3, column: Some(cell.clone()), reason: cell };
-        assert!(e.to_string().len() < 600, "{}", e.to_string().len());
-    }
-}
-
 /// Longest error reason printed whole (characters); longer ones are cut by [`excerpt`].
 pub const MAX_REASON_CHARS: usize = 400;
 
@@ -119,3 +103,19 @@ pub fn excerpt(text: &str, max: usize) -> String {
 
 /// `Result` with [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_megabyte_cell_gives_a_short_error_line() {
+        assert_eq!(excerpt("short", 80), "short");
+        let cell = "x".repeat(1 << 20);
+        let cut = excerpt(&cell, 80);
+        assert!(cut.ends_with("… (1048576 bytes)") && cut.len() < 120, "{cut}");
+        assert_eq!(excerpt("ééé", 2), "éé… (6 bytes)");
+        let e = Error::Parse { path: "a.csv".into(), line: 3, column: Some(cell.clone()), reason: cell };
+        assert!(e.to_string().len() < 600, "{}", e.to_string().len());
+    }
+}
