@@ -191,17 +191,7 @@ impl Normalise {
 
     fn check(&self, f: &TaxelFrame) -> Result<()> {
         crate::error::check_taxel_count(STAGE, &f.sensor, f.seq, self.taxels, f.values.len())?;
-        if let Some(i) = f.values.iter().position(|v| !v.is_finite()) {
-            return Err(Error::BadValue {
-                stage: STAGE,
-                sensor: f.sensor.to_string(),
-                seq: f.seq,
-                taxel: i,
-                value: f.values[i],
-                reason: "not a finite number",
-            });
-        }
-        Ok(())
+        crate::error::check_finite(STAGE, f)
     }
 
     fn widen(&mut self, values: &[f64]) {

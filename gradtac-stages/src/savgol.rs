@@ -701,18 +701,9 @@ impl Stage for SavGol {
 
     fn push(&mut self, frame: TaxelFrame, out: &mut Vec<TaxelFrame>) -> Result<()> {
         crate::error::check_taxel_count(STAGE, &frame.sensor, frame.seq, self.taxels, frame.values.len())?;
-        if let Some(t) = frame.values.iter().position(|v| !v.is_finite()) {
-            // refused here, at its input frame: passed on, it would spoil `window` outputs and
-            // surface later at a delayed frame (`half` frames earlier in centred mode)
-            return Err(Error::BadValue {
-                stage: STAGE,
-                sensor: frame.sensor.to_string(),
-                seq: frame.seq,
-                taxel: t,
-                value: frame.values[t],
-                reason: "not a finite number",
-            });
-        }
+        // refused here, at its input frame: passed on, it would spoil `window` outputs and
+        // surface later at a delayed frame (`half` frames earlier in centred mode)
+        crate::error::check_finite(STAGE, &frame)?;
         if self.is_gap(&frame) {
             self.flush(out)?;
         }
