@@ -226,6 +226,19 @@ fn plot_and_calibrate_do_not_write_over_their_inputs() {
     assert_eq!(fs::read(&m).unwrap(), fs::read(dir.path().join("rec.csv")).unwrap());
 }
 
+/// `gradtac demo --dir DIR` writes `recording.csv`, `truth.csv` and `scene.toml`: not over a
+/// user's files of those names.
+#[test]
+fn the_demo_does_not_write_over_a_users_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let mine = csv(dir.path(), "recording.csv", 10);
+    let before = fs::read(&mine).unwrap();
+    let e = failed(&gradtac(&["demo".as_ref(), "-q".as_ref(), "--dir".as_ref(), dir.path().as_os_str()]));
+    assert!(e.contains("recording.csv") && e.contains("not from an earlier demo"), "{e}");
+    assert_eq!(fs::read(&mine).unwrap(), before);
+    assert_eq!(listing(dir.path()), ["recording.csv"]);
+}
+
 // ---- 2, 3. geometry and sizes are bounded -------------------------------------------------
 
 /// A grid extent or `margin_mm` around 1e160 panicked inside spade, even in `explain`.
