@@ -60,6 +60,12 @@
 //! the tests compare with scipy there and with exact rational weights everywhere
 //! (`tests/reference/gen_savgol.py`).
 //!
+//! # Non-finite input and overflow
+//! A NaN or ±inf value is refused with [`Error::BadValue`] naming the **input** frame and
+//! taxel (passed on, it would spoil `window` outputs and surface at a delayed frame). So is a
+//! finite input whose fit overflows f64 (e.g. a second derivative at 1 MHz of a 1e300 spike):
+//! the error names the input frame of largest magnitude in the window, not the output frame.
+//!
 //! # Streams, gaps and short segments
 //! A *segment* is a run of frames without a discontinuity. With [`GapPolicy::Reset`] (the
 //! default) a discontinuity is: a frame whose `seq` is not the previous `seq + 1` (dropped
@@ -923,6 +929,25 @@ mod tests {
                 }
                 other => panic!("{mode:?}: {other:?}; outputs finite: {}", out.iter().all(|f| f.values[1].is_finite())),
             }
+        }
+    }
+
+    /// A finite input whose fit overflows f64 (a second derivative at 1 MHz of a 1e300 spike)
+    /// is reported at that input frame, not at the delayed output frame.
+    #[test]
+    fn a_fit_that_overflows_names_the_input_frame() {
+        for mode in [SavGolMode::Centred, SavGolMode::Causal] {
+            let cfg = SavGolConfig { mode, deriv: 2, delta: Some(1e-6), ..Default::default() };
+            let mut sg = SavGol::try_new(1, cfg).unwrap();
+            let mut out = Vec::new();
+            let e = (0..80u64)
+                .find_map(|k| {
+                    let x = if k == 48 { 1e300 } else { k as f64 };
+                    sg.push(TaxelFrame::new("ff".into(), Timestamp(k as i64), k, vec![x]), &mut out).err()
+                })
+                .unwrap_or_else(|| panic!("{mode:?}: no error"));
+            assert!(matches!(e, Error::BadValue { seq: 48, taxel: 0, value: 1e300, .. }), "{mode:?}: {e}");
+            assert!(e.to_string().contains("overflows"), "{e}");
         }
     }
 
