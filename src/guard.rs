@@ -256,6 +256,30 @@ pub fn check_output_file(out: &Path, inputs: &[(&str, &Path)]) -> Result<(), Err
     Ok(())
 }
 
+/// Largest scene file read (bytes): 16 MiB.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+/// Largest model file read (bytes): 64 MiB.
+pub const MAX_MODEL_BYTES: u64 = 64 << 20;
+
+/// Read a text file of at most `max` bytes: a larger (or endless, `/dev/zero`) input fails
+/// after reading `max + 1` bytes instead of growing memory without bound.
+pub fn read_text_capped(path: &Path, max: u64) -> Result<String, Error> {
+    use std::io::Read as _;
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let mut bytes = Vec::new();
+    fs::File::open(path).map_err(io)?.take(max + 1).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > max {
+        let reason = format!("larger than {max} bytes; refusing to read it whole");
+        return Err(Error::Scene { path: path.to_path_buf(), reason });
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        ))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -284,5 +308,17 @@ mod tests {
         let e = check_output_file(&data, &[]).unwrap_err().to_string();
         assert!(e.contains("is a directory"), "{e}");
         assert!(check_output_file(&dir.path().join("in.png"), &[("the plotted input", &input)]).is_ok());
+    }
+
+    #[test]
+    fn text_reads_are_capped() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.toml");
+        fs::write(&p, "x".repeat(11)).unwrap();
+        assert_eq!(read_text_capped(&p, 11).unwrap().len(), 11);
+        assert!(read_text_capped(&p, 10).unwrap_err().to_string().contains("larger than 10 bytes"));
+        if Path::new("/dev/zero").exists() {
+            assert!(read_text_capped(Path::new("/dev/zero"), 1 << 20).is_err());
+        }
     }
 }

@@ -363,7 +363,7 @@ impl Scene {
 
     /// Read and parse a scene file.
     pub fn load(path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let text = crate::guard::read_text_capped(path, crate::guard::MAX_SCENE_BYTES)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Self::from_toml(&text, base, path)
     }

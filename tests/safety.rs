@@ -331,6 +331,15 @@ fn an_endless_or_huge_line_stops_at_the_cap_with_a_short_error() {
     assert!(e.contains("rec.csv:1: line 1 is longer than") && e.len() < 1000, "{e}");
 }
 
+/// A scene (or model) file is read whole: `gradtac run /dev/zero` stops at 16 MiB.
+#[test]
+fn an_endless_scene_file_is_refused() {
+    if Path::new("/dev/zero").exists() {
+        let e = failed(&gradtac(&["explain".as_ref(), "/dev/zero".as_ref()]));
+        assert!(e.contains("/dev/zero: larger than 16777216 bytes"), "{e}");
+    }
+}
+
 /// `rate_hz = 1e-9` stamped every frame from the 10th on with `i64::MAX` ns and exited 0.
 #[test]
 fn a_rate_whose_times_overflow_is_refused() {
