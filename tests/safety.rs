@@ -402,6 +402,10 @@ fn bus_errors_name_the_scene_and_the_bus_once() {
     let e = failed(&run(&sc));
     assert!(e.contains("scene.toml: bus \"hand\": ") && e.contains("missing.log"), "{e}");
     assert_eq!(e.matches("No such file").count(), 1, "said twice: {e}");
+    // a malformed line of the log: file, line and bus
+    fs::write(dir.path().join("missing.log"), "(1.0) can0 10X#00\n").unwrap();
+    let e = failed(&run(&sc));
+    assert!(e.contains("missing.log:1: bus \"hand\": "), "{e}");
     fs::write(&sc, text.replace("codec = {", "bogus = 1\ncodec = {")).unwrap();
     let e = failed(&run(&sc));
     assert!(e.contains("scene.toml") && e.contains("bus \"hand\"") && e.contains("bogus"), "{e}");
