@@ -53,7 +53,7 @@ impl CalibrateOptions {
     /// `[stages.dos.features]` table of a model, e.g. `drift_lags = [30, 60, 120]`,
     /// `features = ["drift_level", …]`); fields it omits keep their defaults. Validated.
     pub fn with_settings_file(mut self, path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let text = crate::guard::read_text_capped(path, crate::guard::MAX_SCENE_BYTES)?;
         let features: DosFeatureConfig = toml::from_str(&text)
             .map_err(|e| Error::Scene { path: path.to_path_buf(), reason: format!("not dos feature settings: {e}") })?;
         features.validate().map_err(|e| Error::Scene { path: path.to_path_buf(), reason: e.to_string() })?;
@@ -143,7 +143,7 @@ pub fn calibrate_dos(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> Re
 
 /// Read a model file written by [`write_model`] (JSON), validated.
 pub fn read_model(path: &Path) -> Result<DosModel, Error> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let text = crate::guard::read_text_capped(path, crate::guard::MAX_MODEL_BYTES)?;
     let model: DosModel = serde_json::from_str(&text)
         .map_err(|e| Error::Scene { path: path.to_path_buf(), reason: format!("not a dos model: {e}") })?;
     model.validate()?;

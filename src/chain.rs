@@ -45,6 +45,9 @@ pub struct SensorChain {
     commands: Vec<ServoCommand>,
     decisions: Vec<DosDecision>,
     frames_in: u64,
+    /// The last frame's time, and how many frames had the time of the frame before them.
+    last_time: Option<gradtac_stream::Timestamp>,
+    same_time: u64,
 }
 
 /// Number of taps.
@@ -97,7 +100,7 @@ impl SensorChain {
                 (true, Some(cfg)) => Some(Force::try_new(cfg)?),
                 (true, None) => {
                     return Err(Error::Scene {
-                        path: scene.base_dir.clone(),
+                        path: scene.origin.clone(),
                         reason: "the force tap needs a calibrated model: [stages.force] model = { method = …, … } \
                                  (fit one from labelled data with ForceModel::fit, see the force stage docs)"
                             .into(),
@@ -117,7 +120,7 @@ impl SensorChain {
                 }
                 (true, None) => {
                     return Err(Error::Scene {
-                        path: scene.base_dir.clone(),
+                        path: scene.origin.clone(),
                         reason: "the dos tap needs [stages.dos] model = \"….json\" (write one with gradtac calibrate)"
                             .into(),
                     })
@@ -135,6 +138,8 @@ impl SensorChain {
             commands: Vec::new(),
             decisions: Vec::new(),
             frames_in: 0,
+            last_time: None,
+            same_time: 0,
         })
     }
 
@@ -258,8 +263,20 @@ impl SensorChain {
     /// Push one frame (or, with `finish`, flush) through every built stage, writing each
     /// stage's outputs to the outputs that tap it.
     pub fn process(&mut self, frame: Option<TaxelFrame>, finish: bool, sinks: &mut Sinks) -> Result<(), Error> {
-        if frame.is_some() {
+        if let Some(f) = &frame {
             self.frames_in += 1;
+            self.same_time += u64::from(self.last_time == Some(f.time));
+            self.last_time = Some(f.time);
+        }
+        if finish && self.same_time > 0 {
+            // once per sensor, at the end, with the count (see docs/safety.md)
+            tracing::warn!(
+                sensor = %self.sensor,
+                frames = self.same_time,
+                "frames share their timestamp with the frame before them (duplicated rows?); each is \
+                 processed as a sample of its own, which multiplies events and weighs those instants more"
+            );
+            self.same_time = 0;
         }
         self.points.clear();
         self.raw.extend(frame);

@@ -157,6 +157,23 @@ pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
         move |source| Error::Io { path, source }
     };
     std::fs::create_dir_all(dir).map_err(io(dir))?;
+    // the demo writes recording.csv, truth.csv and scene.toml: only into a fresh directory or
+    // over an earlier demo's files, never over a user's files of those names
+    let earlier_demo = std::fs::read_to_string(dir.join("scene.toml")).is_ok_and(|t| t == DEMO_SCENE);
+    if !earlier_demo {
+        for name in ["scene.toml", "recording.csv", "truth.csv"] {
+            let p = dir.join(name);
+            if std::fs::symlink_metadata(&p).is_ok() {
+                return Err(Error::Io {
+                    path: p,
+                    source: std::io::Error::new(
+                        std::io::ErrorKind::AlreadyExists,
+                        "exists and is not from an earlier demo; the demo will not replace it (choose another --dir)",
+                    ),
+                });
+            }
+        }
+    }
     let rec = simulate(7)?;
     let (recording, truth) = (dir.join("recording.csv"), dir.join("truth.csv"));
     rec.write_csv(&recording, &truth).map_err(io(&recording))?;

@@ -29,6 +29,7 @@ pub mod calibrate;
 pub mod chain;
 pub mod demo;
 mod error;
+pub mod guard;
 pub mod plan;
 pub mod plot;
 pub mod run;

@@ -89,15 +89,22 @@ fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("GRADTAC_LOG").unwrap_or_else(|_| "warn".into()))
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     let cli = Cli::parse();
     match execute(cli.command) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("gradtac: error: {e}");
+            let top = e.to_string();
+            // a last guard: whatever an error quotes from an input, the line stays readable
+            eprintln!("gradtac: error: {}", gradtac::io::excerpt(&top, 4000));
             let mut src = std::error::Error::source(&e);
             while let Some(s) = src {
-                eprintln!("  caused by: {s}");
+                // say it once: a cause the message already quotes is not repeated
+                let cause = s.to_string();
+                if !top.contains(&cause) {
+                    eprintln!("  caused by: {}", gradtac::io::excerpt(&cause, 4000));
+                }
                 src = s.source();
             }
             ExitCode::FAILURE
@@ -141,6 +148,9 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 student_t_dof: (!gaussian).then_some(student_t),
                 ..Default::default()
             };
+            let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];
+            reads.extend(settings.as_deref().map(|s| ("the settings file", s)));
+            gradtac::guard::check_output_file(&out, &reads)?;
             if let Some(path) = settings {
                 opts = opts.with_settings_file(&path)?;
             }
@@ -164,6 +174,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
         }
         Command::Plot { input, out } => {
             let out = out.unwrap_or_else(|| default_png(&input));
+            gradtac::guard::check_output_file(&out, &[("the plotted input", &input)])?;
             let summary = gradtac::plot::plot_parquet(&input, &out)?;
             print!("{summary}");
             println!("wrote {}", out.display());

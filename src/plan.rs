@@ -152,9 +152,18 @@ impl Plan {
     /// Plan a scene: validate every stage setting that will be used (invalid configuration
     /// fails here, before anything is read) and decide what each sensor runs.
     pub fn new(scene: &Scene) -> Result<Plan, Error> {
+        // Before anything is read: no output may replace an input, another output or a non-file.
+        crate::guard::check_outputs(scene)?;
         let mut sensors = Vec::new();
         for (index, spec) in scene.sensors.iter().enumerate() {
-            let layout = scene.layout(spec)?;
+            // errors name the scene file and the sensor
+            let at = |e: Error| match e {
+                Error::Scene { .. } => e,
+                other => {
+                    Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {other}", spec.name) }
+                }
+            };
+            let layout = scene.layout(spec).map_err(at)?;
             let slip_pair = [&scene.stages.slip.first, &scene.stages.slip.second];
             let outputs: Vec<usize> = scene
                 .outputs
@@ -176,7 +185,7 @@ impl Plan {
             needed.dedup();
             let plan = SensorPlan { index, name: spec.name.clone(), layout, needed, outputs };
             // Construct each stage once now, so a bad setting is reported before any data moves.
-            SensorChain::build(scene, &plan)?;
+            SensorChain::build(scene, &plan).map_err(at)?;
             sensors.push(plan);
         }
         if scene.outputs.iter().any(|o| o.tap == Tap::Slip.name()) {
@@ -184,7 +193,7 @@ impl Plan {
             for name in [&c.first, &c.second] {
                 if !sensors.iter().any(|p| &p.name == name) {
                     return Err(Error::Scene {
-                        path: scene.base_dir.clone(),
+                        path: scene.origin.clone(),
                         reason: format!(
                             "a slip output needs the sensors [stages.slip] first = {:?} and second = {:?}; {name:?} is not declared",
                             c.first, c.second

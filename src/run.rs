@@ -233,19 +233,31 @@ struct OpenBus {
 
 /// Open one CAN bus as a stream of the frames of every sensor it carries.
 fn open_bus(scene: &Scene, bus: &BusSpec) -> Result<(FrameStream, OpenBus), Error> {
-    let err = |e: gradtac_io::Error| gradtac_stream::Error::from(e);
+    // a malformed line of the log names the bus besides its file and line
+    let name = bus.name.clone();
+    let err = move |e: gradtac_io::Error| {
+        gradtac_stream::Error::from(match e {
+            gradtac_io::Error::Parse { path, line, column, reason } => {
+                gradtac_io::Error::Parse { path, line, column, reason: format!("bus {name:?}: {reason}") }
+            }
+            other => other,
+        })
+    };
+    // an error opening the bus names the scene file and the bus
+    let at =
+        |e: gradtac_io::Error| Error::Scene { path: scene.origin.clone(), reason: format!("bus {:?}: {e}", bus.name) };
     let (stream, stats): (FrameStream, StatsHandle) = match &bus.source {
         BusSource::Candump(cfg) => {
             let cfg = CandumpConfig { path: scene.resolve(&cfg.path), ..cfg.clone() };
-            let s = gradtac_io::can::candump::replay(&cfg)?;
+            let s = gradtac_io::can::candump::replay(&cfg).map_err(at)?;
             let h = s.stats_handle();
-            (Box::pin(s.map(move |r| r.map_err(err))), h)
+            (Box::pin(s.map(move |r| r.map_err(&err))), h)
         }
         #[cfg(target_os = "linux")]
         BusSource::Live(cfg) => {
-            let s = gradtac_io::can::socketcan::open(cfg)?;
+            let s = gradtac_io::can::socketcan::open(cfg).map_err(at)?;
             let h = s.stats_handle();
-            (Box::pin(s.map(move |r| r.map_err(err))), h)
+            (Box::pin(s.map(move |r| r.map_err(&err))), h)
         }
     };
     let stats_path = bus.stats.as_ref().map(|p| scene.resolve(p));

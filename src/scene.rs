@@ -65,6 +65,10 @@ pub struct Scene {
     /// The TOML text the scene was parsed from (stored in output metadata).
     #[serde(skip)]
     pub text: String,
+    /// The scene file the scene was read from (empty when parsed from text without one);
+    /// named by planner errors and protected from being written over (see [`crate::guard`]).
+    #[serde(skip)]
+    pub origin: PathBuf,
 }
 
 /// One sensor of a scene.
@@ -250,6 +254,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => c.validate().map_err(|e| e.to_string()),
             SourceSpec::Npy(c) => match (c.rate_hz, &c.timestamps) {
                 (Some(_), Some(_)) => Err("give rate_hz or timestamps, not both".into()),
+                (Some(r), None) => gradtac_stream::Timestamp::check_rate_hz(r),
                 (None, None) => Err("give rate_hz (Hz) or timestamps (a 1-D .npy)".into()),
                 _ => Ok(()),
             },
@@ -351,13 +356,14 @@ impl Scene {
             .map_err(|e| Error::Scene { path: origin.to_path_buf(), reason: e.to_string().trim_end().to_string() })?;
         scene.base_dir = base_dir.into();
         scene.text = text.to_string();
+        scene.origin = origin.to_path_buf();
         scene.validate(origin)?;
         Ok(scene)
     }
 
     /// Read and parse a scene file.
     pub fn load(path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let text = crate::guard::read_text_capped(path, crate::guard::MAX_SCENE_BYTES)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Self::from_toml(&text, base, path)
     }

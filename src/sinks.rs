@@ -119,7 +119,7 @@ impl Sinks {
             let tap = Tap::parse(&o.tap).expect("validated by Scene");
             let users: Vec<&Layout> =
                 plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| &p.layout).collect();
-            let bad = |reason: String| Error::Scene { path: scene.base_dir.clone(), reason };
+            let bad = |reason: String| Error::Scene { path: scene.origin.clone(), reason };
             let Some(&layout) = users.first() else {
                 return Err(bad(format!("output #{} covers no sensor", i + 1)));
             };

@@ -134,8 +134,10 @@ impl ArrowIpcConfig {
                 columns.validate()?;
                 let time = match (&self.time_column, self.rate_hz) {
                     (Some(c), None) => WideTime::Column { name: c.clone(), unit: self.time_unit },
-                    (None, Some(r)) if r.is_finite() && r > 0.0 => WideTime::Rate(r),
-                    (None, Some(r)) => return bad(format!("rate_hz must be positive and finite, got {r}")),
+                    (None, Some(r)) => match Timestamp::check_rate_hz(r) {
+                        Ok(()) => WideTime::Rate(r),
+                        Err(e) => return bad(e),
+                    },
                     (Some(_), Some(_)) => return bad("give either time_column or rate_hz, not both".into()),
                     (None, None) => return bad("the wide layout needs a time_column or a rate_hz".into()),
                 };
@@ -223,6 +225,8 @@ pub struct BatchDecoder {
     taxels: Option<usize>,
     seqs: HashMap<SensorId, u64>,
     last_time: Option<i64>,
+    /// Long layout: each sensor's last time (times must not decrease per sensor).
+    long_times: HashMap<SensorId, i64>,
 }
 
 /// Taxel frames from an iterator of record batches (see the [module docs](self)): an
@@ -342,6 +346,7 @@ impl BatchDecoder {
             taxels: None,
             seqs: HashMap::new(),
             last_time: None,
+            long_times: HashMap::new(),
         }
     }
 
@@ -433,6 +438,13 @@ impl BatchDecoder {
                     let v = vals.row(r).map_err(|e| self.err(Some(r), format!("values: {e}")))?;
                     self.check_values(r, &v)?;
                     let id = SensorId::new(name);
+                    match self.long_times.insert(id.clone(), t) {
+                        Some(prev) if t < prev => {
+                            let reason = format!("sensor {id}: time_ns {t} is earlier than its row before ({prev} ns)");
+                            return Err(self.err(Some(r), reason));
+                        }
+                        _ => {}
+                    }
                     let s = match &seqs {
                         Some(s) => s.get(r).ok_or_else(|| self.err(Some(r), "seq is null or negative"))?,
                         None => self.seqs.get(&id).copied().unwrap_or(0),
@@ -544,6 +556,7 @@ impl Stage for BatchDecoder {
         self.taxels = None;
         self.seqs.clear();
         self.last_time = None;
+        self.long_times.clear();
     }
 }
 

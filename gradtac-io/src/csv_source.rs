@@ -536,8 +536,8 @@ impl CsvSourceConfig {
         match (&self.time_column, self.rate_hz) {
             (Some(_), Some(_)) => return bad("give either time_column or rate_hz, not both".into()),
             (None, None) => return bad("give time_column (a column of times) or rate_hz (a fixed rate)".into()),
-            (None, Some(r)) if !(r.is_finite() && r > 0.0) => {
-                return bad(format!("rate_hz must be finite and > 0, got {r}"))
+            (None, Some(r)) if Timestamp::check_rate_hz(r).is_err() => {
+                return bad(Timestamp::check_rate_hz(r).unwrap_err())
             }
             (Some(c), None) if c.trim().is_empty() => return bad("time_column is empty".into()),
             _ => {}
@@ -707,19 +707,64 @@ impl<R: Read> CsvFrames<R> {
     }
 }
 
+/// Longest physical line (bytes) a CSV source accepts, header included: 1 MiB (about 40 000
+/// columns of 24-byte cells). A longer line fails with its file, line number and an excerpt,
+/// so a stray binary file or an unbounded input (`/dev/zero`) cannot grow memory without
+/// bound.
+pub const MAX_LINE_BYTES: u64 = 1 << 20;
+
+/// The error [`LineCounter`] raises (inside an `io::Error`) for a line over the cap.
+#[derive(Debug)]
+struct LineTooLong {
+    line: u64,
+    start: Vec<u8>,
+    max: u64,
+}
+
+impl fmt::Display for LineTooLong {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "line {} is longer than {} bytes (the limit of a CSV line); it starts {:?}…",
+            self.line,
+            self.max,
+            String::from_utf8_lossy(&self.start)
+        )
+    }
+}
+
+impl std::error::Error for LineTooLong {}
+
 /// A [`Read`] that remembers where the newlines it passed on are, until asked: physical line
 /// numbers for [`CsvFrames`]. Queries must not go backwards; the queue holds only newlines
-/// the CSV parser has buffered but not yet consumed (at most its 8 KiB buffer's worth).
+/// the CSV parser has buffered but not yet consumed (at most its 8 KiB buffer's worth). It
+/// also caps the length of a line ([`MAX_LINE_BYTES`]).
 struct LineCounter<R> {
     inner: R,
     offset: u64,
     pending: std::collections::VecDeque<u64>,
     passed: u64,
+    /// Newlines seen by `read` (its own count, independent of the queries).
+    lines_read: u64,
+    /// Bytes since the last newline.
+    line_len: u64,
+    /// The first bytes of the current line (for the error's excerpt).
+    line_start: Vec<u8>,
+    max_line: u64,
 }
 
 impl<R> LineCounter<R> {
     fn new(inner: R) -> Self {
-        LineCounter { inner, offset: 0, pending: Default::default(), passed: 0 }
+        LineCounter {
+            inner,
+            offset: 0,
+            pending: Default::default(),
+            passed: 0,
+            lines_read: 0,
+            line_len: 0,
+            line_start: Vec::new(),
+            max_line: MAX_LINE_BYTES,
+        }
     }
 
     /// The 1-based line holding byte `at` (a `\n` belongs to the line it ends).
@@ -734,11 +779,29 @@ impl<R> LineCounter<R> {
 
 impl<R: Read> Read for LineCounter<R> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        const KEEP: usize = 80;
         let n = self.inner.read(buf)?;
-        for (i, &b) in buf[..n].iter().enumerate() {
-            if b == b'\n' {
-                self.pending.push_back(self.offset + i as u64);
+        let mut line_from = 0;
+        let mut pos = 0;
+        loop {
+            let end = buf[pos..n].iter().position(|&b| b == b'\n').map(|i| pos + i);
+            let piece = &buf[line_from..end.unwrap_or(n)];
+            self.line_len += piece.len() as u64;
+            if self.line_start.len() < KEEP {
+                let take = piece.len().min(KEEP - self.line_start.len());
+                self.line_start.extend_from_slice(&piece[..take]);
             }
+            if self.line_len > self.max_line {
+                let e = LineTooLong { line: self.lines_read + 1, start: self.line_start.clone(), max: self.max_line };
+                return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, e));
+            }
+            let Some(i) = end else { break };
+            self.pending.push_back(self.offset + i as u64);
+            self.lines_read += 1;
+            self.line_len = 0;
+            self.line_start.clear();
+            line_from = i + 1;
+            pos = i + 1;
         }
         self.offset += n as u64;
         Ok(n)
@@ -794,7 +857,12 @@ fn csv_error(origin: &Path, e: csv::Error) -> Error {
     let line = e.position().map_or(0, |p| p.line());
     let reason = e.to_string();
     match e.into_kind() {
-        csv::ErrorKind::Io(source) => Error::Io { path: origin.to_path_buf(), source },
+        csv::ErrorKind::Io(source) => match source.get_ref().and_then(|r| r.downcast_ref::<LineTooLong>()) {
+            Some(long) => {
+                Error::Parse { path: origin.to_path_buf(), line: long.line, column: None, reason: long.to_string() }
+            }
+            None => Error::Io { path: origin.to_path_buf(), source },
+        },
         _ => Error::Parse { path: origin.to_path_buf(), line, column: None, reason },
     }
 }
@@ -830,8 +898,8 @@ impl<R: Read> CsvFrames<R> {
             let cell = &self.record[i];
             let v = cell_text(cell).and_then(|s| match s.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(v),
-                Ok(_) => Err(format!("{s:?} is not a finite number")),
-                Err(_) => Err(format!("{s:?} is not a number")),
+                Ok(_) => Err(format!("{:?} is not a finite number", crate::error::excerpt(s, 80))),
+                Err(_) => Err(format!("{:?} is not a number", crate::error::excerpt(s, 80))),
             });
             match v {
                 Ok(v) => values.push(v),
@@ -839,11 +907,22 @@ impl<R: Read> CsvFrames<R> {
             }
         }
         let time = match self.time {
-            TimeSource::Rate(rate) => Timestamp::at_rate(self.seq, rate),
+            TimeSource::Rate(rate) => match Timestamp::checked_at_rate(self.seq, rate) {
+                Some(t) => t,
+                None => {
+                    let reason =
+                        format!("frame {}: its time at {rate} Hz is beyond the i64-nanosecond range", self.seq);
+                    return Some(Err(self.parse_error(line, None, reason)));
+                }
+            },
             TimeSource::Column { index, unit } => {
                 let ns = cell_text(&self.record[index]).and_then(|s| {
                     unit.parse_nanos(s).ok_or_else(|| {
-                        format!("time {s:?} is not a finite number of {} within ±292 years", unit.as_str())
+                        format!(
+                            "time {:?} is not a finite number of {} within ±292 years",
+                            crate::error::excerpt(s, 80),
+                            unit.as_str()
+                        )
                     })
                 });
                 let ns = match ns {
@@ -853,7 +932,7 @@ impl<R: Read> CsvFrames<R> {
                 if let Some(prev) = self.prev_time.filter(|&p| ns < p) {
                     let reason = format!(
                         "time goes back: {} is {} ns before the previous row's time (times must not decrease)",
-                        String::from_utf8_lossy(&self.record[index]).trim(),
+                        crate::error::excerpt(String::from_utf8_lossy(&self.record[index]).trim(), 80),
                         prev - ns
                     );
                     return Some(Err(self.parse_error(line, Some(index), reason)));
@@ -1179,5 +1258,53 @@ mod tests {
         f.next();
         assert_eq!(f.bytes_read(), text.len() as u64);
         assert_eq!(p.total_bytes(), None);
+    }
+
+    /// Issue #12: an unbounded input without newlines (`/dev/zero`) stops at the line cap
+    /// with file, line and a short excerpt instead of growing memory.
+    #[test]
+    fn an_endless_line_stops_at_the_cap_naming_file_and_line() {
+        let c = CsvSourceConfig::new("zero", sel("a")).with_rate_hz(1.0);
+        let e = CsvFrames::from_reader(std::io::repeat(0), Path::new("/dev/zero"), &c, SensorId::new("ff"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.starts_with("/dev/zero:1: line 1 is longer than 1048576 bytes"), "{e}");
+        assert!(e.len() < 700, "{}", e.len());
+        // a long data line after a good header and row: its own line number, an excerpt
+        let text = format!("a\n1\n2{}\n3\n", "9".repeat(MAX_LINE_BYTES as usize + 10));
+        let e = read(&text, &c).pop().unwrap().unwrap_err().to_string();
+        assert!(
+            e.starts_with("t.csv:3: line 3 is longer than 1048576 bytes (the limit of a CSV line); it starts \"2999"),
+            "{e}"
+        );
+        assert!(e.ends_with("99\"…") && e.len() < 400, "{e}");
+    }
+
+    /// Issue #12: a 300 MB header line costs at most the cap; a 1 MB bad cell gives a short
+    /// error line that still names file, line and column.
+    #[test]
+    fn huge_headers_and_cells_give_short_errors() {
+        let c = CsvSourceConfig::new("h.csv", sel("a")).with_rate_hz(1.0);
+        let text = format!("{}\n1\n", "h".repeat(2 * MAX_LINE_BYTES as usize));
+        let e = CsvFrames::from_reader(text.as_bytes(), Path::new("h.csv"), &c, SensorId::new("ff"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.starts_with("h.csv:1: line 1 is longer than"), "{e}");
+        let cell = "x".repeat(1 << 19);
+        let e = read(&format!("a\n1\n{cell}\n"), &c).pop().unwrap().unwrap_err().to_string();
+        assert!(e.starts_with("t.csv:3 column \"a\": \"xxxx"), "{e}");
+        assert!(e.contains("… (524288 bytes)\" is not a number") && e.len() < 200, "{e}");
+    }
+
+    /// Issue #12: `rate_hz = 1e-9` used to stamp every frame from the 10th on with
+    /// `i64::MAX` ns and exit 0; tiny rates are refused, and a time that would overflow at an
+    /// accepted rate fails at its frame.
+    #[test]
+    fn rates_whose_times_overflow_are_refused() {
+        let e = CsvSourceConfig::new("r.csv", sel("a")).with_rate_hz(1e-9).validate().unwrap_err().to_string();
+        assert!(e.contains("rate_hz must be finite and within [1e-3, 1e9] Hz"), "{e}");
+        assert!(CsvSourceConfig::new("r.csv", sel("a")).with_rate_hz(1e-3).validate().is_ok());
     }
 }

@@ -19,7 +19,7 @@ pub enum Error {
     #[error("invalid configuration: {0}")]
     InvalidConfig(String),
     /// A malformed text input (CSV, candump): file, 1-based line and, where known, column.
-    #[error("{path}:{line}{}: {reason}", column.as_ref().map(|c| format!(" column {c:?}")).unwrap_or_default())]
+    #[error("{path}:{line}{}: {}", column.as_ref().map(|c| format!(" column {:?}", excerpt(c, 80))).unwrap_or_default(), excerpt(reason, MAX_REASON_CHARS))]
     Parse {
         /// The file.
         path: PathBuf,
@@ -87,5 +87,35 @@ impl From<Error> for gradtac_stream::Error {
     }
 }
 
+/// Longest error reason printed whole (characters); longer ones are cut by [`excerpt`].
+pub const MAX_REASON_CHARS: usize = 400;
+
+/// `text` cut to at most `max` characters for an error message: a longer text keeps its first
+/// `max` characters and ends with `… (N bytes)`, N being its full length. Anything an error
+/// echoes from an input (a cell, a line, a header name) goes through here, so a 1 MB bad cell
+/// gives a short error line.
+pub fn excerpt(text: &str, max: usize) -> String {
+    match text.char_indices().nth(max) {
+        None => text.to_string(),
+        Some((cut, _)) => format!("{}… ({} bytes)", &text[..cut], text.len()),
+    }
+}
+
 /// `Result` with [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_megabyte_cell_gives_a_short_error_line() {
+        assert_eq!(excerpt("short", 80), "short");
+        let cell = "x".repeat(1 << 20);
+        let cut = excerpt(&cell, 80);
+        assert!(cut.ends_with("… (1048576 bytes)") && cut.len() < 120, "{cut}");
+        assert_eq!(excerpt("ééé", 2), "éé… (6 bytes)");
+        let e = Error::Parse { path: "a.csv".into(), line: 3, column: Some(cell.clone()), reason: cell };
+        assert!(e.to_string().len() < 600, "{}", e.to_string().len());
+    }
+}

@@ -19,6 +19,6 @@ pub mod records;
 pub use archive::{ArchiveConfig, ParquetArchive, Partitioning, RecordSink};
 pub use blocking::{blocking_archive, blocking_sink, blocking_stream, BlockingArchive, BlockingSink, BlockingStream};
 pub use csv_source::{ColumnSelector, CsvFrames, CsvProgress, CsvSourceConfig, TimeUnit};
-pub use error::{Error, Result};
+pub use error::{excerpt, Error, Result};
 pub use parquet_sink::ParquetSink;
 pub use records::{ArrowRecord, FrameShape, RecordBuilder};

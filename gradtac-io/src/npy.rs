@@ -553,9 +553,7 @@ impl NpyFrames {
                 )))
             }
             (None, Some(r)) => {
-                if !(r.is_finite() && r > 0.0) {
-                    return Err(Error::InvalidConfig(format!("rate_hz must be positive and finite, got {r}")));
-                }
+                Timestamp::check_rate_hz(r).map_err(Error::InvalidConfig)?;
                 None
             }
             (Some(tp), None) => {
@@ -645,7 +643,13 @@ impl NpyFrames {
             values.push(v);
         }
         let time = match &mut self.times {
-            None => Timestamp::at_rate(self.k, self.rate_hz),
+            None => Timestamp::checked_at_rate(self.k, self.rate_hz).ok_or_else(|| {
+                bin_err(
+                    &self.path,
+                    row_off,
+                    format!("frame {}: its time at {} Hz is beyond the i64-nanosecond range", self.k, self.rate_hz),
+                )
+            })?,
             Some(t) => {
                 let ts = t.header.dtype.size();
                 let off = t.header.data_offset + self.k * ts as u64;

@@ -21,7 +21,9 @@
 //! Records are buffered in Arrow builders and handed to [`ArrowWriter`] every
 //! `min(row_group_size, 8192)` rows; the writer keeps the current row group encoded and
 //! compressed in memory until it holds `row_group_size` rows. Memory is bounded by one row
-//! group, whatever the length of the stream.
+//! group, whatever the length of the stream — and for wide records (surfaces) by
+//! [`MAX_BATCH_BYTES`] of buffered records and [`MAX_ROW_GROUP_BYTES`] of row group, whatever
+//! `row_group_size` says (a row group is closed early when it reaches that size).
 //!
 //! # Metadata
 //! The file's key-value metadata holds `gradtac.version` (this crate's version),
@@ -69,6 +71,26 @@ pub const DEFAULT_ZSTD_LEVEL: i32 = 3;
 pub const PARTIAL_SUFFIX: &str = ".partial";
 /// Largest batch handed to the Parquet writer at once.
 const MAX_BATCH_ROWS: usize = 8192;
+/// Most bytes of records buffered in the Arrow builder (estimated from the schema's fixed
+/// widths): wide records (surfaces of 1024² points are 8 MiB each) go to the writer in
+/// smaller batches, so the buffer never holds 8192 of them.
+pub const MAX_BATCH_BYTES: usize = 32 << 20;
+/// Most bytes of a row group the Parquet writer may hold in memory before it is closed,
+/// whatever `row_group_size` says: memory stays bounded for wide records.
+pub const MAX_ROW_GROUP_BYTES: usize = 128 << 20;
+
+/// Bytes one row of `schema` takes at least (fixed-width columns; 16 per string or list).
+fn row_bytes(schema: &arrow_schema::Schema) -> usize {
+    use arrow_schema::DataType;
+    fn width(dt: &DataType) -> usize {
+        match dt {
+            DataType::FixedSizeList(f, n) => (*n).max(0) as usize * width(f.data_type()),
+            DataType::Struct(fs) => fs.iter().map(|f| width(f.data_type())).sum(),
+            other => other.primitive_width().unwrap_or(16),
+        }
+    }
+    schema.fields().iter().map(|f| width(f.data_type())).sum::<usize>().max(1)
+}
 
 /// Writes records of type `T` to a Parquet file (see the [module documentation](self)).
 #[must_use = "a sink writes nothing final until `finish` is called"]
@@ -80,6 +102,8 @@ pub struct ParquetSink<T: ArrowRecord> {
     builder: T::Builder,
     schema: SchemaRef,
     row_group_size: usize,
+    /// Rows per batch handed to the writer: `MAX_BATCH_ROWS`, fewer for wide records.
+    batch_rows: usize,
     zstd_level: i32,
     metadata: Vec<(String, String)>,
     rows: u64,
@@ -136,10 +160,13 @@ impl<T: ArrowRecord> ParquetSink<T> {
         if path.is_dir() {
             return Err(Error::InvalidConfig(format!("output path {} is a directory", path.display())));
         }
+        check_replaceable(&partial)?;
         let file = File::create(&partial).map_err(|source| Error::Io { path: partial.clone(), source })?;
         let schema = T::schema(&shape);
+        let batch_rows = (MAX_BATCH_BYTES / row_bytes(&schema)).clamp(1, MAX_BATCH_ROWS);
         Ok(ParquetSink {
-            builder: T::builder(&shape, MAX_BATCH_ROWS.min(DEFAULT_ROW_GROUP_SIZE)),
+            batch_rows,
+            builder: T::builder(&shape, MAX_BATCH_ROWS.min(DEFAULT_ROW_GROUP_SIZE).min(batch_rows)),
             path,
             partial,
             file: Some(file),
@@ -232,8 +259,14 @@ impl<T: ArrowRecord> ParquetSink<T> {
         self.check_usable()?;
         self.builder.append(record)?;
         self.rows += 1;
-        if self.builder.len() >= self.row_group_size.min(MAX_BATCH_ROWS) {
+        if self.builder.len() >= self.row_group_size.min(self.batch_rows) {
             self.flush_batch()?;
+            if let Some(w) = self.writer.as_mut().filter(|w| w.in_progress_size() > MAX_ROW_GROUP_BYTES) {
+                let context = self.partial.display().to_string();
+                let flushed = w.flush().map_err(|e| arrow_error(context, e));
+                self.failed |= flushed.is_err();
+                flushed?;
+            }
         }
         Ok(())
     }
@@ -242,6 +275,7 @@ impl<T: ArrowRecord> ParquetSink<T> {
     /// `<path>.partial` to `<path>` and `fsync` the directory. Returns the final path.
     pub fn finish(mut self) -> Result<PathBuf> {
         self.close()?;
+        check_replaceable(&self.path)?;
         fs::rename(&self.partial, &self.path).map_err(|source| Error::Io { path: self.path.clone(), source })?;
         sync_parent(&self.path)?;
         Ok(self.path.clone())
@@ -332,6 +366,29 @@ pub(crate) fn set_pair(metadata: &mut Vec<(String, String)>, key: String, value:
     }
 }
 
+/// Refuse to replace (by rename or truncation) anything at `path` but a regular file or a
+/// symbolic link to one: a device (`/dev/null`), a FIFO, a socket or a directory is never
+/// replaced, whoever runs the program.
+pub fn check_replaceable(path: &Path) -> Result<()> {
+    let refuse = |what: &str| {
+        Err(Error::InvalidConfig(format!(
+            "{} exists and is {what}; refusing to replace it with an output file",
+            path.display()
+        )))
+    };
+    match fs::symlink_metadata(path) {
+        Err(_) => Ok(()),
+        Ok(m) if m.is_file() => Ok(()),
+        Ok(m) if m.file_type().is_symlink() => match fs::metadata(path) {
+            Ok(t) if t.is_file() => Ok(()),
+            Ok(_) => refuse("a symbolic link to something other than a regular file"),
+            Err(_) => refuse("a dangling symbolic link"),
+        },
+        Ok(m) if m.is_dir() => refuse("a directory"),
+        Ok(_) => refuse("not a regular file (a device, FIFO or socket)"),
+    }
+}
+
 /// `fsync` the directory holding `path`, so a rename in it is durable (Unix only).
 fn sync_parent(path: &Path) -> Result<()> {
     #[cfg(unix)]
@@ -404,6 +461,67 @@ mod tests {
         assert!(temp.exists() && !path.exists());
         assert_eq!(sink.finish().unwrap(), path);
         assert!(path.exists() && !temp.exists());
+    }
+
+    /// A FIFO made with `mkfifo` (None where the tool is missing).
+    fn fifo(path: &Path) -> Option<()> {
+        let ok = std::process::Command::new("mkfifo").arg(path).status().ok()?.success();
+        ok.then_some(())
+    }
+
+    #[test]
+    fn finish_never_renames_over_a_fifo_a_directory_or_a_link_to_a_device() {
+        let dir = tempfile::tempdir().unwrap();
+        let shape = FrameShape::unnamed(1).unwrap();
+        let frame = TaxelFrame::new(SensorId::new("ff"), Timestamp(0), 0, vec![1.0]);
+        // the target turns into something else while the run writes its .partial
+        let mut targets: Vec<(PathBuf, &str)> = Vec::new();
+        let d = dir.path().join("is-a-dir.parquet");
+        targets.push((d, "a directory"));
+        let f = dir.path().join("fifo.parquet");
+        if fifo(&f).is_some() {
+            targets.push((f, "not a regular file"));
+        }
+        #[cfg(unix)]
+        {
+            let l = dir.path().join("null.parquet");
+            std::os::unix::fs::symlink("/dev/null", &l).unwrap();
+            targets.push((l, "symbolic link to something other than a regular file"));
+        }
+        for (path, expect) in targets {
+            let mut sink = ParquetSink::<TaxelFrame>::try_new(&path, shape.clone()).unwrap();
+            sink.push(&frame).unwrap();
+            if expect == "a directory" {
+                fs::create_dir(&path).unwrap();
+            }
+            let e = sink.finish().unwrap_err().to_string();
+            assert!(e.contains(expect) && e.contains("refusing to replace"), "{e}");
+            let m = fs::symlink_metadata(&path).unwrap();
+            assert!(!m.is_file(), "{} was replaced", path.display());
+        }
+        // a FIFO where the temporary file goes is not opened (that would block) nor replaced
+        let p = dir.path().join("t.parquet");
+        if fifo(&partial_path(&p).unwrap()).is_some() {
+            let e = ParquetSink::<TaxelFrame>::try_new(&p, shape).unwrap_err().to_string();
+            assert!(e.contains("refusing to replace"), "{e}");
+        }
+    }
+
+    #[test]
+    fn wide_records_are_batched_by_bytes() {
+        use arrow_schema::{DataType, Field, Schema};
+        let wide = Schema::new(vec![
+            Field::new("t", DataType::Int64, false),
+            Field::new(
+                "v",
+                DataType::FixedSizeList(Field::new("item", DataType::Float64, false).into(), 1 << 20),
+                false,
+            ),
+        ]);
+        assert_eq!(row_bytes(&wide), 8 + 8 * (1 << 20));
+        assert_eq!((MAX_BATCH_BYTES / row_bytes(&wide)).clamp(1, MAX_BATCH_ROWS), 3);
+        let narrow = Schema::new(vec![Field::new("t", DataType::Int64, false)]);
+        assert_eq!((MAX_BATCH_BYTES / row_bytes(&narrow)).clamp(1, MAX_BATCH_ROWS), MAX_BATCH_ROWS);
     }
 
     #[test]

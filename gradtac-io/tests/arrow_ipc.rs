@@ -235,13 +235,15 @@ fn bad_batches_are_errors_naming_batch_and_row() {
 /// taxel count and the rows read.
 #[test]
 fn errors_come_once_after_the_frames_before_them() {
-    let ok = || long_batch(vec![Some(vec![Some(1.0), Some(2.0)]), Some(vec![Some(3.0), Some(4.0)])], 2, vec![0, 1]);
-    let bad = long_batch(vec![Some(vec![Some(5.0), Some(6.0)]), Some(vec![Some(f64::NAN), Some(0.0)])], 2, vec![2, 3]);
+    let ok = |t: i64| {
+        long_batch(vec![Some(vec![Some(1.0), Some(2.0)]), Some(vec![Some(3.0), Some(4.0)])], 2, vec![t, t + 1])
+    };
+    let bad = long_batch(vec![Some(vec![Some(5.0), Some(6.0)]), Some(vec![Some(f64::NAN), Some(0.0)])], 2, vec![4, 5]);
     for (third, msg) in [
         (Ok(bad), "bad.arrow: batch 2 row 1 (row 5 of the source): taxel 0: value NaN is not finite"),
         (Err(ArrowError::IpcError("truncated".into())), "bad.arrow: batch 2"),
     ] {
-        let batches = vec![Ok(ok()), Ok(ok()), third, Ok(ok())];
+        let batches = vec![Ok(ok(0)), Ok(ok(2)), third, Ok(ok(6))];
         let mut it = BatchFrames::new(batches.into_iter(), "bad.arrow", BatchLayout::Long { sensors: None });
         let items: Vec<Result<TaxelFrame, gradtac_io::Error>> = it.by_ref().collect();
         assert_eq!(items.len(), 5, "four frames, then the error");
@@ -251,9 +253,32 @@ fn errors_come_once_after_the_frames_before_them() {
         assert!(e.starts_with(msg), "{e}");
         assert!(it.next().is_none() && it.next().is_none());
     }
-    let mut it = BatchFrames::new([Ok(ok()), Ok(ok())].into_iter(), "ok.arrow", BatchLayout::Long { sensors: None });
+    let mut it = BatchFrames::new([Ok(ok(0)), Ok(ok(2))].into_iter(), "ok.arrow", BatchLayout::Long { sensors: None });
     assert_eq!(it.by_ref().count(), 4);
     assert_eq!((it.decoder().taxel_count(), it.decoder().rows_read()), (Some(2), 4));
+}
+
+/// Issue #12: long-layout times going backwards are caught at the source, naming the file,
+/// batch and row (they used to surface later, in the window stage, without either).
+#[test]
+fn long_layout_time_going_back_names_file_batch_and_row() {
+    let row = || Some(vec![Some(1.0), Some(2.0)]);
+    let e =
+        long_err(vec![Ok(long_batch(vec![row(), row()], 2, vec![10, 20])), Ok(long_batch(vec![row()], 2, vec![15]))]);
+    assert!(e.starts_with("bad.arrow: batch 1 row 0 (row 2 of the source)"), "{e}");
+    assert!(e.contains("time_ns 15 is earlier than its row before (20 ns)"), "{e}");
+    // equal times are not refused here (the window stage decides), and sensors are separate
+    let two = RecordBatch::try_from_iter([
+        ("sensor", Arc::new(StringArray::from(vec!["ff", "th", "ff"])) as ArrayRef),
+        ("time_ns", Arc::new(Int64Array::from(vec![5, 1, 5])) as ArrayRef),
+        ("values", long_batch(vec![row(), row(), row()], 2, vec![0, 0, 0]).column(2).clone()),
+    ])
+    .unwrap();
+    let n = BatchFrames::new([Ok(two)].into_iter(), "two.arrow", BatchLayout::Long { sensors: None })
+        .collect::<Result<Vec<_>, _>>()
+        .unwrap()
+        .len();
+    assert_eq!(n, 3);
 }
 
 #[test]

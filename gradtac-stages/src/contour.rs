@@ -485,8 +485,9 @@ impl MaxContourFinder {
             }
             _ => {}
         }
-        if !(cfg.min_area_mm2.is_finite() && cfg.min_area_mm2 >= 0.0) {
-            return bad(format!("`min_area_mm2` = {} must be finite and ≥ 0", cfg.min_area_mm2));
+        let area = crate::limits::MAX_MM * crate::limits::MAX_MM;
+        if !(cfg.min_area_mm2.is_finite() && cfg.min_area_mm2 >= 0.0 && cfg.min_area_mm2 <= area) {
+            return bad(format!("`min_area_mm2` = {} must be finite, ≥ 0 and ≤ {area:e}", cfg.min_area_mm2));
         }
         if !cfg.min_peak.is_finite() {
             return bad(format!("`min_peak` = {} must be finite", cfg.min_peak));

@@ -539,8 +539,12 @@ impl DosFeatureConfig {
         if !(self.threshold.is_finite() && self.threshold >= crate::events::MIN_THRESHOLD) {
             return Err(invalid(format!("threshold {} must be finite and ≥ 1e-12", self.threshold)));
         }
-        if self.track_window_frames < 2 {
-            return Err(invalid(format!("track_window_frames {} must be ≥ 2", self.track_window_frames)));
+        if !(2..=crate::limits::MAX_DOS_FRAMES).contains(&self.track_window_frames) {
+            return Err(invalid(format!(
+                "track_window_frames {} must be in 2..={}",
+                self.track_window_frames,
+                crate::limits::MAX_DOS_FRAMES
+            )));
         }
         if !(4..=1024).contains(&self.grid_nx) {
             return Err(invalid(format!("grid_nx {} must be in 4..=1024", self.grid_nx)));
@@ -1467,6 +1471,12 @@ impl DosClassifier {
         if decision_frames == Some(0) {
             return Err(invalid("decision_frames must be ≥ 1"));
         }
+        if let Some(n) = decision_frames.filter(|&n| n > crate::limits::MAX_DOS_FRAMES) {
+            return Err(invalid(format!(
+                "decision_frames = {n} exceeds the maximum of {}",
+                crate::limits::MAX_DOS_FRAMES
+            )));
+        }
         let extractor = DosFeatureExtractor::try_new(&model.config, layout)?;
         Ok(DosClassifier { model, extractor, decision_frames, span: None, sliding: None })
     }
@@ -1479,6 +1489,12 @@ impl DosClassifier {
         };
         if hop == 0 {
             return Err(invalid("hop must be ≥ 1 frame"));
+        }
+        if hop > crate::limits::MAX_DOS_FRAMES {
+            return Err(invalid(format!(
+                "hop_frames = {hop} exceeds the maximum of {}",
+                crate::limits::MAX_DOS_FRAMES
+            )));
         }
         let replay = self.extractor.clone();
         self.sliding = Some(Sliding {

@@ -67,6 +67,22 @@ impl From<Error> for gradtac_stream::Error {
 /// `Result` with [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// The finiteness check of stages that refuse NaN / ±inf input: the first non-finite value
+/// of `frame` is an [`Error::BadValue`] naming the stage, sensor, frame and taxel.
+pub(crate) fn check_finite(stage: &'static str, frame: &gradtac_stream::TaxelFrame) -> Result<()> {
+    match frame.values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(taxel) => Err(Error::BadValue {
+            stage,
+            sensor: frame.sensor.to_string(),
+            seq: frame.seq,
+            taxel,
+            value: frame.values[taxel],
+            reason: "not a finite number",
+        }),
+    }
+}
+
 /// The input check every stage makes: `got` taxels where the stage was built for `expected`
 /// is an [`Error::TaxelCount`] naming the stage, sensor and frame.
 pub(crate) fn check_taxel_count(

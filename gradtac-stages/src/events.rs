@@ -272,6 +272,13 @@ impl Events {
         if config.max_events_per_step == 0 {
             return Err(invalid("max_events_per_step must be at least 1"));
         }
+        let most = crate::limits::MAX_EVENTS_PER_STEP;
+        if config.max_events_per_step > most {
+            return Err(invalid(format!(
+                "max_events_per_step = {} exceeds the maximum of {most} (events of one taxel for one frame)",
+                config.max_events_per_step
+            )));
+        }
         if !(config.floor.is_finite() && config.floor > 0.0) {
             return Err(invalid(format!("floor must be finite and > 0 (it keeps ln finite), got {}", config.floor)));
         }

@@ -100,16 +100,24 @@ pub struct Grid {
 
 impl Grid {
     /// A grid over `extent` with `nx × ny` points. Refuses fewer than 2 points per axis, more
-    /// than 2²⁴ points, an empty or non-finite extent.
+    /// than [`MAX_GRID_POINTS`](crate::limits::MAX_GRID_POINTS) (2²⁰) points, an empty or
+    /// non-finite extent, or one reaching beyond ±2·[`MAX_MM`](crate::limits::MAX_MM).
     pub fn try_new(extent: Extent, nx: usize, ny: usize) -> Result<Self> {
         let bad = |reason: String| Error::InvalidConfig { stage: STAGE, reason };
         if nx < 2 || ny < 2 {
             return Err(bad(format!("grid {nx}×{ny}: at least 2 points per axis are needed")));
         }
-        if nx.saturating_mul(ny) > 1 << 24 {
-            return Err(bad(format!("grid {nx}×{ny} has more than 2^24 points")));
+        if nx.saturating_mul(ny) > crate::limits::MAX_GRID_POINTS {
+            return Err(bad(format!(
+                "grid {nx}×{ny} has more than {} points (1024 × 1024)",
+                crate::limits::MAX_GRID_POINTS
+            )));
         }
         let e = extent;
+        let lim = 2.0 * crate::limits::MAX_MM;
+        if [e.x_min, e.x_max, e.y_min, e.y_max].iter().any(|v| v.abs() > lim) {
+            return Err(bad(format!("grid extent {e:?} reaches beyond ±{lim} mm")));
+        }
         let finite = [e.x_min, e.x_max, e.y_min, e.y_max].iter().all(|v| v.is_finite());
         if !(finite && e.x_max > e.x_min && e.y_max > e.y_min) {
             return Err(bad(format!("grid extent {e:?} is empty or not finite")));
@@ -123,9 +131,7 @@ impl Grid {
             (Some(e), _) => e,
             (None, None) => layout.extent(),
             (None, Some(m)) => {
-                if !(m.is_finite() && m >= 0.0) {
-                    return Err(Error::InvalidConfig { stage: STAGE, reason: format!("margin_mm {m} must be ≥ 0") });
-                }
+                crate::limits::check_mm(STAGE, "margin_mm", m, false)?;
                 let p = layout.positions();
                 let f = |k: usize, min: bool| {
                     p.iter().map(|q| q[k]).fold(if min { f64::INFINITY } else { f64::NEG_INFINITY }, |a, b| {

@@ -20,6 +20,7 @@ pub mod drift;
 pub mod events;
 pub mod force;
 pub mod interpolate;
+pub mod limits;
 pub mod normalise;
 pub mod savgol;
 pub mod servo;

@@ -147,6 +147,12 @@ impl Normalise {
                     if !(a.is_finite() && b.is_finite() && a <= b) {
                         return Err(bad(format!("taxel {i}: bounds [{a}, {b}] are not finite with min ≤ max")));
                     }
+                    if !(b - a).is_finite() {
+                        return Err(bad(format!(
+                            "taxel {i}: the span of bounds [{a}, {b}] overflows f64 (max − min must be ≤ {:e})",
+                            f64::MAX
+                        )));
+                    }
                 }
                 lo.clone_from(min);
                 hi.clone_from(max);
@@ -185,17 +191,7 @@ impl Normalise {
 
     fn check(&self, f: &TaxelFrame) -> Result<()> {
         crate::error::check_taxel_count(STAGE, &f.sensor, f.seq, self.taxels, f.values.len())?;
-        if let Some(i) = f.values.iter().position(|v| !v.is_finite()) {
-            return Err(Error::BadValue {
-                stage: STAGE,
-                sensor: f.sensor.to_string(),
-                seq: f.seq,
-                taxel: i,
-                value: f.values[i],
-                reason: "not a finite number",
-            });
-        }
-        Ok(())
+        crate::error::check_finite(STAGE, f)
     }
 
     fn widen(&mut self, values: &[f64]) {
@@ -205,21 +201,42 @@ impl Normalise {
         }
     }
 
-    fn apply(&self, values: &mut [f64]) {
-        for ((v, &lo), &hi) in values.iter_mut().zip(&self.lo).zip(&self.hi) {
-            let y = (*v - lo) / (hi - lo).max(self.min_span);
+    /// Normalise `f` in place. Where `v − lo` or `hi − lo` overflow (bounds or values near
+    /// ±1.8e308) both are halved first — exact for normal numbers, so the quotient is the same
+    /// — and a result that still is not finite (a value more than 1.8e308 spans outside the
+    /// bounds) is an error rather than a NaN or ±inf passed on.
+    fn apply(&self, f: &mut TaxelFrame) -> Result<()> {
+        for (i, ((v, &lo), &hi)) in f.values.iter_mut().zip(&self.lo).zip(&self.hi).enumerate() {
+            let (d, span) = (*v - lo, hi - lo);
+            let y = if d.is_finite() && span.is_finite() {
+                d / span.max(self.min_span)
+            } else {
+                (*v * 0.5 - lo * 0.5) / (hi * 0.5 - lo * 0.5).max(self.min_span * 0.5)
+            };
+            if !y.is_finite() {
+                return Err(Error::BadValue {
+                    stage: STAGE,
+                    sensor: f.sensor.to_string(),
+                    seq: f.seq,
+                    taxel: i,
+                    value: *v,
+                    reason: "its normalised value overflows f64 (the value is far outside the bounds)",
+                });
+            }
             *v = if self.clamp { y.clamp(0.0, 1.0) } else { y };
         }
+        Ok(())
     }
 
-    fn release_held(&mut self, out: &mut Vec<TaxelFrame>) {
+    fn release_held(&mut self, out: &mut Vec<TaxelFrame>) -> Result<()> {
         self.ready = true;
         let mut held = std::mem::take(&mut self.held);
         for mut f in held.drain(..) {
-            self.apply(&mut f.values);
+            self.apply(&mut f)?;
             out.push(f);
         }
         self.held = held; // keep the allocation
+        Ok(())
     }
 }
 
@@ -245,13 +262,13 @@ impl Stage for Normalise {
                     self.widen(&f.values);
                     self.held.push(f);
                     if self.held.len() == frames {
-                        self.release_held(out);
+                        self.release_held(out)?;
                     }
                     return Ok(());
                 }
             }
         }
-        self.apply(&mut f.values);
+        self.apply(&mut f)?;
         out.push(f);
         Ok(())
     }
@@ -260,7 +277,7 @@ impl Stage for Normalise {
     /// window is normalised by the bounds of what arrived), then resets.
     fn finish(&mut self, out: &mut Vec<TaxelFrame>) -> Result<()> {
         if !self.held.is_empty() {
-            self.release_held(out);
+            self.release_held(out)?;
         }
         self.reset();
         Ok(())
@@ -299,6 +316,29 @@ mod tests {
 
     fn cfg_cal(n: usize) -> NormaliseConfig {
         NormaliseConfig { calibrate_frames: Some(n), ..Default::default() }
+    }
+
+    /// Issue #12: bounds of ±1e308 (span 2e308 overflows) used to write NaN. Given bounds
+    /// whose span overflows are refused; bounds found in the data near ±1.8e308 normalise
+    /// exactly (computed halved), never to NaN.
+    #[test]
+    fn extreme_bounds_never_give_nan() {
+        let given = NormaliseConfig { min: Some(vec![-1e308]), max: Some(vec![1e308]), ..Default::default() };
+        let e = Normalise::try_new(1, &given).unwrap_err().to_string();
+        assert!(e.contains("overflows f64"), "{e}");
+        for cfg in [cfg_cal(2), NormaliseConfig { running: true, ..Default::default() }] {
+            let out = Normalise::try_new(1, &cfg)
+                .unwrap()
+                .run_all(frames(&[vec![-1e308], vec![1e308], vec![0.0], vec![f64::MAX]]))
+                .unwrap();
+            let got: Vec<f64> = out.iter().map(|f| f.values[0]).collect();
+            assert!(got.iter().all(|v| v.is_finite()), "{got:?}");
+            assert_eq!(&got[..3], &[0.0, 1.0, 0.5]);
+        }
+        // a value 1.8e308 spans outside tight bounds: an error naming frame and taxel, no inf
+        let tight = NormaliseConfig { min: Some(vec![-f64::MAX]), max: Some(vec![-f64::MAX]), ..Default::default() };
+        let e = Normalise::try_new(1, &tight).unwrap().run_all(frames(&[vec![0.0], vec![f64::MAX]])).unwrap_err();
+        assert!(matches!(e, Error::BadValue { seq: 1, taxel: 0, .. }), "{e}");
     }
 
     #[test]

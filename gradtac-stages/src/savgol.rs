@@ -60,6 +60,12 @@
 //! the tests compare with scipy there and with exact rational weights everywhere
 //! (`tests/reference/gen_savgol.py`).
 //!
+//! # Non-finite input and overflow
+//! A NaN or ±inf value is refused with [`Error::BadValue`] naming the **input** frame and
+//! taxel (passed on, it would spoil `window` outputs and surface at a delayed frame). So is a
+//! finite input whose fit overflows f64 (e.g. a second derivative at 1 MHz of a 1e300 spike):
+//! the error names the input frame of largest magnitude in the window, not the output frame.
+//!
 //! # Streams, gaps and short segments
 //! A *segment* is a run of frames without a discontinuity. With [`GapPolicy::Reset`] (the
 //! default) a discontinuity is: a frame whose `seq` is not the previous `seq + 1` (dropped
@@ -619,8 +625,37 @@ impl SavGol {
         }
     }
 
+    /// The error for a non-finite value among `out[from..]`, naming the **input** frame that
+    /// caused it: the fit's sums overflowed f64 (inputs near ±1.8e308), and the culprit is the
+    /// frame of the window with the largest magnitude at that taxel — not the delayed output
+    /// frame the value was written to (that is `half` frames earlier in centred mode).
+    fn overflow_error(&self, out: &[TaxelFrame], from: usize) -> Option<Error> {
+        let n = self.taxels;
+        let (o, t) = out[from.min(out.len())..]
+            .iter()
+            .find_map(|f| f.values.iter().position(|v| !v.is_finite()).map(|t| (f, t)))?;
+        let rows = (self.count as usize).min(self.window);
+        let culprit = (0..rows).max_by(|&a, &b| {
+            let (x, y) = (self.ring[a * n + t].abs(), self.ring[b * n + t].abs());
+            x.total_cmp(&y)
+        });
+        let (seq, value) = match culprit {
+            Some(r) => (self.meta[r].1, self.ring[r * n + t]),
+            None => (o.seq, o.values[t]),
+        };
+        Some(Error::BadValue {
+            stage: STAGE,
+            sensor: o.sensor.to_string(),
+            seq,
+            taxel: t,
+            value,
+            reason: "smoothing this input overflows f64 (the fit's sums exceed ±1.8e308)",
+        })
+    }
+
     /// Emit what the current segment still holds and start afresh.
-    fn flush(&mut self, out: &mut Vec<TaxelFrame>) {
+    fn flush(&mut self, out: &mut Vec<TaxelFrame>) -> Result<()> {
+        let from = out.len();
         let w = self.window;
         if self.count >= w as u64 {
             if self.config.mode == SavGolMode::Centred {
@@ -639,7 +674,9 @@ impl SavGol {
                 out.push(TaxelFrame { sensor, time, seq, values: buf });
             }
         }
+        let overflow = self.overflow_error(out, from);
         self.clear_state();
+        overflow.map_or(Ok(()), Err)
     }
 
     fn clear_state(&mut self) {
@@ -670,9 +707,13 @@ impl Stage for SavGol {
 
     fn push(&mut self, frame: TaxelFrame, out: &mut Vec<TaxelFrame>) -> Result<()> {
         crate::error::check_taxel_count(STAGE, &frame.sensor, frame.seq, self.taxels, frame.values.len())?;
+        // refused here, at its input frame: passed on, it would spoil `window` outputs and
+        // surface later at a delayed frame (`half` frames earlier in centred mode)
+        crate::error::check_finite(STAGE, &frame)?;
         if self.is_gap(&frame) {
-            self.flush(out);
+            self.flush(out)?;
         }
+        let from = out.len();
         let (w, n) = (self.window, self.taxels);
         let slot = self.head;
         self.ring[slot * n..(slot + 1) * n].copy_from_slice(&frame.values);
@@ -720,12 +761,11 @@ impl Stage for SavGol {
                 out.push(TaxelFrame { sensor, time, seq, values: buf });
             }
         }
-        Ok(())
+        self.overflow_error(out, from).map_or(Ok(()), Err)
     }
 
     fn finish(&mut self, out: &mut Vec<TaxelFrame>) -> Result<()> {
-        self.flush(out);
-        Ok(())
+        self.flush(out)
     }
 
     fn reset(&mut self) {
@@ -864,6 +904,51 @@ mod tests {
         let mut sg = SavGol::try_new(1, cfg(7, 2, 0, SavGolMode::Centred)).unwrap();
         let out = sg.run_all(frames(&[vec![5.0]])).unwrap();
         assert_eq!(out[0].values, vec![5.0]);
+    }
+
+    /// Issue #12: a NaN at input frame 48 was passed on and reported by the events stage as
+    /// "frame 43" (the centred delay). It is refused here, as input frame 48, with its taxel.
+    #[test]
+    fn an_overflow_names_the_input_frame_not_the_delayed_one() {
+        for mode in [SavGolMode::Centred, SavGolMode::Causal] {
+            let mut sg = SavGol::try_new(2, SavGolConfig { mode, ..Default::default() }).unwrap();
+            let mut out = Vec::new();
+            let mut err = None;
+            for k in 0..80u64 {
+                let x = if k == 48 { f64::NAN } else { k as f64 };
+                let f = TaxelFrame::new("ff".into(), Timestamp(k as i64), k, vec![1.0, x]);
+                if let Err(e) = sg.push(f, &mut out) {
+                    err = Some(e);
+                    break;
+                }
+            }
+            match err {
+                Some(Error::BadValue { seq, taxel: 1, value, .. }) => {
+                    assert_eq!(seq, 48, "{mode:?}");
+                    assert!(value.is_nan());
+                }
+                other => panic!("{mode:?}: {other:?}; outputs finite: {}", out.iter().all(|f| f.values[1].is_finite())),
+            }
+        }
+    }
+
+    /// A finite input whose fit overflows f64 (a second derivative at 1 MHz of a 1e300 spike)
+    /// is reported at that input frame, not at the delayed output frame.
+    #[test]
+    fn a_fit_that_overflows_names_the_input_frame() {
+        for mode in [SavGolMode::Centred, SavGolMode::Causal] {
+            let cfg = SavGolConfig { mode, deriv: 2, delta: Some(1e-6), ..Default::default() };
+            let mut sg = SavGol::try_new(1, cfg).unwrap();
+            let mut out = Vec::new();
+            let e = (0..80u64)
+                .find_map(|k| {
+                    let x = if k == 48 { 1e300 } else { k as f64 };
+                    sg.push(TaxelFrame::new("ff".into(), Timestamp(k as i64), k, vec![x]), &mut out).err()
+                })
+                .unwrap_or_else(|| panic!("{mode:?}: no error"));
+            assert!(matches!(e, Error::BadValue { seq: 48, taxel: 0, value: 1e300, .. }), "{mode:?}: {e}");
+            assert!(e.to_string().contains("overflows"), "{e}");
+        }
     }
 
     #[test]

@@ -146,17 +146,16 @@ impl Servo {
         if !(cfg.gain.is_finite() && cfg.gain > 0.0) {
             return bad(format!("`gain` = {} must be finite and > 0", cfg.gain));
         }
-        if !(cfg.deadband_mm.is_finite() && cfg.deadband_mm >= 0.0) {
-            return bad(format!("`deadband_mm` = {} must be finite and ≥ 0", cfg.deadband_mm));
-        }
+        crate::limits::check_mm(STAGE, "deadband_mm", cfg.deadband_mm, false)?;
         if !(cfg.smoothing > 0.0 && cfg.smoothing <= 1.0) {
             return bad(format!("`smoothing` = {} must be in (0, 1]", cfg.smoothing));
         }
-        if !(cfg.max_step_mm.is_finite() && cfg.max_step_mm > 0.0) {
-            return bad(format!("`max_step_mm` = {} must be finite and > 0", cfg.max_step_mm));
-        }
+        crate::limits::check_mm(STAGE, "max_step_mm", cfg.max_step_mm, true)?;
         let centre = match cfg.centre_mm {
-            Some(c) if c[0].is_finite() && c[1].is_finite() => c,
+            Some(c) if c[0].is_finite() && c[1].is_finite() => {
+                crate::limits::check_coord(STAGE, "centre_mm", c)?;
+                c
+            }
             Some(c) => return bad(format!("`centre_mm` = {c:?} must be finite")),
             None => layout.extent().centre(),
         };

@@ -304,6 +304,14 @@ impl Slip {
         if !(cfg.min_duration_s.is_finite() && cfg.min_duration_s >= 0.0) {
             return bad(format!("`min_duration_s` = {} must be finite and ≥ 0", cfg.min_duration_s));
         }
+        let span = crate::limits::MAX_SPAN_S;
+        if cfg.velocity_window_s > span || cfg.min_duration_s > span {
+            return bad(format!(
+                "`velocity_window_s` = {} and `min_duration_s` = {} must be at most {span} s",
+                cfg.velocity_window_s, cfg.min_duration_s
+            ));
+        }
+        crate::limits::check_count(STAGE, "min_points", cfg.min_points as u64, crate::limits::MAX_POINTS as u64)?;
         Ok(Slip {
             first: SensorId::new(&cfg.first),
             second: SensorId::new(&cfg.second),

@@ -193,10 +193,11 @@ impl Track {
     pub fn try_new(cfg: &TrackConfig) -> Result<Self> {
         let bad = |reason: String| Err(Error::InvalidConfig { stage: STAGE, reason });
         if let Some(j) = cfg.max_jump_mm {
-            if !(j.is_finite() && j > 0.0) {
-                return bad(format!("`max_jump_mm` = {j} must be finite and > 0"));
-            }
+            crate::limits::check_mm(STAGE, "max_jump_mm", j, true)?;
         }
+        let most = u64::from(crate::limits::MAX_TRACK_FRAMES);
+        crate::limits::check_count(STAGE, "max_gated_frames", cfg.max_gated_frames.into(), most)?;
+        crate::limits::check_count(STAGE, "release_frames", cfg.release_frames.into(), most)?;
         if cfg.max_gated_frames == 0 {
             return bad("`max_gated_frames` must be ≥ 1".into());
         }

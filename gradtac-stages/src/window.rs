@@ -199,7 +199,16 @@ impl Window {
             (Some(_), Some(_)) => return bad("give either `frames` or `duration_ms`, not both".into()),
             (None, None) => Size::Frames(10),
             (Some(0), None) => return bad("`frames` must be ≥ 1".into()),
+            (Some(n), None) if n > crate::limits::MAX_WINDOW_FRAMES => {
+                return bad(format!("`frames` = {n} exceeds the maximum of {}", crate::limits::MAX_WINDOW_FRAMES))
+            }
             (Some(n), None) => Size::Frames(n),
+            (None, Some(ms)) if ms > crate::limits::MAX_WINDOW_MS => {
+                return bad(format!(
+                    "`duration_ms` = {ms} exceeds the maximum of {:e} ms",
+                    crate::limits::MAX_WINDOW_MS
+                ))
+            }
             (None, Some(ms)) => {
                 let ns = (ms * 1e6).round();
                 if !(ms.is_finite() && (1.0..9.2e18).contains(&ns)) {
@@ -211,6 +220,7 @@ impl Window {
         if cfg.step == 0 {
             return bad("`step` must be ≥ 1".into());
         }
+        crate::limits::check_count(STAGE, "step", cfg.step, crate::limits::MAX_WINDOW_FRAMES)?;
         if cfg.kind == WindowKind::Tumbling && cfg.step != 1 {
             return bad("`step` applies to sliding and decaying windows only".into());
         }

@@ -311,7 +311,7 @@ proptest! {
     /// the events of the naive rule, and counts the same overflow and suppressions.
     #[test]
     fn matches_the_naive_rule(rows in log_walk(3, 1..40), tau in 0.01f64..1.0,
-                              cap in prop_oneof![Just(u32::MAX), 1u32..6],
+                              cap in prop_oneof![Just(gradtac_stages::limits::MAX_EVENTS_PER_STEP), 1u32..6],
                               refractory_ms in prop_oneof![Just(0.0), 0.0f64..25.0]) {
         let config = EventsConfig {
             threshold: Threshold::Uniform(tau),
@@ -334,7 +334,7 @@ proptest! {
     fn running_sum_reconstructs_log_within_tau(rows in log_walk(3, 1..60), tau in 0.01f64..1.0) {
         let config = EventsConfig {
             threshold: Threshold::Uniform(tau),
-            max_events_per_step: u32::MAX,
+            max_events_per_step: gradtac_stages::limits::MAX_EVENTS_PER_STEP,
             floor: 1e-300,
             ..Default::default()
         };

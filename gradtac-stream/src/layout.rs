@@ -54,6 +54,16 @@ pub struct Layout {
     extent: Extent,
 }
 
+/// Largest absolute taxel coordinate (mm) a layout accepts: 1 km (10⁶ mm) — a skin over a
+/// whole robot fits many times over, and interpolation stays accurate to ~1e-9 relative (the
+/// extreme-scale tests). Grid extents may reach twice this (a margin of at most this much
+/// around the taxels). Far beyond, floating-point geometry loses its guarantees (a 1e160
+/// extent made spade panic; spade refuses coordinates beyond ±3.2e60).
+pub const MAX_COORD_MM: f64 = 1e6;
+
+/// Largest layout CSV file (bytes) read: 16 MiB.
+pub const MAX_LAYOUT_FILE_BYTES: u64 = 16 << 20;
+
 /// Margin (mm) added around the taxels' bounding box when a layout gives no extent.
 pub const DEFAULT_MARGIN_MM: f64 = 2.0;
 
@@ -71,12 +81,18 @@ impl Layout {
         if names.len() != positions.len() {
             return Err(bad(format!("{} names for {} positions", names.len(), positions.len())));
         }
+        if positions.len() > u16::MAX as usize {
+            return Err(bad(format!("{} taxels; at most 65535 are supported", positions.len())));
+        }
         if positions.len() < 3 {
             return Err(bad(format!("{} taxels; at least 3 are needed", positions.len())));
         }
         for (n, p) in names.iter().zip(&positions) {
             if !p[0].is_finite() || !p[1].is_finite() {
                 return Err(bad(format!("taxel {n:?} has a non-finite position {p:?}")));
+            }
+            if p[0].abs() > MAX_COORD_MM || p[1].abs() > MAX_COORD_MM {
+                return Err(bad(format!("taxel {n:?} at {p:?} mm is beyond ±{MAX_COORD_MM} mm")));
             }
         }
         for i in 0..names.len() {
@@ -99,6 +115,10 @@ impl Layout {
         let extent = match extent {
             None => bbox.grown(DEFAULT_MARGIN_MM),
             Some(e) => {
+                let lim = 2.0 * MAX_COORD_MM;
+                if ![e.x_min, e.x_max, e.y_min, e.y_max].iter().all(|v| v.is_finite() && v.abs() <= lim) {
+                    return Err(bad(format!("extent {e:?} must be finite and within ±{lim} mm")));
+                }
                 if !(e.x_min <= bbox.x_min && e.x_max >= bbox.x_max && e.y_min <= bbox.y_min && e.y_max >= bbox.y_max) {
                     return Err(bad(format!("extent {e:?} does not contain every taxel (bounding box {bbox:?})")));
                 }
@@ -183,7 +203,9 @@ impl Layout {
             let line = rec.position().map_or(0, |p| p.line());
             let num = |c: usize, what: &str| -> Result<f64> {
                 let s = rec.get(c).unwrap_or("");
-                s.parse::<f64>().map_err(|_| err(line, format!("column {what}: {s:?} is not a number")))
+                let short: String = s.chars().take(80).collect();
+                let more = if short.len() < s.len() { format!("… ({} bytes)", s.len()) } else { String::new() };
+                s.parse::<f64>().map_err(|_| err(line, format!("column {what}: {short:?}{more} is not a number")))
             };
             positions.push([num(cx, "x_mm")?, num(cy, "y_mm")?]);
             names.push(rec.get(cn).unwrap_or("").to_string());
@@ -194,6 +216,15 @@ impl Layout {
     /// Load a layout CSV file (see [`Layout::from_csv_reader`]); the layout is named after the file stem.
     pub fn from_csv_path(path: &Path) -> Result<Self> {
         let f = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let meta = f.metadata().map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        if !meta.is_file() || meta.len() > MAX_LAYOUT_FILE_BYTES {
+            let reason = if meta.is_file() {
+                format!("{} bytes; a layout file may hold at most {MAX_LAYOUT_FILE_BYTES}", meta.len())
+            } else {
+                "not a regular file".to_string()
+            };
+            return Err(Error::LayoutFile { path: path.to_path_buf(), line: 0, reason });
+        }
         let name = path.file_stem().map_or_else(|| "layout".into(), |s| s.to_string_lossy().into_owned());
         Self::from_csv_reader(name, std::io::BufReader::new(f), path)
     }

@@ -4,6 +4,13 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::ops::{Add, Sub};
 
+/// Smallest fixed sample rate a source accepts (Hz): one frame per ~17 minutes. At this rate
+/// 9.2 million frames fit in `i64` nanoseconds; [`Timestamp::checked_at_rate`] catches the frame
+/// where time would overflow.
+pub const MIN_RATE_HZ: f64 = 1e-3;
+/// Largest fixed sample rate a source accepts (Hz): frames 1 ns apart.
+pub const MAX_RATE_HZ: f64 = 1e9;
+
 /// A point in time, in integer **nanoseconds**.
 ///
 /// # Epoch rule
@@ -47,6 +54,28 @@ impl Timestamp {
     /// The time of frame `k` at a fixed sample rate, starting at 0: `round(k·10⁹/rate_hz)`.
     pub fn at_rate(k: u64, rate_hz: f64) -> Self {
         Timestamp(((k as f64) * 1e9 / rate_hz).round() as i64)
+    }
+
+    /// [`at_rate`](Self::at_rate), or `None` when frame `k`'s time does not fit in `i64`
+    /// nanoseconds (≈ 292 years): sources stop with an error at that frame instead of
+    /// writing a saturated time.
+    pub fn checked_at_rate(k: u64, rate_hz: f64) -> Option<Self> {
+        let ns = ((k as f64) * 1e9 / rate_hz).round();
+        (ns.is_finite() && ns >= 0.0 && ns < i64::MAX as f64).then_some(Timestamp(ns as i64))
+    }
+
+    /// Check a fixed sample rate: finite and within [`MIN_RATE_HZ`, `MAX_RATE_HZ`]. The
+    /// message says what is wrong and how many frames the rate can time.
+    pub fn check_rate_hz(rate_hz: f64) -> Result<(), String> {
+        if rate_hz.is_finite() && (MIN_RATE_HZ..=MAX_RATE_HZ).contains(&rate_hz) {
+            Ok(())
+        } else {
+            Err(format!(
+                "rate_hz must be finite and within [{MIN_RATE_HZ:e}, {MAX_RATE_HZ:e}] Hz (below, frame times leave \
+                 the i64-nanosecond range within {} frames; above, frames are less than 1 ns apart), got {rate_hz}",
+                (i64::MAX as f64 * MIN_RATE_HZ * 1e-9) as u64
+            ))
+        }
     }
 
     /// Integer nanoseconds.
@@ -124,6 +153,19 @@ mod tests {
         assert_eq!(Timestamp::at_rate(3, 3.0), Timestamp(1_000_000_000));
         assert_eq!(Timestamp::at_rate(1, 3.0), Timestamp(333_333_333));
         assert_eq!(Timestamp::at_rate(2, 3.0), Timestamp(666_666_667));
+    }
+
+    #[test]
+    fn tiny_rates_are_refused_and_overflow_is_caught_at_its_frame() {
+        assert!(Timestamp::check_rate_hz(1e-9).unwrap_err().contains("rate_hz"));
+        assert!(Timestamp::check_rate_hz(f64::NAN).is_err() && Timestamp::check_rate_hz(1e12).is_err());
+        assert!(Timestamp::check_rate_hz(100.0).is_ok() && Timestamp::check_rate_hz(MIN_RATE_HZ).is_ok());
+        assert_eq!(Timestamp::checked_at_rate(3, 3.0), Some(Timestamp(1_000_000_000)));
+        // at 1e-9 Hz frame 9 is 9e18 ns (fits), frame 10 is 1e19 ns (does not)
+        assert!(Timestamp::checked_at_rate(9, 1e-9).is_some());
+        assert_eq!(Timestamp::checked_at_rate(10, 1e-9), None);
+        assert!(Timestamp::checked_at_rate(9_223_372, MIN_RATE_HZ).is_some());
+        assert!(Timestamp::checked_at_rate(9_223_373, MIN_RATE_HZ).is_none());
     }
 
     #[test]

@@ -321,13 +321,18 @@ impl<R: BufRead> CandumpReader<R> {
     }
 }
 
+/// Longest line (bytes) of a candump log: 4 KiB (a CAN FD line is under 200 bytes). A longer
+/// line fails with its file and line number, so an unbounded input cannot grow memory.
+pub const MAX_LINE_BYTES: u64 = 4096;
+
 impl<R: BufRead> Iterator for CandumpReader<R> {
     type Item = Result<CanFrame>;
 
     fn next(&mut self) -> Option<Result<CanFrame>> {
         while !self.done {
             self.buf.clear();
-            match self.reader.read_until(b'\n', &mut self.buf) {
+            // at most one byte over the cap is read: an endless line (`/dev/zero`) stops here
+            match std::io::Read::take(&mut self.reader, MAX_LINE_BYTES + 1).read_until(b'\n', &mut self.buf) {
                 Ok(0) => {
                     self.done = true;
                     return None;
@@ -340,6 +345,10 @@ impl<R: BufRead> Iterator for CandumpReader<R> {
             }
             self.line_no += 1;
             self.stats.lines += 1;
+            if self.buf.len() as u64 > MAX_LINE_BYTES {
+                let start = String::from_utf8_lossy(&self.buf[..80]).into_owned();
+                return self.err(format!("line longer than {MAX_LINE_BYTES} bytes; it starts {start:?}…"));
+            }
             let Ok(text) = std::str::from_utf8(&self.buf) else {
                 return self.err("not UTF-8 text".into());
             };
@@ -681,6 +690,15 @@ mod tests {
             let e = parse_line(line).unwrap_err();
             assert!(e.contains(want), "{line}: {e}");
         }
+    }
+
+    /// Issue #12: an unbounded input (`candump = "/dev/zero"`) stops at the line cap.
+    #[test]
+    fn an_endless_line_stops_at_the_cap() {
+        let mut r = CandumpReader::new("/dev/zero", std::io::BufReader::new(std::io::repeat(b'1')));
+        let e = r.next().unwrap().unwrap_err().to_string();
+        assert!(e.starts_with("/dev/zero:1: line longer than 4096 bytes; it starts \"111"), "{e}");
+        assert!(e.len() < 200 && r.next().is_none(), "{e}");
     }
 
     #[test]

@@ -516,6 +516,10 @@ fn width_mask(extended: bool) -> u32 {
     }
 }
 
+/// Most taxels of one sensor a codec accepts (the stages' limit too): a custom codec with
+/// `taxels = 4294967295` used to abort allocating 4 GB.
+pub const MAX_TAXELS: u32 = 65_535;
+
 impl CanCodec {
     /// Validate a configuration. Errors ([`Error::InvalidConfig`]) name the sensor and message
     /// (`sensor "ff" message 0 (id 0x100)`) and say what is wrong.
@@ -546,6 +550,9 @@ impl CanCodec {
             let who = format!("sensor {:?}", s.name);
             if s.taxels == 0 {
                 return Err(bad(format!("{who}: taxels must be at least 1")));
+            }
+            if s.taxels > MAX_TAXELS {
+                return Err(bad(format!("{who}: taxels = {}; at most {MAX_TAXELS} are supported", s.taxels)));
             }
             if !(s.timeout_ms.is_finite() && s.timeout_ms > 0.0 && s.timeout_ms < 1e9) {
                 return Err(bad(format!("{who}: timeout_ms must be positive and finite, got {}", s.timeout_ms)));
@@ -968,6 +975,13 @@ mod tests {
         assert_eq!(v[1].value, Some(60.0));
         assert_eq!(v[2].raw, -32768);
         assert_eq!(v[2].value, None);
+    }
+
+    #[test]
+    fn a_sensor_of_four_billion_taxels_is_refused_without_allocating() {
+        let m = MessageSpec::new(0x10, 0, 8, 1);
+        let e = CanCodec::from_sensors(&[sensor(vec![m], u32::MAX)]).unwrap_err().to_string();
+        assert!(e.contains("taxels = 4294967295; at most 65535"), "{e}");
     }
 
     #[test]
