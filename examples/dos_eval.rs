@@ -35,6 +35,9 @@ use std::error::Error;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+#[path = "dos_eval_parts/headline.rs"]
+mod headline;
+
 /// One labelled recording's frames.
 struct Raw {
     class: DosClass,
@@ -201,6 +204,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/biotacsp-dos");
     let mut cfg = DosFeatureConfig::default();
     let mut model_out: Option<PathBuf> = None;
+    let mut floors = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -217,6 +221,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             "--threshold" => cfg.threshold = args.next().ok_or("--threshold needs τ")?.parse()?,
             "--track-window" => cfg.track_window_frames = args.next().ok_or("--track-window needs frames")?.parse()?,
             "--model-out" => model_out = Some(args.next().ok_or("--model-out needs a file")?.into()),
+            "--assert-floors" => floors = true,
             "-h" | "--help" => {
                 println!(
                     "usage: dos_eval [DATA_DIR] [--features a,b,c] [--centroid surface|contour|taxels] [--min-area MM2] \
@@ -263,6 +268,9 @@ fn main() -> Result<(), Box<dyn Error>> {
         cfg.features.len(),
         params(&cfg.features)
     );
+
+    headline::run(&dir, &layout, floors)?;
+    println!("\n## Footnotes: leave-one-object-out tables whose choices were made on that same evaluation\n");
 
     let cv = cross_validate(&recs, &cfg)?;
     let (ok, n) = cv.folds.iter().fold((0, 0), |a, f| (a.0 + f.1, a.1 + f.2));

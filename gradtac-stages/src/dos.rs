@@ -198,7 +198,7 @@
 //! | hop ([`DosClassifier::with_hop`]) | an answer every few frames; one `decision_frames` extraction each | fewer answers, less CPU |
 
 use crate::contour::{ContourConfig, Levels, MaxContour, MaxContourFinder, Saddle};
-use crate::drift::DriftMap;
+use crate::drift::{DriftMap, DriftScale};
 use crate::events::{Events, EventsConfig, Threshold};
 use crate::interpolate::{GridConfig, Interpolator, Method, Outside};
 use crate::window::{Aggregate, Window, WindowAggregate, WindowConfig, WindowKind};
@@ -276,6 +276,19 @@ impl DosClass {
             DosClass::Cw => Some(1.0),
             DosClass::Aw => Some(-1.0),
             _ => None,
+        }
+    }
+
+    /// The class of the same slip seen in a layout mirrored across `y = 0` (the BioTac SP's
+    /// electrodes 11–20 mirror 1–10): `e` ↔ `w` (the `y` component of the motion flips) and
+    /// `cw` ↔ `aw` (a reflection reverses every rotation); `n`, `s` and `t` stay.
+    pub fn mirrored(self) -> DosClass {
+        match self {
+            DosClass::E => DosClass::W,
+            DosClass::W => DosClass::E,
+            DosClass::Cw => DosClass::Aw,
+            DosClass::Aw => DosClass::Cw,
+            other => other,
         }
     }
 
@@ -377,8 +390,14 @@ impl Feature {
         Feature::DriftSignedY,
     ];
 
-    /// The default set: the seven drift features and the positive-event centroid.
-    pub const DEFAULT: [Feature; 9] = [
+    /// The default set: the seven drift features (chosen by the nested procedure of
+    /// [`crate::dos_select`] on the BioTacSP-DoS development subset, see the [module docs](self);
+    /// exactly invariant to a gain and an offset per recording on the linear drift scale).
+    pub const DEFAULT: [Feature; 7] = Feature::DRIFT;
+
+    /// The default before the invariant design: the seven drift features (then on the log
+    /// scale) and the positive-event centroid.
+    pub const DEFAULT_BEFORE_INVARIANCE: [Feature; 9] = [
         Feature::DriftLevel,
         Feature::DriftX,
         Feature::DriftY,
@@ -439,6 +458,24 @@ impl Feature {
     fn index(self) -> usize {
         Feature::ALL.iter().position(|&f| f == self).unwrap_or(0)
     }
+
+    /// How the feature changes when the recording is mirrored across `y = 0` on a layout
+    /// symmetric about that line: `−1` for the features odd in `y` (`*_y` locations,
+    /// `drift_cross`, `drift_signed_y`, `track_dy`, and `rotation`, whose sense a reflection
+    /// reverses), `+1` for the others.
+    pub fn mirror_sign(self) -> f64 {
+        match self {
+            Feature::PositiveY
+            | Feature::NegativeY
+            | Feature::ActivityY
+            | Feature::TrackDy
+            | Feature::Rotation
+            | Feature::DriftY
+            | Feature::DriftCross
+            | Feature::DriftSignedY => -1.0,
+            _ => 1.0,
+        }
+    }
 }
 
 /// Every feature of one span (see [`Feature`]); select with [`FeatureVector::select`]. A
@@ -490,9 +527,10 @@ impl FeatureVector {
 /// min_area_mm2 = 15.0        # smallest maximal-contour area
 /// min_peak = 1.0             # events; below it a surface has no contact
 /// centroid = "taxels"        # or "surface", "max_contour"
-/// drift_lags = [30, 60, 120] # frames
+/// drift_lags = [30, 60]     # frames
+/// drift_scale = "linear"     # or "log"
 /// features = ["drift_level", "drift_x", "drift_y", "drift_spread", "drift_anisotropy",
-///             "drift_cross", "drift_signed_y", "positive_x", "positive_y"]
+///             "drift_cross", "drift_signed_y"]
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -511,9 +549,14 @@ pub struct DosFeatureConfig {
     /// How a count surface's location is taken. Default [`CentroidMethod::Taxels`].
     pub centroid: CentroidMethod,
     /// Lags of the [drift map](crate::drift) in frames (non-empty, each in `1..=100000`, no
-    /// repeats). Default `[30, 60, 120]` (0.3, 0.6, 1.2 s at 100 Hz).
+    /// repeats). Default `[30, 60]` (0.3, 0.6 s at 100 Hz).
     pub drift_lags: Vec<u64>,
-    /// The features the classifier uses, in order (non-empty, no repeats). Default: the nine
+    /// The values the drift map differences. Default [`DriftScale::Linear`] (exactly invariant to
+    /// a gain and an offset per recording); [`DriftScale::Log`] is the scale of models written
+    /// before the field existed (such files now compute the linear map: the weights differ by
+    /// well under the spread between recordings, see the [module docs](self)).
+    pub drift_scale: DriftScale,
+    /// The features the classifier uses, in order (non-empty, no repeats). Default: the seven
     /// of [`Feature::DEFAULT`].
     pub features: Vec<Feature>,
 }
@@ -527,7 +570,8 @@ impl Default for DosFeatureConfig {
             min_area_mm2: 15.0,
             min_peak: 1.0,
             centroid: CentroidMethod::Taxels,
-            drift_lags: vec![30, 60, 120],
+            drift_lags: vec![30, 60],
+            drift_scale: DriftScale::Linear,
             features: Feature::DEFAULT.to_vec(),
         }
     }
@@ -671,7 +715,7 @@ impl DosFeatureExtractor {
             Some((interp, finder))
         };
         let drift = if uses(&cfg.features, &Feature::DRIFT) {
-            Some(DriftMap::try_new(taxels, &cfg.drift_lags, EventsConfig::default().floor)?)
+            Some(DriftMap::try_new(taxels, &cfg.drift_lags, EventsConfig::default().floor)?.with_scale(cfg.drift_scale))
         } else {
             None
         };
@@ -1043,9 +1087,10 @@ pub struct Decision {
 }
 
 impl DosModel {
-    /// Shrinkage `λ` of [`calibrate`](Self::calibrate): each class's variances halfway between
-    /// its own and the pooled ones.
-    pub const DEFAULT_SHRINKAGE: f64 = 0.5;
+    /// Shrinkage `λ` of [`calibrate`](Self::calibrate): each class keeps its own variances.
+    /// Chosen by the nested procedure on all
+    /// development recordings (see the [module docs](self)); 0.5 before.
+    pub const DEFAULT_SHRINKAGE: f64 = 0.0;
 
     /// Degrees of freedom `ν` of the Student-t class densities of [`calibrate`](Self::calibrate)
     /// (a heavy-tailed density: one recording far from its class mean in one feature costs
@@ -1060,8 +1105,8 @@ impl DosModel {
         Ok(self)
     }
 
-    /// Fit class means, pooled within-class variances and per-class variances shrunk halfway
-    /// toward them ([`DEFAULT_SHRINKAGE`](Self::DEFAULT_SHRINKAGE)) from labelled feature
+    /// Fit class means, pooled within-class variances and per-class variances shrunk toward them
+    /// by [`DEFAULT_SHRINKAGE`](Self::DEFAULT_SHRINKAGE) from labelled feature
     /// vectors (each of `config.features.len()` values, e.g. [`FeatureVector::select`]); see
     /// [`calibrate_with_shrinkage`](Self::calibrate_with_shrinkage).
     pub fn calibrate(config: DosFeatureConfig, samples: &[(DosClass, Vec<f64>)]) -> Result<DosModel> {
@@ -1279,6 +1324,18 @@ impl DosModel {
     }
 }
 
+/// `samples` followed by their mirror images across `y = 0` (each vector's features times
+/// [`Feature::mirror_sign`], its class [`DosClass::mirrored`]): the recordings the same slips
+/// would have given on the mirrored side of a symmetric layout. Calibrating on them makes the
+/// model itself symmetric — the class means of `e` and `w` (and of `cw` and `aw`) are mirror
+/// images, those of `n`, `s`, `t` have zero odd features — and doubles the training data for
+/// free; `features` are the vectors' features, in order.
+pub fn mirror_augmented(features: &[Feature], samples: &[(DosClass, Vec<f64>)]) -> Vec<(DosClass, Vec<f64>)> {
+    let signs: Vec<f64> = features.iter().map(|f| f.mirror_sign()).collect();
+    let mirrored = samples.iter().map(|(c, f)| (c.mirrored(), f.iter().zip(&signs).map(|(v, s)| v * s).collect()));
+    samples.iter().cloned().chain(mirrored).collect()
+}
+
 // ---------------------------------------------------------------------------------------------
 // Cross-validation
 // ---------------------------------------------------------------------------------------------
@@ -1454,6 +1511,8 @@ pub struct DosClassifier {
 #[derive(Clone, Debug)]
 struct Sliding {
     hop: u64,
+    /// Decide every `hop` frames from the first, before the window is full.
+    early: bool,
     recent: std::collections::VecDeque<TaxelFrame>,
     since: u64,
     replay: DosFeatureExtractor,
@@ -1483,10 +1542,24 @@ impl DosClassifier {
         let replay = self.extractor.clone();
         self.sliding = Some(Sliding {
             hop,
+            early: false,
             recent: std::collections::VecDeque::with_capacity(usize::try_from(n).unwrap_or(0).min(1 << 20)),
             since: 0,
             replay,
         });
+        Ok(self)
+    }
+
+    /// Sliding mode with early answers: a decision every `hop` frames from the first hop after
+    /// contact (a [`reset`](Stage::reset) or the start), each over all frames since then until
+    /// `decision_frames` have arrived, over the last `decision_frames` after that — what a robot
+    /// that must act before the window fills sees (the accuracy by time since contact is in the
+    /// [module docs](self)). Needs [`with_hop`](Self::with_hop) first.
+    pub fn with_early_decisions(mut self) -> Result<Self> {
+        match &mut self.sliding {
+            Some(sl) => sl.early = true,
+            None => return Err(invalid("early decisions need the sliding mode (with_hop)")),
+        }
         Ok(self)
     }
 
@@ -1539,7 +1612,7 @@ impl DosClassifier {
         }
         sl.recent.push_back(frame);
         sl.since += 1;
-        if sl.recent.len() as u64 >= n && sl.since >= sl.hop {
+        if (sl.early || sl.recent.len() as u64 >= n) && sl.since >= sl.hop {
             self.decide_window(out)?;
         }
         Ok(())
@@ -1772,7 +1845,8 @@ mod tests {
         assert_eq!(pooled.parameter_count(), 3);
         let own = DosModel::calibrate_with_shrinkage(cfg.clone(), &samples, 0.0).unwrap();
         assert_eq!(own.class_variances, [[1.0], [9.0]]);
-        let half = DosModel::calibrate(cfg.clone(), &samples).unwrap();
+        assert_eq!(DosModel::calibrate(cfg.clone(), &samples).unwrap(), own, "the default λ is 0");
+        let half = DosModel::calibrate_with_shrinkage(cfg.clone(), &samples, 0.5).unwrap();
         assert_eq!(half.class_variances, [[5.5], [9.5]]);
         assert_eq!(half.parameter_count(), 4);
         // 3.5 is nearer n's mean, but s's wide spread claims it with its own variances.
