@@ -204,7 +204,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/biotacsp-dos");
     let mut cfg = DosFeatureConfig::default();
     let mut model_out: Option<PathBuf> = None;
-    let mut floors = false;
+    let mut no_floors = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -221,11 +221,11 @@ fn main() -> Result<(), Box<dyn Error>> {
             "--threshold" => cfg.threshold = args.next().ok_or("--threshold needs τ")?.parse()?,
             "--track-window" => cfg.track_window_frames = args.next().ok_or("--track-window needs frames")?.parse()?,
             "--model-out" => model_out = Some(args.next().ok_or("--model-out needs a file")?.into()),
-            "--assert-floors" => floors = true,
+            "--no-floors" => no_floors = true,
             "-h" | "--help" => {
                 println!(
                     "usage: dos_eval [DATA_DIR] [--features a,b,c] [--centroid surface|contour|taxels] [--min-area MM2] \
-                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE]"
+                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors]"
                 );
                 return Ok(());
             }
@@ -269,7 +269,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         params(&cfg.features)
     );
 
-    headline::run(&dir, &layout, floors)?;
+    headline::run(&dir, &layout, no_floors)?;
     println!("\n## Footnotes: leave-one-object-out tables whose choices were made on that same evaluation\n");
 
     let cv = cross_validate(&recs, &cfg)?;

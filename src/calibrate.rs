@@ -4,13 +4,20 @@
 //! Labelled recordings are laid out as BioTacSP-DoS is: `<dir>/<class>/<name>.csv` with a
 //! class directory per [`DosClass`] (`n`, `e`, `s`, `w`, `cw`, `aw`, `t`), one recording per
 //! file. Each recording's features are extracted by the same [`DosFeatureExtractor`] the
-//! scene's `dos` stage runs (by default the seven drift-map features and the positive-event
-//! centroid); [`DosModel::calibrate`] then fits, per class and feature, a mean and a variance
-//! shrunk halfway toward the pooled within-class variance: `2 × classes × features` numbers
-//! (126 with the default nine features and seven classes; [`DosModel::parameter_count`] says
-//! which). The model decides with Student-t class densities (`ν` = 3, fixed); it is written as
-//! JSON with its feature configuration, so a scene computes exactly the features it was fitted
-//! on.
+//! scene's `dos` stage runs (by default the seven drift-map features on the linear scale, lags
+//! 0.3 and 0.6 s); [`DosModel::calibrate`] then fits, per class and feature, a mean and a
+//! variance (`λ` = 0: each class its own) on the recordings **and their mirror images** across
+//! `y = 0` ([`mirror_augmented`]; `--no-mirror` turns it off): `2 × classes × features` numbers
+//! (98 with the default seven features and seven classes; [`DosModel::parameter_count`] says
+//! which). Fitting takes milliseconds. The model decides with Student-t class densities
+//! (`ν` = 3, fixed); it is written as JSON with its feature configuration, so a scene computes
+//! exactly the features it was fitted on.
+//!
+//! These defaults are what the nested choice ([`gradtac_stages::dos_select`] over
+//! [`design_candidates`]) picks on the BioTacSP-DoS development subset; [`held_out`] gives the
+//! figures that say what that choice does on objects it has not seen (nested
+//! leave-one-object-out, and train on one object set → test on the other), and
+//! `gradtac calibrate --cross-validate` prints them for the data it is given.
 
 use crate::Error;
 use gradtac_io::{ColumnSelector, CsvFrames, CsvSourceConfig};
@@ -127,13 +134,17 @@ pub fn labelled_spans(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> R
     Ok(spans)
 }
 
-/// Fit a model on labelled spans with `opts`' shrinkage and class density.
+/// Fit a model on labelled spans with `opts`' shrinkage and class density (and their mirror
+/// images with `opts.mirror`).
 pub fn calibrate_spans(spans: &[LabelledSpan], opts: &CalibrateOptions) -> Result<DosModel, Error> {
     let samples: Vec<(DosClass, Vec<f64>)> =
         spans.iter().map(|s| (s.class, s.features.select(&opts.features.features))).collect();
     let samples = if opts.mirror { mirror_augmented(&opts.features.features, &samples) } else { samples };
-    Ok(DosModel::calibrate_with_shrinkage(opts.features.clone(), &samples, opts.shrinkage)?
-        .with_student_t_dof(opts.student_t_dof)?)
+    let mut model = DosModel::calibrate_with_shrinkage(opts.features.clone(), &samples, opts.shrinkage)?
+        .with_student_t_dof(opts.student_t_dof)?;
+    // recordings, not recordings and their mirror images
+    model.recordings = spans.len();
+    Ok(model)
 }
 
 /// Leave-one-object-out cross-validation ([`cross_validate`]) of `opts`' model on labelled
@@ -366,4 +377,15 @@ impl std::fmt::Display for HeldOut {
         }
         write!(f, "\n{}", self.nested.cv)
     }
+}
+
+/// The held-out figures of the design choice on the labelled recordings under `dir`
+/// ([`design_candidates`] over [`design_tables`], Student-t densities of `opts`): nested
+/// leave-one-object-out and, when both object sets are present, the cross-set figures — what
+/// `gradtac calibrate --cross-validate` prints after the plain cross-validation of the chosen
+/// settings.
+pub fn held_out_report(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> Result<HeldOut, Error> {
+    let recs = read_recordings(dir, opts)?;
+    let tables = design_tables(&recs, &opts.features, layout, usize::MAX)?;
+    held_out(&tables, &design_candidates(&opts.features), opts.student_t_dof)
 }

@@ -604,6 +604,11 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("leave-one-group-out accuracy"), "{text}");
+    // the held-out figures of the design choice (no BioTacSP-DoS object sets here: no cross-set)
+    assert!(
+        text.contains("nested leave-one-object-out") && text.contains("cross-set basic → solids: not available"),
+        "{text}"
+    );
     for object in ["| alpha | ", "| beta | ", "| gamma | "] {
         assert!(text.contains(object), "{object}: {text}");
     }

@@ -13,10 +13,12 @@ use std::error::Error;
 /// ν of the Student-t class densities (fixed, not chosen).
 const DOF: Option<f64> = Some(DosModel::DEFAULT_STUDENT_T_DOF);
 
-/// Floors the CI run asserts (`--assert-floors`): a few points under the measured figures.
-const FLOOR_NESTED: f64 = 0.0;
-const FLOOR_BASIC_TO_SOLIDS: f64 = 0.0;
-const FLOOR_SOLIDS_TO_BASIC: f64 = 0.0;
+/// Floors every run with the data asserts (the CI run included): a few points under the
+/// measured 80.2 % (nested, 167 recordings), 85.7 % (basic → solids, 56) and 66.7 %
+/// (solids → basic, 111) — about three to five recordings' worth.
+const FLOOR_NESTED: f64 = 0.77;
+const FLOOR_BASIC_TO_SOLIDS: f64 = 0.80;
+const FLOOR_SOLIDS_TO_BASIC: f64 = 0.63;
 
 fn pct(ok: usize, n: usize) -> String {
     format!("{:.1} % ({ok}/{n})", 100.0 * ok as f64 / n.max(1) as f64)
@@ -185,8 +187,8 @@ fn windows(
     Ok((alone, hist))
 }
 
-/// The headline; `assert_floors` fails (an error) when a held-out figure is under its floor.
-pub fn run(dir: &std::path::Path, layout: &Layout, assert_floors: bool) -> Result<(), Box<dyn Error>> {
+/// The headline; fails (an error) when a held-out figure is under its floor unless `no_floors`.
+pub fn run(dir: &std::path::Path, layout: &Layout, no_floors: bool) -> Result<(), Box<dyn Error>> {
     let recs = gradtac::calibrate::read_recordings(dir, &CalibrateOptions::default())?;
     let base = DosFeatureConfig::default();
     println!("\n## Held-out headline (nothing below was chosen on the recordings it scores)\n");
@@ -226,6 +228,31 @@ pub fn run(dir: &std::path::Path, layout: &Layout, assert_floors: bool) -> Resul
         n[0],
         n[1],
         n[2]
+    );
+    // For comparison only: the same nested choice with the earlier nine features (drift map on the
+    // log scale + positive-event centroid: NOT invariant to an offset) added as candidates.
+    let mut wide_tables = tables.clone();
+    let ev_cfg = DosFeatureConfig {
+        drift_scale: DriftScale::Log,
+        features: Feature::DEFAULT_BEFORE_INVARIANCE.to_vec(),
+        drift_lags: vec![30, 60, 120],
+        ..base.clone()
+    };
+    wide_tables.push(spans_of(&recs, &ev_cfg, layout, usize::MAX)?);
+    let mut wide = cands.clone();
+    for shrinkage in gradtac::calibrate::DESIGN_SHRINKAGE {
+        for mirror in [false, true] {
+            wide.push(Candidate { table: tables.len(), config: ev_cfg.clone(), shrinkage, mirror });
+        }
+    }
+    let w = fig(&held_out(&wide_tables, &wide, DOF)?);
+    println!(
+        "| (comparison, not a default) the same choice with the earlier nine features (log drift + positive-event \
+         centroid, not offset-invariant) added: {} candidates | ≤ 126 | {} | {} | {} |",
+        wide.len(),
+        w[0],
+        w[1],
+        w[2]
     );
     println!("\nchoices per outer fold (nested leave-one-object-out, then the cross-set trainings):");
     for (g, k, inner) in held
@@ -292,7 +319,7 @@ pub fn run(dir: &std::path::Path, layout: &Layout, assert_floors: bool) -> Resul
             );
         }
     }
-    if assert_floors {
+    if !no_floors {
         let checks = [
             ("nested leave-one-object-out", Some(held.nested.cv.accuracy()), FLOOR_NESTED),
             ("basic → solids", held.basic_to_solids.as_ref().map(|s| s.cv.accuracy()), FLOOR_BASIC_TO_SOLIDS),

@@ -123,7 +123,8 @@ fn score(
 
 /// The candidate with the best leave-one-group-out accuracy over the spans with indices
 /// `members` (every table's spans at those indices): (index, accuracy). Ties go to the earlier
-/// candidate. Refuses fewer than two groups.
+/// candidate; a candidate that cannot be calibrated in some inner fold is passed over. Refuses
+/// fewer than two groups, and fails when no candidate can be calibrated.
 pub fn choose(
     tables: &[Vec<LabelledSpan>],
     members: &[usize],
@@ -132,14 +133,26 @@ pub fn choose(
 ) -> Result<(usize, f64)> {
     check_tables(tables, candidates)?;
     let mut best = (0, -1.0);
+    let mut last_error = None;
     for (k, c) in candidates.iter().enumerate() {
-        let (ok, n) = score(tables, members, c, dof)?;
+        // a candidate that cannot be fitted in some inner fold (e.g. too few spans per class
+        // without the mirror images) is not chosen
+        let (ok, n) = match score(tables, members, c, dof) {
+            Ok(r) => r,
+            Err(e) => {
+                last_error = Some(e);
+                continue;
+            }
+        };
         let acc = ok as f64 / n.max(1) as f64;
         if acc > best.1 {
             best = (k, acc);
         }
     }
-    Ok(best)
+    match last_error {
+        Some(e) if best.1 < 0.0 => Err(e),
+        _ => Ok(best),
+    }
 }
 
 fn tally(cv: &mut CrossValidation, group: &str, decided: &[(DosClass, DosClass)]) {
