@@ -20,6 +20,9 @@ const FLOOR_NESTED: f64 = 0.77;
 const FLOOR_BASIC_TO_SOLIDS: f64 = 0.80;
 const FLOOR_SOLIDS_TO_BASIC: f64 = 0.63;
 
+/// (correct, decided).
+type Tally = (usize, usize);
+
 fn pct(ok: usize, n: usize) -> String {
     format!("{:.1} % ({ok}/{n})", 100.0 * ok as f64 / n.max(1) as f64)
 }
@@ -140,7 +143,7 @@ fn windows(
     train: &[usize],
     test: &[usize],
     layout: &Layout,
-) -> Result<((usize, usize), (usize, usize)), Box<dyn Error>> {
+) -> Result<[Tally; 2], Box<dyn Error>> {
     use gradtac::stages::dos::DosFeatureExtractor;
     // history: the candidate fitted on whole training recordings
     let whole = spans_of(recs, &cand.config, layout, usize::MAX)?;
@@ -184,7 +187,7 @@ fn windows(
         alone.0 += usize::from(wmodel.classify_vector(&s.features)?.class == s.class);
         alone.1 += 1;
     }
-    Ok((alone, hist))
+    Ok([alone, hist])
 }
 
 /// The headline; fails (an error) when a held-out figure is under its floor unless `no_floors`.
@@ -293,7 +296,7 @@ pub fn run(dir: &std::path::Path, layout: &Layout, no_floors: bool) -> Result<()
         // published protocol, trained on basic
         if let Some(bs) = &held.basic_to_solids {
             let cand = &cands[bs.chosen[0].1];
-            let (alone, hist) = windows(cand, &recs, &b, &s, layout)?;
+            let [alone, hist] = windows(cand, &recs, &b, &s, layout)?;
             println!(
                 "\npublished protocol (trained on basic only, choice by leave-one-object-out on basic; accuracy per \
                  non-overlapping 5-frame window of the solids recordings): window alone {}; causal history since \

@@ -226,7 +226,7 @@
 //! Extracting the default features costs 0.26–0.28 µs per frame (`dos_eval`; criterion
 //! `--bench tasks`: 0.28 µs, of which the drift map 0.14 µs), every feature with surface
 //! locations of the track windows 0.65 µs (32 × 32 natural neighbour); the drift map keeps the last
-//! `max(drift_lags)` frames (120 × 24 values). A decision is `classes × features`
+//! `max(drift_lags)` frames (60 × 24 values with the default lags). A decision is `classes × features`
 //! multiply-adds and `classes` logarithms (plus `classes × features` with per-class variances).
 //!
 //! # Trade-offs

@@ -111,9 +111,10 @@ fn synthetic_gain_offset_and_mirror() {
     let model = calibrate(&train);
     // the model is symmetric: the class means of e and w are mirror images
     let sign: Vec<f64> = model.config.features.iter().map(|f| f.mirror_sign()).collect();
-    let (e, w) = (model.classes.iter().position(|&c| c == DosClass::E).unwrap(), 3);
-    for j in 0..sign.len() {
-        assert!((model.means[e][j] - sign[j] * model.means[w][j]).abs() < 1e-9);
+    let pos = |c: DosClass| model.classes.iter().position(|&x| x == c).unwrap();
+    let (e, w) = (pos(DosClass::E), pos(DosClass::W));
+    for ((a, b), s) in model.means[e].iter().zip(&model.means[w]).zip(&sign) {
+        assert!((a - s * b).abs() < 1e-9, "{a} vs {s} × {b}");
     }
     assert_eq!(check(&model, &tests), 0, "every mirrored synthetic recording gets the mirrored class");
 }
