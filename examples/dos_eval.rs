@@ -29,7 +29,7 @@
 //! Data: B. S. Zapata-Impata, P. Gil, F. Torres, "Learning Spatio Temporal Tactile Features
 //! with a ConvLSTM for the Direction Of Slip Detection", Sensors 19(3):523, 2019.
 
-use gradtac::calibrate::{labelled_files, object_of};
+use gradtac::calibrate::{labelled_files, object_of, object_set};
 use gradtac::io::{ColumnSelector, CsvFrames, CsvSourceConfig};
 use gradtac::stages::dos::{
     cross_validate as leave_one_group_out, CentroidMethod, CrossValidation, DosClass, DosFeatureConfig,
@@ -165,16 +165,6 @@ fn cross_validate_groups(
     let spans: Vec<LabelledSpan> =
         recs.iter().map(|r| LabelledSpan { class: r.class, group: group(&r.object), features: r.features }).collect();
     Ok(leave_one_group_out(cfg, &spans, shrinkage, dof)?)
-}
-
-/// The BioTacSP-DoS object set of an object (`basic`: case, hd, pen, sponge; `solids`: bottle,
-/// cardboard; anything else is its own set).
-fn object_set(object: &str) -> String {
-    match object {
-        "case" | "hd" | "pen" | "sponge" => "basic".into(),
-        "bottle" | "cardboard" => "solids".into(),
-        other => other.into(),
-    }
 }
 
 /// The 95 % Wilson score interval of a proportion `ok / n` (how far the accuracy of `n`

@@ -128,6 +128,8 @@
 //! | + centroid of the falling drift (`w·max(−s, 0)`) | 80.2 % |
 //! | + both | 80.2 % |
 //! | + displacement of the drift centroid from the first to the second half of the span | 80.2 % |
+//! | + flow of change across neighbouring taxels (pairs < 6.5 mm apart: asymmetry of the 50 ms lagged correlation of their smoothed, standardised first differences, summed along the pair's direction) — flow vector / curl / both | 79.6 / 79.6 / 80.2 % (class means indistinguishable) |
+//! | + rotation of the drift pattern (principal-axis orientation of the first third's drift map to the last third's, weighted by anisotropy) | 79.6 % |
 //! | sub-span voting: features of overlapping 1.4 s / 1 s / 2 s / 0.7 s sub-spans, summed class distances | 78.4 / 79.6 / 77.8 / 77.8 % |
 //! | per-taxel maps `[w, w·s]` (48 values), L2 logistic regression with mirror augmentation (plain LOOO, 3 strengths) | 75.4–76.6 % |
 //! | the seven drift moments, logistic regression (plain LOOO) | 71.9–76.6 % |
