@@ -60,7 +60,7 @@
 //! sets *basic* = case, hd, pen, sponge and *solids* = bottle, cardboard; per-recording
 //! accuracy, chance 14.3 %; `cargo run --release --example dos_eval`, which prints these tables
 //! and fails when a held-out figure drops under its floor; `gradtac calibrate --cross-validate`
-//! prints the first three columns' figures for any labelled data):
+//! prints this design's three held-out figures for any labelled data):
 //!
 //! | method | parameters | nested leave-one-object-out | basic → solids | solids → basic |
 //! |---|---|---|---|---|
