@@ -4,20 +4,30 @@
 //! Labelled recordings are laid out as BioTacSP-DoS is: `<dir>/<class>/<name>.csv` with a
 //! class directory per [`DosClass`] (`n`, `e`, `s`, `w`, `cw`, `aw`, `t`), one recording per
 //! file. Each recording's features are extracted by the same [`DosFeatureExtractor`] the
-//! scene's `dos` stage runs (by default the seven drift-map features and the positive-event
-//! centroid); [`DosModel::calibrate`] then fits, per class and feature, a mean and a variance
-//! shrunk halfway toward the pooled within-class variance: `2 × classes × features` numbers
-//! (126 with the default nine features and seven classes; [`DosModel::parameter_count`] says
-//! which). The model decides with Student-t class densities (`ν` = 3, fixed); it is written as
-//! JSON with its feature configuration, so a scene computes exactly the features it was fitted
-//! on.
+//! scene's `dos` stage runs (by default the seven drift-map features on the linear scale, lags
+//! 0.3 and 0.6 s); [`DosModel::calibrate`] then fits, per class and feature, a mean and a
+//! variance (`λ` = 0: each class its own) on the recordings **and their mirror images** across
+//! `y = 0` ([`mirror_augmented`]; `--no-mirror` turns it off): `2 × classes × features` numbers
+//! (98 with the default seven features and seven classes; [`DosModel::parameter_count`] says
+//! which). Fitting takes milliseconds. The model decides with Student-t class densities
+//! (`ν` = 3, fixed); it is written as JSON with its feature configuration, so a scene computes
+//! exactly the features it was fitted on.
+//!
+//! These defaults are what the nested choice ([`gradtac_stages::dos_select`] over
+//! [`design_candidates`]) picks on the BioTacSP-DoS development subset; [`held_out`] gives the
+//! figures that say what that choice does on objects it has not seen (nested
+//! leave-one-object-out, and train on one object set → test on the other), and
+//! `gradtac calibrate --cross-validate` prints them for the data it is given.
 
 use crate::Error;
 use gradtac_io::{ColumnSelector, CsvFrames, CsvSourceConfig};
 use gradtac_stages::dos::{
-    cross_validate, CrossValidation, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, LabelledSpan,
+    cross_validate, mirror_augmented, CrossValidation, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel,
+    Feature, LabelledSpan,
 };
-use gradtac_stream::{Layout, SensorId};
+use gradtac_stages::dos_select::{nested_cross_validate, train_test, Candidate, Selected};
+use gradtac_stages::drift::DriftScale;
+use gradtac_stream::{Layout, SensorId, TaxelFrame};
 use std::path::{Path, PathBuf};
 
 /// How recordings are read and the model is fitted.
@@ -34,6 +44,9 @@ pub struct CalibrateOptions {
     /// Student-t degrees of freedom, `None` for Gaussian class densities (default
     /// [`DosModel::DEFAULT_STUDENT_T_DOF`]).
     pub student_t_dof: Option<f64>,
+    /// Calibrate on the recordings and their mirror images across `y = 0`
+    /// ([`mirror_augmented`]; default on).
+    pub mirror: bool,
 }
 
 impl Default for CalibrateOptions {
@@ -44,6 +57,7 @@ impl Default for CalibrateOptions {
             features: DosFeatureConfig::default(),
             shrinkage: DosModel::DEFAULT_SHRINKAGE,
             student_t_dof: Some(DosModel::DEFAULT_STUDENT_T_DOF),
+            mirror: true,
         }
     }
 }
@@ -120,18 +134,49 @@ pub fn labelled_spans(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> R
     Ok(spans)
 }
 
-/// Fit a model on labelled spans with `opts`' shrinkage and class density.
+/// Fit a model on labelled spans with `opts`' shrinkage and class density (and their mirror
+/// images with `opts.mirror`).
 pub fn calibrate_spans(spans: &[LabelledSpan], opts: &CalibrateOptions) -> Result<DosModel, Error> {
     let samples: Vec<(DosClass, Vec<f64>)> =
         spans.iter().map(|s| (s.class, s.features.select(&opts.features.features))).collect();
-    Ok(DosModel::calibrate_with_shrinkage(opts.features.clone(), &samples, opts.shrinkage)?
-        .with_student_t_dof(opts.student_t_dof)?)
+    let samples = if opts.mirror { mirror_augmented(&opts.features.features, &samples) } else { samples };
+    let mut model = DosModel::calibrate_with_shrinkage(opts.features.clone(), &samples, opts.shrinkage)?
+        .with_student_t_dof(opts.student_t_dof)?;
+    // recordings, not recordings and their mirror images
+    model.recordings = spans.len();
+    Ok(model)
 }
 
 /// Leave-one-object-out cross-validation ([`cross_validate`]) of `opts`' model on labelled
 /// spans: what to expect on an object the model has not seen.
+/// (`opts.mirror` augments each fold's training spans.)
 pub fn cross_validate_spans(spans: &[LabelledSpan], opts: &CalibrateOptions) -> Result<CrossValidation, Error> {
-    Ok(cross_validate(&opts.features, spans, &|_| opts.shrinkage, opts.student_t_dof)?)
+    if !opts.mirror {
+        return Ok(cross_validate(&opts.features, spans, &|_| opts.shrinkage, opts.student_t_dof)?);
+    }
+    let cand = Candidate { table: 0, config: opts.features.clone(), shrinkage: opts.shrinkage, mirror: true };
+    let groups: std::collections::BTreeSet<&str> = spans.iter().map(|s| s.group.as_str()).collect();
+    if groups.len() < 2 {
+        return Err(gradtac_stages::Error::InvalidConfig {
+            stage: "dos",
+            reason: format!("cross-validation needs at least two groups, got {}", groups.len()),
+        }
+        .into());
+    }
+    let mut cv = CrossValidation { folds: Vec::new(), confusion: [[0; 7]; 7] };
+    let idx = |c: DosClass| DosClass::ALL.iter().position(|&x| x == c).unwrap_or(0);
+    for g in groups {
+        let model = cand.calibrate(spans.iter().filter(|s| s.group != g), opts.student_t_dof)?;
+        let (mut ok, mut n) = (0, 0);
+        for s in spans.iter().filter(|s| s.group == g) {
+            let got = model.classify_vector(&s.features)?.class;
+            cv.confusion[idx(s.class)][idx(got)] += 1;
+            ok += usize::from(got == s.class);
+            n += 1;
+        }
+        cv.folds.push((g.to_string(), ok, n));
+    }
+    Ok(cv)
 }
 
 /// Fit a model on every labelled recording under `dir`; returns it with the number of
@@ -154,4 +199,193 @@ pub fn read_model(path: &Path) -> Result<DosModel, Error> {
 pub fn write_model(model: &DosModel, path: &Path) -> Result<(), Error> {
     let json = serde_json::to_string_pretty(model).expect("models serialise");
     std::fs::write(path, json).map_err(|source| Error::Io { path: path.to_path_buf(), source })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Held-out evaluation: nested leave-one-object-out and cross-object-set figures
+// ---------------------------------------------------------------------------------------------
+
+/// One labelled recording's raw frames (one `Vec` of taxel values per frame).
+#[derive(Clone, Debug)]
+pub struct Recording {
+    /// The labelled class.
+    pub class: DosClass,
+    /// The object it was recorded on ([`object_of`]).
+    pub object: String,
+    /// Raw values, one row per frame.
+    pub frames: Vec<Vec<f64>>,
+}
+
+/// Read every labelled recording under `dir` ([`labelled_files`]) with `opts`' columns.
+pub fn read_recordings(dir: &Path, opts: &CalibrateOptions) -> Result<Vec<Recording>, Error> {
+    let mut out = Vec::new();
+    for (class, path) in labelled_files(dir)? {
+        let cfg = CsvSourceConfig::new(&path, opts.columns.clone()).with_rate_hz(opts.rate_hz);
+        let frames =
+            CsvFrames::open(&cfg, SensorId::new("ff"))?.map(|f| f.map(|f| f.values)).collect::<Result<Vec<_>, _>>()?;
+        out.push(Recording { class, object: object_of(&path), frames });
+    }
+    Ok(out)
+}
+
+/// The BioTacSP-DoS object set of an object: `basic` (case, hd, pen, sponge), `solids`
+/// (bottle, cardboard); any other object is its own set.
+pub fn object_set(object: &str) -> String {
+    match object {
+        "case" | "hd" | "pen" | "sponge" => "basic".into(),
+        "bottle" | "cardboard" => "solids".into(),
+        other => other.into(),
+    }
+}
+
+/// The features (all of them, [`Feature::ALL`]) of the first `span` frames of every recording
+/// with `cfg`'s extraction settings, grouped by object.
+pub fn spans_of(
+    recs: &[Recording],
+    cfg: &DosFeatureConfig,
+    layout: &Layout,
+    span: usize,
+) -> Result<Vec<LabelledSpan>, Error> {
+    let all = DosFeatureConfig { features: Feature::ALL.to_vec(), ..cfg.clone() };
+    let mut extractor = DosFeatureExtractor::try_new(&all, layout)?;
+    let mut out = Vec::with_capacity(recs.len());
+    for r in recs {
+        extractor.reset();
+        for (seq, values) in r.frames.iter().take(span).enumerate() {
+            let time = gradtac_stream::Timestamp::from_nanos(seq as i64 * 10_000_000);
+            extractor.push(TaxelFrame::new(SensorId::new("ff"), time, seq as u64, values.clone()))?;
+        }
+        out.push(LabelledSpan { class: r.class, group: r.object.clone(), features: extractor.features() });
+    }
+    Ok(out)
+}
+
+/// The drift-lag sets (frames at 100 Hz) the design chooses among: one feature table each.
+pub const DESIGN_LAGS: [&[u64]; 4] = [&[30, 60, 120], &[60], &[30, 60], &[60, 120]];
+
+/// The drift-feature sets the design chooses among, simplest first.
+pub const DESIGN_FEATURES: [&[Feature]; 3] = [
+    &[Feature::DriftLevel, Feature::DriftX, Feature::DriftY],
+    &[Feature::DriftLevel, Feature::DriftX, Feature::DriftY, Feature::DriftSpread, Feature::DriftAnisotropy],
+    &Feature::DRIFT,
+];
+
+/// The shrinkages `λ` the design chooses among (1 first: the fewest parameters).
+pub const DESIGN_SHRINKAGE: [f64; 5] = [1.0, 0.75, 0.5, 0.25, 0.0];
+
+/// The feature tables of the design: one per [`DESIGN_LAGS`] entry, linear drift scale, the
+/// rest of `base`.
+pub fn design_tables(
+    recs: &[Recording],
+    base: &DosFeatureConfig,
+    layout: &Layout,
+    span: usize,
+) -> Result<Vec<Vec<LabelledSpan>>, Error> {
+    DESIGN_LAGS
+        .iter()
+        .map(|lags| {
+            let cfg = DosFeatureConfig { drift_lags: lags.to_vec(), drift_scale: DriftScale::Linear, ..base.clone() };
+            spans_of(recs, &cfg, layout, span)
+        })
+        .collect()
+}
+
+/// The design's candidates over [`design_tables`]: every lag set × drift-feature set ×
+/// shrinkage × mirror augmentation (off first), 120 in all, all exactly invariant to a gain and
+/// an offset per recording (linear drift map, no event feature).
+pub fn design_candidates(base: &DosFeatureConfig) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    for (table, lags) in DESIGN_LAGS.iter().enumerate() {
+        for features in DESIGN_FEATURES {
+            for shrinkage in DESIGN_SHRINKAGE {
+                for mirror in [false, true] {
+                    let config = DosFeatureConfig {
+                        drift_lags: lags.to_vec(),
+                        drift_scale: DriftScale::Linear,
+                        features: features.to_vec(),
+                        ..base.clone()
+                    };
+                    out.push(Candidate { table, config, shrinkage, mirror });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Held-out figures of a choice procedure: nested leave-one-object-out over every recording and,
+/// when the data holds both object sets, train on one set → test on the other (the choice made
+/// by leave-one-object-out inside the training set).
+#[derive(Clone, Debug)]
+pub struct HeldOut {
+    /// Nested leave-one-object-out.
+    pub nested: Selected,
+    /// Trained on *basic*, tested on *solids* (per recording).
+    pub basic_to_solids: Option<Selected>,
+    /// Trained on *solids*, tested on *basic* (per recording).
+    pub solids_to_basic: Option<Selected>,
+}
+
+/// [`HeldOut`] figures of choosing among `candidates` (Student-t densities of `dof`).
+pub fn held_out(tables: &[Vec<LabelledSpan>], candidates: &[Candidate], dof: Option<f64>) -> Result<HeldOut, Error> {
+    let nested = nested_cross_validate(tables, candidates, dof)?;
+    let spans = tables.first().map(Vec::as_slice).unwrap_or(&[]);
+    let of = |set: &str| -> Vec<usize> { (0..spans.len()).filter(|&i| object_set(&spans[i].group) == set).collect() };
+    let (basic, solids) = (of("basic"), of("solids"));
+    let split = |train: &[usize], test: &[usize], name: &str| -> Result<Option<Selected>, Error> {
+        let objects = |ix: &[usize]| {
+            let mut o: Vec<&str> = ix.iter().map(|&i| spans[i].group.as_str()).collect();
+            o.sort_unstable();
+            o.dedup();
+            o.len()
+        };
+        if objects(train) < 2 || test.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(train_test(tables, train, test, name, candidates, dof)?))
+    };
+    Ok(HeldOut {
+        nested,
+        basic_to_solids: split(&basic, &solids, "basic → solids")?,
+        solids_to_basic: split(&solids, &basic, "solids → basic")?,
+    })
+}
+
+impl std::fmt::Display for HeldOut {
+    /// The three figures with their protocols, the choices made per fold, and the nested
+    /// confusion matrix.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "nested leave-one-object-out (every choice made inside each fold by leave-one-object-out on its \
+             training objects): {:.1} %",
+            100.0 * self.nested.cv.accuracy()
+        )?;
+        for (name, s) in [("basic → solids", &self.basic_to_solids), ("solids → basic", &self.solids_to_basic)] {
+            match s {
+                Some(s) => {
+                    let (_, ok, n) = &s.cv.folds[0];
+                    writeln!(
+                        f,
+                        "cross-set {name} (choice by leave-one-object-out on the training set, per recording): \
+                         {:.1} % ({ok}/{n})",
+                        100.0 * s.cv.accuracy()
+                    )?;
+                }
+                None => writeln!(f, "cross-set {name}: not available (needs both object sets in the data)")?,
+            }
+        }
+        write!(f, "\n{}", self.nested.cv)
+    }
+}
+
+/// The held-out figures of the design choice on the labelled recordings under `dir`
+/// ([`design_candidates`] over [`design_tables`], Student-t densities of `opts`): nested
+/// leave-one-object-out and, when both object sets are present, the cross-set figures — what
+/// `gradtac calibrate --cross-validate` prints after the plain cross-validation of the chosen
+/// settings.
+pub fn held_out_report(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> Result<HeldOut, Error> {
+    let recs = read_recordings(dir, opts)?;
+    let tables = design_tables(&recs, &opts.features, layout, usize::MAX)?;
+    held_out(&tables, &design_candidates(&opts.features), opts.student_t_dof)
 }

@@ -114,7 +114,14 @@ impl SensorChain {
                     let model = crate::calibrate::read_model(&scene.resolve(&d.model))?;
                     let c = DosClassifier::try_new(model, &plan.layout, d.decision_frames)?;
                     Some(match d.hop_frames {
+                        Some(hop) if d.early => c.with_hop(hop)?.with_early_decisions()?,
                         Some(hop) => c.with_hop(hop)?,
+                        None if d.early => {
+                            return Err(Error::Scene {
+                                path: scene.base_dir.clone(),
+                                reason: "[stages.dos] early = true needs hop_frames (sliding decisions)".into(),
+                            })
+                        }
                         None => c,
                     })
                 }
@@ -252,6 +259,9 @@ impl SensorChain {
                     match (d.decision_frames, d.hop_frames) {
                         (None, _) => "one decision per recording".to_string(),
                         (Some(n), None) => format!("a decision per {n} frames"),
+                        (Some(n), Some(h)) if d.early => {
+                            format!("a decision every {h} frames over the last {n} (early: over all frames until {n})")
+                        }
                         (Some(n), Some(h)) => format!("a decision every {h} frames over the last {n}"),
                     }
                 ),

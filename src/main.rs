@@ -57,10 +57,15 @@ enum Command {
         /// Degrees of freedom ν of the Student-t class densities.
         #[arg(long, default_value_t = gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF)]
         student_t: f64,
-        /// Before fitting, print a leave-one-object-out cross-validation (objects: the leading
-        /// letters of the file names, `bottle12.csv` → `bottle`).
+        /// Before fitting, print a leave-one-object-out cross-validation of these settings
+        /// (objects: the leading letters of the file names, `bottle12.csv` → `bottle`), and the
+        /// held-out figures of the design choice: nested leave-one-object-out and, with both
+        /// BioTacSP-DoS object sets present, basic → solids and solids → basic.
         #[arg(long)]
         cross_validate: bool,
+        /// Fit on the recordings only, without their mirror images across y = 0.
+        #[arg(long)]
+        no_mirror: bool,
     },
     /// Render a gradtac Parquet output (any schema: frame, event, window, surface, contour,
     /// track, slip, force, servo, dos) as a PNG: one file, or an archive directory (its
@@ -140,12 +145,14 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             gaussian,
             student_t,
             cross_validate,
+            no_mirror,
         } => {
             let mut opts = gradtac::calibrate::CalibrateOptions {
                 columns: columns.parse().map_err(gradtac::Error::Io2)?,
                 rate_hz,
                 shrinkage,
                 student_t_dof: (!gaussian).then_some(student_t),
+                mirror: !no_mirror,
                 ..Default::default()
             };
             let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];
@@ -157,7 +164,10 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             let layout = gradtac::stream::Layout::biotac_sp();
             let spans = gradtac::calibrate::labelled_spans(&data, &layout, &opts)?;
             if cross_validate {
+                println!("these settings, fixed (in-sample if they were chosen on these recordings):\n");
                 print!("{}", gradtac::calibrate::cross_validate_spans(&spans, &opts)?);
+                println!("\nheld out — the design choice made inside every fold:\n");
+                print!("{}", gradtac::calibrate::held_out_report(&data, &layout, &opts)?);
                 println!();
             }
             let model = gradtac::calibrate::calibrate_spans(&spans, &opts)?;

@@ -311,6 +311,7 @@ pub struct StageSettings {
 /// model = "dos-model.json"     # written by `gradtac calibrate`
 /// decision_frames = 250        # one decision per 250 frames; omit for one per recording
 /// hop_frames = 10              # optional: a decision every 10 frames over the last 250 (sliding)
+/// early = true                 # optional, with hop_frames: answers before 250 frames have arrived
 /// ```
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -325,6 +326,11 @@ pub struct DosSettings {
     /// `gradtac_stages::dos::DosClassifier`). `None`: tumbling spans.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hop_frames: Option<u64>,
+    /// With `hop_frames`: answer from the first hop after contact, each decision over all
+    /// frames so far until `decision_frames` have arrived (`DosClassifier::with_early_decisions`;
+    /// accuracy by time since contact in `gradtac_stages::dos`). Default false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub early: bool,
 }
 
 /// One output: a tap on a stage, written to a file.

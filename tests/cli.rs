@@ -604,6 +604,11 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("leave-one-group-out accuracy"), "{text}");
+    // the held-out figures of the design choice (no BioTacSP-DoS object sets here: no cross-set)
+    assert!(
+        text.contains("nested leave-one-object-out") && text.contains("cross-set basic → solids: not available"),
+        "{text}"
+    );
     for object in ["| alpha | ", "| beta | ", "| gamma | "] {
         assert!(text.contains(object), "{object}: {text}");
     }
@@ -676,4 +681,19 @@ fn dos_scene_decides_on_a_sliding_window() {
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("hop needs decision_frames"), "{err}");
+    // early answers: a decision every 20 frames from frame 19 on, and one more at the end if
+    // frames came after the last
+    fs::write(&sc, scene("decision_frames = 60\nhop_frames = 20\nearly = true")).unwrap();
+    let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
+    assert!(text.contains("(early: over all frames until 60)"), "{text}");
+    let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let file = fs::File::open(dir.path().join("out/dos.parquet")).unwrap();
+    let rows: usize =
+        ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap().map(|b| b.unwrap().num_rows()).sum();
+    assert_eq!(rows, frames / 20 + usize::from(frames % 20 != 0), "{frames} frames");
+    fs::write(&sc, scene("early = true")).unwrap();
+    let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("early = true needs hop_frames"));
 }

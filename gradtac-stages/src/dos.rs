@@ -27,8 +27,9 @@
 //! the configured [`CentroidMethod`] (default: the count-weighted mean of the taxel positions);
 //! `w_i`, `s_i` are the drift map's weight and sign of taxel `i` at position `(x_i, y_i)` (lags
 //! [`DosFeatureConfig::drift_lags`]), `W = Σ w_i` and `(x̄, ȳ) = Σ w_i (x_i, y_i) / W`. The
-//! **default** set ([`Feature::DEFAULT`]) is the seven drift features and `positive_x`,
-//! `positive_y`.
+//! **default** set ([`Feature::DEFAULT`]) is the seven drift features, on the linear drift
+//! scale ([`DriftScale::Linear`]): all of them exactly invariant to a gain and an offset per
+//! recording, and odd or even under the layout's mirror ([`Feature::mirror_sign`]).
 //!
 //! | feature | unit | definition |
 //! |---|---|---|
@@ -55,55 +56,100 @@
 //! drift features agree with an independent numpy implementation to 1e-12
 //! (`tests/dos_drift_reference.rs`, vectors and script in `tests/reference/`).
 //!
-//! **Measured.** Leave-one-object-out accuracy on the BioTacSP-DoS development subset (167
-//! recordings, six objects; `cargo run --release --example dos_eval`, which prints these
-//! tables; chance 14.3 %; the published ConvLSTM reached 82.56 % on unseen objects of other
-//! object sets, a different protocol): **83.2 %** (139/167) with the defaults; per class
-//! (recall) `e` 100 %, `w` 96 %, `t` 92 %, `n` 83 %, `s` 79 %, `cw` 71 %, `aw` 62 %. With 167
-//! recordings one recording is 0.6 points and the 95 % (Wilson) interval of 139/167 is
-//! 76.8–88.1 %: the defaults and the ConvLSTM are not distinguishable on this set. Leaving a
-//! whole object *set* out (closer to the published protocol, with far less training data):
-//! trained on *Solids* (2 objects), tested on *Basic* 74.8 %; trained on *Basic* (4 objects),
-//! tested on *Solids* 82.1 % — against 60.4 % and 66.1 % for the earlier event-only features.
+//! **Measured — held out** (BioTacSP-DoS development subset: 167 recordings of ~2.8 s, object
+//! sets *basic* = case, hd, pen, sponge and *solids* = bottle, cardboard; per-recording
+//! accuracy, chance 14.3 %; `cargo run --release --example dos_eval`, which prints these tables
+//! and fails when a held-out figure drops under its floor; `gradtac calibrate --cross-validate`
+//! prints this design's three held-out figures for any labelled data):
 //!
-//! | feature set (Student t, `λ` = 0.5) | parameters | taxels (default) | surface | max contour |
+//! | method | parameters | nested leave-one-object-out | basic → solids | solids → basic |
 //! |---|---|---|---|---|
-//! | drift map + positive-event centroid (**default**) | 126 | **83.2 %** | 81.4 % | 77.8 % |
-//! | drift map only | 98 | 80.2 % | 80.2 % | 80.2 % |
-//! | rate, positive fraction, positive/negative event centroids (the earlier default) | 84 | 73.1 % | 67.7 % | 55.1 % |
-//! | drift map + the earlier default | 182 | 80.8 % | 79.6 % | 76.6 % |
-//! | default + track displacement | 154 | 84.4 % | 82.0 % | 80.2 % |
-//! | default + rotation | 140 | 83.2 % | 81.4 % | 77.2 % |
-//! | all 18 | 252 | 79.0 % | 76.6 % | 75.4 % |
-//! | extraction of the default features, µs per frame (release) | | 0.26 | 0.34 | 0.33 |
+//! | nearest class mean of the unit mean-change vector (24 taxels; the cheapest baseline) | 168 | 28.7 % | 19.6 % | 26.1 % |
+//! | the classifier before this design (9 features: log drift map + positive-event centroid, λ 0.5, fixed) | 126 | 83.2 % ¹ | 82.1 % ¹ | 74.8 % ¹ |
+//! | **this design**: 120 candidates chosen inside every fold (below) | 98 | **80.2 %** | **85.7 %** | **66.7 %** |
+//! | (comparison) the same choice with the earlier nine features added as candidates | ≤ 126 | 82.0 % | 82.1 % | 66.7 % |
 //!
-//! | `λ` | Student t, `ν` = 3 (**default**) | Gaussian |
-//! |---|---|---|
-//! | 0 | 85.6 % | 81.4 % |
-//! | 0.25 | 83.8 % | 83.8 % |
-//! | **0.5** | **83.2 %** | 82.6 % |
-//! | 0.75 | 81.4 % | 82.0 % |
-//! | 1 (pooled, 72 parameters) | 79.6 % | 79.6 % |
+//! ¹ Not held out for its choices: its features and lags were picked by looking at the
+//! leave-one-object-out accuracy over all six objects, so its first column is that plain
+//! figure, and its cross-set figures come from choices that saw the test objects.
 //!
-//! **What was chosen on this evaluation, and the honest estimate.** The drift map, its lags
-//! (`[30]` 80.2 %, `[60]` 82.6 %, `[60, 120]` 82.6 %, `[30, 60, 120]` 83.2 %, `[30, 60, 120,
-//! 240]` 80.8 %) and the feature set were found by looking at this same leave-one-object-out
-//! accuracy (among dozens of candidates: band energies, optical flow on the taxels, propagation
-//! delays, onset order, side correlations, curl-like signed moments, per-taxel patterns with LDA —
-//! none better). `λ` = 0.5 is the value fixed before the drift map, and `ν` = 3 a textbook choice
-//! for robust t models, not tuned (`ν` 1…30 gives 83.8–82.6 %). Choosing `λ` inside each fold by
-//! a nested leave-one-object-out over the five training objects gives **83.2 %**. Expect low 80s
-//! on new objects; the held-out object sets of BioTacSP-DoS are the real test. Adding the
-//! track displacement (the method's contact track) gives 84.4 % (nested 85.0 %) but 76.0 %
-//! against 77.2 % when an object set is left out — no consistent gain, so the default stays
-//! without it (`features` in the model's configuration adds it).
+//! *Protocols.* **Nested leave-one-object-out**: for each of the six objects, every choice —
+//! drift lags (`[30, 60, 120]`, `[60]`, `[30, 60]`, `[60, 120]`), drift-feature set
+//! (`drift_level, drift_x, drift_y` / + `drift_spread, drift_anisotropy` / all seven),
+//! shrinkage `λ` (1, 0.75, 0.5, 0.25, 0) and mirror augmentation (off / on) — is made by
+//! leave-one-object-out over the *other five* objects only ([`crate::dos_select`]); the chosen
+//! candidate is fitted on those five and decides the held-out object. **Cross-set**: the same
+//! choice by leave-one-object-out inside the training set (four basic objects, or the two
+//! solids), fitted on the whole set, decides every recording of the other set. Student-t `ν` = 3
+//! was never tuned. The per-fold choices were almost always all seven drift features with
+//! `λ` 0.25–0.5; lags and mirror varied (`dos_eval` lists them). **The shipped defaults** are
+//! what the same procedure picks on all 167 recordings: the seven drift features, lags
+//! `[30, 60]`, linear scale, `λ` = 0, mirror augmentation on (inner leave-one-object-out
+//! 83.2 % — in-sample for that choice; not a held-out figure).
 //!
-//! **The latency trade** (calibrated and tested on the first N frames of every recording,
-//! 100 Hz): 25 frames 34.1 %, 50 frames 65.3 %, 1 s 73.1 %, 1.5 s 74.9 %, 2 s 78.4 %,
-//! 2.5 s 82.0 %, whole recordings (2.7–2.8 s) 83.2 %. The drift needs time to rise above the
-//! noise; [`DosClassifier`]'s `decision_frames` sets the span, and
-//! [`with_hop`](DosClassifier::with_hop) slides it (a fresh answer every few frames about the
-//! last `decision_frames`).
+//! *The published protocol* (ConvLSTM of Zapata-Impata et al.: trained on basic only, accuracy
+//! per non-overlapping 5-frame = 50 ms window of unseen objects, 82.56 % on solids): the
+//! basic-trained choice decides each 5-frame window of the solids recordings — from **the window
+//! alone** (a model of the same features with lags 1, 2, 4 frames, fitted on the basic
+//! recordings' 5-frame windows): **29.1 %**; from **the causal history since contact** (the
+//! basic-trained model on all frames up to the window's end — what a streaming robot has):
+//! **63.3 %**. A 50 ms window holds no slow drift: these features need time, the ConvLSTM's
+//! per-window figure is out of their reach.
+//!
+//! *Early answers* — the streaming [`DosClassifier`] with sliding decisions every 5 frames and
+//! early answers ([`with_early_decisions`](DosClassifier::with_early_decisions): each over all
+//! frames since contact), the cross-set choice fitted on whole training recordings:
+//!
+//! | split | 0.25 s | 0.5 s | 1 s | 2 s | whole (2.7–2.8 s) |
+//! |---|---|---|---|---|---|
+//! | basic → solids (56 recordings) | 14.3 % | 14.3 % | 66.1 % | 78.6 % | 85.7 % |
+//! | solids → basic (111 recordings) | 14.4 % | 59.5 % | 64.9 % | 68.5 % | 66.7 % |
+//!
+//! Before 0.3 s (0.6 s for a choice of lags `[60]`) no drift lag has a difference, every
+//! feature is at its no-drift value and every recording gets the same class. At 1 s the answers
+//! are right about two times in three; the issue's 85 % at 1 s is not reached.
+//!
+//! *Targets not reached, and why it stops here.* The issue asked for ≥ 90 % cross-set each
+//! way, ≥ 90 % nested and ≥ 85 % at 1 s. Measured: 85.7 % / 66.7 %, 80.2 %, ~65 %. The
+//! remaining errors are mostly `cw` ↔ `aw` (13 of 33 nested errors) and `n` → `cw`/`aw`: on
+//! these recordings rotation is visible only as a weak side asymmetry of the drift
+//! (`drift_signed_y`) that half a dozen recordings show reversed. Solids → basic trains on two
+//! objects (56 recordings) and the choice inside it rests on a two-fold leave-one-object-out —
+//! the weakest link. Every extension tried (log below) left the nested figure at or under
+//! 80.2 %; a figure chosen on the test data would be easy to get and is not reported.
+//!
+//! *Design log* (nested leave-one-object-out unless marked; one recording = 0.6 points):
+//!
+//! | tried | nested |
+//! |---|---|
+//! | the design grid above (linear drift map, 120 candidates) — **shipped** | 80.2 % |
+//! | log instead of linear drift scale (drift features only, λ 0.5, plain LOOO) | 80.2 % = linear |
+//! | + centroid of the rising drift (`w·max(s, 0)`), as a fourth feature set | 79.0 % |
+//! | + centroid of the falling drift (`w·max(−s, 0)`) | 80.2 % |
+//! | + both | 80.2 % |
+//! | + displacement of the drift centroid from the first to the second half of the span | 80.2 % |
+//! | + flow of change across neighbouring taxels (pairs < 6.5 mm apart: asymmetry of the 50 ms lagged correlation of their smoothed, standardised first differences, summed along the pair's direction) — flow vector / curl / both | 79.6 / 79.6 / 80.2 % (class means indistinguishable) |
+//! | + rotation of the drift pattern (principal-axis orientation of the first third's drift map to the last third's, weighted by anisotropy) | 79.6 % |
+//! | sub-span voting: features of overlapping 1.4 s / 1 s / 2 s / 0.7 s sub-spans, summed class distances | 78.4 / 79.6 / 77.8 / 77.8 % |
+//! | per-taxel maps `[w, w·s]` (48 values), L2 logistic regression with mirror augmentation (plain LOOO, 3 strengths) | 75.4–76.6 % |
+//! | the seven drift moments, logistic regression (plain LOOO) | 71.9–76.6 % |
+//! | model fitted on prefixes (1, 2 s and whole) for early answers (plain LOOO at 1 s / whole) | 68.9 / 82.6 % vs 70.1 / 83.2 % |
+//!
+//! The rows after the first were exploratory re-implementations (numpy) of the same features and
+//! rule; none beat the grid, so none was ported. The cross-set figures of the shipped grid were
+//! printed once before those explorations; nothing was changed after seeing them.
+//!
+//! *What changed, and what it buys.* The drift map now differences raw values
+//! ([`DriftScale::Linear`]), which makes every default feature exactly invariant to a gain and
+//! an offset per recording (tested, `tests/dos_invariance.rs`: ×0.5, ×2 and added offsets
+//! change no decision, on synthetic and on all 167 real recordings); the log scale gave the same
+//! accuracy. Calibration adds every recording's mirror image across `y = 0`
+//! ([`mirror_augmented`]), so the model is symmetric: a recording mirrored on the layout gets the
+//! mirrored class (`e` ↔ `w`, `cw` ↔ `aw`; all 167 real recordings). The event-centroid
+//! features of the previous default are not offset-invariant and are no longer in it; with them
+//! as candidates the nested choice gives the comparison row above — three recordings more in
+//! the nested figure, two fewer basic → solids, the same solids → basic: no consistent gain
+//! for losing the invariance.
 //!
 //! **Why it works, and what does not.** Slip on the BioTac shows as slow (< 3 Hz) drifts of the
 //! electrode impedances, strongest where the contact is leaving; their signs differ between
@@ -118,8 +164,9 @@
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
 //! per-class variances shrunk toward them, `σ²_{c,j} = λ·σ²_j + (1 − λ)·s²_{c,j}` with
-//! `s²_{c,j}` the class's own variance and `λ` = [`DosModel::DEFAULT_SHRINKAGE`] = 0.5 (fixed,
-//! not fitted; [`DosModel::calibrate_with_shrinkage`] takes another). With
+//! `s²_{c,j}` the class's own variance and `λ` = [`DosModel::DEFAULT_SHRINKAGE`] = 0 (chosen by
+//! the nested procedure above, not fitted; [`DosModel::calibrate_with_shrinkage`] takes
+//! another; 0.5 before). With
 //! `m_c = Σ_j (f_j − μ_{c,j})² / σ²_{c,j}` a feature vector `f` of `d` features gets the class
 //! minimising `D_c = Σ_j ln σ²_{c,j} + (ν + d)·ln(1 + m_c/ν)` (ties: the first class in the
 //! model's order): the maximum-likelihood class of a multivariate Student t per class with
@@ -134,10 +181,11 @@
 //! the nearest class mean in `m_c`. [`Decision::posterior`] gives `softmax(−D_c/2)`.
 //!
 //! **Parameter count:** `2 × classes × features` numbers — a mean and a variance per class and
-//! feature (the stored pooled variances only feed the shrinkage). With the 7 classes and the 9
-//! default features: **126** (72 = `(7 + 1) × 9` for the pooled model). Configuration
-//! (threshold, drift lags, window, grid, contour settings, centroid method, the feature list,
-//! `λ`, `ν`) is fixed, not fitted.
+//! feature (the stored pooled variances only feed the shrinkage). With the 7 classes and the 7
+//! default features: **98** (56 = `(7 + 1) × 7` for the pooled model). Configuration
+//! (threshold, drift lags and scale, window, grid, contour settings, centroid method, the
+//! feature list, `λ`, `ν`, mirror augmentation) is fixed, not fitted. Calibration with the
+//! mirror images doubles the samples, not the parameters.
 //!
 //! # Class names → directions (layout axes of [`Layout::biotac_sp`](gradtac_stream::Layout::biotac_sp): x along the finger toward the tip, y across)
 //! | class | contact motion | [`DosClass::direction`] / [`DosClass::rotation_sense`] |
@@ -180,7 +228,7 @@
 //! Extracting the default features costs 0.26–0.28 µs per frame (`dos_eval`; criterion
 //! `--bench tasks`: 0.28 µs, of which the drift map 0.14 µs), every feature with surface
 //! locations of the track windows 0.65 µs (32 × 32 natural neighbour); the drift map keeps the last
-//! `max(drift_lags)` frames (120 × 24 values). A decision is `classes × features`
+//! `max(drift_lags)` frames (60 × 24 values with the default lags). A decision is `classes × features`
 //! multiply-adds and `classes` logarithms (plus `classes × features` with per-class variances).
 //!
 //! # Trade-offs
@@ -194,11 +242,13 @@
 //! | features | fewer: fewer parameters, more robust on unseen objects | more: fits the seen objects better |
 //! | shrinkage `λ` | 0: each class's own spread (e.g. quiet `t`), noisy with few recordings per class | 1: one pooled spread, fewest parameters |
 //! | Student-t `ν` | heavier tails: one odd feature matters less | `∞`: the Gaussian, every deviation counts quadratically |
-//! | `decision_frames` (stage) | faster answers from little evidence (1 s: 73 %) | later, surer answers (2.7 s: 83 %) |
+//! | `decision_frames` (stage) | faster answers from little evidence (1 s: ≈ 65 % cross-set) | later, surer answers (whole recordings: 67–86 % cross-set) |
+//! | mirror augmentation | off: the model may learn a side preference of the training data | on (default): symmetric model, twice the samples, same parameter count |
+//! | drift scale | `log`: the previous default, gain-invariant only | `linear` (default): gain- and offset-invariant, same accuracy |
 //! | hop ([`DosClassifier::with_hop`]) | an answer every few frames; one `decision_frames` extraction each | fewer answers, less CPU |
 
 use crate::contour::{ContourConfig, Levels, MaxContour, MaxContourFinder, Saddle};
-use crate::drift::DriftMap;
+use crate::drift::{DriftMap, DriftScale};
 use crate::events::{Events, EventsConfig, Threshold};
 use crate::interpolate::{GridConfig, Interpolator, Method, Outside};
 use crate::window::{Aggregate, Window, WindowAggregate, WindowConfig, WindowKind};
@@ -276,6 +326,19 @@ impl DosClass {
             DosClass::Cw => Some(1.0),
             DosClass::Aw => Some(-1.0),
             _ => None,
+        }
+    }
+
+    /// The class of the same slip seen in a layout mirrored across `y = 0` (the BioTac SP's
+    /// electrodes 11–20 mirror 1–10): `e` ↔ `w` (the `y` component of the motion flips) and
+    /// `cw` ↔ `aw` (a reflection reverses every rotation); `n`, `s` and `t` stay.
+    pub fn mirrored(self) -> DosClass {
+        match self {
+            DosClass::E => DosClass::W,
+            DosClass::W => DosClass::E,
+            DosClass::Cw => DosClass::Aw,
+            DosClass::Aw => DosClass::Cw,
+            other => other,
         }
     }
 
@@ -377,8 +440,14 @@ impl Feature {
         Feature::DriftSignedY,
     ];
 
-    /// The default set: the seven drift features and the positive-event centroid.
-    pub const DEFAULT: [Feature; 9] = [
+    /// The default set: the seven drift features (chosen by the nested procedure of
+    /// [`crate::dos_select`] on the BioTacSP-DoS development subset, see the [module docs](self);
+    /// exactly invariant to a gain and an offset per recording on the linear drift scale).
+    pub const DEFAULT: [Feature; 7] = Feature::DRIFT;
+
+    /// The default before the invariant design: the seven drift features (then on the log
+    /// scale) and the positive-event centroid.
+    pub const DEFAULT_BEFORE_INVARIANCE: [Feature; 9] = [
         Feature::DriftLevel,
         Feature::DriftX,
         Feature::DriftY,
@@ -439,6 +508,24 @@ impl Feature {
     fn index(self) -> usize {
         Feature::ALL.iter().position(|&f| f == self).unwrap_or(0)
     }
+
+    /// How the feature changes when the recording is mirrored across `y = 0` on a layout
+    /// symmetric about that line: `−1` for the features odd in `y` (`*_y` locations,
+    /// `drift_cross`, `drift_signed_y`, `track_dy`, and `rotation`, whose sense a reflection
+    /// reverses), `+1` for the others.
+    pub fn mirror_sign(self) -> f64 {
+        match self {
+            Feature::PositiveY
+            | Feature::NegativeY
+            | Feature::ActivityY
+            | Feature::TrackDy
+            | Feature::Rotation
+            | Feature::DriftY
+            | Feature::DriftCross
+            | Feature::DriftSignedY => -1.0,
+            _ => 1.0,
+        }
+    }
 }
 
 /// Every feature of one span (see [`Feature`]); select with [`FeatureVector::select`]. A
@@ -490,9 +577,10 @@ impl FeatureVector {
 /// min_area_mm2 = 15.0        # smallest maximal-contour area
 /// min_peak = 1.0             # events; below it a surface has no contact
 /// centroid = "taxels"        # or "surface", "max_contour"
-/// drift_lags = [30, 60, 120] # frames
+/// drift_lags = [30, 60]     # frames
+/// drift_scale = "linear"     # or "log"
 /// features = ["drift_level", "drift_x", "drift_y", "drift_spread", "drift_anisotropy",
-///             "drift_cross", "drift_signed_y", "positive_x", "positive_y"]
+///             "drift_cross", "drift_signed_y"]
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -511,9 +599,14 @@ pub struct DosFeatureConfig {
     /// How a count surface's location is taken. Default [`CentroidMethod::Taxels`].
     pub centroid: CentroidMethod,
     /// Lags of the [drift map](crate::drift) in frames (non-empty, each in `1..=100000`, no
-    /// repeats). Default `[30, 60, 120]` (0.3, 0.6, 1.2 s at 100 Hz).
+    /// repeats). Default `[30, 60]` (0.3, 0.6 s at 100 Hz).
     pub drift_lags: Vec<u64>,
-    /// The features the classifier uses, in order (non-empty, no repeats). Default: the nine
+    /// The values the drift map differences. Default [`DriftScale::Linear`] (exactly invariant to
+    /// a gain and an offset per recording); [`DriftScale::Log`] is the scale of models written
+    /// before the field existed (such files now compute the linear map: the weights differ by
+    /// well under the spread between recordings, see the [module docs](self)).
+    pub drift_scale: DriftScale,
+    /// The features the classifier uses, in order (non-empty, no repeats). Default: the seven
     /// of [`Feature::DEFAULT`].
     pub features: Vec<Feature>,
 }
@@ -527,7 +620,8 @@ impl Default for DosFeatureConfig {
             min_area_mm2: 15.0,
             min_peak: 1.0,
             centroid: CentroidMethod::Taxels,
-            drift_lags: vec![30, 60, 120],
+            drift_lags: vec![30, 60],
+            drift_scale: DriftScale::Linear,
             features: Feature::DEFAULT.to_vec(),
         }
     }
@@ -675,7 +769,7 @@ impl DosFeatureExtractor {
             Some((interp, finder))
         };
         let drift = if uses(&cfg.features, &Feature::DRIFT) {
-            Some(DriftMap::try_new(taxels, &cfg.drift_lags, EventsConfig::default().floor)?)
+            Some(DriftMap::try_new(taxels, &cfg.drift_lags, EventsConfig::default().floor)?.with_scale(cfg.drift_scale))
         } else {
             None
         };
@@ -1047,9 +1141,10 @@ pub struct Decision {
 }
 
 impl DosModel {
-    /// Shrinkage `λ` of [`calibrate`](Self::calibrate): each class's variances halfway between
-    /// its own and the pooled ones.
-    pub const DEFAULT_SHRINKAGE: f64 = 0.5;
+    /// Shrinkage `λ` of [`calibrate`](Self::calibrate): each class keeps its own variances.
+    /// Chosen by the nested procedure on all
+    /// development recordings (see the [module docs](self)); 0.5 before.
+    pub const DEFAULT_SHRINKAGE: f64 = 0.0;
 
     /// Degrees of freedom `ν` of the Student-t class densities of [`calibrate`](Self::calibrate)
     /// (a heavy-tailed density: one recording far from its class mean in one feature costs
@@ -1064,8 +1159,8 @@ impl DosModel {
         Ok(self)
     }
 
-    /// Fit class means, pooled within-class variances and per-class variances shrunk halfway
-    /// toward them ([`DEFAULT_SHRINKAGE`](Self::DEFAULT_SHRINKAGE)) from labelled feature
+    /// Fit class means, pooled within-class variances and per-class variances shrunk toward them
+    /// by [`DEFAULT_SHRINKAGE`](Self::DEFAULT_SHRINKAGE) from labelled feature
     /// vectors (each of `config.features.len()` values, e.g. [`FeatureVector::select`]); see
     /// [`calibrate_with_shrinkage`](Self::calibrate_with_shrinkage).
     pub fn calibrate(config: DosFeatureConfig, samples: &[(DosClass, Vec<f64>)]) -> Result<DosModel> {
@@ -1283,6 +1378,18 @@ impl DosModel {
     }
 }
 
+/// `samples` followed by their mirror images across `y = 0` (each vector's features times
+/// [`Feature::mirror_sign`], its class [`DosClass::mirrored`]): the recordings the same slips
+/// would have given on the mirrored side of a symmetric layout. Calibrating on them makes the
+/// model itself symmetric — the class means of `e` and `w` (and of `cw` and `aw`) are mirror
+/// images, those of `n`, `s`, `t` have zero odd features — and doubles the training data for
+/// free; `features` are the vectors' features, in order.
+pub fn mirror_augmented(features: &[Feature], samples: &[(DosClass, Vec<f64>)]) -> Vec<(DosClass, Vec<f64>)> {
+    let signs: Vec<f64> = features.iter().map(|f| f.mirror_sign()).collect();
+    let mirrored = samples.iter().map(|(c, f)| (c.mirrored(), f.iter().zip(&signs).map(|(v, s)| v * s).collect()));
+    samples.iter().cloned().chain(mirrored).collect()
+}
+
 // ---------------------------------------------------------------------------------------------
 // Cross-validation
 // ---------------------------------------------------------------------------------------------
@@ -1458,6 +1565,8 @@ pub struct DosClassifier {
 #[derive(Clone, Debug)]
 struct Sliding {
     hop: u64,
+    /// Decide every `hop` frames from the first, before the window is full.
+    early: bool,
     recent: std::collections::VecDeque<TaxelFrame>,
     since: u64,
     replay: DosFeatureExtractor,
@@ -1499,10 +1608,24 @@ impl DosClassifier {
         let replay = self.extractor.clone();
         self.sliding = Some(Sliding {
             hop,
+            early: false,
             recent: std::collections::VecDeque::with_capacity(usize::try_from(n).unwrap_or(0).min(1 << 20)),
             since: 0,
             replay,
         });
+        Ok(self)
+    }
+
+    /// Sliding mode with early answers: a decision every `hop` frames from the first hop after
+    /// contact (a [`reset`](Stage::reset) or the start), each over all frames since then until
+    /// `decision_frames` have arrived, over the last `decision_frames` after that — what a robot
+    /// that must act before the window fills sees (the accuracy by time since contact is in the
+    /// [module docs](self)). Needs [`with_hop`](Self::with_hop) first.
+    pub fn with_early_decisions(mut self) -> Result<Self> {
+        match &mut self.sliding {
+            Some(sl) => sl.early = true,
+            None => return Err(invalid("early decisions need the sliding mode (with_hop)")),
+        }
         Ok(self)
     }
 
@@ -1555,7 +1678,7 @@ impl DosClassifier {
         }
         sl.recent.push_back(frame);
         sl.since += 1;
-        if sl.recent.len() as u64 >= n && sl.since >= sl.hop {
+        if (sl.early || sl.recent.len() as u64 >= n) && sl.since >= sl.hop {
             self.decide_window(out)?;
         }
         Ok(())
@@ -1788,7 +1911,8 @@ mod tests {
         assert_eq!(pooled.parameter_count(), 3);
         let own = DosModel::calibrate_with_shrinkage(cfg.clone(), &samples, 0.0).unwrap();
         assert_eq!(own.class_variances, [[1.0], [9.0]]);
-        let half = DosModel::calibrate(cfg.clone(), &samples).unwrap();
+        assert_eq!(DosModel::calibrate(cfg.clone(), &samples).unwrap(), own, "the default λ is 0");
+        let half = DosModel::calibrate_with_shrinkage(cfg.clone(), &samples, 0.5).unwrap();
         assert_eq!(half.class_variances, [[5.5], [9.5]]);
         assert_eq!(half.parameter_count(), 4);
         // 3.5 is nearer n's mean, but s's wide spread claims it with its own variances.
@@ -1892,6 +2016,38 @@ mod tests {
         v[5] = f64::INFINITY;
         let e = x.push(TaxelFrame::new("ff".into(), Timestamp(0), 4, v)).unwrap_err();
         assert!(e.to_string().contains("frame 4") && e.to_string().contains("taxel 5"), "{e}");
+    }
+
+    #[test]
+    fn early_decisions_cover_everything_since_contact_until_the_window_fills() {
+        let (cfg, model) = motion_model();
+        let l = Layout::biotac_sp();
+        let input = synthetic(DosClass::N, [0.0, 0.0], 0.1, 5);
+        let (n, hop) = (80usize, 16u64);
+        let mut early = DosClassifier::try_new(model.clone(), &l, Some(n as u64)).unwrap().with_hop(hop).unwrap();
+        early = early.with_early_decisions().unwrap();
+        let out = early.run_all(input.clone()).unwrap();
+        // every 16 frames from the first hop: 15, 31, …, 191, then finish at 199
+        let ends: Vec<u64> = out.iter().map(|d| d.seq).collect();
+        let want: Vec<u64> = (1..=12).map(|k| 16 * k - 1).chain([199]).collect();
+        assert_eq!(ends, want);
+        for d in &out {
+            let last = d.seq as usize;
+            let first = (last + 1).saturating_sub(n);
+            assert_eq!(d.frames as usize, last + 1 - first);
+            assert_eq!(d.features, features_of(input[first..=last].to_vec(), &cfg), "window ending at {last}");
+        }
+        // once the window is full, the same decisions as the plain sliding mode
+        let plain = DosClassifier::try_new(model.clone(), &l, Some(n as u64)).unwrap().with_hop(hop).unwrap();
+        let plain = {
+            let mut p = plain;
+            p.run_all(input.clone()).unwrap()
+        };
+        for d in plain.iter().filter(|d| d.seq >= 95) {
+            assert!(out.contains(d), "{}", d.seq);
+        }
+        // early decisions need the sliding mode
+        assert!(DosClassifier::try_new(model, &l, Some(80)).unwrap().with_early_decisions().is_err());
     }
 
     #[test]

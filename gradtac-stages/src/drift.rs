@@ -2,14 +2,16 @@
 //! each taxel's own frame-to-frame noise.
 //!
 //! # What it does
-//! For every taxel `i` with log values `r_t = ln(max(x_t, floor))` over a span of frames, and each
-//! lag `S` of [`DriftMap::try_new`]'s `lags` (in frames):
+//! For every taxel `i` with values `r_t` over a span of frames — the raw values `r_t = x_t`
+//! ([`DriftScale::Linear`], the default) or their logarithms `r_t = ln(max(x_t, floor))`
+//! ([`DriftScale::Log`], [`DriftMap::with_scale`]) — and each lag `S` of
+//! [`DriftMap::try_new`]'s `lags` (in frames):
 //!
 //! | quantity | definition | meaning |
 //! |---|---|---|
 //! | noise `n_i` | mean of `|r_t − r_{t−1}|` | how much the taxel jitters from frame to frame |
 //! | drift `D_{S,i}` | mean of `|r_t − r_{t−S}|` | how far it moves over `S` frames |
-//! | weight `w_{S,i}` | `max(0, ln(D_{S,i} / (n_i + 1e-9)))` | drift against noise, in nepers; 0 for a taxel that only jitters |
+//! | weight `w_{S,i}` | `max(0, ln(D_{S,i} / (n_i + 1e-9)))` (log scale); `min(`[`MAX_LINEAR_WEIGHT`]`, max(0, ln(D_{S,i} / n_i)))` (linear) | drift against noise, in nepers; 0 for a taxel that only jitters |
 //! | sign `s_{S,i}` | `2·Σ max(0, r_t − r_{t−S}) / Σ |r_t − r_{t−S}| − 1` | `+1`: the value only rose over lag `S`, `−1`: only fell (0 without change) |
 //!
 //! [`DriftMap::snapshot`] returns `w_i` and `s_i`, each the mean over the lags that have at least
@@ -17,7 +19,12 @@
 //! `D_S ≈ √S·n` (weight `≈ ½ ln S`); a slow, steady change (a contact sliding over the taxel)
 //! has `D_S ≈ S·n` or more and weighs `≈ ln S` or more. Both terms are measured on the same taxel
 //! in the same span, so the weight does not depend on the taxel's gain or baseline, nor on how
-//! hard the object presses. This is the evidence the one-fingertip slip classifier
+//! hard the object presses. On the linear scale this is exact for any gain `a > 0` and offset
+//! `b` (`a·x + b`: every difference scales by `a`, the offset cancels, the ratio and the sign
+//! are unchanged; bit for bit when `a` is a power of two and the values and `b` are integers
+//! below 2⁵²); on the log scale it is exact for the gain and only approximate for an offset
+//! (`d ln x ≈ dx / x`, with `x` nearly constant per taxel). The two scales give the same
+//! accuracy on BioTacSP-DoS ([`crate::dos`]), so the linear one is the default. This is the evidence the one-fingertip slip classifier
 //! ([`crate::dos`]) locates on the layout.
 //!
 //! # State, units, delay, cost
@@ -52,9 +59,31 @@ use crate::{Error, Result};
 
 const STAGE: &str = "drift";
 
+/// The values the drift map differences (see the [module docs](self)).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DriftScale {
+    /// The raw values: weights and signs exactly invariant to a gain and an offset per
+    /// recording (the default).
+    #[default]
+    Linear,
+    /// `ln(max(x, floor))`: invariant to a gain only (the scale before the linear default).
+    Log,
+}
+
 /// Added to the noise before dividing by it (log units): keeps a taxel that never changed from
 /// dividing by zero.
 pub const NOISE_EPSILON: f64 = 1e-9;
+
+/// Factor applied to raw values on the linear scale (a power of two: exact, and keeps differences
+/// of values near ±`f64::MAX` finite).
+const LINEAR_SCALE: f64 = 1.0 / 18_446_744_073_709_551_616.0;
+
+/// Largest weight on the linear scale (nepers): a taxel that moved over a lag but had no
+/// frame-to-frame change in the span (possible when the lag reaches back before
+/// [`DriftMap::clear_span`]) weighs this instead of infinity. `ln 10⁹`, what the log scale's
+/// [`NOISE_EPSILON`] allows for a change of one unit.
+pub const MAX_LINEAR_WEIGHT: f64 = 20.723_265_836_946_41;
 
 /// Longest lag accepted, in frames.
 pub const MAX_LAG: u64 = 100_000;
@@ -75,6 +104,7 @@ pub struct DriftSnapshot {
 pub struct DriftMap {
     taxels: usize,
     floor: f64,
+    scale: DriftScale,
     lags: Vec<usize>,
     /// The last `cap` log frames, slot-major (`slot × taxels + taxel`).
     ring: Vec<f64>,
@@ -120,6 +150,7 @@ impl DriftMap {
         Ok(DriftMap {
             taxels,
             floor,
+            scale: DriftScale::Log,
             ring: vec![0.0; cap * taxels],
             cap,
             head: 0,
@@ -133,6 +164,20 @@ impl DriftMap {
             frames: 0,
             scratch: vec![0.0; taxels],
         })
+    }
+
+    /// The same map differencing `scale` values ([`try_new`](Self::try_new) gives
+    /// [`DriftScale::Log`], the scale of the map's first version; the slip classifier
+    /// configures [`DriftScale::Linear`]). Forgets the frames pushed so far.
+    pub fn with_scale(mut self, scale: DriftScale) -> Self {
+        self.scale = scale;
+        self.reset();
+        self
+    }
+
+    /// The scale the map differences.
+    pub fn scale(&self) -> DriftScale {
+        self.scale
     }
 
     /// Number of taxels.
@@ -161,8 +206,19 @@ impl DriftMap {
             });
         }
         let n = self.taxels;
-        for (r, &x) in self.scratch.iter_mut().zip(values) {
-            *r = x.max(self.floor).ln();
+        match self.scale {
+            DriftScale::Log => {
+                for (r, &x) in self.scratch.iter_mut().zip(values) {
+                    *r = x.max(self.floor).ln();
+                }
+            }
+            // scaled by 2⁻⁶⁴ (exact for every normal value above 2⁻⁹⁵⁸): differences and their
+            // sums stay finite for any finite input
+            DriftScale::Linear => {
+                for (r, &x) in self.scratch.iter_mut().zip(values) {
+                    *r = x * LINEAR_SCALE;
+                }
+            }
         }
         if self.filled >= 1 {
             let last = (self.head + self.cap - 1) % self.cap;
@@ -207,7 +263,11 @@ impl DriftMap {
                     let abs = self.abs_sum[k][i];
                     let drift = abs / self.lag_n[k] as f64;
                     if drift > 0.0 {
-                        w += (drift / (noise + NOISE_EPSILON)).ln().max(0.0);
+                        w += match self.scale {
+                            DriftScale::Log => (drift / (noise + NOISE_EPSILON)).ln().max(0.0),
+                            DriftScale::Linear if noise > 0.0 => (drift / noise).ln().clamp(0.0, MAX_LINEAR_WEIGHT),
+                            DriftScale::Linear => MAX_LINEAR_WEIGHT,
+                        };
                         s += 2.0 * self.pos_sum[k][i] / abs - 1.0;
                     }
                 }
@@ -312,6 +372,54 @@ mod tests {
         assert_eq!(fresh.snapshot().weights, vec![0.0; 3]);
         fresh.push(&f[0]).unwrap();
         assert_eq!(fresh.snapshot().weights, vec![0.0; 3], "one frame has no difference");
+    }
+
+    #[test]
+    fn linear_scale_is_exactly_invariant_to_gain_and_offset() {
+        // integer counts, power-of-two gains, integer offsets: every difference is exact
+        let f: Vec<Vec<f64>> = frames(150, 4, 11).iter().map(|r| r.iter().map(|v| v.round()).collect()).collect();
+        let snap = |g: f64, b: f64| {
+            let mut m = DriftMap::try_new(4, &[10, 30], 1e-3).unwrap().with_scale(DriftScale::Linear);
+            for fr in &f {
+                m.push(&fr.iter().map(|v| g * v + b).collect::<Vec<_>>()).unwrap();
+            }
+            m.snapshot()
+        };
+        let base = snap(1.0, 0.0);
+        assert!(base.weights.iter().any(|&w| w > 0.5), "{base:?}");
+        for (g, b) in [(0.5, 0.0), (2.0, 0.0), (1.0, 731.0), (2.0, -4096.0), (0.5, 12_345.0)] {
+            assert_eq!(snap(g, b), base, "gain {g}, offset {b}");
+        }
+        // and close to the log scale (d ln x ≈ dx / x for x nearly constant per taxel)
+        let mut log = DriftMap::try_new(4, &[10, 30], 1e-3).unwrap();
+        for fr in &f {
+            log.push(fr).unwrap();
+        }
+        for (a, b) in log.snapshot().weights.iter().zip(&base.weights) {
+            assert!((a - b).abs() < 0.05, "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn linear_scale_stays_finite_at_the_extremes() {
+        let mut m = DriftMap::try_new(3, &[1, 2], 1e-3).unwrap().with_scale(DriftScale::Linear);
+        for t in 0..20 {
+            let s = if t % 2 == 0 { 1.0 } else { -1.0 };
+            m.push(&[s * f64::MAX, -s * 1e300, f64::MIN_POSITIVE * t as f64]).unwrap();
+        }
+        let s = m.snapshot();
+        assert!(s.weights.iter().chain(&s.signs).all(|v| v.is_finite()), "{s:?}");
+        assert!(s.weights.iter().all(|&w| (0.0..=MAX_LINEAR_WEIGHT).contains(&w)));
+        // a taxel that moved only across clear_span: no frame-to-frame change in the span
+        let mut m = DriftMap::try_new(1, &[3], 1e-3).unwrap().with_scale(DriftScale::Linear);
+        for v in [0.0, 0.0, 5.0] {
+            m.push(&[v]).unwrap();
+        }
+        m.clear_span();
+        for _ in 0..3 {
+            m.push(&[5.0]).unwrap();
+        }
+        assert_eq!(m.snapshot().weights, vec![MAX_LINEAR_WEIGHT]);
     }
 
     #[test]

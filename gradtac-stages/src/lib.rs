@@ -16,6 +16,7 @@ pub mod event;
 
 pub mod contour;
 pub mod dos;
+pub mod dos_select;
 pub mod drift;
 pub mod events;
 pub mod force;

@@ -8,7 +8,9 @@
 //! full evaluation with the confusion matrix is the root package's
 //! `cargo run --release --example dos_eval`.
 
-use gradtac_stages::dos::{DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature, FeatureVector};
+use gradtac_stages::dos::{
+    mirror_augmented, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel, Feature, FeatureVector,
+};
 use gradtac_stream::{Layout, TaxelFrame, Timestamp};
 use std::path::Path;
 
@@ -53,8 +55,9 @@ fn leave_one_object_out_is_well_above_chance() {
     let (mut ok, mut n) = (0, 0);
     for obj in &objects {
         let train: Vec<_> = recs.iter().filter(|r| r.1 != *obj).map(|r| (r.0, r.2.select(&cfg.features))).collect();
-        let model = DosModel::calibrate(cfg.clone(), &train).unwrap();
-        assert_eq!(model.parameter_count(), 126);
+        // as `gradtac calibrate` does: the training recordings and their mirror images
+        let model = DosModel::calibrate(cfg.clone(), &mirror_augmented(&cfg.features, &train)).unwrap();
+        assert_eq!(model.parameter_count(), 98);
         let (mut fold_ok, mut fold_n) = (0, 0);
         for r in recs.iter().filter(|r| r.1 == *obj) {
             fold_ok += usize::from(model.classify_vector(&r.2).unwrap().class == r.0);
@@ -67,7 +70,8 @@ fn leave_one_object_out_is_well_above_chance() {
     }
     let acc = ok as f64 / n as f64;
     eprintln!("leave-one-object-out accuracy {:.1} % ({ok}/{n})", 100.0 * acc);
-    // measured 83.2 % (139/167); chance is 14.3 %; the event-only features 73.1 %
+    // measured 83.2 % (139/167) with the defaults (chosen by the nested procedure on all six
+    // objects, so this figure is in-sample for those choices); chance is 14.3 %
     assert!(acc > 0.80, "accuracy {acc}");
 }
 

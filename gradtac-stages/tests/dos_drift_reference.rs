@@ -5,7 +5,7 @@
 //! floor) included.
 
 use gradtac_stages::dos::{DosFeatureConfig, DosFeatureExtractor, Feature};
-use gradtac_stages::drift::DriftMap;
+use gradtac_stages::drift::{DriftMap, DriftScale};
 use gradtac_stream::{Layout, TaxelFrame, Timestamp};
 use serde_json::Value;
 
@@ -30,7 +30,8 @@ fn drift_map_and_features_match_numpy() {
     let floor = r["floor"].as_f64().unwrap();
     let names: Vec<&str> = r["features"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
     assert_eq!(names, Feature::DRIFT.map(|f| f.name()));
-    let cfg = DosFeatureConfig { drift_lags: lags.clone(), ..Default::default() };
+    // the numpy reference is the log-scale map
+    let cfg = DosFeatureConfig { drift_lags: lags.clone(), drift_scale: DriftScale::Log, ..Default::default() };
     let layout = Layout::biotac_sp();
     let cases = r["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 5);
