@@ -24,6 +24,7 @@ pub mod normalise;
 pub mod savgol;
 pub mod servo;
 pub mod sim;
+pub mod sim_family;
 pub mod slip;
 pub mod track;
 pub mod window;
