@@ -14,13 +14,16 @@
 mod error;
 pub mod event;
 
+pub mod centroid;
 pub mod contour;
 pub mod dos;
 pub mod drift;
 pub mod events;
 pub mod force;
 pub mod interpolate;
+pub mod locate;
 pub mod normalise;
+pub mod raw_contour;
 pub mod savgol;
 pub mod servo;
 pub mod sim;
