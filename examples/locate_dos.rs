@@ -6,8 +6,8 @@
 //! the share of frames with a contact, per class; the per-frame jump of the contact point
 //! between consecutive contact frames at 100 Hz (median, 99th percentile, largest; and the
 //! largest per-recording 99th percentile); and the share of contact frames in which the raw
-//! signal actually rises above noise (some taxel ≥ 6 σ of its first-difference noise, over a
-//! 5-frame mean, from its first 20 frames — an independent check computed here, not by the
+//! signal actually rises above noise (the 5-frame mean of some taxel ≥ 6 σ from its mean over
+//! the first 20 frames, σ their standard deviation — an independent check computed here, not by the
 //! stage).
 //!
 //! Data: BioTacSP-DoS (Zapata-Impata, Gil and Torres, "Learning Spatio Temporal Tactile
@@ -15,7 +15,7 @@
 //! read from `../shared/data/biotacsp-dos` beside the repository or the directory given as
 //! the first argument; the example exits quietly when it is absent.
 //!
-//! Run: `cargo run --release --example locate_dos [-- DIR]`.
+//! Run: `cargo run --release --example locate_dos [-- DIR] [--locate "contact_sigmas = 8; window_frames = 9"]`.
 
 use arrow_array::{Array, Float64Array};
 use gradtac::run::{run_blocking, RunOptions};
@@ -63,10 +63,11 @@ fn above_noise(csv: &Path) -> Vec<bool> {
         return vec![false; rows.len()];
     }
     let base: Vec<f64> = (0..n).map(|i| rows[..m].iter().map(|r| r[i]).sum::<f64>() / m as f64).collect();
+    // σ: the scatter of the first 20 frames about their mean (slow fluctuations included)
     let sig: Vec<f64> = (0..n)
         .map(|i| {
-            let d2: f64 = rows[..m].windows(2).map(|w| (w[1][i] - w[0][i]).powi(2)).sum();
-            (d2 / (2.0 * (m - 1) as f64)).sqrt().max(0.5)
+            let v: f64 = rows[..m].iter().map(|r| (r[i] - base[i]).powi(2)).sum::<f64>() / (m - 1) as f64;
+            v.sqrt().max(0.5)
         })
         .collect();
     (0..rows.len())
@@ -75,7 +76,7 @@ fn above_noise(csv: &Path) -> Vec<bool> {
             let w = (k - lo + 1) as f64;
             (0..n).any(|i| {
                 let mean = rows[lo..=k].iter().map(|r| r[i]).sum::<f64>() / w;
-                (mean - base[i]).abs() > 6.0 * sig[i] / w.sqrt()
+                (mean - base[i]).abs() > 6.0 * sig[i]
             })
         })
         .collect()
@@ -101,9 +102,17 @@ fn main() {
     }
     let tmp = std::env::temp_dir().join(format!("gradtac-locate-dos-{}", std::process::id()));
     std::fs::create_dir_all(&tmp).unwrap();
+    // `--locate "key = value; …"` adds a [stages.locate] table to both scenes (to explore settings)
+    let args: Vec<String> = std::env::args().collect();
+    let extra = args
+        .windows(2)
+        .find(|w| w[0] == "--locate")
+        .map(|w| format!("[stages.locate]\n{}\n", w[1].replace(';', "\n")))
+        .unwrap_or_default();
     for (label, stages) in
         [("bare default scene", ""), ("README's scene", "[stages.normalise]\ncalibrate_frames = 20\n")]
     {
+        let stages = format!("{stages}{extra}");
         let (mut frames, mut contact, mut real, mut contact_above) = (0usize, 0usize, 0usize, 0usize);
         let mut jumps = Vec::new();
         let mut worst_p99: (f64, String) = (0.0, String::new());

@@ -289,10 +289,17 @@ impl SensorChain {
                     c.min_area_mm2
                 )
             }
-            Tap::Track => match st.track.max_jump_mm {
-                Some(j) => format!("gate jumps > {j} mm ({:?})", st.track.gate).to_lowercase(),
-                None => "no jump gating".into(),
-            },
+            Tap::Track => {
+                let t = &st.track;
+                let gate = match t.max_jump_mm {
+                    Some(j) => {
+                        format!("gate jumps > {j} mm ({:?}, restart after {} gated frames)", t.gate, t.max_gated_frames)
+                            .to_lowercase()
+                    }
+                    None => "no jump gating".into(),
+                };
+                format!("{gate}, release after {} frames, velocity α {}", t.release_frames, t.velocity_alpha)
+            }
             Tap::Force => st.force.as_ref().map_or("no model".into(), |f| {
                 let m = match &f.model {
                     ForceModel::Linear { .. } => "linear",

@@ -8,7 +8,8 @@
 //! - weights `wᵢ = rᵢ^p`, with `rᵢ = (|x̄ᵢ − x₀ᵢ| − floor)/|x₀ᵢ|` the relative change above the
 //!   taxel's noise floor ([`ChangeDetector`]), `p` = `power`; with `top_k` only the `k`
 //!   largest weights count;
-//! - location `Σ wᵢ pᵢ / Σ wᵢ` (mm); a frame without a contact (or with every weight 0) is
+//! - location `Σ wᵢ pᵢ / Σ wᵢ` (mm), optionally smoothed with a memory of `smooth_frames` in
+//!   which each frame counts with its total weight `Σ wᵢ`; a frame without a contact (or with every weight 0) is
 //!   `NoContact(BelowMinPeak)`; the calibration frames are `NoContact(NoData)`;
 //! - the reported "region": `area_mm2 = 4π·√det C` (the 2-σ ellipse of the weights' second
 //!   moments `C`; 0 for a single taxel), its orientation and eccentricity, `peak` = the
@@ -31,6 +32,7 @@
 //! | `power` | spreads toward the taxels' mean (pulled to the pad centre) | snaps to the strongest taxel (quantised to taxel positions) |
 //! | `top_k` | robust to far, sign-flipped lobes; quantised | uses every taxel that moved |
 //! | `window_frames` | immediate, noisier | smoother, more delay |
+//! | `smooth_frames` | immediate, weak frames jitter | weak frames barely move the point; more lag |
 //! | `floor_sigmas` / `contact_sigmas` | sensitive, noise may count | misses light touches |
 
 use crate::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
@@ -46,6 +48,8 @@ pub struct Centroid {
     det: ChangeDetector,
     positions: Vec<[f64; 2]>,
     order: Vec<usize>,
+    /// Smoothed position and its decayed weight mass (`smooth_frames`).
+    memory: Option<([f64; 2], f64)>,
 }
 
 impl Centroid {
@@ -55,6 +59,7 @@ impl Centroid {
             det: ChangeDetector::try_new(layout.len(), cfg)?,
             positions: layout.positions().to_vec(),
             order: Vec::with_capacity(layout.len()),
+            memory: None,
         })
     }
 
@@ -133,6 +138,20 @@ impl Stage for Centroid {
             }
             match Centroid::weighted(&self.positions, &w) {
                 Some(mut c) => {
+                    let s: f64 = w.iter().sum();
+                    let lambda = 1.0 - 1.0 / f64::from(cfg.smooth_frames);
+                    if lambda > 0.0 {
+                        let (p, m) = match self.memory {
+                            Some((p, m)) => {
+                                let m2 = lambda * m + s;
+                                let a = lambda * m / m2;
+                                ([a * p[0] + (1.0 - a) * c.centroid_mm[0], a * p[1] + (1.0 - a) * c.centroid_mm[1]], m2)
+                            }
+                            None => (c.centroid_mm, s),
+                        };
+                        self.memory = Some((p, m));
+                        c.centroid_mm = p;
+                    }
                     // report the peak as a relative change, not a weight
                     c.peak = rel.iter().copied().fold(0.0, f64::max);
                     ContourOutcome::Contact(c)
@@ -140,12 +159,16 @@ impl Stage for Centroid {
                 None => ContourOutcome::NoContact(NoContact::BelowMinPeak),
             }
         };
+        if outcome.contact().is_none() {
+            self.memory = None;
+        }
         out.push(ContourFrame { sensor: f.sensor, start: ch.start, end: ch.end, seq: ch.seq, outcome });
         Ok(())
     }
 
     fn reset(&mut self) {
         self.det.reset();
+        self.memory = None;
     }
 
     fn delay(&self) -> Delay {

@@ -11,13 +11,14 @@
 //! | `events` | normalise → Savitzky–Golay → events → window → surface → contour (the paper's event contours) | front end + surface + contour | Savitzky–Golay + window |
 //!
 //! The first two share [`ChangeDetector`]: a short **calibration** measures each taxel's
-//! baseline `x₀` and noise `σ` (from first differences, so a slow trend or a held contact does
-//! not inflate it); afterwards the change `Δ = x̄ − x₀` of the mean `x̄` of the last `window`
-//! frames is compared with the noise of that mean, `σ/√window`:
-//! - a taxel *counts* once `|Δ| > floor_sigmas · σ/√window`; its relative change above that
-//!   floor is `r = (|Δ| − floor_sigmas·σ/√window) / |x₀|` — the surface `|x − x₀|/x₀` with
+//! baseline `x₀` and noise `σ` (the larger of the first-difference estimate and the scatter about
+//! a straight line, so a linear trend — drift, a held contact settling — does not inflate it); afterwards the change `Δ = x̄ − x₀` of the mean `x̄` of the last `window`
+//! frames is compared with the per-frame noise `σ` (not `σ/√window`: real sensors' noise is correlated, so
+//! averaging lowers it by far less than √window):
+//! - a taxel *counts* once `|Δ| > floor_sigmas · σ`; its relative change above that
+//!   floor is `r = (|Δ| − floor_sigmas·σ) / |x₀|` — the surface `|x − x₀|/x₀` with
 //!   the noise floor removed, so untouched taxels weigh exactly 0;
-//! - the frame is a **contact** when some taxel has `|Δ| > contact_sigmas · σ/√window`;
+//! - the frame is a **contact** when some taxel has `|Δ| > contact_sigmas · σ`;
 //! - the baseline **follows drift**: every taxel below its floor moves `x₀` toward `x̄` with
 //!   time constant `follow_s` (a held contact does not leak into the baseline of the taxels it
 //!   moves).
@@ -71,9 +72,9 @@ pub struct LocateConfig {
     pub calibrate_frames: u32,
     /// Frames averaged (1–1000) before comparing with the baseline. Default 5.
     pub window_frames: u32,
-    /// Noise floor removed from every change, in σ of the window mean (≥ 0). Default 3.
+    /// Noise floor removed from every change, in σ of one frame (≥ 0). Default 3.
     pub floor_sigmas: f64,
-    /// A contact needs some taxel above this many σ of the window mean (≥ `floor_sigmas`).
+    /// A contact needs some taxel above this many σ of one frame (≥ `floor_sigmas`).
     /// Default 6.
     pub contact_sigmas: f64,
     /// Time constant (s, ≥ 0; 0 = never follow) with which the baseline of taxels below their
@@ -83,6 +84,11 @@ pub struct LocateConfig {
     pub power: f64,
     /// `centroid`: only the `top_k` largest weights count (≥ 1); `None` = all. Default none.
     pub top_k: Option<usize>,
+    /// `centroid`: confidence-weighted position memory (frames, 1–1000; 1 = none): each
+    /// frame's centroid enters a running mean with its total weight, older mass decaying by
+    /// `1 − 1/smooth_frames` per frame, so a weak frame barely moves a position that strong
+    /// frames made (lag ≈ `smooth_frames − 1` frames at constant strength). Default 1.
+    pub smooth_frames: u32,
 }
 
 impl Default for LocateConfig {
@@ -96,6 +102,7 @@ impl Default for LocateConfig {
             follow_s: 2.0,
             power: 2.0,
             top_k: None,
+            smooth_frames: 1,
         }
     }
 }
@@ -124,6 +131,9 @@ impl LocateConfig {
         }
         if !(self.power.is_finite() && self.power > 0.0 && self.power <= 16.0) {
             return bad(format!("`power` = {} must be in (0, 16]", self.power));
+        }
+        if !(1..=1000).contains(&self.smooth_frames) {
+            return bad(format!("`smooth_frames` = {} must be in 1..=1000", self.smooth_frames));
         }
         if self.top_k == Some(0) {
             return bad("`top_k` must be ≥ 1 (or absent for all taxels)".into());
@@ -223,12 +233,25 @@ impl ChangeDetector {
         let m = self.calib.len() as f64;
         let n = self.n;
         let mean: Vec<f64> = (0..n).map(|i| self.calib.iter().map(|f| f[i]).sum::<f64>() / m).collect();
-        // σ from first differences: Var(x[k+1] − x[k]) = 2σ² for white noise; a slow trend
-        // (drift, a held contact settling) barely adds to it
+        // σ: the larger of the white-noise estimate from first differences
+        // (Var(x[k+1] − x[k]) = 2σ²) and the scatter about a straight line (which also holds
+        // slow, correlated fluctuations but not a linear trend such as a settling contact)
+        let tm = (m - 1.0) / 2.0;
+        let stt: f64 = (0..self.calib.len()).map(|k| (k as f64 - tm).powi(2)).sum();
         let mut sigma: Vec<f64> = (0..n)
             .map(|i| {
                 let d2: f64 = self.calib.windows(2).map(|w| (w[1][i] - w[0][i]).powi(2)).sum();
-                (d2 / (2.0 * (m - 1.0))).sqrt()
+                let white = (d2 / (2.0 * (m - 1.0))).sqrt();
+                let slope = self.calib.iter().enumerate().map(|(k, f)| (k as f64 - tm) * (f[i] - mean[i])).sum::<f64>()
+                    / stt.max(f64::MIN_POSITIVE);
+                let r2: f64 = self
+                    .calib
+                    .iter()
+                    .enumerate()
+                    .map(|(k, f)| (f[i] - mean[i] - slope * (k as f64 - tm)).powi(2))
+                    .sum();
+                let scatter = if m > 2.0 { (r2 / (m - 2.0)).sqrt() } else { 0.0 };
+                white.max(scatter)
             })
             .collect();
         // floors: a quarter of the median taxel's noise (a taxel that happened to read constant
@@ -310,7 +333,9 @@ impl ChangeDetector {
             return Ok(Changes { start, end: f.time, seq: f.seq, contact: false, calibrating: true });
         }
         let k = self.ring.len() as f64;
-        let scale = 1.0 / k.sqrt();
+        // thresholds in σ of one frame: real sensors' noise is not white, so averaging a
+        // window lowers it by less than √window (BioTacSP-DoS: far less)
+        let scale = 1.0;
         let beta = if self.cfg.follow_s > 0.0 { 1.0 - (-dt / self.cfg.follow_s).exp() } else { 0.0 };
         let mut contact = false;
         for i in 0..self.n {
@@ -385,6 +410,7 @@ mod tests {
             LocateConfig { contact_sigmas: 1.0, floor_sigmas: 2.0, ..Default::default() },
             LocateConfig { power: 0.0, ..Default::default() },
             LocateConfig { top_k: Some(0), ..Default::default() },
+            LocateConfig { smooth_frames: 0, ..Default::default() },
             LocateConfig { follow_s: f64::NAN, ..Default::default() },
         ] {
             assert!(ChangeDetector::try_new(2, &bad).is_err(), "{bad:?}");
