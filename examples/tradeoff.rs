@@ -196,7 +196,20 @@ fn score(rec: &FamilyRecording, pts: &[TrackPoint]) -> Score {
                 .map(|p| [p.x_mm, p.y_mm])
         })
         .collect();
-    let mean_mm = if errs.is_empty() { f64::INFINITY } else { errs.iter().sum::<f64>() / errs.len() as f64 };
+    // a recording without any contact during the movement scores the mean distance of the truth
+    // from the pad centre (what "no idea" costs), not infinity
+    let mean_mm = if errs.is_empty() {
+        let c = Layout::biotac_sp().extent().centre();
+        let d: Vec<f64> = (1..20)
+            .map(|i| {
+                let p = rec.physics.path.at(i as f64 / 20.0);
+                (p[0] - c[0]).hypot(p[1] - c[1])
+            })
+            .collect();
+        d.iter().sum::<f64>() / d.len() as f64
+    } else {
+        errs.iter().sum::<f64>() / errs.len() as f64
+    };
     Score { mean_mm, contact: errs.len() as f64 / total as f64, way }
 }
 
@@ -425,6 +438,21 @@ fn main() {
             100.0 * r.test.3,
             r.us
         );
+    }
+    let ld = LocateConfig::default();
+    let lib_default = rows.iter().find(|r| {
+        matches!(r.s, Setting::Centroid { window, power, top_k, floor, contact, smooth }
+            if window == ld.window_frames && power == ld.power && top_k == ld.top_k && floor == ld.floor_sigmas
+                && contact == ld.contact_sigmas && smooth == ld.smooth_frames)
+    });
+    if let Some(r) = lib_default {
+        let c = r.s.cells();
+        println!(
+            "| **centroid, the library's default** | window {}, {} | {:.3} ({}) | {:.3} | {:.3} / {:.3} | {:.0} % | {:.2} |",
+            c[2], c[4], r.test.1, r.test.2, r.test.0, r.paper.0, r.paper.1, 100.0 * r.test.3, r.us
+        );
+        println!();
+        println!("The library's default centroid setting scores {:.3} (worst kind) on the tuning members.", r.tune.1);
     }
     if let Some(d) = chosen.iter().min_by(|a, b| a.tune.1.total_cmp(&b.tune.1)) {
         println!();

@@ -45,21 +45,29 @@ fn error(rec: &FamilyRecording, pts: &[TrackPoint]) -> (f64, f64) {
 fn default_location_error_is_bounded_per_kind_on_unseen_members() {
     let width = Layout::biotac_sp().extent().width();
     for kind in PathKind::ALL {
-        let mut sum = 0.0;
+        let (mut sum, mut csum) = (0.0, 0.0);
         for seed in SEEDS {
             let rec = Member { seed, kind }.simulate();
             let (e, contact) = error(&rec, &default_track(&rec));
-            assert!(contact > 0.8, "{kind:?} seed {seed}: contact in only {:.0} % of the movement", 100.0 * contact);
+            eprintln!("{} seed {seed}: error {:.3}, contact {:.0} %", kind.name(), e / width, 100.0 * contact);
+            // a light press on a noisy member can stay below the 10 σ contact threshold for part
+            // of the movement (the price of a quiet track on real data), never for all of it
+            assert!(contact > 0.3, "{kind:?} seed {seed}: contact in only {:.0} % of the movement", 100.0 * contact);
             sum += e / width;
+            csum += contact;
         }
         let mean = sum / SEEDS.count() as f64;
-        eprintln!("{}: mean error {mean:.3} of the width", kind.name());
+        let contact = csum / SEEDS.count() as f64;
+        eprintln!("{}: mean error {mean:.3} of the width, contact {:.0} %", kind.name(), 100.0 * contact);
+        assert!(contact > MIN_CONTACT, "{kind:?}: contact in {:.0} % of the movement", 100.0 * contact);
         assert!(mean < BOUND, "{kind:?}: mean error {mean:.3} of the width ≥ {BOUND}");
     }
 }
 
 /// Per-kind bound on the mean error (fraction of the 26.6 mm width).
-const BOUND: f64 = 0.12;
+const BOUND: f64 = 0.09;
+/// Per-kind lower bound on the share of movement frames with a contact.
+const MIN_CONTACT: f64 = 0.75;
 
 #[test]
 fn tripled_noise_gives_the_same_track() {

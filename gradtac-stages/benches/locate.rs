@@ -50,11 +50,15 @@ fn recordings() -> Vec<(&'static str, Vec<TaxelFrame>)> {
     out
 }
 
-fn centroid_chain(l: &Layout) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint> {
+fn centroid_chain(
+    l: &Layout,
+) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint, Error = gradtac_stream::Error> {
     Centroid::try_new(&LocateConfig::default(), l).unwrap().then(Track::try_new(&TrackConfig::default()).unwrap())
 }
 
-fn events_chain(l: &Layout) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint> {
+fn events_chain(
+    l: &Layout,
+) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint, Error = gradtac_stream::Error> {
     let icfg = InterpolateConfig {
         grid: GridConfig { nx: 16, ..Default::default() },
         incremental: true,

@@ -254,6 +254,6 @@ mod tests {
         // after run_all (finish → reset) the stage calibrates again
         let out = c.run_all(frames(21, |_| vec![1.0; 24])).unwrap();
         assert_eq!(out[19].outcome, ContourOutcome::NoContact(NoContact::NoData));
-        assert_eq!(c.delay(), Delay::frames(2));
+        assert_eq!(c.delay(), Delay::frames(4)); // (9 − 1)/2 frames of the default window
     }
 }
