@@ -66,7 +66,7 @@ impl LocateMethod {
 #[serde(deny_unknown_fields, default)]
 pub struct LocateConfig {
     /// The method. Default `centroid` (`docs/tradeoff.md`: within 0.005 of the width of the best
-    /// held-out worst-kind error, at 1/60–1/250 of the cost of the contour methods).
+    /// held-out worst-kind error, at 1/20–1/600 of the cost of the contour methods).
     ///
     /// The defaults of the detector settings (`window_frames` 9, `floor_sigmas` 2,
     /// `contact_sigmas` 10, `smooth_frames` 3, `power` 2) are the setting that keeps the track
