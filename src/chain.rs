@@ -4,12 +4,15 @@ use crate::plan::{SensorPlan, Tap};
 use crate::scene::{Scene, StageSettings};
 use crate::sinks::Sinks;
 use crate::Error;
-use gradtac_stages::contour::{Contour, ContourFrame, Levels};
+use gradtac_stages::centroid::Centroid;
+use gradtac_stages::contour::{Contour, ContourConfig, ContourFrame, Levels};
 use gradtac_stages::dos::{DosClassifier, DosDecision};
 use gradtac_stages::events::{Events, Threshold};
 use gradtac_stages::force::{Force, ForceEstimate, ForceModel};
 use gradtac_stages::interpolate::{Interpolate, Surface};
+use gradtac_stages::locate::LocateMethod;
 use gradtac_stages::normalise::{Bounds, Normalise};
+use gradtac_stages::raw_contour::RawChange;
 use gradtac_stages::savgol::SavGol;
 use gradtac_stages::servo::{Servo, ServoCommand};
 use gradtac_stages::track::{Track, TrackPoint};
@@ -29,6 +32,10 @@ pub struct SensorChain {
     window: Option<Window>,
     surface: Option<Interpolate>,
     contour: Option<Contour>,
+    /// `[stages.locate] method = "centroid"`: contours from the raw frames.
+    centroid: Option<Centroid>,
+    /// `[stages.locate] method = "raw_contour"`: windows (relative changes) from the raw frames.
+    raw_change: Option<RawChange>,
     track: Option<Track>,
     force: Option<Force>,
     servo: Option<Servo>,
@@ -67,12 +74,30 @@ where
     Ok(())
 }
 
+/// The change detector's effective settings, for `explain`.
+fn describe_detector(l: &gradtac_stages::locate::LocateConfig) -> String {
+    format!(
+        "calibrate {} frames, mean of {} frames, floor {} σ, contact {} σ, baseline follows drift τ = {} s",
+        l.calibrate_frames, l.window_frames, l.floor_sigmas, l.contact_sigmas, l.follow_s
+    )
+}
+
+/// The contour settings in effect: `raw_contour` surfaces are relative changes that are 0
+/// without a contact (the change detector decides), so their contour takes any peak.
+pub fn effective_contour(st: &StageSettings) -> ContourConfig {
+    match st.locate.method {
+        LocateMethod::RawContour => ContourConfig { min_peak: 0.0, ..st.contour.clone() },
+        _ => st.contour.clone(),
+    }
+}
+
 impl SensorChain {
     /// Build the stages `plan` says the sensor runs, validating their settings.
     pub fn build(scene: &Scene, plan: &SensorPlan) -> Result<SensorChain, Error> {
         let st = &scene.stages;
         let n = plan.layout.len();
         let runs = |t| plan.runs(t);
+        let method = st.locate.method;
         let rate = scene.sensors[plan.index].source.rate_hz();
         let mut taps: [Vec<usize>; TAPS] = std::array::from_fn(|_| Vec::new());
         for &i in &plan.outputs {
@@ -91,9 +116,19 @@ impl SensorChain {
                 })
                 .transpose()?,
             events: runs(Tap::Events).then(|| Events::try_new(n, st.events.clone())).transpose()?,
-            window: runs(Tap::Window).then(|| Window::try_new(&st.window)).transpose()?,
+            window: (runs(Tap::Window) && method != LocateMethod::RawContour)
+                .then(|| Window::try_new(&st.window))
+                .transpose()?,
+            raw_change: (runs(Tap::Window) && method == LocateMethod::RawContour)
+                .then(|| RawChange::try_new(n, &st.locate))
+                .transpose()?,
             surface: runs(Tap::Surface).then(|| Interpolate::try_new(&st.surface, &plan.layout)).transpose()?,
-            contour: runs(Tap::Contour).then(|| Contour::try_new(&st.contour)).transpose()?,
+            contour: (runs(Tap::Contour) && method != LocateMethod::Centroid)
+                .then(|| Contour::try_new(&effective_contour(st)))
+                .transpose()?,
+            centroid: (runs(Tap::Contour) && method == LocateMethod::Centroid)
+                .then(|| Centroid::try_new(&st.locate, &plan.layout))
+                .transpose()?,
             track: runs(Tap::Track).then(|| Track::try_new(&st.track)).transpose()?,
             force: match (runs(Tap::Force), &st.force) {
                 (false, _) => None,
@@ -160,16 +195,29 @@ impl SensorChain {
         self.frames_in
     }
 
-    /// Steady-state delay of the whole chain.
+    /// Steady-state delay of the whole chain: of its slowest path (the event front end, or the
+    /// contact-location path of `centroid` / `raw_contour`, which skip it).
     pub fn delay(&self) -> Delay {
         let d = |s: Option<Delay>| s.unwrap_or(Delay::ZERO);
-        d(self.normalise.as_ref().map(Stage::delay))
+        let spatial = d(self.surface.as_ref().map(Stage::delay))
+            + d(self.contour.as_ref().map(Stage::delay))
+            + d(self.track.as_ref().map(Stage::delay));
+        let events = d(self.normalise.as_ref().map(Stage::delay))
             + d(self.savgol.as_ref().map(Stage::delay))
             + d(self.events.as_ref().map(Stage::delay))
             + d(self.window.as_ref().map(Stage::delay))
-            + d(self.surface.as_ref().map(Stage::delay))
-            + d(self.contour.as_ref().map(Stage::delay))
-            + d(self.track.as_ref().map(Stage::delay))
+            + if self.window.is_some() { spatial } else { Delay::ZERO };
+        let located = match (&self.centroid, &self.raw_change) {
+            (Some(c), _) => c.delay() + d(self.track.as_ref().map(Stage::delay)),
+            (None, Some(r)) => r.delay() + spatial,
+            (None, None) => Delay::ZERO,
+        };
+        // frames first: the time part only comes from duration windows
+        if (located.frames, located.nanos) > (events.frames, events.nanos) {
+            located
+        } else {
+            events
+        }
     }
 
     /// The track points the last [`process`](Self::process) produced (for the cross-sensor
@@ -214,12 +262,24 @@ impl SensorChain {
                 };
                 format!("log-change, {tau}, cap {}/taxel/frame", c.max_events_per_step)
             }),
+            Tap::Window if self.raw_change.is_some() => {
+                format!("raw change |x − x₀|/x₀ ({})", describe_detector(&st.locate))
+            }
+            Tap::Contour if self.centroid.is_some() => {
+                let l = &st.locate;
+                format!(
+                    "taxel centroid, weights r^{}{} ({})",
+                    l.power,
+                    l.top_k.map_or(" of all taxels".to_string(), |k| format!(" of the top {k}")),
+                    describe_detector(l)
+                )
+            }
             Tap::Window => {
                 let c = &st.window;
                 let size = match (c.frames, c.duration_ms) {
                     (_, Some(ms)) => format!("{ms} ms"),
                     (Some(f), None) => format!("{f} frames"),
-                    (None, None) => "default size".into(),
+                    (None, None) => "10 frames (default)".into(),
                 };
                 format!("{:?} {size}, step {}, {:?}", c.kind, c.step, c.aggregate).to_lowercase()
             }
@@ -229,17 +289,29 @@ impl SensorChain {
                 format!("{:?} on {nx}×{ny} grid, outside hull: {:?}", c.method, c.outside).to_lowercase()
             }
             Tap::Contour => {
-                let c = &st.contour;
+                let c = &effective_contour(st);
                 let levels = match &c.levels {
                     Levels::Count(k) => format!("{k} levels"),
                     Levels::Explicit(v) => format!("{} given levels", v.len()),
                 };
-                format!("maximal contour, {levels}, min area {} mm²", c.min_area_mm2)
+                format!(
+                    "maximal contour ({} method), {levels}, min peak {}, min area {} mm²",
+                    st.locate.method.name(),
+                    c.min_peak,
+                    c.min_area_mm2
+                )
             }
-            Tap::Track => match st.track.max_jump_mm {
-                Some(j) => format!("gate jumps > {j} mm ({:?})", st.track.gate).to_lowercase(),
-                None => "no jump gating".into(),
-            },
+            Tap::Track => {
+                let t = &st.track;
+                let gate = match t.max_jump_mm {
+                    Some(j) => {
+                        format!("gate jumps > {j} mm ({:?}, restart after {} gated frames)", t.gate, t.max_gated_frames)
+                            .to_lowercase()
+                    }
+                    None => "no jump gating".into(),
+                };
+                format!("{gate}, release after {} frames, velocity α {}", t.release_frames, t.velocity_alpha)
+            }
             Tap::Force => st.force.as_ref().map_or("no model".into(), |f| {
                 let m = match &f.model {
                     ForceModel::Linear { .. } => "linear",
@@ -270,6 +342,36 @@ impl SensorChain {
         }
     }
 
+    /// The event front end: normalise → Savitzky–Golay → events → window, from `self.raw`
+    /// (consumed) to `self.windows` (appended to).
+    fn process_events(&mut self, finish: bool, sinks: &mut Sinks) -> Result<(), Error> {
+        let Some(st) = &mut self.normalise else {
+            self.raw.clear();
+            return Ok(());
+        };
+        feed(st, &mut self.raw, &mut self.normalised, finish)?;
+        sinks.write_all(&self.taps[Tap::Normalise as usize], &self.normalised)?;
+        let Some(st) = &mut self.savgol else {
+            self.normalised.clear();
+            return Ok(());
+        };
+        feed(st, &mut self.normalised, &mut self.smoothed, finish)?;
+        sinks.write_all(&self.taps[Tap::Savgol as usize], &self.smoothed)?;
+        let Some(st) = &mut self.events else {
+            self.smoothed.clear();
+            return Ok(());
+        };
+        feed(st, &mut self.smoothed, &mut self.batches, finish)?;
+        sinks.write_all(&self.taps[Tap::Events as usize], &self.batches)?;
+        match &mut self.window {
+            Some(st) => feed(st, &mut self.batches, &mut self.windows, finish),
+            None => {
+                self.batches.clear();
+                Ok(())
+            }
+        }
+    }
+
     /// Push one frame (or, with `finish`, flush) through every built stage, writing each
     /// stage's outputs to the outputs that tap it.
     pub fn process(&mut self, frame: Option<TaxelFrame>, finish: bool, sinks: &mut Sinks) -> Result<(), Error> {
@@ -296,41 +398,26 @@ impl SensorChain {
             sinks.write_all(&self.taps[Tap::Dos as usize], &self.decisions)?;
             self.decisions.clear();
         }
-        let Some(st) = &mut self.normalise else {
-            self.raw.clear();
-            return Ok(());
-        };
-        feed(st, &mut self.raw, &mut self.normalised, finish)?;
-        sinks.write_all(&self.taps[Tap::Normalise as usize], &self.normalised)?;
-        let Some(st) = &mut self.savgol else {
-            self.normalised.clear();
-            return Ok(());
-        };
-        feed(st, &mut self.normalised, &mut self.smoothed, finish)?;
-        sinks.write_all(&self.taps[Tap::Savgol as usize], &self.smoothed)?;
-        let Some(st) = &mut self.events else {
-            self.smoothed.clear();
-            return Ok(());
-        };
-        feed(st, &mut self.smoothed, &mut self.batches, finish)?;
-        sinks.write_all(&self.taps[Tap::Events as usize], &self.batches)?;
-        let Some(st) = &mut self.window else {
-            self.batches.clear();
-            return Ok(());
-        };
-        feed(st, &mut self.batches, &mut self.windows, finish)?;
+        // the contact-location front ends on the raw frames
+        if let Some(c) = &mut self.centroid {
+            feed(c, &mut self.raw.clone(), &mut self.contours, finish)?;
+        }
+        if let Some(r) = &mut self.raw_change {
+            feed(r, &mut self.raw.clone(), &mut self.windows, finish)?;
+        }
+        self.process_events(finish, sinks)?;
         sinks.write_all(&self.taps[Tap::Window as usize], &self.windows)?;
-        let Some(st) = &mut self.surface else {
-            self.windows.clear();
-            return Ok(());
-        };
-        feed(st, &mut self.windows, &mut self.surfaces, finish)?;
-        sinks.write_all(&self.taps[Tap::Surface as usize], &self.surfaces)?;
-        let Some(st) = &mut self.contour else {
-            self.surfaces.clear();
-            return Ok(());
-        };
-        feed(st, &mut self.surfaces, &mut self.contours, finish)?;
+        match &mut self.surface {
+            Some(st) => {
+                feed(st, &mut self.windows, &mut self.surfaces, finish)?;
+                sinks.write_all(&self.taps[Tap::Surface as usize], &self.surfaces)?;
+            }
+            None => self.windows.clear(),
+        }
+        match &mut self.contour {
+            Some(st) => feed(st, &mut self.surfaces, &mut self.contours, finish)?,
+            None => self.surfaces.clear(),
+        }
         sinks.write_all(&self.taps[Tap::Contour as usize], &self.contours)?;
         if let Some(f) = &mut self.force {
             feed(f, &mut self.contours.clone(), &mut self.forces, finish)?;

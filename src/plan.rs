@@ -7,6 +7,7 @@
 use crate::chain::SensorChain;
 use crate::scene::Scene;
 use crate::Error;
+use gradtac_stages::locate::LocateMethod;
 use gradtac_stream::Layout;
 use std::fmt::Write as _;
 
@@ -78,6 +79,21 @@ impl Tap {
     /// This stage and every stage it depends on.
     pub fn with_ancestors(self) -> impl Iterator<Item = Tap> {
         std::iter::successors(Some(self), |t| t.parent())
+    }
+
+    /// The parent under a contact-location method (`[stages.locate] method`): `centroid`
+    /// makes contours straight from the source frames, `raw_contour` makes the window (the
+    /// per-taxel relative changes) from them; `events` is [`Tap::parent`].
+    pub fn parent_in(self, method: LocateMethod) -> Option<Tap> {
+        match (method, self) {
+            (LocateMethod::Centroid, Tap::Contour) | (LocateMethod::RawContour, Tap::Window) => Some(Tap::Source),
+            _ => self.parent(),
+        }
+    }
+
+    /// This stage and every stage it depends on under `method` (see [`Tap::parent_in`]).
+    pub fn with_ancestors_in(self, method: LocateMethod) -> impl Iterator<Item = Tap> {
+        std::iter::successors(Some(self), move |t| t.parent_in(method))
     }
 
     /// The tap's name in scenes.
@@ -179,7 +195,7 @@ impl Plan {
             let mut needed: Vec<Tap> = outputs
                 .iter()
                 .filter_map(|&i| Tap::parse(&scene.outputs[i].tap))
-                .flat_map(Tap::with_ancestors)
+                .flat_map(|t| t.with_ancestors_in(scene.stages.locate.method))
                 .collect();
             needed.sort();
             needed.dedup();
@@ -235,7 +251,11 @@ impl Plan {
                 let why = if !tapped_by.is_empty() {
                     format!("written to {}", tapped_by.join(", "))
                 } else {
-                    let next: Vec<&str> = p.stages().filter(|t| t.parent() == Some(tap)).map(Tap::name).collect();
+                    let next: Vec<&str> = p
+                        .stages()
+                        .filter(|t| t.parent_in(scene.stages.locate.method) == Some(tap))
+                        .map(Tap::name)
+                        .collect();
                     format!("feeds {}", next.join(", "))
                 };
                 let _ = writeln!(s, "  {:<10} {:<52} {}", tap.name(), chain.describe(tap, &scene.stages), why);

@@ -32,6 +32,7 @@ use gradtac_stages::contour::ContourConfig;
 use gradtac_stages::events::EventsConfig;
 use gradtac_stages::force::ForceConfig;
 use gradtac_stages::interpolate::InterpolateConfig;
+use gradtac_stages::locate::LocateConfig;
 use gradtac_stages::normalise::NormaliseConfig;
 use gradtac_stages::savgol::SavGolConfig;
 use gradtac_stages::servo::ServoConfig;
@@ -287,6 +288,10 @@ pub struct StageSettings {
     /// Maximal contours ([`ContourConfig`]).
     #[serde(default)]
     pub contour: ContourConfig,
+    /// How contact is located — `centroid`, `raw_contour` or `events` — and the calibrated
+    /// change detector of the first two ([`LocateConfig`]).
+    #[serde(default)]
+    pub locate: LocateConfig,
     /// Contact tracks ([`TrackConfig`]).
     #[serde(default)]
     pub track: TrackConfig,

@@ -301,7 +301,8 @@ fn every_stage_can_be_tapped_and_explain_counts_latency() {
     let sc = scene(dir.path(), &csv, &extra);
     let text = fs::read_to_string(&sc).unwrap().replace(
         "[stages.normalise]",
-        "[stages.surface]\ngrid = { nx = 16 }\n\n[stages.savgol]\nwindow = 7\npolyorder = 2\n\n[stages.normalise]",
+        // the event-contour chain (the default centroid would take the contour from the raw frames)
+        "[stages.locate]\nmethod = \"events\"\n\n[stages.surface]\ngrid = { nx = 16 }\n\n[stages.savgol]\nwindow = 7\npolyorder = 2\n\n[stages.normalise]",
     );
     fs::write(&sc, text).unwrap();
     let out = gradtac().arg("explain").arg(&sc).output().unwrap();

@@ -14,6 +14,7 @@
 mod error;
 pub mod event;
 
+pub mod centroid;
 pub mod contour;
 pub mod dos;
 pub mod dos_select;
@@ -22,10 +23,13 @@ pub mod events;
 pub mod force;
 pub mod interpolate;
 pub mod limits;
+pub mod locate;
 pub mod normalise;
+pub mod raw_contour;
 pub mod savgol;
 pub mod servo;
 pub mod sim;
+pub mod sim_family;
 pub mod slip;
 pub mod track;
 pub mod window;

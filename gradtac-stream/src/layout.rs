@@ -67,6 +67,36 @@ pub const MAX_LAYOUT_FILE_BYTES: u64 = 16 << 20;
 /// Margin (mm) added around the taxels' bounding box when a layout gives no extent.
 pub const DEFAULT_MARGIN_MM: f64 = 2.0;
 
+/// Skin-surface positions (mm) of the BioTac SP's sensing electrodes 1..=24 (x along the finger
+/// toward the tip, z out of the pad), from the COMSOL model cited in [`Layout::biotac_sp`], which
+/// unwraps them onto the plane.
+pub const BIOTAC_SP_SKIN_MM: [[f64; 3]; 24] = [
+    [11.14857, -5.25733, -3.65186],
+    [9.28813, -4.13207, -7.01911],
+    [2.46644, -9.07826, -4.139],
+    [2.40223, -6.68511, -7.82462],
+    [-0.53737, -3.19441, -10.10018],
+    [-2.59071, -9.15067, -3.86751],
+    [-3.9217, -6.23412, -7.91412],
+    [-6.51216, -2.45585, -9.2922],
+    [-9.36007, -4.39204, -6.8576],
+    [-11.48363, -5.10487, -3.36957],
+    [11.15987, 5.26812, -3.65935],
+    [9.30141, 4.144, -7.03937],
+    [2.46665, 9.07986, -4.13973],
+    [2.40237, 6.68595, -7.8256],
+    [-0.53735, 3.19416, -10.09939],
+    [-2.59194, 9.15986, -3.8714],
+    [-3.9194, 6.22657, -7.90454],
+    [-6.5019, 2.44801, -9.26256],
+    [-9.33708, 4.37031, -6.82367],
+    [-11.46739, 5.09033, -3.35997],
+    [7.3143, 0.0, -9.38526],
+    [5.04212, -1.8519, -9.85908],
+    [5.04983, 1.8519, -9.88999],
+    [2.64671, 0.0, -10.51272],
+];
+
 impl Layout {
     /// A validated layout. `extent` defaults to the taxels' bounding box grown by
     /// [`DEFAULT_MARGIN_MM`]; a given extent must contain every taxel.
@@ -150,34 +180,7 @@ impl Layout {
     /// onto the x–y plane would squeeze them. Electrodes 11–20 mirror 1–10 across y = 0.
     /// The extent is the bounding box grown by [`DEFAULT_MARGIN_MM`].
     pub fn biotac_sp() -> Self {
-        // skin_x, skin_y, skin_z in mm, electrodes 1..=24.
-        const SKIN: [[f64; 3]; 24] = [
-            [11.14857, -5.25733, -3.65186],
-            [9.28813, -4.13207, -7.01911],
-            [2.46644, -9.07826, -4.139],
-            [2.40223, -6.68511, -7.82462],
-            [-0.53737, -3.19441, -10.10018],
-            [-2.59071, -9.15067, -3.86751],
-            [-3.9217, -6.23412, -7.91412],
-            [-6.51216, -2.45585, -9.2922],
-            [-9.36007, -4.39204, -6.8576],
-            [-11.48363, -5.10487, -3.36957],
-            [11.15987, 5.26812, -3.65935],
-            [9.30141, 4.144, -7.03937],
-            [2.46665, 9.07986, -4.13973],
-            [2.40237, 6.68595, -7.8256],
-            [-0.53735, 3.19416, -10.09939],
-            [-2.59194, 9.15986, -3.8714],
-            [-3.9194, 6.22657, -7.90454],
-            [-6.5019, 2.44801, -9.26256],
-            [-9.33708, 4.37031, -6.82367],
-            [-11.46739, 5.09033, -3.35997],
-            [7.3143, 0.0, -9.38526],
-            [5.04212, -1.8519, -9.85908],
-            [5.04983, 1.8519, -9.88999],
-            [2.64671, 0.0, -10.51272],
-        ];
-        let positions = SKIN.iter().map(|&[x, y, z]| [x, y.hypot(z) * y.atan2(-z)]).collect();
+        let positions = BIOTAC_SP_SKIN_MM.iter().map(|&[x, y, z]| [x, y.hypot(z) * y.atan2(-z)]).collect();
         let names = (1..=24).map(|i| format!("e{i}")).collect();
         Layout::try_new("biotac-sp", names, positions, None).expect("the built-in layout is valid")
     }

@@ -1,0 +1,126 @@
+//! Benchmarks of the default contact-location chain (`[stages.locate]` defaults: taxel
+//! centroid → track) against the event-contour chain in the same run.
+//!
+//! `cargo bench -p gradtac-stages --bench locate`
+//!
+//! - `locate/<chain>/<recording>`: raw counts → track points, per input frame (throughput in
+//!   frames), on a simulated family member (`sim`, always) and on a BioTacSP-DoS recording
+//!   (`dos`, `cw/bottle4.csv` from `../shared/data` beside the repository or `$GRADTAC_DOS_DIR`;
+//!   skipped when absent).
+//!   `<chain>` is `centroid` (the default) or `events` (Savitzky–Golay → events τ = 0.001 →
+//!   10-frame count window → natural neighbour 16×16 → contour (min area 60 mm²) → track).
+//! - After the criterion groups, per-frame latency percentiles (p50, p99) of the default chain
+//!   pushed one frame at a time, printed (not asserted).
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use gradtac_stages::centroid::Centroid;
+use gradtac_stages::contour::{Contour, ContourConfig};
+use gradtac_stages::events::{Events, EventsConfig, Threshold};
+use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
+use gradtac_stages::locate::LocateConfig;
+use gradtac_stages::savgol::{SavGol, SavGolConfig};
+use gradtac_stages::sim_family::{Member, PathKind};
+use gradtac_stages::track::{Track, TrackConfig};
+use gradtac_stages::window::{Aggregate, Window, WindowConfig};
+use gradtac_stream::{Layout, Stage, StageExt, TaxelFrame, Timestamp};
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Instant;
+
+fn dos_recording() -> Option<Vec<TaxelFrame>> {
+    // GRADTAC_DOS_DIR overrides where the dataset is (a worktree away from ../shared)
+    let root = std::env::var_os("GRADTAC_DOS_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/biotacsp-dos"));
+    let p = root.join("cw/bottle4.csv");
+    let text = std::fs::read_to_string(&p).ok()?;
+    Some(
+        text.lines()
+            .skip(1)
+            .filter(|l| !l.trim().is_empty())
+            .enumerate()
+            .map(|(k, l)| {
+                let v = l.split(',').map(|x| x.trim().parse().unwrap_or(0.0)).collect();
+                TaxelFrame::new("ff".into(), Timestamp::at_rate(k as u64, 100.0), k as u64, v)
+            })
+            .collect(),
+    )
+}
+
+fn recordings() -> Vec<(&'static str, Vec<TaxelFrame>)> {
+    let mut out = vec![("sim", Member { seed: 900, kind: PathKind::Circle }.simulate().frames)];
+    match dos_recording() {
+        Some(r) => out.push(("dos", r)),
+        None => eprintln!("locate bench: BioTacSP-DoS not present, real-data rows skipped"),
+    }
+    out
+}
+
+fn centroid_chain(
+    l: &Layout,
+) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint, Error = gradtac_stream::Error> {
+    Centroid::try_new(&LocateConfig::default(), l).unwrap().then(Track::try_new(&TrackConfig::default()).unwrap())
+}
+
+fn events_chain(
+    l: &Layout,
+) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint, Error = gradtac_stream::Error> {
+    let icfg = InterpolateConfig {
+        grid: GridConfig { nx: 16, ..Default::default() },
+        incremental: true,
+        ..Default::default()
+    };
+    SavGol::try_with_rate(l.len(), SavGolConfig::default(), 100.0)
+        .unwrap()
+        .then(
+            Events::try_new(l.len(), EventsConfig { threshold: Threshold::Uniform(0.001), ..Default::default() })
+                .unwrap(),
+        )
+        .then(
+            Window::try_new(&WindowConfig { frames: Some(10), aggregate: Aggregate::Count, ..Default::default() })
+                .unwrap(),
+        )
+        .then(Interpolate::try_new(&icfg, l).unwrap())
+        .then(Contour::try_new(&ContourConfig { min_peak: 2.0, min_area_mm2: 60.0, ..Default::default() }).unwrap())
+        .then(Track::try_new(&TrackConfig::default()).unwrap())
+}
+
+fn bench(c: &mut Criterion) {
+    let l = Layout::biotac_sp();
+    let recs = recordings();
+    let mut g = c.benchmark_group("locate");
+    for (name, frames) in &recs {
+        g.throughput(Throughput::Elements(frames.len() as u64));
+        g.bench_with_input(BenchmarkId::new("centroid", name), frames, |b, f| {
+            b.iter(|| black_box(centroid_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
+        });
+        g.bench_with_input(BenchmarkId::new("events", name), frames, |b, f| {
+            b.iter(|| black_box(events_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
+        });
+    }
+    g.finish();
+    // per-frame latency of the default chain, one frame at a time (printed, not asserted)
+    for (name, frames) in &recs {
+        let mut lat = Vec::new();
+        let mut out = Vec::new();
+        for _ in 0..20 {
+            let mut ch = centroid_chain(&l);
+            for f in frames.iter().cloned() {
+                let t0 = Instant::now();
+                ch.push(f, &mut out).unwrap();
+                lat.push(t0.elapsed().as_nanos() as f64 * 1e-3);
+                out.clear();
+            }
+        }
+        lat.sort_by(f64::total_cmp);
+        let q = |p: f64| lat[((lat.len() - 1) as f64 * p) as usize];
+        println!(
+            "locate/centroid/{name}: per-frame latency p50 {:.2} µs, p99 {:.2} µs, max {:.1} µs",
+            q(0.5),
+            q(0.99),
+            q(1.0)
+        );
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
