@@ -21,6 +21,7 @@ pub mod events;
 pub mod force;
 pub mod interpolate;
 pub mod normalise;
+pub mod peak;
 pub mod savgol;
 pub mod servo;
 pub mod sim;
