@@ -10,7 +10,6 @@ use gradtac_stages::events::{Events, Threshold};
 use gradtac_stages::force::{Force, ForceEstimate, ForceModel};
 use gradtac_stages::interpolate::{Interpolate, Surface};
 use gradtac_stages::normalise::{Bounds, Normalise};
-use gradtac_stages::peak::SurfaceContour;
 use gradtac_stages::savgol::SavGol;
 use gradtac_stages::servo::{Servo, ServoCommand};
 use gradtac_stages::track::{Track, TrackPoint};
@@ -30,8 +29,6 @@ pub struct SensorChain {
     window: Option<Window>,
     surface: Option<Interpolate>,
     contour: Option<Contour>,
-    /// Surface → contour fused and evaluated peak-locally when no output taps `surface`.
-    fused: Option<SurfaceContour>,
     track: Option<Track>,
     force: Option<Force>,
     servo: Option<Servo>,
@@ -80,11 +77,8 @@ impl SensorChain {
                 taps[t as usize].push(i);
             }
         }
-        // contours without a surface output: evaluate only the grid points the contour needs
-        let fuse = runs(Tap::Contour) && taps[Tap::Surface as usize].is_empty();
         Ok(SensorChain {
             sensor: SensorId::new(&plan.name),
-            fused: fuse.then(|| SurfaceContour::try_new(&st.surface, &st.contour, &plan.layout)).transpose()?,
             taps,
             normalise: runs(Tap::Normalise).then(|| Normalise::try_new(n, &st.normalise)).transpose()?,
             savgol: runs(Tap::Savgol)
@@ -95,10 +89,8 @@ impl SensorChain {
                 .transpose()?,
             events: runs(Tap::Events).then(|| Events::try_new(n, st.events.clone())).transpose()?,
             window: runs(Tap::Window).then(|| Window::try_new(&st.window)).transpose()?,
-            surface: (runs(Tap::Surface) && !fuse)
-                .then(|| Interpolate::try_new(&st.surface, &plan.layout))
-                .transpose()?,
-            contour: (runs(Tap::Contour) && !fuse).then(|| Contour::try_new(&st.contour)).transpose()?,
+            surface: runs(Tap::Surface).then(|| Interpolate::try_new(&st.surface, &plan.layout)).transpose()?,
+            contour: runs(Tap::Contour).then(|| Contour::try_new(&st.contour)).transpose()?,
             track: runs(Tap::Track).then(|| Track::try_new(&st.track)).transpose()?,
             force: match (runs(Tap::Force), &st.force) {
                 (false, _) => None,
@@ -165,7 +157,6 @@ impl SensorChain {
             + d(self.window.as_ref().map(Stage::delay))
             + d(self.surface.as_ref().map(Stage::delay))
             + d(self.contour.as_ref().map(Stage::delay))
-            + d(self.fused.as_ref().map(Stage::delay))
             + d(self.track.as_ref().map(Stage::delay))
     }
 
@@ -302,21 +293,17 @@ impl SensorChain {
         };
         feed(st, &mut self.batches, &mut self.windows, finish)?;
         sinks.write_all(&self.taps[Tap::Window as usize], &self.windows)?;
-        if let Some(st) = &mut self.fused {
-            feed(st, &mut self.windows, &mut self.contours, finish)?;
-        } else {
-            let Some(st) = &mut self.surface else {
-                self.windows.clear();
-                return Ok(());
-            };
-            feed(st, &mut self.windows, &mut self.surfaces, finish)?;
-            sinks.write_all(&self.taps[Tap::Surface as usize], &self.surfaces)?;
-            let Some(st) = &mut self.contour else {
-                self.surfaces.clear();
-                return Ok(());
-            };
-            feed(st, &mut self.surfaces, &mut self.contours, finish)?;
-        }
+        let Some(st) = &mut self.surface else {
+            self.windows.clear();
+            return Ok(());
+        };
+        feed(st, &mut self.windows, &mut self.surfaces, finish)?;
+        sinks.write_all(&self.taps[Tap::Surface as usize], &self.surfaces)?;
+        let Some(st) = &mut self.contour else {
+            self.surfaces.clear();
+            return Ok(());
+        };
+        feed(st, &mut self.surfaces, &mut self.contours, finish)?;
         sinks.write_all(&self.taps[Tap::Contour as usize], &self.contours)?;
         if let Some(f) = &mut self.force {
             feed(f, &mut self.contours.clone(), &mut self.forces, finish)?;

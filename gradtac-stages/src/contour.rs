@@ -254,12 +254,16 @@ struct Scratch {
 const NONE: u32 = u32::MAX;
 
 /// Read access to a surface's values by `(row, col)`: an array, or a surface evaluated lazily
-/// (only the points the maximal contour looks at, see [`crate::peak`]).
+/// (only the points the maximal contour looks at, see [`crate::peak`]): `prepare` a rectangle,
+/// then read it with `raw`.
 pub(crate) trait Field {
     /// `(rows, cols)`.
     fn dim(&self) -> (usize, usize);
-    /// The value at `(r, c)`.
-    fn at(&mut self, r: usize, c: usize) -> f64;
+    /// Make every point of rows `r0..=r1`, columns `c0..=c1` readable by [`raw`](Self::raw).
+    #[inline(always)]
+    fn prepare(&mut self, _r0: usize, _r1: usize, _c0: usize, _c1: usize) {}
+    /// The value at `(r, c)`, which a [`prepare`](Self::prepare) covered.
+    fn raw(&self, r: usize, c: usize) -> f64;
 }
 
 impl Field for ArrayView2<'_, f64> {
@@ -268,7 +272,7 @@ impl Field for ArrayView2<'_, f64> {
         ArrayView2::dim(self)
     }
     #[inline(always)]
-    fn at(&mut self, r: usize, c: usize) -> f64 {
+    fn raw(&self, r: usize, c: usize) -> f64 {
         self[[r, c]]
     }
 }
@@ -294,10 +298,11 @@ fn march<F: Field>(
     // components' points above the level replaced by −∞
     s.vals.clear();
     s.vals.resize((width * height) as usize, f64::NEG_INFINITY);
+    z.prepare(w.r0, w.r1, w.c0, w.c1);
     for r in w.r0..=w.r1 {
         let lr = (r - w.r0 + 1) * width as usize;
         for c in w.c0..=w.c1 {
-            let mut v = z.at(r, c);
+            let mut v = z.raw(r, c);
             if v.is_nan() {
                 v = if pad { f64::NEG_INFINITY } else { f64::NAN };
             } else if let Some((stamp, gen)) = comp {
@@ -683,21 +688,22 @@ impl MaxContourFinder {
             r1 = r1.max(r);
             c0 = c0.min(c);
             c1 = c1.max(c);
+            z.prepare(r.saturating_sub(1), (r + 1).min(ny - 1), c.saturating_sub(1), (c + 1).min(nx - 1));
             for (dr, dc) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)] {
                 let (rr, cc) = (r as i64 + dr, c as i64 + dc);
                 if rr < 0 || cc < 0 || rr >= ny as i64 || cc >= nx as i64 {
                     continue;
                 }
                 let (rr, cc) = (rr as usize, cc as usize);
-                if s.stamp[rr * nx + cc] == gen || !(z.at(rr, cc) > level) {
+                if s.stamp[rr * nx + cc] == gen || !(z.raw(rr, cc) > level) {
                     continue;
                 }
                 if dr != 0 && dc != 0 {
                     // diagonal: only across a saddle cell that the rule joins
-                    let (o1, o2) = (z.at(r, cc) > level, z.at(rr, c) > level);
+                    let (o1, o2) = (z.raw(r, cc) > level, z.raw(rr, c) > level);
                     if !(o1 || o2) {
                         let (rm, cm) = (r.min(rr), c.min(cc));
-                        let v = [z.at(rm, cm), z.at(rm, cm + 1), z.at(rm + 1, cm + 1), z.at(rm + 1, cm)];
+                        let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
                         if !self.cfg.saddle.joins_above(v, level) {
                             continue;
                         }

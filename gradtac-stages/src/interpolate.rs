@@ -252,9 +252,7 @@ pub struct InterpolateConfig {
     /// afresh. Faster when few taxels change per frame (a sliding window advanced every frame);
     /// results differ from a fresh sum by rounding only (≲ 1e-12 relative), bounded by a full
     /// recomputation every `refresh_every` surfaces. A frame whose changed taxels' weights make
-    /// up half the table or more is summed afresh instead (cheaper, and exact). Only the
-    /// `surface` output uses it: contours without a surface output are evaluated peak-locally
-    /// and always afresh ([`crate::peak`]). Default `false`.
+    /// up half the table or more is summed afresh instead (cheaper, and exact). Default `false`.
     pub incremental: bool,
     /// With `incremental`: recompute in full every this many surfaces (≥ 1). Default 64.
     pub refresh_every: u32,
@@ -941,6 +939,51 @@ mod tests {
         assert!((ext.surface(&v)[[2, 2]] - 3.0).abs() < 1e-12);
         // (2,1): closest hull point on edge (2,0)-(0,2) is (1.5, 0.5): 1.5 + 1 = 2.5
         assert!((ext.surface(&v)[[1, 2]] - 2.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn weight_tables_are_built_once_per_layout_and_grid() {
+        let l = Layout::biotac_sp();
+        let cfg = InterpolateConfig { grid: GridConfig { nx: 19, ..Default::default() }, ..Default::default() };
+        let a = Interpolator::from_config(&cfg, &l).unwrap();
+        let b = Interpolator::from_config(&cfg, &l).unwrap();
+        assert!(a.shares_table(&b));
+        // every stage built from the config shares it too
+        let st = Interpolate::<TaxelFrame>::try_new(&cfg, &l).unwrap();
+        assert!(st.interpolator().shares_table(&a));
+        // another grid, method or fill value is another table
+        for other in [
+            InterpolateConfig { grid: GridConfig { nx: 20, ..Default::default() }, ..cfg.clone() },
+            InterpolateConfig { method: Method::Linear, ..cfg.clone() },
+            InterpolateConfig { outside: Outside::Fill, fill_value: 1.0, ..cfg.clone() },
+        ] {
+            assert!(!Interpolator::from_config(&other, &l).unwrap().shares_table(&a), "{other:?}");
+        }
+    }
+
+    #[test]
+    fn incremental_surfaces_match_fresh_sums() {
+        // many and few changed taxels per frame (the former take a fresh sum automatically)
+        let l = Layout::biotac_sp();
+        let cfg = InterpolateConfig { grid: GridConfig { nx: 24, ..Default::default() }, ..Default::default() };
+        let mut inc =
+            Interpolate::<TaxelFrame>::try_new(&InterpolateConfig { incremental: true, ..cfg.clone() }, &l).unwrap();
+        let fresh = Interpolator::from_config(&cfg, &l).unwrap();
+        let mut v = vec![0.0; 24];
+        for k in 0..200u64 {
+            if k % 7 == 0 {
+                v.iter_mut().enumerate().for_each(|(i, x)| *x = ((i as u64 * 31 + k * 17) % 11) as f64 - 3.0);
+            } else {
+                v[(k * 5 % 24) as usize] += 1.5;
+            }
+            let f = TaxelFrame { sensor: SensorId::new("s"), time: Timestamp(k as i64), seq: k, values: v.clone() };
+            let mut out = Vec::new();
+            inc.push(f, &mut out).unwrap();
+            let want = fresh.surface(&v);
+            for (a, b) in out[0].values.iter().zip(want.iter()) {
+                assert!(a.is_nan() && b.is_nan() || (a - b).abs() <= 1e-12 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+        }
     }
 
     #[test]

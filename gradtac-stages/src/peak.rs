@@ -9,7 +9,7 @@
 //! [`Contour`](crate::contour::Contour), **bit for bit**, while evaluating grid points only on
 //! demand:
 //!
-//! 1. The grid is cut into blocks (8 × 8 points on a 64 × 64 grid). For each block the
+//! 1. The grid is cut into blocks (8 × 8 points on a 64 × 64 grid; a power of two a side). For each block the
 //!    [`PeakIndex`] (built once per interpolator) holds the union of the taxels its points'
 //!    weights use. Interpolation weights are convex (non-negative, summing to 1 for natural
 //!    neighbour, linear, nearest, inverse distance and the hull extension), so every value in a
@@ -20,11 +20,10 @@
 //!    bound reaches the best value found (`≥`, so ties in raster order are resolved exactly).
 //!    The minimum likewise from below. A peak bound under `min_peak` ends the frame without
 //!    evaluating anything.
-//! 3. The region search and marching squares read values through a cache that evaluates each
-//!    point at most once per frame — with the same summation order as the full grid, so every
-//!    value is bit-identical.
+//! 3. The region search and marching squares read values through a cache that evaluates a
+//!    block the first time one of its points is read (at most once per frame) — with the same
+//!    summation order as the full grid, so every value is bit-identical.
 //!
-//! A frame whose taxel values equal the previous frame's reuses the previous outcome.
 //! Inputs with `max|v| > 1e300`, or tables with negative weights beyond rounding, fall back to
 //! evaluating every point (identical results, full cost).
 //!
@@ -32,14 +31,26 @@
 //! None: one [`ContourFrame`] per input.
 //!
 //! # Trade-offs
-//! | path | evaluates | when |
-//! |---|---|---|
-//! | [`SurfaceContour`] (peak-local) | the peak's blocks, the min's block, the region and its rim | the scene taps contours / tracks but not `surface` |
-//! | `Interpolate` → `Contour` | every grid point, then scans it | a `surface` output is tapped (the surface itself is written) |
+//! Measured with `cargo run --release -p gradtac-stages --example chain_cost -- <variant> 10`
+//! (CPU seconds from `/usr/bin/time`, two runs each, alternating, on a 2-core machine at load
+//! average 12–13): per window of the default chain (signed 10-frame windows, natural neighbour
+//! 64 × 64, 10 levels, min area 1 mm²) on a real BioTacSP-DoS recording tiled 10 times
+//! (2,790 windows, 2,759 with contact) and on the simulated grasp (200 windows).
 //!
-//! Both give identical outcomes (tested on random aggregates with ties, flat, two peaks,
-//! edges). `incremental` only concerns the full surface; the peak-local path always sums
-//! afresh (bit-reproducible).
+//! | input | peak-local: points evaluated / window | peak-local CPU | full grid CPU |
+//! |---|---|---|---|
+//! | real recording | ≈ 800 of 4,096 (blocks: more) | 34 µs | 28 µs |
+//! | simulated grasp | ≈ 320 of 4,096 | 18 µs | 17.5 µs |
+//! | no contact (bound under `min_peak`) | 0 | ≪ 1 µs | ≈ 6 µs + scan |
+//!
+//! On these inputs the maximal contour itself (region search and marching squares over regions
+//! of hundreds of points at several levels) costs 3–4× the surface, and the block bounds eat
+//! what the skipped points save: the peak-local path pays off only where most frames have no
+//! contact or small regions. The scene runner therefore keeps the full surface; the fused
+//! stage is there for embedding (and as the exactness reference for future work on the
+//! contour search). Both give identical outcomes (tested on random aggregates with ties, flat,
+//! two peaks, edges). `incremental` only concerns the full surface; the peak-local path always
+//! sums afresh (bit-reproducible).
 
 use crate::contour::{ContourConfig, ContourFrame, ContourOutcome, Field, MaxContourFinder, NoContact};
 use crate::interpolate::{Grid, InterpolateConfig, Interpolator, TaxelValues, WeightTable};
@@ -57,6 +68,7 @@ pub struct PeakIndex {
     nx: usize,
     ny: usize,
     bs: usize,
+    shift: u32,
     nbx: usize,
     starts: Vec<u32>,
     support: Vec<u16>,
@@ -69,7 +81,14 @@ pub struct PeakIndex {
     // all weights ≥ 0: a row over taxels ≥ 0 sums to ≥ 0 exactly
     nonneg: bool,
     fill: f64,
+    // dense [block × taxel] largest weight of the taxel at any point of the block (0: not in
+    // the support); empty when too large or when weights can be negative
+    wmax: Vec<f64>,
+    n_taxels: usize,
 }
+
+/// Largest dense `blocks × taxels` table of per-block weight maxima kept.
+const MAX_WMAX: usize = 1 << 20;
 
 impl PeakIndex {
     /// Index `table` laid out on `grid` (row-major, `grid.len()` points).
@@ -77,13 +96,17 @@ impl PeakIndex {
         let (nx, ny) = (grid.nx(), grid.ny());
         debug_assert_eq!(table.points(), nx * ny);
         // about 8 × 8 blocks whatever the grid (at least 4 points a side)
-        let bs = (nx.max(ny) / 8).clamp(4, 64);
+        let bs = (nx.max(ny) / 8).clamp(4, 64).next_power_of_two();
+        let shift = bs.trailing_zeros();
         let (nbx, nby) = (nx.div_ceil(bs), ny.div_ceil(bs));
         let mut starts = vec![0u32];
         let mut support = Vec::new();
         let mut has_empty = Vec::with_capacity(nbx * nby);
         let mut has_row = Vec::with_capacity(nbx * nby);
-        let mut seen = vec![false; table.taxels()];
+        let n_taxels = table.taxels();
+        let mut seen = vec![false; n_taxels];
+        let dense = nbx * nby * n_taxels <= MAX_WMAX;
+        let mut wmax: Vec<f64> = if dense { vec![0.0; nbx * nby * n_taxels] } else { Vec::new() };
         let (mut delta, mut max_len, mut nonneg) = (0.0f64, 0usize, true);
         for by in 0..nby {
             for bx in 0..nbx {
@@ -108,6 +131,11 @@ impl PeakIndex {
                                 neg -= w;
                                 nonneg = false;
                             }
+                            if dense {
+                                let b = by * nbx + bx;
+                                let m = &mut wmax[b * n_taxels + k as usize];
+                                *m = m.max(w);
+                            }
                             sum += w;
                         }
                         // |Σw − 1| (plus twice the negative mass: Σ w·v ≤ max v + M·that)
@@ -124,9 +152,28 @@ impl PeakIndex {
         }
         // Σ w·v rounded (n terms): |fl − exact| ≤ γ_n Σ|w v| ≤ γ_n (1 + δ) M, γ_n ≈ n·2⁻⁵³;
         // the sum of weights itself was computed with a similar error. A factor 4 of margin.
-        let gamma = (max_len as f64 + 2.0) * f64::EPSILON;
+        let max_support = starts.windows(2).map(|w| (w[1] - w[0]) as usize).max().unwrap_or(0);
+        let gamma = (max_len.max(max_support) as f64 + 2.0) * f64::EPSILON;
         let eps = 4.0 * (delta + gamma * (1.0 + delta) + gamma);
-        PeakIndex { nx, ny, bs, nbx, starts, support, has_empty, has_row, eps, nonneg, fill: table.fill() }
+        if !nonneg {
+            wmax = Vec::new();
+        }
+        PeakIndex {
+            nx,
+            ny,
+            bs,
+            shift,
+            nbx,
+            starts,
+            support,
+            has_empty,
+            has_row,
+            eps,
+            nonneg,
+            fill: table.fill(),
+            wmax,
+            n_taxels,
+        }
     }
 
     /// Number of blocks.
@@ -139,20 +186,33 @@ impl PeakIndex {
         self.eps
     }
 
-    /// Bounds `[lo, hi]` of every value in block `b` for taxel values `v`, or `None` when the
-    /// block has no finite value at all (only NaN fill).
-    fn bounds(&self, b: usize, v: &[f64]) -> Option<(f64, f64)> {
+    /// Bounds `[lo, hi]` of every value in block `b` for taxel values `v` (`order`: the taxels
+    /// by ascending value; `None`: the plain `[min, max]` bound), or `None` when the block has no
+    /// finite value at all (only NaN fill).
+    ///
+    /// With the per-block weight maxima `ŵ_k`, every point's value `Σ w_k v_k` (`0 ≤ w_k ≤ ŵ_k`,
+    /// `Σ w_k = 1`) is at most the fractional-knapsack optimum: fill weight into the largest
+    /// values first. Without them, `[min, max]` of the support's values.
+    fn bounds(&self, b: usize, v: &[f64], order: Option<&[u16]>) -> Option<(f64, f64)> {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         if self.has_row[b] {
-            let (mut a, mut m) = (f64::INFINITY, f64::NEG_INFINITY);
-            for &k in &self.support[self.starts[b] as usize..self.starts[b + 1] as usize] {
-                let x = v[k as usize];
-                a = if x < a { x } else { a };
-                m = if x > m { x } else { m };
-            }
+            let (a, m, klo, khi) = if let (false, Some(order)) = (self.wmax.is_empty(), order) {
+                let w = &self.wmax[b * self.n_taxels..(b + 1) * self.n_taxels];
+                let (m, hi_k) = knapsack(w, v, order.iter().rev());
+                let (a, lo_k) = knapsack(w, v, order.iter());
+                (a, m, lo_k, hi_k)
+            } else {
+                let (mut a, mut m) = (f64::INFINITY, f64::NEG_INFINITY);
+                for &k in &self.support[self.starts[b] as usize..self.starts[b + 1] as usize] {
+                    let x = v[k as usize];
+                    a = if x < a { x } else { a };
+                    m = if x > m { x } else { m };
+                }
+                (a, m, a, m)
+            };
             let slack = self.eps * a.abs().max(m.abs());
-            lo = a - slack;
-            hi = m + slack;
+            lo = klo.max(a) - slack;
+            hi = khi.min(m) + slack;
             if self.nonneg {
                 if a >= 0.0 {
                     lo = lo.max(0.0);
@@ -170,12 +230,37 @@ impl PeakIndex {
     }
 }
 
+/// The fractional-knapsack bound: weight (at most `w[k]` each, `Σ = 1`) filled into the taxels
+/// in the order given; returns `(first value met = the support's extreme, bound)`.
+#[inline]
+fn knapsack<'a>(w: &[f64], v: &[f64], order: impl Iterator<Item = &'a u16>) -> (f64, f64) {
+    let (mut acc, mut sum, mut first) = (0.0f64, 0.0f64, f64::NAN);
+    for &k in order {
+        let wk = w[k as usize];
+        if wk == 0.0 {
+            continue;
+        }
+        let x = v[k as usize];
+        if first.is_nan() {
+            first = x;
+        }
+        let t = wk.min(1.0 - acc);
+        sum += t * x;
+        acc += t;
+        if acc >= 1.0 {
+            return (first, sum);
+        }
+    }
+    // weight left over by rounding: put it on the extreme value (conservative)
+    (first, sum + (1.0 - acc) * first)
+}
+
 /// One frame's surface evaluated on demand: a cache of the points computed so far.
 #[derive(Clone, Debug, Default)]
 struct LazyCache {
     z: Vec<f64>,
-    stamp: Vec<u32>,
     block_done: Vec<u32>,
+    tight: Vec<u32>,
     gen: u32,
     evaluated: u64,
 }
@@ -184,14 +269,14 @@ impl LazyCache {
     fn start(&mut self, points: usize, blocks: usize) {
         if self.z.len() != points || self.block_done.len() != blocks {
             self.z = vec![0.0; points];
-            self.stamp = vec![0; points];
             self.block_done = vec![0; blocks];
+            self.tight = vec![0; blocks];
             self.gen = 0;
         }
         self.gen = self.gen.wrapping_add(1);
         if self.gen == 0 {
-            self.stamp.iter_mut().for_each(|s| *s = 0);
             self.block_done.iter_mut().for_each(|s| *s = 0);
+            self.tight.iter_mut().for_each(|s| *s = 0);
             self.gen = 1;
         }
     }
@@ -206,32 +291,34 @@ struct Lazy<'a> {
 }
 
 impl Lazy<'_> {
-    #[inline(always)]
-    fn get(&mut self, p: usize) -> f64 {
-        let g = self.cache.gen;
-        if self.cache.stamp[p] == g {
-            return self.cache.z[p];
+    /// Evaluate every point of block `b` (rows of contiguous points, the same sums as the
+    /// full grid).
+    #[cold]
+    fn eval_block(&mut self, b: usize) {
+        let ix = self.index;
+        self.cache.block_done[b] = self.cache.gen;
+        let (by, bx) = (b / ix.nbx, b % ix.nbx);
+        let (c0, c1) = (bx * ix.bs, ((bx + 1) * ix.bs).min(ix.nx));
+        for r in by * ix.bs..((by + 1) * ix.bs).min(ix.ny) {
+            for p in r * ix.nx + c0..r * ix.nx + c1 {
+                self.cache.z[p] = self.table.value_at(p, self.v);
+            }
+            self.cache.evaluated += (c1 - c0) as u64;
         }
-        let x = self.table.value_at(p, self.v);
-        self.cache.evaluated += 1;
-        self.cache.z[p] = x;
-        self.cache.stamp[p] = g;
-        x
     }
 
     /// Evaluate block `b` (once per frame) and fold its values into the running peak / min.
     fn block(&mut self, b: usize, best: &mut (f64, usize), min: &mut f64) {
-        let g = self.cache.gen;
-        if self.cache.block_done[b] == g {
+        if self.cache.block_done[b] == self.cache.gen {
             return;
         }
-        self.cache.block_done[b] = g;
+        self.eval_block(b);
         let ix = self.index;
         let (by, bx) = (b / ix.nbx, b % ix.nbx);
         let (c0, c1) = (bx * ix.bs, ((bx + 1) * ix.bs).min(ix.nx));
         for r in by * ix.bs..((by + 1) * ix.bs).min(ix.ny) {
             for p in r * ix.nx + c0..r * ix.nx + c1 {
-                let x = self.get(p);
+                let x = self.cache.z[p];
                 if x > best.0 || (x == best.0 && p < best.1) {
                     *best = (x, p);
                 }
@@ -240,37 +327,48 @@ impl Lazy<'_> {
         }
     }
 
-    /// The finite maximum (first in raster order; index `usize::MAX` if none) and minimum.
-    fn extremes(&mut self, bounds: &mut Vec<(f64, f64)>) -> (f64, usize, f64) {
-        let ix = self.index;
+    /// The finite maximum (first in raster order; index `usize::MAX` if none) and minimum,
+    /// given every block's bounds (`lo > hi`: no finite value).
+    fn extremes(&mut self, bounds: &mut [(f64, f64)], order: &[u16]) -> (f64, usize, f64) {
         let mut best = (f64::NEG_INFINITY, usize::MAX);
         let mut min = f64::INFINITY;
-        bounds.clear();
         let (mut top, mut bottom) = ((f64::NEG_INFINITY, usize::MAX), ((f64::INFINITY, f64::INFINITY), usize::MAX));
-        for b in 0..ix.blocks() {
-            let bd = ix.bounds(b, self.v).unwrap_or((f64::INFINITY, f64::NEG_INFINITY));
+        for (b, bd) in bounds.iter_mut().enumerate() {
+            if bd.0 > bd.1 {
+                continue;
+            }
+            // the weighted (knapsack) bound only where the plain one is loose enough to matter
+            if bd.1 >= top.0 || bd.0 <= bottom.0 .0 {
+                *bd = self.index.bounds(b, self.v, Some(order)).expect("a block with values");
+                self.cache.tight[b] = self.cache.gen;
+            }
+            let bd = *bd;
             if bd.1 > top.0 {
                 top = (bd.1, b);
             }
             // the lowest lower bound, then the lowest upper bound (an all-zero block first)
-            if bd.0 <= bd.1 && (bd.0 < bottom.0 .0 || (bd.0 == bottom.0 .0 && bd.1 < bottom.0 .1)) {
-                bottom = ((bd.0, bd.1), b);
+            if bd.0 < bottom.0 .0 || (bd.0 == bottom.0 .0 && bd.1 < bottom.0 .1) {
+                bottom = (bd, b);
             }
-            bounds.push(bd);
         }
         if top.1 == usize::MAX {
             return (best.0, best.1, min); // no block has a finite value
         }
         self.block(top.1, &mut best, &mut min);
         self.block(bottom.1, &mut best, &mut min);
-        for (b, &(lo, hi)) in bounds.iter().enumerate() {
-            if lo > hi {
+        for b in 0..bounds.len() {
+            let (mut lo, mut hi) = bounds[b];
+            if lo > hi || (hi < best.0 && lo >= min) {
                 continue;
             }
-            // a block can hold a better (or an equal, earlier) peak, or a lower minimum
-            if hi >= best.0 || lo < min {
-                self.block(b, &mut best, &mut min);
+            if self.cache.tight[b] != self.cache.gen {
+                (lo, hi) = self.index.bounds(b, self.v, Some(order)).expect("a block with values");
+                if hi < best.0 && lo >= min {
+                    continue;
+                }
             }
+            // the block can hold a better (or an equal, earlier) peak, or a lower minimum
+            self.block(b, &mut best, &mut min);
         }
         (best.0, best.1, min)
     }
@@ -282,8 +380,20 @@ impl Field for Lazy<'_> {
         (self.index.ny, self.index.nx)
     }
     #[inline(always)]
-    fn at(&mut self, r: usize, c: usize) -> f64 {
-        self.get(r * self.index.nx + c)
+    fn prepare(&mut self, r0: usize, r1: usize, c0: usize, c1: usize) {
+        let ix = self.index;
+        for br in r0 >> ix.shift..=r1 >> ix.shift {
+            for bc in c0 >> ix.shift..=c1 >> ix.shift {
+                let b = br * ix.nbx + bc;
+                if self.cache.block_done[b] != self.cache.gen {
+                    self.eval_block(b);
+                }
+            }
+        }
+    }
+    #[inline(always)]
+    fn raw(&self, r: usize, c: usize) -> f64 {
+        self.cache.z[r * self.index.nx + c]
     }
 }
 
@@ -295,14 +405,21 @@ pub struct PeakContourFinder {
     finder: MaxContourFinder,
     cache: LazyCache,
     bounds: Vec<(f64, f64)>,
-    last: Option<(Vec<f64>, ContourOutcome)>,
+    order: Vec<u16>,
     full: u64,
 }
 
 impl PeakContourFinder {
     /// A finder for surfaces of `interp` with the contour settings of `finder`.
     pub fn new(interp: Interpolator, finder: MaxContourFinder) -> Self {
-        PeakContourFinder { interp, finder, cache: LazyCache::default(), bounds: Vec::new(), last: None, full: 0 }
+        PeakContourFinder {
+            interp,
+            finder,
+            cache: LazyCache::default(),
+            bounds: Vec::new(),
+            order: Vec::new(),
+            full: 0,
+        }
     }
 
     /// The interpolator.
@@ -324,11 +441,6 @@ impl PeakContourFinder {
     pub fn find(&mut self, v: &[f64]) -> ContourOutcome {
         let table = self.interp.table().clone();
         assert_eq!(v.len(), table.taxels(), "one value per taxel");
-        if let Some((prev, outcome)) = &self.last {
-            if prev.as_slice() == v {
-                return outcome.clone();
-            }
-        }
         let grid = self.interp.grid().clone();
         let index = self.interp.peak_index();
         let big = v.iter().any(|x| !(x.abs() <= MAX_LAZY));
@@ -341,46 +453,43 @@ impl PeakContourFinder {
             self.finder.find(view, &grid)
         } else {
             self.cache.start(grid.len(), index.blocks());
-            let mut lazy = Lazy { table: &table, index, v, cache: &mut self.cache };
-            match below_min_peak(index, v, self.finder.config().min_peak) {
-                Some(o) => o,
-                None => {
-                    let (zmax, at, zmin) = lazy.extremes(&mut self.bounds);
-                    self.finder.find_in(&mut lazy, &grid, zmax, zmin, at)
-                }
+            let (any, hi) = all_bounds(index, v, &mut self.order, &mut self.bounds);
+            if !any {
+                ContourOutcome::NoContact(NoContact::NoData)
+            } else if hi < self.finder.config().min_peak {
+                ContourOutcome::NoContact(NoContact::BelowMinPeak)
+            } else {
+                let mut lazy = Lazy { table: &table, index, v, cache: &mut self.cache };
+                let (zmax, at, zmin) = lazy.extremes(&mut self.bounds, &self.order);
+                self.finder.find_in(&mut lazy, &grid, zmax, zmin, at)
             }
         };
-        match &mut self.last {
-            Some((prev, o)) => {
-                prev.clear();
-                prev.extend_from_slice(v);
-                o.clone_from(&outcome);
-            }
-            None => self.last = Some((v.to_vec(), outcome.clone())),
-        }
         outcome
     }
 
-    /// Forget the previous frame (a discontinuity).
-    pub fn reset(&mut self) {
-        self.last = None;
-    }
+    /// Forget the previous frame (a discontinuity): nothing is carried between frames.
+    pub fn reset(&mut self) {}
 }
 
-/// `Some(BelowMinPeak / NoData)` when the block bounds already settle the frame.
-fn below_min_peak(index: &PeakIndex, v: &[f64], min_peak: f64) -> Option<ContourOutcome> {
-    let mut hi = f64::NEG_INFINITY;
-    let mut any = false;
+/// Every block's bounds into `bounds` (`(+∞, −∞)` for a block without finite values); returns
+/// whether any block has a finite value and the largest upper bound.
+fn all_bounds(index: &PeakIndex, v: &[f64], order: &mut Vec<u16>, bounds: &mut Vec<(f64, f64)>) -> (bool, f64) {
+    order.clear();
+    order.extend(0..v.len() as u16);
+    order.sort_unstable_by(|&a, &b| v[a as usize].total_cmp(&v[b as usize]));
+    bounds.clear();
+    let (mut any, mut hi) = (false, f64::NEG_INFINITY);
     for b in 0..index.blocks() {
-        if let Some((_, h)) = index.bounds(b, v) {
-            any = true;
-            hi = hi.max(h);
+        match index.bounds(b, v, None) {
+            Some(bd) => {
+                any = true;
+                hi = hi.max(bd.1);
+                bounds.push(bd);
+            }
+            None => bounds.push((f64::INFINITY, f64::NEG_INFINITY)),
         }
     }
-    if !any {
-        return Some(ContourOutcome::NoContact(NoContact::NoData));
-    }
-    (hi < min_peak).then_some(ContourOutcome::NoContact(NoContact::BelowMinPeak))
+    (any, hi)
 }
 
 /// The interpolate → contour stages fused, evaluating only what the maximal contour needs: one
@@ -552,9 +661,6 @@ mod tests {
         assert_eq!(f.find(&v), want);
         let n = f.points_evaluated();
         assert!(n < 4096 / 2, "{n} points evaluated");
-        // the same values again: reused, nothing evaluated
-        assert_eq!(f.find(&v), want);
-        assert_eq!(f.points_evaluated(), n);
         // no contact at all: settled by the bounds
         assert_eq!(f.find(&[0.0; 24]), ContourOutcome::NoContact(NoContact::BelowMinPeak));
         assert_eq!(f.points_evaluated(), n);
