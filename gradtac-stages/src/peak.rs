@@ -33,14 +33,14 @@
 //! # Trade-offs
 //! Measured with `cargo run --release -p gradtac-stages --example chain_cost -- <variant> 10`
 //! (CPU seconds from `/usr/bin/time`, two runs each, alternating, on a 2-core machine at load
-//! average 12–13): per window of the default chain (signed 10-frame windows, natural neighbour
+//! average 8–13): per window of the default chain (signed 10-frame windows, natural neighbour
 //! 64 × 64, 10 levels, min area 1 mm²) on a real BioTacSP-DoS recording tiled 10 times
 //! (2,790 windows, 2,759 with contact) and on the simulated grasp (200 windows).
 //!
 //! | input | peak-local: points evaluated / window | peak-local CPU | full grid CPU |
 //! |---|---|---|---|
-//! | real recording | ≈ 800 of 4,096 (blocks: more) | 34 µs | 28 µs |
-//! | simulated grasp | ≈ 320 of 4,096 | 18 µs | 17.5 µs |
+//! | real recording | ≈ 800 of 4,096 (whole blocks: more) | 33–35 µs | 28 µs |
+//! | simulated grasp (200 repeats) | ≈ 320 of 4,096 | 19 µs | 17 µs |
 //! | no contact (bound under `min_peak`) | 0 | ≪ 1 µs | ≈ 6 µs + scan |
 //!
 //! On these inputs the maximal contour itself (region search and marching squares over regions
@@ -186,6 +186,36 @@ impl PeakIndex {
         self.eps
     }
 
+    /// One side of block `b`'s weighted (fractional-knapsack) bound: every value `Σ w_k v_k`
+    /// (`0 ≤ w_k ≤ ŵ_k`, `Σ w_k = 1`) is at most (`upper`) / at least the optimum of filling
+    /// weight into the largest (smallest) values first, widened by `slack` (`ε·max|v|`).
+    /// Without weight maxima, `±∞` (no information beyond the plain bound).
+    fn side(&self, b: usize, v: &[f64], order: &[u16], upper: bool, slack: f64) -> f64 {
+        if self.wmax.is_empty() || !self.has_row[b] {
+            return if upper { f64::INFINITY } else { f64::NEG_INFINITY };
+        }
+        let w = &self.wmax[b * self.n_taxels..(b + 1) * self.n_taxels];
+        let mut x = if upper {
+            let (first, k) = knapsack(w, v, order.iter().rev());
+            let mut x = k.min(first) + slack;
+            if first <= 0.0 {
+                x = x.min(0.0); // nonneg weights (wmax exists only then): all terms ≤ 0
+            }
+            x
+        } else {
+            let (first, k) = knapsack(w, v, order.iter());
+            let mut x = k.max(first) - slack;
+            if first >= 0.0 {
+                x = x.max(0.0);
+            }
+            x
+        };
+        if self.has_empty[b] && !self.fill.is_nan() {
+            x = if upper { x.max(self.fill) } else { x.min(self.fill) };
+        }
+        x
+    }
+
     /// Bounds `[lo, hi]` of every value in block `b` for taxel values `v` (`order`: the taxels
     /// by ascending value; `None`: the plain `[min, max]` bound), or `None` when the block has no
     /// finite value at all (only NaN fill).
@@ -260,7 +290,6 @@ fn knapsack<'a>(w: &[f64], v: &[f64], order: impl Iterator<Item = &'a u16>) -> (
 struct LazyCache {
     z: Vec<f64>,
     block_done: Vec<u32>,
-    tight: Vec<u32>,
     gen: u32,
     evaluated: u64,
 }
@@ -270,13 +299,11 @@ impl LazyCache {
         if self.z.len() != points || self.block_done.len() != blocks {
             self.z = vec![0.0; points];
             self.block_done = vec![0; blocks];
-            self.tight = vec![0; blocks];
             self.gen = 0;
         }
         self.gen = self.gen.wrapping_add(1);
         if self.gen == 0 {
             self.block_done.iter_mut().for_each(|s| *s = 0);
-            self.tight.iter_mut().for_each(|s| *s = 0);
             self.gen = 1;
         }
     }
@@ -329,20 +356,14 @@ impl Lazy<'_> {
 
     /// The finite maximum (first in raster order; index `usize::MAX` if none) and minimum,
     /// given every block's bounds (`lo > hi`: no finite value).
-    fn extremes(&mut self, bounds: &mut [(f64, f64)], order: &[u16]) -> (f64, usize, f64) {
+    fn extremes(&mut self, bounds: &[(f64, f64)], order: &[u16]) -> (f64, usize, f64) {
         let mut best = (f64::NEG_INFINITY, usize::MAX);
         let mut min = f64::INFINITY;
         let (mut top, mut bottom) = ((f64::NEG_INFINITY, usize::MAX), ((f64::INFINITY, f64::INFINITY), usize::MAX));
-        for (b, bd) in bounds.iter_mut().enumerate() {
+        for (b, &bd) in bounds.iter().enumerate() {
             if bd.0 > bd.1 {
                 continue;
             }
-            // the weighted (knapsack) bound only where the plain one is loose enough to matter
-            if bd.1 >= top.0 || bd.0 <= bottom.0 .0 {
-                *bd = self.index.bounds(b, self.v, Some(order)).expect("a block with values");
-                self.cache.tight[b] = self.cache.gen;
-            }
-            let bd = *bd;
             if bd.1 > top.0 {
                 top = (bd.1, b);
             }
@@ -356,19 +377,19 @@ impl Lazy<'_> {
         }
         self.block(top.1, &mut best, &mut min);
         self.block(bottom.1, &mut best, &mut min);
-        for b in 0..bounds.len() {
-            let (mut lo, mut hi) = bounds[b];
-            if lo > hi || (hi < best.0 && lo >= min) {
+        let m = self.v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let slack = self.index.eps * m;
+        for (b, &(lo, hi)) in bounds.iter().enumerate() {
+            if lo > hi {
                 continue;
             }
-            if self.cache.tight[b] != self.cache.gen {
-                (lo, hi) = self.index.bounds(b, self.v, Some(order)).expect("a block with values");
-                if hi < best.0 && lo >= min {
-                    continue;
-                }
+            // the plain bound first, the weighted (knapsack) one only where the plain one
+            // does not settle it; each side only where it matters
+            let need_hi = hi >= best.0 && self.index.side(b, self.v, order, true, slack) >= best.0;
+            if need_hi || (lo < min && self.index.side(b, self.v, order, false, slack) < min) {
+                // the block can hold a better (or an equal, earlier) peak, or a lower minimum
+                self.block(b, &mut best, &mut min);
             }
-            // the block can hold a better (or an equal, earlier) peak, or a lower minimum
-            self.block(b, &mut best, &mut min);
         }
         (best.0, best.1, min)
     }
@@ -460,7 +481,7 @@ impl PeakContourFinder {
                 ContourOutcome::NoContact(NoContact::BelowMinPeak)
             } else {
                 let mut lazy = Lazy { table: &table, index, v, cache: &mut self.cache };
-                let (zmax, at, zmin) = lazy.extremes(&mut self.bounds, &self.order);
+                let (zmax, at, zmin) = lazy.extremes(&self.bounds, &self.order);
                 self.finder.find_in(&mut lazy, &grid, zmax, zmin, at)
             }
         };
