@@ -96,6 +96,21 @@ where
     }
 }
 
+fn report(name: &str, latencies_ns: &mut [u64], events: usize) {
+    latencies_ns.sort_unstable();
+    let s = &*latencies_ns;
+    println!(
+        "{:<6} {:>9} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>12}",
+        name,
+        s.len(),
+        percentile(s, 0.5),
+        percentile(s, 0.99),
+        percentile(s, 0.999),
+        *s.last().unwrap_or(&0) as f64 / 1e3,
+        events
+    );
+}
+
 fn percentile(sorted: &[u64], p: f64) -> f64 {
     let i = ((sorted.len() as f64 - 1.0) * p).round() as usize;
     sorted[i] as f64 / 1e3
@@ -178,20 +193,8 @@ fn main() -> Result<(), BoxError> {
         "{:<6} {:>9} {:>9} {:>9} {:>9} {:>9} {:>12}",
         "path", "frames", "p50 µs", "p99 µs", "p99.9 µs", "max µs", "slip events"
     );
-    for (name, l) in [("peak", &mut peak), ("full", &mut full)] {
-        l.latencies_ns.sort_unstable();
-        let s = &l.latencies_ns;
-        println!(
-            "{:<6} {:>9} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>12}",
-            name,
-            s.len(),
-            percentile(s, 0.5),
-            percentile(s, 0.99),
-            percentile(s, 0.999),
-            *s.last().unwrap_or(&0) as f64 / 1e3,
-            l.events
-        );
-    }
+    report("peak", &mut peak.latencies_ns, peak.events);
+    report("full", &mut full.latencies_ns, full.events);
     if peak.events != full.events {
         return Err(format!("slip events differ: peak {} vs full {}", peak.events, full.events).into());
     }
