@@ -695,7 +695,8 @@ impl MaxContourFinder {
                     continue;
                 }
                 let (rr, cc) = (rr as usize, cc as usize);
-                if s.stamp[rr * nx + cc] == gen || !(z.raw(rr, cc) > level) {
+                let above = z.raw(rr, cc) > level;
+                if s.stamp[rr * nx + cc] == gen || !above {
                     continue;
                 }
                 if dr != 0 && dc != 0 {

@@ -464,8 +464,8 @@ impl PeakContourFinder {
         assert_eq!(v.len(), table.taxels(), "one value per taxel");
         let grid = self.interp.grid().clone();
         let index = self.interp.peak_index();
-        let big = v.iter().any(|x| !(x.abs() <= MAX_LAZY));
-        let outcome = if big || !(index.eps < 1e-6) {
+        let big = v.iter().any(|x| x.is_nan() || x.abs() > MAX_LAZY);
+        let outcome = if big || index.eps.is_nan() || index.eps >= 1e-6 {
             // full grid: bit-identical by construction
             let mut z = vec![0.0; grid.len()];
             table.apply(v, &mut z);
