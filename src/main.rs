@@ -120,6 +120,29 @@ fn main() -> ExitCode {
 /// Exit status of a run that Ctrl-C ended (its outputs are finished and valid).
 const INTERRUPTED: u8 = 130;
 
+/// `print!` to stdout, except that a closed stdout (the reader of a pipe has exited, as
+/// `gradtac run … | head -1` does) ends the printing quietly instead of panicking: the outputs
+/// are already finished when the report is printed. Other write errors are reported on stderr.
+macro_rules! say {
+    ($($t:tt)*) => { write_stdout(format_args!($($t)*)) };
+}
+
+/// [`say!`] with a newline.
+macro_rules! sayln {
+    () => { write_stdout(format_args!("\n")) };
+    ($($t:tt)*) => { write_stdout(format_args!("{}\n", format_args!($($t)*))) };
+}
+
+fn write_stdout(args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("gradtac: cannot write to stdout: {e}");
+        }
+    }
+}
+
 fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
     match cmd {
         Command::Run { scene, quiet } => {
@@ -131,7 +154,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 return Ok(ExitCode::from(INTERRUPTED));
             }
             if !quiet {
-                print!("{report}");
+                say!("{report}");
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -164,15 +187,15 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             let layout = gradtac::stream::Layout::biotac_sp();
             let spans = gradtac::calibrate::labelled_spans(&data, &layout, &opts)?;
             if cross_validate {
-                println!("these settings, fixed (in-sample if they were chosen on these recordings):\n");
-                print!("{}", gradtac::calibrate::cross_validate_spans(&spans, &opts)?);
-                println!("\nheld out — the design choice made inside every fold:\n");
-                print!("{}", gradtac::calibrate::held_out_report(&data, &layout, &opts)?);
-                println!();
+                say!("these settings, fixed (in-sample if they were chosen on these recordings):\n\n");
+                say!("{}", gradtac::calibrate::cross_validate_spans(&spans, &opts)?);
+                say!("\nheld out — the design choice made inside every fold:\n\n");
+                say!("{}", gradtac::calibrate::held_out_report(&data, &layout, &opts)?);
+                sayln!();
             }
             let model = gradtac::calibrate::calibrate_spans(&spans, &opts)?;
             gradtac::calibrate::write_model(&model, &out)?;
-            println!(
+            sayln!(
                 "calibrated on {} recordings: {} classes, {} features, {} parameters -> {}",
                 spans.len(),
                 model.classes.len(),
@@ -186,14 +209,14 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             let out = out.unwrap_or_else(|| default_png(&input));
             gradtac::guard::check_output_file(&out, &[("the plotted input", &input)])?;
             let summary = gradtac::plot::plot_parquet(&input, &out)?;
-            print!("{summary}");
-            println!("wrote {}", out.display());
+            say!("{summary}");
+            sayln!("wrote {}", out.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Explain { scene } => {
             let scene = Scene::load(&scene)?;
             let plan = Plan::new(&scene)?;
-            print!("{}", plan.explain(&scene));
+            say!("{}", plan.explain(&scene));
             Ok(ExitCode::SUCCESS)
         }
         Command::Demo { dir, quiet } => {
@@ -201,14 +224,14 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 Some(d) => d,
                 None => demo::fresh_dir()?,
             };
-            println!(
+            sayln!(
                 "gradtac demo: a simulated two-finger grasp that slips ({}), at {} Hz",
                 demo::DEMO_SLIP.name(),
                 demo::RATE_HZ
             );
             let report = demo::run_demo(&dir, !quiet)?;
-            print!("{report}");
-            print!("{}", demo::where_lines(&report, &dir));
+            say!("{report}");
+            say!("{}", demo::where_lines(&report, &dir));
             Ok(ExitCode::SUCCESS)
         }
     }

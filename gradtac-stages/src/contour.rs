@@ -253,11 +253,35 @@ struct Scratch {
 
 const NONE: u32 = u32::MAX;
 
+/// Read access to a surface's values by `(row, col)`: an array, or a surface evaluated lazily
+/// (only the points the maximal contour looks at, see [`crate::peak`]): `prepare` a rectangle,
+/// then read it with `raw`.
+pub(crate) trait Field {
+    /// `(rows, cols)`.
+    fn dim(&self) -> (usize, usize);
+    /// Make every point of rows `r0..=r1`, columns `c0..=c1` readable by [`raw`](Self::raw).
+    #[inline(always)]
+    fn prepare(&mut self, _r0: usize, _r1: usize, _c0: usize, _c1: usize) {}
+    /// The value at `(r, c)`, which a [`prepare`](Self::prepare) covered.
+    fn raw(&self, r: usize, c: usize) -> f64;
+}
+
+impl Field for ArrayView2<'_, f64> {
+    #[inline(always)]
+    fn dim(&self) -> (usize, usize) {
+        ArrayView2::dim(self)
+    }
+    #[inline(always)]
+    fn raw(&self, r: usize, c: usize) -> f64 {
+        self[[r, c]]
+    }
+}
+
 /// March the cells of a window. `pad`: the window is surrounded by −∞ and NaN counts as −∞
 /// (closed rings); otherwise squares with a NaN corner are skipped (skimage's rule).
 /// `comp`: when given, points above the level that are not stamped `gen` count as −∞.
-fn march(
-    z: &ArrayView2<'_, f64>,
+fn march<F: Field>(
+    z: &mut F,
     level: f64,
     saddle: Saddle,
     w: Win,
@@ -265,7 +289,7 @@ fn march(
     comp: Option<(&[u32], u32)>,
     s: &mut Scratch,
 ) {
-    let nx = z.ncols();
+    let nx = z.dim().1;
     let width = (w.c1 - w.c0 + 3) as i64; // local columns -1 ..= c1-c0+1
     let height = (w.r1 - w.r0 + 3) as i64;
     s.segs.clear();
@@ -274,11 +298,11 @@ fn march(
     // components' points above the level replaced by −∞
     s.vals.clear();
     s.vals.resize((width * height) as usize, f64::NEG_INFINITY);
+    z.prepare(w.r0, w.r1, w.c0, w.c1);
     for r in w.r0..=w.r1 {
-        let row = z.row(r);
         let lr = (r - w.r0 + 1) * width as usize;
         for c in w.c0..=w.c1 {
-            let mut v = row[c];
+            let mut v = z.raw(r, c);
             if v.is_nan() {
                 v = if pad { f64::NEG_INFINITY } else { f64::NAN };
             } else if let Some((stamp, gen)) = comp {
@@ -422,7 +446,8 @@ pub fn isolines(z: ArrayView2<'_, f64>, level: f64, saddle: Saddle) -> Vec<Isoli
         return Vec::new();
     }
     let mut s = Scratch::default();
-    march(&z, level, saddle, Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 }, false, None, &mut s);
+    let mut z = z;
+    march(&mut z, level, saddle, Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 }, false, None, &mut s);
     link(&mut s)
 }
 
@@ -435,7 +460,8 @@ pub fn region_boundaries(z: ArrayView2<'_, f64>, level: f64, saddle: Saddle) -> 
         return Vec::new();
     }
     let mut s = Scratch::default();
-    march(&z, level, saddle, Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 }, true, None, &mut s);
+    let mut z = z;
+    march(&mut z, level, saddle, Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 }, true, None, &mut s);
     link(&mut s).into_iter().map(|l| l.points).collect()
 }
 
@@ -517,6 +543,22 @@ impl MaxContourFinder {
                 scan(&v, &mut zmax, &mut zmin, &mut at)
             }
         }
+        let mut z = z;
+        self.find_in(&mut z, grid, zmax, zmin, at)
+    }
+
+    /// The maximal contour given the surface's finite maximum `zmax` (first at raster index
+    /// `at`, `usize::MAX` when there is no finite value) and finite minimum `zmin`; reads only
+    /// the points it needs from `z`.
+    pub(crate) fn find_in<F: Field>(
+        &mut self,
+        z: &mut F,
+        grid: &Grid,
+        zmax: f64,
+        zmin: f64,
+        at: usize,
+    ) -> ContourOutcome {
+        let (ny, nx) = z.dim();
         if at == usize::MAX || zmax == f64::INFINITY || zmin == f64::NEG_INFINITY {
             // no finite value, or ±∞ (which no level can split)
             return ContourOutcome::NoContact(NoContact::NoData);
@@ -554,11 +596,11 @@ impl MaxContourFinder {
         let levels = std::mem::take(&mut self.levels);
         let mut result = ContourOutcome::NoContact(NoContact::TooSmall);
         for &level in &levels {
-            let w = self.component(&z, level, pr, pc);
+            let w = self.component(z, level, pr, pc);
             let win = if self.cfg.peak_only { w } else { Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 } };
             let gen = self.s.gen;
             let stamp = std::mem::take(&mut self.s.stamp);
-            march(&z, level, self.cfg.saddle, win, true, Some((&stamp, gen)), &mut self.s);
+            march(z, level, self.cfg.saddle, win, true, Some((&stamp, gen)), &mut self.s);
             self.s.stamp = stamp;
             let clipped = self.s.clipped;
             let rings = link(&mut self.s);
@@ -623,7 +665,7 @@ impl MaxContourFinder {
     /// Flood-fill the component of `{z > level}` containing (pr, pc) — 4-connected, plus
     /// diagonals across saddle cells the saddle rule joins — stamping it with a new generation;
     /// returns its bounding box grown by one point (clipped to the grid).
-    fn component(&mut self, z: &ArrayView2<'_, f64>, level: f64, pr: usize, pc: usize) -> Win {
+    fn component<F: Field>(&mut self, z: &mut F, level: f64, pr: usize, pc: usize) -> Win {
         let (ny, nx) = z.dim();
         let s = &mut self.s;
         if s.stamp.len() != nx * ny {
@@ -637,7 +679,7 @@ impl MaxContourFinder {
             s.gen = 1;
         }
         let gen = s.gen;
-        let above = |r: usize, c: usize| z[[r, c]] > level; // NaN is never above
+        // NaN is never above
         let (mut r0, mut r1, mut c0, mut c1) = (pr, pr, pc, pc);
         s.stack.clear();
         s.stack.push((pr, pc));
@@ -647,21 +689,23 @@ impl MaxContourFinder {
             r1 = r1.max(r);
             c0 = c0.min(c);
             c1 = c1.max(c);
+            z.prepare(r.saturating_sub(1), (r + 1).min(ny - 1), c.saturating_sub(1), (c + 1).min(nx - 1));
             for (dr, dc) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)] {
                 let (rr, cc) = (r as i64 + dr, c as i64 + dc);
                 if rr < 0 || cc < 0 || rr >= ny as i64 || cc >= nx as i64 {
                     continue;
                 }
                 let (rr, cc) = (rr as usize, cc as usize);
-                if s.stamp[rr * nx + cc] == gen || !above(rr, cc) {
+                let above = z.raw(rr, cc) > level;
+                if s.stamp[rr * nx + cc] == gen || !above {
                     continue;
                 }
                 if dr != 0 && dc != 0 {
                     // diagonal: only across a saddle cell that the rule joins
-                    let (o1, o2) = (above(r, cc), above(rr, c));
+                    let (o1, o2) = (z.raw(r, cc) > level, z.raw(rr, c) > level);
                     if !(o1 || o2) {
                         let (rm, cm) = (r.min(rr), c.min(cc));
-                        let v = [z[[rm, cm]], z[[rm, cm + 1]], z[[rm + 1, cm + 1]], z[[rm + 1, cm]]];
+                        let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
                         if !self.cfg.saddle.joins_above(v, level) {
                             continue;
                         }

@@ -257,7 +257,8 @@ pub struct InterpolateConfig {
     /// Update the previous surface from the taxels whose value changed instead of summing
     /// afresh. Faster when few taxels change per frame (a sliding window advanced every frame);
     /// results differ from a fresh sum by rounding only (≲ 1e-12 relative), bounded by a full
-    /// recomputation every `refresh_every` surfaces. Default `false`.
+    /// recomputation every `refresh_every` surfaces. A frame whose changed taxels' weights make
+    /// up half the table or more is summed afresh instead (cheaper, and exact). Default `false`.
     pub incremental: bool,
     /// With `incremental`: recompute in full every this many surfaces (≥ 1). Default 64.
     pub refresh_every: u32,
@@ -340,6 +341,28 @@ impl WeightTable {
     pub fn apply_to_vec(&self, values: &[f64]) -> Vec<f64> {
         debug_assert_eq!(values.len(), self.n_taxels);
         self.starts.windows(2).map(|se| self.row_value(se[0] as usize, se[1] as usize, values)).collect()
+    }
+
+    /// `Σ w·values` at grid point `p` alone — bit-identical to that point of [`apply`](Self::apply).
+    #[inline(always)]
+    pub fn value_at(&self, p: usize, values: &[f64]) -> f64 {
+        self.row_value(self.starts[p] as usize, self.starts[p + 1] as usize, values)
+    }
+
+    /// The taxels and weights of grid point `p` (crate-internal: the peak-local index).
+    pub(crate) fn row_parts(&self, p: usize) -> (&[u16], &[f64]) {
+        let (a, b) = (self.starts[p] as usize, self.starts[p + 1] as usize);
+        (&self.taxels[a..b], &self.weights[a..b])
+    }
+
+    /// Number of stored weights of taxel `k`'s column (the cost of [`add_taxel`](Self::add_taxel)).
+    pub(crate) fn column_nnz(&self, k: usize) -> usize {
+        let (a, b) = (self.run_starts[k] as usize, self.run_starts[k + 1] as usize);
+        if a == b {
+            0
+        } else {
+            (self.run_weight[b] - self.run_weight[a]) as usize
+        }
     }
 
     #[inline(always)]
@@ -435,6 +458,24 @@ fn snap(v: f64) -> f64 {
     }
 }
 
+/// How many weight tables [`Interpolator::from_config`] keeps for sharing.
+pub const SHARED_TABLES: usize = 16;
+/// Grids of more points than this are not kept for sharing (bounded memory).
+pub const SHARED_MAX_POINTS: usize = 1 << 18;
+
+#[derive(PartialEq)]
+struct TableKey {
+    positions: Vec<[u64; 2]>,
+    extent: [u64; 4],
+    n: [usize; 2],
+    method: Method,
+    outside: Outside,
+    power: u64,
+    fill: u64,
+}
+
+static TABLES: std::sync::Mutex<Vec<(TableKey, Interpolator)>> = std::sync::Mutex::new(Vec::new());
+
 /// The interpolation of one layout onto one grid by one method: a [`WeightTable`] built once.
 #[derive(Clone, Debug)]
 pub struct Interpolator {
@@ -442,6 +483,8 @@ pub struct Interpolator {
     table: Arc<WeightTable>,
     method: Method,
     outside: Outside,
+    // the block bounds for peak-local evaluation, built on first use and shared by clones
+    peak: Arc<std::sync::OnceLock<crate::peak::PeakIndex>>,
 }
 
 impl Interpolator {
@@ -531,13 +574,50 @@ impl Interpolator {
             }
         }
         let table = WeightTable::from_rows(rows, n, fill, inside);
-        Ok(Interpolator { grid, table: Arc::new(table), method, outside })
+        Ok(Interpolator { grid, table: Arc::new(table), method, outside, peak: Default::default() })
     }
 
     /// The interpolator a config asks for over a layout.
+    ///
+    /// Built once per (taxel positions, grid, method, outside policy, power, fill value) in a
+    /// process: later calls with the same key — the planner's validation, the runner, every
+    /// sensor with the same layout — share the same weight table (and peak index) through an
+    /// `Arc`. The memo keeps the [`SHARED_TABLES`] most recent tables of at most
+    /// [`SHARED_MAX_POINTS`] grid points each; larger grids are built per call.
     pub fn from_config(cfg: &InterpolateConfig, layout: &Layout) -> Result<Self> {
-        let grid = Arc::new(Grid::from_config(&cfg.grid, layout)?);
-        Self::try_new(layout, grid, cfg.method, cfg.outside, cfg.power, cfg.fill_value)
+        let grid = Grid::from_config(&cfg.grid, layout)?;
+        let key = TableKey {
+            positions: layout.positions().iter().map(|p| [p[0].to_bits(), p[1].to_bits()]).collect(),
+            extent: [grid.extent.x_min, grid.extent.x_max, grid.extent.y_min, grid.extent.y_max].map(f64::to_bits),
+            n: [grid.nx, grid.ny],
+            method: cfg.method,
+            outside: cfg.outside,
+            power: if cfg.method == Method::InverseDistance { cfg.power.to_bits() } else { 0 },
+            fill: if cfg.outside == Outside::Fill { cfg.fill_value.to_bits() } else { 0 },
+        };
+        let memo = grid.len() <= SHARED_MAX_POINTS;
+        if memo {
+            let shared = TABLES.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some((_, it)) = shared.iter().find(|(k, _)| *k == key) {
+                return Ok(it.clone());
+            }
+        }
+        let it = Self::try_new(layout, Arc::new(grid), cfg.method, cfg.outside, cfg.power, cfg.fill_value)?;
+        if memo {
+            let mut shared = TABLES.lock().unwrap_or_else(|e| e.into_inner());
+            if !shared.iter().any(|(k, _)| *k == key) {
+                if shared.len() >= SHARED_TABLES {
+                    shared.remove(0);
+                }
+                shared.push((key, it.clone()));
+            }
+        }
+        Ok(it)
+    }
+
+    /// True when `self` and `other` share one weight table (built once).
+    pub fn shares_table(&self, other: &Interpolator) -> bool {
+        Arc::ptr_eq(&self.table, &other.table)
     }
 
     /// The grid.
@@ -548,6 +628,12 @@ impl Interpolator {
     pub fn table(&self) -> &Arc<WeightTable> {
         &self.table
     }
+    /// The block bounds used to evaluate only the points the maximal contour needs (built once
+    /// per interpolator, on first use, and shared by its clones).
+    pub fn peak_index(&self) -> &crate::peak::PeakIndex {
+        self.peak.get_or_init(|| crate::peak::PeakIndex::new(&self.table, &self.grid))
+    }
+
     /// The method.
     pub fn method(&self) -> Method {
         self.method
@@ -748,7 +834,16 @@ impl<I: TaxelValues> Stage for Interpolate<I> {
         let (ny, nx) = (self.interp.grid.ny(), self.interp.grid.nx());
         let values = if self.incremental {
             let table = &self.interp.table;
-            if !self.have_prev || self.since_refresh >= self.refresh_every {
+            // the incremental update costs the changed taxels' column lengths; past half the
+            // table a fresh sum is cheaper (and exact), so take it
+            let changed: usize = v
+                .iter()
+                .zip(&self.prev_values)
+                .enumerate()
+                .filter(|(_, (a, b))| a != b)
+                .map(|(k, _)| table.column_nnz(k))
+                .sum();
+            if !self.have_prev || self.since_refresh >= self.refresh_every || 2 * changed >= table.nnz() {
                 table.apply(v, &mut self.current);
                 self.since_refresh = 0;
                 self.have_prev = true;
@@ -850,6 +945,51 @@ mod tests {
         assert!((ext.surface(&v)[[2, 2]] - 3.0).abs() < 1e-12);
         // (2,1): closest hull point on edge (2,0)-(0,2) is (1.5, 0.5): 1.5 + 1 = 2.5
         assert!((ext.surface(&v)[[1, 2]] - 2.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn weight_tables_are_built_once_per_layout_and_grid() {
+        let l = Layout::biotac_sp();
+        let cfg = InterpolateConfig { grid: GridConfig { nx: 19, ..Default::default() }, ..Default::default() };
+        let a = Interpolator::from_config(&cfg, &l).unwrap();
+        let b = Interpolator::from_config(&cfg, &l).unwrap();
+        assert!(a.shares_table(&b));
+        // every stage built from the config shares it too
+        let st = Interpolate::<TaxelFrame>::try_new(&cfg, &l).unwrap();
+        assert!(st.interpolator().shares_table(&a));
+        // another grid, method or fill value is another table
+        for other in [
+            InterpolateConfig { grid: GridConfig { nx: 20, ..Default::default() }, ..cfg.clone() },
+            InterpolateConfig { method: Method::Linear, ..cfg.clone() },
+            InterpolateConfig { outside: Outside::Fill, fill_value: 1.0, ..cfg.clone() },
+        ] {
+            assert!(!Interpolator::from_config(&other, &l).unwrap().shares_table(&a), "{other:?}");
+        }
+    }
+
+    #[test]
+    fn incremental_surfaces_match_fresh_sums() {
+        // many and few changed taxels per frame (the former take a fresh sum automatically)
+        let l = Layout::biotac_sp();
+        let cfg = InterpolateConfig { grid: GridConfig { nx: 24, ..Default::default() }, ..Default::default() };
+        let mut inc =
+            Interpolate::<TaxelFrame>::try_new(&InterpolateConfig { incremental: true, ..cfg.clone() }, &l).unwrap();
+        let fresh = Interpolator::from_config(&cfg, &l).unwrap();
+        let mut v = vec![0.0; 24];
+        for k in 0..200u64 {
+            if k % 7 == 0 {
+                v.iter_mut().enumerate().for_each(|(i, x)| *x = ((i as u64 * 31 + k * 17) % 11) as f64 - 3.0);
+            } else {
+                v[(k * 5 % 24) as usize] += 1.5;
+            }
+            let f = TaxelFrame { sensor: SensorId::new("s"), time: Timestamp(k as i64), seq: k, values: v.clone() };
+            let mut out = Vec::new();
+            inc.push(f, &mut out).unwrap();
+            let want = fresh.surface(&v);
+            for (a, b) in out[0].values.iter().zip(want.iter()) {
+                assert!(a.is_nan() && b.is_nan() || (a - b).abs() <= 1e-12 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+        }
     }
 
     #[test]

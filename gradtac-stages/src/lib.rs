@@ -25,6 +25,7 @@ pub mod interpolate;
 pub mod limits;
 pub mod locate;
 pub mod normalise;
+pub mod peak;
 pub mod raw_contour;
 pub mod savgol;
 pub mod servo;
