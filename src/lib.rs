@@ -31,6 +31,7 @@ pub mod demo;
 mod error;
 pub mod plan;
 pub mod plot;
+mod recorded;
 pub mod run;
 pub mod scene;
 pub mod sinks;

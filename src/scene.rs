@@ -27,6 +27,7 @@ use gradtac_io::arrow_ipc::ArrowIpcConfig;
 use gradtac_io::can::socketcan::SocketCanConfig;
 use gradtac_io::can::{CanCodec, CandumpConfig};
 use gradtac_io::npy::NpySourceConfig;
+use gradtac_io::rosbag::BagSourceConfig;
 use gradtac_io::CsvSourceConfig;
 use gradtac_stages::contour::ContourConfig;
 use gradtac_stages::events::EventsConfig;
@@ -101,6 +102,10 @@ pub enum SourceSpec {
     Npy(NpySourceConfig),
     /// An Arrow IPC file or stream.
     Arrow(ArrowIpcConfig),
+    /// One fingertip of a recorded hand in a ROS 1 bag
+    /// (`source = { rosbag = "grasp.bag", topic = "/rh/tactile", finger = "ff" }`); sensors
+    /// naming the same file share one pass over it.
+    Rosbag(BagSourceConfig),
     /// A sensor decoded from a CAN bus of the scene (`source = { bus = "hand" }`).
     Bus {
         /// The bus's name.
@@ -109,7 +114,7 @@ pub enum SourceSpec {
 }
 
 /// Source kinds, by their key.
-pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow", "bus"];
+pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow", "bus", "rosbag"];
 
 /// A CAN bus shared by several sensors: a candump log (`candump = "log.txt"`, replayed as fast
 /// as possible or with `timing = "original"`) or a live SocketCAN interface
@@ -199,6 +204,7 @@ impl<'de> Deserialize<'de> for SourceSpec {
             Some("csv") => return CsvSourceConfig::deserialize(v).map(SourceSpec::Csv).map_err(D::Error::custom),
             Some("npy") => return NpySourceConfig::deserialize(v).map(SourceSpec::Npy).map_err(D::Error::custom),
             Some("arrow") => return ArrowIpcConfig::deserialize(v).map(SourceSpec::Arrow).map_err(D::Error::custom),
+            Some("rosbag") => return BagSourceConfig::deserialize(v).map(SourceSpec::Rosbag).map_err(D::Error::custom),
             Some("bus") => {
                 return match v.as_table().map(|t| (t.len(), t.get("bus"))) {
                     Some((1, Some(toml::Value::String(b)))) => Ok(SourceSpec::Bus { bus: b.clone() }),
@@ -221,7 +227,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => c.rate_hz,
             SourceSpec::Npy(c) => c.rate_hz,
             SourceSpec::Arrow(c) => c.rate_hz,
-            SourceSpec::Bus { .. } => None,
+            SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) => None,
         }
     }
 
@@ -231,6 +237,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => &c.path,
             SourceSpec::Npy(c) => &c.path,
             SourceSpec::Arrow(c) => &c.path,
+            SourceSpec::Rosbag(c) => &c.path,
             SourceSpec::Bus { bus } => Path::new(bus),
         }
     }
@@ -242,6 +249,7 @@ impl SourceSpec {
             SourceSpec::Npy(_) => "npy",
             SourceSpec::Arrow(_) => "arrow",
             SourceSpec::Bus { .. } => "bus",
+            SourceSpec::Rosbag(_) => "rosbag",
         }
     }
 
@@ -255,6 +263,8 @@ impl SourceSpec {
             },
             SourceSpec::Arrow(c) => c.layout(gradtac_stream::SensorId::new("_")).map(|_| ()).map_err(|e| e.to_string()),
             SourceSpec::Bus { .. } => Ok(()),
+            SourceSpec::Rosbag(c) if c.topic.is_empty() => Err("topic = \"\" names no topic".into()),
+            SourceSpec::Rosbag(_) => Ok(()),
         }
     }
 }
