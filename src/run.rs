@@ -211,7 +211,7 @@ fn open_source(scene: &Scene, p: &SensorPlan) -> Result<(FrameIter, Option<usize
             let n = frames.taxel_count();
             (Box::new(frames.map(move |r| r.map_err(err))), Some(n), None)
         }
-        SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) => {
+        SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) | SourceSpec::Mcap(_) => {
             unreachable!("bus and bag sources are opened per bus / file by open_sources")
         }
         SourceSpec::Arrow(cfg) => {
@@ -271,10 +271,10 @@ fn open_sources(scene: &Scene, plan: &Plan) -> Result<OpenSources, Error> {
             }
             continue;
         }
-        if let SourceSpec::Rosbag(cfg) = &scene.sensors[p.index].source {
+        if let SourceSpec::Rosbag(cfg) | SourceSpec::Mcap(cfg) = &scene.sensors[p.index].source {
             let path = scene.resolve(&cfg.path);
             if !bags.contains(&path) {
-                streams.push(crate::recorded::open_rosbag(scene, plan, &path)?);
+                streams.push(crate::recorded::open(scene, plan, &path)?);
                 bags.push(path);
             }
             continue;

@@ -106,6 +106,9 @@ pub enum SourceSpec {
     /// (`source = { rosbag = "grasp.bag", topic = "/rh/tactile", finger = "ff" }`); sensors
     /// naming the same file share one pass over it.
     Rosbag(BagSourceConfig),
+    /// One fingertip of a recorded hand in an MCAP file (ROS 2, CDR;
+    /// `source = { mcap = "grasp.mcap", topic = "/rh/tactile", finger = "ff" }`).
+    Mcap(BagSourceConfig),
     /// A sensor decoded from a CAN bus of the scene (`source = { bus = "hand" }`).
     Bus {
         /// The bus's name.
@@ -114,7 +117,7 @@ pub enum SourceSpec {
 }
 
 /// Source kinds, by their key.
-pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow", "bus", "rosbag"];
+pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow", "bus", "rosbag", "mcap"];
 
 /// A CAN bus shared by several sensors: a candump log (`candump = "log.txt"`, replayed as fast
 /// as possible or with `timing = "original"`) or a live SocketCAN interface
@@ -205,6 +208,7 @@ impl<'de> Deserialize<'de> for SourceSpec {
             Some("npy") => return NpySourceConfig::deserialize(v).map(SourceSpec::Npy).map_err(D::Error::custom),
             Some("arrow") => return ArrowIpcConfig::deserialize(v).map(SourceSpec::Arrow).map_err(D::Error::custom),
             Some("rosbag") => return BagSourceConfig::deserialize(v).map(SourceSpec::Rosbag).map_err(D::Error::custom),
+            Some("mcap") => return BagSourceConfig::deserialize(v).map(SourceSpec::Mcap).map_err(D::Error::custom),
             Some("bus") => {
                 return match v.as_table().map(|t| (t.len(), t.get("bus"))) {
                     Some((1, Some(toml::Value::String(b)))) => Ok(SourceSpec::Bus { bus: b.clone() }),
@@ -227,7 +231,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => c.rate_hz,
             SourceSpec::Npy(c) => c.rate_hz,
             SourceSpec::Arrow(c) => c.rate_hz,
-            SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) => None,
+            SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) | SourceSpec::Mcap(_) => None,
         }
     }
 
@@ -237,7 +241,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => &c.path,
             SourceSpec::Npy(c) => &c.path,
             SourceSpec::Arrow(c) => &c.path,
-            SourceSpec::Rosbag(c) => &c.path,
+            SourceSpec::Rosbag(c) | SourceSpec::Mcap(c) => &c.path,
             SourceSpec::Bus { bus } => Path::new(bus),
         }
     }
@@ -250,6 +254,7 @@ impl SourceSpec {
             SourceSpec::Arrow(_) => "arrow",
             SourceSpec::Bus { .. } => "bus",
             SourceSpec::Rosbag(_) => "rosbag",
+            SourceSpec::Mcap(_) => "mcap",
         }
     }
 
@@ -263,8 +268,10 @@ impl SourceSpec {
             },
             SourceSpec::Arrow(c) => c.layout(gradtac_stream::SensorId::new("_")).map(|_| ()).map_err(|e| e.to_string()),
             SourceSpec::Bus { .. } => Ok(()),
-            SourceSpec::Rosbag(c) if c.topic.is_empty() => Err("topic = \"\" names no topic".into()),
-            SourceSpec::Rosbag(_) => Ok(()),
+            SourceSpec::Rosbag(c) | SourceSpec::Mcap(c) if c.topic.is_empty() => {
+                Err("topic = \"\" names no topic".into())
+            }
+            SourceSpec::Rosbag(_) | SourceSpec::Mcap(_) => Ok(()),
         }
     }
 }

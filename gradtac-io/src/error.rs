@@ -81,12 +81,12 @@ pub enum Error {
     },
     /// A malformed or unusable recorded-hand file (ROS bag, MCAP), or a topic whose messages
     /// do not fit: names the file, the byte offset and, where known, topic, type and message.
-    #[error("{path} {site}: {reason}")]
+    #[error("{path}{site}: {reason}")]
     Bag {
         /// The file.
         path: PathBuf,
-        /// Where in it.
-        site: BagSite,
+        /// Where in it (boxed: keeps the error small).
+        site: Box<BagSite>,
         /// What is wrong.
         reason: String,
     },
@@ -96,8 +96,9 @@ pub enum Error {
 /// and, once known, the topic, its message type and the message's 0-based index on the topic.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BagSite {
-    /// Byte offset of the record (for messages inside a compressed chunk: of the chunk).
-    pub offset: u64,
+    /// Byte offset of the record (for messages inside a compressed chunk: of the chunk), when
+    /// the reader knows it.
+    pub offset: Option<u64>,
     /// The topic.
     pub topic: Option<String>,
     /// The message type (`sr_robot_msgs/BiotacAll`).
@@ -108,9 +109,13 @@ pub struct BagSite {
 
 impl std::fmt::Display for BagSite {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "at byte {}", self.offset)?;
+        let mut sep = " ";
+        if let Some(o) = self.offset {
+            write!(f, " at byte {o}")?;
+            sep = ", ";
+        }
         if let Some(t) = &self.topic {
-            write!(f, ", topic {t}")?;
+            write!(f, "{sep}topic {t}")?;
         }
         if let Some(t) = &self.msg_type {
             write!(f, " ({t})")?;

@@ -180,7 +180,7 @@ impl BagReader {
         let f = File::open(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
         let meta = f.metadata().map_err(|source| Error::Io { path: path.clone(), source })?;
         if !meta.is_file() {
-            return Err(Error::Bag { path, site: BagSite::default(), reason: "not a regular file".into() });
+            return Err(Error::Bag { path, site: Box::default(), reason: "not a regular file".into() });
         }
         let mut r = BagReader {
             path,
@@ -242,7 +242,11 @@ impl BagReader {
     }
 
     fn err(&self, offset: u64, reason: impl Into<String>) -> Error {
-        Error::Bag { path: self.path.clone(), site: BagSite { offset, ..BagSite::default() }, reason: reason.into() }
+        Error::Bag {
+            path: self.path.clone(),
+            site: Box::new(BagSite { offset: Some(offset), ..BagSite::default() }),
+            reason: reason.into(),
+        }
     }
 
     fn io(&self, source: std::io::Error) -> Error {

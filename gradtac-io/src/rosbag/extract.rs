@@ -205,6 +205,11 @@ impl Demux {
         Demux { sensors, routes: HashMap::new(), wire, dialect }
     }
 
+    /// True when some sensor reads `topic`.
+    pub fn reads(&self, topic: &str) -> bool {
+        self.sensors.iter().any(|s| s.spec.topic == topic)
+    }
+
     /// True once `id` has been registered.
     pub fn knows(&self, id: u32) -> bool {
         self.routes.contains_key(&id)

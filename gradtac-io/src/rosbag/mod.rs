@@ -13,8 +13,8 @@
 //! - [`decode::decode`]: a generic decoder driven by a schema, for the ROS 1 wire format and
 //!   CDR; bounded by the message's own length.
 //! - [`extract::ElectrodePlan`]: where one fingertip's electrodes and the header stamp are.
-//! - [`RosbagFrames`]: one pass over a bag yielding the frames of every sensor that reads it
-//!   (several sensors — fingers — of one file share the pass).
+//! - [`RosbagFrames`] / [`McapFrames`]: one pass over a bag / MCAP file yielding the frames of
+//!   every sensor that reads it (several sensors — fingers — of one file share the pass).
 //!
 //! Scene syntax (see `docs/recorded-hands.md`):
 //!
@@ -27,11 +27,13 @@
 pub mod bag;
 pub mod decode;
 pub mod extract;
+pub mod mcap_source;
 pub mod msgdef;
 mod source;
 
 pub use bag::{BagMessage, BagReader, Connection, RosTime};
 pub use extract::{BagSensor, ElectrodePlan};
+pub use mcap_source::McapFrames;
 pub use source::RosbagFrames;
 
 use serde::{Deserialize, Serialize};

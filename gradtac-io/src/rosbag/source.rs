@@ -50,7 +50,12 @@ impl RosbagFrames {
     fn fault(&self, offset: u64, f: Fault) -> Error {
         Error::Bag {
             path: self.reader.path().to_path_buf(),
-            site: BagSite { offset, topic: Some(f.topic), msg_type: Some(f.msg_type), index: f.index },
+            site: Box::new(BagSite {
+                offset: Some(offset),
+                topic: Some(f.topic),
+                msg_type: Some(f.msg_type),
+                index: f.index,
+            }),
             reason: f.reason,
         }
     }
@@ -94,7 +99,7 @@ impl Iterator for RosbagFrames {
                     self.done = true;
                     if let Err(reason) = self.demux.check_topics() {
                         let path = self.reader.path().to_path_buf();
-                        return Some(Err(Error::Bag { path, site: BagSite::default(), reason }));
+                        return Some(Err(Error::Bag { path, site: Box::default(), reason }));
                     }
                 }
                 Err(e) => {
