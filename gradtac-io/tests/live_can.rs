@@ -202,7 +202,7 @@ async fn receive_to_slip_decision_latency() {
     sender.join().unwrap();
     let st = stats.snapshot();
     println!("live: latency run: {got} of {} taxel frames received; {st}", want.len());
-    assert!(lat.len() >= 200, "{} decisions", lat.len());
+    assert!(lat.len() >= 100, "{} decisions", lat.len());
     lat.sort_unstable();
     let p = |q: f64| lat[((lat.len() - 1) as f64 * q).round() as usize] as f64 / 1000.0;
     println!(
