@@ -490,6 +490,32 @@ struct Message {
 }
 
 impl Message {
+    /// Field `k` holding `raw`, placed in the 64-bit payload word (the inverse of decoding).
+    fn pack(&self, raw: i64, k: u32) -> u64 {
+        let u = match self.word {
+            WordFormat::Plain => raw as u64 & ((1u64 << self.bits) - 1),
+            WordFormat::Biotac => u64::from(biotac_word(raw as u16)),
+        };
+        let p = self.start_bit + k * self.bits;
+        match self.order {
+            ByteOrder::Big => u << (64 - p - self.bits),
+            ByteOrder::Little => u << p,
+        }
+    }
+
+    /// The frame of block `mux` with payload `word` at `id`.
+    fn frame(&self, id: u32, word: u64, mux: u32, time: Timestamp) -> Result<CanFrame> {
+        let mut bytes = match self.order {
+            ByteOrder::Big => word.to_be_bytes(),
+            ByteOrder::Little => word.to_le_bytes(),
+        };
+        if let Some((byte, _, _)) = &self.mux {
+            let (mask, shift, first) = self.mux_bits;
+            bytes[*byte as usize] = (((mux + u32::from(first)) << shift) as u8) & mask;
+        }
+        CanFrame::try_new(id, self.extended, &bytes[..self.length as usize], time)
+    }
+
     /// The decoded value of a raw value (exactly as [`CanCodec::decode`] computes it).
     fn value(&self, raw: i64) -> f64 {
         raw as f64 * self.scale + self.offset
@@ -771,7 +797,6 @@ impl CanCodec {
             let mux_groups = m.mux.as_ref().map_or(1, |x| x.1);
             // The id bits that hold the id index (the free bits from `shift` up).
             let index_bits = ((!m.mask & width_mask(m.extended)) >> m.shift) << m.shift;
-            let fmask = (1u64 << m.bits) - 1;
             for id_index in 0..m.id_groups {
                 let id = (m.id & !index_bits) | (id_index << m.shift);
                 for mux in 0..mux_groups {
@@ -793,25 +818,9 @@ impl CanCodec {
                                 ));
                             }
                         };
-                        let u = match m.word {
-                            WordFormat::Plain => raw as u64 & fmask,
-                            WordFormat::Biotac => u64::from(biotac_word(raw as u16)),
-                        };
-                        let p = m.start_bit + k * m.bits;
-                        word |= match m.order {
-                            ByteOrder::Big => u << (64 - p - m.bits),
-                            ByteOrder::Little => u << p,
-                        };
+                        word |= m.pack(raw, k);
                     }
-                    let mut bytes = match m.order {
-                        ByteOrder::Big => word.to_be_bytes(),
-                        ByteOrder::Little => word.to_le_bytes(),
-                    };
-                    if let Some((byte, _, _)) = &m.mux {
-                        let (mask, shift, first) = m.mux_bits;
-                        bytes[*byte as usize] = (((mux + u32::from(first)) << shift) as u8) & mask;
-                    }
-                    match CanFrame::try_new(id, m.extended, &bytes[..m.length as usize], time) {
+                    match m.frame(id, word, mux, time) {
                         Ok(f) => out.push(f),
                         Err(e) => {
                             out.truncate(start);
@@ -891,7 +900,6 @@ impl CanCodec {
                                 ),
                             ));
                         };
-                        let fmask = (1u64 << m.bits) - 1;
                         let base = m.first_taxel + (id_index * mux_groups + mux) * m.stride;
                         for k in 0..m.count {
                             let t = base + k;
@@ -906,26 +914,10 @@ impl CanCodec {
                                     ))
                                 }
                             };
-                            let u = match m.word {
-                                WordFormat::Plain => raw as u64 & fmask,
-                                WordFormat::Biotac => u64::from(biotac_word(raw as u16)),
-                            };
-                            let p = m.start_bit + k * m.bits;
-                            word |= match m.order {
-                                ByteOrder::Big => u << (64 - p - m.bits),
-                                ByteOrder::Little => u << p,
-                            };
+                            word |= m.pack(raw, k);
                         }
                     }
-                    let mut bytes = match lead.order {
-                        ByteOrder::Big => word.to_be_bytes(),
-                        ByteOrder::Little => word.to_le_bytes(),
-                    };
-                    if let Some((byte, _, _)) = &lead.mux {
-                        let (mask, shift, first) = lead.mux_bits;
-                        bytes[*byte as usize] = (((mux + u32::from(first)) << shift) as u8) & mask;
-                    }
-                    match CanFrame::try_new(id, lead.extended, &bytes[..lead.length as usize], time) {
+                    match lead.frame(id, word, mux, time) {
                         Ok(f) => out.push(f),
                         Err(e) => {
                             out.truncate(start);
