@@ -32,6 +32,7 @@ mod error;
 pub mod guard;
 pub mod plan;
 pub mod plot;
+mod recorded;
 pub mod run;
 pub mod scene;
 pub mod sinks;

@@ -211,7 +211,9 @@ fn open_source(scene: &Scene, p: &SensorPlan) -> Result<(FrameIter, Option<usize
             let n = frames.taxel_count();
             (Box::new(frames.map(move |r| r.map_err(err))), Some(n), None)
         }
-        SourceSpec::Bus { .. } => unreachable!("bus sources are opened per bus by open_sources"),
+        SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) | SourceSpec::Mcap(_) => {
+            unreachable!("bus and bag sources are opened per bus / file by open_sources")
+        }
         SourceSpec::Arrow(cfg) => {
             let mut cfg = ArrowIpcConfig { path: scene.resolve(&cfg.path), ..cfg.clone() };
             if cfg.columns.is_none() && cfg.sensors.is_none() {
@@ -270,6 +272,7 @@ fn open_sources(scene: &Scene, plan: &Plan) -> Result<OpenSources, Error> {
     let mut streams: Vec<FrameStream> = Vec::new();
     let mut progress = Vec::new();
     let mut buses: Vec<OpenBus> = Vec::new();
+    let mut bags: Vec<PathBuf> = Vec::new();
     for p in plan.sensors.iter().filter(|p| p.is_read()) {
         if let SourceSpec::Bus { bus } = &scene.sensors[p.index].source {
             if !buses.iter().any(|b| &b.name == bus) {
@@ -277,6 +280,14 @@ fn open_sources(scene: &Scene, plan: &Plan) -> Result<OpenSources, Error> {
                 let (stream, open) = open_bus(scene, spec)?;
                 streams.push(stream);
                 buses.push(open);
+            }
+            continue;
+        }
+        if let SourceSpec::Rosbag(cfg) | SourceSpec::Mcap(cfg) = &scene.sensors[p.index].source {
+            let path = scene.resolve(&cfg.path);
+            if !bags.contains(&path) {
+                streams.push(crate::recorded::open(scene, plan, &path)?);
+                bags.push(path);
             }
             continue;
         }

@@ -27,6 +27,7 @@ use gradtac_io::arrow_ipc::ArrowIpcConfig;
 use gradtac_io::can::socketcan::SocketCanConfig;
 use gradtac_io::can::{CanCodec, CandumpConfig};
 use gradtac_io::npy::NpySourceConfig;
+use gradtac_io::rosbag::BagSourceConfig;
 use gradtac_io::CsvSourceConfig;
 use gradtac_stages::contour::ContourConfig;
 use gradtac_stages::events::EventsConfig;
@@ -106,6 +107,13 @@ pub enum SourceSpec {
     Npy(NpySourceConfig),
     /// An Arrow IPC file or stream.
     Arrow(ArrowIpcConfig),
+    /// One fingertip of a recorded hand in a ROS 1 bag
+    /// (`source = { rosbag = "grasp.bag", topic = "/rh/tactile", finger = "ff" }`); sensors
+    /// naming the same file share one pass over it.
+    Rosbag(BagSourceConfig),
+    /// One fingertip of a recorded hand in an MCAP file (ROS 2, CDR;
+    /// `source = { mcap = "grasp.mcap", topic = "/rh/tactile", finger = "ff" }`).
+    Mcap(BagSourceConfig),
     /// A sensor decoded from a CAN bus of the scene (`source = { bus = "hand" }`).
     Bus {
         /// The bus's name.
@@ -114,7 +122,7 @@ pub enum SourceSpec {
 }
 
 /// Source kinds, by their key.
-pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow", "bus"];
+pub const SOURCE_KINDS: &[&str] = &["csv", "npy", "arrow", "bus", "rosbag", "mcap"];
 
 /// A CAN bus shared by several sensors: a candump log (`candump = "log.txt"`, replayed as fast
 /// as possible or with `timing = "original"`) or a live SocketCAN interface
@@ -204,6 +212,8 @@ impl<'de> Deserialize<'de> for SourceSpec {
             Some("csv") => return CsvSourceConfig::deserialize(v).map(SourceSpec::Csv).map_err(D::Error::custom),
             Some("npy") => return NpySourceConfig::deserialize(v).map(SourceSpec::Npy).map_err(D::Error::custom),
             Some("arrow") => return ArrowIpcConfig::deserialize(v).map(SourceSpec::Arrow).map_err(D::Error::custom),
+            Some("rosbag") => return BagSourceConfig::deserialize(v).map(SourceSpec::Rosbag).map_err(D::Error::custom),
+            Some("mcap") => return BagSourceConfig::deserialize(v).map(SourceSpec::Mcap).map_err(D::Error::custom),
             Some("bus") => {
                 return match v.as_table().map(|t| (t.len(), t.get("bus"))) {
                     Some((1, Some(toml::Value::String(b)))) => Ok(SourceSpec::Bus { bus: b.clone() }),
@@ -226,7 +236,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => c.rate_hz,
             SourceSpec::Npy(c) => c.rate_hz,
             SourceSpec::Arrow(c) => c.rate_hz,
-            SourceSpec::Bus { .. } => None,
+            SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) | SourceSpec::Mcap(_) => None,
         }
     }
 
@@ -236,6 +246,7 @@ impl SourceSpec {
             SourceSpec::Csv(c) => &c.path,
             SourceSpec::Npy(c) => &c.path,
             SourceSpec::Arrow(c) => &c.path,
+            SourceSpec::Rosbag(c) | SourceSpec::Mcap(c) => &c.path,
             SourceSpec::Bus { bus } => Path::new(bus),
         }
     }
@@ -247,6 +258,8 @@ impl SourceSpec {
             SourceSpec::Npy(_) => "npy",
             SourceSpec::Arrow(_) => "arrow",
             SourceSpec::Bus { .. } => "bus",
+            SourceSpec::Rosbag(_) => "rosbag",
+            SourceSpec::Mcap(_) => "mcap",
         }
     }
 
@@ -261,6 +274,10 @@ impl SourceSpec {
             },
             SourceSpec::Arrow(c) => c.layout(gradtac_stream::SensorId::new("_")).map(|_| ()).map_err(|e| e.to_string()),
             SourceSpec::Bus { .. } => Ok(()),
+            SourceSpec::Rosbag(c) | SourceSpec::Mcap(c) if c.topic.is_empty() => {
+                Err("topic = \"\" names no topic".into())
+            }
+            SourceSpec::Rosbag(_) | SourceSpec::Mcap(_) => Ok(()),
         }
     }
 }

@@ -79,6 +79,52 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// A malformed or unusable recorded-hand file (ROS bag, MCAP), or a topic whose messages
+    /// do not fit: names the file, the byte offset and, where known, topic, type and message.
+    #[error("{path}{site}: {reason}")]
+    Bag {
+        /// The file.
+        path: PathBuf,
+        /// Where in it (boxed: keeps the error small).
+        site: Box<BagSite>,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// Where in a recorded-hand file (ROS bag, MCAP) a problem is: the byte offset of the record
+/// and, once known, the topic, its message type and the message's 0-based index on the topic.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BagSite {
+    /// Byte offset of the record (for messages inside a compressed chunk: of the chunk), when
+    /// the reader knows it.
+    pub offset: Option<u64>,
+    /// The topic.
+    pub topic: Option<String>,
+    /// The message type (`sr_robot_msgs/BiotacAll`).
+    pub msg_type: Option<String>,
+    /// 0-based index of the message on its topic.
+    pub index: Option<u64>,
+}
+
+impl std::fmt::Display for BagSite {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut sep = " ";
+        if let Some(o) = self.offset {
+            write!(f, " at byte {o}")?;
+            sep = ", ";
+        }
+        if let Some(t) = &self.topic {
+            write!(f, "{sep}topic {t}")?;
+        }
+        if let Some(t) = &self.msg_type {
+            write!(f, " ({t})")?;
+        }
+        if let Some(i) = self.index {
+            write!(f, ", message {i}")?;
+        }
+        Ok(())
+    }
 }
 
 impl From<Error> for gradtac_stream::Error {

@@ -15,10 +15,11 @@ mod error;
 pub mod npy;
 pub mod parquet_sink;
 pub mod records;
+pub mod rosbag;
 
 pub use archive::{ArchiveConfig, ParquetArchive, Partitioning, RecordSink};
 pub use blocking::{blocking_archive, blocking_sink, blocking_stream, BlockingArchive, BlockingSink, BlockingStream};
 pub use csv_source::{ColumnSelector, CsvFrames, CsvProgress, CsvSourceConfig, TimeUnit};
-pub use error::{excerpt, Error, Result};
+pub use error::{excerpt, BagSite, Error, Result};
 pub use parquet_sink::ParquetSink;
 pub use records::{ArrowRecord, FrameShape, RecordBuilder};

@@ -95,6 +95,74 @@ pub struct MuxSpec {
     /// outside `0 … groups−1` is an *unknown multiplexer value* fault.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ignore: Vec<u8>,
+    /// Bits of the byte that hold the multiplexer value (default `0xFF`): the value is
+    /// `(byte & mask) >> shift`.
+    #[serde(default = "full_byte")]
+    pub mask: u8,
+    /// Right shift applied after `mask` (0–7).
+    #[serde(default)]
+    pub shift: u8,
+    /// The value that selects block 0 (values `first … first + groups − 1` select blocks;
+    /// `ignore` lists raw values).
+    #[serde(default)]
+    pub first: u8,
+}
+
+impl MuxSpec {
+    /// The whole byte `byte` selects `groups` blocks from value 0, `ignore` listing values that
+    /// carry other data.
+    pub fn new(byte: u8, groups: u32, ignore: Vec<u8>) -> Self {
+        MuxSpec { byte, groups, ignore, mask: 0xFF, shift: 0, first: 0 }
+    }
+}
+
+fn full_byte() -> u8 {
+    0xFF
+}
+
+/// How a field's bits become its raw value.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum WordFormat {
+    /// The field's bits are the raw value (`"plain"`, default).
+    #[default]
+    #[serde(rename = "plain")]
+    Plain,
+    /// A SynTouch BioTac word (`"biotac"`): 16 bits = two bytes `b0 b1`, each with an odd
+    /// parity bit in bit 0; `raw = (b0 >> 1) · 32 + (b1 >> 3)` (12 bits). A byte with even
+    /// parity makes the field a *parity* fault: its value is dropped, never decoded. Needs
+    /// `bits = 16`, a byte-aligned `start_bit`, big-endian, unsigned.
+    #[serde(rename = "biotac")]
+    Biotac,
+}
+
+impl WordFormat {
+    fn is_plain(&self) -> bool {
+        *self == WordFormat::Plain
+    }
+}
+
+/// A byte whose value marks the whole frame as an invalid sample (Xela uSkin:
+/// `{ byte = 1, min = 250 }`, i.e. `data[1] ≥ 250`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InvalidIf {
+    /// The byte (0–7).
+    pub byte: u8,
+    /// Values `≥ min` mark the sample invalid.
+    pub min: u8,
+}
+
+/// A BioTac byte: the 7-bit `v` in bits 7–1 and an odd parity bit in bit 0.
+pub fn biotac_byte(v: u8) -> u8 {
+    let b = (v & 0x7F) << 1;
+    b | u8::from(b.count_ones() % 2 == 0)
+}
+
+/// The 16 bits of a BioTac word holding the 12-bit `raw` (see [`WordFormat::Biotac`]).
+pub fn biotac_word(raw: u16) -> u16 {
+    let hi = biotac_byte((raw >> 5) as u8 & 0x7F);
+    let lo = biotac_byte(((raw & 0x1F) as u8) << 2);
+    u16::from(hi) << 8 | u16::from(lo)
 }
 
 /// One CAN message layout: the ids it matches and the run of taxel fields it carries.
@@ -178,6 +246,17 @@ pub struct MessageSpec {
     /// Taxels between consecutive groups; default `count`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stride: Option<u32>,
+    /// How the fields' bits become raw values ([`WordFormat`]; default `"plain"`).
+    #[serde(default, skip_serializing_if = "WordFormat::is_plain")]
+    pub word: WordFormat,
+    /// A byte marking the whole frame as an invalid sample ([`InvalidIf`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub invalid_if: Option<InvalidIf>,
+    /// The frame carries other sensors' fields too: messages of different sensors with the
+    /// same `id`, `mask`, `shift`, `extended`, `length` and `mux`, all `shared`, each decode their
+    /// own fields of every matching frame (SynTouch words of several BioTacs in one frame).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub shared: bool,
 }
 
 fn one() -> u32 {
@@ -213,6 +292,9 @@ impl MessageSpec {
             raw_max: None,
             first_taxel: 0,
             stride: None,
+            word: WordFormat::Plain,
+            invalid_if: None,
+            shared: false,
         }
     }
 }
@@ -251,10 +333,17 @@ pub struct SensorSpec {
 /// The built-in layouts; see [`presets`](super::presets) for their wire formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum PresetKind {
-    /// One frame per taxel, big-endian 16-bit x/y/z fields (`"xela-uskin"`).
+    /// Xela uSkin as its public drivers read it: one frame per taxel at id `0x710 + taxel`,
+    /// x/y/z big-endian in bytes 1–6, `data[1] ≥ 250` an invalid sample (`"xela-uskin"`).
     #[serde(rename = "xela-uskin")]
     XelaUskin,
-    /// Multiplexed per-fingertip frames, 24 electrodes in 12-bit fields (`"biotac-mux"`).
+    /// SynTouch BioTac words relayed on CAN as Clearpath's `numatac_can_driver` reads them:
+    /// byte 0 the channel (`(b & 0x7E) >> 1`, electrodes 17–40), then one parity-checked
+    /// 2-byte word per sensor (`"syntouch-biotac"`).
+    #[serde(rename = "syntouch-biotac")]
+    SyntouchBiotac,
+    /// Our own multiplexed per-fingertip frames, 24 electrodes in 12-bit fields (`"biotac-mux"`;
+    /// no device uses it).
     #[serde(rename = "biotac-mux")]
     BiotacMux,
 }
@@ -265,6 +354,7 @@ impl PresetKind {
         match self {
             PresetKind::XelaUskin => "xela-uskin",
             PresetKind::BiotacMux => "biotac-mux",
+            PresetKind::SyntouchBiotac => "syntouch-biotac",
         }
     }
 }
@@ -273,11 +363,11 @@ impl PresetKind {
 ///
 /// ```toml
 /// [codec.preset]
-/// kind = "biotac-mux"          # or "xela-uskin"
-/// sensors = ["ff", "mf", "th"] # sensor i uses the preset's i-th id block
-/// base_id = 0x100              # default: 0x100 (biotac-mux), 0x200 (xela-uskin)
+/// kind = "syntouch-biotac"     # or "xela-uskin", "biotac-mux"
+/// sensors = ["ff", "mf", "th"] # sensor i: the preset's i-th word slot / id block
+/// base_id = 0x100              # default: any id (syntouch-biotac), 0x710 (xela-uskin), 0x100 (biotac-mux)
 /// extended = false
-/// taxels = 16                  # xela-uskin only (default 16, one 4×4 module)
+/// taxels = 16                  # xela-uskin (default 16), syntouch-biotac (default 24)
 /// timeout_ms = 50.0
 /// incomplete = "drop"
 /// raw_min = 1                  # default: the preset's valid range
@@ -296,7 +386,7 @@ pub struct PresetConfig {
     /// Use 29-bit identifiers.
     #[serde(default)]
     pub extended: bool,
-    /// Taxels per sensor (`xela-uskin` only).
+    /// Taxels per sensor (`xela-uskin`, `syntouch-biotac`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub taxels: Option<u32>,
     /// Reassembly timeout (ms) per sensor.
@@ -381,6 +471,11 @@ struct Message {
     id_groups: u32,
     length: u8,
     mux: Option<(u8, u32, [bool; 256])>,
+    /// Multiplexer mask, shift and first value.
+    mux_bits: (u8, u8, u8),
+    word: WordFormat,
+    invalid_if: Option<InvalidIf>,
+    shared: bool,
     start_bit: u32,
     bits: u32,
     count: u32,
@@ -395,6 +490,32 @@ struct Message {
 }
 
 impl Message {
+    /// Field `k` holding `raw`, placed in the 64-bit payload word (the inverse of decoding).
+    fn pack(&self, raw: i64, k: u32) -> u64 {
+        let u = match self.word {
+            WordFormat::Plain => raw as u64 & ((1u64 << self.bits) - 1),
+            WordFormat::Biotac => u64::from(biotac_word(raw as u16)),
+        };
+        let p = self.start_bit + k * self.bits;
+        match self.order {
+            ByteOrder::Big => u << (64 - p - self.bits),
+            ByteOrder::Little => u << p,
+        }
+    }
+
+    /// The frame of block `mux` with payload `word` at `id`.
+    fn frame(&self, id: u32, word: u64, mux: u32, time: Timestamp) -> Result<CanFrame> {
+        let mut bytes = match self.order {
+            ByteOrder::Big => word.to_be_bytes(),
+            ByteOrder::Little => word.to_le_bytes(),
+        };
+        if let Some((byte, _, _)) = &self.mux {
+            let (mask, shift, first) = self.mux_bits;
+            bytes[*byte as usize] = (((mux + u32::from(first)) << shift) as u8) & mask;
+        }
+        CanFrame::try_new(id, self.extended, &bytes[..self.length as usize], time)
+    }
+
     /// The decoded value of a raw value (exactly as [`CanCodec::decode`] computes it).
     fn value(&self, raw: i64) -> f64 {
         raw as f64 * self.scale + self.offset
@@ -459,8 +580,12 @@ pub struct FieldValue {
     pub taxel: u32,
     /// The raw field value (sign-extended when signed).
     pub raw: i64,
-    /// `raw · scale + offset`, or `None` when `raw` is out of the valid range.
+    /// `raw · scale + offset`, or `None` when `raw` is out of the valid range, fails its
+    /// parity check or belongs to an invalid sample.
     pub value: Option<f64>,
+    /// Why `value` is `None` ([`FaultKind::OutOfRange`](super::FaultKind::OutOfRange),
+    /// `Parity` or `InvalidSample`).
+    pub fault: Option<super::FaultKind>,
 }
 
 /// What a frame is to the codec.
@@ -583,7 +708,13 @@ impl CanCodec {
         // No frame may match two messages. Conservative: the masks' common bits must differ.
         for (i, (a, wa)) in messages.iter().enumerate() {
             for (b, wb) in &messages[..i] {
-                if a.extended == b.extended && (a.id ^ b.id) & a.mask & b.mask == 0 {
+                let same_frame = a.shared
+                    && b.shared
+                    && a.sensor != b.sensor
+                    && (a.id, a.mask, a.shift, a.id_groups, a.length, a.mux_bits)
+                        == (b.id, b.mask, b.shift, b.id_groups, b.length, b.mux_bits)
+                    && a.mux.as_ref().map(|x| (x.0, x.1, x.2)) == b.mux.as_ref().map(|x| (x.0, x.1, x.2));
+                if a.extended == b.extended && (a.id ^ b.id) & a.mask & b.mask == 0 && !same_frame {
                     return Err(bad(format!("{wa} and {wb} both match some CAN ids; give them disjoint ids or masks")));
                 }
             }
@@ -660,10 +791,19 @@ impl CanCodec {
         let start = out.len();
         let mut clamped = 0;
         for m in self.messages.iter().filter(|m| m.sensor == sensor) {
+            if m.shared {
+                out.truncate(start);
+                return Err(fail(
+                    None,
+                    format!(
+                        "its frames (CAN id {}) carry other sensors' fields too (shared): encode them together with CanCodec::encode_shared",
+                        fmt_id(m.id, m.extended)
+                    ),
+                ));
+            }
             let mux_groups = m.mux.as_ref().map_or(1, |x| x.1);
             // The id bits that hold the id index (the free bits from `shift` up).
             let index_bits = ((!m.mask & width_mask(m.extended)) >> m.shift) << m.shift;
-            let fmask = (1u64 << m.bits) - 1;
             for id_index in 0..m.id_groups {
                 let id = (m.id & !index_bits) | (id_index << m.shift);
                 for mux in 0..mux_groups {
@@ -685,21 +825,9 @@ impl CanCodec {
                                 ));
                             }
                         };
-                        let u = raw as u64 & fmask;
-                        let p = m.start_bit + k * m.bits;
-                        word |= match m.order {
-                            ByteOrder::Big => u << (64 - p - m.bits),
-                            ByteOrder::Little => u << p,
-                        };
+                        word |= m.pack(raw, k);
                     }
-                    let mut bytes = match m.order {
-                        ByteOrder::Big => word.to_be_bytes(),
-                        ByteOrder::Little => word.to_le_bytes(),
-                    };
-                    if let Some((byte, _, _)) = &m.mux {
-                        bytes[*byte as usize] = mux as u8;
-                    }
-                    match CanFrame::try_new(id, m.extended, &bytes[..m.length as usize], time) {
+                    match m.frame(id, word, mux, time) {
                         Ok(f) => out.push(f),
                         Err(e) => {
                             out.truncate(start);
@@ -712,34 +840,150 @@ impl CanCodec {
         Ok(clamped)
     }
 
+    /// Encode one set of values of every sensor whose messages share frames (`shared`, as in
+    /// `syntouch-biotac`): `sets` lists `(sensor index, values)`; each shared frame is built
+    /// once, carrying the fields of all its sensors, in block order, all stamped `time`.
+    /// Messages of the listed sensors that are not shared are encoded as by
+    /// [`encode`](Self::encode). Errors as there, and when a sensor sharing a frame with a
+    /// listed one is not listed. On error `out` is left as it was.
+    pub fn encode_shared(&self, sets: &[(usize, &[f64])], time: Timestamp, out: &mut Vec<CanFrame>) -> Result<()> {
+        let start = out.len();
+        let values_of = |sensor: usize| sets.iter().find(|(s, _)| *s == sensor).map(|(_, v)| *v);
+        let fail = |out: &mut Vec<CanFrame>, sensor: usize, taxel: Option<u32>, reason: String| {
+            out.truncate(start);
+            Error::CanEncode {
+                sensor: self.sensors.get(sensor).map_or(format!("index {sensor}"), |s| s.id.as_str().to_string()),
+                taxel,
+                reason,
+            }
+        };
+        for &(sensor, values) in sets {
+            let Some(s) = self.sensors.get(sensor) else {
+                return Err(fail(out, sensor, None, format!("the codec has {} sensors", self.sensors.len())));
+            };
+            if values.len() != s.taxels as usize {
+                return Err(fail(
+                    out,
+                    sensor,
+                    None,
+                    format!("{} values, but the sensor has {} taxels", values.len(), s.taxels),
+                ));
+            }
+            if self.messages.iter().any(|m| m.sensor == sensor && !m.shared) {
+                // its own frames: the plain path (all-or-nothing via `start`)
+                let mut own = CanCodec { sensors: self.sensors.clone(), messages: Vec::new() };
+                own.messages = self.messages.iter().filter(|m| m.sensor == sensor && !m.shared).cloned().collect();
+                if let Err(e) = own.encode(sensor, values, time, out) {
+                    out.truncate(start);
+                    return Err(e);
+                }
+            }
+        }
+        let same_frame = |a: &Message, b: &Message| {
+            (a.id, a.extended, a.mask, a.shift, a.id_groups, a.length, a.mux_bits)
+                == (b.id, b.extended, b.mask, b.shift, b.id_groups, b.length, b.mux_bits)
+        };
+        for (i, lead) in self.messages.iter().enumerate() {
+            let listed = sets.iter().any(|(s, _)| *s == lead.sensor);
+            if !lead.shared || !listed || self.messages[..i].iter().any(|m| m.shared && same_frame(m, lead)) {
+                continue;
+            }
+            let group: Vec<&Message> = self.messages[i..].iter().filter(|m| m.shared && same_frame(m, lead)).collect();
+            let mux_groups = lead.mux.as_ref().map_or(1, |x| x.1);
+            let index_bits = ((!lead.mask & width_mask(lead.extended)) >> lead.shift) << lead.shift;
+            for id_index in 0..lead.id_groups {
+                let id = (lead.id & !index_bits) | (id_index << lead.shift);
+                for mux in 0..mux_groups {
+                    let mut word = 0u64;
+                    for m in &group {
+                        let Some(values) = values_of(m.sensor) else {
+                            return Err(fail(
+                                out,
+                                m.sensor,
+                                None,
+                                format!(
+                                    "it shares frames (CAN id {}) with listed sensors: give its values too",
+                                    fmt_id(id, m.extended)
+                                ),
+                            ));
+                        };
+                        let base = m.first_taxel + (id_index * mux_groups + mux) * m.stride;
+                        for k in 0..m.count {
+                            let t = base + k;
+                            let raw = match m.quantise(values[t as usize], false) {
+                                Ok((raw, _)) => raw,
+                                Err(reason) => {
+                                    return Err(fail(
+                                        out,
+                                        m.sensor,
+                                        Some(t),
+                                        format!("{reason} (CAN id {})", fmt_id(id, m.extended)),
+                                    ))
+                                }
+                            };
+                            word |= m.pack(raw, k);
+                        }
+                    }
+                    match lead.frame(id, word, mux, time) {
+                        Ok(f) => out.push(f),
+                        Err(e) => {
+                            out.truncate(start);
+                            return Err(e);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Decode one frame: append its fields to `out` (cleared first) and say what it was.
+    /// For a frame that `shared` messages of several sensors match, this is the first one's
+    /// part; [`decode_from`](Self::decode_from) visits the others.
     pub fn decode(&self, frame: &CanFrame, out: &mut Vec<FieldValue>) -> Decoded {
+        self.decode_from(0, frame, out).0
+    }
+
+    /// [`decode`](Self::decode) starting the search at message `from`; also returns where to
+    /// search next when the matched message is `shared` (another sensor's part of the same
+    /// frame may follow), `None` otherwise.
+    pub fn decode_from(&self, from: usize, frame: &CanFrame, out: &mut Vec<FieldValue>) -> (Decoded, Option<usize>) {
         out.clear();
         let id = frame.id();
         let ext = frame.is_extended();
-        let Some(m) = self.messages.iter().find(|m| m.extended == ext && (id & m.mask) == (m.id & m.mask)) else {
-            return Decoded::UnknownId;
+        let Some((at, m)) = self
+            .messages
+            .iter()
+            .enumerate()
+            .skip(from)
+            .find(|(_, m)| m.extended == ext && (id & m.mask) == (m.id & m.mask))
+        else {
+            return (Decoded::UnknownId, None);
         };
+        let next = m.shared.then_some(at + 1);
         let id_index = (id & !m.mask & width_mask(ext)) >> m.shift;
         if id_index >= m.id_groups {
-            return Decoded::UnknownId;
+            return (Decoded::UnknownId, None);
         }
         if frame.len() != m.length as usize {
-            return Decoded::WrongLength { sensor: m.sensor, expected: m.length, got: frame.len() as u8 };
+            return (Decoded::WrongLength { sensor: m.sensor, expected: m.length, got: frame.len() as u8 }, next);
         }
         let data = frame.data();
         let mut group = id_index;
         if let Some((byte, groups, ignore)) = &m.mux {
-            let v = data[*byte as usize];
-            if u32::from(v) >= *groups {
-                return if ignore[v as usize] {
-                    Decoded::Ignored { sensor: m.sensor, value: v }
+            let (mask, shift, first) = m.mux_bits;
+            let raw = (data[*byte as usize] & mask) >> shift;
+            let v = u32::from(raw).wrapping_sub(u32::from(first));
+            if u32::from(raw) < u32::from(first) || v >= *groups {
+                return if ignore[raw as usize] {
+                    (Decoded::Ignored { sensor: m.sensor, value: raw }, next)
                 } else {
-                    Decoded::UnknownMux { sensor: m.sensor, value: v }
+                    (Decoded::UnknownMux { sensor: m.sensor, value: raw }, next)
                 };
             }
-            group = id_index * groups + u32::from(v);
+            group = id_index * groups + v;
         }
+        let invalid = m.invalid_if.is_some_and(|x| data[x.byte as usize] >= x.min);
         let mut padded = [0u8; 8];
         padded[..data.len()].copy_from_slice(data);
         let word = match m.order {
@@ -754,11 +998,30 @@ impl CanCodec {
                 ByteOrder::Big => (word >> (64 - p - m.bits)) & fmask,
                 ByteOrder::Little => (word >> p) & fmask,
             };
-            let raw = if m.signed && u >> (m.bits - 1) & 1 == 1 { u as i64 - (1i64 << m.bits) } else { u as i64 };
-            let value = (raw >= m.raw_min && raw <= m.raw_max).then_some(raw as f64 * m.scale + m.offset);
-            out.push(FieldValue { taxel: base + k, raw, value });
+            let (raw, parity_ok) = match m.word {
+                WordFormat::Plain => {
+                    let raw =
+                        if m.signed && u >> (m.bits - 1) & 1 == 1 { u as i64 - (1i64 << m.bits) } else { u as i64 };
+                    (raw, true)
+                }
+                WordFormat::Biotac => {
+                    let (b0, b1) = ((u >> 8) as u8, u as u8);
+                    (i64::from(b0 >> 1) * 32 + i64::from(b1 >> 3), b0.count_ones() % 2 == 1 && b1.count_ones() % 2 == 1)
+                }
+            };
+            let fault = if invalid {
+                Some(super::FaultKind::InvalidSample)
+            } else if !parity_ok {
+                Some(super::FaultKind::Parity)
+            } else if raw < m.raw_min || raw > m.raw_max {
+                Some(super::FaultKind::OutOfRange)
+            } else {
+                None
+            };
+            let value = fault.is_none().then_some(raw as f64 * m.scale + m.offset);
+            out.push(FieldValue { taxel: base + k, raw, value, fault });
         }
-        Decoded::Values { sensor: m.sensor, group }
+        (Decoded::Values { sensor: m.sensor, group }, next)
     }
 }
 
@@ -831,9 +1094,25 @@ fn compile_message(
             if x.groups == 0 || x.groups > 256 {
                 return Err(format!("mux.groups = {}; must be 1–256", x.groups));
             }
+            if x.shift > 7 || x.mask == 0 {
+                return Err(format!(
+                    "mux.mask = {:#x}, mux.shift = {}: the mask must keep a bit and shift be 0–7",
+                    x.mask, x.shift
+                ));
+            }
+            let top = u32::from(x.mask >> x.shift);
+            if u32::from(x.first) + x.groups - 1 > top {
+                return Err(format!(
+                    "mux values {} … {} do not fit (byte & {:#x}) >> {}",
+                    x.first,
+                    u32::from(x.first) + x.groups - 1,
+                    x.mask,
+                    x.shift
+                ));
+            }
             let mut ignore = [false; 256];
             for &v in &x.ignore {
-                if u32::from(v) < x.groups {
+                if u32::from(v) >= u32::from(x.first) && u32::from(v) < u32::from(x.first) + x.groups {
                     return Err(format!("mux value {v} is both a taxel block (< groups = {}) and ignored", x.groups));
                 }
                 ignore[v as usize] = true;
@@ -842,14 +1121,29 @@ fn compile_message(
             Some((x.byte, x.groups, ignore))
         }
     };
+    if let Some(x) = &m.invalid_if {
+        if x.byte > 7 {
+            return Err(format!("invalid_if.byte = {}; a frame has bytes 0–7", x.byte));
+        }
+        needed = needed.max(x.byte + 1);
+    }
     let length = match m.length {
         None => needed,
         Some(l) if l > 8 => return Err(format!("length = {l}; a classic CAN frame has at most 8 bytes")),
         Some(l) if l < needed => return Err(format!("length = {l} but the fields and mux need {needed} bytes")),
         Some(l) => l,
     };
+    if m.word == WordFormat::Biotac
+        && (m.bits != 16 || m.start_bit % 8 != 0 || m.byte_order != ByteOrder::Big || m.signed)
+    {
+        return Err("word = \"biotac\" needs bits = 16, a byte-aligned start_bit, big-endian, unsigned".into());
+    }
     let field_min = if m.signed { -(1i64 << (m.bits - 1)) } else { 0 };
-    let field_max = if m.signed { (1i64 << (m.bits - 1)) - 1 } else { (1i64 << m.bits) - 1 };
+    let field_max = match m.word {
+        WordFormat::Biotac => 4095,
+        WordFormat::Plain if m.signed => (1i64 << (m.bits - 1)) - 1,
+        WordFormat::Plain => (1i64 << m.bits) - 1,
+    };
     let raw_min = m.raw_min.unwrap_or(field_min);
     let raw_max = m.raw_max.unwrap_or(field_max);
     if raw_min > raw_max {
@@ -895,7 +1189,11 @@ fn compile_message(
         shift: m.shift,
         id_groups: id_groups as u32,
         length,
+        mux_bits: m.mux.as_ref().map_or((0xFF, 0, 0), |x| (x.mask, x.shift, x.first)),
         mux,
+        word: m.word,
+        invalid_if: m.invalid_if,
+        shared: m.shared,
         start_bit: m.start_bit,
         bits: m.bits,
         count: m.count,
@@ -989,7 +1287,7 @@ mod tests {
         // ids 0x200..0x203 → blocks of 2 taxels; mux byte 0 selects 0..2 within each
         let m = MessageSpec {
             mask: Some(0x7FC),
-            mux: Some(MuxSpec { byte: 0, groups: 3, ignore: vec![9] }),
+            mux: Some(MuxSpec::new(0, 3, vec![9])),
             length: Some(8),
             ..MessageSpec::new(0x200, 8, 16, 2)
         };
@@ -1038,10 +1336,7 @@ mod tests {
             2,
         )]);
         assert!(e.contains("taxel 1 is already carried"), "{e}");
-        let m = MessageSpec {
-            mux: Some(MuxSpec { byte: 0, groups: 1, ignore: vec![] }),
-            ..MessageSpec::new(0x10, 0, 8, 1)
-        };
+        let m = MessageSpec { mux: Some(MuxSpec::new(0, 1, vec![])), ..MessageSpec::new(0x10, 0, 8, 1) };
         assert!(err(&[sensor(vec![m], 1)]).contains("overlaps"));
         let m = MessageSpec { length: Some(1), ..MessageSpec::new(0x10, 0, 16, 1) };
         assert!(err(&[sensor(vec![m], 1)]).contains("need 2 bytes"));
@@ -1098,7 +1393,7 @@ mod tests {
                 signed,
                 mask: Some(0x7F0),
                 id_groups: Some(2),
-                mux: mux.map(|b| MuxSpec { byte: b, groups: 3, ignore: vec![200] }),
+                mux: mux.map(|b| MuxSpec::new(b, 3, vec![200])),
                 ..MessageSpec::new(0x100, start, bits, count)
             };
             let taxels = 2 * 3 * count;

@@ -219,7 +219,7 @@ mod tests {
         assert_eq!(out.len(), 6);
         assert!(out.iter().all(|f| f.id() == 0x101 && !f.is_extended() && f.time() == Timestamp(7)));
         assert_eq!(out[5].data(), &[5, 0x12, 0x34, 0x56, 0x78, 0x9A, 0xBC, 0]);
-        // xela-uskin with 12 taxels: m1 taxel 11 is id 0x21B, z = 0x1234 in bytes 4-5
+        // xela-uskin with 12 taxels: m1 taxel 11 is id 0x72B, z = 0x1234 in bytes 5-6
         let mut p = PresetConfig::new(PresetKind::XelaUskin, &["m0", "m1"]);
         p.taxels = Some(12);
         let c = CanCodec::try_new(&CodecConfig::preset(p)).unwrap();
@@ -227,8 +227,8 @@ mod tests {
         v[11] = 4660.0;
         out.clear();
         c.encode(1, &v, Timestamp(0), &mut out).unwrap();
-        assert_eq!(out.iter().map(|f| f.id()).collect::<Vec<_>>(), (0x210..0x21C).collect::<Vec<_>>());
-        assert_eq!(out[11].data(), &[0, 0, 0, 0, 0x12, 0x34]);
+        assert_eq!(out.iter().map(|f| f.id()).collect::<Vec<_>>(), (0x720..0x72C).collect::<Vec<_>>());
+        assert_eq!(out[11].data(), &[0, 0, 0, 0, 0, 0x12, 0x34, 0]);
     }
 
     #[test]
@@ -253,7 +253,7 @@ mod tests {
             mask: Some(0x7F3),
             shift: 2,
             id_groups: Some(2),
-            mux: Some(MuxSpec { byte: 0, groups: 3, ignore: vec![9] }),
+            mux: Some(MuxSpec::new(0, 3, vec![9])),
             length: Some(8),
             ..MessageSpec::new(0x201, 8, 8, 2)
         };

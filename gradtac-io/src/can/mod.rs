@@ -11,7 +11,8 @@
 //! - [`CanFrame`]: a classic CAN frame (id, standard/extended, ≤ 8 bytes, time) with no
 //!   driver types in it.
 //! - [`CodecConfig`] / [`CanCodec`]: which ids carry which taxels and how values are packed;
-//!   presets `xela-uskin` and `biotac-mux` ([`presets`]); serde shape in `docs/can.md`.
+//!   presets `syntouch-biotac` and `xela-uskin` (the public framings, with their sources) and
+//!   `biotac-mux` (our own) ([`presets`]); serde shape in `docs/can.md`.
 //! - [`CanDecoder`]: the synchronous [`Stage`](gradtac_stream::Stage) from CAN frames to
 //!   taxel frames, with per-sensor timeout and [`IncompletePolicy`]; never fails on traffic,
 //!   counts faults in [`CanStats`].

@@ -228,7 +228,38 @@ impl CanDecoder {
         st.frames += 1;
         self.tick(frame.time(), &mut st, out);
         let mut fields = std::mem::take(&mut self.fields);
-        let decoded = self.codec.decode(&frame, &mut fields);
+        let mut from = 0;
+        let mut decoded_any = false;
+        loop {
+            let (decoded, next) = self.codec.decode_from(from, &frame, &mut fields);
+            if from > 0 && decoded == Decoded::UnknownId {
+                break; // no further sensor's part of a shared frame
+            }
+            self.apply(&frame, decoded, &fields, &mut decoded_any, &mut st, out);
+            if !matches!(decoded, Decoded::Values { .. }) {
+                break; // the other parts of a shared frame share its length and multiplexer
+            }
+            match next {
+                Some(n) => from = n,
+                None => break,
+            }
+        }
+        if decoded_any {
+            st.frames_decoded += 1;
+        }
+        self.fields = fields;
+    }
+
+    /// Handle one message's part of a frame.
+    fn apply(
+        &mut self,
+        frame: &CanFrame,
+        decoded: Decoded,
+        fields: &[FieldValue],
+        decoded_any: &mut bool,
+        st: &mut CanStats,
+        out: &mut Vec<DecodedFrame>,
+    ) {
         let site = |codec: &CanCodec, sensor: Option<usize>, detail: String| FaultSite {
             id: frame.id(),
             extended: frame.is_extended(),
@@ -248,13 +279,13 @@ impl CanDecoder {
             }),
             Decoded::Ignored { .. } => st.frames_ignored += 1,
             Decoded::Values { sensor, .. } => {
-                st.frames_decoded += 1;
+                *decoded_any = true;
                 let repeat = {
                     let s = &self.sets[sensor];
                     s.open && fields.iter().any(|f| s.seen[f.taxel as usize])
                 };
                 if repeat {
-                    self.close(sensor, Some(Why::Restarted), &mut st, out);
+                    self.close(sensor, Some(Why::Restarted), st, out);
                 }
                 let s = &mut self.sets[sensor];
                 if !s.open {
@@ -265,7 +296,7 @@ impl CanDecoder {
                 }
                 s.last_time = s.last_time.max(frame.time());
                 let mut bad = Vec::new();
-                for f in &fields {
+                for f in fields {
                     let t = f.taxel as usize;
                     s.seen[t] = true;
                     s.n_seen += 1;
@@ -275,18 +306,33 @@ impl CanDecoder {
                     }
                 }
                 let complete = s.n_seen == s.seen.len();
-                if !bad.is_empty() {
-                    let detail = bad.iter().map(|f| format!("taxel {} raw {}", f.taxel, f.raw)).collect::<Vec<_>>();
-                    st.record(FaultKind::OutOfRange, bad.len() as u64, || {
-                        site(&self.codec, Some(sensor), format!("{} outside the valid range", detail.join(", ")))
+                let invalid = bad.iter().filter(|f| f.fault == Some(FaultKind::InvalidSample)).count();
+                if invalid > 0 {
+                    st.record(FaultKind::InvalidSample, 1, || {
+                        site(
+                            &self.codec,
+                            Some(sensor),
+                            format!("the device marks the sample invalid ({invalid} values unused)"),
+                        )
+                    });
+                }
+                for kind in [FaultKind::Parity, FaultKind::OutOfRange] {
+                    let detail: Vec<String> = bad
+                        .iter()
+                        .filter(|f| f.fault.unwrap_or(FaultKind::OutOfRange) == kind)
+                        .map(|f| format!("taxel {} raw {}", f.taxel, f.raw))
+                        .collect();
+                    let what =
+                        if kind == FaultKind::Parity { "failing the parity check" } else { "outside the valid range" };
+                    st.record(kind, detail.len() as u64, || {
+                        site(&self.codec, Some(sensor), format!("{} {what}", detail.join(", ")))
                     });
                 }
                 if complete {
-                    self.close(sensor, None, &mut st, out);
+                    self.close(sensor, None, st, out);
                 }
             }
         }
-        self.fields = fields;
     }
 
     /// Close sensor `i`'s open set: emit it (complete or per policy) or drop it.
@@ -461,7 +507,7 @@ mod tests {
     /// valid range 1..=250.
     fn decoder(policy: IncompletePolicy) -> CanDecoder {
         let m = MessageSpec {
-            mux: Some(crate::can::codec::MuxSpec { byte: 0, groups: 2, ignore: vec![9] }),
+            mux: Some(crate::can::codec::MuxSpec::new(0, 2, vec![9])),
             raw_min: Some(1),
             raw_max: Some(250),
             ..MessageSpec::new(0x10, 8, 8, 2)

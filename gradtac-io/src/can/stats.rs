@@ -28,6 +28,12 @@ pub enum FaultKind {
     Incomplete,
     /// A taxel value carried from an earlier set into an incomplete one (counted per value).
     Carried,
+    /// A field whose bytes fail their parity check (SynTouch BioTac words: odd parity per
+    /// byte); the value is dropped, never decoded (counted per value).
+    Parity,
+    /// A frame its device marks as an invalid sample (Xela uSkin: `data[1] ≥ 250`); none of
+    /// its values are used (counted per frame).
+    InvalidSample,
 }
 
 impl FaultKind {
@@ -40,6 +46,8 @@ impl FaultKind {
             FaultKind::OutOfRange => "out_of_range",
             FaultKind::Incomplete => "incomplete",
             FaultKind::Carried => "carried",
+            FaultKind::Parity => "parity",
+            FaultKind::InvalidSample => "invalid_sample",
         }
     }
 }
@@ -108,6 +116,10 @@ pub struct CanStats {
     pub incomplete: Fault,
     /// Taxel values carried from earlier sets.
     pub carried: Fault,
+    /// Field values failing their parity check (dropped).
+    pub parity: Fault,
+    /// Frames marked by their device as invalid samples.
+    pub invalid_sample: Fault,
 }
 
 impl CanStats {
@@ -120,6 +132,8 @@ impl CanStats {
             FaultKind::OutOfRange => &self.out_of_range,
             FaultKind::Incomplete => &self.incomplete,
             FaultKind::Carried => &self.carried,
+            FaultKind::Parity => &self.parity,
+            FaultKind::InvalidSample => &self.invalid_sample,
         }
     }
 
@@ -131,6 +145,8 @@ impl CanStats {
             FaultKind::OutOfRange => &mut self.out_of_range,
             FaultKind::Incomplete => &mut self.incomplete,
             FaultKind::Carried => &mut self.carried,
+            FaultKind::Parity => &mut self.parity,
+            FaultKind::InvalidSample => &mut self.invalid_sample,
         }
     }
 
@@ -141,6 +157,8 @@ impl CanStats {
             + self.unknown_mux.count
             + self.out_of_range.count
             + self.incomplete.count
+            + self.parity.count
+            + self.invalid_sample.count
     }
 
     /// Count `n` faults of `kind` at `site` and log them.
@@ -193,6 +211,8 @@ impl fmt::Display for CanStats {
             FaultKind::OutOfRange,
             FaultKind::Incomplete,
             FaultKind::Carried,
+            FaultKind::Parity,
+            FaultKind::InvalidSample,
         ] {
             let x = self.fault(k);
             if let Some(site) = &x.first {
