@@ -10,6 +10,7 @@ pub mod arrow_ipc;
 pub mod batches;
 pub mod blocking;
 pub mod can;
+pub mod contain;
 pub mod csv_source;
 mod error;
 pub mod npy;
