@@ -12,6 +12,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// A crash input committed beside this file.
+#[allow(dead_code)]
 fn crash(name: &str) -> Vec<u8> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions").join(name);
     std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
@@ -75,4 +76,34 @@ fn ipc_zero_row_dictionary_sensor_is_an_empty_source() {
     // an empty batch (and its empty dictionary) between full ones changes nothing
     let b = [dictionary_batch(3), dictionary_batch(0), dictionary_batch(2)];
     assert_eq!(read_long(ipc_stream(&b)), Ok(5));
+}
+
+/// Fuzz target `can_frames` (crash-1e336020…): CAN frame times come from the bus or a log
+/// and may lie anywhere in i64; a set opened near `i64::MIN` and a frame near `i64::MAX`
+/// overflowed `clock - first_time` in the reassembly timeout check (a panic with overflow
+/// checks, a wrong timeout decision without). The set now times out.
+#[test]
+fn can_reassembly_times_at_the_ends_of_i64() {
+    use gradtac_io::can::{CanCodec, CanDecoder, CanEncoder, CodecConfig, PresetConfig, PresetKind};
+    use gradtac_stream::Timestamp;
+    let codec = CanCodec::try_new(&CodecConfig::preset(PresetConfig::new(PresetKind::BiotacMux, &["ff"]))).unwrap();
+    let values = vec![1000.0; codec.taxels(0)];
+    let mut frames = Vec::new();
+    CanEncoder::new(codec.clone()).encode(0, &values, Timestamp::ZERO, &mut frames).unwrap();
+    assert!(frames.len() > 1);
+    let mut dec = CanDecoder::new(codec);
+    let mut out = Vec::new();
+    dec.push_decoded(frames[0].with_time(Timestamp(i64::MIN + 1)), &mut out);
+    assert_eq!(dec.next_deadline().map(|t| t.0 < i64::MIN / 2), Some(true));
+    for f in &frames[1..] {
+        dec.push_decoded(f.with_time(Timestamp(i64::MAX)), &mut out);
+    }
+    assert!(out.iter().all(|d| !d.is_complete()), "the set opened at i64::MIN timed out");
+    assert!(dec.stats().sets_dropped >= 1);
+    // a set opened at the top of the range: its deadline saturates instead of wrapping
+    let mut dec = CanDecoder::new(
+        CanCodec::try_new(&CodecConfig::preset(PresetConfig::new(PresetKind::BiotacMux, &["ff"]))).unwrap(),
+    );
+    dec.push_decoded(frames[0].with_time(Timestamp(i64::MAX - 1)), &mut out);
+    assert_eq!(dec.next_deadline(), Some(Timestamp(i64::MAX)));
 }

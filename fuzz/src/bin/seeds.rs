@@ -2,6 +2,9 @@
 //! deep inside the readers): `seeds <corpus-dir>` writes `<corpus-dir>/<target>/seed-*`.
 //! The corpus is generated, not committed (see `docs/fuzzing.md`).
 
+// Built with the targets' coverage instrumentation, which libFuzzer's runtime resolves.
+extern crate libfuzzer_sys;
+
 use arrow_array::builder::{FixedSizeListBuilder, Float64Builder, StringDictionaryBuilder};
 use arrow_array::types::Int32Type;
 use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch, StringArray};
@@ -16,7 +19,7 @@ use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac_stages::sim::{Scene as SimScene, SensorModel, Simulator, Trajectory};
 use gradtac_stages::track::{Track, TrackConfig};
 use gradtac_stages::window::{Aggregate, Window, WindowConfig};
-use gradtac_stream::{Layout, Stage, TaxelFrame};
+use gradtac_stream::{Layout, StageExt, TaxelFrame};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
