@@ -295,7 +295,10 @@ pub fn open(config: &ArrowIpcConfig, sensor: SensorId) -> Result<BatchFrames<Ipc
 /// Frames from the Arrow IPC file or stream `reader` holds (a [`File`], or bytes in memory
 /// through [`std::io::Cursor`]); `origin` names it in errors.
 ///
-/// The arrow-ipc readers run with their validation on (every array's buffers, offsets,
+/// The metadata the arrow-ipc readers trust is checked first: every block of a file's
+/// footer lies inside the file, every message's body inside the data, every buffer inside
+/// its message's body (an error names the block or message). The readers then run with
+/// their validation on (every array's buffers, offsets,
 /// dictionary keys and UTF-8 are checked before use). A panic inside them on malformed
 /// input (an upstream bug: they should return an error) is contained: it becomes an
 /// [`Error::Arrow`] naming `origin` and the batch, and the reader is not used again (see
@@ -324,6 +327,15 @@ where
         }
         other => other,
     };
+    // the metadata the readers would trust, checked first (see `ipc_check`)
+    let len = reader.seek(SeekFrom::End(0)).map_err(io)?;
+    reader.seek(SeekFrom::Start(0)).map_err(io)?;
+    let checked = match format {
+        IpcFormat::File => crate::ipc_check::check_file(&mut reader, len),
+        _ => crate::ipc_check::check_stream(&mut reader, len),
+    };
+    checked.map_err(|reason| Error::Arrow { context: format!("{}: reading Arrow IPC", path.display()), reason })?;
+    reader.seek(SeekFrom::Start(0)).map_err(io)?;
     let batches: IpcBatches = match format {
         IpcFormat::File => {
             let r = reader_call(&path, || arrow_ipc::reader::FileReader::try_new_buffered(reader, None))?;

@@ -13,6 +13,7 @@ pub mod can;
 pub mod contain;
 pub mod csv_source;
 mod error;
+mod ipc_check;
 pub mod npy;
 pub mod parquet_sink;
 pub mod records;
