@@ -681,11 +681,24 @@ fn open_parquet(path: &Path) -> R<Opened> {
     }
     let rows =
         usize::try_from(fm.num_rows()).map_err(|_| PlotErr(format!("malformed footer: {} rows", fm.num_rows())))?;
+    let len = file.metadata().map_err(|e| PlotErr(format!("cannot open: {e}")))?.len();
     let mut in_groups = 0usize;
     for (i, rg) in meta.metadata().row_groups().iter().enumerate() {
         let n = usize::try_from(rg.num_rows())
             .map_err(|_| PlotErr(format!("malformed footer: row group {i} has {} rows", rg.num_rows())))?;
         in_groups = in_groups.saturating_add(n);
+        // where the reader will seek: inside the file (the parquet crate asserts non-negative)
+        for (j, c) in rg.columns().iter().enumerate() {
+            let start = c.dictionary_page_offset().unwrap_or(c.data_page_offset());
+            let size = c.compressed_size();
+            let end = u64::try_from(start).ok().zip(u64::try_from(size).ok()).and_then(|(a, b)| a.checked_add(b));
+            if end.is_none_or(|e| e > len) {
+                return Err(PlotErr(format!(
+                    "malformed footer: row group {i} column {j} at byte {start} ({size} bytes) lies outside the file \
+                     ({len} bytes)"
+                )));
+            }
+        }
     }
     if in_groups != rows {
         return Err(PlotErr(format!("malformed footer: {rows} rows in the file, {in_groups} in its row groups")));

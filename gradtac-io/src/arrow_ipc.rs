@@ -613,7 +613,8 @@ impl Stage for BatchDecoder {
 
     /// Decode one batch; on `Err` (a bad row) the frames of that batch are not emitted.
     fn push(&mut self, batch: RecordBatch, out: &mut Vec<TaxelFrame>) -> Result<()> {
-        let mut buf = Vec::with_capacity(batch.num_rows());
+        // not `num_rows()`: a batch header may claim billions of rows that no column holds
+        let mut buf = Vec::with_capacity(batch.num_rows().min(4096));
         self.decode(&batch, &mut buf)?;
         out.append(&mut buf);
         Ok(())
