@@ -66,7 +66,7 @@ fn parquet_negative_column_offset_is_a_footer_error() {
 /// Fuzz target `plot_parquet`: a dictionary-encoded data page without its dictionary page
 /// makes parquet 60 panic while decoding ("Decoder for dict should have been set"; no
 /// metadata tells beforehand). The panic is contained at the reader: an error naming the
-/// file and the row group (an upstream bug, see `docs/upstream-notes.md`).
+/// file and the row group (an upstream bug, see `docs/upstream-arrow-parquet.md`).
 #[test]
 fn parquet_missing_dictionary_page_is_a_row_group_error() {
     let out = tempfile::tempdir().unwrap();
