@@ -876,7 +876,14 @@ fn time_col(a: &ArrayRef, unit: TimeUnit) -> std::result::Result<TimeCol<'_>, St
 
 /// Read an Arrow IPC file's schema without reading its batches (for `gradtac explain`).
 pub fn ipc_schema(path: &Path) -> Result<arrow_schema::SchemaRef> {
-    let f = File::open(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+    let io = |source| Error::Io { path: path.to_owned(), source };
+    let mut f = File::open(path).map_err(io)?;
+    // the reader reads the footer and the dictionaries: their metadata checked first
+    let len = f.seek(SeekFrom::End(0)).map_err(io)?;
+    f.seek(SeekFrom::Start(0)).map_err(io)?;
+    crate::ipc_check::check_file(&mut f, len)
+        .map_err(|reason| Error::Arrow { context: format!("{}: reading Arrow IPC", path.display()), reason })?;
+    f.seek(SeekFrom::Start(0)).map_err(io)?;
     let r = reader_call(path, || arrow_ipc::reader::FileReader::try_new_buffered(f, None))?;
     Ok(r.schema())
 }
