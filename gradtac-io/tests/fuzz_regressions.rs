@@ -203,3 +203,36 @@ fn ipc_corrupt_metadata_is_a_file_error() {
         assert!(!e.contains("panicked"), "{name}: caught by the check, not contained: {e}");
     }
 }
+
+/// `gradtac explain` reads an IPC file's schema through `ipc_schema`, whose reader also reads
+/// the footer and the dictionaries: the same metadata check runs first.
+#[test]
+fn ipc_schema_checks_the_metadata_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("big.arrow");
+    std::fs::write(&p, &crash("ipc_block_body_4gb.arrow")[1..]).unwrap();
+    let e = gradtac_io::arrow_ipc::ipc_schema(&p).unwrap_err().to_string();
+    assert!(e.contains("big.arrow") && e.contains("ends past the end of the file"), "{e}");
+}
+
+/// A dictionary-encoded `sensor` column holds at most `MAX_SENSOR_DICTIONARY` names.
+#[test]
+fn ipc_sensor_dictionary_is_bounded() {
+    use gradtac_io::arrow_ipc::MAX_SENSOR_DICTIONARY;
+    let n = MAX_SENSOR_DICTIONARY + 1;
+    let mut sensor = StringDictionaryBuilder::<Int32Type>::new();
+    let mut values = FixedSizeListBuilder::new(Float64Builder::new(), 1);
+    for k in 0..n {
+        sensor.append_value(format!("s{k}"));
+        values.values().append_value(1.0);
+        values.append(true);
+    }
+    let batch = RecordBatch::try_from_iter([
+        ("sensor", Arc::new(sensor.finish()) as ArrayRef),
+        ("time_ns", Arc::new(Int64Array::from_iter_values(0..n as i64)) as ArrayRef),
+        ("values", Arc::new(values.finish()) as ArrayRef),
+    ])
+    .unwrap();
+    let e = read_long(ipc_file(&batch)).unwrap_err();
+    assert!(e.contains("crash.arrow: batch 0") && e.contains(&format!("a dictionary of {n} sensor names")), "{e}");
+}
