@@ -1037,7 +1037,8 @@ fn limit_sensors<T>(mut s: Vec<(String, T)>, notes: &mut Vec<String>) -> Vec<(St
 }
 
 fn secs(t_ns: i64, t0: i64) -> f64 {
-    (t_ns - t0) as f64 * 1e-9
+    // i128: times from a file may span more than i64 nanoseconds
+    (i128::from(t_ns) - i128::from(t0)) as f64 * 1e-9
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -74,3 +74,14 @@ fn parquet_missing_dictionary_page_is_a_row_group_error() {
     let e = plot_parquet(&f, &out.path().join("p.png")).unwrap_err().to_string();
     assert!(e.contains("parquet_dictionary_page_missing.parquet") && e.contains("row group"), "{e}");
 }
+
+/// Fuzz target `plot_parquet` (crash-1cfc6c5e…): a frame file whose times span more than
+/// `i64::MAX` nanoseconds (one near `i64::MIN`, one near `i64::MAX`) overflowed the time
+/// axis' `t − t0`. Times are now subtracted in i128: the file plots.
+#[test]
+fn parquet_time_span_beyond_i64_plots() {
+    let out = tempfile::tempdir().unwrap();
+    let f = crash("parquet_time_span_overflow.parquet");
+    let r = plot_parquet(&f, &out.path().join("p.png"));
+    assert!(r.is_ok(), "{r:?}");
+}
