@@ -50,7 +50,9 @@ use gradtac_stages::interpolate::Grid;
 use gradtac_stages::slip::{SlipClass, SlipEvent};
 use gradtac_stream::{Extent, Layout};
 use ndarray::ArrayView2;
-use parquet::arrow::arrow_reader::{ParquetRecordBatchReaderBuilder, RowSelection, RowSelector};
+use parquet::arrow::arrow_reader::{
+    ArrowReaderMetadata, ArrowReaderOptions, ParquetRecordBatchReaderBuilder, RowSelection, RowSelector,
+};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -634,9 +636,10 @@ fn read_table(path: &Path) -> R<Table> {
     }
 }
 
-/// A Parquet file opened for reading (footer parsed, no rows read yet).
+/// A Parquet file opened for reading (footer parsed and checked, no rows read yet).
 struct Opened {
-    builder: ParquetRecordBatchReaderBuilder<std::fs::File>,
+    file: std::fs::File,
+    meta: ArrowReaderMetadata,
     kv: HashMap<String, String>,
     schema: SchemaRef,
     /// Its `gradtac.schema`, one of [`KNOWN`].
@@ -645,17 +648,27 @@ struct Opened {
 }
 
 /// Open a Parquet file and check that it is a gradtac file of a known schema.
+///
+/// The footer is parsed by the parquet crate; a panic inside it on a malformed footer (an
+/// upstream bug) is contained and reported as this file's error (see
+/// [`gradtac_io::contain`]). The row counts of the footer must add up.
 fn open_parquet(path: &Path) -> R<Opened> {
     let file = std::fs::File::open(path).map_err(|e| PlotErr(format!("cannot open: {e}")))?;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
-        .map_err(|e| PlotErr(format!("not a readable Parquet file: {e}")))?;
-    let kv: HashMap<String, String> = builder
-        .metadata()
-        .file_metadata()
+    let meta = match gradtac_io::contain::contain(|| ArrowReaderMetadata::load(&file, ArrowReaderOptions::new())) {
+        Ok(Ok(m)) => m,
+        Ok(Err(e)) => return Err(PlotErr(format!("not a readable Parquet file: {e}"))),
+        Err(panic) => {
+            return Err(PlotErr(format!(
+                "not a readable Parquet file (the parquet reader panicked on its footer: {panic})"
+            )))
+        }
+    };
+    let fm = meta.metadata().file_metadata();
+    let kv: HashMap<String, String> = fm
         .key_value_metadata()
         .map(|v| v.iter().filter_map(|kv| Some((kv.key.clone(), kv.value.clone()?))).collect())
         .unwrap_or_default();
-    let schema = builder.schema().clone();
+    let schema = meta.schema().clone();
     let schema_id = kv
         .get(gradtac_io::records::SCHEMA_KEY)
         .or_else(|| schema.metadata().get(gradtac_io::records::SCHEMA_KEY))
@@ -666,8 +679,31 @@ fn open_parquet(path: &Path) -> R<Opened> {
     if !KNOWN.contains(&schema_id.as_str()) {
         return Err(PlotErr(format!("unknown schema {schema_id:?} (known: {})", KNOWN.join(", "))));
     }
-    let rows = usize::try_from(builder.metadata().file_metadata().num_rows()).unwrap_or(0);
-    Ok(Opened { builder, kv, schema, schema_id, rows })
+    let rows =
+        usize::try_from(fm.num_rows()).map_err(|_| PlotErr(format!("malformed footer: {} rows", fm.num_rows())))?;
+    let len = file.metadata().map_err(|e| PlotErr(format!("cannot open: {e}")))?.len();
+    let mut in_groups = 0usize;
+    for (i, rg) in meta.metadata().row_groups().iter().enumerate() {
+        let n = usize::try_from(rg.num_rows())
+            .map_err(|_| PlotErr(format!("malformed footer: row group {i} has {} rows", rg.num_rows())))?;
+        in_groups = in_groups.saturating_add(n);
+        // where the reader will seek: inside the file (the parquet crate asserts non-negative)
+        for (j, c) in rg.columns().iter().enumerate() {
+            let start = c.dictionary_page_offset().unwrap_or(c.data_page_offset());
+            let size = c.compressed_size();
+            let end = u64::try_from(start).ok().zip(u64::try_from(size).ok()).and_then(|(a, b)| a.checked_add(b));
+            if end.is_none_or(|e| e > len) {
+                return Err(PlotErr(format!(
+                    "malformed footer: row group {i} column {j} at byte {start} ({size} bytes) lies outside the file \
+                     ({len} bytes)"
+                )));
+            }
+        }
+    }
+    if in_groups != rows {
+        return Err(PlotErr(format!("malformed footer: {rows} rows in the file, {in_groups} in its row groups")));
+    }
+    Ok(Opened { file, meta, kv, schema, schema_id, rows })
 }
 
 /// The decimation stride for `total_rows` rows of a table (`None`: read them all). Large
@@ -701,14 +737,36 @@ fn every_kth(rows: usize, first: usize, k: usize) -> RowSelection {
     RowSelection::from(sel)
 }
 
-/// Read an opened file's rows: all, or those [`every_kth`] selects.
+/// Read an opened file's rows: all, or those [`every_kth`] selects; `first` is the index of
+/// the file's first row in the whole table.
+///
+/// Row groups are read one at a time, so an error names its row group; a panic inside the
+/// parquet / arrow crates on malformed data (an upstream bug) is contained and reported as
+/// that row group's error (see [`gradtac_io::contain`]).
 fn read_rows(o: Opened, first: usize, stride: Option<usize>) -> R<Vec<RecordBatch>> {
-    let builder = match stride {
-        Some(k) => o.builder.with_row_selection(every_kth(o.rows, first, k)),
-        None => o.builder,
-    };
-    let reader = builder.build().map_err(|e| PlotErr(format!("cannot read: {e}")))?;
-    reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| PlotErr(format!("cannot read rows: {e}")))
+    let mut batches = Vec::new();
+    let mut start = 0usize;
+    for (i, rg) in o.meta.metadata().row_groups().iter().enumerate() {
+        let at = |e: String| PlotErr(format!("row group {i}: {e}"));
+        let n = rg.num_rows() as usize; // checked non-negative by `open_parquet`
+        let file = o.file.try_clone().map_err(|e| at(format!("cannot read: {e}")))?;
+        let builder = ParquetRecordBatchReaderBuilder::new_with_metadata(file, o.meta.clone()).with_row_groups(vec![i]);
+        let builder = match stride {
+            Some(k) => builder.with_row_selection(every_kth(n, first + start, k)),
+            None => builder,
+        };
+        let read = gradtac_io::contain::contain(|| -> std::result::Result<Vec<RecordBatch>, String> {
+            let reader = builder.build().map_err(|e| format!("cannot read: {e}"))?;
+            reader.collect::<std::result::Result<Vec<_>, _>>().map_err(|e| format!("cannot read rows: {e}"))
+        });
+        match read {
+            Ok(Ok(b)) => batches.extend(b),
+            Ok(Err(e)) => return Err(at(e)),
+            Err(panic) => return Err(at(format!("malformed data (the parquet reader panicked: {panic})"))),
+        }
+        start += n;
+    }
+    Ok(batches)
 }
 
 fn read_file(path: &Path) -> R<Table> {
@@ -979,7 +1037,8 @@ fn limit_sensors<T>(mut s: Vec<(String, T)>, notes: &mut Vec<String>) -> Vec<(St
 }
 
 fn secs(t_ns: i64, t0: i64) -> f64 {
-    (t_ns - t0) as f64 * 1e-9
+    // i128: times from a file may span more than i64 nanoseconds
+    (i128::from(t_ns) - i128::from(t0)) as f64 * 1e-9
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -292,13 +292,37 @@ pub type IpcBatches = Box<dyn Iterator<Item = std::result::Result<RecordBatch, A
 pub fn open(config: &ArrowIpcConfig, sensor: SensorId) -> Result<BatchFrames<IpcBatches>> {
     let layout = config.layout(sensor)?;
     let path = &config.path;
+    let f = File::open(path).map_err(|source| Error::Io { path: path.clone(), source })?;
+    open_reader(f, path, config.format, layout)
+}
+
+/// Frames from the Arrow IPC file or stream `reader` holds (a [`File`], or bytes in memory
+/// through [`std::io::Cursor`]); `origin` names it in errors.
+///
+/// The metadata the arrow-ipc readers trust is checked first: every block of a file's
+/// footer lies inside the file, every message's body inside the data, every buffer inside
+/// its message's body (an error names the block or message). The readers then run with
+/// their validation on (every array's buffers, offsets,
+/// dictionary keys and UTF-8 are checked before use). A panic inside them on malformed
+/// input (an upstream bug: they should return an error) is contained: it becomes an
+/// [`Error::Arrow`] naming `origin` and the batch, and the reader is not used again (see
+/// [`contain`](crate::contain)).
+pub fn open_reader<R>(
+    mut reader: R,
+    origin: impl Into<PathBuf>,
+    format: IpcFormat,
+    layout: BatchLayout,
+) -> Result<BatchFrames<IpcBatches>>
+where
+    R: Read + Seek + Send + 'static,
+{
+    let path: PathBuf = origin.into();
     let io = |source| Error::Io { path: path.clone(), source };
-    let mut f = File::open(path).map_err(io)?;
-    let format = match config.format {
+    let format = match format {
         IpcFormat::Auto => {
             let mut magic = [0u8; 6];
-            let n = f.read(&mut magic).map_err(io)?;
-            f.seek(SeekFrom::Start(0)).map_err(io)?;
+            let n = read_up_to(&mut reader, &mut magic).map_err(io)?;
+            reader.seek(SeekFrom::Start(0)).map_err(io)?;
             if n == 6 && &magic == b"ARROW1" {
                 IpcFormat::File
             } else {
@@ -307,15 +331,73 @@ pub fn open(config: &ArrowIpcConfig, sensor: SensorId) -> Result<BatchFrames<Ipc
         }
         other => other,
     };
-    let arrow = |e: ArrowError| Error::Arrow {
-        context: format!("{}: reading Arrow IPC", path.display()),
-        reason: e.to_string(),
+    // the metadata the readers would trust, checked first (see `ipc_check`)
+    let len = reader.seek(SeekFrom::End(0)).map_err(io)?;
+    reader.seek(SeekFrom::Start(0)).map_err(io)?;
+    let checked = match format {
+        IpcFormat::File => crate::ipc_check::check_file(&mut reader, len),
+        _ => crate::ipc_check::check_stream(&mut reader, len),
     };
+    checked.map_err(|reason| Error::Arrow { context: format!("{}: reading Arrow IPC", path.display()), reason })?;
+    reader.seek(SeekFrom::Start(0)).map_err(io)?;
     let batches: IpcBatches = match format {
-        IpcFormat::File => Box::new(arrow_ipc::reader::FileReader::try_new_buffered(f, None).map_err(arrow)?),
-        _ => Box::new(arrow_ipc::reader::StreamReader::try_new(BufReader::new(f), None).map_err(arrow)?),
+        IpcFormat::File => {
+            let r = reader_call(&path, || arrow_ipc::reader::FileReader::try_new_buffered(reader, None))?;
+            Box::new(Contained(Some(r)))
+        }
+        _ => {
+            let r = reader_call(&path, || arrow_ipc::reader::StreamReader::try_new(BufReader::new(reader), None))?;
+            Box::new(Contained(Some(r)))
+        }
     };
     Ok(BatchFrames::new(batches, path, layout))
+}
+
+/// Fill `buf` as far as `reader` allows; the number of bytes read.
+fn read_up_to(reader: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match reader.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
+
+/// Open an IPC reader (it reads the schema, and for the file format the footer), its
+/// errors and contained panics named after `path`.
+fn reader_call<T>(path: &Path, open: impl FnOnce() -> std::result::Result<T, ArrowError>) -> Result<T> {
+    let fail = |reason: String| Error::Arrow { context: format!("{}: reading Arrow IPC", path.display()), reason };
+    match crate::contain::contain(open) {
+        Ok(Ok(r)) => Ok(r),
+        Ok(Err(e)) => Err(fail(e.to_string())),
+        Err(panic) => Err(fail(format!("malformed IPC data (the arrow-ipc reader panicked: {panic})"))),
+    }
+}
+
+/// An IPC batch reader whose panics are contained: a panic ends the iteration with one
+/// error (the decoder names the batch).
+struct Contained<I>(Option<I>);
+
+impl<I> Iterator for Contained<I>
+where
+    I: Iterator<Item = std::result::Result<RecordBatch, ArrowError>>,
+{
+    type Item = std::result::Result<RecordBatch, ArrowError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let inner = self.0.as_mut()?;
+        match crate::contain::contain(|| inner.next()) {
+            Ok(item) => item,
+            Err(panic) => {
+                self.0 = None;
+                Some(Err(ArrowError::IpcError(format!("malformed IPC data (the arrow-ipc reader panicked: {panic})"))))
+            }
+        }
+    }
 }
 
 impl<I> BatchFrames<I>
@@ -543,7 +625,8 @@ impl Stage for BatchDecoder {
 
     /// Decode one batch; on `Err` (a bad row) the frames of that batch are not emitted.
     fn push(&mut self, batch: RecordBatch, out: &mut Vec<TaxelFrame>) -> Result<()> {
-        let mut buf = Vec::with_capacity(batch.num_rows());
+        // not `num_rows()`: a batch header may claim billions of rows that no column holds
+        let mut buf = Vec::with_capacity(batch.num_rows().min(4096));
         self.decode(&batch, &mut buf)?;
         out.append(&mut buf);
         Ok(())
@@ -561,6 +644,9 @@ impl Stage for BatchDecoder {
 }
 
 // ---- column access --------------------------------------------------------------------------
+
+/// The most entries a dictionary-encoded `sensor` column may hold (distinct sensor names).
+pub const MAX_SENSOR_DICTIONARY: usize = 65_536;
 
 /// A string column of any Arrow string type.
 enum StrCol<'a> {
@@ -580,7 +666,7 @@ impl StrCol<'_> {
                 if array.is_null(r) {
                     return None;
                 }
-                values.get(keys[r])
+                values.get(*keys.get(r)?)
             }
         }
     }
@@ -598,8 +684,15 @@ fn str_col(a: &dyn Array) -> std::result::Result<StrCol<'_>, String> {
     } else if let Some(s) = a.as_string_view_opt() {
         Ok(StrCol::View(s))
     } else if let Some(d) = a.as_any_dictionary_opt() {
+        let n = d.values().len();
+        if n > MAX_SENSOR_DICTIONARY {
+            return Err(format!("a dictionary of {n} sensor names (at most {MAX_SENSOR_DICTIONARY})"));
+        }
         let values = Box::new(str_col(d.values().as_ref())?);
-        Ok(StrCol::Dict { keys: d.normalized_keys(), array: a, values })
+        // `normalized_keys` asserts a non-empty dictionary; with an empty one (a zero-row
+        // batch, or every key null: validation rejects a valid key into it) no key is read.
+        let keys = if n == 0 { Vec::new() } else { d.normalized_keys() };
+        Ok(StrCol::Dict { keys, array: a, values })
     } else {
         Err(format!("type {} is not a string type", a.data_type()))
     }
@@ -796,10 +889,14 @@ fn time_col(a: &ArrayRef, unit: TimeUnit) -> std::result::Result<TimeCol<'_>, St
 
 /// Read an Arrow IPC file's schema without reading its batches (for `gradtac explain`).
 pub fn ipc_schema(path: &Path) -> Result<arrow_schema::SchemaRef> {
-    let f = File::open(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
-    let r = arrow_ipc::reader::FileReader::try_new_buffered(f, None).map_err(|e| Error::Arrow {
-        context: format!("{}: reading Arrow IPC", path.display()),
-        reason: e.to_string(),
-    })?;
+    let io = |source| Error::Io { path: path.to_owned(), source };
+    let mut f = File::open(path).map_err(io)?;
+    // the reader reads the footer and the dictionaries: their metadata checked first
+    let len = f.seek(SeekFrom::End(0)).map_err(io)?;
+    f.seek(SeekFrom::Start(0)).map_err(io)?;
+    crate::ipc_check::check_file(&mut f, len)
+        .map_err(|reason| Error::Arrow { context: format!("{}: reading Arrow IPC", path.display()), reason })?;
+    f.seek(SeekFrom::Start(0)).map_err(io)?;
+    let r = reader_call(path, || arrow_ipc::reader::FileReader::try_new_buffered(f, None))?;
     Ok(r.schema())
 }

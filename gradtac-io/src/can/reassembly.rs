@@ -198,7 +198,8 @@ impl CanDecoder {
             .iter()
             .enumerate()
             .filter(|(_, s)| s.open)
-            .map(|(i, s)| s.first_time + self.codec.sensor(i).timeout_ns)
+            // saturating: frame times come from the bus or a log and may lie anywhere in i64
+            .map(|(i, s)| Timestamp(s.first_time.0.saturating_add(self.codec.sensor(i).timeout_ns)))
             .min()
     }
 
@@ -215,7 +216,7 @@ impl CanDecoder {
         self.clock = Some(clock);
         for i in 0..self.sets.len() {
             let s = &self.sets[i];
-            if s.open && clock - s.first_time > self.codec.sensor(i).timeout_ns {
+            if s.open && clock.0.saturating_sub(s.first_time.0) > self.codec.sensor(i).timeout_ns {
                 self.close(i, Some(Why::Timeout), st, out);
             }
         }

@@ -135,7 +135,7 @@ where
                     self.expiry = None;
                     if let Some(p) = self.pace.as_mut() {
                         let (t0, i0) = *p.origin.get_or_insert((frame.time(), Instant::now()));
-                        let dt = (frame.time() - t0).max(0) as f64 / p.speed;
+                        let dt = frame.time().0.saturating_sub(t0.0).max(0) as f64 / p.speed;
                         // a gap beyond what an Instant can hold is shortened to 30 days
                         let gap = Duration::from_nanos(dt.min(u64::MAX as f64) as u64);
                         let due = i0.checked_add(gap).unwrap_or_else(|| i0 + Duration::from_secs(30 * 86_400));

@@ -1,0 +1,230 @@
+//! Write a small seed corpus per fuzz target (valid inputs of every kind, so mutations start
+//! deep inside the readers): `seeds <corpus-dir>` writes `<corpus-dir>/<target>/seed-*`.
+//! The corpus is generated, not committed (see `docs/fuzzing.md`).
+
+// Built with the targets' coverage instrumentation, which libFuzzer's runtime resolves.
+extern crate libfuzzer_sys;
+
+use arrow_array::builder::{FixedSizeListBuilder, Float64Builder, StringDictionaryBuilder};
+use arrow_array::types::Int32Type;
+use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch, StringArray};
+use gradtac_io::can::{write_candump, CanCodec, CanEncoder, CodecConfig, OutOfRangePolicy, PresetConfig, PresetKind};
+use gradtac_io::records::FrameShape;
+use gradtac_io::records::SurfaceShape;
+use gradtac_io::{ArrowRecord, ParquetSink};
+use gradtac_stages::contour::{Contour, ContourConfig};
+use gradtac_stages::dos::{DosClass, DosFeatureConfig, DosModel, Feature};
+use gradtac_stages::events::{Events, EventsConfig, Threshold};
+use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
+use gradtac_stages::sim::{Scene as SimScene, SensorModel, Simulator, Trajectory};
+use gradtac_stages::track::{Track, TrackConfig};
+use gradtac_stages::window::{Aggregate, Window, WindowConfig};
+use gradtac_stream::{Layout, StageExt, TaxelFrame};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+fn put(dir: &Path, target: &str, name: &str, bytes: &[u8]) {
+    let d = dir.join(target);
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join(format!("seed-{name}")), bytes).unwrap();
+}
+
+fn with_mode(mode: u8, body: &[u8]) -> Vec<u8> {
+    let mut v = vec![mode];
+    v.extend_from_slice(body);
+    v
+}
+
+fn npy(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
+    let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
+    let shape = if dims.len() == 1 { format!("({},)", dims[0]) } else { format!("({})", dims.join(", ")) };
+    let mut header = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut v = b"\x93NUMPY\x01\x00".to_vec();
+    v.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    v.extend_from_slice(header.as_bytes());
+    v.extend_from_slice(data);
+    v
+}
+
+fn ipc(batch: &RecordBatch, file: bool) -> Vec<u8> {
+    let mut buf = Vec::new();
+    if file {
+        let mut w = arrow_ipc::writer::FileWriter::try_new(&mut buf, &batch.schema()).unwrap();
+        w.write(batch).unwrap();
+        w.write(batch).unwrap();
+        w.finish().unwrap();
+    } else {
+        let mut w = arrow_ipc::writer::StreamWriter::try_new(&mut buf, &batch.schema()).unwrap();
+        w.write(batch).unwrap();
+        w.finish().unwrap();
+    }
+    buf
+}
+
+fn parquet<T: ArrowRecord>(dir: &Path, name: &str, shape: T::Shape, records: &[T], layout: &Layout) {
+    let tmp = std::env::temp_dir().join(format!("gradtac-seed-{}-{name}.parquet", std::process::id()));
+    let mut sink = ParquetSink::<T>::try_new(&tmp, shape).unwrap().with_row_group_size(8).unwrap();
+    sink.set_metadata("gradtac.layout", layout.to_csv());
+    for r in records {
+        sink.push(r).unwrap();
+    }
+    sink.finish().unwrap();
+    put(dir, "plot_parquet", name, &std::fs::read(&tmp).unwrap());
+    std::fs::remove_file(&tmp).unwrap();
+}
+
+fn main() {
+    let dir = PathBuf::from(std::env::args().nth(1).expect("usage: seeds <corpus-dir>"));
+    let layout = Layout::biotac_sp();
+    let sim = Simulator::try_new(layout.clone(), SensorModel::default(), 3).unwrap();
+    let rec = sim.run(&SimScene::trajectory(Trajectory::CircleCcw, 2.0, 4.0, &layout)).unwrap();
+    let frames: Vec<TaxelFrame> = rec.taxel_frames().into_iter().take(40).collect();
+
+    // CSV: header + a few rows, at a rate, with a time column in s and in ns, `;`-separated.
+    let mut csv = String::from("t,e1,e2,e3\n");
+    for (k, f) in frames.iter().take(6).enumerate() {
+        csv += &format!("{},{},{},{}\n", k as f64 * 0.01, f.values[0], f.values[1], f.values[2]);
+    }
+    put(&dir, "csv_source", "rate", &with_mode(1, csv.as_bytes()));
+    put(&dir, "csv_source", "time-s", &with_mode(5, csv.as_bytes()));
+    put(&dir, "csv_source", "semicolon", &with_mode(16 | 5, csv.replace(',', ";").as_bytes()));
+    put(&dir, "csv_source", "time-ns", &with_mode(8, b"time_ns,a,b\n0,1.5,2\n10000000,1e3,-4\n"));
+    put(&dir, "csv_source", "quoted", &with_mode(2, b"\"a\",\"b\"\n\"1\",2\n3,\"4\"\n"));
+
+    // NumPy: f64 / i16 values at a rate, and with f64 / i64 timestamps.
+    let vals: Vec<u8> =
+        frames.iter().take(5).flat_map(|f| f.values[..4].iter().flat_map(|v| v.to_le_bytes())).collect();
+    let f64s = npy("<f8", &[5, 4], &vals);
+    put(&dir, "npy", "f8", &f64s);
+    put(&dir, "npy", "i2", &npy("<i2", &[3, 2], &[1, 0, 2, 0, 3, 0, 4, 0, 5, 0, 6, 0]));
+    let ts: Vec<u8> = (0..5).flat_map(|k| (k as f64 * 0.01).to_le_bytes()).collect();
+    let mut with_ts = f64s.clone();
+    with_ts.extend_from_slice(b"TIMESTAMPS");
+    with_ts.extend_from_slice(&npy("<f8", &[5], &ts));
+    put(&dir, "npy", "f8-times", &with_ts);
+    let mut with_its = f64s;
+    with_its.extend_from_slice(b"TIMESTAMPS");
+    let its: Vec<u8> = (0..5i64).flat_map(|k| k.to_le_bytes()).collect();
+    with_its.extend_from_slice(&npy("<i8", &[5], &its));
+    put(&dir, "npy", "f8-itimes", &with_its);
+
+    // Arrow IPC: long (utf8 and dictionary sensor, fixed-size-list values), wide, zero rows.
+    let long = |dict: bool, rows: usize| {
+        let sensor: ArrayRef = if dict {
+            let mut b = StringDictionaryBuilder::<Int32Type>::new();
+            for k in 0..rows {
+                b.append_value(if k % 2 == 0 { "ff" } else { "th" });
+            }
+            Arc::new(b.finish())
+        } else {
+            Arc::new(StringArray::from_iter_values((0..rows).map(|k| if k % 2 == 0 { "ff" } else { "th" })))
+        };
+        let time: ArrayRef = Arc::new(Int64Array::from_iter_values((0..rows as i64).map(|k| k * 10_000_000)));
+        let mut vb = FixedSizeListBuilder::new(Float64Builder::new(), 3);
+        for k in 0..rows {
+            vb.values().append_slice(&[k as f64, 2.0, 3.5]);
+            vb.append(true);
+        }
+        let values: ArrayRef = Arc::new(vb.finish());
+        RecordBatch::try_from_iter([("sensor", sensor), ("time_ns", time), ("values", values)]).unwrap()
+    };
+    let wide = {
+        let col = |j: usize| -> ArrayRef { Arc::new(Float64Array::from_iter_values((0..4).map(|k| (k * j) as f64))) };
+        let t: ArrayRef = Arc::new(Float64Array::from_iter_values((0..4).map(|k| k as f64 * 0.01)));
+        RecordBatch::try_from_iter([("t", t), ("e1", col(1)), ("e2", col(2)), ("e3", col(3))]).unwrap()
+    };
+    for (name, batch, mode) in [
+        ("long", long(false, 4), 0u8),
+        ("dict", long(true, 4), 1),
+        ("empty-dict", long(true, 0), 0),
+        ("wide", wide.clone(), 2),
+    ] {
+        put(&dir, "arrow_ipc", &format!("{name}-file"), &with_mode(mode, &ipc(&batch, true)));
+        put(&dir, "arrow_ipc", &format!("{name}-stream"), &with_mode(mode | 8, &ipc(&batch, false)));
+    }
+    put(&dir, "arrow_ipc", "wide-time", &with_mode(3, &ipc(&wide, true)));
+
+    // CAN: the frames of a few sets for both presets, as candump logs and as binary frames.
+    for (k, kind) in [PresetKind::BiotacMux, PresetKind::XelaUskin].into_iter().enumerate() {
+        let codec = CanCodec::try_new(&CodecConfig::preset(PresetConfig::new(kind, &["ff", "mf"]))).unwrap();
+        let taxels = codec.taxels(0);
+        let mut enc = CanEncoder::new(codec).with_out_of_range(OutOfRangePolicy::Clamp);
+        let mut can = Vec::new();
+        for f in frames.iter().take(3) {
+            let values: Vec<f64> = (0..taxels).map(|j| f.values[j % f.values.len()]).collect();
+            for s in 0..2 {
+                let _ = enc.encode(s, &values, f.time, &mut can);
+            }
+        }
+        let mut log = Vec::new();
+        write_candump(can.iter().copied(), "can0", &mut log).unwrap();
+        put(&dir, "candump", kind.as_str(), &with_mode(k as u8, &log));
+        let mut bin = Vec::new();
+        let mut last = 0i64;
+        for f in &can {
+            bin.extend_from_slice(&f.id().to_le_bytes());
+            bin.push((u8::from(f.is_extended()) << 7) | f.len() as u8);
+            bin.extend_from_slice(f.data());
+            bin.extend_from_slice(&(f.time().0 - last).to_le_bytes());
+            last = f.time().0;
+        }
+        put(&dir, "can_frames", kind.as_str(), &bin);
+    }
+
+    // Scenes: the demo's, and one per source kind with every output.
+    put(&dir, "scene", "demo", gradtac::demo::DEMO_SCENE.as_bytes());
+    let outputs = ["normalise", "events", "window", "surface", "contour", "track", "force", "dos", "slip"]
+        .iter()
+        .map(|t| format!("[[output]]\ntap = \"{t}\"\npath = \"out/{t}.parquet\"\n"))
+        .collect::<String>();
+    for (name, source) in [
+        ("npy", "{ npy = \"v.npy\", rate_hz = 100.0 }"),
+        ("arrow", "{ arrow = \"v.arrow\", sensors = [\"ff\"] }"),
+        ("csv", "{ csv = \"r.csv\", columns = \"e{1..24}\", time_column = \"t\", time_unit = \"ms\" }"),
+    ] {
+        let scene = format!(
+            "[[sensor]]\nname = \"ff\"\nlayout = \"biotac-sp\"\nsource = {source}\n\n[stages.events]\nthreshold = 0.01\n\n{outputs}"
+        );
+        put(&dir, "scene", name, scene.as_bytes());
+    }
+
+    // Layout CSV.
+    put(&dir, "layout_csv", "biotac-sp", layout.to_csv().as_bytes());
+
+    // DoS model JSON.
+    let cfg = DosFeatureConfig { features: vec![Feature::TrackDx], ..Default::default() };
+    let samples: Vec<(DosClass, Vec<f64>)> = DosClass::ALL
+        .into_iter()
+        .enumerate()
+        .flat_map(|(k, c)| [(c, vec![k as f64]), (c, vec![k as f64 + 0.5])])
+        .collect();
+    let model = DosModel::calibrate(cfg, &samples).unwrap();
+    put(&dir, "dos_model", "one-feature", serde_json::to_string_pretty(&model).unwrap().as_bytes());
+
+    // Parquet files of the stages' outputs (what `gradtac plot` reads).
+    parquet(&dir, "frames", FrameShape::from_layout(&layout), &frames, &layout);
+    let mut ev =
+        Events::try_new(24, EventsConfig { threshold: Threshold::Uniform(0.002), ..Default::default() }).unwrap();
+    let batches = ev.run_all(frames.clone()).unwrap();
+    parquet(&dir, "events", FrameShape::from_layout(&layout), &batches, &layout);
+    let mut w =
+        Window::try_new(&WindowConfig { frames: Some(5), aggregate: Aggregate::Count, ..Default::default() }).unwrap();
+    let windows = w.run_all(batches).unwrap();
+    parquet(&dir, "window", FrameShape::from_layout(&layout), &windows, &layout);
+    let icfg = InterpolateConfig { grid: GridConfig { nx: 8, ..Default::default() }, ..Default::default() };
+    let surfaces = Interpolate::try_new(&icfg, &layout).unwrap().run_all(windows).unwrap();
+    let grid = surfaces[0].grid.clone();
+    parquet(&dir, "surface", SurfaceShape::new(grid), &surfaces, &layout);
+    let contours = Contour::try_new(&ContourConfig { min_peak: 1.0, min_area_mm2: 5.0, ..Default::default() })
+        .unwrap()
+        .run_all(surfaces)
+        .unwrap();
+    parquet(&dir, "contour", (), &contours, &layout);
+    let points = Track::try_new(&TrackConfig::default()).unwrap().run_all(contours).unwrap();
+    parquet(&dir, "track", (), &points, &layout);
+    println!("seeds written to {}", dir.display());
+}
