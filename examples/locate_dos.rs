@@ -16,6 +16,11 @@
 //! the first argument; the example exits quietly when it is absent.
 //!
 //! Run: `cargo run --release --example locate_dos [-- DIR] [--locate "contact_sigmas = 8; window_frames = 9"]`.
+//!
+//! Floors (CI runs this example, so a regression fails it; `--no-floors` skips them): for each
+//! scene, at least [`FLOOR_ABOVE_NOISE`] of the contact frames have a raw signal above noise,
+//! and the 99th percentile of the per-frame jump is at most [`FLOOR_P99_JUMP_MM`]. They sit a
+//! little beyond what the defaults measured (97.0 % and 0.44 mm).
 
 use arrow_array::{Array, Float64Array};
 use gradtac::run::{run_blocking, RunOptions};
@@ -23,6 +28,11 @@ use gradtac::{Plan, Scene};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+
+/// Least share of contact frames whose raw signal rises above noise (measured: 97.0 %).
+const FLOOR_ABOVE_NOISE: f64 = 0.95;
+/// Largest 99th percentile of the per-frame jump, mm at 100 Hz (measured: 0.44 mm).
+const FLOOR_P99_JUMP_MM: f64 = 0.55;
 
 fn recordings(root: &Path) -> Vec<(String, PathBuf)> {
     let mut out = Vec::new();
@@ -109,6 +119,8 @@ fn main() {
         .find(|w| w[0] == "--locate")
         .map(|w| format!("[stages.locate]\n{}\n", w[1].replace(';', "\n")))
         .unwrap_or_default();
+    let floors = !args.iter().any(|a| a == "--no-floors");
+    let mut below = Vec::new();
     for (label, stages) in
         [("bare default scene", ""), ("README's scene", "[stages.normalise]\ncalibrate_frames = 20\n")]
     {
@@ -152,6 +164,18 @@ fn main() {
             jumps.extend(rj);
         }
         let n = jumps.len();
+        let above_share = contact_above as f64 / contact.max(1) as f64;
+        let p99_jump = pct(&mut jumps.clone(), 0.99);
+        if above_share < FLOOR_ABOVE_NOISE {
+            below.push(format!(
+                "{label}: {:.1} % of contact frames above noise < {:.0} %",
+                100.0 * above_share,
+                100.0 * FLOOR_ABOVE_NOISE
+            ));
+        }
+        if !(p99_jump <= FLOOR_P99_JUMP_MM) {
+            below.push(format!("{label}: p99 jump {p99_jump:.3} mm > {FLOOR_P99_JUMP_MM} mm"));
+        }
         println!("## {label} on {} recordings ({frames} frames, {secs:.1} s wall)", recs.len());
         println!();
         println!(
@@ -181,4 +205,8 @@ fn main() {
         println!();
     }
     let _ = std::fs::remove_dir_all(&tmp);
+    if floors && !below.is_empty() {
+        eprintln!("locate_dos: below the floors:\n  {}", below.join("\n  "));
+        std::process::exit(1);
+    }
 }
