@@ -32,6 +32,12 @@ fn read_long(bytes: Vec<u8>) -> Result<usize, String> {
 
 /// A long-layout batch of `rows` rows whose `sensor` column is dictionary-encoded.
 fn dictionary_batch(rows: usize) -> RecordBatch {
+    dictionary_batch_from(rows, 0)
+}
+
+/// As [`dictionary_batch`], with times starting at `t0_ns` (so batches can follow each other in
+/// time: the source refuses a sensor's time going backwards).
+fn dictionary_batch_from(rows: usize, t0_ns: i64) -> RecordBatch {
     let mut sensor = StringDictionaryBuilder::<Int32Type>::new();
     let mut values = FixedSizeListBuilder::new(Float64Builder::new(), 2);
     for k in 0..rows {
@@ -41,7 +47,7 @@ fn dictionary_batch(rows: usize) -> RecordBatch {
     }
     RecordBatch::try_from_iter([
         ("sensor", Arc::new(sensor.finish()) as ArrayRef),
-        ("time_ns", Arc::new(Int64Array::from_iter_values((0..rows as i64).map(|k| k * 1000))) as ArrayRef),
+        ("time_ns", Arc::new(Int64Array::from_iter_values((0..rows as i64).map(|k| t0_ns + k * 1000))) as ArrayRef),
         ("values", Arc::new(values.finish()) as ArrayRef),
     ])
     .unwrap()
@@ -74,7 +80,7 @@ fn ipc_stream(batches: &[RecordBatch]) -> Vec<u8> {
 fn ipc_zero_row_dictionary_sensor_is_an_empty_source() {
     assert_eq!(read_long(ipc_file(&dictionary_batch(0))), Ok(0));
     // an empty batch (and its empty dictionary) between full ones changes nothing
-    let b = [dictionary_batch(3), dictionary_batch(0), dictionary_batch(2)];
+    let b = [dictionary_batch(3), dictionary_batch(0), dictionary_batch_from(2, 10_000)];
     assert_eq!(read_long(ipc_stream(&b)), Ok(5));
 }
 
