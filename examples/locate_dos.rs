@@ -105,6 +105,8 @@ fn main() {
         .nth(1)
         .map(PathBuf::from)
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/biotacsp-dos"));
+    // the scenes live in a scratch directory and resolve relative paths against it
+    let root = std::fs::canonicalize(&root).unwrap_or(root);
     let recs = recordings(&root);
     if recs.is_empty() {
         eprintln!("skipped: no recordings under {}", root.display());
