@@ -17,7 +17,8 @@ use super::decode::{decode, Value, Wire};
 use super::msgdef::{Arity, Dialect, FieldType, Primitive, Schema};
 use super::{Finger, StampSource};
 use gradtac_stream::{SensorId, TaxelFrame, Timestamp};
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
+use std::path::Path;
 use std::sync::Arc;
 
 /// Where the electrodes and the stamp are in a decoded message.
@@ -307,5 +308,46 @@ impl Demux {
             }
         }
         Ok(())
+    }
+}
+
+/// The `Iterator::next` shared by the ROS bag and MCAP readers: both decode messages into a
+/// queue of frames through a [`Demux`], and at the end of the file report a requested topic
+/// that never appeared. The first error ends the iteration.
+pub(crate) trait QueuedFrames {
+    /// Decode messages until a frame is queued (`Ok(true)`) or the file ends (`Ok(false)`).
+    fn decode_more(&mut self) -> crate::Result<bool>;
+    /// The queue of decoded frames and whether the reader has ended.
+    fn queue(&mut self) -> (&mut VecDeque<TaxelFrame>, &mut bool);
+    /// The demultiplexer (for the end-of-file topic check).
+    fn demux(&self) -> &Demux;
+    /// The file (for errors).
+    fn path(&self) -> &Path;
+
+    /// The next frame, or the error that ends the iteration.
+    fn next_frame(&mut self) -> Option<crate::Result<TaxelFrame>> {
+        loop {
+            let (pending, done) = self.queue();
+            if let Some(f) = pending.pop_front() {
+                return Some(Ok(f));
+            }
+            if *done {
+                return None;
+            }
+            let r = self.decode_more();
+            if !matches!(r, Ok(true)) {
+                *self.queue().1 = true;
+            }
+            match r {
+                Ok(true) => {}
+                Ok(false) => {
+                    if let Err(reason) = self.demux().check_topics() {
+                        let path = self.path().to_path_buf();
+                        return Some(Err(crate::Error::Bag { path, site: Box::default(), reason }));
+                    }
+                }
+                Err(e) => return Some(Err(e)),
+            }
+        }
     }
 }

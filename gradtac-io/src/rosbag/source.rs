@@ -3,7 +3,7 @@
 
 use super::bag::BagReader;
 use super::decode::Wire;
-use super::extract::{BagSensor, Demux, Fault};
+use super::extract::{BagSensor, Demux, Fault, QueuedFrames};
 use super::msgdef::Dialect;
 use crate::error::BagSite;
 use crate::{Error, Result};
@@ -82,31 +82,28 @@ impl RosbagFrames {
     }
 }
 
+impl QueuedFrames for RosbagFrames {
+    fn decode_more(&mut self) -> Result<bool> {
+        self.fill()
+    }
+
+    fn queue(&mut self) -> (&mut VecDeque<TaxelFrame>, &mut bool) {
+        (&mut self.pending, &mut self.done)
+    }
+
+    fn demux(&self) -> &Demux {
+        &self.demux
+    }
+
+    fn path(&self) -> &Path {
+        self.reader.path()
+    }
+}
+
 impl Iterator for RosbagFrames {
     type Item = Result<TaxelFrame>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        loop {
-            if let Some(f) = self.pending.pop_front() {
-                return Some(Ok(f));
-            }
-            if self.done {
-                return None;
-            }
-            match self.fill() {
-                Ok(true) => {}
-                Ok(false) => {
-                    self.done = true;
-                    if let Err(reason) = self.demux.check_topics() {
-                        let path = self.reader.path().to_path_buf();
-                        return Some(Err(Error::Bag { path, site: Box::default(), reason }));
-                    }
-                }
-                Err(e) => {
-                    self.done = true;
-                    return Some(Err(e));
-                }
-            }
-        }
+        self.next_frame()
     }
 }
