@@ -812,25 +812,33 @@ impl<I> Interpolate<I> {
     }
 }
 
+/// The checks every surface stage makes on its input (`Interpolate`, and the fused
+/// [`SurfaceContour`](crate::peak::SurfaceContour)): `taxels` values, all finite. Errors name
+/// the `interpolate` stage, sensor, frame and taxel.
+pub(crate) fn check_input<I: TaxelValues>(input: &I, taxels: usize) -> Result<()> {
+    let v = input.taxel_values();
+    crate::error::check_taxel_count(STAGE, input.sensor(), input.seq(), taxels, v.len())?;
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(k) => Err(Error::BadValue {
+            stage: STAGE,
+            sensor: input.sensor().to_string(),
+            seq: input.seq(),
+            taxel: k,
+            value: v[k],
+            reason: "not finite",
+        }),
+        None => Ok(()),
+    }
+}
+
 impl<I: TaxelValues> Stage for Interpolate<I> {
     type In = I;
     type Out = Surface;
     type Error = Error;
 
     fn push(&mut self, input: I, out: &mut Vec<Surface>) -> Result<()> {
+        check_input(&input, self.interp.table.taxels())?;
         let v = input.taxel_values();
-        let n = self.interp.table.taxels();
-        crate::error::check_taxel_count(STAGE, input.sensor(), input.seq(), n, v.len())?;
-        if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-            return Err(Error::BadValue {
-                stage: STAGE,
-                sensor: input.sensor().to_string(),
-                seq: input.seq(),
-                taxel: k,
-                value: v[k],
-                reason: "not finite",
-            });
-        }
         let (ny, nx) = (self.interp.grid.ny(), self.interp.grid.nx());
         let values = if self.incremental {
             let table = &self.interp.table;

@@ -551,19 +551,8 @@ impl<I: TaxelValues> Stage for SurfaceContour<I> {
     type Error = Error;
 
     fn push(&mut self, input: I, out: &mut Vec<ContourFrame>) -> Result<()> {
+        crate::interpolate::check_input(&input, self.finder.interp.table().taxels())?;
         let v = input.taxel_values();
-        let n = self.finder.interp.table().taxels();
-        crate::error::check_taxel_count(STAGE, input.sensor(), input.seq(), n, v.len())?;
-        if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-            return Err(Error::BadValue {
-                stage: STAGE,
-                sensor: input.sensor().to_string(),
-                seq: input.seq(),
-                taxel: k,
-                value: v[k],
-                reason: "not finite",
-            });
-        }
         let outcome = self.finder.find(v);
         let (start, end) = input.span();
         out.push(ContourFrame { sensor: input.sensor().clone(), start, end, seq: input.seq(), outcome });
