@@ -398,9 +398,14 @@ impl SensorChain {
             sinks.write_all(&self.taps[Tap::Dos as usize], &self.decisions)?;
             self.decisions.clear();
         }
-        // the contact-location front ends on the raw frames
+        // the contact-location front ends on the raw frames; the centroid (the default) takes
+        // them without a copy when nothing after it reads them
         if let Some(c) = &mut self.centroid {
-            feed(c, &mut self.raw.clone(), &mut self.contours, finish)?;
+            if self.raw_change.is_none() && self.normalise.is_none() {
+                feed(c, &mut self.raw, &mut self.contours, finish)?;
+            } else {
+                feed(c, &mut self.raw.clone(), &mut self.contours, finish)?;
+            }
         }
         if let Some(r) = &mut self.raw_change {
             feed(r, &mut self.raw.clone(), &mut self.windows, finish)?;
