@@ -33,7 +33,7 @@ use gradtac::stages::centroid::Centroid;
 use gradtac::stages::contour::{Contour, ContourConfig};
 use gradtac::stages::events::{Events, EventsConfig, Threshold};
 use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
-use gradtac::stages::locate::{LocateConfig, LocateMethod};
+use gradtac::stages::locate::LocateConfig;
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim_family::{FamilyRecording, Member, PathKind, Similarity};
@@ -47,29 +47,23 @@ use std::time::Instant;
 /// One setting of one method.
 #[derive(Clone, Debug)]
 enum Setting {
-    Centroid { window: u32, power: f64, top_k: Option<usize>, floor: f64, contact: f64, smooth: u32 },
+    Centroid { window: u32, power: f64, top_k: Option<usize>, floor: f64, contact: f64, smooth: u32, speed: f64 },
     Raw { grid: usize, window: u32, min_area: f64 },
     Events { grid: usize, window: u64, tau: f64, min_area: f64 },
 }
 
 impl Setting {
-    fn method(&self) -> LocateMethod {
-        match self {
-            Setting::Centroid { .. } => LocateMethod::Centroid,
-            Setting::Raw { .. } => LocateMethod::RawContour,
-            Setting::Events { .. } => LocateMethod::Events,
-        }
-    }
     fn cells(&self) -> [String; 5] {
         match self {
-            Setting::Centroid { window, power, top_k, floor, contact, smooth } => [
+            Setting::Centroid { window, power, top_k, floor, contact, smooth, speed } => [
                 "centroid".into(),
                 "—".into(),
                 window.to_string(),
                 "—".into(),
                 format!(
-                    "p = {power}{}, floor {floor} σ, contact {contact} σ, smooth {smooth}",
-                    top_k.map_or(String::new(), |k| format!(", top {k}"))
+                    "p = {power}{}, floor {floor} σ, contact {contact} σ, smooth {smooth}, {}",
+                    top_k.map_or(String::new(), |k| format!(", top {k}")),
+                    if *speed > 0.0 { format!("≤ {speed} mm/s") } else { "no speed bound".into() }
                 ),
             ],
             Setting::Raw { grid, window, min_area } => [
@@ -79,11 +73,12 @@ impl Setting {
                 "—".into(),
                 format!("min area {min_area} mm²"),
             ],
+            // τ < 0: noise-adaptive, τᵢ = |τ| σᵢ
             Setting::Events { grid, window, tau, min_area } => [
-                "event contour".into(),
+                if *tau < 0.0 { "event contour, τ from noise".into() } else { "event contour".into() },
                 format!("{grid}×{grid}"),
                 window.to_string(),
-                tau.to_string(),
+                if *tau < 0.0 { format!("{} σ", -tau) } else { tau.to_string() },
                 format!("min area {min_area} mm²"),
             ],
         }
@@ -113,8 +108,9 @@ fn run(
     let n = frames.len() as f64;
     let t0 = Instant::now();
     let pts = match s {
-        Setting::Centroid { window, power, top_k, floor, contact, smooth } => {
+        Setting::Centroid { window, power, top_k, floor, contact, smooth, speed } => {
             let cfg = LocateConfig {
+                max_speed_mm_s: *speed,
                 window_frames: *window,
                 power: *power,
                 top_k: *top_k,
@@ -156,8 +152,13 @@ fn run(
 
 fn front_end(layout: &Layout, rec: &FamilyRecording, tau: f64) -> (Vec<EventBatch>, f64) {
     let sg = SavGol::try_with_rate(layout.len(), SavGolConfig::default(), 100.0).unwrap();
-    let ev = Events::try_new(layout.len(), EventsConfig { threshold: Threshold::Uniform(tau), ..Default::default() })
-        .unwrap();
+    let threshold = if tau < 0.0 {
+        // the noise-adaptive τ calibrates over the same frames as the change detector
+        Threshold::Noise { noise_sigmas: -tau, calibrate_frames: LocateConfig::default().calibrate_frames }
+    } else {
+        Threshold::Uniform(tau)
+    };
+    let ev = Events::try_new(layout.len(), EventsConfig { threshold, ..Default::default() }).unwrap();
     let frames = rec.frames.clone();
     let n = frames.len() as f64;
     let t0 = Instant::now();
@@ -273,7 +274,8 @@ fn main() {
     let layout = Layout::biotac_sp();
     let width = layout.extent().width();
     let grids: &[usize] = if quick { &[16] } else { &[16, 32] };
-    let taus: &[f64] = if quick { &[0.001, 0.002] } else { &[0.0005, 0.001, 0.002, 0.004] };
+    // τ < 0: noise-adaptive, τᵢ = |τ| σᵢ of each taxel's measured noise
+    let taus: &[f64] = if quick { &[0.001, 0.002, -4.0] } else { &[0.0005, 0.001, 0.002, 0.004, -2.0, -4.0, -8.0] };
 
     let mut settings = Vec::new();
     for window in [1u32, 3, 5, 9] {
@@ -282,7 +284,17 @@ fn main() {
                 for floor in [2.0, 3.0, 4.0] {
                     for contact in [6.0, 10.0] {
                         for smooth in [1, 3] {
-                            settings.push(Setting::Centroid { window, power, top_k, floor, contact, smooth });
+                            for speed in [0.0, 30.0] {
+                                settings.push(Setting::Centroid {
+                                    window,
+                                    power,
+                                    top_k,
+                                    floor,
+                                    contact,
+                                    smooth,
+                                    speed,
+                                });
+                            }
                         }
                     }
                 }
@@ -376,11 +388,12 @@ fn main() {
     let mut chosen: Vec<&Row> = Vec::new();
     let eligible = |r: &&Row| r.tune.3 >= 0.9;
     let by_tuning = |a: &&Row, b: &&Row| a.tune.1.total_cmp(&b.tune.1).then(a.tune.0.total_cmp(&b.tune.0));
-    for m in [LocateMethod::Centroid, LocateMethod::RawContour, LocateMethod::Events] {
-        let best = rows.iter().filter(|r| r.s.method() == m).filter(eligible).min_by(by_tuning);
+    for label in ["centroid", "raw contour", "event contour", "event contour, τ from noise"] {
+        let of = |r: &&Row| r.s.cells()[0] == label;
+        let best = rows.iter().filter(of).filter(eligible).min_by(by_tuning);
         // one row per (grid, window, τ): its other settings chosen on the tuning members
         let mut keys: Vec<(String, String, String)> = Vec::new();
-        for r in rows.iter().filter(|r| r.s.method() == m) {
+        for r in rows.iter().filter(of) {
             let c = r.s.cells();
             let k = (c[1].clone(), c[2].clone(), c[3].clone());
             if !keys.contains(&k) {
@@ -390,7 +403,7 @@ fn main() {
         for k in keys {
             let group = rows.iter().filter(|r| {
                 let c = r.s.cells();
-                r.s.method() == m && (c[1].clone(), c[2].clone(), c[3].clone()) == k
+                c[0] == label && (c[1].clone(), c[2].clone(), c[3].clone()) == k
             });
             let Some(r) = group.clone().filter(eligible).min_by(by_tuning).or_else(|| group.min_by(by_tuning)) else {
                 continue;
@@ -441,9 +454,9 @@ fn main() {
     }
     let ld = LocateConfig::default();
     let lib_default = rows.iter().find(|r| {
-        matches!(r.s, Setting::Centroid { window, power, top_k, floor, contact, smooth }
+        matches!(r.s, Setting::Centroid { window, power, top_k, floor, contact, smooth, speed }
             if window == ld.window_frames && power == ld.power && top_k == ld.top_k && floor == ld.floor_sigmas
-                && contact == ld.contact_sigmas && smooth == ld.smooth_frames)
+                && contact == ld.contact_sigmas && smooth == ld.smooth_frames && speed == ld.max_speed_mm_s)
     });
     if let Some(r) = lib_default {
         let c = r.s.cells();
@@ -462,6 +475,13 @@ fn main() {
         println!(
             "Default method (lowest worst-kind error on the tuning members among methods at ≤ 5 µs/frame): {}.",
             d.s.cells()[0]
+        );
+    }
+    if let Some(r) = chosen.iter().find(|r| r.s.cells()[0] == "event contour, τ from noise") {
+        println!(
+            "Noise-adaptive event threshold chosen on the tuning members: τ = {} (`[stages.locate] event_tau_sigmas`; library default {}).",
+            r.s.cells()[3],
+            LocateConfig::default().event_tau_sigmas
         );
     }
     if let Some(d) = chosen.iter().min_by(|a, b| a.tune.1.total_cmp(&b.tune.1)) {

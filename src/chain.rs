@@ -82,6 +82,20 @@ fn describe_detector(l: &gradtac_stages::locate::LocateConfig) -> String {
     )
 }
 
+/// The event settings in effect: under `[stages.locate] method = "events"` with
+/// `event_tau_sigmas > 0` the threshold is measured from each taxel's noise
+/// ([`Threshold::Noise`]) over the locate calibration's frames.
+pub fn effective_events(st: &StageSettings) -> gradtac_stages::events::EventsConfig {
+    let l = &st.locate;
+    match l.method {
+        LocateMethod::Events if l.event_tau_sigmas > 0.0 => gradtac_stages::events::EventsConfig {
+            threshold: Threshold::Noise { noise_sigmas: l.event_tau_sigmas, calibrate_frames: l.calibrate_frames },
+            ..st.events.clone()
+        },
+        _ => st.events.clone(),
+    }
+}
+
 /// The contour settings in effect: `raw_contour` surfaces are relative changes that are 0
 /// without a contact (the change detector decides), so their contour takes any peak.
 pub fn effective_contour(st: &StageSettings) -> ContourConfig {
@@ -115,7 +129,7 @@ impl SensorChain {
                     None => SavGol::try_new(n, st.savgol.clone()),
                 })
                 .transpose()?,
-            events: runs(Tap::Events).then(|| Events::try_new(n, st.events.clone())).transpose()?,
+            events: runs(Tap::Events).then(|| Events::try_new(n, effective_events(st))).transpose()?,
             window: (runs(Tap::Window) && method != LocateMethod::RawContour)
                 .then(|| Window::try_new(&st.window))
                 .transpose()?,
@@ -258,7 +272,10 @@ impl SensorChain {
                 let c = e.config();
                 let tau = match &c.threshold {
                     Threshold::Uniform(t) => format!("τ = {t}"),
-                    Threshold::PerTaxel(_) => "τ per taxel".into(),
+                    Threshold::PerTaxel(v) => format!("τ per taxel {v:?}"),
+                    Threshold::Noise { noise_sigmas, calibrate_frames } => format!(
+                        "τ = {noise_sigmas} σ of each taxel's ln-value noise, measured over the first {calibrate_frames} frames (no events during them)"
+                    ),
                 };
                 format!("log-change, {tau}, cap {}/taxel/frame", c.max_events_per_step)
             }),
@@ -267,10 +284,16 @@ impl SensorChain {
             }
             Tap::Contour if self.centroid.is_some() => {
                 let l = &st.locate;
+                let speed = if l.max_speed_mm_s > 0.0 {
+                    format!("moves at most {} mm/s", l.max_speed_mm_s)
+                } else {
+                    "no speed bound".to_string()
+                };
                 format!(
-                    "taxel centroid, weights r^{}{} ({})",
+                    "taxel centroid, weights r^{}{}, position memory {} frames, {speed} ({})",
                     l.power,
                     l.top_k.map_or(" of all taxels".to_string(), |k| format!(" of the top {k}")),
+                    l.smooth_frames,
                     describe_detector(l)
                 )
             }

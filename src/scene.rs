@@ -446,6 +446,18 @@ impl Scene {
         if self.outputs.is_empty() {
             return Err(bad("no [[output]]: nothing would be computed".into()));
         }
+        let l = &self.stages.locate;
+        if l.method == gradtac_stages::locate::LocateMethod::Events
+            && l.event_tau_sigmas > 0.0
+            && self.stages.events.threshold != gradtac_stages::events::Threshold::default()
+        {
+            return Err(bad(format!(
+                "[stages.events] threshold is set, but under [stages.locate] method = \"events\" the threshold is \
+                 measured from each taxel's noise (event_tau_sigmas = {}); set [stages.locate] event_tau_sigmas = 0 \
+                 to use the given threshold",
+                l.event_tau_sigmas
+            )));
+        }
         for (i, o) in self.outputs.iter().enumerate() {
             if crate::plan::Tap::parse(&o.tap).is_none() {
                 return Err(bad(format!(

@@ -1,12 +1,18 @@
 //! The default contact location on members of the forward-model family that no choice was
 //! made on (seeds 500..504; `docs/tradeoff.md` tuned on seeds 0..8 and scored on 100..116),
-//! through the bare default scene's stages, and its noise-adaptive thresholds.
+//! through the bare default scene's stages, and the noise-adaptive thresholds of the default
+//! centroid and of the event contours (seeds 510..513).
 
 use gradtac::scene::StageSettings;
 use gradtac::stages::centroid::Centroid;
-use gradtac::stages::locate::LocateMethod;
+use gradtac::stages::contour::{Contour, ContourConfig};
+use gradtac::stages::events::{Events, EventsConfig, Threshold};
+use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
+use gradtac::stages::locate::{LocateConfig, LocateMethod};
+use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim_family::{FamilyRecording, Member, PathKind};
-use gradtac::stages::track::{ContactState, Track, TrackPoint};
+use gradtac::stages::track::{ContactState, Track, TrackConfig, TrackPoint};
+use gradtac::stages::window::{Aggregate, Window, WindowConfig};
 use gradtac::stream::{Layout, StageExt};
 
 /// Unseen members: never used for tuning or in the trade-off table.
@@ -92,4 +98,68 @@ fn tripled_noise_gives_the_same_track() {
         assert!(mean < 1.0, "{kind:?}: tracks {mean:.2} mm apart with 3× noise");
         assert!(eb < ea + 1.0, "{kind:?}: error {ea:.2} → {eb:.2} mm with 3× noise");
     }
+}
+
+/// The event-contour chain of `[stages.locate] method = "events"` with its noise-adaptive τ
+/// (`event_tau_sigmas`, measured over `calibrate_frames`), or with a fixed τ.
+fn event_track(rec: &FamilyRecording, threshold: Threshold) -> Vec<TrackPoint> {
+    let layout = Layout::biotac_sp();
+    let ev = EventsConfig { threshold, ..Default::default() };
+    let wc = WindowConfig { frames: Some(20), aggregate: Aggregate::Count, ..Default::default() };
+    let ic = InterpolateConfig {
+        grid: GridConfig { nx: 16, ..Default::default() },
+        incremental: true,
+        ..Default::default()
+    };
+    let cc = ContourConfig { min_peak: 2.0, min_area_mm2: 120.0, ..Default::default() };
+    SavGol::try_with_rate(layout.len(), SavGolConfig::default(), 100.0)
+        .unwrap()
+        .then(Events::try_new(layout.len(), ev).unwrap())
+        .then(Window::try_new(&wc).unwrap())
+        .then(Interpolate::try_new(&ic, &layout).unwrap())
+        .then(Contour::try_new(&cc).unwrap())
+        .then(Track::try_new(&TrackConfig::default()).unwrap())
+        .run_all(rec.frames.clone())
+        .unwrap()
+}
+
+/// Mean distance (mm) between two tracks over the frames where both have a contact.
+fn apart(a: &[TrackPoint], b: &[TrackPoint]) -> f64 {
+    let d: Vec<f64> = a
+        .iter()
+        .zip(b)
+        .filter(|(x, y)| x.state == ContactState::Contact && y.state == ContactState::Contact)
+        .map(|(x, y)| (x.x_mm - y.x_mm).hypot(x.y_mm - y.y_mm))
+        .collect();
+    d.iter().sum::<f64>() / d.len().max(1) as f64
+}
+
+#[test]
+fn tripled_noise_gives_the_same_event_track() {
+    let l = LocateConfig::default();
+    let noise = Threshold::Noise { noise_sigmas: l.event_tau_sigmas, calibrate_frames: l.calibrate_frames };
+    let (mut adaptive_apart, mut fixed_apart) = (0.0, 0.0);
+    for (seed, kind) in [(510, PathKind::Circle), (511, PathKind::Diagonal), (512, PathKind::Horizontal)] {
+        let p = Member { seed, kind }.physics();
+        let mut noisy = p.clone();
+        noisy.noise_counts *= 3.0;
+        let (a, b) = (p.simulate(seed), noisy.simulate(seed));
+        let (ta, tb) = (event_track(&a, noise.clone()), event_track(&b, noise.clone()));
+        let ((ea, ca), (eb, cb)) = (error(&a, &ta), error(&b, &tb));
+        let mean = apart(&ta, &tb);
+        eprintln!("events {kind:?}: contact {ca:.2} → {cb:.2}, error {ea:.2} → {eb:.2} mm, tracks {mean:.2} mm apart");
+        assert!((ca - cb).abs() < 0.15, "{kind:?}: contact {ca:.2} vs {cb:.2} with 3× noise");
+        assert!(mean < 2.0, "{kind:?}: tracks {mean:.2} mm apart with 3× noise");
+        assert!(eb < ea + 1.5, "{kind:?}: error {ea:.2} → {eb:.2} mm with 3× noise");
+        // a fixed τ, by contrast, fires on the tripled noise all over the pad: its track moves more
+        let (fa, fb) = (event_track(&a, Threshold::Uniform(0.001)), event_track(&b, Threshold::Uniform(0.001)));
+        let f = apart(&fa, &fb);
+        eprintln!("fixed τ 0.001 {kind:?}: tracks {f:.2} mm apart");
+        adaptive_apart += mean;
+        fixed_apart += f;
+    }
+    assert!(
+        adaptive_apart < fixed_apart,
+        "noise-adaptive τ: tracks {adaptive_apart:.2} mm apart in sum, fixed τ {fixed_apart:.2} mm"
+    );
 }

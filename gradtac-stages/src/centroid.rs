@@ -48,8 +48,8 @@ pub struct Centroid {
     det: ChangeDetector,
     positions: Vec<[f64; 2]>,
     order: Vec<usize>,
-    /// Smoothed position and its decayed weight mass (`smooth_frames`).
-    memory: Option<([f64; 2], f64)>,
+    /// Last reported position, its decayed weight mass (`smooth_frames`) and time.
+    memory: Option<([f64; 2], f64, gradtac_stream::Timestamp)>,
 }
 
 impl Centroid {
@@ -140,18 +140,29 @@ impl Stage for Centroid {
                 Some(mut c) => {
                     let s: f64 = w.iter().sum();
                     let lambda = 1.0 - 1.0 / f64::from(cfg.smooth_frames);
-                    if lambda > 0.0 {
-                        let (p, m) = match self.memory {
-                            Some((p, m)) => {
-                                let m2 = lambda * m + s;
-                                let a = lambda * m / m2;
-                                ([a * p[0] + (1.0 - a) * c.centroid_mm[0], a * p[1] + (1.0 - a) * c.centroid_mm[1]], m2)
+                    let (p, m) = match self.memory {
+                        Some((prev, m, t)) => {
+                            let m2 = lambda * m + s;
+                            let a = lambda * m / m2;
+                            let mut p = [
+                                a * prev[0] + (1.0 - a) * c.centroid_mm[0],
+                                a * prev[1] + (1.0 - a) * c.centroid_mm[1],
+                            ];
+                            // the physical speed bound: at most max_speed·dt from the last output
+                            if cfg.max_speed_mm_s > 0.0 {
+                                let most = cfg.max_speed_mm_s * (ch.end - t).max(0) as f64 * 1e-9;
+                                let d = (p[0] - prev[0]).hypot(p[1] - prev[1]);
+                                if d > most {
+                                    let k = most / d;
+                                    p = [prev[0] + k * (p[0] - prev[0]), prev[1] + k * (p[1] - prev[1])];
+                                }
                             }
-                            None => (c.centroid_mm, s),
-                        };
-                        self.memory = Some((p, m));
-                        c.centroid_mm = p;
-                    }
+                            (p, m2)
+                        }
+                        None => (c.centroid_mm, s),
+                    };
+                    self.memory = Some((p, m, ch.end));
+                    c.centroid_mm = p;
                     // report the peak as a relative change, not a weight
                     c.peak = rel.iter().copied().fold(0.0, f64::max);
                     ContourOutcome::Contact(c)
@@ -243,6 +254,43 @@ mod tests {
         assert!((p.centroid_mm[1] - (a[1] + b[1]) / 2.0).abs() < 1e-6, "{:?}", p.centroid_mm);
         // the 2-σ ellipse of two points is degenerate (a line): zero area, fully eccentric
         assert!(p.area_mm2 < 1e-6 && (p.eccentricity - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_speed_bound_limits_each_step_and_a_new_contact_starts_free() {
+        let layout = Layout::biotac_sp();
+        // a press on electrode 24 hands over to electrode 1 (far away) at frame 40
+        let input = |k: u64| -> Vec<f64> {
+            (0..24)
+                .map(|i| {
+                    let on = (30..40).contains(&k) && i == 23 || k >= 40 && i == 0;
+                    2000.0 + noise(k, i) + if on { 150.0 } else { 0.0 }
+                })
+                .collect()
+        };
+        let track = |speed: f64| {
+            let cfg = LocateConfig { max_speed_mm_s: speed, window_frames: 1, smooth_frames: 1, ..Default::default() };
+            Centroid::try_new(&cfg, &layout).unwrap().run_all(frames(80, input)).unwrap()
+        };
+        let steps = |out: &[ContourFrame]| -> Vec<f64> {
+            out.windows(2)
+                .filter_map(|w| {
+                    let (a, b) = (w[0].outcome.contact()?, w[1].outcome.contact()?);
+                    Some((a.centroid_mm[0] - b.centroid_mm[0]).hypot(a.centroid_mm[1] - b.centroid_mm[1]))
+                })
+                .collect()
+        };
+        let free = steps(&track(0.0));
+        let bounded = steps(&track(30.0));
+        let (e1, e24) = (layout.positions()[0], layout.positions()[23]);
+        let far = (e1[0] - e24[0]).hypot(e1[1] - e24[1]);
+        assert!(free.iter().copied().fold(0.0, f64::max) > 0.5 * far, "{free:?}");
+        // 30 mm/s at 100 Hz: 0.3 mm per frame
+        assert!(bounded.iter().all(|&d| d <= 0.3 + 1e-9), "{bounded:?}");
+        let out = track(30.0);
+        let end = out[79].outcome.contact().unwrap().centroid_mm;
+        // 40 frames × 0.3 mm = 12 mm of travel toward electrode 1
+        assert!((end[0] - e1[0]).hypot(end[1] - e1[1]) < (far - 11.9).max(1e-6), "{end:?}");
     }
 
     #[test]

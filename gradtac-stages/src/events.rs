@@ -82,8 +82,9 @@ fn invalid(reason: impl Into<String>) -> Error {
     Error::InvalidConfig { stage: STAGE, reason: reason.into() }
 }
 
-/// The threshold `τ` on `ln y`: one for all taxels or one per taxel. In TOML `threshold = 0.1`
-/// or `threshold = [0.1, 0.2, …]`.
+/// The threshold `τ` on `ln y`: one for all taxels, one per taxel, or measured from each
+/// taxel's noise. In TOML `threshold = 0.1`, `threshold = [0.1, 0.2, …]` or
+/// `threshold = { noise_sigmas = 4.0, calibrate_frames = 20 }`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum Threshold {
@@ -91,6 +92,54 @@ pub enum Threshold {
     Uniform(f64),
     /// `τ` per taxel (length = number of taxels).
     PerTaxel(Vec<f64>),
+    /// Noise-adaptive: the first `calibrate_frames` frames (2–100 000; no events) measure each
+    /// taxel's noise `σᵢ` of `ln y` (the larger of the first-difference estimate and the
+    /// scatter about a straight line, as the `locate` change detector does), then
+    /// `τᵢ = noise_sigmas · σᵢ` (≥ [`MIN_THRESHOLD`]; a taxel quieter than a quarter of the median
+    /// taxel counts as that quarter). A sensor three times noisier gets three times the τ and
+    /// so the same rate of noise events: the event-count contact threshold (the contour's
+    /// `min_peak`) then means the same number of σ on any sensor.
+    Noise {
+        /// `τᵢ` in σ of the taxel's `ln y` per frame (> 0, ≤ 1000).
+        noise_sigmas: f64,
+        /// Frames measuring the noise at start-up and after a [`reset`](Stage::reset).
+        calibrate_frames: u32,
+    },
+}
+
+/// Per-taxel σ of a series of frames (`samples[k][i]`, NaN = skipped): the larger of the
+/// white-noise estimate from first differences (`Var(x[k+1] − x[k]) = 2σ²`) and the scatter
+/// about a least-squares line (slow, correlated fluctuations, but not a linear trend), with
+/// floors of a quarter of the median taxel's σ and `1e-12`.
+pub fn noise_sigma(samples: &[Vec<f64>], taxels: usize) -> Vec<f64> {
+    let mut sigma: Vec<f64> = (0..taxels)
+        .map(|i| {
+            let pts: Vec<(f64, f64)> = samples
+                .iter()
+                .enumerate()
+                .filter_map(|(k, f)| f.get(i).copied().filter(|v| v.is_finite()).map(|v| (k as f64, v)))
+                .collect();
+            let m = pts.len() as f64;
+            if pts.len() < 2 {
+                return 0.0;
+            }
+            let d2: f64 = pts.windows(2).map(|w| (w[1].1 - w[0].1).powi(2)).sum();
+            let white = (d2 / (2.0 * (m - 1.0))).sqrt();
+            let (tm, vm) = (pts.iter().map(|p| p.0).sum::<f64>() / m, pts.iter().map(|p| p.1).sum::<f64>() / m);
+            let stt: f64 = pts.iter().map(|p| (p.0 - tm).powi(2)).sum();
+            let slope = pts.iter().map(|p| (p.0 - tm) * (p.1 - vm)).sum::<f64>() / stt.max(f64::MIN_POSITIVE);
+            let r2: f64 = pts.iter().map(|p| (p.1 - vm - slope * (p.0 - tm)).powi(2)).sum();
+            let scatter = if m > 2.0 { (r2 / (m - 2.0)).sqrt() } else { 0.0 };
+            white.max(scatter)
+        })
+        .collect();
+    let mut sorted = sigma.clone();
+    sorted.sort_by(f64::total_cmp);
+    let med = sorted.get(taxels / 2).copied().unwrap_or(0.0);
+    for s in &mut sigma {
+        *s = s.max(0.25 * med).max(1e-12);
+    }
+    sigma
 }
 
 impl Default for Threshold {
@@ -230,6 +279,8 @@ pub struct Events {
     prev_t: Vec<i64>,
     /// Time of the last emitted event (ns), `i64::MIN` for none.
     last_event: Vec<i64>,
+    /// [`Threshold::Noise`] while calibrating: `ln y` of the frames so far (NaN = skipped).
+    calib: Option<Vec<Vec<f64>>>,
     overflow_per_taxel: Vec<u64>,
     /// (time, seq) of the previous frame of the segment.
     last_frame: Option<(Timestamp, u64)>,
@@ -260,6 +311,18 @@ impl Events {
             Threshold::PerTaxel(v) if v.len() == taxels => v.clone(),
             Threshold::PerTaxel(v) => {
                 return Err(invalid(format!("threshold has {} values for {taxels} taxels", v.len())));
+            }
+            Threshold::Noise { noise_sigmas, calibrate_frames } => {
+                if !(noise_sigmas.is_finite() && *noise_sigmas > 0.0 && *noise_sigmas <= 1000.0) {
+                    return Err(invalid(format!("threshold noise_sigmas must be in (0, 1000], got {noise_sigmas}")));
+                }
+                if !(2..=100_000).contains(calibrate_frames) {
+                    return Err(invalid(format!(
+                        "threshold calibrate_frames must be in 2..=100000, got {calibrate_frames}"
+                    )));
+                }
+                // placeholder until the calibration measures the noise
+                vec![1.0; taxels]
             }
         };
         if let Some((i, t)) = tau.iter().enumerate().find(|(_, t)| !(t.is_finite() && **t >= MIN_THRESHOLD)) {
@@ -310,6 +373,7 @@ impl Events {
             overflow_per_taxel: vec![0; taxels],
             last_frame: None,
             counters: EventCounters::default(),
+            calib: matches!(config.threshold, Threshold::Noise { .. }).then(Vec::new),
             config,
         })
     }
@@ -317,6 +381,49 @@ impl Events {
     /// The configuration.
     pub fn config(&self) -> &EventsConfig {
         &self.config
+    }
+
+    /// The thresholds `τ` per taxel in effect (for [`Threshold::Noise`]: measured by the
+    /// calibration; `None` while it runs).
+    pub fn thresholds(&self) -> Option<&[f64]> {
+        self.calib.is_none().then_some(&self.tau[..])
+    }
+
+    /// [`Threshold::Noise`] calibration: record one frame; after the last, set `τ` and start
+    /// the references at the next frame. Emits no events.
+    fn calibrate(&mut self, frame: &TaxelFrame) -> Result<bool> {
+        let Threshold::Noise { noise_sigmas, calibrate_frames } = self.config.threshold else { return Ok(false) };
+        let Some(calib) = self.calib.as_mut() else { return Ok(false) };
+        let (offset, floor) = (self.config.offset, self.config.floor);
+        let mut row = Vec::with_capacity(self.taxels);
+        for (i, &x) in frame.values.iter().enumerate() {
+            if !x.is_finite() {
+                if self.config.non_finite == NonFinitePolicy::Error {
+                    return Err(Error::BadValue {
+                        stage: STAGE,
+                        sensor: frame.sensor.to_string(),
+                        seq: frame.seq,
+                        taxel: i,
+                        value: x,
+                        reason: "non-finite value",
+                    });
+                }
+                self.counters.skipped += 1;
+                row.push(f64::NAN);
+                continue;
+            }
+            let y = x + offset;
+            let y = if below_floor(x, y, floor) { floor } else { y };
+            row.push(y.ln());
+        }
+        calib.push(row);
+        if calib.len() >= calibrate_frames as usize {
+            let sigma = noise_sigma(calib, self.taxels);
+            self.tau = sigma.iter().map(|s| (noise_sigmas * s).max(MIN_THRESHOLD)).collect();
+            self.calib = None;
+            self.clear_state();
+        }
+        Ok(true)
     }
 
     /// Number of taxels per frame.
@@ -540,6 +647,16 @@ impl Stage for Events {
     fn push(&mut self, frame: TaxelFrame, out: &mut Vec<EventBatch>) -> Result<()> {
         let n = self.taxels;
         crate::error::check_taxel_count(STAGE, &frame.sensor, frame.seq, n, frame.values.len())?;
+        if self.calibrate(&frame)? {
+            out.push(EventBatch {
+                sensor: frame.sensor,
+                time: frame.time,
+                seq: frame.seq,
+                taxels: n as u16,
+                events: Vec::new(),
+            });
+            return Ok(());
+        }
         if let Some((t, seq)) = self.last_frame {
             let dt = frame.time - t;
             let gap = frame.seq != seq.wrapping_add(1) || self.max_gap_ns.is_some_and(|g| dt > g);
@@ -612,6 +729,9 @@ impl Stage for Events {
 
     fn reset(&mut self) {
         self.clear_state();
+        if matches!(self.config.threshold, Threshold::Noise { .. }) {
+            self.calib = Some(Vec::new());
+        }
     }
 
     fn delay(&self) -> Delay {
@@ -714,6 +834,68 @@ mod tests {
         assert!(Events::try_new(1, EventsConfig { max_events_per_step: 0, ..Default::default() }).is_err());
         assert!(Events::try_new(1, EventsConfig { refractory_s: -1.0, ..Default::default() }).is_err());
         assert!(Events::try_new(1, EventsConfig { max_gap_s: Some(0.0), ..Default::default() }).is_err());
+    }
+
+    #[test]
+    fn noise_threshold_scales_with_the_noise() {
+        // deterministic "noise": ±a alternation on a baseline of 1000; a step of 40 a later
+        let run = |a: f64| {
+            let c = EventsConfig {
+                threshold: Threshold::Noise { noise_sigmas: 4.0, calibrate_frames: 20 },
+                ..Default::default()
+            };
+            let mut ev = Events::try_new(2, c).unwrap();
+            let frames = (0..60u64).map(|k| {
+                let e = if k % 2 == 0 { a } else { -a };
+                let step = if k >= 40 { 40.0 * a } else { 0.0 };
+                frame(k, vec![1000.0 + e + step, 2000.0 - e])
+            });
+            let b = ev.run_all(frames).unwrap();
+            assert!(b[..20].iter().all(|b| b.events.is_empty()));
+            let counts: Vec<usize> =
+                (0..2).map(|t| b.iter().flat_map(|b| &b.events).filter(|e| e.taxel == t).count()).collect();
+            (counts, ev)
+        };
+        let (c1, _) = run(1.0);
+        let (c3, _) = run(3.0);
+        // noise alone (2 a peak to peak < 4 σ) never fires; the 40 σ step fires the same number
+        // of events whatever the noise
+        assert_eq!(c1[1], 0);
+        assert!(c1[0] > 0 && (c1[0] as i64 - c3[0] as i64).abs() <= 1, "{c1:?} vs {c3:?}");
+        assert_eq!(c3[1], 0);
+        // σ of ln y from ±1 alternation: |Δ ln y| ≈ 2/1000 → σ ≈ √2/1000
+        let c = EventsConfig {
+            threshold: Threshold::Noise { noise_sigmas: 1.0, calibrate_frames: 20 },
+            ..Default::default()
+        };
+        let mut ev = Events::try_new(1, c).unwrap();
+        assert!(ev.thresholds().is_none());
+        ev.run_all((0..20u64).map(|k| frame(k, vec![1000.0 + if k % 2 == 0 { 1.0 } else { -1.0 }]))).unwrap();
+        // run_all ends with finish → reset: calibrating again
+        assert!(ev.thresholds().is_none());
+        let mut ev = Events::try_new(
+            1,
+            EventsConfig {
+                threshold: Threshold::Noise { noise_sigmas: 1.0, calibrate_frames: 20 },
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let mut out = Vec::new();
+        for k in 0..20u64 {
+            ev.push(frame(k, vec![1000.0 + if k % 2 == 0 { 1.0 } else { -1.0 }]), &mut out).unwrap();
+        }
+        let t = ev.thresholds().unwrap()[0];
+        assert!((t - 2f64.sqrt() / 1000.0).abs() < 1e-5, "{t}");
+        for bad in [
+            Threshold::Noise { noise_sigmas: 0.0, calibrate_frames: 20 },
+            Threshold::Noise { noise_sigmas: 3.0, calibrate_frames: 1 },
+        ] {
+            assert!(Events::try_new(1, EventsConfig { threshold: bad, ..Default::default() }).is_err());
+        }
+        let c: EventsConfig =
+            serde_json::from_str(r#"{"threshold": {"noise_sigmas": 4.0, "calibrate_frames": 20}}"#).unwrap();
+        assert_eq!(c.threshold, Threshold::Noise { noise_sigmas: 4.0, calibrate_frames: 20 });
     }
 
     #[test]

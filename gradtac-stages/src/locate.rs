@@ -95,6 +95,16 @@ pub struct LocateConfig {
     /// `1 − 1/smooth_frames` per frame, so a weak frame barely moves a position that strong
     /// frames made (lag ≈ `smooth_frames − 1` frames at constant strength). Default 3.
     pub smooth_frames: u32,
+    /// `centroid`: the physical speed bound (mm/s, ≥ 0; 0 = none): the reported contact moves
+    /// at most `max_speed_mm_s · Δt` from its previous position within one contact (a new
+    /// contact starts where it is found). Default 30.
+    pub max_speed_mm_s: f64,
+    /// `events`: the event threshold in σ of each taxel's measured noise of `ln y` (> 0, ≤ 1000;
+    /// 0 = use `[stages.events] threshold` as given): the event stage measures the noise over the
+    /// first `calibrate_frames` frames and sets `τᵢ = event_tau_sigmas · σᵢ`
+    /// ([`Threshold::Noise`](crate::events::Threshold::Noise)), so the event-count contact
+    /// threshold (`[stages.contour] min_peak`) means the same number of σ on any sensor. Default 4.
+    pub event_tau_sigmas: f64,
 }
 
 impl Default for LocateConfig {
@@ -109,6 +119,8 @@ impl Default for LocateConfig {
             power: 2.0,
             top_k: None,
             smooth_frames: 3,
+            max_speed_mm_s: 30.0,
+            event_tau_sigmas: 4.0,
         }
     }
 }
@@ -140,6 +152,15 @@ impl LocateConfig {
         }
         if !(1..=1000).contains(&self.smooth_frames) {
             return bad(format!("`smooth_frames` = {} must be in 1..=1000", self.smooth_frames));
+        }
+        if !(self.max_speed_mm_s.is_finite() && self.max_speed_mm_s >= 0.0 && self.max_speed_mm_s <= 1e6) {
+            return bad(format!("`max_speed_mm_s` = {} must be in [0, 1e6] (0 = no bound)", self.max_speed_mm_s));
+        }
+        if !(self.event_tau_sigmas.is_finite() && self.event_tau_sigmas >= 0.0 && self.event_tau_sigmas <= 1000.0) {
+            return bad(format!(
+                "`event_tau_sigmas` = {} must be in [0, 1000] (0 = [stages.events] threshold)",
+                self.event_tau_sigmas
+            ));
         }
         if self.top_k == Some(0) {
             return bad("`top_k` must be ≥ 1 (or absent for all taxels)".into());
@@ -418,6 +439,8 @@ mod tests {
             LocateConfig { top_k: Some(0), ..Default::default() },
             LocateConfig { smooth_frames: 0, ..Default::default() },
             LocateConfig { follow_s: f64::NAN, ..Default::default() },
+            LocateConfig { max_speed_mm_s: -1.0, ..Default::default() },
+            LocateConfig { event_tau_sigmas: f64::INFINITY, ..Default::default() },
         ] {
             assert!(ChangeDetector::try_new(2, &bad).is_err(), "{bad:?}");
         }
