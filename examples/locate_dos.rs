@@ -23,8 +23,10 @@
 //! *Solids* (bottle, cardboard). The rule: among the candidate settings whose worst-kind error
 //! on the simulator's **tuning** members (seeds 0–7 × 4 kinds, as `docs/tradeoff.md`) is within
 //! 0.005 of the width of the best candidate's and whose contact share there is ≥ 90 %, keep those
-//! with ≥ 95 % of their contact frames above noise on the choosing set, and take the one with
-//! the most frames-above-noise in contact (recall), ties to the track less often at the speed bound, then to the lower simulated error.
+//! with ≥ 95 % of their contact frames above noise on the choosing set, and take the quietest
+//! track: the one whose estimate runs into the speed bound in the fewest frame pairs (where it
+//! would otherwise have jumped), ties to the most frames-above-noise in contact (recall), then
+//! to the lower simulated error.
 //! The figures on the *other* set are held out. The physical speed bound (`max_speed_mm_s` =
 //! 30, the top speed of the forward-model family) and the weights (`power`, `floor_sigmas`) are
 //! not chosen on real data. The figures over all 167 recordings are printed too, but they are
@@ -33,7 +35,8 @@
 //! Floors (CI runs this example, so a regression fails it; `--no-floors` skips them): for each
 //! scene, on all recordings and on each object set, at least [`FLOOR_ABOVE_NOISE`] of the
 //! contact frames have a raw signal above noise, and the largest per-frame jump is at most
-//! [`FLOOR_MAX_JUMP_MM`] (the speed bound allows 0.30 mm at 100 Hz).
+//! [`FLOOR_MAX_JUMP_MM`] (the speed bound allows 0.30 mm at 100 Hz); over all recordings at
+//! most [`FLOOR_AT_BOUND`] of the frame pairs have the estimate at the speed bound.
 
 use arrow_array::{Array, Float64Array};
 use gradtac::run::{run_blocking, RunOptions};
@@ -51,6 +54,8 @@ use std::path::{Path, PathBuf};
 const FLOOR_ABOVE_NOISE: f64 = 0.95;
 /// Largest per-frame jump, mm at 100 Hz.
 const FLOOR_MAX_JUMP_MM: f64 = 0.35;
+/// Largest share of jump pairs at the speed bound over all recordings (measured: 4.0 %).
+const FLOOR_AT_BOUND: f64 = 0.06;
 
 fn recordings(root: &Path) -> Vec<(String, PathBuf)> {
     let mut out = Vec::new();
@@ -375,12 +380,12 @@ fn main() {
         let pick = (0..grid.len())
             .filter(|&i| sim[i].1 >= 0.9 && sim[i].0 <= best_sim + 0.005)
             .filter(|&i| real[i][choose].precision() >= FLOOR_ABOVE_NOISE)
-            .max_by(|&a, &b| {
+            .min_by(|&a, &b| {
                 real[a][choose]
-                    .recall()
-                    .total_cmp(&real[b][choose].recall())
-                    .then(real[b][choose].at_bound(bound).total_cmp(&real[a][choose].at_bound(bound)))
-                    .then(sim[b].0.total_cmp(&sim[a].0))
+                    .at_bound(bound)
+                    .total_cmp(&real[b][choose].at_bound(bound))
+                    .then(real[b][choose].recall().total_cmp(&real[a][choose].recall()))
+                    .then(sim[a].0.total_cmp(&sim[b].0))
             });
         let Some(i) = pick else {
             println!("- chosen on {}: no candidate qualifies", sets[choose].name());
@@ -462,6 +467,13 @@ fn main() {
                     "{label}, {what}: {:.1} % of contact frames above noise < {:.0} %",
                     100.0 * st.precision(),
                     100.0 * FLOOR_ABOVE_NOISE
+                ));
+            }
+            if what == "all" && st.at_bound(bound) > FLOOR_AT_BOUND {
+                below.push(format!(
+                    "{label}: at the speed bound in {:.1} % of pairs > {:.0} %",
+                    100.0 * st.at_bound(bound),
+                    100.0 * FLOOR_AT_BOUND
                 ));
             }
             let max = st.q(1.0);

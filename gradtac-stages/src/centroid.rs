@@ -11,6 +11,18 @@
 //! - location `Σ wᵢ pᵢ / Σ wᵢ` (mm), optionally smoothed with a memory of `smooth_frames` in
 //!   which each frame counts with its total weight `Σ wᵢ`; a frame without a contact (or with every weight 0) is
 //!   `NoContact(BelowMinPeak)`; the calibration frames are `NoContact(NoData)`;
+//! - a **physical speed bound**: within one contact the reported point moves at most
+//!   `max_speed_mm_s · Δt` per frame (default 30 mm/s, the top slip speed of the forward-model
+//!   family: 0.3 mm per frame at 100 Hz); a new contact (after a frame without one) starts where
+//!   it is found. Why: on real BioTacSP-DoS recordings the unbounded centroid jumps up to 1.4 mm
+//!   per frame, and the frames that do are not noise — they are changes of 10–20 σ in two or
+//!   more regions of the pad at once, often of opposite sign (the baseline is the first contact,
+//!   so pressure leaving one region shows as a change as strong as pressure arriving in
+//!   another), whose balance shifts faster than any contact moves; the weighted mean then slides
+//!   across the pad between them. Taxels entering or leaving the sum are not the cause (their
+//!   weight starts from 0 at the noise floor, so the mean moves continuously). The bound turns
+//!   such a slide into motion at the physical limit; on the simulated family it costs nothing
+//!   measurable (`docs/tradeoff.md`);
 //! - the reported "region": `area_mm2 = 4π·√det C` (the 2-σ ellipse of the weights' second
 //!   moments `C`; 0 for a single taxel), its orientation and eccentricity, `peak` = the
 //!   largest `rᵢ`, `peak_mm` its taxel, `level` = 0, no polygon.
@@ -20,7 +32,9 @@
 //!
 //! # Delay
 //! `(window_frames − 1)/2` frames (the span `start..end` of each output covers the averaged
-//! frames). Start-up: `calibrate_frames` frames without contact.
+//! frames), plus the position memory's lag (≈ `smooth_frames − 1` frames at constant strength);
+//! while the speed bound holds the point back it trails the estimate by (distance − bound)/speed.
+//! Start-up: `calibrate_frames` frames without contact.
 //!
 //! # Cost
 //! O(taxels) per frame, no allocation in steady state beyond the output: ≈ 0.1–0.3 µs per
@@ -34,6 +48,7 @@
 //! | `window_frames` | immediate, noisier | smoother, more delay |
 //! | `smooth_frames` | immediate, weak frames jitter | weak frames barely move the point; more lag |
 //! | `floor_sigmas` / `contact_sigmas` | sensitive, noise may count | misses light touches |
+//! | `max_speed_mm_s` | quiet track, lags a fast real move (0 = no bound) | follows any slide of the weights, jumps |
 
 use crate::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
 use crate::locate::{ChangeDetector, LocateConfig};

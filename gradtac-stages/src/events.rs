@@ -28,7 +28,10 @@
 //! ties are ordered by taxel index, then by crossing order. Across the batches of one stream
 //! times are non-decreasing too: a taxel whose previous sample was skipped interpolates from its
 //! last finite sample, but its event times are clamped to no earlier than the previous frame.
-//! Delay: none (the events of an interval are known when it closes).
+//! Delay: none (the events of an interval are known when it closes). With a noise-adaptive
+//! threshold ([`Threshold::Noise`]) the first `calibrate_frames` frames (and those after a
+//! [`reset`](Stage::reset)) give empty batches while the noise is measured; gaps handled by
+//! [`EventGapPolicy::Reset`] keep the measured τ.
 //!
 //! Event schema as written to Parquet/Arrow (`event/1`, specified in the repository's
 //! `docs/schemas.md`): one row per event with `sensor` (Utf8), `time_ns` (Int64, the event's
@@ -59,6 +62,7 @@
 //! | knob | smaller | larger |
 //! |---|---|---|
 //! | `threshold` τ | finer resolution, more events (cap!) | fewer events, coarser; τ ≥ the total log change → none |
+//! | `threshold = { noise_sigmas, calibrate_frames }` | (as τ, in σ of each taxel's noise) | (as τ); longer calibration: steadier σ, later first event |
 //! | `floor` | more events from near-zero values (log blows up) | insensitive near 0 |
 //! | `refractory_s` | faithful counts | bounded rate, lost resolution |
 

@@ -6,9 +6,9 @@
 //!
 //! | method | chain | cost (BioTac SP, release) | delay |
 //! |---|---|---|---|
-//! | `centroid` | raw → [`Centroid`](crate::centroid::Centroid) | ≈ 0.1–0.3 µs/frame | `(window − 1)/2` frames |
+//! | `centroid` | raw → [`Centroid`](crate::centroid::Centroid) (speed-bounded) | ≈ 0.1–0.3 µs/frame | `(window − 1)/2` frames + memory lag |
 //! | `raw_contour` | raw → [`RawChange`](crate::raw_contour::RawChange) → surface → contour | surface + contour (µs, grows with the grid) | `(window − 1)/2` frames |
-//! | `events` | normalise → Savitzky–Golay → events → window → surface → contour (the paper's event contours) | front end + surface + contour | Savitzky–Golay + window |
+//! | `events` | normalise → Savitzky–Golay → events (τ from each taxel's noise: `event_tau_sigmas`) → window → surface → contour (the paper's event contours) | front end + surface + contour | Savitzky–Golay + window |
 //!
 //! The first two share [`ChangeDetector`]: a short **calibration** measures each taxel's
 //! baseline `x₀` and noise `σ` (the larger of the first-difference estimate and the scatter about
@@ -25,6 +25,10 @@
 //!
 //! Because both thresholds are multiples of each taxel's own measured noise, a sensor three
 //! times noisier needs no retuning (tested in `tests/locate_family.rs` of the root package).
+//! The `events` method does the same with its own calibration: the event stage measures each
+//! taxel's noise of `ln y` over `calibrate_frames` and sets `τᵢ = event_tau_sigmas · σᵢ`
+//! ([`Threshold::Noise`](crate::events::Threshold::Noise)), so its event-count contact
+//! threshold (`[stages.contour] min_peak`) is a noise multiple too.
 //! Values are raw counts (or any positive unit; relative changes are undefined near 0, so feed
 //! raw, not min–max normalised, values).
 
