@@ -163,3 +163,27 @@ fn tripled_noise_gives_the_same_event_track() {
         "noise-adaptive τ: tracks {adaptive_apart:.2} mm apart in sum, fixed τ {fixed_apart:.2} mm"
     );
 }
+
+#[test]
+fn explain_prints_the_effective_locate_values_and_ambiguous_thresholds_are_refused() {
+    use gradtac::{Plan, Scene};
+    use std::path::Path;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let sensor =
+        "[[sensor]]\nname = \"ff\"\nsource = { csv = \"x.csv\", columns = \"ff_e{1..24}\", rate_hz = 100.0 }\n";
+    let output = "[[output]]\ntap = \"track\"\npath = \"t.parquet\"\n";
+    let explain = |stages: &str| {
+        let scene = Scene::from_toml(&format!("{sensor}{stages}\n{output}"), dir, Path::new("s.toml"))?;
+        let plan = Plan::new(&scene)?;
+        Ok::<String, gradtac::Error>(plan.explain(&scene))
+    };
+    let bare = explain("").unwrap();
+    assert!(bare.contains("moves at most 30 mm/s") && bare.contains("position memory 3 frames"), "{bare}");
+    let ev = explain("[stages.locate]\nmethod = \"events\"\n").unwrap();
+    assert!(ev.contains("τ = 4 σ of each taxel's ln-value noise, measured over the first 20 frames"), "{ev}");
+    // a threshold given under the events method is ambiguous unless the noise-adaptive τ is off
+    let both = "[stages.locate]\nmethod = \"events\"\n[stages.events]\nthreshold = 0.002\n";
+    assert!(explain(both).unwrap_err().to_string().contains("event_tau_sigmas"));
+    let given = "[stages.locate]\nmethod = \"events\"\nevent_tau_sigmas = 0\n[stages.events]\nthreshold = 0.002\n";
+    assert!(explain(given).unwrap().contains("τ = 0.002"));
+}
