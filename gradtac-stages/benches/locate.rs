@@ -7,8 +7,10 @@
 //!   frames), on a simulated family member (`sim`, always) and on a BioTacSP-DoS recording
 //!   (`dos`, `cw/bottle4.csv` from `../shared/data` beside the repository or `$GRADTAC_DOS_DIR`;
 //!   skipped when absent).
-//!   `<chain>` is `centroid` (the default) or `events` (Savitzky–Golay → events τ = 0.001 →
-//!   10-frame count window → natural neighbour 16×16 → contour (min area 60 mm²) → track).
+//!   `<chain>` is `centroid` (the default: speed-bounded centroid → track), `events`
+//!   (Savitzky–Golay → events τ = 0.001 → 10-frame count window → natural neighbour 16×16 →
+//!   contour (min area 60 mm²) → track) or `events_noise` (the same with the events method's
+//!   default noise-adaptive τ = `event_tau_sigmas` σ, calibrated over `calibrate_frames`).
 //! - After the criterion groups, per-frame latency percentiles (p50, p99) of the default chain
 //!   pushed one frame at a time, printed (not asserted).
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -63,6 +65,7 @@ fn centroid_chain(
 
 fn events_chain(
     l: &Layout,
+    threshold: Threshold,
 ) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint, Error = gradtac_stream::Error> {
     let icfg = InterpolateConfig {
         grid: GridConfig { nx: 16, ..Default::default() },
@@ -71,10 +74,7 @@ fn events_chain(
     };
     SavGol::try_with_rate(l.len(), SavGolConfig::default(), 100.0)
         .unwrap()
-        .then(
-            Events::try_new(l.len(), EventsConfig { threshold: Threshold::Uniform(0.001), ..Default::default() })
-                .unwrap(),
-        )
+        .then(Events::try_new(l.len(), EventsConfig { threshold, ..Default::default() }).unwrap())
         .then(
             Window::try_new(&WindowConfig { frames: Some(10), aggregate: Aggregate::Count, ..Default::default() })
                 .unwrap(),
@@ -94,7 +94,12 @@ fn bench(c: &mut Criterion) {
             b.iter(|| black_box(centroid_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
         });
         g.bench_with_input(BenchmarkId::new("events", name), frames, |b, f| {
-            b.iter(|| black_box(events_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
+            b.iter(|| black_box(events_chain(&l, Threshold::Uniform(0.001)).run_all(f.iter().cloned()).unwrap().len()))
+        });
+        let d = LocateConfig::default();
+        let noise = Threshold::Noise { noise_sigmas: d.event_tau_sigmas, calibrate_frames: d.calibrate_frames };
+        g.bench_with_input(BenchmarkId::new("events_noise", name), frames, |b, f| {
+            b.iter(|| black_box(events_chain(&l, noise.clone()).run_all(f.iter().cloned()).unwrap().len()))
         });
     }
     g.finish();
