@@ -477,7 +477,7 @@ fn main() {
                 ));
             }
             let max = st.q(1.0);
-            if !(max <= FLOOR_MAX_JUMP_MM) {
+            if max.is_nan() || max > FLOOR_MAX_JUMP_MM {
                 below.push(format!("{label}, {what}: max jump {max:.3} mm > {FLOOR_MAX_JUMP_MM} mm"));
             }
         }
