@@ -494,5 +494,11 @@ fn main() {
     }
     println!();
     println!("Sensor width {width:.1} mm (BioTac SP layout x extent). Front end of the event contours (Savitzky–Golay + events, included in their µs/frame): {}.",
-        taus.iter().map(|t| format!("τ {t}: {:.2} µs", median(front_us[&t.to_bits()].clone()))).collect::<Vec<_>>().join(", "));
+        taus.iter()
+            .map(|t| {
+                let label = if *t < 0.0 { format!("{} σ", -t) } else { t.to_string() };
+                format!("τ {label}: {:.2} µs", median(front_us[&t.to_bits()].clone()))
+            })
+            .collect::<Vec<_>>()
+            .join(", "));
 }
