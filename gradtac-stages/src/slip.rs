@@ -170,6 +170,29 @@ impl SlipClass {
     }
 }
 
+/// How a finger's motion is measured (see the [module docs](self)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SlipMethod {
+    /// Displacement of the contact (the change pattern's centroid with the default locator)
+    /// over `window_s`, each finger against `distance_mm`; onset from a change-point fit.
+    #[default]
+    Displacement,
+    /// The previous rule (the cheap baseline): track velocity over `velocity_window_s` against
+    /// `speed_threshold_mm_s`; onset is the oldest point of the regression windows.
+    Velocity,
+}
+
+impl SlipMethod {
+    /// The name in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            SlipMethod::Displacement => "displacement",
+            SlipMethod::Velocity => "velocity",
+        }
+    }
+}
+
 /// Configuration of the [`Slip`] stage (`[stages.slip]` in a scene).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -183,18 +206,40 @@ pub struct SlipConfig {
     pub first_up: [f64; 2],
     /// World up in the second sensor's layout plane. Default `[0, −1]` (mirrored).
     pub second_up: [f64; 2],
-    /// Length of the velocity regression (s, > 0). Default 0.15.
+    /// How motion is measured. Default `displacement`.
+    pub method: SlipMethod,
+    /// `displacement`: the window (s, > 0) over which each finger's displacement along world
+    /// up is measured (least-squares slope × window). Default 0.3.
+    pub window_s: f64,
+    /// `displacement`: a finger moves when its displacement over the window reaches this
+    /// (mm, > 0). Default 0.8.
+    pub distance_mm: f64,
+    /// `displacement`: how far back (s, ≥ `window_s`) the change-point fit that dates the onset
+    /// looks. Default 1.5.
+    pub history_s: f64,
+    /// `displacement`: subtracted from the fitted change point (s, ≥ 0): the upstream delay
+    /// (the locator's averaging and smoothing, the sensor's fluid lag, the slow start). Default 0.12.
+    pub onset_lead_s: f64,
+    /// A finger without a usable contact point for longer than this (s, > 0; a contact
+    /// dropout or missing input) starts afresh: history cleared, `settle_s` again. Shorter
+    /// dropouts keep the history (the contact may have moved meanwhile) and the last evidence.
+    /// (`velocity`: any point without contact clears the finger.) Default 0.5.
+    pub max_gap_s: f64,
+    /// `displacement`: a finger's evidence starts this long (s, ≥ 0) after its contact starts
+    /// (closing the grasp moves the contact's centroid while the pattern settles). Default 0.3.
+    pub settle_s: f64,
+    /// `velocity`: length of the velocity regression (s, > 0). Default 0.15.
     pub velocity_window_s: f64,
-    /// Fewest contact points in the regression (≥ 2). Default 5.
+    /// `velocity`: fewest contact points in the regression (≥ 2). Default 5.
     pub min_points: usize,
-    /// Slip speed threshold on `max(|L|, |R|)` (mm/s, > 0). Default 5.
+    /// `velocity`: slip speed threshold on `max(|L|, |R|)` (mm/s, > 0). Default 5.
     pub speed_threshold_mm_s: f64,
     /// How clearly one mode must dominate (≥ 1): a slip class is a candidate only when
     /// `max(|L|, |R|) ≥ dominance · min(|L|, |R|)`; a more ambiguous motion keeps the current
     /// state. Default 1.5.
     pub dominance: f64,
     /// How long a new candidate class must persist before it becomes the state (s, ≥ 0).
-    /// Default 0.08.
+    /// Default 0.1.
     pub min_duration_s: f64,
 }
 
@@ -205,11 +250,39 @@ impl Default for SlipConfig {
             second: "th".into(),
             first_up: [0.0, 1.0],
             second_up: [0.0, -1.0],
+            method: SlipMethod::Displacement,
+            window_s: 0.3,
+            distance_mm: 0.8,
+            history_s: 1.5,
+            onset_lead_s: 0.12,
+            max_gap_s: 0.5,
+            settle_s: 0.3,
             velocity_window_s: 0.15,
             min_points: 5,
             speed_threshold_mm_s: 5.0,
             dominance: 1.5,
-            min_duration_s: 0.08,
+            min_duration_s: 0.1,
+        }
+    }
+}
+
+impl SlipConfig {
+    /// One line with every effective value (for `explain`).
+    pub fn describe(&self) -> String {
+        let common = format!(
+            "{} (up {:?}) and {} (up {:?}), dominance {}, persist {} s",
+            self.first, self.first_up, self.second, self.second_up, self.dominance, self.min_duration_s
+        );
+        match self.method {
+            SlipMethod::Displacement => format!(
+                "two-finger slip by displacement: {} mm over {} s per finger after {} s of contact, onset by \
+                 change-point fit over {} s minus {} s, dropouts > {} s start afresh; {common}",
+                self.distance_mm, self.window_s, self.settle_s, self.history_s, self.onset_lead_s, self.max_gap_s
+            ),
+            SlipMethod::Velocity => format!(
+                "two-finger slip by track velocity: {} mm/s over {} s (≥ {} points); {common}",
+                self.speed_threshold_mm_s, self.velocity_window_s, self.min_points
+            ),
         }
     }
 }
@@ -219,10 +292,10 @@ impl Default for SlipConfig {
 pub struct SlipEvent {
     /// When the change was decided (the time of the track point that decided it).
     pub time: Timestamp,
-    /// Estimated start of the new state. For a slip: the oldest contact point in the two
-    /// fingers' regression windows when the slip was first seen (the motion that crossed the
-    /// threshold is inside those windows; a track that was in contact long before makes this
-    /// up to `velocity_window_s` early). For a return to stable: `first_seen`.
+    /// Estimated start of the new state. For a slip (`displacement`): the change point of the
+    /// fingers' positions fitted over `history_s`, minus `onset_lead_s` (never after
+    /// `first_seen`); (`velocity`): the oldest contact point in the regression windows when the
+    /// slip was first seen. For a return to stable: `first_seen`.
     pub onset: Timestamp,
     /// When the new state was first seen (the first point of the persisting candidate).
     pub first_seen: Timestamp,
@@ -230,9 +303,11 @@ pub struct SlipEvent {
     pub class: SlipClass,
     /// The state before.
     pub previous: SlipClass,
-    /// Common-mode speed `L` along world up at `time` (mm/s; NaN when a velocity is missing).
+    /// Common-mode motion `L` along world up at `time` (`velocity`: mm/s; `displacement`:
+    /// the fingers' displacements in units of `distance_mm`, each clamped to ±1; NaN when a
+    /// finger has no evidence).
     pub common_mm_s: f64,
-    /// Differential speed `R` at `time` (mm/s; NaN when a velocity is missing).
+    /// Differential motion `R` at `time` (same units as `common_mm_s`).
     pub differential_mm_s: f64,
 }
 
@@ -245,16 +320,29 @@ impl Timed for SlipEvent {
 #[derive(Clone, Debug, Default)]
 struct Finger {
     track: Option<u64>,
+    /// (time ns, x mm, y mm): the velocity rule's regression window.
     points: VecDeque<(i64, f64, f64)>,
+    /// (time ns, world-up position mm): the displacement rule's history.
+    history: VecDeque<(i64, f64)>,
     last_time: Option<Timestamp>,
+    /// Start of the current contact (ns).
+    contact_since: Option<i64>,
+    /// The last usable point (ns).
+    last_usable: Option<i64>,
     velocity: Option<[f64; 2]>,
+    /// Displacement over the window in units of `distance_mm`, clamped to ±1.
+    moved: Option<f64>,
 }
 
 impl Finger {
     fn clear(&mut self) {
         self.track = None;
         self.points.clear();
+        self.history.clear();
+        self.contact_since = None;
+        self.last_usable = None;
         self.velocity = None;
+        self.moved = None;
     }
 }
 
@@ -267,6 +355,10 @@ pub struct Slip {
     second: SensorId,
     up: [[f64; 2]; 2],
     window_ns: i64,
+    velocity_window_ns: i64,
+    history_ns: i64,
+    gap_ns: i64,
+    settle_ns: i64,
     min_duration_ns: i64,
     fingers: [Finger; 2],
     state: SlipClass,
@@ -282,6 +374,11 @@ fn unit(v: [f64; 2], what: &str) -> Result<[f64; 2]> {
     }
 }
 
+/// Fraction of `distance_mm` (each finger, clamped) the stronger mode needs for a slip.
+const SLIP_LEVEL: f64 = 0.75;
+/// Below this fraction in both modes the grasp is still again.
+const STILL_LEVEL: f64 = 0.25;
+
 impl Slip {
     /// A detector from its configuration (validated).
     pub fn try_new(cfg: &SlipConfig) -> Result<Self> {
@@ -289,8 +386,23 @@ impl Slip {
         if cfg.first == cfg.second {
             return bad(format!("`first` and `second` are both {:?}", cfg.first));
         }
-        if !(cfg.velocity_window_s.is_finite() && cfg.velocity_window_s > 0.0) {
-            return bad(format!("`velocity_window_s` = {} must be finite and > 0", cfg.velocity_window_s));
+        let span = crate::limits::MAX_SPAN_S;
+        for (name, v, zero_ok) in [
+            ("velocity_window_s", cfg.velocity_window_s, false),
+            ("window_s", cfg.window_s, false),
+            ("history_s", cfg.history_s, false),
+            ("max_gap_s", cfg.max_gap_s, false),
+            ("onset_lead_s", cfg.onset_lead_s, true),
+            ("settle_s", cfg.settle_s, true),
+            ("min_duration_s", cfg.min_duration_s, true),
+        ] {
+            if !(v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0)) && v <= span) {
+                let low = if zero_ok { "≥ 0" } else { "> 0" };
+                return bad(format!("`{name}` = {v} must be finite, {low} and at most {span} s"));
+            }
+        }
+        if cfg.history_s < cfg.window_s {
+            return bad(format!("`history_s` = {} must be ≥ `window_s` = {}", cfg.history_s, cfg.window_s));
         }
         if cfg.min_points < 2 {
             return bad(format!("`min_points` = {} must be ≥ 2", cfg.min_points));
@@ -298,26 +410,24 @@ impl Slip {
         if !(cfg.speed_threshold_mm_s.is_finite() && cfg.speed_threshold_mm_s > 0.0) {
             return bad(format!("`speed_threshold_mm_s` = {} must be finite and > 0", cfg.speed_threshold_mm_s));
         }
+        if !(cfg.distance_mm.is_finite() && cfg.distance_mm > 0.0 && cfg.distance_mm <= crate::limits::MAX_SPAN_S) {
+            return bad(format!("`distance_mm` = {} must be finite and > 0", cfg.distance_mm));
+        }
         if !(cfg.dominance.is_finite() && cfg.dominance >= 1.0) {
             return bad(format!("`dominance` = {} must be finite and ≥ 1", cfg.dominance));
         }
-        if !(cfg.min_duration_s.is_finite() && cfg.min_duration_s >= 0.0) {
-            return bad(format!("`min_duration_s` = {} must be finite and ≥ 0", cfg.min_duration_s));
-        }
-        let span = crate::limits::MAX_SPAN_S;
-        if cfg.velocity_window_s > span || cfg.min_duration_s > span {
-            return bad(format!(
-                "`velocity_window_s` = {} and `min_duration_s` = {} must be at most {span} s",
-                cfg.velocity_window_s, cfg.min_duration_s
-            ));
-        }
         crate::limits::check_count(STAGE, "min_points", cfg.min_points as u64, crate::limits::MAX_POINTS as u64)?;
+        let ns = |s: f64| (s * 1e9).round() as i64;
         Ok(Slip {
             first: SensorId::new(&cfg.first),
             second: SensorId::new(&cfg.second),
             up: [unit(cfg.first_up, "first_up")?, unit(cfg.second_up, "second_up")?],
-            window_ns: (cfg.velocity_window_s * 1e9).round() as i64,
-            min_duration_ns: (cfg.min_duration_s * 1e9).round() as i64,
+            window_ns: ns(cfg.window_s),
+            velocity_window_ns: ns(cfg.velocity_window_s),
+            history_ns: ns(cfg.history_s),
+            gap_ns: ns(cfg.max_gap_s),
+            settle_ns: ns(cfg.settle_s),
+            min_duration_ns: ns(cfg.min_duration_s),
             cfg: cfg.clone(),
             fingers: Default::default(),
             state: SlipClass::Stable,
@@ -335,21 +445,24 @@ impl Slip {
         self.state
     }
 
-    /// The current world-up speeds `(v_first, v_second)` (mm/s), when both are known.
+    /// The current world-up speeds `(v_first, v_second)` (mm/s) of the `velocity` rule, when
+    /// both are known.
     pub fn speeds(&self) -> Option<(f64, f64)> {
         let v = |i: usize| self.fingers[i].velocity.map(|v| v[0] * self.up[i][0] + v[1] * self.up[i][1]);
         Some((v(0)?, v(1)?))
     }
 
-    fn candidate_now(&self) -> (SlipClass, f64, f64) {
-        let Some((v1, v2)) = self.speeds() else {
-            return (SlipClass::Stable, f64::NAN, f64::NAN);
-        };
-        let (l, r) = ((v1 + v2) / 2.0, (v1 - v2) / 2.0);
+    /// The current displacements `(first, second)` along world up over the window, in units of
+    /// `distance_mm` clamped to ±1 (`displacement` rule), when both are known.
+    pub fn displacements(&self) -> Option<(f64, f64)> {
+        Some((self.fingers[0].moved?, self.fingers[1].moved?))
+    }
+
+    fn classify(&self, l: f64, r: f64, slip_level: f64, still_level: f64) -> SlipClass {
         let (hi, lo) = (l.abs().max(r.abs()), l.abs().min(r.abs()));
-        let class = if hi < self.cfg.speed_threshold_mm_s {
+        if hi < still_level {
             SlipClass::Stable
-        } else if hi < self.cfg.dominance * lo {
+        } else if hi < slip_level || hi < self.cfg.dominance * lo {
             self.state
         } else if l.abs() >= r.abs() {
             if l > 0.0 {
@@ -361,8 +474,51 @@ impl Slip {
             SlipClass::RotationalCw
         } else {
             SlipClass::RotationalCcw
-        };
-        (class, l, r)
+        }
+    }
+
+    fn candidate_now(&self) -> (SlipClass, f64, f64) {
+        match self.cfg.method {
+            SlipMethod::Velocity => {
+                let Some((v1, v2)) = self.speeds() else {
+                    return (SlipClass::Stable, f64::NAN, f64::NAN);
+                };
+                let (l, r) = ((v1 + v2) / 2.0, (v1 - v2) / 2.0);
+                let th = self.cfg.speed_threshold_mm_s;
+                (self.classify(l, r, th, th), l, r)
+            }
+            SlipMethod::Displacement => {
+                let (a, b) = (self.fingers[0].moved, self.fingers[1].moved);
+                if a.is_none() && b.is_none() {
+                    return (SlipClass::Stable, f64::NAN, f64::NAN);
+                }
+                let (a, b) = (a.unwrap_or(0.0), b.unwrap_or(0.0));
+                let (l, r) = ((a + b) / 2.0, (a - b) / 2.0);
+                let show = |v: f64, ok: bool| if ok { v } else { f64::NAN };
+                let both = self.displacements().is_some();
+                (self.classify(l, r, SLIP_LEVEL, STILL_LEVEL), show(l, both), show(r, both))
+            }
+        }
+    }
+
+    /// The onset of a slip decided now (`displacement`): the mean of the fingers' fitted
+    /// change points (those that moved at least half `distance_mm`), minus `onset_lead_s`.
+    fn fitted_onset(&self, fallback: Timestamp) -> Timestamp {
+        let mut sum = 0.0;
+        let mut n = 0.0;
+        for f in &self.fingers {
+            if f.moved.is_some_and(|m| m.abs() >= 0.5) {
+                if let Some(t) = change_point(&f.history) {
+                    sum += t as f64;
+                    n += 1.0;
+                }
+            }
+        }
+        if n == 0.0 {
+            return fallback;
+        }
+        let t = (sum / n).round() as i64 - (self.cfg.onset_lead_s * 1e9).round() as i64;
+        Timestamp(t.min(fallback.0))
     }
 }
 
@@ -384,6 +540,68 @@ fn regression(points: &VecDeque<(i64, f64, f64)>) -> Option<[f64; 2]> {
     (stt > 0.0).then(|| [stx / stt, sty / stt])
 }
 
+/// Least-squares slope (mm/s) of the history points newer than `since` (ns); `None` with fewer
+/// than 3 points or no time spread.
+fn slope_since(history: &VecDeque<(i64, f64)>, since: i64) -> Option<f64> {
+    let pts = history.iter().rev().take_while(|p| p.0 >= since);
+    let (mut n, mut st, mut su) = (0.0, 0.0, 0.0);
+    let t0 = history.back()?.0;
+    for p in pts.clone() {
+        n += 1.0;
+        st += (p.0 - t0) as f64 * 1e-9;
+        su += p.1;
+    }
+    if n < 3.0 {
+        return None;
+    }
+    let (mt, mu) = (st / n, su / n);
+    let (mut stt, mut stu) = (0.0, 0.0);
+    for p in pts {
+        let dt = (p.0 - t0) as f64 * 1e-9 - mt;
+        stt += dt * dt;
+        stu += dt * (p.1 - mu);
+    }
+    (stt > 0.0).then(|| stu / stt)
+}
+
+/// The change point of a still-then-moving position history: the time `t₀` of the hinge
+/// `u = a + b·max(t − t₀, 0)` with the least squared error, `t₀` over the history's sample
+/// times (leaving 3 points on either side). O(n²) in the history's length, run once per slip
+/// decision.
+fn change_point(h: &VecDeque<(i64, f64)>) -> Option<i64> {
+    let n = h.len();
+    if n < 8 {
+        return None;
+    }
+    let t0 = h[0].0;
+    let ts: Vec<f64> = h.iter().map(|p| (p.0 - t0) as f64 * 1e-9).collect();
+    let mut best: Option<(f64, usize)> = None;
+    for k in 3..n - 3 {
+        let c = ts[k];
+        // regression of u on z = max(t − c, 0)
+        let (mut sz, mut su, mut szz, mut szu) = (0.0, 0.0, 0.0, 0.0);
+        for (t, p) in ts.iter().zip(h) {
+            let z = (t - c).max(0.0);
+            sz += z;
+            su += p.1;
+            szz += z * z;
+            szu += z * p.1;
+        }
+        let m = n as f64;
+        let var = szz - sz * sz / m;
+        if var <= 0.0 {
+            continue;
+        }
+        let b = (szu - sz * su / m) / var;
+        let a = (su - b * sz) / m;
+        let sse: f64 = ts.iter().zip(h).map(|(t, p)| (p.1 - a - b * (t - c).max(0.0)).powi(2)).sum();
+        if best.is_none_or(|(e, _)| sse < e) {
+            best = Some((sse, k));
+        }
+    }
+    best.map(|(_, k)| h[k].0)
+}
+
 impl Stage for Slip {
     type In = TrackPoint;
     type Out = SlipEvent;
@@ -397,6 +615,7 @@ impl Stage for Slip {
         } else {
             return Ok(());
         };
+        let up = self.up[i];
         let f = &mut self.fingers[i];
         if let Some(t) = f.last_time {
             if p.time < t {
@@ -410,24 +629,58 @@ impl Stage for Slip {
         }
         f.last_time = Some(p.time);
         let usable = p.state == ContactState::Contact && p.x_mm.is_finite() && p.y_mm.is_finite();
-        if !usable {
+        let dropout = f.last_usable.is_some_and(|t| p.time.as_nanos() - t > self.gap_ns);
+        if dropout || (!usable && self.cfg.method == SlipMethod::Velocity) {
             f.clear();
-        } else if !p.gated {
-            if f.track != p.track {
-                f.clear();
-                f.track = p.track;
-            }
+        }
+        if usable && !p.gated {
             let now = p.time.as_nanos();
-            f.points.push_back((now, p.x_mm, p.y_mm));
-            while f.points.front().is_some_and(|q| now - q.0 > self.window_ns) {
-                f.points.pop_front();
+            f.last_usable = Some(now);
+            match self.cfg.method {
+                SlipMethod::Velocity => {
+                    if f.track != p.track {
+                        f.clear();
+                        f.track = p.track;
+                    }
+                    f.points.push_back((now, p.x_mm, p.y_mm));
+                    while f.points.front().is_some_and(|q| now - q.0 > self.velocity_window_ns) {
+                        f.points.pop_front();
+                    }
+                    let span = now - f.points.front().map_or(now, |q| q.0);
+                    f.velocity = if f.points.len() >= self.cfg.min_points && 2 * span >= self.velocity_window_ns {
+                        regression(&f.points)
+                    } else {
+                        None
+                    };
+                }
+                SlipMethod::Displacement if now - *f.contact_since.get_or_insert(now) < self.settle_ns => {}
+                SlipMethod::Displacement => {
+                    // the point describes the middle of the locator's averaging span
+                    let mid = p.start.as_nanos().min(now) / 2 + now / 2;
+                    let mid = mid.max(f.history.back().map_or(i64::MIN, |q| q.0));
+                    f.history.push_back((mid, p.x_mm * up[0] + p.y_mm * up[1]));
+                    while f.history.front().is_some_and(|q| mid - q.0 > self.history_ns) {
+                        f.history.pop_front();
+                    }
+                    let span = mid - f.history.front().map_or(mid, |q| q.0);
+                    // displacement over the window and over 2 and 4 windows (slow slips), the
+                    // largest in units of distance_mm
+                    let mut moved: Option<f64> = None;
+                    for k in [1, 2, 4] {
+                        let w = k * self.window_ns;
+                        if (k > 1 && w > self.history_ns) || 2 * span < w {
+                            break;
+                        }
+                        if let Some(v) = slope_since(&f.history, mid - w) {
+                            let d = v * w as f64 * 1e-9 / self.cfg.distance_mm;
+                            if moved.is_none_or(|m| d.abs() > m.abs()) {
+                                moved = Some(d);
+                            }
+                        }
+                    }
+                    f.moved = moved.map(|d| d.clamp(-1.0, 1.0));
+                }
             }
-            let span = now - f.points.front().map_or(now, |q| q.0);
-            f.velocity = if f.points.len() >= self.cfg.min_points && 2 * span >= self.window_ns {
-                regression(&f.points)
-            } else {
-                None
-            };
         }
         let (class, l, r) = self.candidate_now();
         if class == self.state {
@@ -450,9 +703,13 @@ impl Stage for Slip {
             }
         };
         if p.time - since >= self.min_duration_ns {
+            let onset = match (class.is_slip(), self.cfg.method) {
+                (true, SlipMethod::Displacement) => self.fitted_onset(since),
+                _ => evidence,
+            };
             out.push(SlipEvent {
                 time: p.time,
-                onset: evidence,
+                onset,
                 first_seen: since,
                 class,
                 previous: self.state,
