@@ -44,27 +44,8 @@ name = "th"
 layout = "biotac-sp"
 source = { csv = "recording.csv", columns = "th_e{1..24}", rate_hz = 100.0 }
 
-[stages.normalise]
-bypass = true            # log-change events are scale-free: they act on ln(raw counts)
-
-[stages.events]
-threshold = 0.002
-
-[stages.window]
-frames = 10
-aggregate = "count"      # electrodes change in both directions under a contact
-
-[stages.surface]
-grid = { nx = 32 }
-incremental = true
-
-[stages.contour]
-min_peak = 2.0
-min_area_mm2 = 60.0
-
-[stages.slip]
-first = "ff"
-second = "th"
+# no [stages.*] tables: every stage runs with its defaults (`gradtac explain scene.toml`
+# prints them)
 
 [[output]]
 tap = "events"

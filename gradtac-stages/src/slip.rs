@@ -770,15 +770,40 @@ mod tests {
         move |t| [0.0, v * (t - 0.5).max(0.0)]
     }
 
+    /// The previous rule (the baseline) with its previous persistence.
+    fn velocity() -> SlipConfig {
+        SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..Default::default() }
+    }
+
+    const CASES: [(f64, f64, SlipClass); 4] = [
+        (10.0, -10.0, SlipClass::LongitudinalUp),
+        (-10.0, 10.0, SlipClass::LongitudinalDown),
+        (-10.0, -10.0, SlipClass::RotationalCw),
+        (10.0, 10.0, SlipClass::RotationalCcw),
+    ];
+
     #[test]
-    fn classes_from_synthetic_tracks() {
-        for (ff_v, th_v, want) in [
-            (10.0, -10.0, SlipClass::LongitudinalUp),
-            (-10.0, 10.0, SlipClass::LongitudinalDown),
-            (-10.0, -10.0, SlipClass::RotationalCw),
-            (10.0, 10.0, SlipClass::RotationalCcw),
-        ] {
-            let mut s = Slip::try_new(&SlipConfig::default()).unwrap();
+    fn displacement_classes_and_onset_from_synthetic_tracks() {
+        for (ff_v, th_v, want) in CASES {
+            // onset_lead 0: the change point itself
+            let cfg = SlipConfig { onset_lead_s: 0.0, ..Default::default() };
+            let ev = Slip::try_new(&cfg).unwrap().run_all(points(150, ramp(ff_v), ramp(th_v))).unwrap();
+            assert_eq!(ev.len(), 1, "{want:?}: {ev:?}");
+            assert_eq!((ev[0].class, ev[0].previous), (want, SlipClass::Stable));
+            let onset = ev[0].onset.as_secs_f64();
+            assert!((onset - 0.5).abs() <= 0.011, "{want:?}: onset {onset}");
+            assert!(ev[0].time - ev[0].first_seen >= 100_000_000);
+            // the default lead moves the onset earlier by 0.12 s
+            let ev2 =
+                Slip::try_new(&SlipConfig::default()).unwrap().run_all(points(150, ramp(ff_v), ramp(th_v))).unwrap();
+            assert_eq!(ev2[0].onset.0, ev[0].onset.0 - 120_000_000);
+        }
+    }
+
+    #[test]
+    fn velocity_rule_classes_from_synthetic_tracks() {
+        for (ff_v, th_v, want) in CASES {
+            let mut s = Slip::try_new(&velocity()).unwrap();
             let ev = s.run_all(points(100, ramp(ff_v), ramp(th_v))).unwrap();
             assert_eq!(ev.len(), 1, "{want:?}: {ev:?}");
             assert_eq!(ev[0].class, want);
@@ -795,63 +820,111 @@ mod tests {
     #[test]
     fn ambiguous_motion_keeps_the_state_unless_dominance_is_one() {
         // one finger still, the other moving: |L| = |R|
-        let mut s = Slip::try_new(&SlipConfig::default()).unwrap();
-        assert!(s.run_all(points(100, ramp(0.0), ramp(20.0))).unwrap().is_empty());
-        let mut s = Slip::try_new(&SlipConfig { dominance: 1.0, ..Default::default() }).unwrap();
-        let ev = s.run_all(points(100, ramp(0.0), ramp(20.0))).unwrap();
+        for base in [SlipConfig::default(), velocity()] {
+            let mut s = Slip::try_new(&base).unwrap();
+            assert!(s.run_all(points(150, ramp(0.0), ramp(20.0))).unwrap().is_empty());
+        }
+        let mut s = Slip::try_new(&SlipConfig { dominance: 1.0, ..velocity() }).unwrap();
+        let ev = s.run_all(points(150, ramp(0.0), ramp(20.0))).unwrap();
         assert_eq!(ev.len(), 1);
         assert_eq!(ev[0].class, SlipClass::LongitudinalDown); // ties go to longitudinal
+                                                              // displacement: each finger's evidence is clamped to ±1, so one moving finger reaches
+                                                              // |L| = |R| = 0.5 < 0.75 whatever the dominance — both fingers must move
+        let mut s = Slip::try_new(&SlipConfig { dominance: 1.0, ..Default::default() }).unwrap();
+        assert!(s.run_all(points(150, ramp(0.0), ramp(20.0))).unwrap().is_empty());
+    }
+
+    fn chunked(cfg: &SlipConfig, input: &[TrackPoint], cut: usize) -> Vec<SlipEvent> {
+        let mut s = Slip::try_new(cfg).unwrap();
+        let mut out = Vec::new();
+        for chunk in input.chunks(cut) {
+            let mut part = Vec::new();
+            for p in chunk {
+                s.push(p.clone(), &mut part).unwrap();
+            }
+            out.extend(part);
+        }
+        s.finish(&mut out).unwrap();
+        out
     }
 
     #[test]
     fn chunking_does_not_change_the_events() {
         let stop = |v: f64| move |t: f64| [0.0, v * (t - 0.5).clamp(0.0, 0.4)];
-        let input = points(150, stop(-10.0), stop(-10.0));
-        let all = Slip::try_new(&SlipConfig::default()).unwrap().run_all(input.clone()).unwrap();
-        assert_eq!(all.len(), 2);
-        for cut in [1, 3, 7, 64] {
-            let mut s = Slip::try_new(&SlipConfig::default()).unwrap();
-            let mut out = Vec::new();
-            for chunk in input.chunks(cut) {
-                let mut part = Vec::new();
-                for p in chunk {
-                    s.push(p.clone(), &mut part).unwrap();
-                }
-                out.extend(part);
+        let input = points(300, stop(-10.0), stop(-10.0));
+        for cfg in [SlipConfig::default(), velocity()] {
+            let all = Slip::try_new(&cfg).unwrap().run_all(input.clone()).unwrap();
+            assert_eq!(all.len(), 2, "{all:?}");
+            for cut in [1, 3, 7, 64] {
+                assert_eq!(chunked(&cfg, &input, cut), all, "chunks of {cut}");
             }
-            s.finish(&mut out).unwrap();
-            assert_eq!(out, all, "chunks of {cut}");
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn chunking_invariance(seed in 0u64..1000, cut in 1usize..50, vf in -20.0f64..20.0, vt in -20.0f64..20.0) {
+            // a wobbling track with a random slip, cut into random chunks
+            let wob = move |k: f64| ((seed as f64 + k * 37.0).sin() * 0.05);
+            let input = points(150, move |t| [wob(t), vf * (t - 0.6).max(0.0) + wob(t + 1.0)],
+                                    move |t| [wob(t + 2.0), vt * (t - 0.6).max(0.0)]);
+            let all = Slip::try_new(&SlipConfig::default()).unwrap().run_all(input.clone()).unwrap();
+            proptest::prop_assert_eq!(chunked(&SlipConfig::default(), &input, cut), all);
         }
     }
 
     #[test]
     fn slow_motion_no_contact_and_other_sensors_give_no_slip() {
-        let mut s = Slip::try_new(&SlipConfig::default()).unwrap();
-        assert!(s.run_all(points(100, ramp(2.0), ramp(-2.0))).unwrap().is_empty());
-        // one finger without contact: no evidence
-        let mut pts = points(100, ramp(10.0), ramp(-10.0));
-        for p in pts.iter_mut().filter(|p| p.sensor.as_str() == "th") {
-            p.state = ContactState::NoContact;
-            p.x_mm = f64::NAN;
-            p.y_mm = f64::NAN;
-            p.track = None;
+        for cfg in [SlipConfig::default(), velocity()] {
+            let mut s = Slip::try_new(&cfg).unwrap();
+            assert!(s.run_all(points(150, ramp(0.5), ramp(-0.5))).unwrap().is_empty());
+            // one finger without contact: no evidence
+            let mut pts = points(150, ramp(10.0), ramp(-10.0));
+            for p in pts.iter_mut().filter(|p| p.sensor.as_str() == "th") {
+                p.state = ContactState::NoContact;
+                p.x_mm = f64::NAN;
+                p.y_mm = f64::NAN;
+                p.track = None;
+            }
+            assert!(s.run_all(pts).unwrap().is_empty());
+            // sensors other than first/second are ignored
+            let cfg = SlipConfig { first: "mf".into(), second: "rf".into(), ..cfg };
+            let mut s = Slip::try_new(&cfg).unwrap();
+            assert!(s.run_all(points(150, ramp(10.0), ramp(-10.0))).unwrap().is_empty());
         }
-        assert!(s.run_all(pts).unwrap().is_empty());
-        // sensors other than first/second are ignored
-        let cfg = SlipConfig { first: "mf".into(), second: "rf".into(), ..Default::default() };
-        let mut s = Slip::try_new(&cfg).unwrap();
-        assert!(s.run_all(points(100, ramp(10.0), ramp(-10.0))).unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_long_dropout_starts_afresh_and_a_short_one_does_not() {
+        // both fingers lose contact from 0.45 s to 0.45 s + gap; the slip starts at 0.5 s
+        for (gap, slips) in [(0.2, true), (0.7, false)] {
+            let mut pts = points(150, ramp(-10.0), ramp(10.0));
+            for p in pts.iter_mut() {
+                let t = p.time.as_secs_f64();
+                if (0.45..0.45 + gap).contains(&t) {
+                    p.state = ContactState::NoContact;
+                    p.x_mm = f64::NAN;
+                    p.y_mm = f64::NAN;
+                }
+            }
+            let ev = Slip::try_new(&SlipConfig::default()).unwrap().run_all(pts).unwrap();
+            // after a long dropout the fingers settle again (0.3 s) and the motion ends at 1.5 s
+            // before enough history: no slip
+            assert_eq!(!ev.is_empty(), slips, "gap {gap}: {ev:?}");
+        }
     }
 
     #[test]
     fn slip_then_rest_returns_to_stable() {
         let stop = |v: f64| move |t: f64| [0.0, v * (t - 0.5).clamp(0.0, 0.4)];
-        let mut s = Slip::try_new(&SlipConfig::default()).unwrap();
-        let ev = s.run_all(points(150, stop(-10.0), stop(10.0))).unwrap();
-        let classes: Vec<_> = ev.iter().map(|e| e.class).collect();
-        assert_eq!(classes, [SlipClass::LongitudinalDown, SlipClass::Stable]);
-        assert!(ev[1].onset.as_secs_f64() > 0.9);
-        assert_eq!(ev[1].onset, ev[1].first_seen);
+        for cfg in [SlipConfig::default(), velocity()] {
+            let mut s = Slip::try_new(&cfg).unwrap();
+            let ev = s.run_all(points(250, stop(-10.0), stop(10.0))).unwrap();
+            let classes: Vec<_> = ev.iter().map(|e| e.class).collect();
+            assert_eq!(classes, [SlipClass::LongitudinalDown, SlipClass::Stable]);
+            assert!(ev[1].onset.as_secs_f64() > 0.9);
+            assert_eq!(ev[1].onset, ev[1].first_seen);
+        }
     }
 
     #[test]
@@ -862,6 +935,10 @@ mod tests {
             SlipConfig { velocity_window_s: 0.0, ..Default::default() },
             SlipConfig { min_points: 1, ..Default::default() },
             SlipConfig { speed_threshold_mm_s: -1.0, ..Default::default() },
+            SlipConfig { window_s: 2.0, history_s: 1.0, ..Default::default() },
+            SlipConfig { distance_mm: f64::NAN, ..Default::default() },
+            SlipConfig { settle_s: -0.1, ..Default::default() },
+            SlipConfig { max_gap_s: 0.0, ..Default::default() },
         ] {
             assert!(Slip::try_new(&cfg).is_err(), "{cfg:?}");
         }
