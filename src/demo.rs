@@ -5,8 +5,14 @@
 //!    object (5 N, 5 mm contacts) that slips down 6 mm at 20 mm/s from t = 1 s; the raw
 //!    counts go to `recording.csv`, the ground truth to `truth.csv`.
 //! 2. The embedded [`DEMO_SCENE`] reads the recording per sensor and writes events, surfaces,
-//!    contours, tracks and slip events to Parquet (`out/`). Its stage settings are the ones
-//!    the slip tests measure (see `gradtac_stages::slip`).
+//!    contours, tracks and slip events to Parquet (`out/`). It has no `[stages.*]` table:
+//!    every stage runs with its defaults (the taxel-centroid locator, the displacement slip
+//!    rule; `gradtac explain` prints every value). Before the defaults took over, the scene
+//!    carried the event-contour settings of the old slip tests and printed the same contact
+//!    errors (the locator default was already the centroid) and a slip onset error of
+//!    −0.040 s; with the defaults the onset error is −0.110 s (the default `onset_lead_s`,
+//!    chosen on the model family's slowly starting slips, is too early for this recording's
+//!    instantaneous start).
 //! 3. The demo reads the tracks and slip events back and compares them with the truth:
 //!    contact localisation error (mm and fraction of sensor width) and slip class and onset.
 
