@@ -186,6 +186,12 @@ fn main() {
     println!("{HEADER}");
     for (label, cfg) in [("displacement (default)", &def), ("track velocity (previous rule, baseline)", &base)] {
         let all: Vec<GraspScore> = held.iter().map(|c| run(c, cfg)).collect();
+        if std::env::var("BIAS").is_ok() {
+            let tun: Vec<GraspScore> = tuning.iter().map(|c| run(c, cfg)).collect();
+            let mut b: Vec<f64> =
+                tun.iter().filter(|r| r.right() && r.truth.class.is_slip()).map(|r| r.onset_error_s).collect();
+            eprintln!("{label}: tuning signed onset error median {:.3} s", pct(&mut b, 0.5));
+        }
         println!("{}", summarise(&all).row(&format!("{label}, all")));
         let exp: Vec<GraspScore> = held.iter().filter(|c| c.exponential).map(|c| run(c, cfg)).collect();
         println!("{}", summarise(&exp).row(&format!("{label}, exponential kernel (held-out physics)")));
