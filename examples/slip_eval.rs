@@ -5,7 +5,10 @@
 //! ```text
 //! cargo run --release --example slip_eval          # the tables of the slip docs
 //! cargo run --release --example slip_eval -- tune  # the settings search on the tuning seeds
+//! BIAS=1 cargo run --release --example slip_eval   # also the tuning members' signed onset bias
 //! ```
+//!
+//! `onset_lead_s` is that bias measured with `onset_lead_s = 0` (0.04 s).
 //!
 //! Protocol: tuning members are seeds 0..40 × 5 classes whose two fingers both draw a Gaussian
 //! or difference-of-Gaussians kernel (the exponential kernel is held-out physics); settings are
