@@ -44,7 +44,7 @@ use gradtac::stages::events::{Events, EventsConfig, Threshold};
 use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim::{GraspConfig, Scene, SensorModel, Simulator};
-use gradtac::stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent};
+use gradtac::stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent, SlipMethod};
 use gradtac::stages::track::{Track, TrackConfig};
 use gradtac::stages::window::{Aggregate, Window, WindowConfig};
 use gradtac::stream::{Keyed, Layout, SensorId, Stage, StageExt, TaxelFrame, Timestamp};
@@ -209,7 +209,10 @@ async fn run() -> Result<(), BoxError> {
     // contact track with velocity (mm/s); no delay
     let track = Track::try_new(&TrackConfig::default())?;
     let per_finger = savgol.then(events).then(window).then(interpolate).then(contour).then(track);
-    let slip = Slip::try_new(&SlipConfig::default())?; // first = ff, second = th, mirrored up
+    // first = ff, second = th, mirrored up; the track-velocity rule those tests measure on
+    // event-contour tracks (the displacement default is measured with the default locator)
+    let slip_cfg = SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..SlipConfig::default() };
+    let slip = Slip::try_new(&slip_cfg)?;
     let delay = per_finger.delay() + slip.delay();
     let mut pipeline = Keyed::new(move |_: &SensorId| per_finger.clone()).then(slip);
 

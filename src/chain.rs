@@ -345,7 +345,7 @@ impl SensorChain {
                 format!("contour area → N, {m} model")
             }),
             Tap::Servo => format!("offset from centre, gain {}, deadband {} mm", st.servo.gain, st.servo.deadband_mm),
-            Tap::Slip => format!("two-finger slip of {} and {}", st.slip.first, st.slip.second),
+            Tap::Slip => st.slip.describe(),
             Tap::Dos => match (&self.dos, &st.dos) {
                 (Some(c), Some(d)) => format!(
                     "slip direction, {} classes, {} parameters, {}",

@@ -279,7 +279,7 @@ fn demo_plots_from_plain_data() {
         sg.then(ev).then(w).then(i).then(c).then(t)
     });
     let pts = keyed.run_all(rec.taxel_frames()).unwrap();
-    let mut slip = Slip::try_new(&SlipConfig::default()).unwrap();
+    let mut slip = Slip::try_new(&velocity_rule()).unwrap();
     let events = slip.run_all(pts.clone()).unwrap();
     assert!(events.iter().any(|e| e.class == SlipClass::LongitudinalUp), "{events:?}");
     let of = |s: &str| -> Vec<(f64, f64, f64)> {
@@ -377,7 +377,7 @@ fn task_schemas_render() {
         sg.then(ev).then(w).then(i).then(c).then(Track::try_new(&TrackConfig::default()).unwrap())
     });
     let pts = keyed.run_all(rec.taxel_frames()).unwrap();
-    let slips = Slip::try_new(&SlipConfig::default()).unwrap().run_all(pts).unwrap();
+    let slips = Slip::try_new(&velocity_rule()).unwrap().run_all(pts).unwrap();
     assert!(!slips.is_empty());
     write(&d.join("slip.parquet"), SlipShape::new("ff", "th"), &slips, None);
 
@@ -628,4 +628,10 @@ fn the_cli_plots_an_archive_directory_beside_it() {
         assert_eq!(decode(&png).0, 1200);
         std::fs::remove_file(&png).unwrap();
     }
+}
+
+/// The track-velocity slip rule these plots were drawn with (event-contour tracks of the old
+/// simulator; the displacement default is measured in `tests/slip_family.rs`).
+fn velocity_rule() -> SlipConfig {
+    SlipConfig { method: gradtac::stages::slip::SlipMethod::Velocity, min_duration_s: 0.08, ..SlipConfig::default() }
 }

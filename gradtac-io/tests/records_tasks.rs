@@ -144,7 +144,8 @@ fn the_slip_stages_events_come_back() {
     let cfg = SlipConfig::default();
     let mut slip = Slip::try_new(&cfg).unwrap();
     let mut events = Vec::new();
-    for p in grasp(250, ramp(20.0), ramp(-20.0)) {
+    // 3.5 s: the default rule returns to stable once its longest window (4 × 0.3 s) is still
+    for p in grasp(350, ramp(20.0), ramp(-20.0)) {
         slip.push(p, &mut events).unwrap();
     }
     slip.finish(&mut events).unwrap();

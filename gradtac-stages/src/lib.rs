@@ -31,6 +31,7 @@ pub mod savgol;
 pub mod servo;
 pub mod sim;
 pub mod sim_family;
+pub mod sim_grasp;
 pub mod slip;
 pub mod track;
 pub mod window;

@@ -5,7 +5,9 @@
 //! raw counts → Savitzky–Golay (centred, window 11, order 3) → log-change events
 //! (τ = 0.002 on ln counts) → sliding window (10 frames) → natural-neighbour surface (32 × 32)
 //! → maximal contour (min peak 2 events, min area 60 mm²) → track, then the [`Slip`]
-//! classifier (default [`SlipConfig`]) over both tracks.
+//! classifier's track-velocity rule (`method = "velocity"`, 80 ms persistence: the rule before
+//! the displacement default; the default is measured on the model family in
+//! `tests/slip_family.rs` of the root package) over both tracks.
 //!
 //! Stated tolerances (measured values in the comments):
 //! - electrodes that all change the same way (`flip_fraction = 0`) with *signed* event sums:
@@ -21,7 +23,7 @@ use gradtac_stages::events::{Events, EventsConfig};
 use gradtac_stages::interpolate::{Interpolate, InterpolateConfig};
 use gradtac_stages::savgol::{SavGol, SavGolConfig};
 use gradtac_stages::sim::{GraspConfig, Recording, Scene, SensorModel, Simulator};
-use gradtac_stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent};
+use gradtac_stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent, SlipMethod};
 use gradtac_stages::track::{Track, TrackConfig, TrackPoint};
 use gradtac_stages::window::{Aggregate, Window, WindowConfig};
 use gradtac_stream::{Keyed, Layout, SensorId, Stage, StageExt, TaxelFrame};
@@ -45,7 +47,9 @@ incremental = true
 min_peak = 2.0
 min_area_mm2 = 60.0
 [stages.track]         # defaults
-[stages.slip]          # defaults: ff / th, up = [0, 1] / [0, -1], 5 mm/s, 0.15 s, 80 ms
+[stages.slip]          # the previous rule these tests measured: ff / th, up = [0, 1] / [0, -1], 5 mm/s, 0.15 s, 80 ms
+method = "velocity"
+min_duration_s = 0.08
 "#;
 
 #[derive(Deserialize)]
@@ -96,7 +100,7 @@ fn slip_events(rec: &Recording, layout: &Layout, aggregate: Aggregate) -> Vec<Sl
 fn settings_are_what_the_docs_say() {
     let s = settings();
     assert_eq!(s.savgol, SavGolConfig::default());
-    assert_eq!(s.slip, SlipConfig::default());
+    assert_eq!(s.slip, SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..SlipConfig::default() });
     assert_eq!(s.track, TrackConfig::default());
     assert_eq!((s.surface.grid.nx, s.contour.min_area_mm2), (32, 60.0));
 }
