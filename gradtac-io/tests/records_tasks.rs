@@ -37,7 +37,7 @@ fn slips_of(r: &ReadBack) -> (Vec<(String, String)>, Vec<SlipEvent>) {
     let (mut pairs, mut out) = (Vec::new(), Vec::new());
     for b in &r.batches {
         let (first, second) = (strs(b, "first"), strs(b, "second"));
-        let [time, onset, first_seen] = ["time_ns", "onset_ns", "first_seen_ns"].map(|n| i64s(b, n));
+        let [time, onset, first_seen] = ["time", "onset", "first_seen"].map(|n| i64s(b, n));
         let (class, previous) = (strs(b, "class"), strs(b, "previous"));
         let (common, differential) = (f64s(b, "common_mm_s"), f64s(b, "differential_mm_s"));
         for i in 0..b.num_rows() {
@@ -95,14 +95,14 @@ fn slips_round_trip_bit_exact_with_the_pair_in_metadata_and_columns() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_slips();
     let r = read(&write(&dir.path().join("slip.parquet"), SlipShape::new("ff", "th"), &input, 7));
-    assert_eq!(schema_id(&r), "slip/1");
+    assert_eq!(schema_id(&r), "slip/2");
     assert_eq!(r.schema.metadata()[SLIP_FIRST_KEY], "ff");
     assert_eq!(r.schema.metadata()[SLIP_SECOND_KEY], "th");
     let (pairs, back) = slips_of(&r);
     assert_eq!(slip_keys(&back), slip_keys(&input));
     assert!(pairs.iter().all(|p| p == &("ff".to_string(), "th".to_string())));
     assert_eq!(pairs.len(), input.len());
-    for c in ["time_ns", "onset_ns", "first_seen_ns"] {
+    for c in ["time", "onset", "first_seen"] {
         assert_eq!(unit(&r, c).as_deref(), Some("ns"), "{c}");
     }
     assert_eq!(unit(&r, "common_mm_s").as_deref(), Some("mm/s"));
@@ -164,7 +164,7 @@ fn forces_of(r: &ReadBack) -> Vec<ForceEstimate> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (time, seq) = (i64s(b, "time_ns"), u64s(b, "seq"));
+        let (time, seq) = (i64s(b, "time"), u64s(b, "seq"));
         let (area, force) = (f64s(b, "area_mm2"), f64s(b, "force_n"));
         for i in 0..b.num_rows() {
             out.push(ForceEstimate {
@@ -213,7 +213,7 @@ fn forces_round_trip_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_forces();
     let r = read(&write(&dir.path().join("force.parquet"), (), &input, 9));
-    assert_eq!(schema_id(&r), "force/1");
+    assert_eq!(schema_id(&r), "force/2");
     assert_eq!(rows(&r), input.len());
     assert_eq!(force_keys(&forces_of(&r)), force_keys(&input));
     assert_eq!(unit(&r, "area_mm2").as_deref(), Some("mm2"));
@@ -275,7 +275,7 @@ fn servos_of(r: &ReadBack) -> Vec<ServoCommand> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (time, seq) = (i64s(b, "time_ns"), u64s(b, "seq"));
+        let (time, seq) = (i64s(b, "time"), u64s(b, "seq"));
         let action = strs(b, "action");
         let m = MOTION_COLUMNS.map(|n| f64s(b, n));
         for i in 0..b.num_rows() {
@@ -352,7 +352,7 @@ fn servo_commands_round_trip_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_servos();
     let r = read(&write(&dir.path().join("servo.parquet"), (), &input, 6));
-    assert_eq!(schema_id(&r), "servo/1");
+    assert_eq!(schema_id(&r), "servo/2");
     assert_eq!(rows(&r), input.len());
     assert_eq!(servo_keys(&servos_of(&r)), servo_keys(&input));
     for c in MOTION_COLUMNS {
@@ -395,7 +395,7 @@ fn dos_of(r: &ReadBack) -> Vec<DosDecision> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let [start, end] = ["start_ns", "end_ns"].map(|n| i64s(b, n));
+        let [start, end] = ["start", "end"].map(|n| i64s(b, n));
         let [seq, frames, events] = ["seq", "frames", "events"].map(|n| u64s(b, n));
         let class = strs(b, "class");
         let (distances, posterior) = (f64_lists(b, "distances"), f64_lists(b, "posterior"));
@@ -477,14 +477,14 @@ fn dos_decisions_round_trip_bit_exact_with_the_classes_in_metadata() {
     let classes = vec![DosClass::T, DosClass::Cw, DosClass::N, DosClass::W];
     let input = some_dos(&classes);
     let r = read(&write(&dir.path().join("dos.parquet"), DosShape::new(classes).unwrap(), &input, 5));
-    assert_eq!(schema_id(&r), "dos/2");
+    assert_eq!(schema_id(&r), "dos/3");
     assert_eq!(rows(&r), input.len());
     assert_eq!(r.schema.metadata()[DOS_CLASSES_KEY], r#"["t","cw","n","w"]"#);
     assert_eq!(dos_keys(&dos_of(&r)), dos_keys(&input));
     assert_eq!(unit(&r, "positive_x").as_deref(), Some("mm"));
     assert_eq!(unit(&r, "rotation").as_deref(), Some("rad"));
     assert_eq!(unit(&r, "rate"), None);
-    assert_eq!(unit(&r, "end_ns").as_deref(), Some("ns"));
+    assert_eq!(unit(&r, "end").as_deref(), Some("ns"));
 }
 
 #[test]
@@ -774,8 +774,8 @@ fn pyarrow_reads_every_task_schema() {
         r#"
 import pyarrow.dataset as ds
 out = [describe(p) for p in sys.argv[2:]]
-pairs = ds.dataset(sys.argv[1], format="parquet").to_table(columns=["first", "second", "time_ns"]).to_pylist()
-print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["time_ns"]) for r in pairs)}))
+pairs = ds.dataset(sys.argv[1], format="parquet").to_table(columns=["first", "second", "time"]).to_pylist()
+print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["time"]) for r in pairs)}))
 "#
     );
     let v = run_python(&script, std::iter::once(pairs.as_os_str()).chain(paths.iter().map(|p| p.as_os_str())));
@@ -783,15 +783,15 @@ print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["tim
 
     // slip/1
     let s = &files[0];
-    assert_eq!(s["schema"], "slip/1");
+    assert_eq!(s["schema"], "slip/2");
     assert_eq!(s["arrow_md"][SLIP_FIRST_KEY], "ff");
     assert_eq!(s["arrow_md"][SLIP_SECOND_KEY], "th");
     assert_eq!(s["types"]["class"], "string");
     let rows: Vec<Value> = slips
         .iter()
         .map(|e| {
-            json!({"first": "ff", "second": "th", "time_ns": e.time.as_nanos(), "onset_ns": e.onset.as_nanos(),
-                   "first_seen_ns": e.first_seen.as_nanos(), "class": e.class.name(),
+            json!({"first": "ff", "second": "th", "time": e.time.as_nanos(), "onset": e.onset.as_nanos(),
+                   "first_seen": e.first_seen.as_nanos(), "class": e.class.name(),
                    "previous": e.previous.name(), "common_mm_s": h(e.common_mm_s),
                    "differential_mm_s": h(e.differential_mm_s)})
         })
@@ -800,11 +800,11 @@ print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["tim
 
     // force/1
     let f = &files[1];
-    assert_eq!(f["schema"], "force/1");
+    assert_eq!(f["schema"], "force/2");
     let rows: Vec<Value> = forces
         .iter()
         .map(|e| {
-            json!({"sensor": e.sensor.as_str(), "time_ns": e.time.as_nanos(), "seq": e.seq,
+            json!({"sensor": e.sensor.as_str(), "time": e.time.as_nanos(), "seq": e.seq,
                    "area_mm2": h(e.area_mm2), "force_n": e.force_n.map(h)})
         })
         .collect();
@@ -812,12 +812,12 @@ print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["tim
 
     // servo/1
     let c = &files[2];
-    assert_eq!(c["schema"], "servo/1");
+    assert_eq!(c["schema"], "servo/2");
     let rows: Vec<Value> = servos
         .iter()
         .map(|c| {
             let m = c.motion();
-            json!({"sensor": c.sensor.as_str(), "time_ns": c.time.as_nanos(), "seq": c.seq,
+            json!({"sensor": c.sensor.as_str(), "time": c.time.as_nanos(), "seq": c.seq,
                    "action": servo_action_name(&c.action),
                    "offset_x_mm": m.map(|m| h(m.offset_mm[0])), "offset_y_mm": m.map(|m| h(m.offset_mm[1])),
                    "distance_mm": m.map(|m| h(m.distance_mm)),
@@ -829,14 +829,14 @@ print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["tim
 
     // dos/2
     let d = &files[3];
-    assert_eq!(d["schema"], "dos/2");
+    assert_eq!(d["schema"], "dos/3");
     assert_eq!(d["arrow_md"][DOS_CLASSES_KEY], r#"["n","e","t"]"#);
     assert_eq!(d["types"]["posterior"], "fixed_size_list<item: double not null>[3]");
     let rows: Vec<Value> = dos
         .iter()
         .map(|d| {
-            let mut o = json!({"sensor": d.sensor.as_str(), "start_ns": d.start.as_nanos(),
-                               "end_ns": d.end.as_nanos(), "seq": d.seq, "frames": d.frames,
+            let mut o = json!({"sensor": d.sensor.as_str(), "start": d.start.as_nanos(),
+                               "end": d.end.as_nanos(), "seq": d.seq, "frames": d.frames,
                                "events": d.features.events, "class": d.decision.class.as_str(),
                                "distances": hs(&d.decision.distances), "posterior": hs(&d.decision.posterior)});
             for f in Feature::ALL {
