@@ -23,7 +23,13 @@ fn read_frames(path: &Path) -> Vec<(String, i64, u64, Vec<f64>)> {
     for batch in reader {
         let b = batch.unwrap();
         let sensor = b.column_by_name("sensor").unwrap().as_any().downcast_ref::<StringArray>().unwrap().clone();
-        let time = b.column_by_name("time_ns").unwrap().as_any().downcast_ref::<Int64Array>().unwrap().clone();
+        let time = b
+            .column_by_name("time")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<arrow_array::DurationNanosecondArray>()
+            .unwrap()
+            .clone();
         let seq = b.column_by_name("seq").unwrap().as_any().downcast_ref::<UInt64Array>().unwrap().clone();
         let vals = b.column_by_name("values").unwrap().as_any().downcast_ref::<FixedSizeListArray>().unwrap().clone();
         for i in 0..b.num_rows() {

@@ -151,12 +151,12 @@ fn every_schema_renders_a_png_of_the_documented_size() {
     write(&d.join("track.parquet"), (), &o.points, Some(&layout));
 
     let cases: [(&str, &str, (u32, u32), f64); 6] = [
-        ("frames", "frame/1", (1200, 340), 0.05),
-        ("events", "event/1", (1200, 340), 0.02),
-        ("window", "window/1", (1320, 340), 0.3),
-        ("surface", "surface/1", (4 * 380 + 120, 40 + 400), 0.3),
-        ("contour", "contour/1", (1400, 620), 0.03),
-        ("track", "track/1", (640 + 120, 680), 0.03),
+        ("frames", "frame/2", (1200, 340), 0.05),
+        ("events", "event/2", (1200, 340), 0.02),
+        ("window", "window/2", (1320, 340), 0.3),
+        ("surface", "surface/2", (4 * 380 + 120, 40 + 400), 0.3),
+        ("contour", "contour/2", (1400, 620), 0.03),
+        ("track", "track/2", (640 + 120, 680), 0.03),
     ];
     for (name, schema, size, ink) in cases {
         let png = d.join(format!("{name}.png"));
@@ -169,7 +169,7 @@ fn every_schema_renders_a_png_of_the_documented_size() {
     // the surface plot drew 4 instants; the window plot one row per window
     let s = plot_parquet(&d.join("surface.parquet"), &d.join("surface.png")).unwrap();
     assert_eq!(s.drawn, 4);
-    assert!(s.notes.iter().any(|n| n.contains("recomputed")), "{s}");
+    assert!(s.notes.iter().any(|n| n.contains("no scene in the file")), "{s}");
     // without layout metadata the built-in layout is used, and said so
     let s = plot_parquet(&d.join("contour.parquet"), &d.join("contour.png")).unwrap();
     assert!(s.notes.iter().any(|n| n.contains("BioTac SP")), "{s}");
@@ -437,10 +437,10 @@ fn task_schemas_render() {
     write(&d.join("dos.parquet"), DosShape::new(classes).unwrap(), &decisions, None);
 
     for (name, schema, size, ink) in [
-        ("slip", "slip/1", (1200, 560), 0.05),
-        ("force", "force/1", (1200, 680), 0.03),
-        ("servo", "servo/1", (1200, 680), 0.03),
-        ("dos", "dos/2", (1200, 340), 0.02),
+        ("slip", "slip/2", (1200, 560), 0.05),
+        ("force", "force/2", (1200, 680), 0.03),
+        ("servo", "servo/2", (1200, 680), 0.03),
+        ("dos", "dos/3", (1200, 340), 0.02),
     ] {
         let png = d.join(format!("{name}.png"));
         let s = plot_parquet(&d.join(format!("{name}.parquet")), &png).unwrap();
@@ -527,7 +527,7 @@ fn an_archive_directory_plots_as_one_table() {
         std::fs::write(a.join("_metadata.parquet"), "not parquet").unwrap();
         let png = d.join(format!("{name}.png"));
         let s = plot_parquet(&a, &png).unwrap();
-        assert_eq!(s.kind, "frame/1", "{s}");
+        assert_eq!(s.kind, "frame/2", "{s}");
         assert_eq!(s.rows, sum, "{s}");
         assert_eq!(s.sensors, sensors.map(String::from).to_vec(), "{s}");
         let note = format!("archive: {} Parquet files read as one table", files.len());
@@ -593,7 +593,7 @@ fn bad_archive_directories_are_refused_clearly() {
     write::<EventBatch>(&mixed.join("b-events.parquet"), shape.clone(), &[], None);
     let e = plot_parquet(&mixed, &d.join("mixed.png")).unwrap_err().to_string();
     assert!(e.contains(&*mixed.to_string_lossy()), "{e}");
-    assert!(e.contains("b-events.parquet: schema event/1 differs from frame/1 of a-frames.parquet"), "{e}");
+    assert!(e.contains("b-events.parquet: schema event/2 differs from frame/2 of a-frames.parquet"), "{e}");
 
     let columns = d.join("columns");
     std::fs::create_dir_all(columns.join("sensor=th")).unwrap();
@@ -621,7 +621,7 @@ fn the_cli_plots_an_archive_directory_beside_it() {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_gradtac")).arg("plot").arg(&input).output().unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
-        assert!(stdout.contains(&format!("frame/1: {} rows", frames.len())), "{stdout}");
+        assert!(stdout.contains(&format!("frame/2: {} rows", frames.len())), "{stdout}");
         assert!(stdout.contains(&format!("archive: {} Parquet files read as one table", files.len())), "{stdout}");
         let png = d.join("run.archive.png");
         assert!(stdout.contains(&*png.to_string_lossy()), "{stdout}");

@@ -17,7 +17,7 @@ pub(super) fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         .iter()
         .map(|b| {
             Ok(Col {
-                end: i64s(b, "end_ns")?,
+                end: i64s(b, "end")?,
                 cx: f64s(b, "centroid_x_mm")?,
                 cy: f64s(b, "centroid_y_mm")?,
                 area: f64s(b, "area_mm2")?,
@@ -63,9 +63,12 @@ pub(super) fn contour_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         drawn,
         draw: Box::new(move |root| {
             let (left, right) = root.split_horizontally(600);
-            let (mut plane, bx, by) = plane_chart(&left, "contact centroids (contour/1)", &layout)?;
+            let (mut plane, bx, by) = plane_chart(&left, "contact centroids and contours", &layout)?;
             for (i, (sensor, pts, outlines)) in series.iter().enumerate() {
                 let c = series_colour(i);
+                if !outlines.is_empty() {
+                    legend_entry(&mut plane, format!("{sensor} contour"), line_key(c.mix(0.5).stroke_width(1)))?;
+                }
                 for o in outlines {
                     let closed = o.iter().chain(o.first()).map(|q| (q[0], q[1]));
                     for v in segments(closed, bx, by) {

@@ -45,7 +45,7 @@ use arrow_array::cast::AsArray;
 use arrow_array::types::{Float64Type, Int64Type, Int8Type, UInt16Type};
 use arrow_array::{Array, ArrayRef, RecordBatch};
 use arrow_schema::SchemaRef;
-use gradtac_stages::contour::{isolines, ContourConfig, ContourOutcome, MaxContourFinder, Saddle};
+use gradtac_stages::contour::{isolines, ContourConfig, ContourOutcome, Levels, MaxContourFinder};
 use gradtac_stages::interpolate::Grid;
 use gradtac_stages::slip::{SlipClass, SlipEvent};
 use gradtac_stream::{Extent, Layout};
@@ -63,18 +63,28 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// The schemas [`plot_parquet`] knows.
-pub const KNOWN: [&str; 11] = [
+pub const KNOWN: [&str; 21] = [
     "frame/1",
+    "frame/2",
     "event/1",
+    "event/2",
     "window/1",
+    "window/2",
     "surface/1",
+    "surface/2",
     "contour/1",
+    "contour/2",
     "track/1",
+    "track/2",
     "slip/1",
+    "slip/2",
     "force/1",
+    "force/2",
     "servo/1",
+    "servo/2",
     "dos/1",
     "dos/2",
+    "dos/3",
 ];
 
 /// At most this many sensors of one file are drawn (the rest are named in the notes).
@@ -174,7 +184,7 @@ impl From<String> for PlotErr {
 }
 
 type R<T> = std::result::Result<T, PlotErr>;
-type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type Area<'a> = DrawingArea<AnyBackend<'a>, Shift>;
 /// Rows of each sensor, `(batch, row)`, in order of first appearance.
 type Groups = Vec<(String, Vec<(usize, usize)>)>;
 /// A `FixedSizeList<Float64, n>` column: `n` and the concatenated values.
@@ -196,32 +206,49 @@ fn register_fonts() {
     });
 }
 
-/// Render into an RGB buffer with `draw`, then write it as PNG via `<out>.partial` + rename.
+/// Draw with `draw` and write the image to `out` in the format of its extension
+/// ([`ImageFormat::of`]: SVG for `.svg`, PNG otherwise), via `<out>.partial` + rename, so a
+/// file under its final name is complete.
 fn render(out: &Path, (w, h): (u32, u32), draw: impl FnOnce(&Area<'_>) -> R<()>) -> Result<(), Error> {
     register_fonts();
-    let mut buf = vec![0u8; w as usize * h as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(out, e.into()))?;
-        draw(&root).map_err(|e| plot_error(out, e))?;
-        root.present().map_err(|e| plot_error(out, e.into()))?;
-    }
     let mut tmp = out.as_os_str().to_owned();
     tmp.push(".partial");
     let tmp = PathBuf::from(tmp);
     let io = |source: std::io::Error| Error::Io { path: tmp.clone(), source };
-    let file = std::fs::File::create(&tmp).map_err(io)?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let png_err = |e: png::EncodingError| plot_error(out, PlotErr(format!("PNG encoding failed: {e}")));
-    let mut writer = enc.write_header().map_err(png_err)?;
-    writer.write_image_data(&buf).map_err(png_err)?;
-    writer.finish().map_err(png_err)?;
+    match ImageFormat::of(out) {
+        ImageFormat::Svg => {
+            let mut svg = String::new();
+            {
+                let root = AnyBackend::Svg(SVGBackend::with_string(&mut svg, (w, h))).into_drawing_area();
+                root.fill(&WHITE).map_err(|e| plot_error(out, e.into()))?;
+                draw(&root).map_err(|e| plot_error(out, e))?;
+                root.present().map_err(|e| plot_error(out, e.into()))?;
+            }
+            std::fs::write(&tmp, svg).map_err(io)?;
+        }
+        ImageFormat::Png => {
+            let mut buf = vec![0u8; w as usize * h as usize * 3];
+            {
+                let root = AnyBackend::Bitmap(BitMapBackend::with_buffer(&mut buf, (w, h))).into_drawing_area();
+                root.fill(&WHITE).map_err(|e| plot_error(out, e.into()))?;
+                draw(&root).map_err(|e| plot_error(out, e))?;
+                root.present().map_err(|e| plot_error(out, e.into()))?;
+            }
+            let file = std::fs::File::create(&tmp).map_err(io)?;
+            let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            let png_err = |e: png::EncodingError| plot_error(out, PlotErr(format!("PNG encoding failed: {e}")));
+            let mut writer = enc.write_header().map_err(png_err)?;
+            writer.write_image_data(&buf).map_err(png_err)?;
+            writer.finish().map_err(png_err)?;
+        }
+    }
     std::fs::rename(&tmp, out).map_err(|source| Error::Io { path: out.to_path_buf(), source })?;
     Ok(())
 }
 
+mod backend;
 mod contour;
 mod read;
 mod series;
@@ -229,6 +256,8 @@ mod slip;
 mod style;
 mod surface;
 mod track;
+use backend::AnyBackend;
+pub use backend::ImageFormat;
 use contour::*;
 use read::*;
 use series::*;
@@ -245,7 +274,8 @@ use track::*;
 /// [module docs](self) for what each schema gives.
 ///
 /// A directory is read as one table: its finished `*.parquet` files, found recursively (so
-/// hive partitions `sensor=<name>/` are included; each file keeps its `sensor` column) in
+/// hive partitions `sensor=<name>/` are included; a file without a `sensor` column — the
+/// archive default — takes it from its `sensor=<name>` directory) in
 /// lexical order of their paths, which is an archive's write order; names starting with `.`
 /// or `_` (the archive's `.<name>.partial` files being written, `_SUCCESS`) are skipped. The
 /// files must share one `gradtac.schema` and the same columns. Their key-value metadata is
@@ -257,10 +287,50 @@ use track::*;
 /// [`Error::Plot`] (naming `input`, and for a directory the file at fault relative to it) when
 /// a file cannot be read, has no `gradtac.schema` metadata, an unknown schema, or columns that
 /// do not match it; when a directory holds no finished Parquet file, or files of different
-/// schemas; or when drawing fails. [`Error::Io`] when the PNG cannot be written.
-pub fn plot_parquet(input: &Path, output_png: &Path) -> Result<PlotSummary, Error> {
-    let table = read_table(input).map_err(|e| plot_error(input, e))?;
+/// schemas; or when drawing fails. [`Error::Io`] when the image cannot be written.
+pub fn plot_parquet(input: &Path, output: &Path) -> Result<PlotSummary, Error> {
+    plot_parquet_with(input, output, &PlotOptions::default())
+}
+
+/// What [`plot_parquet_with`] draws of a file: some sensors, a time span.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlotOptions {
+    /// Only these sensors (all when empty; a slip file's pair matches by either of its two
+    /// sensors). A name the file does not hold is an error.
+    pub sensors: Vec<String>,
+    /// Only rows from this many seconds after the file's (archive's) first time.
+    pub from: Option<f64>,
+    /// Only rows up to this many seconds after the file's first time.
+    pub to: Option<f64>,
+}
+
+impl PlotOptions {
+    fn check(&self) -> R<()> {
+        for (name, v) in [("--from", self.from), ("--to", self.to)] {
+            if v.is_some_and(|v| !v.is_finite()) {
+                return Err(PlotErr(format!("{name} must be a finite number of seconds")));
+            }
+        }
+        if let (Some(f), Some(t)) = (self.from, self.to) {
+            if f > t {
+                return Err(PlotErr(format!("--from {f} s is after --to {t} s")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// [`plot_parquet`] with [`PlotOptions`]: only some sensors, only a span of time. The filters
+/// apply to the rows read (after the decimation of large files). The format is the output's
+/// extension's: SVG for `.svg`, PNG otherwise.
+pub fn plot_parquet_with(input: &Path, output: &Path, options: &PlotOptions) -> Result<PlotSummary, Error> {
+    let output_png = output;
+    options.check().map_err(|e| plot_error(input, e))?;
     let mut notes = Vec::new();
+    let table = read_table(input)
+        .and_then(normalise)
+        .and_then(|t| filter_rows(t, options, &mut notes))
+        .map_err(|e| plot_error(input, e))?;
     if let Some(files) = &table.files {
         let n = files.len();
         let s = if n == 1 { "" } else { "s" };
@@ -270,30 +340,34 @@ pub fn plot_parquet(input: &Path, output_png: &Path) -> Result<PlotSummary, Erro
         let what = if table.files.is_some() { "archive" } else { "file" };
         notes.push(format!("large {what}: every {k}th of its {} rows read", table.total_rows));
     }
-    let plan = match table.schema_id.as_str() {
-        "frame/1" => frames_plot(&table, &mut notes),
-        "event/1" => events_plot(&table, &mut notes),
-        "window/1" => window_plot(&table, &mut notes),
-        "surface/1" => surface_plot(&table, &mut notes),
-        "contour/1" => contour_plot(&table, &mut notes),
-        "track/1" => track_plot(&table, &mut notes),
-        "slip/1" => slip_plot(&table),
-        "force/1" => series_plot(
+    let plan = match family(&table.schema_id).0 {
+        "frame" => frames_plot(&table, &mut notes),
+        "event" => events_plot(&table, &mut notes),
+        "window" => window_plot(&table, &mut notes),
+        "surface" => surface_plot(&table, &mut notes),
+        "contour" => contour_plot(&table, &mut notes),
+        "track" => track_plot(&table, &mut notes),
+        "slip" => slip_plot(&table),
+        "force" => series_plot(
             &table,
             &mut notes,
-            "time_ns",
-            &[("estimated force (force/1)", "force (N)", &["force_n"]), ("contour area", "area (mm²)", &["area_mm2"])],
+            "time",
+            &[("estimated normal force", "force (N)", &["force_n"]), ("contact area", "area (mm²)", &["area_mm2"])],
         ),
-        "servo/1" => series_plot(
+        "servo" => series_plot(
             &table,
             &mut notes,
-            "time_ns",
+            "time",
             &[
-                ("commanded motion (servo/1)", "motion (mm)", &["motion_x_mm", "motion_y_mm"]),
-                ("contact offset from the servo centre", "offset (mm)", &["offset_x_mm", "offset_y_mm", "distance_mm"]),
+                ("commanded sensor motion (layout frame)", "motion (mm)", &["motion_x_mm", "motion_y_mm"]),
+                (
+                    "contact offset from the servo centre (layout frame)",
+                    "offset (mm)",
+                    &["offset_x_mm", "offset_y_mm", "distance_mm"],
+                ),
             ],
         ),
-        "dos/1" | "dos/2" => dos_plot(&table, &mut notes),
+        "dos" => dos_plot(&table, &mut notes),
         other => Err(PlotErr(format!("unknown schema {other:?}"))),
     }
     .map_err(|e| plot_error(input, e))?;

@@ -313,11 +313,197 @@ pub(super) fn read_archive(dir: &Path) -> R<Table> {
             if o.rows != *n {
                 return Err(in_file(f, PlotErr(format!("changed while read ({n} rows, then {})", o.rows))));
             }
-            batches.extend(read_rows(o, offset, stride).map_err(|e| in_file(f, e))?);
+            let read = read_rows(o, offset, stride).map_err(|e| in_file(f, e))?;
+            let partition = hive_sensor(f);
+            for b in read {
+                batches.push(match &partition {
+                    Some(sensor) => with_sensor_column(b, sensor).map_err(|e| in_file(f, e))?,
+                    None => b,
+                });
+            }
         }
         offset += n;
     }
+    let schema = match (batches.first(), schema.column_with_name(PARTITION)) {
+        (Some(b), None) => b.schema(),
+        _ => schema,
+    };
     Ok(Table { schema_id, kv, schema, batches, total_rows, stride, files: Some(files) })
+}
+
+/// The hive partition column of archives.
+const PARTITION: &str = gradtac_io::archive::PARTITION_COLUMN;
+
+/// The sensor of a file in a hive partition directory `sensor=<name>` (percent-decoded), the
+/// innermost such directory of its path.
+pub(super) fn hive_sensor(rel: &Path) -> Option<String> {
+    let prefix = format!("{PARTITION}=");
+    rel.parent()?.components().rev().find_map(|c| {
+        let c = c.as_os_str().to_str()?;
+        c.strip_prefix(&prefix).map(percent_decode)
+    })
+}
+
+/// `%XX` escapes (UTF-8 bytes) decoded; an invalid escape stays as it is.
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16).map(|d| d as u8);
+        match (b[i], b.get(i + 1).copied().and_then(hex), b.get(i + 2).copied().and_then(hex)) {
+            (b'%', Some(h), Some(l)) => {
+                out.push(h * 16 + l);
+                i += 3;
+            }
+            (c, _, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// `b` with a leading `sensor` column of the partition's value, when the file left it out (the
+/// archive default); a file that keeps its own column must agree with its directory.
+fn with_sensor_column(b: RecordBatch, sensor: &str) -> R<RecordBatch> {
+    if let Some(col) = b.column_by_name(PARTITION) {
+        let own = strings_of(col).ok_or_else(|| wrong(PARTITION, col))?;
+        if let Some(other) = own.iter().find(|s| s.as_str() != sensor) {
+            return Err(PlotErr(format!("a row's sensor {other:?} differs from its directory {PARTITION}={sensor}")));
+        }
+        return Ok(b);
+    }
+    let schema = b.schema();
+    let mut fields: Vec<arrow_schema::FieldRef> =
+        vec![std::sync::Arc::new(arrow_schema::Field::new(PARTITION, arrow_schema::DataType::Utf8, false))];
+    fields.extend(schema.fields().iter().cloned());
+    let mut columns: Vec<ArrayRef> =
+        vec![std::sync::Arc::new(arrow_array::StringArray::from(vec![sensor; b.num_rows()]))];
+    columns.extend(b.columns().iter().cloned());
+    let schema = arrow_schema::Schema::new_with_metadata(fields, schema.metadata().clone());
+    RecordBatch::try_new(std::sync::Arc::new(schema), columns).map_err(|e| PlotErr(format!("partition column: {e}")))
+}
+
+/// Renames of the columns of older schema versions to the newest names (`docs/schemas.md`).
+const RENAMED: [(&str, &str); 8] = [
+    ("time", "time"),
+    ("start_ns", "start"),
+    ("end", "end"),
+    ("frame_time_ns", "frame_time"),
+    ("onset", "onset"),
+    ("first_seen_ns", "first_seen"),
+    ("vx_mm_s", "velocity_x_mm_s"),
+    ("vy_mm_s", "velocity_y_mm_s"),
+];
+
+/// The schema family (`frame`, `event`, …) and version of a schema id.
+pub(super) fn family(schema_id: &str) -> (&str, u32) {
+    let (name, v) = schema_id.split_once('/').unwrap_or((schema_id, "0"));
+    (name, v.parse().unwrap_or(0))
+}
+
+/// A table of any known schema version in the newest version's column names, and for
+/// `event/1` (0-based taxel indices) taxel numbers counting from 1 as in `event/2`; times stay
+/// in whatever Arrow type the file has (`Int64` ns, `Timestamp(ns)`, `Duration(ns)`), read by
+/// [`i64s`].
+pub(super) fn normalise(mut t: Table) -> R<Table> {
+    let (name, version) = family(&t.schema_id);
+    let zero_based = name == "event" && version < 2;
+    let fix = |b: &RecordBatch| -> R<RecordBatch> {
+        let schema = b.schema();
+        let mut fields = Vec::with_capacity(b.num_columns());
+        let mut columns = Vec::with_capacity(b.num_columns());
+        for (f, c) in schema.fields().iter().zip(b.columns()) {
+            let new = RENAMED.iter().find(|(old, _)| old == f.name()).map_or(f.name().as_str(), |(_, n)| n);
+            let mut c = c.clone();
+            if zero_based && f.name() == "taxel" {
+                let p = c.as_primitive_opt::<UInt16Type>().ok_or_else(|| wrong("taxel", &c))?;
+                let numbers =
+                    arrow_array::UInt16Array::from_iter_values(p.values().iter().map(|v| v.saturating_add(1)));
+                c = std::sync::Arc::new(numbers);
+            }
+            fields.push(f.as_ref().clone().with_name(new));
+            columns.push(c);
+        }
+        let schema = arrow_schema::Schema::new_with_metadata(fields, schema.metadata().clone());
+        RecordBatch::try_new(std::sync::Arc::new(schema), columns).map_err(|e| PlotErr(format!("{e}")))
+    };
+    if version < 2 || zero_based {
+        t.batches = t.batches.iter().map(fix).collect::<R<_>>()?;
+        if let Some(b) = t.batches.first() {
+            t.schema = b.schema();
+        } else {
+            t.schema = fix(&RecordBatch::new_empty(t.schema.clone()))?.schema();
+        }
+    }
+    Ok(t)
+}
+
+/// The rows to draw: `options.sensors` (all when empty; a slip file's pair matches by either
+/// sensor) and times from `options.from` to `options.to` seconds after the table's first time.
+pub(super) fn filter_rows(mut t: Table, options: &PlotOptions, notes: &mut Vec<String>) -> R<Table> {
+    if options.sensors.is_empty() && options.from.is_none() && options.to.is_none() {
+        return Ok(t);
+    }
+    let time = ["time", "end"].into_iter().find(|c| t.schema.column_with_name(c).is_some());
+    let t0 = match time {
+        Some(c) => t.batches.iter().map(|b| i64s(b, c).map(|v| v.into_iter().min())).collect::<R<Vec<_>>>()?,
+        None => Vec::new(),
+    }
+    .into_iter()
+    .flatten()
+    .min();
+    let before = t.rows();
+    let mut seen: Vec<String> = Vec::new();
+    let mut kept = Vec::with_capacity(t.batches.len());
+    for b in &t.batches {
+        let mut keep = vec![true; b.num_rows()];
+        if !options.sensors.is_empty() {
+            let cols: Vec<Vec<String>> = ["sensor", "first", "second"]
+                .iter()
+                .filter(|c| b.column_by_name(c).is_some())
+                .map(|c| strings(b, c))
+                .collect::<R<_>>()?;
+            for (i, k) in keep.iter_mut().enumerate() {
+                let names: Vec<&String> = cols.iter().map(|c| &c[i]).collect();
+                for n in &names {
+                    if !seen.contains(n) {
+                        seen.push((*n).clone());
+                    }
+                }
+                *k &= names.iter().any(|n| options.sensors.contains(n));
+            }
+        }
+        if let (Some(c), Some(t0)) = (time, t0) {
+            for (k, v) in keep.iter_mut().zip(i64s(b, c)?) {
+                let s = secs(v, t0);
+                *k &= options.from.is_none_or(|f| s >= f) && options.to.is_none_or(|e| s <= e);
+            }
+        }
+        let mask = arrow_array::BooleanArray::from(keep);
+        kept.push(arrow_select::filter::filter_record_batch(b, &mask).map_err(|e| PlotErr(e.to_string()))?);
+    }
+    if let Some(missing) = options.sensors.iter().find(|s| !seen.contains(s)) {
+        return Err(PlotErr(format!("--sensor {missing}: no such sensor (the file has {})", seen.join(", "))));
+    }
+    t.batches = kept;
+    let after = t.rows();
+    let mut what = Vec::new();
+    if !options.sensors.is_empty() {
+        what.push(format!("sensors {}", options.sensors.join(", ")));
+    }
+    if options.from.is_some() || options.to.is_some() {
+        let f = options.from.map_or("start".into(), |f| format!("{f} s"));
+        let e = options.to.map_or("end".into(), |e| format!("{e} s"));
+        what.push(format!("times {f} to {e} after the first row"));
+    }
+    notes.push(format!("{}: {after} of {before} rows read", what.join("; ")));
+    if after == 0 {
+        return Err(PlotErr(format!("no row left after the filters ({})", what.join("; "))));
+    }
+    Ok(t)
 }
 
 /// At most this many rows of a file (or of all an archive's files) are read: [`MAX_POINTS`] per
@@ -325,10 +511,10 @@ pub(super) fn read_archive(dir: &Path) -> R<Table> {
 /// of values.
 pub(super) fn read_budget(schema_id: &str, schema: &SchemaRef) -> usize {
     let rows = MAX_POINTS * MAX_SENSORS;
-    match schema_id {
-        "event/1" => 10 * rows,
-        "window/1" => rows / 10,
-        "surface/1" => {
+    match family(schema_id).0 {
+        "event" => 10 * rows,
+        "window" => rows / 10,
+        "surface" => {
             let n = match schema.field_with_name("values").map(|f| f.data_type().clone()) {
                 Ok(arrow_schema::DataType::FixedSizeList(_, n)) => n.max(1) as usize,
                 _ => 1,
@@ -355,23 +541,37 @@ pub(super) fn wrong(name: &str, a: &ArrayRef) -> PlotErr {
 
 pub(super) fn strings(b: &RecordBatch, name: &str) -> R<Vec<String>> {
     let a = column(b, name)?;
+    strings_of(a).ok_or_else(|| wrong(name, a))
+}
+
+/// A string column (`Utf8`, `LargeUtf8`, a dictionary of `Utf8`) as strings.
+fn strings_of(a: &ArrayRef) -> Option<Vec<String>> {
     if let Some(s) = a.as_string_opt::<i32>() {
-        return Ok((0..s.len()).map(|i| s.value(i).to_string()).collect());
+        return Some((0..s.len()).map(|i| s.value(i).to_string()).collect());
     }
     if let Some(s) = a.as_string_opt::<i64>() {
-        return Ok((0..s.len()).map(|i| s.value(i).to_string()).collect());
+        return Some((0..s.len()).map(|i| s.value(i).to_string()).collect());
     }
     if let Some(d) = a.as_any_dictionary_opt() {
         if let Some(v) = d.values().as_string_opt::<i32>() {
-            return Ok(d.normalized_keys().into_iter().map(|k| v.value(k).to_string()).collect());
+            return Some(d.normalized_keys().into_iter().map(|k| v.value(k).to_string()).collect());
         }
     }
-    Err(wrong(name, a))
+    None
 }
 
+/// An integer nanosecond column: `Int64` (schemas of version 1), `Timestamp(ns)` or
+/// `Duration(ns)` (the newer versions), the nanoseconds as stored.
 pub(super) fn i64s(b: &RecordBatch, name: &str) -> R<Vec<i64>> {
+    use arrow_array::types::{DurationNanosecondType, TimestampNanosecondType};
     let a = column(b, name)?;
-    let p = a.as_primitive_opt::<Int64Type>().ok_or_else(|| wrong(name, a))?;
+    if let Some(p) = a.as_primitive_opt::<Int64Type>() {
+        return Ok(p.values().to_vec());
+    }
+    if let Some(p) = a.as_primitive_opt::<TimestampNanosecondType>() {
+        return Ok(p.values().to_vec());
+    }
+    let p = a.as_primitive_opt::<DurationNanosecondType>().ok_or_else(|| wrong(name, a))?;
     Ok(p.values().to_vec())
 }
 

@@ -8,7 +8,7 @@ pub(super) fn frames_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     let names = taxel_names(&t.schema, "values");
     let groups = limit_sensors(by_sensor(t)?, notes);
     let cols: Vec<(Vec<i64>, ListCol)> =
-        t.batches.iter().map(|b| Ok((i64s(b, "time_ns")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
+        t.batches.iter().map(|b| Ok((i64s(b, "time")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let n = cols.iter().map(|c| c.1 .0).max().unwrap_or(0);
     let (series, drawn) = thin_rows(&groups, MAX_POINTS, "frames", notes, |bi, ri| {
@@ -26,7 +26,7 @@ pub(super) fn frames_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
                 let (x0, x1) = range_of(pts.iter().map(|p| p.0));
                 let (y0, y1) = padded(range_of(pts.iter().flat_map(|p| p.1.iter().copied())), 0.05);
                 let frame = Frame { y_area: 70, ..PANEL };
-                let mut chart = chart_on(area, format!("{sensor}: {n} taxels (frame/1)"), frame, x0..x1, y0..y1)?;
+                let mut chart = chart_on(area, format!("{sensor}: {n} taxels"), frame, x0..x1, y0..y1)?;
                 draw_axes(&mut chart, Some("time (s from the first row)"), "value", 13)?;
                 for i in 0..n {
                     let c = series_colour(i);
@@ -55,10 +55,18 @@ pub(super) fn events_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         .iter()
         .map(|b| {
             let ta = column(b, "taxel")?;
-            let taxel = ta.as_primitive_opt::<UInt16Type>().ok_or_else(|| wrong("taxel", ta))?.values().to_vec();
+            // taxel numbers count from 1 (event/1 files were renumbered by `normalise`); rows
+            // are drawn at the 0-based index
+            let taxel: Vec<u16> = ta
+                .as_primitive_opt::<UInt16Type>()
+                .ok_or_else(|| wrong("taxel", ta))?
+                .values()
+                .iter()
+                .map(|k| k.saturating_sub(1))
+                .collect();
             let pa = column(b, "polarity")?;
             let pol = pa.as_primitive_opt::<Int8Type>().ok_or_else(|| wrong("polarity", pa))?.values().to_vec();
-            Ok((i64s(b, "time_ns")?, taxel, pol))
+            Ok((i64s(b, "time")?, taxel, pol))
         })
         .collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
@@ -80,11 +88,7 @@ pub(super) fn events_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
                 let (x0, x1) = range_of(pts.iter().map(|p| p.0));
                 let pos = pts.iter().filter(|p| p.2 > 0).count();
-                let caption = format!(
-                    "{sensor}: {} events, {pos} up (red), {} down (blue) (event/1)",
-                    pts.len(),
-                    pts.len() - pos
-                );
+                let caption = format!("{sensor}: {} events, {pos} up, {} down", pts.len(), pts.len() - pos);
                 let mut chart = chart_on(area, caption, PANEL, x0..x1, -0.5..(n as f64 - 0.5))?;
                 chart
                     .configure_mesh()
@@ -102,6 +106,9 @@ pub(super) fn events_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
                     let y = taxel as f64 + if p > 0 { 0.15 } else { -0.15 };
                     Circle::new((x, y), 1, c.filled())
                 }))?;
+                legend_entry(&mut chart, "+1: ln x rose one threshold", dot_key(up))?;
+                legend_entry(&mut chart, "−1: ln x fell one threshold", dot_key(down))?;
+                draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.85, 12)?;
             }
             Ok(())
         }),
@@ -115,7 +122,7 @@ pub(super) fn window_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     let cols: Vec<(Vec<i64>, Vec<String>, ListCol)> = t
         .batches
         .iter()
-        .map(|b| Ok((i64s(b, "end_ns")?, strings(b, "aggregate")?, fixed_lists(b, "values")?)))
+        .map(|b| Ok((i64s(b, "end")?, strings(b, "aggregate")?, fixed_lists(b, "values")?)))
         .collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let n = cols.iter().map(|c| c.2 .0).max().unwrap_or(0).max(1);
@@ -149,7 +156,7 @@ pub(super) fn window_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
                 let dt = if pts.len() > 1 { (pts[pts.len() - 1].0 - pts[0].0) / (pts.len() - 1) as f64 } else { 1.0 };
                 let x0 = pts.first().map_or(0.0, |p| p.0 - dt);
                 let x1 = pts.last().map_or(1.0, |p| p.0).max(x0 + 1e-9);
-                let caption = format!("{sensor}: {} windows (window/1)", pts.len());
+                let caption = format!("{sensor}: {} windows", pts.len());
                 let mut chart = chart_on(area, caption, PANEL, x0..x1, -0.5..(n as f64 - 0.5))?;
                 chart
                     .configure_mesh()

@@ -14,7 +14,7 @@ pub(super) fn slip_plot(t: &Table) -> R<Prepared> {
     let mut pair = None;
     let mut raw: Vec<(i64, i64, String, String, f64, f64)> = Vec::new();
     for b in &t.batches {
-        let (time, onset) = (i64s(b, "time_ns")?, i64s(b, "onset_ns")?);
+        let (time, onset) = (i64s(b, "time")?, i64s(b, "onset")?);
         let (class, prev) = (strings(b, "class")?, strings(b, "previous")?);
         let (l, r) = (f64s(b, "common_mm_s")?, f64s(b, "differential_mm_s")?);
         if pair.is_none() {
@@ -27,7 +27,7 @@ pub(super) fn slip_plot(t: &Table) -> R<Prepared> {
     }
     let t0 = raw.iter().map(|r| r.0.min(r.1)).min().unwrap_or(0);
     for (time, onset, c, p, l, r) in &raw {
-        let bad = |n: &str| PlotErr(format!("slip/1: unknown class {n:?}"));
+        let bad = |n: &str| PlotErr(format!("slip file: unknown class {n:?}"));
         ev.push((
             secs(*time, t0),
             secs(*onset, t0),
@@ -47,7 +47,7 @@ pub(super) fn slip_plot(t: &Table) -> R<Prepared> {
             let (top, bottom) = root.split_vertically(300);
             let (x0, x1) = padded(range_of(ev.iter().flat_map(|e| [e.0, e.1])), 0.05);
             let (y0, y1) = padded(range_of(ev.iter().flat_map(|e| [e.4, e.5]).chain([0.0])), 0.1);
-            let caption = format!("slip events of the pair {first}/{second} (slip/1)");
+            let caption = format!("grasp state of the pair {first} / {second}");
             let mut chart = chart_on(&top, caption, Frame { x_area: 30, y_area: 70, ..PANEL }, x0..x1, y0..y1)?;
             draw_axes(&mut chart, None, "speed (mm/s)", 12)?;
             for (k, (name, f)) in [("common L", 4usize), ("differential R", 5)].into_iter().enumerate() {
@@ -101,7 +101,7 @@ pub(super) fn dos_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     let cols: Vec<(Vec<i64>, Vec<String>, ListCol)> = t
         .batches
         .iter()
-        .map(|b| Ok((i64s(b, "end_ns")?, strings(b, "class")?, fixed_lists(b, "posterior")?)))
+        .map(|b| Ok((i64s(b, "end")?, strings(b, "class")?, fixed_lists(b, "posterior")?)))
         .collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let mut series = Vec::new();
@@ -122,7 +122,6 @@ pub(super) fn dos_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         series.push((sensor.clone(), pts));
     }
     let n = classes.len().max(1);
-    let schema_id = t.schema_id.clone();
     Ok(Prepared {
         size: (PANEL_W, STRIP_H * series.len() as u32),
         sensors: groups.iter().map(|g| g.0.clone()).collect(),
@@ -131,7 +130,8 @@ pub(super) fn dos_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             let label = |v: &f64| row_index(*v).and_then(|i| classes.get(i as usize).cloned()).unwrap_or_default();
             for (area, (sensor, pts)) in root.split_evenly((series.len(), 1)).iter().zip(&series) {
                 let (x0, x1) = padded(range_of(pts.iter().map(|p| p.0)), 0.02);
-                let caption = format!("{sensor}: {} decisions ({schema_id}); shade: posterior", pts.len());
+                let caption =
+                    format!("{sensor}: {} slip-direction decisions; shade: posterior of the decided class", pts.len());
                 let frame = Frame { y_area: 50, ..PANEL };
                 let mut chart = chart_on(area, caption, frame, x0..x1, -0.5..(n as f64 - 0.5))?;
                 chart

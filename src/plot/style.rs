@@ -175,8 +175,10 @@ where
     let (xr, yr) = equal_aspect(layout.extent(), w as f64 - 80.0, h as f64 - 90.0);
     let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
     let mut chart = chart_on(area, title, Frame { y_area: 44, ..PANEL }, xr, yr)?;
-    draw_axes(&mut chart, Some("x (mm)"), "y (mm)", 12)?;
+    let (x, y) = plane_axes(layout);
+    draw_axes(&mut chart, Some(x), y, 12)?;
     draw_taxels(&mut chart, layout, true)?;
+    legend_entry(&mut chart, "taxel (name)", |c| Circle::new(c, 5, RGBColor(90, 90, 90).stroke_width(1)))?;
     Ok((chart, bx, by))
 }
 
@@ -339,6 +341,17 @@ pub(super) fn equal_aspect(e: Extent, w: f64, h: f64) -> (std::ops::Range<f64>, 
 }
 
 /// Taxels as grey circles, labelled when `names`.
+/// The layout plane's axis labels: the BioTac SP's unwrapped frame (x along the finger, +
+/// toward the tip; y the arc length across the pad from its midline), or the layout's own
+/// frame for other layouts.
+pub(super) fn plane_axes(layout: &Layout) -> (&'static str, &'static str) {
+    if layout.names() == Layout::biotac_sp().names() && layout.positions() == Layout::biotac_sp().positions() {
+        ("x (mm) along the finger, + toward the tip", "y (mm) across the pad, from its midline")
+    } else {
+        ("x (mm, layout frame)", "y (mm, layout frame)")
+    }
+}
+
 pub(super) fn draw_taxels<DB: DrawingBackend>(chart: &mut Chart<'_, DB>, layout: &Layout, names: bool) -> R<()>
 where
     DB::ErrorType: 'static,

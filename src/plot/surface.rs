@@ -19,11 +19,28 @@ pub(super) fn grid_of(t: &Table) -> R<Grid> {
     Grid::try_new(extent, num("nx")? as usize, num("ny")? as usize).map_err(|e| PlotErr(format!("`gradtac.grid`: {e}")))
 }
 
-/// The maximal contour of a surface with the contour stage's defaults but any peak.
-pub(super) fn max_contour(grid: &Grid, values: &[f64]) -> Option<Vec<[f64; 2]>> {
+/// The contour stage's settings of the run that wrote `t`: `[stages.contour]` of the scene in
+/// its `gradtac.scene` metadata, and whether they came from there (else the stage's defaults
+/// with any peak, for files written without a scene).
+pub(super) fn contour_settings(t: &Table) -> (ContourConfig, bool) {
+    let stored = t.kv.get("gradtac.scene").and_then(|text| {
+        let scene: toml::Value = toml::from_str(text).ok()?;
+        let c = scene.get("stages").and_then(|s| s.get("contour")).cloned();
+        match c {
+            Some(v) => v.try_into::<ContourConfig>().ok(),
+            None => Some(ContourConfig::default()), // the scene left the contour stage at its defaults
+        }
+    });
+    match stored {
+        Some(c) => (c, true),
+        None => (ContourConfig { min_peak: -f64::MAX, ..Default::default() }, false),
+    }
+}
+
+/// The maximal contour of a surface with the contour settings `cfg`.
+pub(super) fn max_contour(grid: &Grid, values: &[f64], cfg: &ContourConfig) -> Option<Vec<[f64; 2]>> {
     let z = ArrayView2::from_shape((grid.ny(), grid.nx()), values).ok()?;
-    let cfg = ContourConfig { min_peak: -f64::MAX, ..Default::default() };
-    let mut f = MaxContourFinder::try_new(&cfg).ok()?;
+    let mut f = MaxContourFinder::try_new(cfg).ok()?;
     match f.find(z, grid) {
         ContourOutcome::Contact(c) => Some(c.polygon),
         ContourOutcome::NoContact(_) => None,
@@ -35,18 +52,25 @@ pub(super) fn surface_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     let grid = grid_of(t)?;
     let groups = limit_sensors(by_sensor(t)?, notes);
     let cols: Vec<(Vec<i64>, ListCol)> =
-        t.batches.iter().map(|b| Ok((i64s(b, "end_ns")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
+        t.batches.iter().map(|b| Ok((i64s(b, "end")?, fixed_lists(b, "values")?))).collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let m = grid.len();
     if cols.iter().any(|c| c.1 .0 != m) {
         return Err(PlotErr(format!("surface rows do not hold nx·ny = {m} values")));
     }
-    notes.push(format!(
-        "maximal contours recomputed from the surfaces ({ISO_LEVELS} levels, min area 1 mm², any peak): the file does not store the contour settings"
-    ));
+    let (cfg, stored) = contour_settings(t);
+    notes.push(if stored {
+        "iso-lines and maximal contours drawn with the run's [stages.contour] settings (the file's gradtac.scene)"
+            .into()
+    } else {
+        format!(
+            "no scene in the file: iso-lines and maximal contours drawn with the contour stage's defaults \
+             ({ISO_LEVELS} levels, min area 1 mm²) and any peak"
+        )
+    });
     let mut rows_out = Vec::new();
     for (sensor, rows) in &groups {
-        let contour_of = |&(bi, ri): &(usize, usize)| max_contour(&grid, &cols[bi].1 .1[ri * m..(ri + 1) * m]);
+        let contour_of = |&(bi, ri): &(usize, usize)| max_contour(&grid, &cols[bi].1 .1[ri * m..(ri + 1) * m], &cfg);
         // instants: evenly spaced over the rows with a contact (else over all rows)
         let peak_of = |&(bi, ri): &(usize, usize)| range_of(cols[bi].1 .1[ri * m..(ri + 1) * m].iter().copied()).1;
         let candidates: Vec<(usize, usize)> = {
@@ -77,7 +101,7 @@ pub(super) fn surface_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             .map(|&(bi, ri)| SurfacePanel {
                 label: format!("{sensor}, t = {:.2} s", secs(cols[bi].0[ri], t0)),
                 values: cols[bi].1 .1[ri * m..(ri + 1) * m].to_vec(),
-                contour: None,
+                contour: contour_of(&(bi, ri)),
                 truth: None,
             })
             .collect();
@@ -86,7 +110,7 @@ pub(super) fn surface_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     let drawn = rows_out.iter().map(|r| r.0.len() as u64).sum();
     let size = (4 * SURF_PANEL + BAR_W, TITLE_H + SURF_ROW_H * rows_out.len() as u32);
     let sensors = groups.iter().map(|g| g.0.clone()).collect();
-    let title = format!("surfaces on a {}×{} grid (surface/1)", grid.nx(), grid.ny());
+    let title = format!("interpolated surfaces on a {}×{} grid", grid.nx(), grid.ny());
     Ok(Prepared {
         size,
         sensors,
@@ -94,7 +118,7 @@ pub(super) fn surface_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
         draw: Box::new(move |root| {
             let rows: Vec<(&[SurfacePanel], Option<&Layout>)> =
                 rows_out.iter().map(|(p, l)| (p.as_slice(), l.as_ref())).collect();
-            draw_surfaces(root, &grid, &rows, &title)
+            draw_surfaces(root, &grid, &rows, &title, &cfg)
         }),
     })
 }
@@ -105,15 +129,46 @@ pub(super) fn draw_surfaces(
     grid: &Grid,
     rows: &[(&[SurfacePanel], Option<&Layout>)],
     title: &str,
+    cfg: &ContourConfig,
 ) -> R<()> {
     let (top, body) = root.split_vertically(TITLE_H);
     top.draw(&Text::new(title.to_string(), (12, 10), ("sans-serif", 20).into_font()))?;
+    // the legend: one key per mark, in the title strip
+    let truth = rows.iter().any(|r| r.0.iter().any(|p| p.truth.is_some()));
+    let taxels = rows.iter().any(|r| r.1.is_some());
+    let font = ("sans-serif", 13).into_font();
+    let mut x = 470;
+    let y = 20;
+    let mut key = |label: &str, draw: &dyn Fn(i32) -> R<()>| -> R<()> {
+        draw(x)?;
+        top.draw(&Text::new(label.to_string(), (x + 26, y - 8), font.clone()))?;
+        x += 34 + 7 * label.chars().count() as i32;
+        Ok(())
+    };
+    let iso = match &cfg.levels {
+        Levels::Count(n) => format!("iso-lines ({n} levels)"),
+        Levels::Explicit(v) => format!("iso-lines ({} levels)", v.len()),
+    };
+    key(&iso, &|x| {
+        Ok(top.draw(&PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(150, 150, 150).stroke_width(2)))?)
+    })?;
+    key("maximal contour", &|x| Ok(top.draw(&PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(3)))?))?;
+    key("its centroid", &|x| Ok(top.draw(&Cross::new((x + 10, y), 6, RED.stroke_width(2)))?))?;
+    if taxels {
+        key("taxel", &|x| Ok(top.draw(&Circle::new((x + 10, y), 5, RGBColor(90, 90, 90).stroke_width(1)))?))?;
+    }
+    if truth {
+        key("true contact", &|x| Ok(top.draw(&TriangleMarker::new((x + 10, y), 7, BLACK.filled()))?))?;
+    }
+    key("outside the taxels' hull", &|x| {
+        Ok(top.draw(&Rectangle::new([(x + 2, y - 7), (x + 18, y + 7)], NAN_GREY.filled()))?)
+    })?;
     let (main, bar) = body.split_horizontally(4 * SURF_PANEL);
     let (lo, hi) = range_of(rows.iter().flat_map(|r| r.0.iter().flat_map(|p| p.values.iter().copied())));
     colour_bar(&bar, lo, hi, viridis, "surface value")?;
     for (row_area, (panels, layout)) in main.split_evenly((rows.len().max(1), 1)).iter().zip(rows) {
         for (area, p) in row_area.split_evenly((1, 4)).iter().zip(panels.iter()) {
-            draw_surface_panel(area, grid, p, *layout, (lo, hi))?;
+            draw_surface_panel(area, grid, p, *layout, (lo, hi), cfg)?;
         }
     }
     Ok(())
@@ -125,6 +180,7 @@ pub(super) fn draw_surface_panel(
     p: &SurfacePanel,
     layout: Option<&Layout>,
     (lo, hi): (f64, f64),
+    cfg: &ContourConfig,
 ) -> R<()> {
     let (nx, ny) = (grid.nx(), grid.ny());
     if p.values.len() != nx * ny {
@@ -134,7 +190,11 @@ pub(super) fn draw_surface_panel(
     let (xr, yr) = equal_aspect(grid.extent(), w as f64 - 60.0, h as f64 - 70.0);
     let (bx, by) = ((xr.start, xr.end), (yr.start, yr.end));
     let mut chart = chart_on(area, &p.label, Frame { caption: 15, margin: 8, x_area: 30, y_area: 40 }, xr, yr)?;
-    chart.configure_mesh().disable_mesh().x_desc("x (mm)").y_desc("y (mm)").label_style(("sans-serif", 11)).draw()?;
+    let (xd, yd) = match layout {
+        Some(l) if plane_axes(l).0.contains("finger") => ("x (mm) → fingertip", "y (mm) across the pad"),
+        _ => ("x (mm)", "y (mm)"),
+    };
+    chart.configure_mesh().disable_mesh().x_desc(xd).y_desc(yd).label_style(("sans-serif", 11)).draw()?;
     let (dx, dy) = (grid.dx(), grid.dy());
     let mut cells = Vec::with_capacity(nx * ny);
     for r in 0..ny {
@@ -150,9 +210,12 @@ pub(super) fn draw_surface_panel(
     let z = ArrayView2::from_shape((ny, nx), &p.values[..]).map_err(|e| PlotErr(e.to_string()))?;
     let (zmin, zmax) = range_of(p.values.iter().copied());
     let line = RGBColor(255, 255, 255).mix(0.7);
-    for k in 1..=ISO_LEVELS {
-        let level = zmin + (zmax - zmin) * k as f64 / (ISO_LEVELS + 1) as f64;
-        for iso in isolines(z, level, Saddle::Centre) {
+    let levels: Vec<f64> = match &cfg.levels {
+        Levels::Count(n) => (1..=*n).map(|k| zmin + (zmax - zmin) * k as f64 / (*n + 1) as f64).collect(),
+        Levels::Explicit(v) => v.clone(),
+    };
+    for level in levels {
+        for iso in isolines(z, level, cfg.saddle) {
             let mut pts: Vec<(f64, f64)> = iso
                 .points
                 .iter()
@@ -169,7 +232,7 @@ pub(super) fn draw_surface_panel(
             chart.draw_series(std::iter::once(PathElement::new(pts, line.stroke_width(1))))?;
         }
     }
-    let contour = p.contour.clone().or_else(|| max_contour(grid, &p.values));
+    let contour = p.contour.clone().or_else(|| max_contour(grid, &p.values, cfg));
     if let Some(poly) = contour.filter(|c| c.len() > 2) {
         let closed = poly.iter().chain(poly.first()).map(|q| (q[0], q[1]));
         for seg in segments(closed, bx, by) {
@@ -226,7 +289,8 @@ pub fn plot_surface_with_contours(
 ) -> Result<PlotSummary, Error> {
     let panels = &panels[..panels.len().min(4)];
     let size = (4 * SURF_PANEL + BAR_W, TITLE_H + SURF_ROW_H);
-    render(out, size, |root| draw_surfaces(root, grid, &[(panels, layout)], title))?;
+    let cfg = ContourConfig { min_peak: -f64::MAX, ..Default::default() };
+    render(out, size, |root| draw_surfaces(root, grid, &[(panels, layout)], title, &cfg))?;
     Ok(PlotSummary {
         kind: "surface".into(),
         rows: panels.len() as u64,

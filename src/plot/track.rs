@@ -7,7 +7,7 @@ pub(super) fn track_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
     no_rows(t)?;
     let groups = limit_sensors(by_sensor(t)?, notes);
     let cols: Vec<(Vec<i64>, Vec<f64>, Vec<f64>)> =
-        t.batches.iter().map(|b| Ok((i64s(b, "time_ns")?, f64s(b, "x_mm")?, f64s(b, "y_mm")?))).collect::<R<_>>()?;
+        t.batches.iter().map(|b| Ok((i64s(b, "time")?, f64s(b, "x_mm")?, f64s(b, "y_mm")?))).collect::<R<_>>()?;
     let t0 = cols.iter().flat_map(|c| c.0.iter().copied()).min().unwrap_or(0);
     let mut panels = Vec::new();
     let mut drawn = 0u64;
@@ -33,7 +33,7 @@ pub(super) fn track_plot(t: &Table, notes: &mut Vec<String>) -> R<Prepared> {
             let (main, bar) = root.split_horizontally(TRACK_PANEL * panels.len() as u32);
             colour_bar(&bar, tl, th, viridis, "time (s)")?;
             for (area, (sensor, pts, layout)) in main.split_evenly((1, panels.len())).iter().zip(&panels) {
-                draw_trajectory(area, &format!("{sensor}: contact track (track/1)"), pts, &[], layout, (tl, th))?;
+                draw_trajectory(area, &format!("{sensor}: contact track"), pts, &[], layout, (tl, th))?;
             }
             Ok(())
         }),
@@ -69,10 +69,9 @@ pub(super) fn draw_trajectory(
             .filter(|p| p.1.is_finite() && p.2.is_finite())
             .map(|p| Circle::new(clamp_pt((p.1, p.2), bx, by), 3, viridis((p.0 - t0) / span).filled())),
     )?;
-    if !truth.is_empty() {
-        s.label("track (colour: time)").legend(dot_key(viridis(0.5)));
-        draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.85, 12)?;
-    }
+    s.label("contact (colour: time)").legend(dot_key(viridis(0.5)));
+    legend_entry(&mut chart, "contact path", line_key(grey.stroke_width(1)))?;
+    draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.85, 12)?;
     Ok(())
 }
 
