@@ -168,7 +168,9 @@ fn write_archives(tracks: &Path, frames: &Path) -> BTreeMap<String, f64> {
 
 fn check_means(engine: &str, got: &serde_json::Value, want: &BTreeMap<String, f64>) {
     for (s, m) in want {
-        let v = got["avg_x_mm"][s].as_f64().unwrap_or_else(|| panic!("{engine}: avg(x_mm) of {s} is {}", got["avg_x_mm"][s]));
+        let v = got["avg_x_mm"][s]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{engine}: avg(x_mm) of {s} is {}", got["avg_x_mm"][s]));
         assert!(v.is_finite() && (v - m).abs() < 1e-9, "{engine}: avg(x_mm) of {s} = {v}, want {m}");
     }
     assert_eq!(got["partition"], true, "{engine}: sensor is a partition");

@@ -76,7 +76,7 @@ impl RecordBuilder<ForceEstimate> for ForceBuilder {
     fn append(&mut self, e: &ForceEstimate) -> Result<()> {
         self.lead.append(&e.sensor, [e.time], e.seq);
         append_present(&mut self.area, e.area_mm2);
-        self.force.append_option(e.force_n);
+        self.force.append_option(e.force_n.filter(|f| !f.is_nan()));
         Ok(())
     }
 

@@ -254,12 +254,18 @@ def conv(v):
     return v
 
 def describe(path):
+    import pyarrow as pa
     t = pq.read_table(path)
     md = pq.read_metadata(path).metadata
+    # times (Timestamp / Duration) as their integer nanoseconds
+    ints = pa.table(
+        [c.cast(pa.int64()) if pa.types.is_timestamp(c.type) or pa.types.is_duration(c.type) else c for c in t.columns],
+        names=t.column_names,
+    )
     return {
         "schema": md[b"gradtac.schema"].decode(),
         "arrow_md": {k.decode(): v.decode() for k, v in (t.schema.metadata or {}).items() if k != b"ARROW:schema"},
         "types": {f.name: str(f.type) for f in t.schema},
-        "rows": conv(t.to_pylist()),
+        "rows": conv(ints.to_pylist()),
     }
 "#;
