@@ -388,11 +388,11 @@ fn with_sensor_column(b: RecordBatch, sensor: &str) -> R<RecordBatch> {
 
 /// Renames of the columns of older schema versions to the newest names (`docs/schemas.md`).
 const RENAMED: [(&str, &str); 8] = [
-    ("time", "time"),
+    ("time_ns", "time"),
     ("start_ns", "start"),
-    ("end", "end"),
+    ("end_ns", "end"),
     ("frame_time_ns", "frame_time"),
-    ("onset", "onset"),
+    ("onset_ns", "onset"),
     ("first_seen_ns", "first_seen"),
     ("vx_mm_s", "velocity_x_mm_s"),
     ("vy_mm_s", "velocity_y_mm_s"),
