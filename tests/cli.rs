@@ -1,6 +1,6 @@
 //! End-to-end tests of the `gradtac` binary: scenes over CSV recordings to Parquet.
 
-use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, StringArray, UInt64Array};
+use arrow_array::{Array, FixedSizeListArray, Float64Array, StringArray, UInt64Array};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::fs;
 use std::path::{Path, PathBuf};

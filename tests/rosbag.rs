@@ -4,7 +4,7 @@
 //! `sr_robot_msgs/BiotacAll` (no `pac`) the bag's definition declares. Skips when the data
 //! is absent.
 
-use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, StringArray, UInt64Array};
+use arrow_array::{Array, FixedSizeListArray, Float64Array, StringArray, UInt64Array};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::collections::HashMap;
 use std::fs;

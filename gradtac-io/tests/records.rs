@@ -699,7 +699,8 @@ fn tracks_round_trip_bit_exact() {
     assert_eq!(track_keys(&tracks_of(&r)), track_keys(&input));
     assert_eq!(unit(&r, "velocity_x_mm_s").as_deref(), Some("mm/s"));
     // no contact: null, never NaN, in every float column (avg() in an SQL engine is a number)
-    let fields: [(&str, fn(&TrackPoint) -> f64); 5] = [
+    type Get = fn(&TrackPoint) -> f64;
+    let fields: [(&str, Get); 5] = [
         ("x_mm", |p| p.x_mm),
         ("y_mm", |p| p.y_mm),
         ("area_mm2", |p| p.area_mm2),

@@ -1,23 +1,29 @@
-//! PNG plots of gradtac outputs (`gradtac plot`) and of the demo's results, drawn with
-//! [`plotters`] into a pixel buffer and encoded with [`png`].
+//! Figures of gradtac outputs (`gradtac plot`) and of the demo's results, drawn with
+//! [`plotters`] as SVG (the output ends in `.svg`: vector lines, text as text) or PNG (any
+//! other extension: a pixel buffer encoded with [`png`]); see [`ImageFormat`].
+//!
+//! The code is split by figure kind: `read` (files, archives, schema versions, filters),
+//! `style` (colours, axes, legends), `series` (frames, events, windows, force, servo),
+//! `surface`, `contour`, `track`, `slip` (slip and dos), and `backend` (SVG or PNG).
 //!
 //! [`plot_parquet`] reads any Parquet file a gradtac sink wrote, or a directory of them (an
 //! archive: rolled files, optionally hive-partitioned `sensor=<name>/`, read as one table),
-//! detects its schema from the `gradtac.schema` key-value metadata (`docs/schemas.md`) and
-//! draws:
+//! detects its schema from the `gradtac.schema` key-value metadata (`docs/schemas.md`; every
+//! version: `frame/1` and `frame/2` alike, older column names and `Int64` times are read as
+//! the newest) and draws (`--sensor`, `--from`, `--to`: [`PlotOptions`]):
 //!
 //! | schema | plot | size (px, `s` = sensors drawn, at most [`MAX_SENSORS`]) |
 //! |---|---|---|
-//! | `frame/1` | one line per taxel over time, one panel per sensor | 1200 × 340·s |
-//! | `event/1` | raster: time × taxel, red = +1, blue = −1, one panel per sensor | 1200 × 340·s |
-//! | `window/1` | heat strip: time × taxel, colour = aggregate (diverging for `signed`), one panel per sensor | 1320 × 340·s |
-//! | `surface/1` | the surface at 4 instants (evenly spaced over the rows with a contact, else over all rows) with 10 iso-lines and the maximal contour (bold) recomputed from the surface, taxels as circles; one row per sensor | 1640 × (40 + 400·s) |
-//! | `contour/1` | left: centroid paths on the layout plane with the outlines of 4 contours; right: area (mm²) over time; sensors in colours | 1400 × 620 |
-//! | `track/1` | trajectory on the layout plane coloured by time, taxels as labelled circles; one panel per sensor | 640·s + 120 × 680 |
-//! | `slip/1` | the grasp's state over time (a class strip from each event's decision time) and the common / differential speeds at the events | 1200 × 560 |
-//! | `force/1` | force (N) and contour area (mm²) over time, sensors in colours | 1200 × 680 |
-//! | `servo/1` | commanded motion (x, y) and contact offset (x, y, distance) over time, sensors in colours | 1200 × 680 |
-//! | `dos/2` (and `dos/1`) | decided class over time per sensor (one row per class of `gradtac.dos.classes`), marker shade = posterior of the decided class | 1200 × 340·s |
+//! | `frame` | one line per taxel over time, one panel per sensor | 1200 × 340·s |
+//! | `event` | raster: time × taxel, red = +1, blue = −1, one panel per sensor | 1200 × 340·s |
+//! | `window` | heat strip: time × taxel, colour = aggregate (diverging for `signed`), one panel per sensor | 1320 × 340·s |
+//! | `surface` | the surface at 4 instants (evenly spaced over the rows with a contact, else over all rows) with its iso-lines and maximal contour (bold) found with the run's `[stages.contour]` settings from the file's `gradtac.scene` (the stage's defaults and any peak without a scene), taxels as circles, a legend of every mark; one row per sensor | 1640 × (40 + 400·s) |
+//! | `contour` | left: centroid paths on the layout plane with the outlines of 4 contours; right: area (mm²) over time; sensors in colours | 1400 × 620 |
+//! | `track` | trajectory on the layout plane coloured by time, taxels as labelled circles; one panel per sensor | 640·s + 120 × 680 |
+//! | `slip` | the grasp's state over time (a class strip from each event's decision time) and the common / differential speeds at the events | 1200 × 560 |
+//! | `force` | force (N) and contour area (mm²) over time, sensors in colours | 1200 × 680 |
+//! | `servo` | commanded motion (x, y) and contact offset (x, y, distance) over time, sensors in colours | 1200 × 680 |
+//! | `dos` | decided class over time per sensor (one row per class of `gradtac.dos.classes`), marker shade = posterior of the decided class | 1200 × 340·s |
 //!
 //! Times are drawn in seconds from the first row of the file (its epoch may be Unix time).
 //! An archive's finished `*.parquet` files are found recursively in lexical path order
@@ -25,7 +31,7 @@
 //! share one schema; their rows count together for decimation.
 //! The layout comes from the file's `gradtac.layout.<sensor>` or `gradtac.layout` metadata (CSV,
 //! as the CLI writes it) and falls back to the built-in BioTac SP layout when the file has none
-//! and the taxel count matches (or for `contour/1` and `track/1`, which carry no taxel count).
+//! and the taxel count matches (or for `contour` and `track` files, which carry no taxel count).
 //! Large files (and archives) are decimated while reading (every k-th row, k a prime ≥ 11 so interleaved sensors
 //! are all sampled; at most `MAX_POINTS · MAX_SENSORS` rows, ten times that for events, a tenth
 //! for windows, ≈ 64 MB of values for surfaces), so memory stays bounded for long archives, and
@@ -37,8 +43,12 @@
 //! Text uses DejaVu Sans from the [`dejavu`] crate, registered with plotters' `ab_glyph`
 //! renderer: no system font library is needed.
 //!
-//! Output files are written to `<name>.partial` and renamed, so a PNG under its final name is
-//! complete. The PNG format is used whatever the file's extension.
+//! Every mark has a legend entry; layout-plane axes are in mm with the finger's orientation
+//! (BioTac SP: x along the finger toward the tip, y across the pad); titles name the sensor
+//! and what is drawn, not the schema id.
+//!
+//! Output files are written to `<name>.partial` and renamed, so an image under its final name
+//! is complete.
 
 use crate::Error;
 use arrow_array::cast::AsArray;
@@ -107,7 +117,7 @@ const TRACK_H: u32 = 680;
 /// What a plot drew.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlotSummary {
-    /// The schema id of the input (`frame/1`, …), or the plot's kind for the direct
+    /// The schema id of the input (`frame/2`, …), or the plot's kind for the direct
     /// functions (`surface`, `trajectory`, `slip timeline`).
     pub kind: String,
     /// Rows (or points) read.
@@ -149,7 +159,7 @@ pub struct SurfacePanel {
     /// Panel title, e.g. `"t = 1.20 s"`.
     pub label: String,
     /// The surface on the grid, row-major (`row·nx + col` is the value at `(x(col), y(row))`),
-    /// as in `surface/1`; NaN is drawn grey (outside the taxels' hull).
+    /// as in `surface/2`; NaN is drawn grey (outside the taxels' hull).
     pub values: Vec<f64>,
     /// The maximal contour's outline (mm) if known; `None`: found with the contour stage's
     /// defaults (10 levels, min area 1 mm², any peak).
