@@ -17,11 +17,13 @@
 //! Schemas are documented column by column in `docs/schemas.md` at the repository root.
 //!
 //! # Conventions (every schema)
-//! - **Names**: a column is named after the Rust field it stores (`TrackPoint::x_mm` → `x_mm`,
-//!   `TrackPoint::time` → `time`, `TrackPoint::velocity_mm_s` → `velocity_mm_s`); a field of a
-//!   nested value keeps its own name, and the enclosing record's field that would clash is
-//!   prefixed (an event's `time`, its batch's `frame_time`). A two-vector field (`[f64; 2]`) is
-//!   a `FixedSizeList<Float64, 2>` `[x, y]` column, like polygon points.
+//! - **Names**: a column is named after the Rust field it stores, unit suffix included
+//!   (`TrackPoint::x_mm` → `x_mm`, `TrackPoint::time` → `time`); a two-vector field
+//!   `<stem>_<unit>: [f64; 2]` is the two columns `<stem>_x_<unit>`, `<stem>_y_<unit>`
+//!   (`velocity_mm_s` → `velocity_x_mm_s`, `velocity_y_mm_s`; `centroid_mm` → `centroid_x_mm`,
+//!   …), so SQL aggregates see scalars; a field of a nested value keeps its own name, and the
+//!   enclosing record's field that would clash is prefixed (an event's `time`, its batch's
+//!   `frame_time`). Polygons are lists of `[x, y]` points.
 //! - **Times**: every time is a [`Timestamp`](gradtac_stream::Timestamp) column of the sink's
 //!   [`TimeBase`]: `Timestamp(Nanosecond, "UTC")` when the source's clock is the Unix epoch
 //!   (live CAN, candump logs, ROS bags), `Duration(Nanosecond)` since the source's own start
