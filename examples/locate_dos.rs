@@ -80,7 +80,9 @@ fn track_xy(path: &Path) -> Vec<(f64, f64)> {
         let b = b.unwrap();
         let col = |n: &str| b.column_by_name(n).unwrap().as_any().downcast_ref::<Float64Array>().unwrap().clone();
         let (x, y) = (col("x_mm"), col("y_mm"));
-        out.extend((0..b.num_rows()).map(|i| (x.value(i), y.value(i))));
+        // no contact: null (track/2), NaN here
+        let v = |c: &Float64Array, i: usize| if c.is_null(i) { f64::NAN } else { c.value(i) };
+        out.extend((0..b.num_rows()).map(|i| (v(&x, i), v(&y, i))));
     }
     out
 }

@@ -23,7 +23,7 @@ use crate::plot::{
 };
 use crate::run::{run_blocking, RunOptions, RunReport};
 use crate::{Error, Plan, Scene};
-use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, StringArray, UInt64Array};
+use arrow_array::{Array, FixedSizeListArray, Float64Array, RecordBatch, StringArray, UInt64Array};
 use gradtac_stages::interpolate::Grid;
 use gradtac_stages::sim::{GraspConfig, Recording, Scene as SimScene, SensorModel, Simulator};
 use gradtac_stages::slip::SlipClass;
@@ -282,25 +282,43 @@ fn column<'a, T: 'static>(b: &'a arrow_array::RecordBatch, name: &str) -> &'a T 
 /// (sensor, seq, t s, x mm, y mm) of one track point.
 type TrackRow = (String, u64, f64, f64, f64);
 
-/// Every track point of a `track/1` file.
+/// The nanoseconds of a time column (`Duration(ns)` for the demo's rate-timed source, or
+/// `Timestamp(ns)`).
+fn nanos(b: &RecordBatch, name: &str) -> Vec<i64> {
+    use arrow_array::cast::AsArray;
+    use arrow_array::types::{DurationNanosecondType, TimestampNanosecondType};
+    let c = b.column_by_name(name).expect("schema documented in docs/schemas.md");
+    match c.as_primitive_opt::<DurationNanosecondType>() {
+        Some(d) => d.values().to_vec(),
+        None => c.as_primitive::<TimestampNanosecondType>().values().to_vec(),
+    }
+}
+
+/// A float column's value, NaN where it is null (an absent value).
+fn value_or_nan(a: &Float64Array, i: usize) -> f64 {
+    if a.is_null(i) {
+        f64::NAN
+    } else {
+        a.value(i)
+    }
+}
+
+/// Every track point of a `track/2` file.
 fn read_tracks(path: &Path) -> Result<Vec<TrackRow>, Error> {
     let mut out = Vec::new();
     for b in parquet_batches(path)? {
-        let (s, q, t) = (
-            column::<StringArray>(&b, "sensor"),
-            column::<UInt64Array>(&b, "seq"),
-            column::<Int64Array>(&b, "time_ns"),
-        );
+        let (s, q, t) = (column::<StringArray>(&b, "sensor"), column::<UInt64Array>(&b, "seq"), nanos(&b, "time"));
         let (x, y) = (column::<Float64Array>(&b, "x_mm"), column::<Float64Array>(&b, "y_mm"));
         out.extend(
-            (0..b.num_rows())
-                .map(|i| (s.value(i).to_string(), q.value(i), t.value(i) as f64 * 1e-9, x.value(i), y.value(i))),
+            (0..b.num_rows()).map(|i| {
+                (s.value(i).to_string(), q.value(i), t[i] as f64 * 1e-9, value_or_nan(x, i), value_or_nan(y, i))
+            }),
         );
     }
     Ok(out)
 }
 
-/// (seq, row-major values) of one sensor's surfaces (`surface/1`).
+/// (seq, row-major values) of one sensor's surfaces (`surface/2`).
 fn read_surfaces(path: &Path, sensor: &str) -> Result<Vec<(u64, Vec<f64>)>, Error> {
     let mut out = Vec::new();
     for b in parquet_batches(path)? {
@@ -315,22 +333,22 @@ fn read_surfaces(path: &Path, sensor: &str) -> Result<Vec<(u64, Vec<f64>)>, Erro
     Ok(out)
 }
 
-/// The slip events (`slip/1`).
+/// The slip events (`slip/2`).
 fn read_slip_events(path: &Path) -> Result<Vec<SlipEvent>, Error> {
     let class = |name: &str| SlipClass::ALL.into_iter().find(|c| c.name() == name).unwrap_or_default();
     let mut out = Vec::new();
     for b in parquet_batches(path)? {
         let (c, p) = (column::<StringArray>(&b, "class"), column::<StringArray>(&b, "previous"));
-        let ns = |name: &str, i: usize| Timestamp(column::<Int64Array>(&b, name).value(i));
+        let ns = |name: &str, i: usize| Timestamp(nanos(&b, name)[i]);
         let (l, r) = (column::<Float64Array>(&b, "common_mm_s"), column::<Float64Array>(&b, "differential_mm_s"));
         out.extend((0..b.num_rows()).map(|i| SlipEvent {
-            time: ns("time_ns", i),
-            onset: ns("onset_ns", i),
-            first_seen: ns("first_seen_ns", i),
+            time: ns("time", i),
+            onset: ns("onset", i),
+            first_seen: ns("first_seen", i),
             class: class(c.value(i)),
             previous: class(p.value(i)),
-            common_mm_s: l.value(i),
-            differential_mm_s: r.value(i),
+            common_mm_s: value_or_nan(l, i),
+            differential_mm_s: value_or_nan(r, i),
         }));
     }
     Ok(out)

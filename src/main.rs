@@ -67,17 +67,26 @@ enum Command {
         #[arg(long)]
         no_mirror: bool,
     },
-    /// Render a gradtac Parquet output (any schema: frame, event, window, surface, contour,
-    /// track, slip, force, servo, dos) as a PNG: one file, or an archive directory (its
-    /// finished `*.parquet` files, recursively, including `sensor=<name>/` partitions, read as
-    /// one table; they must share one schema).
+    /// Render a gradtac Parquet output (any schema, any version: frame, event, window,
+    /// surface, contour, track, slip, force, servo, dos) as an SVG or PNG figure: one file, or
+    /// an archive directory (its finished `*.parquet` files, recursively, including
+    /// `sensor=<name>/` partitions, read as one table; they must share one schema).
     Plot {
         /// The Parquet file or archive directory.
         input: PathBuf,
-        /// The PNG to write (default: the input with `.png`; for a directory, `<dir>.png`
-        /// beside it).
+        /// The image to write: SVG when it ends in `.svg`, PNG otherwise (default: the input
+        /// with `.png`; for a directory, `<dir>.png` beside it).
         #[arg(long, short)]
         out: Option<PathBuf>,
+        /// Only this sensor (repeat for several; a slip file's pair matches by either sensor).
+        #[arg(long = "sensor", value_name = "NAME")]
+        sensors: Vec<String>,
+        /// Only rows from this many seconds after the input's first time.
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+        from: Option<f64>,
+        /// Only rows up to this many seconds after the input's first time.
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+        to: Option<f64>,
     },
     /// Run the embedded demo scene on a synthetic recording, in a fresh directory.
     Demo {
@@ -205,10 +214,11 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             );
             Ok(ExitCode::SUCCESS)
         }
-        Command::Plot { input, out } => {
+        Command::Plot { input, out, sensors, from, to } => {
             let out = out.unwrap_or_else(|| default_png(&input));
             gradtac::guard::check_output_file(&out, &[("the plotted input", &input)])?;
-            let summary = gradtac::plot::plot_parquet(&input, &out)?;
+            let options = gradtac::plot::PlotOptions { sensors, from, to };
+            let summary = gradtac::plot::plot_parquet_with(&input, &out, &options)?;
             say!("{summary}");
             sayln!("wrote {}", out.display());
             Ok(ExitCode::SUCCESS)

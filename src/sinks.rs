@@ -1,11 +1,11 @@
 //! The outputs of a run: one Parquet sink per scene output, typed by the stage it taps.
 
 use crate::plan::{Plan, Tap};
-use crate::scene::{OutputSpec, Scene};
+use crate::scene::{OutputSpec, Scene, SourceSpec};
 use crate::Error;
 use gradtac_io::archive::{ParquetArchive, RecordSink};
 use gradtac_io::records::{DosShape, SlipShape, SurfaceShape};
-use gradtac_io::{ArrowRecord, FrameShape, ParquetSink};
+use gradtac_io::{ArrowRecord, FrameShape, ParquetSink, TimeBase};
 use gradtac_stages::contour::ContourFrame;
 use gradtac_stages::dos::DosDecision;
 use gradtac_stages::force::ForceEstimate;
@@ -23,25 +23,25 @@ use std::path::{Path, PathBuf};
 /// Each holds a single file ([`ParquetSink`]) or an archive directory ([`ParquetArchive`]:
 /// rolling files, optional hive partitioning by sensor) behind [`RecordSink`].
 pub enum OutputSink {
-    /// Frames (`source`, `normalise`, `savgol` taps), `frame/1`.
+    /// Frames (`source`, `normalise`, `savgol` taps), `frame/2`.
     Frames(Box<dyn RecordSink<TaxelFrame>>),
-    /// Events, one row per event, `event/1`.
+    /// Events, one row per event, `event/2`.
     Events(Box<dyn RecordSink<EventBatch>>),
-    /// Window aggregates, `window/1`.
+    /// Window aggregates, `window/2`.
     Windows(Box<dyn RecordSink<WindowAggregate>>),
-    /// Surfaces, `surface/1`.
+    /// Surfaces, `surface/2`.
     Surfaces(Box<dyn RecordSink<Surface>>),
-    /// Maximal contours, `contour/1`.
+    /// Maximal contours, `contour/2`.
     Contours(Box<dyn RecordSink<ContourFrame>>),
-    /// Track points, `track/1`.
+    /// Track points, `track/2`.
     Tracks(Box<dyn RecordSink<TrackPoint>>),
-    /// Force estimates, `force/1`.
+    /// Force estimates, `force/2`.
     Forces(Box<dyn RecordSink<ForceEstimate>>),
-    /// Servo commands, `servo/1`.
+    /// Servo commands, `servo/2`.
     Servo(Box<dyn RecordSink<ServoCommand>>),
-    /// Two-finger slip events, `slip/1` (always one file: the events belong to a pair).
+    /// Two-finger slip events, `slip/2` (always one file: the events belong to a pair).
     Slip(Box<dyn RecordSink<SlipEvent>>),
-    /// One-fingertip slip-direction decisions, `dos/2`.
+    /// One-fingertip slip-direction decisions, `dos/3`.
     Dos(Box<dyn RecordSink<DosDecision>>),
 }
 
@@ -136,6 +136,10 @@ impl Sinks {
                 std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
             }
             let taxels = FrameShape::from_layout(layout);
+            let names: Vec<&str> =
+                plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| p.name.as_str()).collect();
+            let time = time_base(scene, &names);
+            let o = &(o, time);
             let mut sink = match tap {
                 Tap::Source | Tap::Normalise | Tap::Savgol => OutputSink::Frames(open(&path, taxels, o)?),
                 Tap::Events => OutputSink::Events(open(&path, taxels, o)?),
@@ -164,7 +168,7 @@ impl Sinks {
                     OutputSink::Dos(open(&path, DosShape::from_model(&model)?, o)?)
                 }
                 Tap::Slip => {
-                    if o.archive.is_some() {
+                    if o.0.archive.is_some() {
                         return Err(bad(format!(
                             "output #{}: slip events belong to a sensor pair; write one file (no archive)",
                             i + 1
@@ -222,6 +226,20 @@ impl Sinks {
 /// 32 KiB, and a sink buffers up to a row group (at most 8192 rows) before writing.
 const SURFACE_ROW_GROUP: usize = 256;
 
+/// The time base of an output's records: UTC when every sensor it covers reads a source
+/// whose clock is the Unix epoch (a CAN bus, live or a candump log; a ROS bag; MCAP),
+/// relative otherwise (files timed by a rate or by a time column of their own origin).
+fn time_base(scene: &Scene, sensors: &[&str]) -> TimeBase {
+    let utc = |s: &SourceSpec| matches!(s, SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) | SourceSpec::Mcap(_));
+    let all_utc =
+        !sensors.is_empty() && sensors.iter().all(|n| scene.sensors.iter().any(|s| s.name == *n && utc(&s.source)));
+    if all_utc {
+        TimeBase::Utc
+    } else {
+        TimeBase::Relative
+    }
+}
+
 fn row_group(o: &OutputSpec) -> Option<usize> {
     o.row_group_size.or((o.tap == Tap::Surface.name()).then_some(SURFACE_ROW_GROUP))
 }
@@ -230,23 +248,27 @@ fn row_group(o: &OutputSpec) -> Option<usize> {
 fn open<T: Record + HasSensor + Timed>(
     path: &Path,
     shape: T::Shape,
-    o: &OutputSpec,
+    (o, time): &(&OutputSpec, TimeBase),
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
     Ok(match &o.archive {
         Some(cfg) => {
-            let mut a = ParquetArchive::from_config(path, shape, cfg)?;
+            let mut a = ParquetArchive::from_config(path, shape, cfg)?.with_time_base(*time)?;
             if let Some(n) = row_group(o) {
                 a = a.with_row_group_size(n)?;
             }
             Box::new(a)
         }
-        None => open_file(path, shape, o)?,
+        None => open_file(path, shape, &(o, *time))?,
     })
 }
 
 /// One output's sink as a single file.
-fn open_file<T: Record>(path: &Path, shape: T::Shape, o: &OutputSpec) -> Result<Box<dyn RecordSink<T>>, Error> {
-    let mut s = ParquetSink::try_new(path, shape)?;
+fn open_file<T: Record>(
+    path: &Path,
+    shape: T::Shape,
+    (o, time): &(&OutputSpec, TimeBase),
+) -> Result<Box<dyn RecordSink<T>>, Error> {
+    let mut s = ParquetSink::try_new(path, shape)?.with_time_base(*time)?;
     if let Some(n) = row_group(o) {
         s = s.with_row_group_size(n)?;
     }

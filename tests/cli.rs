@@ -1,6 +1,6 @@
 //! End-to-end tests of the `gradtac` binary: scenes over CSV recordings to Parquet.
 
-use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, StringArray, UInt64Array};
+use arrow_array::{Array, FixedSizeListArray, Float64Array, StringArray, UInt64Array};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -15,21 +15,41 @@ fn dos_dir() -> Option<PathBuf> {
     d.is_dir().then_some(d)
 }
 
-/// Rows of a parquet frame file: (sensor, time_ns, seq, values).
+/// Rows of a parquet frame file: (sensor, time ns, seq, values). The sensor comes from the
+/// `sensor` column, or for a file of a sensor-partitioned archive (which leaves the column out)
+/// from its `sensor=<name>` directory; the time from a `Duration(ns)` (file sources) or a
+/// `Timestamp(ns, UTC)` column (CAN buses).
 fn read_frames(path: &Path) -> Vec<(String, i64, u64, Vec<f64>)> {
+    use arrow_array::cast::AsArray;
+    use arrow_array::types::{DurationNanosecondType, TimestampNanosecondType};
     let file = fs::File::open(path).unwrap();
     let reader = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap();
+    let partition = path
+        .parent()
+        .and_then(|d| d.file_name())
+        .and_then(|n| n.to_str())
+        .and_then(|n| n.strip_prefix("sensor="))
+        .map(str::to_string);
     let mut rows = Vec::new();
     for batch in reader {
         let b = batch.unwrap();
-        let sensor = b.column_by_name("sensor").unwrap().as_any().downcast_ref::<StringArray>().unwrap().clone();
-        let time = b.column_by_name("time_ns").unwrap().as_any().downcast_ref::<Int64Array>().unwrap().clone();
+        let sensor: Vec<String> = match b.column_by_name("sensor") {
+            Some(c) => {
+                c.as_any().downcast_ref::<StringArray>().unwrap().iter().map(|s| s.unwrap().to_string()).collect()
+            }
+            None => vec![partition.clone().expect("a file without sensor column lies in sensor=<name>"); b.num_rows()],
+        };
+        let t = b.column_by_name("time").unwrap();
+        let time: Vec<i64> = match t.as_primitive_opt::<DurationNanosecondType>() {
+            Some(d) => d.values().to_vec(),
+            None => t.as_primitive::<TimestampNanosecondType>().values().to_vec(),
+        };
         let seq = b.column_by_name("seq").unwrap().as_any().downcast_ref::<UInt64Array>().unwrap().clone();
         let vals = b.column_by_name("values").unwrap().as_any().downcast_ref::<FixedSizeListArray>().unwrap().clone();
         for i in 0..b.num_rows() {
             let v = vals.value(i);
             let v = v.as_any().downcast_ref::<Float64Array>().unwrap();
-            rows.push((sensor.value(i).to_string(), time.value(i), seq.value(i), v.values().to_vec()));
+            rows.push((sensor[i].clone(), time[i], seq.value(i), v.values().to_vec()));
         }
     }
     rows

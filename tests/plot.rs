@@ -151,12 +151,12 @@ fn every_schema_renders_a_png_of_the_documented_size() {
     write(&d.join("track.parquet"), (), &o.points, Some(&layout));
 
     let cases: [(&str, &str, (u32, u32), f64); 6] = [
-        ("frames", "frame/1", (1200, 340), 0.05),
-        ("events", "event/1", (1200, 340), 0.02),
-        ("window", "window/1", (1320, 340), 0.3),
-        ("surface", "surface/1", (4 * 380 + 120, 40 + 400), 0.3),
-        ("contour", "contour/1", (1400, 620), 0.03),
-        ("track", "track/1", (640 + 120, 680), 0.03),
+        ("frames", "frame/2", (1200, 340), 0.05),
+        ("events", "event/2", (1200, 340), 0.02),
+        ("window", "window/2", (1320, 340), 0.3),
+        ("surface", "surface/2", (4 * 380 + 120, 40 + 400), 0.3),
+        ("contour", "contour/2", (1400, 620), 0.03),
+        ("track", "track/2", (640 + 120, 680), 0.03),
     ];
     for (name, schema, size, ink) in cases {
         let png = d.join(format!("{name}.png"));
@@ -169,7 +169,7 @@ fn every_schema_renders_a_png_of_the_documented_size() {
     // the surface plot drew 4 instants; the window plot one row per window
     let s = plot_parquet(&d.join("surface.parquet"), &d.join("surface.png")).unwrap();
     assert_eq!(s.drawn, 4);
-    assert!(s.notes.iter().any(|n| n.contains("recomputed")), "{s}");
+    assert!(s.notes.iter().any(|n| n.contains("no scene in the file")), "{s}");
     // without layout metadata the built-in layout is used, and said so
     let s = plot_parquet(&d.join("contour.parquet"), &d.join("contour.png")).unwrap();
     assert!(s.notes.iter().any(|n| n.contains("BioTac SP")), "{s}");
@@ -437,10 +437,10 @@ fn task_schemas_render() {
     write(&d.join("dos.parquet"), DosShape::new(classes).unwrap(), &decisions, None);
 
     for (name, schema, size, ink) in [
-        ("slip", "slip/1", (1200, 560), 0.05),
-        ("force", "force/1", (1200, 680), 0.03),
-        ("servo", "servo/1", (1200, 680), 0.03),
-        ("dos", "dos/2", (1200, 340), 0.02),
+        ("slip", "slip/2", (1200, 560), 0.05),
+        ("force", "force/2", (1200, 680), 0.03),
+        ("servo", "servo/2", (1200, 680), 0.03),
+        ("dos", "dos/3", (1200, 340), 0.02),
     ] {
         let png = d.join(format!("{name}.png"));
         let s = plot_parquet(&d.join(format!("{name}.parquet")), &png).unwrap();
@@ -527,7 +527,7 @@ fn an_archive_directory_plots_as_one_table() {
         std::fs::write(a.join("_metadata.parquet"), "not parquet").unwrap();
         let png = d.join(format!("{name}.png"));
         let s = plot_parquet(&a, &png).unwrap();
-        assert_eq!(s.kind, "frame/1", "{s}");
+        assert_eq!(s.kind, "frame/2", "{s}");
         assert_eq!(s.rows, sum, "{s}");
         assert_eq!(s.sensors, sensors.map(String::from).to_vec(), "{s}");
         let note = format!("archive: {} Parquet files read as one table", files.len());
@@ -593,7 +593,7 @@ fn bad_archive_directories_are_refused_clearly() {
     write::<EventBatch>(&mixed.join("b-events.parquet"), shape.clone(), &[], None);
     let e = plot_parquet(&mixed, &d.join("mixed.png")).unwrap_err().to_string();
     assert!(e.contains(&*mixed.to_string_lossy()), "{e}");
-    assert!(e.contains("b-events.parquet: schema event/1 differs from frame/1 of a-frames.parquet"), "{e}");
+    assert!(e.contains("b-events.parquet: schema event/2 differs from frame/2 of a-frames.parquet"), "{e}");
 
     let columns = d.join("columns");
     std::fs::create_dir_all(columns.join("sensor=th")).unwrap();
@@ -621,13 +621,243 @@ fn the_cli_plots_an_archive_directory_beside_it() {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_gradtac")).arg("plot").arg(&input).output().unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
-        assert!(stdout.contains(&format!("frame/1: {} rows", frames.len())), "{stdout}");
+        assert!(stdout.contains(&format!("frame/2: {} rows", frames.len())), "{stdout}");
         assert!(stdout.contains(&format!("archive: {} Parquet files read as one table", files.len())), "{stdout}");
         let png = d.join("run.archive.png");
         assert!(stdout.contains(&*png.to_string_lossy()), "{stdout}");
         assert_eq!(decode(&png).0, 1200);
         std::fs::remove_file(&png).unwrap();
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// formats, options, old schema versions, codecs, partitioned archives
+
+/// Frames of two sensors, 100 Hz, with a contact pressing `e3`, as a frame/2 file.
+fn two_sensor_frames(d: &Path) -> PathBuf {
+    let layout = Layout::biotac_sp();
+    let frames: Vec<TaxelFrame> = (0..400u64)
+        .map(|k| {
+            let sensor = if k % 2 == 0 { "ff" } else { "th" };
+            let mut v: Vec<f64> = (0..24).map(|i| 1000.0 + i as f64).collect();
+            v[2] += 50.0 * ((k as f64) * 0.05).sin();
+            TaxelFrame::new(SensorId::new(sensor), gradtac::stream::Timestamp::at_rate(k / 2, 100.0), k / 2, v)
+        })
+        .collect();
+    let p = d.join("frames.parquet");
+    write(&p, FrameShape::from_layout(&layout), &frames, Some(&layout));
+    p
+}
+
+#[test]
+fn svg_or_png_by_the_output_extension() {
+    let d = dir("formats");
+    let input = two_sensor_frames(&d);
+    for name in ["frames.svg", "frames.SVG"] {
+        let s = plot_parquet(&input, &d.join(name)).unwrap();
+        let text = std::fs::read_to_string(d.join(name)).unwrap();
+        assert!(text.starts_with("<svg") || text.starts_with("<?xml"), "{name}: {}", &text[..40.min(text.len())]);
+        assert!(text.trim_end().ends_with("</svg>"), "{name}: a complete SVG");
+        assert!(text.contains(&format!("width=\"{}\"", s.width)), "{name}: its size");
+        // text stays text, titles carry no schema id
+        assert!(text.contains("<text") && text.contains("ff: 24 taxels"), "{name}");
+        assert!(!text.contains("frame/2") && !text.contains("frame/1"), "{name}: no schema id in the figure");
+    }
+    for name in ["frames.png", "frames.image"] {
+        plot_parquet(&input, &d.join(name)).unwrap();
+        let bytes = std::fs::read(d.join(name)).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{name}: PNG magic");
+    }
+    assert!(!d.join("frames.svg.partial").exists());
+}
+
+#[test]
+fn sensor_and_time_options_choose_the_rows() {
+    use gradtac::plot::{plot_parquet_with, PlotOptions};
+    let d = dir("options");
+    let input = two_sensor_frames(&d);
+    let all = plot_parquet(&input, &d.join("all.png")).unwrap();
+    assert_eq!(all.sensors, vec!["ff".to_string(), "th".to_string()]);
+    let opts = PlotOptions { sensors: vec!["th".into()], from: Some(0.5), to: Some(1.0) };
+    let s = plot_parquet_with(&input, &d.join("th.svg"), &opts).unwrap();
+    assert_eq!(s.sensors, vec!["th".to_string()]);
+    // th's frames at 0.50, 0.51, …, 1.00 s: 51 rows
+    assert_eq!(s.drawn, 51, "{s}");
+    assert!(s.notes.iter().any(|n| n.contains("51 of 400 rows")), "{s}");
+    assert_eq!(s.height, 340, "one panel");
+    let e =
+        plot_parquet_with(&input, &d.join("x.png"), &PlotOptions { sensors: vec!["mf".into()], ..Default::default() })
+            .unwrap_err()
+            .to_string();
+    assert!(e.contains("--sensor mf") && e.contains("ff, th"), "{e}");
+    let e = plot_parquet_with(
+        &input,
+        &d.join("x.png"),
+        &PlotOptions { from: Some(9.0), to: Some(1.0), ..Default::default() },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("--from 9 s is after --to 1 s"), "{e}");
+    let e = plot_parquet_with(&input, &d.join("x.png"), &PlotOptions { from: Some(100.0), ..Default::default() })
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no row left"), "{e}");
+    // the CLI passes them on
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_gradtac"))
+        .args(["plot", input.to_str().unwrap(), "-o", d.join("cli.svg").to_str().unwrap(), "--sensor", "ff"])
+        .args(["--from", "0", "--to", "0.2"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(d.join("cli.svg")).unwrap().starts_with("<svg"));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("sensors [ff]"));
+}
+
+/// A file as version-1 writers wrote it: `Int64` ns times named `*_ns`, NaN for no contact,
+/// `vx_mm_s` / `vy_mm_s`, 0-based event taxels.
+fn write_v1(path: &Path, schema_id: &str, columns: Vec<(&str, arrow_array::ArrayRef)>, taxels: Option<usize>) {
+    use arrow_schema::{Field, Schema};
+    use parquet::arrow::ArrowWriter;
+    use parquet::file::metadata::KeyValue;
+    use parquet::file::properties::WriterProperties;
+    let fields: Vec<Field> = columns
+        .iter()
+        .map(|(n, c)| {
+            let f = Field::new(*n, c.data_type().clone(), true);
+            match taxels.filter(|_| *n == "taxel") {
+                Some(k) => f.with_metadata(std::collections::HashMap::from([(
+                    "gradtac.taxels".to_string(),
+                    serde_json::to_string(&Layout::biotac_sp().names()[..k]).unwrap(),
+                )])),
+                None => f,
+            }
+        })
+        .collect();
+    let schema = Arc::new(Schema::new(fields));
+    let batch = arrow_array::RecordBatch::try_new(schema.clone(), columns.into_iter().map(|c| c.1).collect()).unwrap();
+    let props = WriterProperties::builder()
+        .set_key_value_metadata(Some(vec![KeyValue::new("gradtac.schema".into(), schema_id.to_string())]))
+        .build();
+    let mut w = ArrowWriter::try_new(std::fs::File::create(path).unwrap(), schema, Some(props)).unwrap();
+    w.write(&batch).unwrap();
+    w.close().unwrap();
+}
+
+#[test]
+fn version_1_files_still_plot() {
+    use arrow_array::{
+        ArrayRef, BooleanArray, Float64Array, Int64Array, Int8Array, StringArray, UInt16Array, UInt64Array,
+    };
+    let d = dir("v1");
+    let n = 200;
+    let t: ArrayRef = Arc::new(Int64Array::from_iter_values((0..n).map(|k| k * 10_000_000)));
+    let sensor: ArrayRef = Arc::new(StringArray::from(vec!["ff"; n as usize]));
+    let seq: ArrayRef = Arc::new(UInt64Array::from_iter_values(0..n as u64));
+    let x: ArrayRef = Arc::new(Float64Array::from_iter_values((0..n).map(|k| {
+        if k % 7 == 0 {
+            f64::NAN
+        } else {
+            (k as f64 * 0.1).sin() * 5.0
+        }
+    })));
+    let y: ArrayRef = Arc::new(Float64Array::from_iter_values((0..n).map(|k| (k as f64 * 0.1).cos() * 3.0)));
+    let v: ArrayRef = Arc::new(Float64Array::from_iter((0..n).map(|k| (k > 0).then_some(1.0))));
+    write_v1(
+        &d.join("track.parquet"),
+        "track/1",
+        vec![
+            ("sensor", sensor.clone()),
+            ("time_ns", t.clone()),
+            ("start_ns", t.clone()),
+            ("seq", seq.clone()),
+            ("x_mm", x.clone()),
+            ("y_mm", y),
+            ("vx_mm_s", v.clone()),
+            ("vy_mm_s", v),
+            ("gated", Arc::new(BooleanArray::from(vec![false; n as usize]))),
+        ],
+        None,
+    );
+    let s = plot_parquet(&d.join("track.parquet"), &d.join("track.svg")).unwrap();
+    assert_eq!((s.kind.as_str(), s.rows), ("track/1", n as u64), "{s}");
+    // event/1: taxel 0-based; the raster puts taxel index 23 (e24) in range
+    write_v1(
+        &d.join("events.parquet"),
+        "event/1",
+        vec![
+            ("sensor", sensor),
+            ("time_ns", t.clone()),
+            ("frame_time_ns", t),
+            ("seq", seq),
+            ("taxel", Arc::new(UInt16Array::from_iter_values((0..n).map(|k| (k % 24) as u16)))),
+            ("polarity", Arc::new(Int8Array::from_iter_values((0..n).map(|k| if k % 2 == 0 { 1 } else { -1 })))),
+        ],
+        Some(24),
+    );
+    let s = plot_parquet(&d.join("events.parquet"), &d.join("events.png")).unwrap();
+    assert_eq!((s.kind.as_str(), s.drawn), ("event/1", n as u64), "{s}");
+}
+
+#[test]
+fn snappy_gzip_and_lz4_files_are_read() {
+    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+    use parquet::arrow::ArrowWriter;
+    use parquet::basic::{Compression, GzipLevel};
+    use parquet::file::properties::WriterProperties;
+    let d = dir("codecs");
+    let input = two_sensor_frames(&d);
+    // the sink's file, rewritten with each codec (metadata kept), as pyarrow or Spark would
+    let reader = ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(&input).unwrap()).unwrap();
+    let kv = reader.metadata().file_metadata().key_value_metadata().cloned();
+    let schema = reader.schema().clone();
+    let batches: Vec<_> = reader.build().unwrap().collect::<Result<_, _>>().unwrap();
+    for (name, c) in [
+        ("snappy", Compression::SNAPPY),
+        ("gzip", Compression::GZIP(GzipLevel::default())),
+        ("lz4", Compression::LZ4_RAW),
+        ("lz4-hadoop", Compression::LZ4),
+    ] {
+        let p = d.join(format!("{name}.parquet"));
+        let props = WriterProperties::builder().set_compression(c).set_key_value_metadata(kv.clone()).build();
+        let mut w = ArrowWriter::try_new(std::fs::File::create(&p).unwrap(), schema.clone(), Some(props)).unwrap();
+        for b in &batches {
+            w.write(b).unwrap();
+        }
+        w.close().unwrap();
+        let s = plot_parquet(&p, &d.join(format!("{name}.png"))).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(s.rows, 400, "{name}");
+    }
+}
+
+#[test]
+fn partitioned_archives_take_the_sensor_from_the_directory() {
+    let layout = Layout::biotac_sp();
+    let d = dir("partitioned");
+    let frames: Vec<TaxelFrame> = (0..300u64)
+        .map(|k| {
+            let s = ["ff", "th", "left hand/mf"][(k % 3) as usize];
+            TaxelFrame::new(SensorId::new(s), gradtac::stream::Timestamp::at_rate(k, 100.0), k, vec![k as f64; 24])
+        })
+        .collect();
+    let mut a = ParquetArchive::<TaxelFrame>::try_new(d.join("arch"), FrameShape::from_layout(&layout))
+        .unwrap()
+        .with_partitioning(Partitioning::Sensor)
+        .unwrap()
+        .with_roll_rows(40)
+        .unwrap();
+    for f in &frames {
+        a.push(f).unwrap();
+    }
+    let files = a.finish().unwrap();
+    assert!(files.len() >= 6);
+    let s = plot_parquet(&d.join("arch"), &d.join("arch.svg")).unwrap();
+    assert_eq!(s.rows, 300);
+    let mut sensors = s.sensors.clone();
+    sensors.sort();
+    assert_eq!(sensors, vec!["ff".to_string(), "left hand/mf".to_string(), "th".to_string()], "{s}");
+    let opts = gradtac::plot::PlotOptions { sensors: vec!["left hand/mf".into()], ..Default::default() };
+    let s = gradtac::plot::plot_parquet_with(&d.join("arch"), &d.join("mf.png"), &opts).unwrap();
+    assert_eq!(s.drawn, 100, "{s}");
 }
 
 /// The track-velocity slip rule these plots were drawn with (event-contour tracks of the old

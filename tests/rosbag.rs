@@ -4,7 +4,7 @@
 //! `sr_robot_msgs/BiotacAll` (no `pac`) the bag's definition declares. Skips when the data
 //! is absent.
 
-use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, StringArray, UInt64Array};
+use arrow_array::{Array, FixedSizeListArray, Float64Array, StringArray, UInt64Array};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::collections::HashMap;
 use std::fs;
@@ -86,8 +86,8 @@ fn read_frames(path: &Path) -> Vec<(String, i64, u64, Vec<f64>)> {
         let col = |n: &str| b.column_by_name(n).unwrap().clone();
         let sensor = col("sensor");
         let sensor = sensor.as_any().downcast_ref::<StringArray>().unwrap();
-        let time = col("time_ns");
-        let time = time.as_any().downcast_ref::<Int64Array>().unwrap();
+        let time = col("time");
+        let time = time.as_any().downcast_ref::<arrow_array::TimestampNanosecondArray>().unwrap();
         let seq = col("seq");
         let seq = seq.as_any().downcast_ref::<UInt64Array>().unwrap();
         let vals = col("values");

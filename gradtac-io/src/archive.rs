@@ -25,8 +25,13 @@
 //! - With [`Partitioning::Sensor`] each sensor gets a directory `sensor=<name>`; characters
 //!   other than ASCII letters, digits, `-`, `_`, `.` and `~` are percent-encoded (UTF-8
 //!   bytes), as hive readers (`pyarrow` `segment_encoding="uri"`, Spark, DuckDB) decode them.
-//!   Files keep their `sensor` column too, so every file is complete on its own; the
-//!   directory value always equals the column's value.
+//!   The files do **not** repeat the `sensor` column: the directory name holds it, and a
+//!   column of the same name inside the files makes DataFusion's `PARTITIONED BY (sensor)` fail
+//!   ("duplicate qualified field name") and leaves the other engines to pick one of two.
+//!   [`with_partition_column`](ParquetArchive::with_partition_column)`(true)` keeps it (every
+//!   file then complete on its own, for readers that ignore directory names).
+//! - Time columns are `Duration(ns)` unless [`with_time_base`](ParquetArchive::with_time_base)
+//!   says `Timestamp(ns, "UTC")` ([`TimeBase`]).
 //! - Every file's key-value metadata holds `gradtac.version`, `gradtac.schema` and every pair
 //!   given with [`with_metadata`](ParquetArchive::with_metadata) /
 //!   [`set_metadata`](ParquetArchive::set_metadata) (the scene, the layout).
@@ -103,7 +108,7 @@ use crate::parquet_sink::{
     check_row_group_size, check_zstd_level, set_pair, ParquetSink, DEFAULT_ROW_GROUP_SIZE, DEFAULT_ZSTD_LEVEL,
     PARTIAL_SUFFIX,
 };
-use crate::records::ArrowRecord;
+use crate::records::{ArrowRecord, TimeBase};
 use crate::{Error, Result};
 use arrow_schema::SchemaRef;
 use gradtac_stream::{HasSensor, Timed};
@@ -112,6 +117,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// Name of the hive partition column (and of the records' sensor column).
@@ -161,6 +167,9 @@ pub struct ArchiveConfig {
     /// File name prefix: ASCII letters, digits, `-`, `_`, not starting with `_` (default
     /// `part`).
     pub prefix: String,
+    /// With `partition = "sensor"`: keep the `sensor` column inside the files too (default
+    /// false: the directory name holds it, as hive readers expect).
+    pub partition_column: bool,
 }
 
 impl Default for ArchiveConfig {
@@ -173,6 +182,7 @@ impl Default for ArchiveConfig {
             row_group_size: DEFAULT_ROW_GROUP_SIZE,
             zstd_level: DEFAULT_ZSTD_LEVEL,
             prefix: DEFAULT_PREFIX.to_string(),
+            partition_column: false,
         }
     }
 }
@@ -192,7 +202,9 @@ pub struct ParquetArchive<T: ArrowRecord> {
     dir: PathBuf,
     shape: T::Shape,
     schema: SchemaRef,
+    time: TimeBase,
     partitioning: Partitioning,
+    partition_column: bool,
     prefix: String,
     roll_bytes: Option<u64>,
     roll_rows: Option<u64>,
@@ -245,9 +257,11 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
             .map_err(|source| Error::Io { path: probe.clone(), source })?;
         Ok(ParquetArchive {
             dir,
-            schema: T::schema(&shape),
+            schema: T::schema(&shape, TimeBase::default()),
             shape,
+            time: TimeBase::default(),
             partitioning: Partitioning::None,
+            partition_column: false,
             prefix: DEFAULT_PREFIX.to_string(),
             roll_bytes: None,
             roll_rows: None,
@@ -267,6 +281,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
     pub fn from_config(dir: impl AsRef<Path>, shape: T::Shape, config: &ArchiveConfig) -> Result<Self> {
         let mut a = Self::try_new(dir, shape)?
             .with_partitioning(config.partition)?
+            .with_partition_column(config.partition_column)?
             .with_prefix(&config.prefix)?
             .with_row_group_size(config.row_group_size)?
             .with_zstd_level(config.zstd_level)?;
@@ -301,7 +316,43 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
     pub fn with_partitioning(mut self, partitioning: Partitioning) -> Result<Self> {
         self.check_not_started("partitioning")?;
         self.partitioning = partitioning;
+        self.update_schema();
         Ok(self)
+    }
+
+    /// With [`Partitioning::Sensor`], keep the `sensor` column inside the files too (default
+    /// false: the `sensor=<name>` directory holds it, as hive readers expect; see the
+    /// [module documentation](self)). Before the first record.
+    pub fn with_partition_column(mut self, keep: bool) -> Result<Self> {
+        self.check_not_started("partition_column")?;
+        self.partition_column = keep;
+        self.update_schema();
+        Ok(self)
+    }
+
+    /// The [`TimeBase`] of the time columns (default [`TimeBase::Relative`]). Before the first
+    /// record.
+    pub fn with_time_base(mut self, time: TimeBase) -> Result<Self> {
+        self.check_not_started("the time base")?;
+        self.time = time;
+        self.update_schema();
+        Ok(self)
+    }
+
+    /// True when the files leave out the partition column.
+    fn drops_partition_column(&self) -> bool {
+        self.partitioning == Partitioning::Sensor && !self.partition_column
+    }
+
+    fn update_schema(&mut self) {
+        let full = T::schema(&self.shape, self.time);
+        self.schema = match full.index_of(PARTITION_COLUMN) {
+            Ok(i) if self.drops_partition_column() => {
+                let keep: Vec<usize> = (0..full.fields().len()).filter(|&k| k != i).collect();
+                Arc::new(full.project(&keep).expect("indices of the schema's own fields"))
+            }
+            _ => full,
+        };
     }
 
     /// Roll when a file's estimated size reaches `bytes` (≥ 1; see the module's rolling
@@ -391,7 +442,8 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
         &self.dir
     }
 
-    /// The Arrow schema of every file.
+    /// The Arrow schema of every file (without `sensor` when partitioned by it, unless
+    /// [`with_partition_column`](Self::with_partition_column)).
     pub fn schema(&self) -> &SchemaRef {
         &self.schema
     }
@@ -541,7 +593,11 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
         let name = format!("{}-{index:0INDEX_WIDTH$}.parquet", self.prefix);
         let path = dir.join(&name);
         let temp = dir.join(format!(".{name}{PARTIAL_SUFFIX}"));
+        // Dropped only when the records have the column (update_schema left it out).
+        let drop = self.drops_partition_column() && self.schema.index_of(PARTITION_COLUMN).is_err();
         let sink = ParquetSink::try_new_with_temp(path, temp, self.shape.clone())
+            .and_then(|s| s.with_time_base(self.time))
+            .and_then(|s| if drop { s.without_column(PARTITION_COLUMN) } else { Ok(s) })
             .and_then(|s| s.with_row_group_size(self.row_group_size))
             .and_then(|s| s.with_zstd_level(self.zstd_level));
         let sink = match sink {

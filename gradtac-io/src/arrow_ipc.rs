@@ -3,10 +3,11 @@
 //! over).
 //!
 //! # Layouts
-//! - **long** (the `frame/1` schema of `docs/schemas.md`, what the Parquet sink writes): one
-//!   row per frame with columns
+//! - **long** (the `frame/2` schema of `docs/schemas.md`, what the Parquet sink writes, and
+//!   the older `frame/1`): one row per frame with columns
 //!   - `sensor`: `Utf8`, `LargeUtf8`, `Utf8View` or a dictionary of `Utf8`;
-//!   - `time_ns`: `Int64` or `Timestamp(Nanosecond)`;
+//!   - `time` (`frame/2`: `Timestamp(Nanosecond)` or `Duration(Nanosecond)`) or `time_ns`
+//!     (`frame/1`: `Int64`), the nanoseconds read as they are;
 //!   - `seq` (optional): `UInt64` or non-negative `Int64`; without it frames are numbered
 //!     from 0 per sensor;
 //!   - `values`: `FixedSizeList<Float64>` (or `List`/`LargeList<Float64>`), the same length
@@ -461,7 +462,7 @@ impl BatchDecoder {
                         self.err(
                             None,
                             format!(
-                                "no column {n:?} (long layout needs sensor, time_ns, values; columns: {})",
+                                "no column {n:?} (long layout needs sensor, time (or time_ns), values; columns: {})",
                                 names.join(", ")
                             ),
                         )
@@ -469,7 +470,7 @@ impl BatchDecoder {
                 };
                 Ok(Resolved::Long {
                     sensor: need("sensor")?,
-                    time: need("time_ns")?,
+                    time: find("time").map_or_else(|| need("time_ns"), Ok)?,
                     seq: find("seq"),
                     values: need("values")?,
                     keep: sensors.as_ref().map(|s| s.iter().cloned().collect()),
@@ -712,8 +713,10 @@ fn i64s<'a>(a: &'a ArrayRef, name: &str) -> std::result::Result<I64Col<'a>, Stri
         Ok(I64Col(p.values(), p))
     } else if let Some(p) = a.as_primitive_opt::<TimestampNanosecondType>() {
         Ok(I64Col(p.values(), p))
+    } else if let Some(p) = a.as_primitive_opt::<arrow_array::types::DurationNanosecondType>() {
+        Ok(I64Col(p.values(), p))
     } else {
-        Err(format!("column {name}: type {} (expected Int64 or Timestamp(ns))", a.data_type()))
+        Err(format!("column {name}: type {} (expected Int64, Timestamp(ns) or Duration(ns))", a.data_type()))
     }
 }
 

@@ -19,7 +19,7 @@
 //! # Ok::<(), gradtac_io::Error>(())
 //! ```
 
-use crate::records::{ArrowRecord, RecordBuilder};
+use crate::records::{ArrowRecord, RecordBuilder, TimeBase};
 use crate::{Error, Result};
 use arrow_array::RecordBatch;
 use gradtac_stream::Stage;
@@ -40,13 +40,13 @@ impl<T: ArrowRecord> ToBatches<T> {
         if rows == 0 {
             return Err(Error::InvalidConfig("ToBatches: rows per batch must be ≥ 1".into()));
         }
-        let builder = T::builder(&shape, rows.min(8192));
+        let builder = T::builder(&shape, TimeBase::default(), rows.min(8192));
         Ok(ToBatches { shape, builder, rows })
     }
 
     /// The schema of every batch.
     pub fn schema(&self) -> arrow_schema::SchemaRef {
-        T::schema(&self.shape)
+        T::schema(&self.shape, TimeBase::default())
     }
 }
 
@@ -72,7 +72,7 @@ impl<T: ArrowRecord> Stage for ToBatches<T> {
 
     /// Drops the records not yet in a batch.
     fn reset(&mut self) {
-        self.builder = T::builder(&self.shape, self.rows.min(8192));
+        self.builder = T::builder(&self.shape, TimeBase::default(), self.rows.min(8192));
     }
 }
 

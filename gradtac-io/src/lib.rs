@@ -24,4 +24,4 @@ pub use blocking::{blocking_archive, blocking_sink, blocking_stream, BlockingArc
 pub use csv_source::{ColumnSelector, CsvFrames, CsvProgress, CsvSourceConfig, TimeUnit};
 pub use error::{excerpt, BagSite, Error, Result};
 pub use parquet_sink::ParquetSink;
-pub use records::{ArrowRecord, FrameShape, RecordBuilder};
+pub use records::{ArrowRecord, FrameShape, RecordBuilder, TimeBase};

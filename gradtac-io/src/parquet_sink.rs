@@ -27,10 +27,15 @@
 //!
 //! # Metadata
 //! The file's key-value metadata holds `gradtac.version` (this crate's version),
-//! `gradtac.schema` ([`ArrowRecord::SCHEMA_ID`], e.g. `frame/1`), the Arrow schema (key
+//! `gradtac.schema` ([`ArrowRecord::SCHEMA_ID`], e.g. `frame/2`), the Arrow schema (key
 //! `ARROW:schema`, written by `parquet`), and every pair given with
 //! [`with_metadata`](ParquetSink::with_metadata) (the CLI adds `gradtac.scene` and
 //! `gradtac.layout`). Schemas are documented in `docs/schemas.md`.
+//!
+//! # Times
+//! Time columns are `Duration(ns)` by default (times relative to the source's own origin);
+//! [`with_time_base`](ParquetSink::with_time_base)`(TimeBase::Utc)` makes them
+//! `Timestamp(ns, "UTC")` for sources on the Unix epoch (see [`TimeBase`]).
 //!
 //! A directory of files rolled by size or time and partitioned by sensor is written by
 //! [`ParquetArchive`](crate::archive::ParquetArchive), one `ParquetSink` per open file.
@@ -50,7 +55,7 @@
 //! assert!(path.ends_with("f.parquet") && path.exists());
 //! ```
 
-use crate::records::{arrow_error, ArrowRecord, RecordBuilder, SCHEMA_KEY};
+use crate::records::{arrow_error, ArrowRecord, RecordBuilder, TimeBase, SCHEMA_KEY};
 use crate::{Error, Result};
 use arrow_schema::SchemaRef;
 use parquet::arrow::ArrowWriter;
@@ -60,6 +65,7 @@ use parquet::file::properties::WriterProperties;
 use std::fmt;
 use std::fs::{self, File};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Key of the writing crate's version in the file's key-value metadata.
 pub const VERSION_KEY: &str = "gradtac.version";
@@ -100,6 +106,12 @@ pub struct ParquetSink<T: ArrowRecord> {
     file: Option<File>,
     writer: Option<ArrowWriter<File>>,
     builder: T::Builder,
+    shape: T::Shape,
+    time: TimeBase,
+    /// The columns of the records' schema that the file keeps (all unless
+    /// [`without_column`](ParquetSink::without_column) dropped one).
+    projection: Option<Vec<usize>>,
+    /// The file's schema (the records' schema, projected).
     schema: SchemaRef,
     row_group_size: usize,
     /// Rows per batch handed to the writer: `MAX_BATCH_ROWS`, fewer for wide records.
@@ -162,11 +174,15 @@ impl<T: ArrowRecord> ParquetSink<T> {
         }
         check_replaceable(&partial)?;
         let file = File::create(&partial).map_err(|source| Error::Io { path: partial.clone(), source })?;
-        let schema = T::schema(&shape);
+        let time = TimeBase::default();
+        let schema = T::schema(&shape, time);
         let batch_rows = (MAX_BATCH_BYTES / row_bytes(&schema)).clamp(1, MAX_BATCH_ROWS);
         Ok(ParquetSink {
             batch_rows,
-            builder: T::builder(&shape, MAX_BATCH_ROWS.min(DEFAULT_ROW_GROUP_SIZE).min(batch_rows)),
+            builder: T::builder(&shape, time, MAX_BATCH_ROWS.min(DEFAULT_ROW_GROUP_SIZE).min(batch_rows)),
+            shape,
+            time,
+            projection: None,
             path,
             partial,
             file: Some(file),
@@ -193,6 +209,58 @@ impl<T: ArrowRecord> ParquetSink<T> {
             return Err(Error::InvalidConfig("row_group_size must be set before writing starts".into()));
         }
         self.row_group_size = rows;
+        Ok(self)
+    }
+
+    /// The [`TimeBase`] of the time columns (default [`TimeBase::Relative`]: `Duration(ns)`;
+    /// [`TimeBase::Utc`]: `Timestamp(ns, "UTC")`). Before the first record.
+    pub fn with_time_base(mut self, time: TimeBase) -> Result<Self> {
+        if self.rows > 0 || self.writer.is_some() {
+            return Err(Error::InvalidConfig("the time base must be set before the first record".into()));
+        }
+        let keep: Option<Vec<String>> =
+            self.projection.as_ref().map(|_| self.schema.fields().iter().map(|f| f.name().clone()).collect());
+        self.time = time;
+        let full = T::schema(&self.shape, time);
+        self.builder = T::builder(&self.shape, time, MAX_BATCH_ROWS.min(self.row_group_size).min(self.batch_rows));
+        self.schema = full.clone();
+        if let Some(keep) = keep {
+            let indices: Vec<usize> = keep.iter().filter_map(|n| full.index_of(n).ok()).collect();
+            self.schema = Arc::new(full.project(&indices).map_err(|e| arrow_error(T::SCHEMA_ID, e))?);
+            self.projection = Some(indices);
+        }
+        Ok(self)
+    }
+
+    /// The time base of the time columns.
+    pub fn time_base(&self) -> TimeBase {
+        self.time
+    }
+
+    /// Leave column `name` out of the file (an archive's partition column, whose value is in
+    /// the directory name). Before the first record; the column must exist and not be the
+    /// only one.
+    pub fn without_column(mut self, name: &str) -> Result<Self> {
+        if self.rows > 0 || self.writer.is_some() {
+            return Err(Error::InvalidConfig("columns must be chosen before the first record".into()));
+        }
+        let Ok(drop) = self.schema.index_of(name) else {
+            return Err(Error::InvalidConfig(format!("schema {} has no column {name:?}", T::SCHEMA_ID)));
+        };
+        if self.schema.fields().len() == 1 {
+            return Err(Error::InvalidConfig(format!("column {name:?} is the only column of {}", T::SCHEMA_ID)));
+        }
+        let full = T::schema(&self.shape, self.time);
+        let indices: Vec<usize> = self
+            .schema
+            .fields()
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| i != drop)
+            .filter_map(|(_, f)| full.index_of(f.name()).ok())
+            .collect();
+        self.schema = Arc::new(full.project(&indices).map_err(|e| arrow_error(T::SCHEMA_ID, e))?);
+        self.projection = Some(indices);
         Ok(self)
     }
 
@@ -316,8 +384,13 @@ impl<T: ArrowRecord> ParquetSink<T> {
         if self.builder.is_empty() {
             return Ok(());
         }
+        let projection = self.projection.clone();
         let result = self.builder.finish().and_then(|batch| {
             let context = self.partial.display().to_string();
+            let batch = match &projection {
+                Some(p) => batch.project(p).map_err(|e| arrow_error(&context, e))?,
+                None => batch,
+            };
             self.writer()?.write(&batch).map_err(|e| arrow_error(context, e))
         });
         self.failed |= result.is_err();

@@ -4,7 +4,7 @@
 //! (when installed) `pyarrow.dataset` reading an archive as one hive-partitioned table.
 
 use arrow_array::cast::AsArray;
-use arrow_array::types::{Int64Type, UInt64Type};
+use arrow_array::types::{DurationNanosecondType, UInt64Type};
 use arrow_array::RecordBatch;
 use gradtac_io::archive::{ArchiveConfig, ParquetArchive, Partitioning};
 use gradtac_io::records::{to_batch, ArrowRecord};
@@ -113,17 +113,30 @@ fn tree(dir: &Path) -> Vec<String> {
 }
 
 /// Each batch read back equals, bit for bit (arrays compare their buffers), the matching
-/// slice of `expected` written as one batch.
-fn assert_batches_equal<T: ArrowRecord>(shape: &T::Shape, expected: &[T], got: &[RecordBatch], what: &str) {
+/// slice of `expected` written as one batch — every column of it, except a `sensor` column
+/// left out of sensor-partitioned files (`partitioned`), which must then be absent.
+fn assert_batches_equal<T: ArrowRecord>(
+    shape: &T::Shape,
+    expected: &[T],
+    got: &[RecordBatch],
+    what: &str,
+    partitioned: bool,
+) {
     let want = to_batch(shape, expected).unwrap();
     let rows: usize = got.iter().map(|b| b.num_rows()).sum();
     assert_eq!(rows, expected.len(), "{what}: row count");
     let mut offset = 0;
     for b in got {
         let w = want.slice(offset, b.num_rows());
-        assert_eq!(b.num_columns(), w.num_columns(), "{what}");
-        for (c, field) in w.schema().fields().iter().enumerate() {
-            assert_eq!(b.column(c).to_data(), w.column(c).to_data(), "{what}: column {} at row {offset}", field.name());
+        assert_eq!(b.num_columns() + usize::from(partitioned), w.num_columns(), "{what}");
+        assert_eq!(
+            b.column_by_name("sensor").is_none(),
+            partitioned,
+            "{what}: the partition column is not in the file"
+        );
+        for field in w.schema().fields().iter().filter(|f| !(partitioned && f.name() == "sensor")) {
+            let (g, e) = (b.column_by_name(field.name()).unwrap(), w.column_by_name(field.name()).unwrap());
+            assert_eq!(g.to_data(), e.to_data(), "{what}: column {} at row {offset}", field.name());
         }
         offset += b.num_rows();
     }
@@ -178,14 +191,14 @@ fn frames_round_trip_through_a_partitioned_archive() {
         for (i, name) in names.iter().enumerate() {
             let back = read(&sub.join(name));
             assert_eq!(back.rows, (want.len() - 100 * i).min(100) as i64, "{sensor} {name:?}");
-            assert_eq!(back.kv["gradtac.schema"], "frame/1");
+            assert_eq!(back.kv["gradtac.schema"], "frame/2");
             assert_eq!(back.kv["gradtac.version"], env!("CARGO_PKG_VERSION"));
             assert_eq!(back.kv["gradtac.scene"], "scene text");
             assert_eq!(back.kv["gradtac.layout"], "e1,e2");
             assert!(back.compressions.iter().all(|c| matches!(c, Compression::ZSTD(_))));
             batches.extend(back.batches);
         }
-        assert_batches_equal(&shape, &want, &batches, sensor);
+        assert_batches_equal(&shape, &want, &batches, sensor, true);
     }
 }
 
@@ -207,16 +220,16 @@ fn tracks_round_trip_through_an_archive_rolled_by_time() {
     for (i, f) in files.iter().enumerate() {
         assert_eq!(f, &dir.path().join(format!("tracks-{i:06}.parquet")));
         let back = read(f);
-        assert_eq!(back.kv["gradtac.schema"], "track/1");
+        assert_eq!(back.kv["gradtac.schema"], "track/2");
         let times: Vec<i64> = back
             .batches
             .iter()
-            .flat_map(|b| b.column_by_name("time_ns").unwrap().as_primitive::<Int64Type>().values().to_vec())
+            .flat_map(|b| b.column_by_name("time").unwrap().as_primitive::<DurationNanosecondType>().values().to_vec())
             .collect();
         assert!(times.iter().all(|t| t.div_euclid(100_000_000) == i as i64), "file {i}: {times:?}");
         batches.extend(back.batches);
     }
-    assert_batches_equal(&(), &input, &batches, "tracks");
+    assert_batches_equal(&(), &input, &batches, "tracks", false);
     assert_eq!(tree(dir.path()).len(), 30);
 }
 
@@ -253,7 +266,7 @@ fn bytes_roll_files_near_the_limit() {
         }
         batches.extend(read(f).batches);
     }
-    assert_batches_equal(&shape, &input, &batches, "frames");
+    assert_batches_equal(&shape, &input, &batches, "frames", false);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -484,11 +497,11 @@ fn killed_writer_leaves_every_finished_file_valid() {
             let back = read(&archive.join(part).join(name));
             assert_eq!(back.rows, KILL_ROWS_PER_FILE as i64, "{part}/{name}");
             assert_eq!(back.kv["gradtac.scene"], "kill test");
-            assert_eq!(back.kv["gradtac.schema"], "frame/1");
+            assert_eq!(back.kv["gradtac.schema"], "frame/2");
             let first = i as u64 * KILL_ROWS_PER_FILE;
             let want: Vec<TaxelFrame> =
                 (first..first + KILL_ROWS_PER_FILE).map(|k| frame(sensor, k, KILL_TAXELS)).collect();
-            assert_batches_equal(&FrameShape::unnamed(KILL_TAXELS).unwrap(), &want, &back.batches, name);
+            assert_batches_equal(&FrameShape::unnamed(KILL_TAXELS).unwrap(), &want, &back.batches, name, true);
             total += back.rows;
         }
         // at most one unfinished file here: the next one, under its temporary name only
@@ -503,7 +516,7 @@ fn killed_writer_leaves_every_finished_file_valid() {
                 if let Ok(batches) = b.build().and_then(|r| r.collect::<Result<Vec<_>, _>>().map_err(Into::into)) {
                     let seqs: Vec<u64> = batches
                         .iter()
-                        .flat_map(|b| b.column(2).as_primitive::<UInt64Type>().values().to_vec())
+                        .flat_map(|b| b.column_by_name("seq").unwrap().as_primitive::<UInt64Type>().values().to_vec())
                         .collect();
                     let first = names.len() as u64 * KILL_ROWS_PER_FILE;
                     assert_eq!(seqs, (first..first + seqs.len() as u64).collect::<Vec<_>>());
@@ -519,7 +532,7 @@ fn killed_writer_leaves_every_finished_file_valid() {
     let single = read(&dir.path().join("single-done.parquet"));
     assert_eq!(single.rows, KILL_SINGLE_ROWS as i64);
     let want: Vec<TaxelFrame> = (0..KILL_SINGLE_ROWS).map(|k| frame("ff", k, KILL_TAXELS)).collect();
-    assert_batches_equal(&FrameShape::unnamed(KILL_TAXELS).unwrap(), &want, &single.batches, "single-done");
+    assert_batches_equal(&FrameShape::unnamed(KILL_TAXELS).unwrap(), &want, &single.batches, "single-done", false);
     assert!(!dir.path().join("single-live.parquet").exists());
     assert!(dir.path().join("single-live.parquet.partial").exists());
 
@@ -589,7 +602,7 @@ print(json.dumps({"rows": t.num_rows, "by_sensor": out}))
 // ---------------------------------------------------------------------------------------------
 // invariant: any records, any rolling — nothing lost, nothing reordered
 
-/// The `seq` and `time_ns` of every row of the files in `dir` (not recursive), files in name
+/// The `seq` and `time` of every row of the files in `dir` (not recursive), files in name
 /// order, one list per file.
 fn files_in(dir: &Path) -> Vec<Vec<(u64, i64)>> {
     let mut names: Vec<PathBuf> = fs::read_dir(dir)
@@ -606,7 +619,8 @@ fn files_in(dir: &Path) -> Vec<Vec<(u64, i64)>> {
                 .iter()
                 .flat_map(|b| {
                     let seq = b.column_by_name("seq").unwrap().as_primitive::<UInt64Type>().values().to_vec();
-                    let time = b.column_by_name("time_ns").unwrap().as_primitive::<Int64Type>().values().to_vec();
+                    let time =
+                        b.column_by_name("time").unwrap().as_primitive::<DurationNanosecondType>().values().to_vec();
                     seq.into_iter().zip(time)
                 })
                 .collect()

@@ -1,7 +1,9 @@
 //! Integration tests of the Parquet sink: round trip, metadata, compression, row groups, the
 //! `.partial` protocol, and (when installed) reading with pyarrow.
 
-use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array};
+use arrow_array::{
+    Array, DurationNanosecondArray, FixedSizeListArray, Float64Array, RecordBatch, StringArray, UInt64Array,
+};
 use gradtac_io::records::frame::TAXELS_KEY;
 use gradtac_io::{CsvFrames, CsvSourceConfig, Error, FrameShape, ParquetSink};
 use gradtac_stream::{Layout, SensorId, TaxelFrame, Timestamp};
@@ -48,7 +50,7 @@ fn frames_of(batches: &[RecordBatch]) -> Vec<TaxelFrame> {
     let mut out = Vec::new();
     for b in batches {
         let sensor = b.column_by_name("sensor").unwrap().as_any().downcast_ref::<StringArray>().unwrap();
-        let time = b.column_by_name("time_ns").unwrap().as_any().downcast_ref::<Int64Array>().unwrap();
+        let time = b.column_by_name("time").unwrap().as_any().downcast_ref::<DurationNanosecondArray>().unwrap();
         let seq = b.column_by_name("seq").unwrap().as_any().downcast_ref::<UInt64Array>().unwrap();
         let values = b.column_by_name("values").unwrap().as_any().downcast_ref::<FixedSizeListArray>().unwrap();
         for r in 0..b.num_rows() {
@@ -106,7 +108,7 @@ fn round_trip_is_bit_exact_with_metadata_zstd_and_row_groups() {
     assert_eq!(bits(&frames_of(&batches)), bits(&input));
 
     let kv = kv(&md);
-    assert_eq!(kv["gradtac.schema"], "frame/1");
+    assert_eq!(kv["gradtac.schema"], "frame/2");
     assert_eq!(kv["gradtac.version"], env!("CARGO_PKG_VERSION"));
     assert_eq!(kv["gradtac.scene"], "[[sensor]]\nname = \"ff\"\n");
     assert_eq!(kv["gradtac.layout"], "biotac-sp");
@@ -125,7 +127,10 @@ fn round_trip_is_bit_exact_with_metadata_zstd_and_row_groups() {
     let names: Vec<String> =
         serde_json::from_str(&schema.field_with_name("values").unwrap().metadata()[TAXELS_KEY]).unwrap();
     assert_eq!(names, layout.names());
-    assert_eq!(schema.field_with_name("time_ns").unwrap().metadata()["gradtac.unit"], "ns");
+    assert_eq!(
+        schema.field_with_name("time").unwrap().data_type(),
+        &arrow_schema::DataType::Duration(arrow_schema::TimeUnit::Nanosecond)
+    );
     assert!(schema.fields().iter().all(|f| !f.is_nullable()));
 }
 
@@ -159,7 +164,7 @@ fn an_empty_stream_gives_a_valid_empty_file() {
     let (batches, md) = read_back(&path);
     assert_eq!(batches.iter().map(RecordBatch::num_rows).sum::<usize>(), 0);
     assert_eq!(md.file_metadata().num_rows(), 0);
-    assert_eq!(kv(&md)["gradtac.schema"], "frame/1");
+    assert_eq!(kv(&md)["gradtac.schema"], "frame/2");
 }
 
 #[test]
@@ -179,7 +184,7 @@ fn abort_leaves_a_readable_partial_and_no_final_name() {
     assert!(!target.exists());
     let (batches, md) = read_back(&partial);
     assert_eq!(bits(&frames_of(&batches)), bits(&input), "every pushed row, pending ones included");
-    assert_eq!(kv(&md)["gradtac.schema"], "frame/1");
+    assert_eq!(kv(&md)["gradtac.schema"], "frame/2");
 }
 
 #[test]
@@ -262,25 +267,25 @@ out = {
     "types": [str(f.type) for f in t.schema],
     "taxels": json.loads(t.schema.field("values").metadata[b"gradtac.taxels"]),
     "sensor": t.column("sensor").to_pylist(),
-    "time_ns": t.column("time_ns").to_pylist(),
+    "time": t.column("time").cast("int64").to_pylist(),
     "seq": t.column("seq").to_pylist(),
     "values": [[float.hex(x) for x in row] for row in t.column("values").to_pylist()],
 }
 print(json.dumps(out))
 "#;
     let v = run_python(script, [&target]);
-    assert_eq!(v["kv"]["gradtac.schema"], "frame/1");
+    assert_eq!(v["kv"]["gradtac.schema"], "frame/2");
     assert_eq!(v["kv"]["gradtac.scene"], "test");
     assert_eq!(v["row_groups"], serde_json::json!([128, 128, 44]));
     assert_eq!(v["compression"], serde_json::json!(["ZSTD"]));
     assert_eq!(
         v["types"],
-        serde_json::json!(["string", "int64", "uint64", "fixed_size_list<item: double not null>[4]"])
+        serde_json::json!(["string", "duration[ns]", "uint64", "fixed_size_list<item: double not null>[4]"])
     );
     assert_eq!(v["taxels"], serde_json::json!(["a", "b", "c", "d"]));
     for (k, f) in input.iter().enumerate() {
         assert_eq!(v["sensor"][k], f.sensor.as_str());
-        assert_eq!(v["time_ns"][k], f.time.as_nanos());
+        assert_eq!(v["time"][k], f.time.as_nanos());
         assert_eq!(v["seq"][k], f.seq);
         for (i, x) in f.values.iter().enumerate() {
             let py = v["values"][k][i].as_str().unwrap();

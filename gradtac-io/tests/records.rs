@@ -66,12 +66,14 @@ fn event_rows(r: &ReadBack) -> Vec<EventRow> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (t, ft) = (i64s(b, "time_ns"), i64s(b, "frame_time_ns"));
+        let (t, ft) = (i64s(b, "time"), i64s(b, "frame_time"));
         let seq = opt_u64s(b, "seq");
         let taxel = col(b, "taxel").as_primitive::<UInt16Type>().values().to_vec();
         let pol = col(b, "polarity").as_primitive::<Int8Type>().values().to_vec();
         for i in 0..b.num_rows() {
-            out.push((sensor[i].clone().unwrap(), t[i], ft[i], seq[i].unwrap(), taxel[i], pol[i]));
+            // the column numbers taxels from 1; the rows here hold the 0-based index
+            assert!(taxel[i] >= 1, "taxel numbers count from 1");
+            out.push((sensor[i].clone().unwrap(), t[i], ft[i], seq[i].unwrap(), taxel[i] - 1, pol[i]));
         }
     }
     out
@@ -148,7 +150,7 @@ fn events_round_trip_one_row_per_event() {
     let input = some_events();
     let path = write(&dir.path().join("events.parquet"), EventShape::from_layout(&layout), &input, 7);
     let r = read(&path);
-    assert_eq!(schema_id(&r), "event/1");
+    assert_eq!(schema_id(&r), "event/2");
     assert_eq!(r.kv["gradtac.version"], env!("CARGO_PKG_VERSION"));
     let n_events: usize = input.iter().map(|b| b.events.len()).sum();
     assert_eq!(r.batches.iter().map(RecordBatch::num_rows).sum::<usize>(), n_events);
@@ -157,8 +159,13 @@ fn events_round_trip_one_row_per_event() {
     let names: Vec<String> =
         serde_json::from_str(&r.schema().field_with_name("taxel").unwrap().metadata()[TAXELS_KEY]).unwrap();
     assert_eq!(names, layout.names());
-    assert_eq!(unit(&r, "time_ns").as_deref(), Some("ns"));
-    assert_eq!(unit(&r, "frame_time_ns").as_deref(), Some("ns"));
+    for t in ["time", "frame_time"] {
+        assert_eq!(
+            r.schema().field_with_name(t).unwrap().data_type(),
+            &arrow_schema::DataType::Duration(arrow_schema::TimeUnit::Nanosecond),
+            "{t}"
+        );
+    }
 }
 
 #[test]
@@ -190,7 +197,7 @@ fn an_event_file_of_empty_batches_has_no_rows() {
     let input: Vec<EventBatch> = (0..5).map(|k| batch("ff", k, k as u64, 3, &[])).collect();
     let path = write(&dir.path().join("e.parquet"), EventShape::unnamed(3).unwrap(), &input, 10);
     let r = read(&path);
-    assert_eq!(schema_id(&r), "event/1");
+    assert_eq!(schema_id(&r), "event/2");
     assert_eq!(r.batches.iter().map(RecordBatch::num_rows).sum::<usize>(), 0);
 }
 
@@ -201,7 +208,7 @@ fn windows_of(r: &ReadBack) -> Vec<WindowAggregate> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (start, end) = (i64s(b, "start_ns"), i64s(b, "end_ns"));
+        let (start, end) = (i64s(b, "start"), i64s(b, "end"));
         let (seq, frames) = (opt_u64s(b, "seq"), opt_u64s(b, "frames"));
         let aggregate = strs(b, "aggregate");
         let (values, pos, neg) =
@@ -277,7 +284,7 @@ fn windows_round_trip_bit_exact() {
     let shape = WindowShape::new(vec!["a".into(), "b".into(), "c".into(), "d".into(), "e".into()]).unwrap();
     let input = some_windows(5);
     let r = read(&write(&dir.path().join("w.parquet"), shape, &input, 8));
-    assert_eq!(schema_id(&r), "window/1");
+    assert_eq!(schema_id(&r), "window/2");
     assert_eq!(window_keys(&windows_of(&r)), window_keys(&input));
     for c in ["values", "positive", "negative"] {
         let md = r.schema().field_with_name(c).unwrap().metadata()[TAXELS_KEY].clone();
@@ -341,7 +348,7 @@ fn surfaces_of(r: &ReadBack, g: &Arc<Grid>) -> Vec<Surface> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (start, end) = (i64s(b, "start_ns"), i64s(b, "end_ns"));
+        let (start, end) = (i64s(b, "start"), i64s(b, "end"));
         let seq = opt_u64s(b, "seq");
         let values = opt_f64_lists(b, "values");
         for i in 0..b.num_rows() {
@@ -376,7 +383,7 @@ fn surfaces_round_trip_row_major_with_the_grid_in_metadata() {
     let input: Vec<Surface> = (0..9).map(|k| surface(&g, k)).collect();
     assert!(input[1].values.as_slice().is_none(), "a column-major surface is among the inputs");
     let r = read(&write(&dir.path().join("s.parquet"), SurfaceShape::new(g.clone()), &input, 4));
-    assert_eq!(schema_id(&r), "surface/1");
+    assert_eq!(schema_id(&r), "surface/2");
     assert_eq!(surface_keys(&surfaces_of(&r, &g)), surface_keys(&input));
     // element row·nx + col is values[[row, col]]
     let flat = opt_f64_lists(&r.batches[0], "values")[1].clone().unwrap();
@@ -415,7 +422,7 @@ fn a_surface_on_another_grid_is_rejected_and_the_sink_goes_on() {
     // same size, another extent (an equal grid in another Arc is accepted below)
     let shifted = Arc::new(Grid::try_new(Extent { x_min: -7.3, x_max: 12.0, ..g.extent() }, 6, 4).unwrap());
     let e = sink.push(&surface(&shifted, 2)).unwrap_err();
-    assert!(matches!(e, Error::Record { .. }) && e.to_string().contains("surface/1"), "{e}");
+    assert!(matches!(e, Error::Record { .. }) && e.to_string().contains("surface/2"), "{e}");
     // values that do not match the surface's own grid
     let mut bad = surface(&g, 3);
     bad.values = Array2::zeros((6, 4));
@@ -435,7 +442,7 @@ fn contours_of(r: &ReadBack) -> Vec<ContourFrame> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (start, end) = (i64s(b, "start_ns"), i64s(b, "end_ns"));
+        let (start, end) = (i64s(b, "start"), i64s(b, "end"));
         let seq = opt_u64s(b, "seq");
         let contact = bools(b, "contact");
         let no_contact = strs(b, "no_contact");
@@ -457,7 +464,7 @@ fn contours_of(r: &ReadBack) -> Vec<ContourFrame> {
         for i in 0..b.num_rows() {
             let outcome = if contact[i].unwrap() {
                 assert!(no_contact[i].is_none());
-                let v: Vec<f64> = floats.iter().map(|c| c[i].unwrap()).collect();
+                let v: Vec<f64> = floats.iter().map(|c| c[i].unwrap_or(f64::NAN)).collect();
                 let hs = holes.value(i);
                 let hs = hs.as_list::<i32>();
                 ContourOutcome::Contact(MaxContour {
@@ -506,17 +513,20 @@ fn contour_keys(c: &[ContourFrame]) -> Vec<(String, i64, i64, u64, OutcomeKey)> 
         .map(|c| {
             let o = match &c.outcome {
                 ContourOutcome::Contact(m) => OutcomeKey::Contact(
-                    bits(&[
-                        m.level,
-                        m.area_mm2,
-                        m.centroid_mm[0],
-                        m.centroid_mm[1],
-                        m.orientation_rad,
-                        m.eccentricity,
-                        m.peak,
-                        m.peak_mm[0],
-                        m.peak_mm[1],
-                    ]),
+                    bits(
+                        &[
+                            m.level,
+                            m.area_mm2,
+                            m.centroid_mm[0],
+                            m.centroid_mm[1],
+                            m.orientation_rad,
+                            m.eccentricity,
+                            m.peak,
+                            m.peak_mm[0],
+                            m.peak_mm[1],
+                        ]
+                        .map(canonical),
+                    ),
                     pbits(&m.polygon),
                     m.holes.iter().map(|h| pbits(h)).collect(),
                     m.clipped,
@@ -567,7 +577,7 @@ fn contours_round_trip_with_polygons_and_holes() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_contours();
     let r = read(&write(&dir.path().join("c.parquet"), (), &input, 5));
-    assert_eq!(schema_id(&r), "contour/1");
+    assert_eq!(schema_id(&r), "contour/2");
     assert_eq!(contour_keys(&contours_of(&r)), contour_keys(&input));
     assert_eq!(unit(&r, "polygon").as_deref(), Some("mm"));
     assert_eq!(unit(&r, "area_mm2").as_deref(), Some("mm2"));
@@ -580,15 +590,15 @@ fn tracks_of(r: &ReadBack) -> Vec<TrackPoint> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (time, start) = (i64s(b, "time_ns"), i64s(b, "start_ns"));
+        let (time, start) = (i64s(b, "time"), i64s(b, "start"));
         let seq = opt_u64s(b, "seq");
         let (state, no_contact) = (strs(b, "state"), strs(b, "no_contact"));
         let track = opt_u64s(b, "track");
         let [x, y, area, orientation, peak, vx, vy] =
-            ["x_mm", "y_mm", "area_mm2", "orientation_rad", "peak", "vx_mm_s", "vy_mm_s"].map(|n| f64s(b, n));
+            ["x_mm", "y_mm", "area_mm2", "orientation_rad", "peak", "velocity_x_mm_s", "velocity_y_mm_s"]
+                .map(|n| f64s(b, n));
         let gated = bools(b, "gated");
         for i in 0..b.num_rows() {
-            assert_eq!(vx[i].is_some(), vy[i].is_some());
             out.push(TrackPoint {
                 sensor: SensorId::new(sensor[i].as_deref().unwrap()),
                 time: Timestamp(time[i]),
@@ -607,12 +617,14 @@ fn tracks_of(r: &ReadBack) -> Vec<TrackPoint> {
                     other => panic!("no_contact {other}"),
                 }),
                 track: track[i],
-                x_mm: x[i].unwrap(),
-                y_mm: y[i].unwrap(),
-                area_mm2: area[i].unwrap(),
-                orientation_rad: orientation[i].unwrap(),
-                peak: peak[i].unwrap(),
-                velocity_mm_s: vx[i].map(|vx| [vx, vy[i].unwrap()]),
+                // absent values are null; the Rust fields hold NaN for them
+                x_mm: x[i].unwrap_or(f64::NAN),
+                y_mm: y[i].unwrap_or(f64::NAN),
+                area_mm2: area[i].unwrap_or(f64::NAN),
+                orientation_rad: orientation[i].unwrap_or(f64::NAN),
+                peak: peak[i].unwrap_or(f64::NAN),
+                velocity_mm_s: (vx[i].is_some() || vy[i].is_some())
+                    .then(|| [vx[i].unwrap_or(f64::NAN), vy[i].unwrap_or(f64::NAN)]),
                 gated: gated[i].unwrap(),
             });
         }
@@ -621,6 +633,15 @@ fn tracks_of(r: &ReadBack) -> Vec<TrackPoint> {
 }
 
 type TrackKey = (String, i64, i64, u64, ContactState, Option<NoContact>, Option<u64>, Vec<u64>, Option<[u64; 2]>, bool);
+
+/// NaN as the one NaN a null reads back as (the files store no NaN payload in scalars).
+fn canonical(x: f64) -> f64 {
+    if x.is_nan() {
+        f64::NAN
+    } else {
+        x
+    }
+}
 
 fn track_keys(t: &[TrackPoint]) -> Vec<TrackKey> {
     t.iter()
@@ -633,8 +654,11 @@ fn track_keys(t: &[TrackPoint]) -> Vec<TrackKey> {
                 p.state,
                 p.no_contact,
                 p.track,
-                bits(&[p.x_mm, p.y_mm, p.area_mm2, p.orientation_rad, p.peak]),
-                p.velocity_mm_s.map(|v| [v[0].to_bits(), v[1].to_bits()]),
+                bits(&[p.x_mm, p.y_mm, p.area_mm2, p.orientation_rad, p.peak].map(canonical)),
+                // a velocity of two NaNs is stored as two nulls: no velocity
+                p.velocity_mm_s
+                    .filter(|v| !(v[0].is_nan() && v[1].is_nan()))
+                    .map(|v| [canonical(v[0]).to_bits(), canonical(v[1]).to_bits()]),
                 p.gated,
             )
         })
@@ -671,10 +695,32 @@ fn tracks_round_trip_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_tracks();
     let r = read(&write(&dir.path().join("t.parquet"), (), &input, 16));
-    assert_eq!(schema_id(&r), "track/1");
+    assert_eq!(schema_id(&r), "track/2");
     assert_eq!(track_keys(&tracks_of(&r)), track_keys(&input));
-    assert_eq!(unit(&r, "vx_mm_s").as_deref(), Some("mm/s"));
-    assert!(!r.schema().field_with_name("peak").unwrap().is_nullable());
+    assert_eq!(unit(&r, "velocity_x_mm_s").as_deref(), Some("mm/s"));
+    // no contact: null, never NaN, in every float column (avg() in an SQL engine is a number)
+    type Get = fn(&TrackPoint) -> f64;
+    let fields: [(&str, Get); 5] = [
+        ("x_mm", |p| p.x_mm),
+        ("y_mm", |p| p.y_mm),
+        ("area_mm2", |p| p.area_mm2),
+        ("orientation_rad", |p| p.orientation_rad),
+        ("peak", |p| p.peak),
+    ];
+    for (c, get) in fields {
+        let values = f64s(&r.batches[0], c);
+        assert!(values.iter().flatten().all(|v| !v.is_nan()), "{c} holds no NaN");
+        for (v, p) in values.iter().zip(&input) {
+            assert_eq!(v.is_none(), get(p).is_nan(), "{c}: null exactly where the point has no value");
+            if p.state == ContactState::NoContact {
+                assert!(v.is_none(), "{c}: null without contact");
+            }
+        }
+    }
+    assert_eq!(
+        r.schema().field_with_name("time").unwrap().data_type(),
+        &arrow_schema::DataType::Duration(arrow_schema::TimeUnit::Nanosecond)
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -837,6 +883,14 @@ proptest! {
 /// pyarrow reads a file of each schema; every row, as Python sees it, equals what was written.
 #[test]
 fn pyarrow_reads_every_schema() {
+    // a scalar's absent value (NaN in Rust) is null in the files
+    fn hn(x: f64) -> serde_json::Value {
+        if x.is_nan() {
+            serde_json::Value::Null
+        } else {
+            serde_json::json!(h(x))
+        }
+    }
     use serde_json::{json, Value};
     if !pyarrow_available() {
         return;
@@ -860,25 +914,25 @@ fn pyarrow_reads_every_schema() {
 
     // event/1
     let e = &v[0];
-    assert_eq!(e["schema"], "event/1");
+    assert_eq!(e["schema"], "event/2");
     assert_eq!(e["types"]["taxel"], "uint16");
     assert_eq!(e["types"]["polarity"], "int8");
     let rows: Vec<Value> = rows_of(&events)
         .into_iter()
         .map(|(s, t, ft, seq, taxel, p)| {
-            json!({"sensor": s, "time_ns": t, "frame_time_ns": ft, "seq": seq, "taxel": taxel, "polarity": p})
+            json!({"sensor": s, "time": t, "frame_time": ft, "seq": seq, "taxel": taxel + 1, "polarity": p})
         })
         .collect();
     assert_eq!(e["rows"], Value::Array(rows));
 
     // window/1
     let w = &v[1];
-    assert_eq!(w["schema"], "window/1");
+    assert_eq!(w["schema"], "window/2");
     assert_eq!(w["types"]["positive"], "fixed_size_list<item: double not null>[3]");
     let rows: Vec<Value> = windows
         .iter()
         .map(|w| {
-            json!({"sensor": w.sensor.as_str(), "start_ns": w.start.as_nanos(), "end_ns": w.end.as_nanos(),
+            json!({"sensor": w.sensor.as_str(), "start": w.start.as_nanos(), "end": w.end.as_nanos(),
                    "seq": w.seq, "frames": w.frames,
                    "aggregate": gradtac_io::records::window::aggregate_name(w.aggregate),
                    "values": hs(&w.values),
@@ -890,7 +944,7 @@ fn pyarrow_reads_every_schema() {
 
     // surface/1: rows and the grid
     let s = &v[2];
-    assert_eq!(s["schema"], "surface/1");
+    assert_eq!(s["schema"], "surface/2");
     assert_eq!(s["types"]["values"], "fixed_size_list<item: double not null>[12]");
     let grid_md: Value = serde_json::from_str(s["arrow_md"][GRID_KEY].as_str().unwrap()).unwrap();
     assert_eq!(grid_md["nx"], 4);
@@ -899,7 +953,7 @@ fn pyarrow_reads_every_schema() {
         .iter()
         .map(|s| {
             let v: Vec<f64> = s.values.iter().copied().collect();
-            json!({"sensor": s.sensor.as_str(), "start_ns": s.start.as_nanos(), "end_ns": s.end.as_nanos(),
+            json!({"sensor": s.sensor.as_str(), "start": s.start.as_nanos(), "end": s.end.as_nanos(),
                    "seq": s.seq, "values": hs(&v)})
         })
         .collect();
@@ -907,19 +961,19 @@ fn pyarrow_reads_every_schema() {
 
     // contour/1
     let c = &v[3];
-    assert_eq!(c["schema"], "contour/1");
+    assert_eq!(c["schema"], "contour/2");
     assert_eq!(c["types"]["polygon"], "list<item: fixed_size_list<item: double not null>[2] not null>");
     let rows: Vec<Value> = contours
         .iter()
         .map(|c| {
-            let base = json!({"sensor": c.sensor.as_str(), "start_ns": c.start.as_nanos(),
-                              "end_ns": c.end.as_nanos(), "seq": c.seq});
+            let base = json!({"sensor": c.sensor.as_str(), "start": c.start.as_nanos(),
+                              "end": c.end.as_nanos(), "seq": c.seq});
             let rest = match &c.outcome {
                 ContourOutcome::Contact(m) => json!({
-                    "contact": true, "no_contact": null, "level": h(m.level), "area_mm2": h(m.area_mm2),
-                    "centroid_x_mm": h(m.centroid_mm[0]), "centroid_y_mm": h(m.centroid_mm[1]),
-                    "orientation_rad": h(m.orientation_rad), "eccentricity": h(m.eccentricity), "peak": h(m.peak),
-                    "peak_x_mm": h(m.peak_mm[0]), "peak_y_mm": h(m.peak_mm[1]), "clipped": m.clipped,
+                    "contact": true, "no_contact": null, "level": hn(m.level), "area_mm2": hn(m.area_mm2),
+                    "centroid_x_mm": hn(m.centroid_mm[0]), "centroid_y_mm": hn(m.centroid_mm[1]),
+                    "orientation_rad": hn(m.orientation_rad), "eccentricity": hn(m.eccentricity), "peak": hn(m.peak),
+                    "peak_x_mm": hn(m.peak_mm[0]), "peak_y_mm": hn(m.peak_mm[1]), "clipped": m.clipped,
                     "polygon": hp(&m.polygon), "holes": m.holes.iter().map(|x| hp(x)).collect::<Value>()}),
                 ContourOutcome::NoContact(r) => json!({
                     "contact": false, "no_contact": gradtac_io::records::contour::no_contact_name(*r),
@@ -936,16 +990,16 @@ fn pyarrow_reads_every_schema() {
 
     // track/1
     let t = &v[4];
-    assert_eq!(t["schema"], "track/1");
+    assert_eq!(t["schema"], "track/2");
     let rows: Vec<Value> = tracks
         .iter()
         .map(|p| {
-            json!({"sensor": p.sensor.as_str(), "time_ns": p.time.as_nanos(), "start_ns": p.start.as_nanos(),
+            json!({"sensor": p.sensor.as_str(), "time": p.time.as_nanos(), "start": p.start.as_nanos(),
                    "seq": p.seq, "state": gradtac_io::records::track::contact_state_name(p.state),
                    "no_contact": p.no_contact.map(gradtac_io::records::contour::no_contact_name),
-                   "track": p.track, "x_mm": h(p.x_mm), "y_mm": h(p.y_mm), "area_mm2": h(p.area_mm2),
-                   "orientation_rad": h(p.orientation_rad), "peak": h(p.peak),
-                   "vx_mm_s": p.velocity_mm_s.map(|v| h(v[0])), "vy_mm_s": p.velocity_mm_s.map(|v| h(v[1])),
+                   "track": p.track, "x_mm": hn(p.x_mm), "y_mm": hn(p.y_mm), "area_mm2": hn(p.area_mm2),
+                   "orientation_rad": hn(p.orientation_rad), "peak": hn(p.peak),
+                   "velocity_x_mm_s": p.velocity_mm_s.map(|v| hn(v[0])), "velocity_y_mm_s": p.velocity_mm_s.map(|v| hn(v[1])),
                    "gated": p.gated})
         })
         .collect();

@@ -28,6 +28,20 @@ use common::*;
 // ---------------------------------------------------------------------------------------------
 // slip/1
 
+/// The bits of a scalar as a file gives it back: an absent value (NaN) is stored as null and
+/// reads back as the one canonical NaN.
+fn sbit(x: f64) -> u64 {
+    if x.is_nan() {
+        f64::NAN.to_bits()
+    } else {
+        x.to_bits()
+    }
+}
+
+fn sbits(v: &[f64]) -> Vec<u64> {
+    v.iter().copied().map(sbit).collect()
+}
+
 fn slip_class(s: &str) -> SlipClass {
     SlipClass::ALL.into_iter().find(|c| c.name() == s).unwrap_or_else(|| panic!("slip class {s}"))
 }
@@ -37,7 +51,7 @@ fn slips_of(r: &ReadBack) -> (Vec<(String, String)>, Vec<SlipEvent>) {
     let (mut pairs, mut out) = (Vec::new(), Vec::new());
     for b in &r.batches {
         let (first, second) = (strs(b, "first"), strs(b, "second"));
-        let [time, onset, first_seen] = ["time_ns", "onset_ns", "first_seen_ns"].map(|n| i64s(b, n));
+        let [time, onset, first_seen] = ["time", "onset", "first_seen"].map(|n| i64s(b, n));
         let (class, previous) = (strs(b, "class"), strs(b, "previous"));
         let (common, differential) = (f64s(b, "common_mm_s"), f64s(b, "differential_mm_s"));
         for i in 0..b.num_rows() {
@@ -48,8 +62,8 @@ fn slips_of(r: &ReadBack) -> (Vec<(String, String)>, Vec<SlipEvent>) {
                 first_seen: Timestamp(first_seen[i]),
                 class: slip_class(class[i].as_deref().unwrap()),
                 previous: slip_class(previous[i].as_deref().unwrap()),
-                common_mm_s: common[i].unwrap(),
-                differential_mm_s: differential[i].unwrap(),
+                common_mm_s: common[i].unwrap_or(f64::NAN),
+                differential_mm_s: differential[i].unwrap_or(f64::NAN),
             });
         }
     }
@@ -67,7 +81,7 @@ fn slip_keys(e: &[SlipEvent]) -> Vec<SlipKey> {
                 e.first_seen.as_nanos(),
                 e.class,
                 e.previous,
-                [e.common_mm_s.to_bits(), e.differential_mm_s.to_bits()],
+                [sbit(e.common_mm_s), sbit(e.differential_mm_s)],
             )
         })
         .collect()
@@ -95,18 +109,19 @@ fn slips_round_trip_bit_exact_with_the_pair_in_metadata_and_columns() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_slips();
     let r = read(&write(&dir.path().join("slip.parquet"), SlipShape::new("ff", "th"), &input, 7));
-    assert_eq!(schema_id(&r), "slip/1");
+    assert_eq!(schema_id(&r), "slip/2");
     assert_eq!(r.schema.metadata()[SLIP_FIRST_KEY], "ff");
     assert_eq!(r.schema.metadata()[SLIP_SECOND_KEY], "th");
     let (pairs, back) = slips_of(&r);
     assert_eq!(slip_keys(&back), slip_keys(&input));
     assert!(pairs.iter().all(|p| p == &("ff".to_string(), "th".to_string())));
     assert_eq!(pairs.len(), input.len());
-    for c in ["time_ns", "onset_ns", "first_seen_ns"] {
-        assert_eq!(unit(&r, c).as_deref(), Some("ns"), "{c}");
+    for c in ["time", "onset", "first_seen"] {
+        let t = r.schema.field_with_name(c).unwrap().data_type().clone();
+        assert_eq!(t, arrow_schema::DataType::Duration(arrow_schema::TimeUnit::Nanosecond), "{c}");
     }
     assert_eq!(unit(&r, "common_mm_s").as_deref(), Some("mm/s"));
-    assert!(!nullable(&r, "common_mm_s") && !nullable(&r, "differential_mm_s"));
+    assert!(nullable(&r, "common_mm_s") && nullable(&r, "differential_mm_s"), "a missing speed is null");
 }
 
 /// Track points of `ff` and `th` at 100 Hz, both in contact on track 0; positions from `f(t)`.
@@ -165,14 +180,14 @@ fn forces_of(r: &ReadBack) -> Vec<ForceEstimate> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (time, seq) = (i64s(b, "time_ns"), u64s(b, "seq"));
+        let (time, seq) = (i64s(b, "time"), u64s(b, "seq"));
         let (area, force) = (f64s(b, "area_mm2"), f64s(b, "force_n"));
         for i in 0..b.num_rows() {
             out.push(ForceEstimate {
                 sensor: SensorId::new(sensor[i].as_deref().unwrap()),
                 time: Timestamp(time[i]),
                 seq: seq[i],
-                area_mm2: area[i].unwrap(),
+                area_mm2: area[i].unwrap_or(f64::NAN),
                 force_n: force[i],
             });
         }
@@ -184,7 +199,15 @@ type ForceKey = (String, i64, u64, u64, Option<u64>);
 
 fn force_keys(f: &[ForceEstimate]) -> Vec<ForceKey> {
     f.iter()
-        .map(|f| (f.sensor.to_string(), f.time.as_nanos(), f.seq, f.area_mm2.to_bits(), f.force_n.map(f64::to_bits)))
+        .map(|f| {
+            (
+                f.sensor.to_string(),
+                f.time.as_nanos(),
+                f.seq,
+                sbit(f.area_mm2),
+                f.force_n.filter(|x| !x.is_nan()).map(f64::to_bits),
+            )
+        })
         .collect()
 }
 
@@ -214,12 +237,12 @@ fn forces_round_trip_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_forces();
     let r = read(&write(&dir.path().join("force.parquet"), (), &input, 9));
-    assert_eq!(schema_id(&r), "force/1");
+    assert_eq!(schema_id(&r), "force/2");
     assert_eq!(rows(&r), input.len());
     assert_eq!(force_keys(&forces_of(&r)), force_keys(&input));
     assert_eq!(unit(&r, "area_mm2").as_deref(), Some("mm2"));
     assert_eq!(unit(&r, "force_n").as_deref(), Some("N"));
-    assert!(!nullable(&r, "area_mm2") && nullable(&r, "force_n"));
+    assert!(nullable(&r, "area_mm2") && nullable(&r, "force_n"), "no contact: null area and force");
 }
 
 fn contour(seq: u64, area: Option<f64>) -> ContourFrame {
@@ -276,7 +299,7 @@ fn servos_of(r: &ReadBack) -> Vec<ServoCommand> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let (time, seq) = (i64s(b, "time_ns"), u64s(b, "seq"));
+        let (time, seq) = (i64s(b, "time"), u64s(b, "seq"));
         let action = strs(b, "action");
         let m = MOTION_COLUMNS.map(|n| f64s(b, n));
         for i in 0..b.num_rows() {
@@ -286,7 +309,8 @@ fn servos_of(r: &ReadBack) -> Vec<ServoCommand> {
                     ServoAction::NoContact
                 }
                 "move" => {
-                    let v = m.each_ref().map(|c| c[i].expect("motion columns are set with a command"));
+                    // a NaN (which no motion has) would be stored as null
+                    let v = m.each_ref().map(|c| c[i].unwrap_or(f64::NAN));
                     ServoAction::Move(Motion {
                         offset_mm: [v[0], v[1]],
                         distance_mm: v[2],
@@ -313,7 +337,7 @@ fn servo_keys(c: &[ServoCommand]) -> Vec<ServoKey> {
     c.iter()
         .map(|c| {
             let m = c.motion().map(|m| {
-                bits(&[
+                sbits(&[
                     m.offset_mm[0],
                     m.offset_mm[1],
                     m.distance_mm,
@@ -353,7 +377,7 @@ fn servo_commands_round_trip_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_servos();
     let r = read(&write(&dir.path().join("servo.parquet"), (), &input, 6));
-    assert_eq!(schema_id(&r), "servo/1");
+    assert_eq!(schema_id(&r), "servo/2");
     assert_eq!(rows(&r), input.len());
     assert_eq!(servo_keys(&servos_of(&r)), servo_keys(&input));
     for c in MOTION_COLUMNS {
@@ -396,7 +420,7 @@ fn dos_of(r: &ReadBack) -> Vec<DosDecision> {
     let mut out = Vec::new();
     for b in &r.batches {
         let sensor = strs(b, "sensor");
-        let [start, end] = ["start_ns", "end_ns"].map(|n| i64s(b, n));
+        let [start, end] = ["start", "end"].map(|n| i64s(b, n));
         let [seq, frames, events] = ["seq", "frames", "events"].map(|n| u64s(b, n));
         let class = strs(b, "class");
         let (distances, posterior) = (f64_lists(b, "distances"), f64_lists(b, "posterior"));
@@ -415,7 +439,7 @@ fn dos_of(r: &ReadBack) -> Vec<DosDecision> {
                     posterior: posterior[i].clone(),
                 },
                 features: FeatureVector {
-                    all: features.each_ref().map(|c| c[i].unwrap()),
+                    all: features.each_ref().map(|c| c[i].unwrap_or(f64::NAN)),
                     frames: frames[i],
                     events: events[i],
                 },
@@ -440,7 +464,7 @@ fn dos_keys(d: &[DosDecision]) -> Vec<DosKey> {
                 d.decision.class,
                 bits(&d.decision.distances),
                 bits(&d.decision.posterior),
-                bits(&d.features.all),
+                sbits(&d.features.all),
             )
         })
         .collect()
@@ -478,14 +502,15 @@ fn dos_decisions_round_trip_bit_exact_with_the_classes_in_metadata() {
     let classes = vec![DosClass::T, DosClass::Cw, DosClass::N, DosClass::W];
     let input = some_dos(&classes);
     let r = read(&write(&dir.path().join("dos.parquet"), DosShape::new(classes).unwrap(), &input, 5));
-    assert_eq!(schema_id(&r), "dos/2");
+    assert_eq!(schema_id(&r), "dos/3");
     assert_eq!(rows(&r), input.len());
     assert_eq!(r.schema.metadata()[DOS_CLASSES_KEY], r#"["t","cw","n","w"]"#);
     assert_eq!(dos_keys(&dos_of(&r)), dos_keys(&input));
     assert_eq!(unit(&r, "positive_x").as_deref(), Some("mm"));
     assert_eq!(unit(&r, "rotation").as_deref(), Some("rad"));
     assert_eq!(unit(&r, "rate"), None);
-    assert_eq!(unit(&r, "end_ns").as_deref(), Some("ns"));
+    let end = r.schema.field_with_name("end").unwrap().data_type().clone();
+    assert_eq!(end, arrow_schema::DataType::Duration(arrow_schema::TimeUnit::Nanosecond));
 }
 
 #[test]
@@ -589,6 +614,9 @@ fn archive_round_trip<T, K: PartialEq + std::fmt::Debug>(
     let mut archive = ParquetArchive::<T>::try_new(dir.path(), shape)
         .unwrap()
         .with_partitioning(Partitioning::Sensor)
+        .unwrap()
+        // the files keep their sensor column here, so each is read back on its own
+        .with_partition_column(true)
         .unwrap()
         .with_roll_rows(5)
         .unwrap();
@@ -751,6 +779,14 @@ proptest! {
 #[test]
 fn pyarrow_reads_every_task_schema() {
     use serde_json::{json, Value};
+    // a scalar's absent value (NaN in Rust) is null in the files
+    fn hn(x: f64) -> Value {
+        if x.is_nan() {
+            Value::Null
+        } else {
+            h(x)
+        }
+    }
     if !pyarrow_available() {
         return;
     }
@@ -775,8 +811,9 @@ fn pyarrow_reads_every_task_schema() {
         r#"
 import pyarrow.dataset as ds
 out = [describe(p) for p in sys.argv[2:]]
-pairs = ds.dataset(sys.argv[1], format="parquet").to_table(columns=["first", "second", "time_ns"]).to_pylist()
-print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["time_ns"]) for r in pairs)}))
+pairs = ds.dataset(sys.argv[1], format="parquet").to_table(columns=["first", "second", "time"])
+pairs = pairs.set_column(2, "time", pairs.column("time").cast("int64")).to_pylist()
+print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["time"]) for r in pairs)}))
 "#
     );
     let v = run_python(&script, std::iter::once(pairs.as_os_str()).chain(paths.iter().map(|p| p.as_os_str())));
@@ -784,64 +821,64 @@ print(json.dumps({"files": out, "pairs": sorted((r["first"], r["second"], r["tim
 
     // slip/1
     let s = &files[0];
-    assert_eq!(s["schema"], "slip/1");
+    assert_eq!(s["schema"], "slip/2");
     assert_eq!(s["arrow_md"][SLIP_FIRST_KEY], "ff");
     assert_eq!(s["arrow_md"][SLIP_SECOND_KEY], "th");
     assert_eq!(s["types"]["class"], "string");
     let rows: Vec<Value> = slips
         .iter()
         .map(|e| {
-            json!({"first": "ff", "second": "th", "time_ns": e.time.as_nanos(), "onset_ns": e.onset.as_nanos(),
-                   "first_seen_ns": e.first_seen.as_nanos(), "class": e.class.name(),
-                   "previous": e.previous.name(), "common_mm_s": h(e.common_mm_s),
-                   "differential_mm_s": h(e.differential_mm_s)})
+            json!({"first": "ff", "second": "th", "time": e.time.as_nanos(), "onset": e.onset.as_nanos(),
+                   "first_seen": e.first_seen.as_nanos(), "class": e.class.name(),
+                   "previous": e.previous.name(), "common_mm_s": hn(e.common_mm_s),
+                   "differential_mm_s": hn(e.differential_mm_s)})
         })
         .collect();
     assert_eq!(s["rows"], Value::Array(rows));
 
     // force/1
     let f = &files[1];
-    assert_eq!(f["schema"], "force/1");
+    assert_eq!(f["schema"], "force/2");
     let rows: Vec<Value> = forces
         .iter()
         .map(|e| {
-            json!({"sensor": e.sensor.as_str(), "time_ns": e.time.as_nanos(), "seq": e.seq,
-                   "area_mm2": h(e.area_mm2), "force_n": e.force_n.map(h)})
+            json!({"sensor": e.sensor.as_str(), "time": e.time.as_nanos(), "seq": e.seq,
+                   "area_mm2": hn(e.area_mm2), "force_n": e.force_n.map(hn)})
         })
         .collect();
     assert_eq!(f["rows"], Value::Array(rows));
 
     // servo/1
     let c = &files[2];
-    assert_eq!(c["schema"], "servo/1");
+    assert_eq!(c["schema"], "servo/2");
     let rows: Vec<Value> = servos
         .iter()
         .map(|c| {
             let m = c.motion();
-            json!({"sensor": c.sensor.as_str(), "time_ns": c.time.as_nanos(), "seq": c.seq,
+            json!({"sensor": c.sensor.as_str(), "time": c.time.as_nanos(), "seq": c.seq,
                    "action": servo_action_name(&c.action),
-                   "offset_x_mm": m.map(|m| h(m.offset_mm[0])), "offset_y_mm": m.map(|m| h(m.offset_mm[1])),
-                   "distance_mm": m.map(|m| h(m.distance_mm)),
-                   "direction_x": m.map(|m| h(m.direction[0])), "direction_y": m.map(|m| h(m.direction[1])),
-                   "motion_x_mm": m.map(|m| h(m.motion_mm[0])), "motion_y_mm": m.map(|m| h(m.motion_mm[1]))})
+                   "offset_x_mm": m.map(|m| hn(m.offset_mm[0])), "offset_y_mm": m.map(|m| hn(m.offset_mm[1])),
+                   "distance_mm": m.map(|m| hn(m.distance_mm)),
+                   "direction_x": m.map(|m| hn(m.direction[0])), "direction_y": m.map(|m| hn(m.direction[1])),
+                   "motion_x_mm": m.map(|m| hn(m.motion_mm[0])), "motion_y_mm": m.map(|m| hn(m.motion_mm[1]))})
         })
         .collect();
     assert_eq!(c["rows"], Value::Array(rows));
 
     // dos/2
     let d = &files[3];
-    assert_eq!(d["schema"], "dos/2");
+    assert_eq!(d["schema"], "dos/3");
     assert_eq!(d["arrow_md"][DOS_CLASSES_KEY], r#"["n","e","t"]"#);
     assert_eq!(d["types"]["posterior"], "fixed_size_list<item: double not null>[3]");
     let rows: Vec<Value> = dos
         .iter()
         .map(|d| {
-            let mut o = json!({"sensor": d.sensor.as_str(), "start_ns": d.start.as_nanos(),
-                               "end_ns": d.end.as_nanos(), "seq": d.seq, "frames": d.frames,
+            let mut o = json!({"sensor": d.sensor.as_str(), "start": d.start.as_nanos(),
+                               "end": d.end.as_nanos(), "seq": d.seq, "frames": d.frames,
                                "events": d.features.events, "class": d.decision.class.as_str(),
                                "distances": hs(&d.decision.distances), "posterior": hs(&d.decision.posterior)});
             for f in Feature::ALL {
-                o[f.name()] = h(d.features.get(f));
+                o[f.name()] = hn(d.features.get(f));
             }
             o
         })

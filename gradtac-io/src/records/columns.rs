@@ -1,10 +1,11 @@
 //! Column helpers shared by the record schemas (fields with units, taxel lists, points, and
-//! the leading `sensor` / time / `seq` columns of per-sensor records).
+//! the leading `sensor` / time / `seq` columns of per-sensor records, time columns).
 
 use super::frame::{FrameShape, TAXELS_KEY, UNIT_KEY};
-use super::SCHEMA_KEY;
+use super::{TimeBase, SCHEMA_KEY, TIME_KEY};
 use crate::Error;
-use arrow_array::builder::{ArrayBuilder, Int64Builder, StringBuilder, UInt64Builder};
+use arrow_array::builder::{ArrayBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder};
+use arrow_array::types::{DurationNanosecondType, TimestampNanosecondType};
 use arrow_array::ArrayRef;
 use arrow_schema::{DataType, Field, FieldRef, Schema, SchemaRef};
 use gradtac_stream::{SensorId, Timestamp};
@@ -16,9 +17,52 @@ pub(crate) fn unit_field(name: &str, data_type: DataType, nullable: bool, unit: 
     Field::new(name, data_type, nullable).with_metadata(HashMap::from([(UNIT_KEY.to_string(), unit.to_string())]))
 }
 
-/// A not-null `Int64` time column in ns.
-pub(crate) fn ns_field(name: &str) -> Field {
-    unit_field(name, DataType::Int64, false, "ns")
+/// A not-null time column of `base`'s Arrow type (`Timestamp(ns, "UTC")` or `Duration(ns)`).
+pub(crate) fn time_field(name: &str, base: TimeBase) -> Field {
+    Field::new(name, base.data_type(), false)
+}
+
+/// Builds one time column of a [`TimeBase`]: `Timestamp(ns, "UTC")` or `Duration(ns)`, both
+/// holding the [`Timestamp`]'s nanoseconds unchanged.
+pub(crate) struct TimeBuilder {
+    base: TimeBase,
+    ns: Int64Builder,
+}
+
+impl TimeBuilder {
+    /// Room for `capacity` rows.
+    pub(crate) fn with_capacity(base: TimeBase, capacity: usize) -> Self {
+        TimeBuilder { base, ns: Int64Builder::with_capacity(capacity) }
+    }
+
+    /// Appends one time.
+    pub(crate) fn append(&mut self, t: Timestamp) {
+        self.ns.append_value(t.as_nanos());
+    }
+
+    /// Pending rows.
+    pub(crate) fn len(&self) -> usize {
+        self.ns.len()
+    }
+
+    /// The column, typed by the base (a reinterpretation of the same `i64` buffer, no copy).
+    pub(crate) fn finish(&mut self) -> ArrayRef {
+        let ns = self.ns.finish();
+        match self.base {
+            TimeBase::Utc => Arc::new(ns.reinterpret_cast::<TimestampNanosecondType>().with_timezone("UTC")),
+            TimeBase::Relative => Arc::new(ns.reinterpret_cast::<DurationNanosecondType>()),
+        }
+    }
+}
+
+/// Appends `v`, or null when it is NaN (an absent value: the records never store NaN in a
+/// scalar column).
+pub(crate) fn append_present(b: &mut Float64Builder, v: f64) {
+    if v.is_nan() {
+        b.append_null();
+    } else {
+        b.append_value(v);
+    }
 }
 
 /// The not-null `Float64` item of a list column.
@@ -48,9 +92,11 @@ pub(crate) fn with_taxels(field: Field, shape: &FrameShape) -> Field {
     field.with_metadata(md)
 }
 
-/// A schema with `gradtac.schema = id` and the `extra` pairs in its metadata.
-pub(crate) fn schema_with_id(fields: Vec<Field>, id: &str, extra: Vec<(String, String)>) -> SchemaRef {
-    let mut md = HashMap::from([(SCHEMA_KEY.to_string(), id.to_string())]);
+/// A schema with `gradtac.schema = id`, `gradtac.time = <base>` and the `extra` pairs in its
+/// metadata.
+pub(crate) fn schema_with_id(fields: Vec<Field>, id: &str, base: TimeBase, extra: Vec<(String, String)>) -> SchemaRef {
+    let mut md =
+        HashMap::from([(SCHEMA_KEY.to_string(), id.to_string()), (TIME_KEY.to_string(), base.name().to_string())]);
     md.extend(extra);
     Arc::new(Schema::new_with_metadata(fields, md))
 }
@@ -61,12 +107,12 @@ pub(crate) fn record_error(id: &str, reason: String) -> Error {
 }
 
 /// The leading columns of a per-sensor record — `sensor` (`Utf8`, not null), one not-null
-/// `Int64` ns column per name in `times` (with `gradtac.unit = ns`), `seq` (`UInt64`, not
-/// null), in that order — followed by `rest`.
-pub(crate) fn with_lead<const N: usize>(times: [&str; N], rest: Vec<Field>) -> Vec<Field> {
+/// time column of `base`'s type per name in `times`, `seq` (`UInt64`, not null), in that
+/// order — followed by `rest`.
+pub(crate) fn with_lead<const N: usize>(times: [&str; N], base: TimeBase, rest: Vec<Field>) -> Vec<Field> {
     let mut fields = Vec::with_capacity(N + 2 + rest.len());
     fields.push(Field::new("sensor", DataType::Utf8, false));
-    fields.extend(times.map(ns_field));
+    fields.extend(times.map(|t| time_field(t, base)));
     fields.push(Field::new("seq", DataType::UInt64, false));
     fields.extend(rest);
     fields
@@ -76,16 +122,16 @@ pub(crate) fn with_lead<const N: usize>(times: [&str; N], rest: Vec<Field>) -> V
 /// of each row.
 pub(crate) struct LeadBuilder<const N: usize> {
     sensor: StringBuilder,
-    times: [Int64Builder; N],
+    times: [TimeBuilder; N],
     seq: UInt64Builder,
 }
 
 impl<const N: usize> LeadBuilder<N> {
     /// Room for `capacity` rows (and sensor names of about 4 bytes).
-    pub(crate) fn with_capacity(capacity: usize) -> Self {
+    pub(crate) fn with_capacity(base: TimeBase, capacity: usize) -> Self {
         LeadBuilder {
             sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            times: std::array::from_fn(|_| Int64Builder::with_capacity(capacity)),
+            times: std::array::from_fn(|_| TimeBuilder::with_capacity(base, capacity)),
             seq: UInt64Builder::with_capacity(capacity),
         }
     }
@@ -95,7 +141,7 @@ impl<const N: usize> LeadBuilder<N> {
     pub(crate) fn append(&mut self, sensor: &SensorId, times: [Timestamp; N], seq: u64) {
         self.sensor.append_value(sensor.as_str());
         for (builder, t) in self.times.iter_mut().zip(times) {
-            builder.append_value(t.as_nanos());
+            builder.append(t);
         }
         self.seq.append_value(seq);
     }
@@ -109,7 +155,7 @@ impl<const N: usize> LeadBuilder<N> {
     pub(crate) fn finish(&mut self, rest: Vec<ArrayRef>) -> Vec<ArrayRef> {
         let mut columns: Vec<ArrayRef> = Vec::with_capacity(N + 2 + rest.len());
         columns.push(Arc::new(self.sensor.finish()));
-        columns.extend(self.times.iter_mut().map(|b| Arc::new(b.finish()) as ArrayRef));
+        columns.extend(self.times.iter_mut().map(TimeBuilder::finish));
         columns.push(Arc::new(self.seq.finish()));
         columns.extend(rest);
         columns

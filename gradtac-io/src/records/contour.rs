@@ -1,10 +1,10 @@
-//! [`ContourFrame`] as Arrow: schema `contour/1`, one row per surface's contour outcome.
+//! [`ContourFrame`] as Arrow: schema `contour/2`, one row per surface's contour outcome.
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `start_ns` | `Int64`, not null | start of the surface's span; `gradtac.unit = ns` |
-//! | `end_ns` | `Int64`, not null | end of the span; `gradtac.unit = ns` |
+//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | start of the surface's span |
+//! | `end` | time ([`TimeBase`](super::TimeBase)), not null | end of the span |
 //! | `seq` | `UInt64`, not null | index of the newest source frame |
 //! | `contact` | `Boolean`, not null | a maximal contour was found |
 //! | `no_contact` | `Utf8`, nullable | why there is none: `no_data`, `below_min_peak`, `flat`, `too_small`; null on contact |
@@ -27,12 +27,13 @@
 //! [`Error::Record`](crate::Error::Record) — write fewer records per batch (a smaller row
 //! group) in that case.
 
-use super::columns::{item_field, ns_field, point_item_field, record_error, schema_with_id, unit_field};
-use super::{arrow_error, ArrowRecord, RecordBuilder};
+use super::columns::{
+    append_present, item_field, point_item_field, record_error, schema_with_id, time_field, unit_field, TimeBuilder,
+};
+use super::{arrow_error, ArrowRecord, RecordBuilder, TimeBase};
 use crate::Result;
 use arrow_array::builder::{
-    ArrayBuilder, BooleanBuilder, FixedSizeListBuilder, Float64Builder, Int64Builder, ListBuilder, StringBuilder,
-    UInt64Builder,
+    ArrayBuilder, BooleanBuilder, FixedSizeListBuilder, Float64Builder, ListBuilder, StringBuilder, UInt64Builder,
 };
 use arrow_array::{ArrayRef, RecordBatch};
 use arrow_schema::{DataType, Field, FieldRef, SchemaRef};
@@ -78,15 +79,15 @@ fn append_ring(b: &mut RingBuilder, ring: &[[f64; 2]]) {
 impl ArrowRecord for ContourFrame {
     type Shape = ();
     type Builder = ContourBuilder;
-    const SCHEMA_ID: &'static str = "contour/1";
+    const SCHEMA_ID: &'static str = "contour/2";
 
-    fn schema(_: &()) -> SchemaRef {
+    fn schema(_: &(), time: TimeBase) -> SchemaRef {
         let f = |name: &str, unit: &str| unit_field(name, DataType::Float64, true, unit);
         schema_with_id(
             vec![
                 Field::new("sensor", DataType::Utf8, false),
-                ns_field("start_ns"),
-                ns_field("end_ns"),
+                time_field("start", time),
+                time_field("end", time),
                 Field::new("seq", DataType::UInt64, false),
                 Field::new("contact", DataType::Boolean, false),
                 Field::new("no_contact", DataType::Utf8, true),
@@ -104,18 +105,19 @@ impl ArrowRecord for ContourFrame {
                 unit_field("holes", DataType::List(ring_item_field()), true, "mm"),
             ],
             Self::SCHEMA_ID,
+            time,
             vec![],
         )
     }
 
-    fn builder(_: &(), capacity: usize) -> ContourBuilder {
+    fn builder(_: &(), time: TimeBase, capacity: usize) -> ContourBuilder {
         let floats = || Float64Builder::with_capacity(capacity);
         ContourBuilder {
-            schema: Self::schema(&()),
+            schema: Self::schema(&(), time),
             points: 0,
             sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            start: Int64Builder::with_capacity(capacity),
-            end: Int64Builder::with_capacity(capacity),
+            start: TimeBuilder::with_capacity(time, capacity),
+            end: TimeBuilder::with_capacity(time, capacity),
             seq: UInt64Builder::with_capacity(capacity),
             contact: BooleanBuilder::with_capacity(capacity),
             no_contact: StringBuilder::new(),
@@ -130,14 +132,14 @@ impl ArrowRecord for ContourFrame {
 /// Number of `Float64` scalar columns (`level` … `peak_y_mm`).
 const FLOATS: usize = 9;
 
-/// Builds `contour/1` batches (see the [module documentation](self)).
+/// Builds `contour/2` batches (see the [module documentation](self)).
 pub struct ContourBuilder {
     schema: SchemaRef,
     /// Polygon vertices (outer and holes) pending.
     points: usize,
     sensor: StringBuilder,
-    start: Int64Builder,
-    end: Int64Builder,
+    start: TimeBuilder,
+    end: TimeBuilder,
     seq: UInt64Builder,
     contact: BooleanBuilder,
     no_contact: StringBuilder,
@@ -177,8 +179,8 @@ impl RecordBuilder<ContourFrame> for ContourBuilder {
         }
         self.points += points;
         self.sensor.append_value(c.sensor.as_str());
-        self.start.append_value(c.start.as_nanos());
-        self.end.append_value(c.end.as_nanos());
+        self.start.append(c.start);
+        self.end.append(c.end);
         self.seq.append_value(c.seq);
         match &c.outcome {
             ContourOutcome::Contact(m) => {
@@ -196,7 +198,7 @@ impl RecordBuilder<ContourFrame> for ContourBuilder {
                     m.peak_mm[1],
                 ];
                 for (b, x) in self.floats.iter_mut().zip(v) {
-                    b.append_value(x);
+                    append_present(b, x);
                 }
                 self.clipped.append_value(m.clipped);
                 append_ring(&mut self.polygon, &m.polygon);
@@ -227,8 +229,8 @@ impl RecordBuilder<ContourFrame> for ContourBuilder {
         self.points = 0;
         let mut columns: Vec<ArrayRef> = vec![
             Arc::new(self.sensor.finish()),
-            Arc::new(self.start.finish()),
-            Arc::new(self.end.finish()),
+            self.start.finish(),
+            self.end.finish(),
             Arc::new(self.seq.finish()),
             Arc::new(self.contact.finish()),
             Arc::new(self.no_contact.finish()),

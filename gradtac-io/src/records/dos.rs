@@ -1,12 +1,12 @@
-//! [`DosDecision`] as Arrow: schema `dos/2`, one row per slip-direction decision of the
+//! [`DosDecision`] as Arrow: schema `dos/3`, one row per slip-direction decision of the
 //! one-fingertip classifier ([`gradtac_stages::dos`]: one per span of `decision_frames`
 //! frames, or one per recording).
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `start_ns` | `Int64`, not null | time of the span's first frame; `gradtac.unit = ns` |
-//! | `end_ns` | `Int64`, not null | time of its last frame (the decision's time); `gradtac.unit = ns` |
+//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | time of the span's first frame |
+//! | `end` | time ([`TimeBase`](super::TimeBase)), not null | time of its last frame (the decision's time) |
 //! | `seq` | `UInt64`, not null | index of the last frame |
 //! | `frames` | `UInt64`, not null | frames in the span ([`DosDecision::frames`], = [`FeatureVector::frames`]) |
 //! | `events` | `UInt64`, not null | events in the span ([`FeatureVector::events`]) |
@@ -20,7 +20,7 @@
 //! | `drift_x`, `drift_y`, `drift_signed_y` | `Float64`, not null | features (mm); `gradtac.unit = mm` |
 //! | `drift_anisotropy`, `drift_cross` | `Float64`, not null | features (mm²); `gradtac.unit = mm2` |
 //!
-//! `dos/2` differs from `dos/1` only by the seven `drift_*` columns (added with the drift
+//! `dos/3` differs from `dos/1` only by the seven `drift_*` columns (added with the drift
 //! features of [`gradtac_stages::drift`]). The eighteen feature columns are [`FeatureVector::all`] in [`Feature::ALL`] order, named by
 //! [`Feature::name`] (the names of model files), whichever features the model uses.
 //!
@@ -50,18 +50,18 @@
 //! assert_eq!(batch.schema().metadata()["gradtac.dos.classes"], r#"["n","t"]"#);
 //! ```
 
-use super::columns::{f64_list, item_field, ns_field, record_error, schema_with_id, unit_field};
-use super::{arrow_error, ArrowRecord, RecordBuilder};
-use crate::{Error, Result};
-use arrow_array::builder::{
-    ArrayBuilder, FixedSizeListBuilder, Float64Builder, Int64Builder, StringBuilder, UInt64Builder,
+use super::columns::{
+    append_present, f64_list, item_field, record_error, schema_with_id, time_field, unit_field, TimeBuilder,
 };
+use super::{arrow_error, ArrowRecord, RecordBuilder, TimeBase};
+use crate::{Error, Result};
+use arrow_array::builder::{ArrayBuilder, FixedSizeListBuilder, Float64Builder, StringBuilder, UInt64Builder};
 use arrow_array::{ArrayRef, RecordBatch};
 use arrow_schema::{DataType, Field, SchemaRef};
 use gradtac_stages::dos::{Decision, DosClass, DosDecision, DosModel, Feature, FeatureVector};
 use std::sync::Arc;
 
-/// Schema-metadata key of the classes of a `dos/2` file (JSON array of class names).
+/// Schema-metadata key of the classes of a `dos/3` file (JSON array of class names).
 pub const DOS_CLASSES_KEY: &str = "gradtac.dos.classes";
 
 /// The classes of the model whose decisions one sink writes, in the model's decision order
@@ -125,13 +125,13 @@ fn feature_unit(f: Feature) -> Option<&'static str> {
 impl ArrowRecord for DosDecision {
     type Shape = DosShape;
     type Builder = DosBuilder;
-    const SCHEMA_ID: &'static str = "dos/2";
+    const SCHEMA_ID: &'static str = "dos/3";
 
-    fn schema(shape: &DosShape) -> SchemaRef {
+    fn schema(shape: &DosShape, time: TimeBase) -> SchemaRef {
         let mut fields = vec![
             Field::new("sensor", DataType::Utf8, false),
-            ns_field("start_ns"),
-            ns_field("end_ns"),
+            time_field("start", time),
+            time_field("end", time),
             Field::new("seq", DataType::UInt64, false),
             Field::new("frames", DataType::UInt64, false),
             Field::new("events", DataType::UInt64, false),
@@ -140,13 +140,13 @@ impl ArrowRecord for DosDecision {
             Field::new("posterior", f64_list(shape.len()), false),
         ];
         fields.extend(Feature::ALL.iter().map(|&f| match feature_unit(f) {
-            Some(u) => unit_field(f.name(), DataType::Float64, false, u),
-            None => Field::new(f.name(), DataType::Float64, false),
+            Some(u) => unit_field(f.name(), DataType::Float64, true, u),
+            None => Field::new(f.name(), DataType::Float64, true),
         }));
-        schema_with_id(fields, Self::SCHEMA_ID, vec![(DOS_CLASSES_KEY.to_string(), shape.classes_json())])
+        schema_with_id(fields, Self::SCHEMA_ID, time, vec![(DOS_CLASSES_KEY.to_string(), shape.classes_json())])
     }
 
-    fn builder(shape: &DosShape, capacity: usize) -> DosBuilder {
+    fn builder(shape: &DosShape, time: TimeBase, capacity: usize) -> DosBuilder {
         let k = shape.len();
         // A shape holds at most the 7 distinct classes, so `k` fits an i32 list size.
         let list = || {
@@ -154,11 +154,11 @@ impl ArrowRecord for DosDecision {
                 .with_field(item_field())
         };
         DosBuilder {
-            schema: Self::schema(shape),
+            schema: Self::schema(shape, time),
             shape: shape.clone(),
             sensor: StringBuilder::with_capacity(capacity, capacity * 4),
-            start: Int64Builder::with_capacity(capacity),
-            end: Int64Builder::with_capacity(capacity),
+            start: TimeBuilder::with_capacity(time, capacity),
+            end: TimeBuilder::with_capacity(time, capacity),
             seq: UInt64Builder::with_capacity(capacity),
             frames: UInt64Builder::with_capacity(capacity),
             events: UInt64Builder::with_capacity(capacity),
@@ -170,13 +170,13 @@ impl ArrowRecord for DosDecision {
     }
 }
 
-/// Builds `dos/2` batches (see the [module documentation](self)).
+/// Builds `dos/3` batches (see the [module documentation](self)).
 pub struct DosBuilder {
     schema: SchemaRef,
     shape: DosShape,
     sensor: StringBuilder,
-    start: Int64Builder,
-    end: Int64Builder,
+    start: TimeBuilder,
+    end: TimeBuilder,
     seq: UInt64Builder,
     frames: UInt64Builder,
     events: UInt64Builder,
@@ -233,8 +233,8 @@ impl RecordBuilder<DosDecision> for DosBuilder {
     fn append(&mut self, d: &DosDecision) -> Result<()> {
         self.check(d)?;
         self.sensor.append_value(d.sensor.as_str());
-        self.start.append_value(d.start.as_nanos());
-        self.end.append_value(d.end.as_nanos());
+        self.start.append(d.start);
+        self.end.append(d.end);
         self.seq.append_value(d.seq);
         self.frames.append_value(d.frames);
         self.events.append_value(d.features.events);
@@ -244,7 +244,7 @@ impl RecordBuilder<DosDecision> for DosBuilder {
         self.posterior.values().append_slice(&d.decision.posterior);
         self.posterior.append(true);
         for (b, &v) in self.features.iter_mut().zip(&d.features.all) {
-            b.append_value(v);
+            append_present(b, v);
         }
         Ok(())
     }
@@ -256,8 +256,8 @@ impl RecordBuilder<DosDecision> for DosBuilder {
     fn finish(&mut self) -> Result<RecordBatch> {
         let mut columns: Vec<ArrayRef> = vec![
             Arc::new(self.sensor.finish()),
-            Arc::new(self.start.finish()),
-            Arc::new(self.end.finish()),
+            self.start.finish(),
+            self.end.finish(),
             Arc::new(self.seq.finish()),
             Arc::new(self.frames.finish()),
             Arc::new(self.events.finish()),
@@ -298,10 +298,10 @@ mod tests {
     #[test]
     fn bad_decisions_are_rejected_and_leave_the_builder_intact() {
         let shape = DosShape::new(vec![DosClass::N, DosClass::S, DosClass::T]).unwrap();
-        let mut b = DosDecision::builder(&shape, 2);
+        let mut b = DosDecision::builder(&shape, crate::records::TimeBase::Relative, 2);
         b.append(&decision(DosClass::S, 3, 8)).unwrap();
         let e = b.append(&decision(DosClass::S, 2, 8)).unwrap_err().to_string();
-        assert!(e.contains("dos/2") && e.contains("frame 7") && e.contains("2 distances"), "{e}");
+        assert!(e.contains("dos/3") && e.contains("frame 7") && e.contains("2 distances"), "{e}");
         let mut d = decision(DosClass::S, 3, 8);
         d.decision.posterior.push(0.0);
         let e = b.append(&d).unwrap_err().to_string();

@@ -1,12 +1,12 @@
-//! [`EventBatch`] as Arrow: schema `event/1`, one row per event.
+//! [`EventBatch`] as Arrow: schema `event/2`, one row per event.
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `time_ns` | `Int64`, not null | the event's (interpolated) time, [`TactileEvent::time`]; `gradtac.unit = ns` |
-//! | `frame_time_ns` | `Int64`, not null | the time of the frame whose interval the event fell in ([`EventBatch::time`]); `gradtac.unit = ns` |
+//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | the event's (interpolated) time, [`TactileEvent::time`] |
+//! | `frame_time` | time ([`TimeBase`](super::TimeBase)), not null | the time of the frame whose interval the event fell in ([`EventBatch::time`]) |
 //! | `seq` | `UInt64`, not null | that frame's index ([`EventBatch::seq`]) |
-//! | `taxel` | `UInt16`, not null | the taxel's index in the layout (0-based); field metadata `gradtac.taxels` = JSON array of the taxel names, so `names[taxel]` names it |
+//! | `taxel` | `UInt16`, not null | the taxel's **number, counting from 1** in layout order (like the names `e1` … `e24`): [`TactileEvent::taxel`] (a 0-based index) + 1; field metadata `gradtac.taxels` = JSON array of the taxel names, so `names[taxel − 1]` names it |
 //! | `polarity` | `Int8`, not null | +1 for a rise of `ln x`, −1 for a fall |
 //!
 //! Batches are flattened: a batch of `k` events writes `k` rows in its own (time) order, and a
@@ -20,7 +20,7 @@
 //! events, not by batches.
 
 use super::columns::{record_error, schema_with_id, with_lead, with_taxels, LeadBuilder};
-use super::{arrow_error, ArrowRecord, FrameShape, RecordBuilder};
+use super::{arrow_error, ArrowRecord, FrameShape, RecordBuilder, TimeBase};
 use crate::Result;
 use arrow_array::builder::{Int8Builder, UInt16Builder};
 use arrow_array::RecordBatch;
@@ -33,41 +33,50 @@ use std::sync::Arc;
 /// [`FrameShape::unnamed`].
 pub type EventShape = FrameShape;
 
+/// The `taxel` column's number of a taxel index: `index + 1` (taxel numbers count from 1,
+/// like the layout names `e1` … `e24`). An appended event's index is below its batch's taxel
+/// count, itself a `u16`, so the number always fits.
+pub fn taxel_number(index: u16) -> u16 {
+    index.saturating_add(1)
+}
+
 impl ArrowRecord for EventBatch {
     type Shape = EventShape;
     type Builder = EventBuilder;
-    const SCHEMA_ID: &'static str = "event/1";
+    const SCHEMA_ID: &'static str = "event/2";
 
-    fn schema(shape: &EventShape) -> SchemaRef {
+    fn schema(shape: &EventShape, time: TimeBase) -> SchemaRef {
         schema_with_id(
             with_lead(
-                ["time_ns", "frame_time_ns"],
+                ["time", "frame_time"],
+                time,
                 vec![
                     with_taxels(Field::new("taxel", DataType::UInt16, false), shape),
                     Field::new("polarity", DataType::Int8, false),
                 ],
             ),
             Self::SCHEMA_ID,
+            time,
             vec![],
         )
     }
 
-    fn builder(shape: &EventShape, capacity: usize) -> EventBuilder {
+    fn builder(shape: &EventShape, time: TimeBase, capacity: usize) -> EventBuilder {
         EventBuilder {
-            schema: Self::schema(shape),
+            schema: Self::schema(shape, time),
             n: shape.len(),
-            lead: LeadBuilder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(time, capacity),
             taxel: UInt16Builder::with_capacity(capacity),
             polarity: Int8Builder::with_capacity(capacity),
         }
     }
 }
 
-/// Builds `event/1` batches (see the [module documentation](self)).
+/// Builds `event/2` batches (see the [module documentation](self)).
 pub struct EventBuilder {
     schema: SchemaRef,
     n: usize,
-    /// `sensor`, `time_ns`, `frame_time_ns`, `seq`.
+    /// `sensor`, `time`, `frame_time`, `seq`.
     lead: LeadBuilder<2>,
     taxel: UInt16Builder,
     polarity: Int8Builder,
@@ -105,7 +114,7 @@ impl EventBuilder {
 
     fn push_event(&mut self, b: &EventBatch, e: &TactileEvent) {
         self.lead.append(&b.sensor, [e.time, b.time], b.seq);
-        self.taxel.append_value(e.taxel);
+        self.taxel.append_value(taxel_number(e.taxel));
         self.polarity.append_value(e.polarity);
     }
 }
@@ -139,7 +148,7 @@ mod tests {
     use super::*;
     use crate::records::frame::TAXELS_KEY;
     use crate::records::{to_batch, SCHEMA_KEY};
-    use arrow_array::{Array, Int64Array, Int8Array, StringArray, UInt16Array, UInt64Array};
+    use arrow_array::{Array, DurationNanosecondArray, Int8Array, StringArray, UInt16Array, UInt64Array};
     use gradtac_stream::{SensorId, Timestamp};
 
     fn batch(seq: u64, taxels: u16, events: &[(i64, u16, i8)]) -> EventBatch {
@@ -166,9 +175,9 @@ mod tests {
         let sensor = col(0);
         let sensor = sensor.as_any().downcast_ref::<StringArray>().unwrap();
         let t = col(1);
-        let t = t.as_any().downcast_ref::<Int64Array>().unwrap();
+        let t = t.as_any().downcast_ref::<DurationNanosecondArray>().unwrap();
         let ft = col(2);
-        let ft = ft.as_any().downcast_ref::<Int64Array>().unwrap();
+        let ft = ft.as_any().downcast_ref::<DurationNanosecondArray>().unwrap();
         let seq = col(3);
         let seq = seq.as_any().downcast_ref::<UInt64Array>().unwrap();
         let taxel = col(4);
@@ -179,19 +188,19 @@ mod tests {
         assert_eq!(t.values().to_vec(), vec![3, 7, 15]);
         assert_eq!(ft.values().to_vec(), vec![10, 10, 20]);
         assert_eq!(seq.values().to_vec(), vec![1, 1, 2]);
-        assert_eq!(taxel.values().to_vec(), vec![2, 0, 1]);
+        assert_eq!(taxel.values().to_vec(), vec![3, 1, 2], "taxel numbers count from 1");
         assert_eq!(pol.values().to_vec(), vec![-1, 1, 1]);
-        assert_eq!(b.schema().metadata().get(SCHEMA_KEY).map(String::as_str), Some("event/1"));
+        assert_eq!(b.schema().metadata().get(SCHEMA_KEY).map(String::as_str), Some("event/2"));
         assert_eq!(b.schema().field(4).metadata().get(TAXELS_KEY).map(String::as_str), Some(r#"["0","1","2"]"#));
     }
 
     #[test]
     fn bad_taxels_are_rejected_and_leave_the_builder_intact() {
         let shape = EventShape::unnamed(3).unwrap();
-        let mut b = EventBatch::builder(&shape, 4);
+        let mut b = EventBatch::builder(&shape, crate::records::TimeBase::Relative, 4);
         b.append(&batch(0, 3, &[(0, 1, 1)])).unwrap();
         let e = b.append(&batch(1, 3, &[(1, 0, 1), (2, 3, 1)])).unwrap_err().to_string();
-        assert!(e.contains("event/1") && e.contains("frame 1") && e.contains("taxel 3"), "{e}");
+        assert!(e.contains("event/2") && e.contains("frame 1") && e.contains("taxel 3"), "{e}");
         let e = b.append(&batch(2, 4, &[(1, 0, 1)])).unwrap_err().to_string();
         assert!(e.contains("4 taxels") && e.contains("built for 3"), "{e}");
         assert_eq!(b.len(), 1);

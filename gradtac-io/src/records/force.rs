@@ -1,19 +1,19 @@
-//! [`ForceEstimate`] as Arrow: schema `force/1`, one row per estimate (one per contour frame).
+//! [`ForceEstimate`] as Arrow: schema `force/2`, one row per estimate (one per contour frame).
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `time_ns` | `Int64`, not null | the time the estimate describes: the contour's span end; `gradtac.unit = ns` |
+//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | the time the estimate describes: the contour's span end |
 //! | `seq` | `UInt64`, not null | index of the newest source frame |
-//! | `area_mm2` | `Float64`, not null | the maximal contour's area (mm²); **NaN** without contact; `gradtac.unit = mm2` |
+//! | `area_mm2` | `Float64`, nullable | the maximal contour's area (mm²); **null** without contact; `gradtac.unit = mm2` |
 //! | `force_n` | `Float64`, nullable | the estimated normal force (N); **null** without contact or below the stage's `min_area_mm2`; `gradtac.unit = N` |
 //!
-//! Columns map one to one onto [`ForceEstimate`]'s fields (NaN stays NaN bit-exactly, `None`
-//! is null), so a file reads back into the same estimates. The shape is `()`; every estimate
+//! Columns map one to one onto [`ForceEstimate`]'s fields; NaN (no contact) and `None` are
+//! null. The shape is `()`; every estimate
 //! fits, so [`RecordBuilder::append`] never rejects.
 
-use super::columns::{schema_with_id, unit_field, with_lead, LeadBuilder};
-use super::{arrow_error, ArrowRecord, RecordBuilder};
+use super::columns::{append_present, schema_with_id, unit_field, with_lead, LeadBuilder};
+use super::{arrow_error, ArrowRecord, RecordBuilder, TimeBase};
 use crate::Result;
 use arrow_array::builder::Float64Builder;
 use arrow_array::RecordBatch;
@@ -24,36 +24,38 @@ use std::sync::Arc;
 impl ArrowRecord for ForceEstimate {
     type Shape = ();
     type Builder = ForceBuilder;
-    const SCHEMA_ID: &'static str = "force/1";
+    const SCHEMA_ID: &'static str = "force/2";
 
-    fn schema(_: &()) -> SchemaRef {
+    fn schema(_: &(), time: TimeBase) -> SchemaRef {
         schema_with_id(
             with_lead(
-                ["time_ns"],
+                ["time"],
+                time,
                 vec![
-                    unit_field("area_mm2", DataType::Float64, false, "mm2"),
+                    unit_field("area_mm2", DataType::Float64, true, "mm2"),
                     unit_field("force_n", DataType::Float64, true, "N"),
                 ],
             ),
             Self::SCHEMA_ID,
+            time,
             vec![],
         )
     }
 
-    fn builder(_: &(), capacity: usize) -> ForceBuilder {
+    fn builder(_: &(), time: TimeBase, capacity: usize) -> ForceBuilder {
         ForceBuilder {
-            schema: Self::schema(&()),
-            lead: LeadBuilder::with_capacity(capacity),
+            schema: Self::schema(&(), time),
+            lead: LeadBuilder::with_capacity(time, capacity),
             area: Float64Builder::with_capacity(capacity),
             force: Float64Builder::with_capacity(capacity),
         }
     }
 }
 
-/// Builds `force/1` batches (see the [module documentation](self)).
+/// Builds `force/2` batches (see the [module documentation](self)).
 pub struct ForceBuilder {
     schema: SchemaRef,
-    /// `sensor`, `time_ns`, `seq`.
+    /// `sensor`, `time`, `seq`.
     lead: LeadBuilder<1>,
     area: Float64Builder,
     force: Float64Builder,
@@ -70,11 +72,11 @@ impl RecordBuilder<ForceEstimate> for ForceBuilder {
         self.schema.clone()
     }
 
-    /// Never rejects: every estimate fits `force/1`.
+    /// Never rejects: every estimate fits `force/2`.
     fn append(&mut self, e: &ForceEstimate) -> Result<()> {
         self.lead.append(&e.sensor, [e.time], e.seq);
-        self.area.append_value(e.area_mm2);
-        self.force.append_option(e.force_n);
+        append_present(&mut self.area, e.area_mm2);
+        self.force.append_option(e.force_n.filter(|f| !f.is_nan()));
         Ok(())
     }
 

@@ -1,21 +1,22 @@
-//! [`TaxelFrame`] as Arrow: schema `frame/1`.
+//! [`TaxelFrame`] as Arrow: schema `frame/2`.
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name ([`SensorId`](gradtac_stream::SensorId)) |
-//! | `time_ns` | `Int64`, not null | [`Timestamp`](gradtac_stream::Timestamp) in ns (the source's epoch); field metadata `gradtac.unit = ns` |
+//! | `time` | `Timestamp(ns, "UTC")` or `Duration(ns)` ([`TimeBase`]), not null | [`TaxelFrame::time`] |
 //! | `seq` | `UInt64`, not null | index of the source frame, from 0 per sensor |
 //! | `values` | `FixedSizeList<Float64 not null>[n]`, not null | one value per taxel, in layout order; field metadata `gradtac.taxels` = JSON array of the `n` taxel names |
 //!
-//! The schema's metadata holds `gradtac.schema = frame/1`. `n` is fixed per sink by its
+//! The schema's metadata holds `gradtac.schema = frame/2` and `gradtac.time`. `frame/1` (until
+//! 0.1) had `time_ns` as `Int64` nanoseconds. `n` is fixed per sink by its
 //! [`FrameShape`]; a frame with another count is rejected with [`Error::Record`].
 
-use super::columns::{with_lead, LeadBuilder};
-use super::{arrow_error, ArrowRecord, RecordBuilder, SCHEMA_KEY};
+use super::columns::{schema_with_id, with_lead, LeadBuilder};
+use super::{arrow_error, ArrowRecord, RecordBuilder, TimeBase};
 use crate::{Error, Result};
 use arrow_array::builder::{FixedSizeListBuilder, Float64Builder};
 use arrow_array::RecordBatch;
-use arrow_schema::{DataType, Field, FieldRef, Schema, SchemaRef};
+use arrow_schema::{DataType, Field, FieldRef, SchemaRef};
 use gradtac_stream::{Layout, TaxelFrame};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -82,27 +83,30 @@ fn item_field() -> FieldRef {
 impl ArrowRecord for TaxelFrame {
     type Shape = FrameShape;
     type Builder = FrameBuilder;
-    const SCHEMA_ID: &'static str = "frame/1";
+    const SCHEMA_ID: &'static str = "frame/2";
 
-    fn schema(shape: &FrameShape) -> SchemaRef {
+    fn schema(shape: &FrameShape, time: TimeBase) -> SchemaRef {
         let taxels = serde_json::to_string(shape.names()).expect("a list of strings serialises");
         let n = shape.len() as i32;
-        Arc::new(Schema::new_with_metadata(
+        schema_with_id(
             with_lead(
-                ["time_ns"],
+                ["time"],
+                time,
                 vec![Field::new("values", DataType::FixedSizeList(item_field(), n), false)
                     .with_metadata(HashMap::from([(TAXELS_KEY.to_string(), taxels)]))],
             ),
-            HashMap::from([(SCHEMA_KEY.to_string(), Self::SCHEMA_ID.to_string())]),
-        ))
+            Self::SCHEMA_ID,
+            time,
+            vec![],
+        )
     }
 
-    fn builder(shape: &FrameShape, capacity: usize) -> FrameBuilder {
+    fn builder(shape: &FrameShape, time: TimeBase, capacity: usize) -> FrameBuilder {
         let n = shape.len();
         FrameBuilder {
-            schema: Self::schema(shape),
+            schema: Self::schema(shape, time),
             n,
-            lead: LeadBuilder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(time, capacity),
             values: FixedSizeListBuilder::with_capacity(
                 Float64Builder::with_capacity(capacity * n),
                 n as i32,
@@ -113,11 +117,11 @@ impl ArrowRecord for TaxelFrame {
     }
 }
 
-/// Builds `frame/1` batches (see the [module documentation](self)).
+/// Builds `frame/2` batches (see the [module documentation](self)).
 pub struct FrameBuilder {
     schema: SchemaRef,
     n: usize,
-    /// `sensor`, `time_ns`, `seq`.
+    /// `sensor`, `time`, `seq`.
     lead: LeadBuilder<1>,
     values: FixedSizeListBuilder<Float64Builder>,
 }
@@ -165,8 +169,12 @@ impl RecordBuilder<TaxelFrame> for FrameBuilder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::records::to_batch;
-    use arrow_array::{Array, FixedSizeListArray, Float64Array, Int64Array, StringArray, UInt64Array};
+    use crate::records::{to_batch, to_batch_in, SCHEMA_KEY, TIME_KEY};
+    use arrow_array::{
+        Array, DurationNanosecondArray, FixedSizeListArray, Float64Array, StringArray, TimestampNanosecondArray,
+        UInt64Array,
+    };
+    use arrow_schema::TimeUnit;
     use gradtac_stream::{SensorId, Timestamp};
 
     fn frame(s: &str, t: i64, seq: u64, v: Vec<f64>) -> TaxelFrame {
@@ -185,7 +193,7 @@ mod tests {
         let b = to_batch(&shape, &frames).unwrap();
         assert_eq!(b.num_rows(), 3);
         let sensor = b.column(0).as_any().downcast_ref::<StringArray>().unwrap();
-        let time = b.column(1).as_any().downcast_ref::<Int64Array>().unwrap();
+        let time = b.column(1).as_any().downcast_ref::<DurationNanosecondArray>().unwrap();
         let seq = b.column(2).as_any().downcast_ref::<UInt64Array>().unwrap();
         let values = b.column(3).as_any().downcast_ref::<FixedSizeListArray>().unwrap();
         let flat = values.values().as_any().downcast_ref::<Float64Array>().unwrap();
@@ -197,17 +205,33 @@ mod tests {
         assert_eq!(bits, odd.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
         let md = b.schema().field(3).metadata().get(TAXELS_KEY).cloned();
         assert_eq!(md.as_deref(), Some(r#"["a","b"]"#));
-        assert_eq!(b.schema().metadata().get(SCHEMA_KEY).map(String::as_str), Some("frame/1"));
+        assert_eq!(b.schema().metadata().get(SCHEMA_KEY).map(String::as_str), Some("frame/2"));
+        assert_eq!(b.schema().metadata().get(TIME_KEY).map(String::as_str), Some("relative"));
+    }
+
+    #[test]
+    fn time_columns_take_the_type_of_the_time_base() {
+        let shape = FrameShape::unnamed(1).unwrap();
+        let f = [frame("ff", 1_700_000_000_123_456_789, 0, vec![1.0])];
+        let utc = to_batch_in(&shape, TimeBase::Utc, &f).unwrap();
+        assert_eq!(utc.schema().field(1).data_type(), &DataType::Timestamp(TimeUnit::Nanosecond, Some("UTC".into())));
+        let t = utc.column(1).as_any().downcast_ref::<TimestampNanosecondArray>().unwrap();
+        assert_eq!(t.value(0), 1_700_000_000_123_456_789);
+        assert_eq!(t.timezone(), Some("UTC"));
+        assert_eq!(utc.schema().metadata().get(TIME_KEY).map(String::as_str), Some("utc"));
+        let rel = to_batch_in(&shape, TimeBase::Relative, &f).unwrap();
+        assert_eq!(rel.schema().field(1).data_type(), &DataType::Duration(TimeUnit::Nanosecond));
+        assert_eq!(rel.schema().field(1).name(), "time");
     }
 
     #[test]
     fn wrong_taxel_count_is_an_error_and_leaves_the_builder_intact() {
         let shape = FrameShape::unnamed(3).unwrap();
-        let mut b = TaxelFrame::builder(&shape, 4);
+        let mut b = TaxelFrame::builder(&shape, TimeBase::default(), 4);
         b.append(&frame("ff", 0, 0, vec![1.0, 2.0, 3.0])).unwrap();
         let e = b.append(&frame("ff", 1, 41, vec![1.0, 2.0])).unwrap_err().to_string();
         assert!(
-            e.contains("frame/1") && e.contains("frame 41") && e.contains("2 values") && e.contains("3 taxels"),
+            e.contains("frame/2") && e.contains("frame 41") && e.contains("2 values") && e.contains("3 taxels"),
             "{e}"
         );
         assert_eq!(b.len(), 1);

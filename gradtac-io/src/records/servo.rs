@@ -1,9 +1,9 @@
-//! [`ServoCommand`] as Arrow: schema `servo/1`, one row per command (one per track point).
+//! [`ServoCommand`] as Arrow: schema `servo/2`, one row per command (one per track point).
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `time_ns` | `Int64`, not null | the track point's time; `gradtac.unit = ns` |
+//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | the track point's time |
 //! | `seq` | `UInt64`, not null | index of the newest source frame |
 //! | `action` | `Utf8`, not null | `move` ([`ServoAction::Move`]) or `no_contact` ([`ServoAction::NoContact`]: no contact, or a gated point; no command) |
 //! | `offset_x_mm`, `offset_y_mm` | `Float64`, nullable | contact minus centre ([`Motion::offset_mm`], mm, layout plane); `gradtac.unit = mm` |
@@ -12,12 +12,12 @@
 //! | `motion_x_mm`, `motion_y_mm` | `Float64`, nullable | the commanded sensor motion ([`Motion::motion_mm`], mm; zero inside the deadband); `gradtac.unit = mm` |
 //!
 //! The seven motion columns are null exactly when `action` is `no_contact`; with `move` they
-//! hold the [`Motion`]'s values bit-exactly (NaN included), so a file reads back into the same
+//! hold the [`Motion`]'s values bit-exactly (a NaN, which no motion has, would be null), so a file reads back into the same
 //! commands. The shape is `()`; every command fits, so [`RecordBuilder::append`] never
 //! rejects.
 
 use super::columns::{schema_with_id, unit_field, with_lead, LeadBuilder};
-use super::{arrow_error, ArrowRecord, RecordBuilder};
+use super::{arrow_error, ArrowRecord, RecordBuilder, TimeBase};
 use crate::Result;
 use arrow_array::builder::{Float64Builder, StringBuilder};
 use arrow_array::RecordBatch;
@@ -36,13 +36,14 @@ pub fn servo_action_name(a: &ServoAction) -> &'static str {
 impl ArrowRecord for ServoCommand {
     type Shape = ();
     type Builder = ServoBuilder;
-    const SCHEMA_ID: &'static str = "servo/1";
+    const SCHEMA_ID: &'static str = "servo/2";
 
-    fn schema(_: &()) -> SchemaRef {
+    fn schema(_: &(), time: TimeBase) -> SchemaRef {
         let mm = |name: &str| unit_field(name, DataType::Float64, true, "mm");
         schema_with_id(
             with_lead(
-                ["time_ns"],
+                ["time"],
+                time,
                 vec![
                     Field::new("action", DataType::Utf8, false),
                     mm("offset_x_mm"),
@@ -55,15 +56,16 @@ impl ArrowRecord for ServoCommand {
                 ],
             ),
             Self::SCHEMA_ID,
+            time,
             vec![],
         )
     }
 
-    fn builder(_: &(), capacity: usize) -> ServoBuilder {
+    fn builder(_: &(), time: TimeBase, capacity: usize) -> ServoBuilder {
         let floats = || Float64Builder::with_capacity(capacity);
         ServoBuilder {
-            schema: Self::schema(&()),
-            lead: LeadBuilder::with_capacity(capacity),
+            schema: Self::schema(&(), time),
+            lead: LeadBuilder::with_capacity(time, capacity),
             action: StringBuilder::with_capacity(capacity, capacity * 6),
             offset_x: floats(),
             offset_y: floats(),
@@ -76,10 +78,10 @@ impl ArrowRecord for ServoCommand {
     }
 }
 
-/// Builds `servo/1` batches (see the [module documentation](self)).
+/// Builds `servo/2` batches (see the [module documentation](self)).
 pub struct ServoBuilder {
     schema: SchemaRef,
-    /// `sensor`, `time_ns`, `seq`.
+    /// `sensor`, `time`, `seq`.
     lead: LeadBuilder<1>,
     action: StringBuilder,
     offset_x: Float64Builder,
@@ -102,18 +104,18 @@ impl RecordBuilder<ServoCommand> for ServoBuilder {
         self.schema.clone()
     }
 
-    /// Never rejects: every command fits `servo/1`.
+    /// Never rejects: every command fits `servo/2`.
     fn append(&mut self, c: &ServoCommand) -> Result<()> {
         self.lead.append(&c.sensor, [c.time], c.seq);
         self.action.append_value(servo_action_name(&c.action));
         let m: Option<&Motion> = c.motion();
-        self.offset_x.append_option(m.map(|m| m.offset_mm[0]));
-        self.offset_y.append_option(m.map(|m| m.offset_mm[1]));
-        self.distance.append_option(m.map(|m| m.distance_mm));
-        self.direction_x.append_option(m.map(|m| m.direction[0]));
-        self.direction_y.append_option(m.map(|m| m.direction[1]));
-        self.motion_x.append_option(m.map(|m| m.motion_mm[0]));
-        self.motion_y.append_option(m.map(|m| m.motion_mm[1]));
+        self.offset_x.append_option(m.map(|m| m.offset_mm[0]).filter(|v| !v.is_nan()));
+        self.offset_y.append_option(m.map(|m| m.offset_mm[1]).filter(|v| !v.is_nan()));
+        self.distance.append_option(m.map(|m| m.distance_mm).filter(|v| !v.is_nan()));
+        self.direction_x.append_option(m.map(|m| m.direction[0]).filter(|v| !v.is_nan()));
+        self.direction_y.append_option(m.map(|m| m.direction[1]).filter(|v| !v.is_nan()));
+        self.motion_x.append_option(m.map(|m| m.motion_mm[0]).filter(|v| !v.is_nan()));
+        self.motion_y.append_option(m.map(|m| m.motion_mm[1]).filter(|v| !v.is_nan()));
         Ok(())
     }
 

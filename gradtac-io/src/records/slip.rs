@@ -1,22 +1,21 @@
-//! [`SlipEvent`] as Arrow: schema `slip/1`, one row per change of a two-finger grasp's state.
+//! [`SlipEvent`] as Arrow: schema `slip/2`, one row per change of a two-finger grasp's state.
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `first` | `Utf8`, not null | the first sensor of the pair (the same in every row of a file: [`SlipShape::first`]) |
 //! | `second` | `Utf8`, not null | the second sensor, facing the first ([`SlipShape::second`]) |
-//! | `time_ns` | `Int64`, not null | when the change was decided ([`SlipEvent::time`]); `gradtac.unit = ns` |
-//! | `onset_ns` | `Int64`, not null | estimated start of the new state ([`SlipEvent::onset`]); `gradtac.unit = ns` |
-//! | `first_seen_ns` | `Int64`, not null | when the new state was first seen ([`SlipEvent::first_seen`]); `gradtac.unit = ns` |
+//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | when the change was decided ([`SlipEvent::time`]) |
+//! | `onset` | time ([`TimeBase`](super::TimeBase)), not null | estimated start of the new state ([`SlipEvent::onset`]) |
+//! | `first_seen` | time ([`TimeBase`](super::TimeBase)), not null | when the new state was first seen ([`SlipEvent::first_seen`]) |
 //! | `class` | `Utf8`, not null | the new state: `stable`, `longitudinal_up`, `longitudinal_down`, `rotational_cw`, `rotational_ccw` ([`SlipClass::name`](gradtac_stages::slip::SlipClass::name)) |
 //! | `previous` | `Utf8`, not null | the state before (same names) |
-//! | `common_mm_s` | `Float64`, not null | common-mode speed `L` along world up (mm/s); **NaN** when a finger's velocity is missing; `gradtac.unit = mm/s` |
-//! | `differential_mm_s` | `Float64`, not null | differential speed `R` (mm/s); NaN when a velocity is missing; `gradtac.unit = mm/s` |
+//! | `common_mm_s` | `Float64`, nullable | common-mode speed `L` along world up (mm/s); **null** when a finger's velocity is missing (NaN in Rust); `gradtac.unit = mm/s` |
+//! | `differential_mm_s` | `Float64`, nullable | differential speed `R` (mm/s); null when a velocity is missing; `gradtac.unit = mm/s` |
 //!
 //! A [`SlipEvent`] names no sensor: the pair is the sink's [`SlipShape`], stored in the schema
 //! metadata (`gradtac.slip.first`, `gradtac.slip.second`) **and** as the two constant columns
 //! `first` and `second`, so files of several pairs read as one table still say which pair each
-//! row is about. Floats are stored bit-exactly (NaN payloads included), so a file reads back
-//! into the same events. Every event fits `slip/1`: [`RecordBuilder::append`] never rejects.
+//! row is about. Floats are stored bit-exactly, NaN (a missing speed) as null. Every event fits `slip/2`: [`RecordBuilder::append`] never rejects.
 //!
 //! ```
 //! use gradtac_io::records::{to_batch, SlipShape};
@@ -38,18 +37,18 @@
 //! assert_eq!(batch.schema().metadata()["gradtac.slip.second"], "th");
 //! ```
 
-use super::columns::{ns_field, schema_with_id, unit_field};
-use super::{arrow_error, ArrowRecord, RecordBuilder};
+use super::columns::{append_present, schema_with_id, time_field, unit_field, TimeBuilder};
+use super::{arrow_error, ArrowRecord, RecordBuilder, TimeBase};
 use crate::Result;
-use arrow_array::builder::{ArrayBuilder, Float64Builder, Int64Builder, StringBuilder};
+use arrow_array::builder::{Float64Builder, StringBuilder};
 use arrow_array::{ArrayRef, RecordBatch};
 use arrow_schema::{DataType, Field, SchemaRef};
 use gradtac_stages::slip::{SlipConfig, SlipEvent};
 use std::sync::Arc;
 
-/// Schema-metadata key of the first sensor of a `slip/1` file.
+/// Schema-metadata key of the first sensor of a `slip/2` file.
 pub const SLIP_FIRST_KEY: &str = "gradtac.slip.first";
-/// Schema-metadata key of the second sensor of a `slip/1` file.
+/// Schema-metadata key of the second sensor of a `slip/2` file.
 pub const SLIP_SECOND_KEY: &str = "gradtac.slip.second";
 
 /// The two sensors whose grasp the slip events of one sink describe.
@@ -76,22 +75,23 @@ impl SlipShape {
 impl ArrowRecord for SlipEvent {
     type Shape = SlipShape;
     type Builder = SlipBuilder;
-    const SCHEMA_ID: &'static str = "slip/1";
+    const SCHEMA_ID: &'static str = "slip/2";
 
-    fn schema(shape: &SlipShape) -> SchemaRef {
+    fn schema(shape: &SlipShape, time: TimeBase) -> SchemaRef {
         schema_with_id(
             vec![
                 Field::new("first", DataType::Utf8, false),
                 Field::new("second", DataType::Utf8, false),
-                ns_field("time_ns"),
-                ns_field("onset_ns"),
-                ns_field("first_seen_ns"),
+                time_field("time", time),
+                time_field("onset", time),
+                time_field("first_seen", time),
                 Field::new("class", DataType::Utf8, false),
                 Field::new("previous", DataType::Utf8, false),
-                unit_field("common_mm_s", DataType::Float64, false, "mm/s"),
-                unit_field("differential_mm_s", DataType::Float64, false, "mm/s"),
+                unit_field("common_mm_s", DataType::Float64, true, "mm/s"),
+                unit_field("differential_mm_s", DataType::Float64, true, "mm/s"),
             ],
             Self::SCHEMA_ID,
+            time,
             vec![
                 (SLIP_FIRST_KEY.to_string(), shape.first.clone()),
                 (SLIP_SECOND_KEY.to_string(), shape.second.clone()),
@@ -99,16 +99,16 @@ impl ArrowRecord for SlipEvent {
         )
     }
 
-    fn builder(shape: &SlipShape, capacity: usize) -> SlipBuilder {
+    fn builder(shape: &SlipShape, time: TimeBase, capacity: usize) -> SlipBuilder {
         let names = |s: &str| StringBuilder::with_capacity(capacity, capacity * s.len());
         SlipBuilder {
-            schema: Self::schema(shape),
+            schema: Self::schema(shape, time),
             shape: shape.clone(),
             first: names(&shape.first),
             second: names(&shape.second),
-            time: Int64Builder::with_capacity(capacity),
-            onset: Int64Builder::with_capacity(capacity),
-            first_seen: Int64Builder::with_capacity(capacity),
+            time: TimeBuilder::with_capacity(time, capacity),
+            onset: TimeBuilder::with_capacity(time, capacity),
+            first_seen: TimeBuilder::with_capacity(time, capacity),
             class: StringBuilder::with_capacity(capacity, capacity * 16),
             previous: StringBuilder::with_capacity(capacity, capacity * 16),
             common: Float64Builder::with_capacity(capacity),
@@ -117,15 +117,15 @@ impl ArrowRecord for SlipEvent {
     }
 }
 
-/// Builds `slip/1` batches (see the [module documentation](self)).
+/// Builds `slip/2` batches (see the [module documentation](self)).
 pub struct SlipBuilder {
     schema: SchemaRef,
     shape: SlipShape,
     first: StringBuilder,
     second: StringBuilder,
-    time: Int64Builder,
-    onset: Int64Builder,
-    first_seen: Int64Builder,
+    time: TimeBuilder,
+    onset: TimeBuilder,
+    first_seen: TimeBuilder,
     class: StringBuilder,
     previous: StringBuilder,
     common: Float64Builder,
@@ -147,17 +147,17 @@ impl RecordBuilder<SlipEvent> for SlipBuilder {
         self.schema.clone()
     }
 
-    /// Never rejects: every slip event fits `slip/1`.
+    /// Never rejects: every slip event fits `slip/2`.
     fn append(&mut self, e: &SlipEvent) -> Result<()> {
         self.first.append_value(&self.shape.first);
         self.second.append_value(&self.shape.second);
-        self.time.append_value(e.time.as_nanos());
-        self.onset.append_value(e.onset.as_nanos());
-        self.first_seen.append_value(e.first_seen.as_nanos());
+        self.time.append(e.time);
+        self.onset.append(e.onset);
+        self.first_seen.append(e.first_seen);
         self.class.append_value(e.class.name());
         self.previous.append_value(e.previous.name());
-        self.common.append_value(e.common_mm_s);
-        self.differential.append_value(e.differential_mm_s);
+        append_present(&mut self.common, e.common_mm_s);
+        append_present(&mut self.differential, e.differential_mm_s);
         Ok(())
     }
 
@@ -169,9 +169,9 @@ impl RecordBuilder<SlipEvent> for SlipBuilder {
         let columns: Vec<ArrayRef> = vec![
             Arc::new(self.first.finish()),
             Arc::new(self.second.finish()),
-            Arc::new(self.time.finish()),
-            Arc::new(self.onset.finish()),
-            Arc::new(self.first_seen.finish()),
+            self.time.finish(),
+            self.onset.finish(),
+            self.first_seen.finish(),
             Arc::new(self.class.finish()),
             Arc::new(self.previous.finish()),
             Arc::new(self.common.finish()),
@@ -211,7 +211,7 @@ mod tests {
         let md = b.schema().metadata().clone();
         assert_eq!(
             (md[SCHEMA_KEY].as_str(), md[SLIP_FIRST_KEY].as_str(), md[SLIP_SECOND_KEY].as_str()),
-            ("slip/1", "ff", "th")
+            ("slip/2", "ff", "th")
         );
         let s = |name: &str| {
             b.column_by_name(name).unwrap().as_string::<i32>().iter().flatten().collect::<Vec<_>>().join(",")
@@ -221,6 +221,6 @@ mod tests {
         assert_eq!(s("class"), "rotational_cw,stable");
         assert_eq!(s("previous"), "stable,rotational_cw");
         let common = b.column_by_name("common_mm_s").unwrap().as_primitive::<arrow_array::types::Float64Type>();
-        assert!(common.value(0).is_nan() && common.null_count() == 0);
+        assert!(common.is_null(0) && common.null_count() == 2, "a missing speed (NaN) is null, never NaN");
     }
 }

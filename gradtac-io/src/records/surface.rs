@@ -1,10 +1,10 @@
-//! [`Surface`] as Arrow: schema `surface/1`, one row per surface.
+//! [`Surface`] as Arrow: schema `surface/2`, one row per surface.
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `start_ns` | `Int64`, not null | start of the span the surface describes ([`Surface::start`]); `gradtac.unit = ns` |
-//! | `end_ns` | `Int64`, not null | end of the span, the newest contributing frame's time ([`Surface::end`]); `gradtac.unit = ns` |
+//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | start of the span the surface describes ([`Surface::start`]) |
+//! | `end` | time ([`TimeBase`](super::TimeBase)), not null | end of the span, the newest contributing frame's time ([`Surface::end`]) |
 //! | `seq` | `UInt64`, not null | index of the newest contributing source frame |
 //! | `values` | `FixedSizeList<Float64 not null>[nx·ny]`, not null | the values at the grid points, **row-major**: element `row·nx + col` is the point `(x(col), y(row))`; NaN (outside the taxels' hull) preserved bit-exactly |
 //!
@@ -35,7 +35,7 @@
 //! ```
 
 use super::columns::{f64_list, item_field, record_error, schema_with_id, with_lead, LeadBuilder};
-use super::{arrow_error, ArrowRecord, RecordBuilder};
+use super::{arrow_error, ArrowRecord, RecordBuilder, TimeBase};
 use crate::Result;
 use arrow_array::builder::{FixedSizeListBuilder, Float64Builder};
 use arrow_array::RecordBatch;
@@ -43,7 +43,7 @@ use arrow_schema::{Field, SchemaRef};
 use gradtac_stages::interpolate::{Grid, Surface};
 use std::sync::Arc;
 
-/// Schema-metadata key of the grid of a `surface/1` file (JSON object).
+/// Schema-metadata key of the grid of a `surface/2` file (JSON object).
 pub const GRID_KEY: &str = "gradtac.grid";
 
 /// The grid of the surfaces one sink writes.
@@ -82,24 +82,25 @@ impl SurfaceShape {
 impl ArrowRecord for Surface {
     type Shape = SurfaceShape;
     type Builder = SurfaceBuilder;
-    const SCHEMA_ID: &'static str = "surface/1";
+    const SCHEMA_ID: &'static str = "surface/2";
 
-    fn schema(shape: &SurfaceShape) -> SchemaRef {
+    fn schema(shape: &SurfaceShape, time: TimeBase) -> SchemaRef {
         schema_with_id(
-            with_lead(["start_ns", "end_ns"], vec![Field::new("values", f64_list(shape.grid.len()), false)]),
+            with_lead(["start", "end"], time, vec![Field::new("values", f64_list(shape.grid.len()), false)]),
             Self::SCHEMA_ID,
+            time,
             vec![(GRID_KEY.to_string(), shape.grid_json())],
         )
     }
 
-    fn builder(shape: &SurfaceShape, capacity: usize) -> SurfaceBuilder {
+    fn builder(shape: &SurfaceShape, time: TimeBase, capacity: usize) -> SurfaceBuilder {
         let len = shape.grid.len();
         // Reserve at most 8 MiB of values up front: a surface is large (64×64 = 4096 values).
         let reserve = capacity.saturating_mul(len).min(1 << 20);
         SurfaceBuilder {
-            schema: Self::schema(shape),
+            schema: Self::schema(shape, time),
             grid: shape.grid.clone(),
-            lead: LeadBuilder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(time, capacity),
             values: FixedSizeListBuilder::with_capacity(
                 Float64Builder::with_capacity(reserve),
                 // A grid holds at most 2^24 points, so this fits an i32 list size.
@@ -111,11 +112,11 @@ impl ArrowRecord for Surface {
     }
 }
 
-/// Builds `surface/1` batches (see the [module documentation](self)).
+/// Builds `surface/2` batches (see the [module documentation](self)).
 pub struct SurfaceBuilder {
     schema: SchemaRef,
     grid: Arc<Grid>,
-    /// `sensor`, `start_ns`, `end_ns`, `seq`.
+    /// `sensor`, `start`, `end`, `seq`.
     lead: LeadBuilder<2>,
     values: FixedSizeListBuilder<Float64Builder>,
 }

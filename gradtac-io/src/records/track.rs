@@ -1,27 +1,29 @@
-//! [`TrackPoint`] as Arrow: schema `track/1`, one row per track point.
+//! [`TrackPoint`] as Arrow: schema `track/2`, one row per track point.
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `time_ns` | `Int64`, not null | the time the point describes: the end of the surface's span; `gradtac.unit = ns` |
-//! | `start_ns` | `Int64`, not null | start of the surface's span (the window's start); `gradtac.unit = ns` |
+//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | the time the point describes: the end of the surface's span |
+//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | start of the surface's span (the window's start) |
 //! | `seq` | `UInt64`, not null | index of the newest source frame |
 //! | `state` | `Utf8`, not null | `contact` or `no_contact` |
 //! | `no_contact` | `Utf8`, nullable | why there is no contact (`no_data`, `below_min_peak`, `flat`, `too_small`); null when the point has no reason |
 //! | `track` | `UInt64`, nullable | the track the point belongs to; null without contact |
-//! | `x_mm`, `y_mm` | `Float64`, not null | contact location (mm); NaN without contact |
-//! | `area_mm2` | `Float64`, not null | maximal-contour area (mm²); NaN without contact |
-//! | `orientation_rad` | `Float64`, not null | principal-axis orientation (rad); NaN without contact |
-//! | `peak` | `Float64`, not null | surface peak (surface units); NaN without contact |
-//! | `vx_mm_s`, `vy_mm_s` | `Float64`, nullable | velocity (mm/s); null on a track's first point and without contact |
+//! | `x_mm`, `y_mm` | `Float64`, nullable | contact location (mm); null without contact |
+//! | `area_mm2` | `Float64`, nullable | maximal-contour area (mm²); null without contact |
+//! | `orientation_rad` | `Float64`, nullable | principal-axis orientation (rad); null without contact |
+//! | `peak` | `Float64`, nullable | surface peak (surface units); null without contact |
+//! | `velocity_x_mm_s`, `velocity_y_mm_s` | `Float64`, nullable | [`TrackPoint::velocity_mm_s`] `[x, y]` (mm/s); null on a track's first point and without contact |
 //! | `gated` | `Boolean`, not null | the point repeats the last accepted one because the contour jumped |
 //!
-//! Columns map one to one onto [`TrackPoint`]'s fields (NaN stays NaN, `None` is null), so a
-//! file reads back into the same points bit-exactly. The shape is `()`.
+//! Columns map one to one onto [`TrackPoint`]'s fields, named after them (a two-vector
+//! field `velocity_mm_s` as `velocity_x_mm_s`, `velocity_y_mm_s`); an absent value (`None`,
+//! or NaN in a float field) is null, never NaN. `track/1` (0.1) had `Int64` `time_ns` /
+//! `start_ns`, NaN for absent floats and `vx_mm_s` / `vy_mm_s`. The shape is `()`.
 
-use super::columns::{schema_with_id, unit_field, with_lead, LeadBuilder};
+use super::columns::{append_present, schema_with_id, unit_field, with_lead, LeadBuilder};
 use super::contour::no_contact_name;
-use super::{arrow_error, ArrowRecord, RecordBuilder};
+use super::{arrow_error, ArrowRecord, RecordBuilder, TimeBase};
 use crate::Result;
 use arrow_array::builder::{BooleanBuilder, Float64Builder, StringBuilder, UInt64Builder};
 use arrow_array::RecordBatch;
@@ -40,13 +42,14 @@ pub fn contact_state_name(s: ContactState) -> &'static str {
 impl ArrowRecord for TrackPoint {
     type Shape = ();
     type Builder = TrackBuilder;
-    const SCHEMA_ID: &'static str = "track/1";
+    const SCHEMA_ID: &'static str = "track/2";
 
-    fn schema(_: &()) -> SchemaRef {
-        let f = |name: &str, unit: &str| unit_field(name, DataType::Float64, false, unit);
+    fn schema(_: &(), time: TimeBase) -> SchemaRef {
+        let f = |name: &str, unit: &str| unit_field(name, DataType::Float64, true, unit);
         schema_with_id(
             with_lead(
-                ["time_ns", "start_ns"],
+                ["time", "start"],
+                time,
                 vec![
                     Field::new("state", DataType::Utf8, false),
                     Field::new("no_contact", DataType::Utf8, true),
@@ -55,22 +58,23 @@ impl ArrowRecord for TrackPoint {
                     f("y_mm", "mm"),
                     f("area_mm2", "mm2"),
                     f("orientation_rad", "rad"),
-                    Field::new("peak", DataType::Float64, false),
-                    unit_field("vx_mm_s", DataType::Float64, true, "mm/s"),
-                    unit_field("vy_mm_s", DataType::Float64, true, "mm/s"),
+                    Field::new("peak", DataType::Float64, true),
+                    unit_field("velocity_x_mm_s", DataType::Float64, true, "mm/s"),
+                    unit_field("velocity_y_mm_s", DataType::Float64, true, "mm/s"),
                     Field::new("gated", DataType::Boolean, false),
                 ],
             ),
             Self::SCHEMA_ID,
+            time,
             vec![],
         )
     }
 
-    fn builder(_: &(), capacity: usize) -> TrackBuilder {
+    fn builder(_: &(), time: TimeBase, capacity: usize) -> TrackBuilder {
         let floats = || Float64Builder::with_capacity(capacity);
         TrackBuilder {
-            schema: Self::schema(&()),
-            lead: LeadBuilder::with_capacity(capacity),
+            schema: Self::schema(&(), time),
+            lead: LeadBuilder::with_capacity(time, capacity),
             state: StringBuilder::with_capacity(capacity, capacity * 10),
             no_contact: StringBuilder::new(),
             track: UInt64Builder::with_capacity(capacity),
@@ -86,10 +90,10 @@ impl ArrowRecord for TrackPoint {
     }
 }
 
-/// Builds `track/1` batches (see the [module documentation](self)).
+/// Builds `track/2` batches (see the [module documentation](self)).
 pub struct TrackBuilder {
     schema: SchemaRef,
-    /// `sensor`, `time_ns`, `start_ns`, `seq`.
+    /// `sensor`, `time`, `start`, `seq`.
     lead: LeadBuilder<2>,
     state: StringBuilder,
     no_contact: StringBuilder,
@@ -115,19 +119,19 @@ impl RecordBuilder<TrackPoint> for TrackBuilder {
         self.schema.clone()
     }
 
-    /// Never rejects: every track point fits `track/1`.
+    /// Never rejects: every track point fits `track/2`.
     fn append(&mut self, p: &TrackPoint) -> Result<()> {
         self.lead.append(&p.sensor, [p.time, p.start], p.seq);
         self.state.append_value(contact_state_name(p.state));
         self.no_contact.append_option(p.no_contact.map(no_contact_name));
         self.track.append_option(p.track);
-        self.x.append_value(p.x_mm);
-        self.y.append_value(p.y_mm);
-        self.area.append_value(p.area_mm2);
-        self.orientation.append_value(p.orientation_rad);
-        self.peak.append_value(p.peak);
-        self.vx.append_option(p.velocity_mm_s.map(|v| v[0]));
-        self.vy.append_option(p.velocity_mm_s.map(|v| v[1]));
+        append_present(&mut self.x, p.x_mm);
+        append_present(&mut self.y, p.y_mm);
+        append_present(&mut self.area, p.area_mm2);
+        append_present(&mut self.orientation, p.orientation_rad);
+        append_present(&mut self.peak, p.peak);
+        self.vx.append_option(p.velocity_mm_s.map(|v| v[0]).filter(|v| !v.is_nan()));
+        self.vy.append_option(p.velocity_mm_s.map(|v| v[1]).filter(|v| !v.is_nan()));
         self.gated.append_value(p.gated);
         Ok(())
     }

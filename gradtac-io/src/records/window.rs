@@ -1,10 +1,10 @@
-//! [`WindowAggregate`] as Arrow: schema `window/1`, one row per aggregate.
+//! [`WindowAggregate`] as Arrow: schema `window/2`, one row per aggregate.
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `start_ns` | `Int64`, not null | start of the window's span ([`WindowAggregate::start`]); `gradtac.unit = ns` |
-//! | `end_ns` | `Int64`, not null | end of the span, the newest frame's time ([`WindowAggregate::end`]); `gradtac.unit = ns` |
+//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | start of the window's span ([`WindowAggregate::start`]) |
+//! | `end` | time ([`TimeBase`](super::TimeBase)), not null | end of the span, the newest frame's time ([`WindowAggregate::end`]) |
 //! | `seq` | `UInt64`, not null | index of the newest frame in the window |
 //! | `frames` | `UInt64`, not null | number of input frames the window covers (0 for a duration window holding events only) |
 //! | `aggregate` | `Utf8`, not null | what `values` holds: `signed` (Σ polarity), `count` (number of events) or `split` (signed sum, with `positive`/`negative`) |
@@ -16,7 +16,7 @@
 //! (or a split of another length) is rejected with [`Error::Record`](crate::Error::Record).
 
 use super::columns::{f64_list, item_field, record_error, schema_with_id, with_lead, with_taxels, LeadBuilder};
-use super::{arrow_error, ArrowRecord, FrameShape, RecordBuilder};
+use super::{arrow_error, ArrowRecord, FrameShape, RecordBuilder, TimeBase};
 use crate::Result;
 use arrow_array::builder::{FixedSizeListBuilder, Float64Builder, StringBuilder, UInt64Builder};
 use arrow_array::RecordBatch;
@@ -46,13 +46,14 @@ fn list_builder(n: usize, capacity: usize) -> FixedSizeListBuilder<Float64Builde
 impl ArrowRecord for WindowAggregate {
     type Shape = WindowShape;
     type Builder = WindowBuilder;
-    const SCHEMA_ID: &'static str = "window/1";
+    const SCHEMA_ID: &'static str = "window/2";
 
-    fn schema(shape: &WindowShape) -> SchemaRef {
+    fn schema(shape: &WindowShape, time: TimeBase) -> SchemaRef {
         let n = shape.len();
         schema_with_id(
             with_lead(
-                ["start_ns", "end_ns"],
+                ["start", "end"],
+                time,
                 vec![
                     Field::new("frames", DataType::UInt64, false),
                     Field::new("aggregate", DataType::Utf8, false),
@@ -62,16 +63,17 @@ impl ArrowRecord for WindowAggregate {
                 ],
             ),
             Self::SCHEMA_ID,
+            time,
             vec![],
         )
     }
 
-    fn builder(shape: &WindowShape, capacity: usize) -> WindowBuilder {
+    fn builder(shape: &WindowShape, time: TimeBase, capacity: usize) -> WindowBuilder {
         let n = shape.len();
         WindowBuilder {
-            schema: Self::schema(shape),
+            schema: Self::schema(shape, time),
             n,
-            lead: LeadBuilder::with_capacity(capacity),
+            lead: LeadBuilder::with_capacity(time, capacity),
             frames: UInt64Builder::with_capacity(capacity),
             aggregate: StringBuilder::with_capacity(capacity, capacity * 6),
             values: list_builder(n, capacity),
@@ -81,11 +83,11 @@ impl ArrowRecord for WindowAggregate {
     }
 }
 
-/// Builds `window/1` batches (see the [module documentation](self)).
+/// Builds `window/2` batches (see the [module documentation](self)).
 pub struct WindowBuilder {
     schema: SchemaRef,
     n: usize,
-    /// `sensor`, `start_ns`, `end_ns`, `seq`.
+    /// `sensor`, `start`, `end`, `seq`.
     lead: LeadBuilder<2>,
     frames: UInt64Builder,
     aggregate: StringBuilder,
@@ -200,10 +202,10 @@ mod tests {
     #[test]
     fn wrong_lengths_are_rejected_and_leave_the_builder_intact() {
         let shape = WindowShape::unnamed(2).unwrap();
-        let mut b = WindowAggregate::builder(&shape, 2);
+        let mut b = WindowAggregate::builder(&shape, crate::records::TimeBase::Relative, 2);
         b.append(&agg(vec![1.0, 2.0], None)).unwrap();
         let e = b.append(&agg(vec![1.0], None)).unwrap_err().to_string();
-        assert!(e.contains("window/1") && e.contains("1 values") && e.contains("2 taxels"), "{e}");
+        assert!(e.contains("window/2") && e.contains("1 values") && e.contains("2 taxels"), "{e}");
         let bad = Split { positive: vec![1.0, 0.0], negative: vec![0.0] };
         let e = b.append(&agg(vec![1.0, 2.0], Some(bad))).unwrap_err().to_string();
         assert!(e.contains("1 negative counts"), "{e}");

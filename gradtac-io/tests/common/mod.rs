@@ -121,9 +121,17 @@ pub fn strs(b: &RecordBatch, name: &str) -> Vec<Option<String>> {
 
 /// A not-null `Int64` column.
 pub fn i64s(b: &RecordBatch, name: &str) -> Vec<i64> {
-    let a = col(b, name).as_primitive::<Int64Type>();
-    assert_eq!(a.null_count(), 0, "{name}");
-    a.values().to_vec()
+    let c = col(b, name);
+    let (nulls, values) = if let Some(a) = c.as_primitive_opt::<Int64Type>() {
+        (a.null_count(), a.values().to_vec())
+    } else if let Some(a) = c.as_primitive_opt::<arrow_array::types::TimestampNanosecondType>() {
+        (a.null_count(), a.values().to_vec())
+    } else {
+        let a = c.as_primitive::<arrow_array::types::DurationNanosecondType>();
+        (a.null_count(), a.values().to_vec())
+    };
+    assert_eq!(nulls, 0, "{name}");
+    values
 }
 
 /// A not-null `UInt64` column.
@@ -246,12 +254,18 @@ def conv(v):
     return v
 
 def describe(path):
+    import pyarrow as pa
     t = pq.read_table(path)
     md = pq.read_metadata(path).metadata
+    # times (Timestamp / Duration) as their integer nanoseconds
+    ints = pa.table(
+        [c.cast(pa.int64()) if pa.types.is_timestamp(c.type) or pa.types.is_duration(c.type) else c for c in t.columns],
+        names=t.column_names,
+    )
     return {
         "schema": md[b"gradtac.schema"].decode(),
         "arrow_md": {k.decode(): v.decode() for k, v in (t.schema.metadata or {}).items() if k != b"ARROW:schema"},
         "types": {f.name: str(f.type) for f in t.schema},
-        "rows": conv(t.to_pylist()),
+        "rows": conv(ints.to_pylist()),
     }
 "#;
