@@ -34,10 +34,10 @@ mod sensor;
 mod stage;
 mod time;
 
-pub use adapters::iter::{IteratorStageExt, StageIter};
+pub use adapters::iter::{IteratorStageExt, PlainItems, StageIter};
 pub use adapters::merge_iter::{merge_iter, MergeIter};
 pub use adapters::merge_stream::{merge_streams, MergeStreams};
-pub use adapters::stream::{StageStream, StreamStageExt};
+pub use adapters::stream::{PlainStream, StageStream, StreamStageExt};
 pub use error::{Error, Result};
 pub use frame::TaxelFrame;
 pub use keyed::Keyed;
