@@ -38,22 +38,25 @@ use gradtac::stages::locate::LocateConfig;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim::{Scene, SensorModel, Simulator, Trajectory};
 use gradtac::stages::track::{ContactState, Track, TrackConfig, TrackPoint};
+use gradtac::stages::{FromConfig, StageContext};
 use gradtac::stream::{IteratorStageExt, Layout, SensorId, StreamStageExt};
 use std::path::PathBuf;
 
 /// The three stages, each validated by its constructor (a bad setting fails here, before
 /// any data moves).
-fn stages(layout: &Layout) -> Result<(SavGol, Centroid, Track), gradtac::Error> {
+/// Every stage has the one constructor shape `from_config(&config, &context)`; the configs
+/// are the structs a scene's `[stages.<tap>]` tables deserialise into.
+fn stages(ctx: &StageContext) -> Result<(SavGol, Centroid, Track), gradtac::Error> {
     Ok((
-        SavGol::try_new(layout.len(), SavGolConfig::default())?,
-        Centroid::try_new(&LocateConfig::default(), layout)?,
-        Track::try_new(&TrackConfig::default())?,
+        SavGol::from_config(&SavGolConfig::default(), ctx)?,
+        Centroid::from_config(&LocateConfig::default(), ctx)?,
+        Track::from_config(&TrackConfig::default(), ctx)?,
     ))
 }
 
 /// Offline: an iterator of frames, three stages, `?`.
-fn offline(source: &CsvSourceConfig, layout: &Layout) -> Result<Vec<TrackPoint>, gradtac::Error> {
-    let (savgol, centroid, track) = stages(layout)?;
+fn offline(source: &CsvSourceConfig, ctx: &StageContext) -> Result<Vec<TrackPoint>, gradtac::Error> {
+    let (savgol, centroid, track) = stages(ctx)?;
     let points = CsvFrames::open(source, SensorId::new("ff"))?
         .stage(savgol)
         .stage(centroid)
@@ -63,8 +66,8 @@ fn offline(source: &CsvSourceConfig, layout: &Layout) -> Result<Vec<TrackPoint>,
 }
 
 /// Live: the same reader on tokio's blocking pool, the same stages on the stream.
-async fn on_tokio(source: &CsvSourceConfig, layout: &Layout) -> Result<Vec<TrackPoint>, gradtac::Error> {
-    let (savgol, centroid, track) = stages(layout)?;
+async fn on_tokio(source: &CsvSourceConfig, ctx: &StageContext) -> Result<Vec<TrackPoint>, gradtac::Error> {
+    let (savgol, centroid, track) = stages(ctx)?;
     let frames = blocking_stream(CsvFrames::open(source, SensorId::new("ff"))?, 64);
     let mut points = std::pin::pin!(frames.stage(savgol).stage(centroid).stage(track));
     let mut out = Vec::new();
@@ -99,11 +102,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let columns = args.get(1).map_or("ff_e{1..24}", String::as_str);
     let rate_hz: f64 = args.get(2).map_or(Ok(100.0), |r| r.parse())?;
     let source = CsvSourceConfig::new(&csv, columns.parse()?).with_rate_hz(rate_hz);
-    let layout = Layout::biotac_sp();
+    let ctx = StageContext::new(Layout::biotac_sp()).with_rate_hz(rate_hz);
 
-    let offline_points = offline(&source, &layout)?;
+    let offline_points = offline(&source, &ctx)?;
     let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).build()?;
-    let live_points = runtime.block_on(on_tokio(&source, &layout))?;
+    let live_points = runtime.block_on(on_tokio(&source, &ctx))?;
 
     let contact: Vec<&TrackPoint> = offline_points.iter().filter(|p| p.state == ContactState::Contact).collect();
     println!("{}: {} track points (one per frame)", csv.display(), offline_points.len());

@@ -20,8 +20,10 @@
 //! (the three crates' errors convert into each other without nesting), so stages chain with
 //! no glue, and `?` lifts any of them into [`Error`] (or `Box<dyn Error>`). Plain values (a
 //! `Vec` of frames) use [`stage_plain`](stream::IteratorStageExt::stage_plain) instead of
-//! `.map(Ok)`. Each stage's constructor validates its settings, so a bad setting fails
-//! before any data moves.
+//! `.map(Ok)`. Every stage is built the same way,
+//! [`FromConfig::from_config`](stages::FromConfig::from_config)`(&config, &context)`, from its
+//! scene table's config and a [`StageContext`](stages::StageContext) (layout, taxel count,
+//! rate); the constructor validates, so a bad setting fails before any data moves.
 //!
 //! ```
 //! use gradtac::io::{CsvFrames, CsvSourceConfig};
@@ -29,15 +31,16 @@
 //! use gradtac::stages::locate::LocateConfig;
 //! use gradtac::stages::savgol::{SavGol, SavGolConfig};
 //! use gradtac::stages::track::{Track, TrackConfig, TrackPoint};
+//! use gradtac::stages::{FromConfig, StageContext};
 //! use gradtac::stream::{IteratorStageExt, Layout, SensorId};
 //!
 //! fn tracks(csv: &std::path::Path) -> Result<Vec<TrackPoint>, gradtac::Error> {
-//!     let layout = Layout::biotac_sp();
 //!     let source = CsvSourceConfig::new(csv, "ff_e{1..24}".parse()?).with_rate_hz(100.0);
+//!     let ctx = StageContext::new(Layout::biotac_sp()).with_rate_hz(100.0);
 //!     let points = CsvFrames::open(&source, SensorId::new("ff"))?
-//!         .stage(SavGol::try_new(layout.len(), SavGolConfig::default())?)
-//!         .stage(Centroid::try_new(&LocateConfig::default(), &layout)?)
-//!         .stage(Track::try_new(&TrackConfig::default())?)
+//!         .stage(SavGol::from_config(&SavGolConfig::default(), &ctx)?)
+//!         .stage(Centroid::from_config(&LocateConfig::default(), &ctx)?)
+//!         .stage(Track::from_config(&TrackConfig::default(), &ctx)?)
 //!         .collect::<Result<Vec<_>, _>>()?;
 //!     Ok(points)
 //! }
@@ -86,10 +89,12 @@ pub use gradtac_stream as stream;
 
 pub mod calibrate;
 pub mod chain;
+#[cfg(feature = "plot")]
 pub mod demo;
 mod error;
 pub mod guard;
 pub mod plan;
+#[cfg(feature = "plot")]
 pub mod plot;
 mod recorded;
 pub mod run;

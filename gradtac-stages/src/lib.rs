@@ -15,6 +15,7 @@ mod error;
 pub mod event;
 
 pub mod centroid;
+pub mod context;
 pub mod contour;
 pub mod dos;
 pub mod dos_select;
@@ -35,5 +36,6 @@ pub mod slip;
 pub mod track;
 pub mod window;
 
+pub use context::{FromConfig, StageContext};
 pub use error::{Error, Result};
 pub use event::{EventBatch, TactileEvent};
