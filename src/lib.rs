@@ -13,7 +13,7 @@
 //!
 //! ## Embedding: sources and stages compose with `?`
 //!
-//! A source is an [`Iterator`] (offline) or a [`futures::Stream`] (live) of
+//! A source is an [`Iterator`] (offline) or a [`futures::Stream`](https://docs.rs/futures/0.3/futures/stream/trait.Stream.html) (live) of
 //! `Result<TaxelFrame, E>` items; [`stream::IteratorStageExt::stage`] and
 //! [`stream::StreamStageExt::stage`] put a stage behind it, the way `TryStreamExt` adapters
 //! do. The output keeps the source's error type and every stage's error converts into it

@@ -1,5 +1,5 @@
 //! Arrow IPC sources: taxel frames from Arrow IPC files (`.arrow`, Feather v2) and streams,
-//! and from any iterator of [`RecordBatch`]es (an in-memory table a host application hands
+//! and from any iterator of [`RecordBatch`](https://docs.rs/arrow-array/60/arrow_array/struct.RecordBatch.html)es (an in-memory table a host application hands
 //! over).
 //!
 //! # Layouts

@@ -27,18 +27,18 @@
 //!
 //! | scene table / tap | stage type | config | output type | record schema |
 //! |---|---|---|---|---|
-//! | `normalise` | [`Normalise`](crate::normalise::Normalise) | [`NormaliseConfig`](crate::normalise::NormaliseConfig) | `TaxelFrame` | `frame` |
-//! | `savgol` | [`SavGol`](crate::savgol::SavGol) | [`SavGolConfig`](crate::savgol::SavGolConfig) | `TaxelFrame` | `frame` |
-//! | `events` | [`Events`](crate::events::Events) | [`EventsConfig`](crate::events::EventsConfig) | [`EventBatch`](crate::EventBatch) | `event` |
-//! | `window` | [`Window`](crate::window::Window) | [`WindowConfig`](crate::window::WindowConfig) | [`WindowAggregate`](crate::window::WindowAggregate) | `window` |
-//! | `surface` | [`Interpolate`](crate::interpolate::Interpolate) (alias [`SurfaceStage`](crate::interpolate::SurfaceStage)) | [`InterpolateConfig`](crate::interpolate::InterpolateConfig) | [`Surface`](crate::interpolate::Surface) | `surface` |
-//! | `contour` | [`Contour`](crate::contour::Contour) | [`ContourConfig`](crate::contour::ContourConfig) | [`ContourFrame`](crate::contour::ContourFrame) | `contour` |
-//! | `contour` with `[stages.locate] method = "centroid"` | [`Centroid`](crate::centroid::Centroid) | [`LocateConfig`](crate::locate::LocateConfig) | [`ContourFrame`](crate::contour::ContourFrame) | `contour` |
-//! | `window` with `method = "raw_contour"` | [`RawChange`](crate::raw_contour::RawChange) | [`LocateConfig`](crate::locate::LocateConfig) | [`WindowAggregate`](crate::window::WindowAggregate) | `window` |
-//! | `track` | [`Track`](crate::track::Track) | [`TrackConfig`](crate::track::TrackConfig) | [`TrackPoint`](crate::track::TrackPoint) | `track` |
-//! | `force` | [`Force`](crate::force::Force) | [`ForceConfig`](crate::force::ForceConfig) | [`ForceEstimate`](crate::force::ForceEstimate) | `force` |
-//! | `servo` | [`Servo`](crate::servo::Servo) | [`ServoConfig`](crate::servo::ServoConfig) | [`ServoCommand`](crate::servo::ServoCommand) | `servo` |
-//! | `slip` | [`Slip`](crate::slip::Slip) | [`SlipConfig`](crate::slip::SlipConfig) | [`SlipEvent`](crate::slip::SlipEvent) | `slip` |
+//! | `normalise` | [`Normalise`] | [`NormaliseConfig`] | `TaxelFrame` | `frame` |
+//! | `savgol` | [`SavGol`] | [`SavGolConfig`] | `TaxelFrame` | `frame` |
+//! | `events` | [`Events`] | [`EventsConfig`] | [`EventBatch`](crate::EventBatch) | `event` |
+//! | `window` | [`Window`] | [`WindowConfig`] | [`WindowAggregate`](crate::window::WindowAggregate) | `window` |
+//! | `surface` | [`Interpolate`] (alias [`SurfaceStage`](crate::interpolate::SurfaceStage)) | [`InterpolateConfig`] | [`Surface`](crate::interpolate::Surface) | `surface` |
+//! | `contour` | [`Contour`] | [`ContourConfig`] | [`ContourFrame`](crate::contour::ContourFrame) | `contour` |
+//! | `contour` with `[stages.locate] method = "centroid"` | [`Centroid`] | [`LocateConfig`] | [`ContourFrame`](crate::contour::ContourFrame) | `contour` |
+//! | `window` with `method = "raw_contour"` | [`RawChange`] | [`LocateConfig`] | [`WindowAggregate`](crate::window::WindowAggregate) | `window` |
+//! | `track` | [`Track`] | [`TrackConfig`] | [`TrackPoint`](crate::track::TrackPoint) | `track` |
+//! | `force` | [`Force`] | [`ForceConfig`] | [`ForceEstimate`](crate::force::ForceEstimate) | `force` |
+//! | `servo` | [`Servo`] | [`ServoConfig`] | [`ServoCommand`](crate::servo::ServoCommand) | `servo` |
+//! | `slip` | [`Slip`] | [`SlipConfig`] | [`SlipEvent`](crate::slip::SlipEvent) | `slip` |
 //!
 //! The one name that differs is the surface's: the tap and the output are named for what comes
 //! out (a [`Surface`](crate::interpolate::Surface)), the stage for what it does

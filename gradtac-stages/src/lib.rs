@@ -10,6 +10,10 @@
 //! (a restatement of the GradTac paper); every stage's docs state its delay, units and
 //! trade-offs.
 #![warn(missing_docs)]
+// Where the crates that link here find these docs when rustdoc has not written them yet
+// (`cargo doc --no-deps --workspace` documents the members in parallel): beside their own,
+// relative to the doc root. Without it such links render as literal `[text]`.
+#![doc(html_root_url = "../")]
 
 mod error;
 pub mod event;
