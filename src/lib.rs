@@ -92,6 +92,7 @@ pub mod chain;
 #[cfg(feature = "plot")]
 pub mod demo;
 mod error;
+mod explain;
 pub mod guard;
 pub mod plan;
 #[cfg(feature = "plot")]
