@@ -218,8 +218,7 @@ async fn main() -> Result<(), BoxError> {
     let offline: Vec<Contact> = frames
         .iter()
         .cloned()
-        .map(Ok::<_, gradtac::stream::Error>)
-        .stage(Keyed::new(move |_: &SensorId| chain.clone()))
+        .stage_plain(Keyed::new(move |_: &SensorId| chain.clone()))
         .stage(map_stage(to_contact))
         .collect::<Result<_, _>>()?;
 

@@ -5,7 +5,7 @@
 //! cargo run --release --example dos_eval [-- [DATA_DIR] [--features a,b,c] [--model-out FILE] [--no-floors]]
 //! ```
 //!
-//! `DATA_DIR` defaults to `../shared/data/biotacsp-dos` (relative to the repository root);
+//! `DATA_DIR` defaults to `shared/data/biotacsp-dos` in the directory beside the repository;
 //! it holds `<class>/<object><n>.csv` files with columns `ff_e1..ff_e24` at ~100 Hz.
 //!
 //! **Headline** (`dos_eval_parts/headline.rs`; nothing in it is chosen on the recordings it

@@ -12,7 +12,7 @@
 //!
 //! Data: BioTacSP-DoS (Zapata-Impata, Gil and Torres, "Learning Spatio Temporal Tactile
 //! Features with a ConvLSTM for the Direction Of Slip Detection", Sensors 19(3):523, 2019),
-//! read from `../shared/data/biotacsp-dos` beside the repository or the directory given as
+//! read from `shared/data/biotacsp-dos` beside the repository or the directory given as
 //! the first argument; the example exits quietly when it is absent.
 //!
 //! Run: `cargo run --release --example locate_dos [-- DIR] [--locate "contact_sigmas = 8; window_frames = 9"]`.

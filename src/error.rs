@@ -24,13 +24,13 @@ pub enum Error {
     },
     /// From the core crate (layouts, pipeline errors).
     #[error(transparent)]
-    Stream(#[from] gradtac_stream::Error),
+    Stream(gradtac_stream::Error),
     /// From a stage (configuration, bad input).
     #[error(transparent)]
     Stage(#[from] gradtac_stages::Error),
     /// From a source or sink.
     #[error(transparent)]
-    Io2(#[from] gradtac_io::Error),
+    Io2(gradtac_io::Error),
     /// The run was interrupted (Ctrl-C); finished outputs were kept.
     #[error("interrupted")]
     Interrupted,
@@ -46,16 +46,36 @@ pub enum Error {
 
 impl Error {
     /// Unwrap a pipeline error into the most specific variant (stage or io error inside).
+    /// The same as `Error::from(e)`, which `?` uses.
     pub fn from_pipeline(e: gradtac_stream::Error) -> Self {
         match e {
             gradtac_stream::Error::Other(inner) => match inner.downcast::<gradtac_stages::Error>() {
                 Ok(s) => Error::Stage(*s),
                 Err(inner) => match inner.downcast::<gradtac_io::Error>() {
-                    Ok(s) => Error::Io2(*s),
+                    Ok(s) => Error::from(*s),
                     Err(inner) => Error::Stream(gradtac_stream::Error::Other(inner)),
                 },
             },
             other => Error::Stream(other),
+        }
+    }
+}
+
+/// `?` on a pipeline's items: the most specific variant (see [`Error::from_pipeline`]).
+impl From<gradtac_stream::Error> for Error {
+    fn from(e: gradtac_stream::Error) -> Self {
+        Error::from_pipeline(e)
+    }
+}
+
+/// `?` on a source's items: a stage or core error that travelled in a source's error type
+/// comes out as [`Error::Stage`] / [`Error::Stream`], the rest as [`Error::Io2`].
+impl From<gradtac_io::Error> for Error {
+    fn from(e: gradtac_io::Error) -> Self {
+        match e {
+            gradtac_io::Error::Stage(s) => Error::Stage(s),
+            gradtac_io::Error::Stream(s) => Error::from_pipeline(s),
+            e => Error::Io2(e),
         }
     }
 }

@@ -1,7 +1,9 @@
 //! The `gradtac` command-line tool: run a scene, explain its plan, or run the demo.
 
 use clap::{Parser, Subcommand};
-use gradtac::{demo, run, Plan, Scene};
+#[cfg(feature = "plot")]
+use gradtac::demo;
+use gradtac::{run, Plan, Scene};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -67,6 +69,7 @@ enum Command {
         #[arg(long)]
         no_mirror: bool,
     },
+    #[cfg(feature = "plot")]
     /// Render a gradtac Parquet output (any schema, any version: frame, event, window,
     /// surface, contour, track, slip, force, servo, dos) as an SVG or PNG figure: one file, or
     /// an archive directory (its finished `*.parquet` files, recursively, including
@@ -89,6 +92,7 @@ enum Command {
         to: Option<f64>,
     },
     /// Run the embedded demo scene on a synthetic recording, in a fresh directory.
+    #[cfg(feature = "plot")]
     Demo {
         /// Where to put the demo (default: a fresh directory under the system temp dir).
         #[arg(long)]
@@ -214,6 +218,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             );
             Ok(ExitCode::SUCCESS)
         }
+        #[cfg(feature = "plot")]
         Command::Plot { input, out, sensors, from, to } => {
             let out = out.unwrap_or_else(|| default_png(&input));
             gradtac::guard::check_output_file(&out, &[("the plotted input", &input)])?;
@@ -229,6 +234,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             say!("{}", plan.explain(&scene));
             Ok(ExitCode::SUCCESS)
         }
+        #[cfg(feature = "plot")]
         Command::Demo { dir, quiet } => {
             let dir = match dir {
                 Some(d) => d,
@@ -247,6 +253,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
     }
 }
 
+#[cfg(feature = "plot")]
 /// The default PNG of `gradtac plot`: a file's path with `.png`; for a directory, `<dir>.png`
 /// beside it (`.` and `..` resolved to their names first).
 fn default_png(input: &std::path::Path) -> PathBuf {

@@ -4,126 +4,12 @@
 //! one stage; a sensor runs a stage only if some output that covers the sensor taps that
 //! stage or a later one. A sensor no output covers is not read at all.
 
-use crate::chain::SensorChain;
 use crate::scene::Scene;
+/// The taps are the scene's vocabulary (an output names one); defined in [`crate::scene`] so
+/// that the scene reads them without importing the planner.
+pub use crate::scene::Tap;
 use crate::Error;
-use gradtac_stages::locate::LocateMethod;
 use gradtac_stream::Layout;
-use std::fmt::Write as _;
-
-/// A point of the per-sensor chain that an output can tap, in chain order. Its name is also
-/// the name of the stage's settings table (`[stages.<name>]`).
-#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Tap {
-    /// Raw frames as the source delivers them.
-    Source,
-    /// Min–max normalised frames.
-    Normalise,
-    /// Savitzky–Golay smoothed (or differentiated) frames.
-    Savgol,
-    /// Log-change event batches (one per frame).
-    Events,
-    /// Per-taxel event aggregates over a window.
-    Window,
-    /// Interpolated surfaces on a grid.
-    Surface,
-    /// Maximal contours.
-    Contour,
-    /// Contact track points.
-    Track,
-    /// Force estimates from the maximal contour's area (needs a calibrated model).
-    Force,
-    /// Edge-following motion commands from the contact's offset.
-    Servo,
-    /// Two-finger slip events (a pair of sensors: `[stages.slip] first`, `second`).
-    Slip,
-    /// One-fingertip slip direction (BioTacSP-DoS classes) from a calibrated model
-    /// (`[stages.dos] model = "…json"`, written by `gradtac calibrate`); on raw frames.
-    Dos,
-}
-
-impl Tap {
-    /// Every tap, in chain order.
-    pub const ALL: [Tap; 12] = [
-        Tap::Source,
-        Tap::Normalise,
-        Tap::Savgol,
-        Tap::Events,
-        Tap::Window,
-        Tap::Surface,
-        Tap::Contour,
-        Tap::Track,
-        Tap::Force,
-        Tap::Servo,
-        Tap::Slip,
-        Tap::Dos,
-    ];
-
-    /// The stage whose output this one consumes (`None` for the source). Stages form a tree:
-    /// the chain source → … → contour → track, with `force` on contours, `servo` and `slip` on
-    /// tracks.
-    pub fn parent(self) -> Option<Tap> {
-        Some(match self {
-            Tap::Source => return None,
-            Tap::Normalise | Tap::Dos => Tap::Source,
-            Tap::Savgol => Tap::Normalise,
-            Tap::Events => Tap::Savgol,
-            Tap::Window => Tap::Events,
-            Tap::Surface => Tap::Window,
-            Tap::Contour => Tap::Surface,
-            Tap::Track | Tap::Force => Tap::Contour,
-            Tap::Servo | Tap::Slip => Tap::Track,
-        })
-    }
-
-    /// This stage and every stage it depends on.
-    pub fn with_ancestors(self) -> impl Iterator<Item = Tap> {
-        std::iter::successors(Some(self), |t| t.parent())
-    }
-
-    /// The parent under a contact-location method (`[stages.locate] method`): `centroid`
-    /// makes contours straight from the source frames, `raw_contour` makes the window (the
-    /// per-taxel relative changes) from them; `events` is [`Tap::parent`].
-    pub fn parent_in(self, method: LocateMethod) -> Option<Tap> {
-        match (method, self) {
-            (LocateMethod::Centroid, Tap::Contour) | (LocateMethod::RawContour, Tap::Window) => Some(Tap::Source),
-            _ => self.parent(),
-        }
-    }
-
-    /// This stage and every stage it depends on under `method` (see [`Tap::parent_in`]).
-    pub fn with_ancestors_in(self, method: LocateMethod) -> impl Iterator<Item = Tap> {
-        std::iter::successors(Some(self), move |t| t.parent_in(method))
-    }
-
-    /// The tap's name in scenes.
-    pub fn name(self) -> &'static str {
-        match self {
-            Tap::Source => "source",
-            Tap::Normalise => "normalise",
-            Tap::Savgol => "savgol",
-            Tap::Events => "events",
-            Tap::Window => "window",
-            Tap::Surface => "surface",
-            Tap::Contour => "contour",
-            Tap::Track => "track",
-            Tap::Force => "force",
-            Tap::Servo => "servo",
-            Tap::Slip => "slip",
-            Tap::Dos => "dos",
-        }
-    }
-
-    /// The tap of a scene name.
-    pub fn parse(s: &str) -> Option<Tap> {
-        Tap::ALL.into_iter().find(|t| t.name() == s)
-    }
-
-    /// All tap names, in chain order.
-    pub fn names() -> Vec<&'static str> {
-        Tap::ALL.iter().map(|t| t.name()).collect()
-    }
-}
 
 /// What one sensor runs.
 #[derive(Clone, Debug)]
@@ -165,9 +51,10 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// Plan a scene: validate every stage setting that will be used (invalid configuration
-    /// fails here, before anything is read) and decide what each sensor runs.
-    pub fn new(scene: &Scene) -> Result<Plan, Error> {
+    /// Decide what each sensor runs (without building any stage). [`Plan::new`] is this plus
+    /// the construction of every stage, which lives downstream in `explain.rs` (it builds the
+    /// chains), so that this module never imports `chain`.
+    pub(crate) fn decide(scene: &Scene) -> Result<Plan, Error> {
         // Before anything is read: no output may replace an input, another output or a non-file.
         crate::guard::check_outputs(scene)?;
         let mut sensors = Vec::new();
@@ -199,10 +86,7 @@ impl Plan {
                 .collect();
             needed.sort();
             needed.dedup();
-            let plan = SensorPlan { index, name: spec.name.clone(), layout, needed, outputs };
-            // Construct each stage once now, so a bad setting is reported before any data moves.
-            SensorChain::build(scene, &plan).map_err(at)?;
-            sensors.push(plan);
+            sensors.push(SensorPlan { index, name: spec.name.clone(), layout, needed, outputs });
         }
         if scene.outputs.iter().any(|o| o.tap == Tap::Slip.name()) {
             let c = &scene.stages.slip;
@@ -220,66 +104,5 @@ impl Plan {
             let _validated = gradtac_stages::slip::Slip::try_new(c)?;
         }
         Ok(Plan { sensors })
-    }
-
-    /// The plan as text: which stages run for which sensor and why (`gradtac explain`).
-    pub fn explain(&self, scene: &Scene) -> String {
-        let mut s = String::new();
-        for p in &self.sensors {
-            let spec = &scene.sensors[p.index];
-            let _ = writeln!(
-                s,
-                "sensor {} — layout {} ({} taxels), source {} {}",
-                p.name,
-                p.layout.name(),
-                p.layout.len(),
-                spec.source.kind(),
-                scene.resolve(spec.source.path()).display()
-            );
-            if !p.is_read() {
-                let _ = writeln!(s, "  not read: no output uses this sensor");
-                continue;
-            }
-            let chain = SensorChain::build(scene, p).expect("validated by Plan::new");
-            for tap in p.stages() {
-                let tapped_by: Vec<String> = p
-                    .outputs
-                    .iter()
-                    .filter(|&&i| scene.outputs[i].tap == tap.name())
-                    .map(|&i| format!("output #{} {}", i + 1, scene.outputs[i].path.display()))
-                    .collect();
-                let why = if !tapped_by.is_empty() {
-                    format!("written to {}", tapped_by.join(", "))
-                } else {
-                    let next: Vec<&str> = p
-                        .stages()
-                        .filter(|t| t.parent_in(scene.stages.locate.method) == Some(tap))
-                        .map(Tap::name)
-                        .collect();
-                    format!("feeds {}", next.join(", "))
-                };
-                let _ = writeln!(s, "  {:<10} {:<52} {}", tap.name(), chain.describe(tap, &scene.stages), why);
-            }
-            let delay = chain.delay();
-            let later: Vec<&str> = Tap::ALL.into_iter().filter(|t| !p.runs(*t)).map(Tap::name).collect();
-            if !later.is_empty() {
-                let _ = writeln!(s, "  not built: {} (no output needs them)", later.join(", "));
-            }
-            let rate = spec.source.rate_hz();
-            let _ = writeln!(
-                s,
-                "  latency: {} frames + {:.3} ms in steady state{}; start-up holds {} frames",
-                delay.frames,
-                delay.nanos as f64 * 1e-6,
-                rate.map_or(String::new(), |r| format!(" (= {:.1} ms at {r} Hz)", delay.seconds_at(r) * 1e3)),
-                chain.startup_frames()
-            );
-        }
-        let _ = writeln!(s, "outputs:");
-        for (i, o) in scene.outputs.iter().enumerate() {
-            let who = o.sensors.as_ref().map_or("all sensors".to_string(), |v| v.join(", "));
-            let _ = writeln!(s, "  #{} {} → {} ({who})", i + 1, o.tap, scene.resolve(&o.path).display());
-        }
-        s
     }
 }

@@ -31,7 +31,8 @@ use std::time::Instant;
 /// Options of a run.
 #[derive(Clone, Debug, Default)]
 pub struct RunOptions {
-    /// Draw a progress bar (on stderr) over the sources' bytes.
+    /// Draw a progress bar (on stderr) over the sources' bytes (with the `cli` feature; without
+    /// it nothing is drawn).
     pub progress: bool,
 }
 
@@ -333,13 +334,14 @@ fn report_buses(buses: &[OpenBus]) -> Result<Vec<(String, String)>, Error> {
     Ok(lines)
 }
 
-/// Run a scene on a tokio runtime (see the [module docs](self)).
-pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunReport, Error> {
-    let start = Instant::now();
-    let OpenSources { streams, progress, buses } = open_sources(scene, plan)?;
-    let mut runner = Runner::new(scene, plan)?;
-    let bar = opts.progress.then(|| {
-        let total: u64 = progress.iter().filter_map(CsvProgress::total_bytes).sum();
+/// The run's progress bar: indicatif's with the `cli` feature, nothing without it.
+mod progress_bar {
+    #[cfg(feature = "cli")]
+    pub(super) use indicatif::ProgressBar as Bar;
+
+    /// A bar over `total` bytes.
+    #[cfg(feature = "cli")]
+    pub(super) fn new(total: u64) -> Bar {
         let bar = indicatif::ProgressBar::new(total);
         bar.set_style(
             indicatif::ProgressStyle::with_template(
@@ -348,7 +350,31 @@ pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunRep
             .expect("valid template"),
         );
         bar
-    });
+    }
+
+    /// Without the `cli` feature a bar draws nothing.
+    #[cfg(not(feature = "cli"))]
+    pub(super) struct Bar;
+
+    #[cfg(not(feature = "cli"))]
+    impl Bar {
+        pub(super) fn set_position(&self, _: u64) {}
+        pub(super) fn abandon_with_message(&self, _: &'static str) {}
+        pub(super) fn finish_and_clear(&self) {}
+    }
+
+    #[cfg(not(feature = "cli"))]
+    pub(super) fn new(_total: u64) -> Bar {
+        Bar
+    }
+}
+
+/// Run a scene on a tokio runtime (see the [module docs](self)).
+pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunReport, Error> {
+    let start = Instant::now();
+    let OpenSources { streams, progress, buses } = open_sources(scene, plan)?;
+    let mut runner = Runner::new(scene, plan)?;
+    let bar = opts.progress.then(|| progress_bar::new(progress.iter().filter_map(CsvProgress::total_bytes).sum()));
     let mut merged = merge_streams(streams, 256);
     let ctrl_c = tokio::signal::ctrl_c();
     tokio::pin!(ctrl_c);

@@ -33,7 +33,7 @@ use gradtac_stages::contour::ContourConfig;
 use gradtac_stages::events::EventsConfig;
 use gradtac_stages::force::ForceConfig;
 use gradtac_stages::interpolate::InterpolateConfig;
-use gradtac_stages::locate::LocateConfig;
+use gradtac_stages::locate::{LocateConfig, LocateMethod};
 use gradtac_stages::normalise::NormaliseConfig;
 use gradtac_stages::savgol::SavGolConfig;
 use gradtac_stages::servo::ServoConfig;
@@ -359,7 +359,7 @@ pub struct DosSettings {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
-    /// The stage whose output is written (see [`crate::plan::Tap`]).
+    /// The stage whose output is written (see [`Tap`]).
     pub tap: String,
     /// The Parquet file to write.
     pub path: PathBuf,
@@ -459,12 +459,12 @@ impl Scene {
             )));
         }
         for (i, o) in self.outputs.iter().enumerate() {
-            if crate::plan::Tap::parse(&o.tap).is_none() {
+            if Tap::parse(&o.tap).is_none() {
                 return Err(bad(format!(
                     "output #{} taps {:?}; known taps: {}",
                     i + 1,
                     o.tap,
-                    crate::plan::Tap::names().join(", ")
+                    Tap::names().join(", ")
                 )));
             }
             for name in o.sensors.iter().flatten() {
@@ -477,6 +477,120 @@ impl Scene {
             }
         }
         Ok(())
+    }
+}
+
+/// A point of the per-sensor chain that an output can tap, in chain order. Its name is also
+/// the name of the stage's settings table (`[stages.<name>]`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Tap {
+    /// Raw frames as the source delivers them.
+    Source,
+    /// Min–max normalised frames.
+    Normalise,
+    /// Savitzky–Golay smoothed (or differentiated) frames.
+    Savgol,
+    /// Log-change event batches (one per frame).
+    Events,
+    /// Per-taxel event aggregates over a window.
+    Window,
+    /// Interpolated surfaces on a grid.
+    Surface,
+    /// Maximal contours.
+    Contour,
+    /// Contact track points.
+    Track,
+    /// Force estimates from the maximal contour's area (needs a calibrated model).
+    Force,
+    /// Edge-following motion commands from the contact's offset.
+    Servo,
+    /// Two-finger slip events (a pair of sensors: `[stages.slip] first`, `second`).
+    Slip,
+    /// One-fingertip slip direction (BioTacSP-DoS classes) from a calibrated model
+    /// (`[stages.dos] model = "…json"`, written by `gradtac calibrate`); on raw frames.
+    Dos,
+}
+
+impl Tap {
+    /// Every tap, in chain order.
+    pub const ALL: [Tap; 12] = [
+        Tap::Source,
+        Tap::Normalise,
+        Tap::Savgol,
+        Tap::Events,
+        Tap::Window,
+        Tap::Surface,
+        Tap::Contour,
+        Tap::Track,
+        Tap::Force,
+        Tap::Servo,
+        Tap::Slip,
+        Tap::Dos,
+    ];
+
+    /// The stage whose output this one consumes (`None` for the source). Stages form a tree:
+    /// the chain source → … → contour → track, with `force` on contours, `servo` and `slip` on
+    /// tracks.
+    pub fn parent(self) -> Option<Tap> {
+        Some(match self {
+            Tap::Source => return None,
+            Tap::Normalise | Tap::Dos => Tap::Source,
+            Tap::Savgol => Tap::Normalise,
+            Tap::Events => Tap::Savgol,
+            Tap::Window => Tap::Events,
+            Tap::Surface => Tap::Window,
+            Tap::Contour => Tap::Surface,
+            Tap::Track | Tap::Force => Tap::Contour,
+            Tap::Servo | Tap::Slip => Tap::Track,
+        })
+    }
+
+    /// This stage and every stage it depends on.
+    pub fn with_ancestors(self) -> impl Iterator<Item = Tap> {
+        std::iter::successors(Some(self), |t| t.parent())
+    }
+
+    /// The parent under a contact-location method (`[stages.locate] method`): `centroid`
+    /// makes contours straight from the source frames, `raw_contour` makes the window (the
+    /// per-taxel relative changes) from them; `events` is [`Tap::parent`].
+    pub fn parent_in(self, method: LocateMethod) -> Option<Tap> {
+        match (method, self) {
+            (LocateMethod::Centroid, Tap::Contour) | (LocateMethod::RawContour, Tap::Window) => Some(Tap::Source),
+            _ => self.parent(),
+        }
+    }
+
+    /// This stage and every stage it depends on under `method` (see [`Tap::parent_in`]).
+    pub fn with_ancestors_in(self, method: LocateMethod) -> impl Iterator<Item = Tap> {
+        std::iter::successors(Some(self), move |t| t.parent_in(method))
+    }
+
+    /// The tap's name in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tap::Source => "source",
+            Tap::Normalise => "normalise",
+            Tap::Savgol => "savgol",
+            Tap::Events => "events",
+            Tap::Window => "window",
+            Tap::Surface => "surface",
+            Tap::Contour => "contour",
+            Tap::Track => "track",
+            Tap::Force => "force",
+            Tap::Servo => "servo",
+            Tap::Slip => "slip",
+            Tap::Dos => "dos",
+        }
+    }
+
+    /// The tap of a scene name.
+    pub fn parse(s: &str) -> Option<Tap> {
+        Tap::ALL.into_iter().find(|t| t.name() == s)
+    }
+
+    /// All tap names, in chain order.
+    pub fn names() -> Vec<&'static str> {
+        Tap::ALL.iter().map(|t| t.name()).collect()
     }
 }
 

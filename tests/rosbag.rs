@@ -1,4 +1,4 @@
-//! The real Shadow Hand bag (`../shared/data/rosbag`) through a scene to Parquet, compared
+//! The real Shadow Hand bag (`shared/data/rosbag`) through a scene to Parquet, compared
 //! value by value and stamp by stamp with an independent decode written here: a minimal
 //! record walker for an uncompressed ROS bag 2.0 and the fixed layout of the old
 //! `sr_robot_msgs/BiotacAll` (no `pac`) the bag's definition declares. Skips when the data
@@ -11,7 +11,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// `../shared` beside the repository, or the directory `GRADTAC_SHARED` names.
+/// `shared` beside the repository, or the directory `GRADTAC_SHARED` names.
 fn bag() -> Option<PathBuf> {
     let shared = std::env::var_os("GRADTAC_SHARED")
         .map(PathBuf::from)

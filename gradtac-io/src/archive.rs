@@ -448,7 +448,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
         &self.schema
     }
 
-    /// Records accepted so far, over all files.
+    /// Rows accepted so far, over all files (an event batch counts one row per event).
     pub fn rows(&self) -> u64 {
         self.rows
     }
@@ -494,6 +494,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
             self.open_file(&key)?;
         }
         let file = self.open.get_mut(&key).expect("opened above");
+        let rows_before = file.sink.rows();
         match file.sink.push(record) {
             Ok(()) => {}
             Err(e @ Error::Record { .. }) => return Err(e),
@@ -502,7 +503,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
                 return Err(e);
             }
         }
-        self.rows += 1;
+        self.rows += file.sink.rows() - rows_before;
         if file.span.is_none() {
             file.span = span;
         }

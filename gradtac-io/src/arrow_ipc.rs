@@ -1,5 +1,5 @@
 //! Arrow IPC sources: taxel frames from Arrow IPC files (`.arrow`, Feather v2) and streams,
-//! and from any iterator of [`RecordBatch`]es (an in-memory table a host application hands
+//! and from any iterator of [`RecordBatch`](https://docs.rs/arrow-array/60/arrow_array/struct.RecordBatch.html)es (an in-memory table a host application hands
 //! over).
 //!
 //! # Layouts
@@ -282,7 +282,7 @@ impl Stage for Decoding {
 
 impl<I> std::fmt::Debug for BatchFrames<I> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("BatchFrames").field("decoder", &StageIter::stage(&self.frames).0).finish_non_exhaustive()
+        f.debug_struct("BatchFrames").field("decoder", &self.frames.stage_ref().0).finish_non_exhaustive()
     }
 }
 
@@ -413,7 +413,7 @@ where
 
     /// The decoder (rows read, taxel count).
     pub fn decoder(&self) -> &BatchDecoder {
-        &StageIter::stage(&self.frames).0
+        &self.frames.stage_ref().0
     }
 }
 
@@ -613,7 +613,7 @@ where
     fn next(&mut self) -> Option<Result<TaxelFrame>> {
         Some(self.frames.next()?.map_err(|e| match e {
             // named after the batches decoded so far, as the decoder's own errors
-            Failed::Read(e) => StageIter::stage(&self.frames).0.err(None, e.to_string()),
+            Failed::Read(e) => self.frames.stage_ref().0.err(None, e.to_string()),
             Failed::Decode(e) => e,
         }))
     }

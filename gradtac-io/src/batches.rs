@@ -1,4 +1,4 @@
-//! A stage that turns records of any output type into Arrow [`RecordBatch`]es: the in-memory
+//! A stage that turns records of any output type into Arrow [`RecordBatch`](https://docs.rs/arrow-array/60/arrow_array/struct.RecordBatch.html)es: the in-memory
 //! sink a host application takes Arrow data from.
 //!
 //! Records are appended to Arrow builders as they arrive ([`ArrowRecord`]) and cut into

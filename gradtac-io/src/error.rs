@@ -90,6 +90,14 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// A stage's error in a pipeline fed by a gradtac-io source (`source.stage(Normalise…)`):
+    /// the stage's own error, naming the stage, sensor and frame.
+    #[error(transparent)]
+    Stage(gradtac_stages::Error),
+    /// A core-crate error in a pipeline fed by a gradtac-io source (a layout, a composed
+    /// [`Chain`](gradtac_stream::Chain)'s error).
+    #[error(transparent)]
+    Stream(gradtac_stream::Error),
 }
 
 /// Where in a recorded-hand file (ROS bag, MCAP) a problem is: the byte offset of the record
@@ -127,9 +135,44 @@ impl std::fmt::Display for BagSite {
     }
 }
 
+/// Into the common pipeline error. The [`Error::Stage`] and [`Error::Stream`] wrappers are
+/// taken off (a stage error becomes `Other(stage error)`, a core error itself), so converting
+/// back and forth never nests.
 impl From<Error> for gradtac_stream::Error {
     fn from(e: Error) -> Self {
-        gradtac_stream::Error::other(e)
+        match e {
+            Error::Stream(e) => e,
+            Error::Stage(e) => gradtac_stream::Error::other(e),
+            e => gradtac_stream::Error::other(e),
+        }
+    }
+}
+
+/// A stage error where a source's items carry this crate's error: `?` and
+/// [`IteratorStageExt::stage`](gradtac_stream::IteratorStageExt::stage) need no glue.
+impl From<gradtac_stages::Error> for Error {
+    fn from(e: gradtac_stages::Error) -> Self {
+        Error::Stage(e)
+    }
+}
+
+/// A core-crate error where a source's items carry this crate's error (a composed chain of
+/// stages has the core error). An error that came from this crate or from a stage is unwrapped
+/// to its own variant, never nested.
+impl From<gradtac_stream::Error> for Error {
+    fn from(e: gradtac_stream::Error) -> Self {
+        if e.downcast_ref::<Error>().is_some() || e.downcast_ref::<gradtac_stages::Error>().is_some() {
+            if let gradtac_stream::Error::Other(inner) = e {
+                return match inner.downcast::<Error>() {
+                    Ok(io) => *io,
+                    Err(inner) => match inner.downcast::<gradtac_stages::Error>() {
+                        Ok(stage) => Error::Stage(*stage),
+                        Err(inner) => Error::Stream(gradtac_stream::Error::Other(inner)),
+                    },
+                };
+            }
+        }
+        Error::Stream(e)
     }
 }
 
@@ -153,6 +196,23 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// io → stream → io and stage → io → stream → io give back the same error, not a nest.
+    #[test]
+    fn conversions_between_the_crates_errors_do_not_nest() {
+        let io = Error::InvalidConfig("x".into());
+        let back: Error = gradtac_stream::Error::from(io).into();
+        assert!(matches!(back, Error::InvalidConfig(ref r) if r == "x"), "{back:?}");
+        let stage = gradtac_stages::Error::InvalidConfig { stage: "savgol", reason: "even window".into() };
+        let as_io: Error = stage.clone().into();
+        let as_stream: gradtac_stream::Error = as_io.into();
+        assert_eq!(as_stream.downcast_ref::<gradtac_stages::Error>(), Some(&stage));
+        let again: Error = as_stream.into();
+        assert!(matches!(again, Error::Stage(ref s) if *s == stage), "{again:?}");
+        let core: Error = gradtac_stream::Error::UnknownLayout("nope".into()).into();
+        assert!(matches!(core, Error::Stream(gradtac_stream::Error::UnknownLayout(_))), "{core:?}");
+        assert_eq!(core.to_string(), gradtac_stream::Error::UnknownLayout("nope".into()).to_string());
+    }
 
     #[test]
     fn a_megabyte_cell_gives_a_short_error_line() {

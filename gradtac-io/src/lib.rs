@@ -4,6 +4,10 @@
 //! iterators (offline) and, through [`blocking`], as tokio-fed streams; sinks write any
 //! stage's output to Parquet through one Arrow schema per output type.
 #![warn(missing_docs)]
+// Where the crates that link here find these docs when rustdoc has not written them yet
+// (`cargo doc --no-deps --workspace` documents the members in parallel): beside their own,
+// relative to the doc root. Without it such links render as literal `[text]`.
+#![doc(html_root_url = "../")]
 
 pub mod archive;
 pub mod arrow_ipc;

@@ -304,7 +304,9 @@ impl<T: ArrowRecord> ParquetSink<T> {
         &self.schema
     }
 
-    /// Records accepted so far.
+    /// Rows accepted so far: what the file holds once finished. A record may be several rows
+    /// (an [`EventBatch`](gradtac_stages::EventBatch) is one row per event, none when empty),
+    /// so this is not the number of [`push`](Self::push) calls.
     pub fn rows(&self) -> u64 {
         self.rows
     }
@@ -325,8 +327,9 @@ impl<T: ArrowRecord> ParquetSink<T> {
     /// keep what can be kept).
     pub fn push(&mut self, record: &T) -> Result<()> {
         self.check_usable()?;
+        let pending = self.builder.len();
         self.builder.append(record)?;
-        self.rows += 1;
+        self.rows += (self.builder.len() - pending) as u64;
         if self.builder.len() >= self.row_group_size.min(self.batch_rows) {
             self.flush_batch()?;
             if let Some(w) = self.writer.as_mut().filter(|w| w.in_progress_size() > MAX_ROW_GROUP_BYTES) {
@@ -504,6 +507,35 @@ mod tests {
         assert!(e.to_string().contains("is a directory"), "{e}");
         let e = ParquetSink::<TaxelFrame>::try_new(dir.path().join("no/such/dir/x.parquet"), shape).unwrap_err();
         assert!(matches!(e, Error::Io { .. }), "{e}");
+    }
+
+    /// `rows()` counts rows written, not records pushed: an event batch is one row per event
+    /// (the run summary prints it), and the finished file holds exactly that many.
+    #[test]
+    fn rows_counts_rows_not_records() {
+        use gradtac_stages::{EventBatch, TactileEvent};
+        let dir = tempfile::tempdir().unwrap();
+        let shape = crate::records::EventShape::unnamed(3).unwrap();
+        let mut sink = ParquetSink::<EventBatch>::try_new(dir.path().join("e.parquet"), shape).unwrap();
+        let batch = |seq: u64, taxels: &[u16]| EventBatch {
+            sensor: SensorId::new("ff"),
+            time: Timestamp(seq as i64),
+            seq,
+            taxels: 3,
+            events: taxels
+                .iter()
+                .map(|&taxel| TactileEvent { time: Timestamp(seq as i64), taxel, polarity: 1 })
+                .collect(),
+        };
+        for (seq, taxels) in [(0, &[0u16, 1, 2][..]), (1, &[][..]), (2, &[2, 0][..])] {
+            sink.push(&batch(seq, taxels)).unwrap();
+        }
+        assert_eq!(sink.rows(), 5);
+        let path = sink.finish().unwrap();
+        let file = std::fs::File::open(path).unwrap();
+        let meta = parquet::file::reader::SerializedFileReader::new(file).unwrap();
+        use parquet::file::reader::FileReader;
+        assert_eq!(meta.metadata().file_metadata().num_rows(), 5);
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! ROS 1 bag source: synthetic bags written here (both Shadow `Biotac` definitions, every
-//! chunk compression), malformed bags, and the real Shadow Hand bag when `../shared` is present.
+//! chunk compression), malformed bags, and the real Shadow Hand bag when the `shared` directory beside the repository is present.
 
 use gradtac_io::rosbag::{BagReader, BagSensor, Finger, RosbagFrames, StampSource};
 use gradtac_stream::{SensorId, TaxelFrame};
@@ -247,7 +247,7 @@ fn malformed_bags_are_errors_naming_the_file_never_panics() {
     assert!(e.contains("1.2") && e.contains("not supported"), "{e}");
 }
 
-/// The real bag from a Shadow Hand (`../shared/data/rosbag` beside the repository, or under
+/// The real bag from a Shadow Hand (`shared/data/rosbag` beside the repository, or under
 /// the directory `GRADTAC_SHARED` names), when present.
 fn shared_bag() -> Option<PathBuf> {
     let shared = std::env::var_os("GRADTAC_SHARED")

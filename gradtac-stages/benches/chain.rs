@@ -11,7 +11,7 @@
 //! - `chain/<input>/full_incremental`: the same with `incremental = true`.
 //! - `contour_of_window/<input>/{peak,full}`: the surface + contour part alone, per window.
 //!
-//! Inputs: `real` — one BioTacSP-DoS recording (`../shared/data/biotacsp-dos/…`, beside the
+//! Inputs: `real` — one BioTacSP-DoS recording (`shared/data/biotacsp-dos/…`, beside the
 //! workspace; skipped when absent) tiled 10 times (2,800 frames at 100 Hz); `sim` — a simulated
 //! two-finger grasp's first finger (`gradtac_stages::sim`, seed 1). Each iteration builds the
 //! chain (the weight table is shared, so that is cheap) and pushes every frame; throughput is
@@ -33,7 +33,7 @@ use std::path::{Path, PathBuf};
 
 const RATE_HZ: f64 = 100.0;
 
-/// The BioTacSP-DoS directory beside the workspace (`../shared/data`; the environment
+/// The BioTacSP-DoS directory beside the workspace (`shared/data`; the environment
 /// variable `GRADTAC_SHARED_DATA` names another data directory), if present.
 fn dos_dir() -> Option<PathBuf> {
     let data = std::env::var_os("GRADTAC_SHARED_DATA")

@@ -5,7 +5,7 @@
 //!
 //! - `locate/<chain>/<recording>`: raw counts → track points, per input frame (throughput in
 //!   frames), on a simulated family member (`sim`, always) and on a BioTacSP-DoS recording
-//!   (`dos`, `cw/bottle4.csv` from `../shared/data` beside the repository or `$GRADTAC_DOS_DIR`;
+//!   (`dos`, `cw/bottle4.csv` from `shared/data` beside the repository or `$GRADTAC_DOS_DIR`;
 //!   skipped when absent).
 //!   `<chain>` is `centroid` (the default: speed-bounded centroid → track), `events`
 //!   (Savitzky–Golay → events τ = 0.001 → 10-frame count window → natural neighbour 16×16 →
@@ -29,7 +29,7 @@ use std::path::Path;
 use std::time::Instant;
 
 fn dos_recording() -> Option<Vec<TaxelFrame>> {
-    // GRADTAC_DOS_DIR overrides where the dataset is (a worktree away from ../shared)
+    // GRADTAC_DOS_DIR overrides where the dataset is (a worktree away from the shared data)
     let root = std::env::var_os("GRADTAC_DOS_DIR")
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/biotacsp-dos"));

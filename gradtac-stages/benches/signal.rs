@@ -14,7 +14,7 @@
 //! throughput depends on the event density far more than on anything else.
 //!
 //! Group `real_biotacsp_dos` runs the chain over the real BioTacSP-DoS recordings when the
-//! shared data directory is present (`$GRADTAC_DATA`, default `../../shared/data`), and is
+//! shared data directory is present (`$GRADTAC_DATA`, default `shared/data` beside the repository), and is
 //! skipped otherwise.
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
@@ -140,7 +140,7 @@ fn benches(c: &mut Criterion) {
 }
 
 /// BioTacSP-DoS recordings (Zapata-Impata, Gil and Torres, Sensors 19(3):523, 2019) from the
-/// shared data directory (`$GRADTAC_DATA` or `../../shared/data` from this crate), if present:
+/// shared data directory (`$GRADTAC_DATA` or `shared/data` beside the repository), if present:
 /// every sequence as its own stream of raw counts at 100 Hz.
 fn real_recordings() -> Option<Vec<Vec<TaxelFrame>>> {
     let root = std::env::var_os("GRADTAC_DATA")

@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release -p gradtac-stages --example chain_cost -- <peak|full|full_incremental|front|contour_peak|contour_full> [repeats] [recording.csv]
 //! ```
-//! The recording defaults to `../shared/data/biotacsp-dos/aw/bottle0.csv` beside the
+//! The recording defaults to `shared/data/biotacsp-dos/aw/bottle0.csv` beside the
 //! workspace (or under `$GRADTAC_SHARED_DATA`), tiled 10 times; without it a simulated grasp
 //! is used. Prints frames, windows, contacts, wall ns per frame.
 use gradtac_stages::contour::{Contour, ContourConfig};

@@ -780,6 +780,10 @@ pub struct Interpolate<I = crate::window::WindowAggregate> {
     _in: std::marker::PhantomData<fn(I)>,
 }
 
+/// The [`Interpolate`] stage under its scene name: the `surface` tap (`[stages.surface]`)
+/// makes [`Surface`]s with it.
+pub type SurfaceStage<I = crate::window::WindowAggregate> = Interpolate<I>;
+
 impl<I> Interpolate<I> {
     /// A stage for a layout. Fails on an invalid grid, method parameter or degenerate layout.
     pub fn try_new(cfg: &InterpolateConfig, layout: &Layout) -> Result<Self> {

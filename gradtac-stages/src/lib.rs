@@ -10,11 +10,16 @@
 //! (a restatement of the GradTac paper); every stage's docs state its delay, units and
 //! trade-offs.
 #![warn(missing_docs)]
+// Where the crates that link here find these docs when rustdoc has not written them yet
+// (`cargo doc --no-deps --workspace` documents the members in parallel): beside their own,
+// relative to the doc root. Without it such links render as literal `[text]`.
+#![doc(html_root_url = "../")]
 
 mod error;
 pub mod event;
 
 pub mod centroid;
+pub mod context;
 pub mod contour;
 pub mod dos;
 pub mod dos_select;
@@ -36,5 +41,6 @@ pub mod slip;
 pub mod track;
 pub mod window;
 
+pub use context::{FromConfig, StageContext};
 pub use error::{Error, Result};
 pub use event::{EventBatch, TactileEvent};

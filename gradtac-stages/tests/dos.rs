@@ -1,5 +1,5 @@
 //! The one-fingertip slip-direction classifier on the real BioTacSP-DoS recordings
-//! (Zapata-Impata, Gil and Torres, Sensors 19(3):523, 2019), read from `../shared/data` when
+//! (Zapata-Impata, Gil and Torres, Sensors 19(3):523, 2019), read from `shared/data` when
 //! present; the test passes (with a printed note) without it.
 //!
 //! Leave-one-object-out over the six objects with the default features and decision rule: the

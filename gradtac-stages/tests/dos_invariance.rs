@@ -3,7 +3,7 @@
 //! recording change no decision, and a recording mirrored across `y = 0` (BioTac SP electrodes
 //! 11–20 ↔ 1–10, 22 ↔ 23; 21 and 24 on the midline) gets the mirrored class (`e` ↔ `w`,
 //! `cw` ↔ `aw`). On synthetic recordings (a pressure spot moving or turning on the layout), and
-//! on the real BioTacSP-DoS recordings when `../shared/data` is present (skipped otherwise).
+//! on the real BioTacSP-DoS recordings when `shared/data` is present (skipped otherwise).
 
 use gradtac_stages::dos::{mirror_augmented, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel};
 use gradtac_stream::{Layout, TaxelFrame, Timestamp};

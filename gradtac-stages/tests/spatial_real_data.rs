@@ -1,5 +1,5 @@
 //! The spatial chain on real BioTacSP-DoS recordings (Zapata-Impata, Gil and Torres, Sensors
-//! 19(3):523, 2019), read from `../shared/data` when present; the test passes without it.
+//! 19(3):523, 2019), read from `shared/data` when present; the test passes without it.
 //!
 //! raw counts → events (τ = 0.005 on ln counts) → sliding window (10 frames) → natural
 //! neighbour 32×32 → maximal contour → track. Checks that real data runs without errors and

@@ -3,7 +3,7 @@
 //! The core of [gradtac](https://docs.rs/gradtac): the data types every stage shares
 //! ([`TaxelFrame`], [`Layout`], [`SensorId`], [`Timestamp`]), the synchronous [`Stage`]
 //! abstraction, and the adapters that run any stage over an [`Iterator`]
-//! ([`IteratorStageExt`]) or a [`futures::Stream`] ([`StreamStageExt`]), per sensor
+//! ([`IteratorStageExt`]) or a [`futures::Stream`](https://docs.rs/futures/0.3/futures/stream/trait.Stream.html) ([`StreamStageExt`]), per sensor
 //! ([`Keyed`]), and that merge several sources by time ([`merge_iter`], [`merge_streams`]).
 //!
 //! A stage is a plain state machine: push one input, get zero or more outputs; `finish`
@@ -23,6 +23,10 @@
 //! assert_eq!(offline.unwrap(), live.into_iter().collect::<Result<Vec<_>, _>>().unwrap());
 //! ```
 #![warn(missing_docs)]
+// Where the crates that link here find these docs when rustdoc has not written them yet
+// (`cargo doc --no-deps --workspace` documents the members in parallel): beside their own,
+// relative to the doc root. Without it such links render as literal `[text]`.
+#![doc(html_root_url = "../")]
 
 pub mod adapters;
 mod error;
@@ -34,10 +38,10 @@ mod sensor;
 mod stage;
 mod time;
 
-pub use adapters::iter::{IteratorStageExt, StageIter};
+pub use adapters::iter::{IteratorStageExt, PlainItems, StageIter};
 pub use adapters::merge_iter::{merge_iter, MergeIter};
 pub use adapters::merge_stream::{merge_streams, MergeStreams};
-pub use adapters::stream::{StageStream, StreamStageExt};
+pub use adapters::stream::{PlainStream, StageStream, StreamStageExt};
 pub use error::{Error, Result};
 pub use frame::TaxelFrame;
 pub use keyed::Keyed;

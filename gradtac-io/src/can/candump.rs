@@ -580,12 +580,12 @@ impl<R: BufRead> CandumpSource<R> {
 
     /// The decoder's counts so far.
     pub fn stats(&self) -> CanStats {
-        StageIter::stage(&self.frames).stats()
+        self.frames.stage_ref().stats()
     }
 
     /// A shared handle on the decoder's counts.
     pub fn stats_handle(&self) -> StatsHandle {
-        StageIter::stage(&self.frames).stats_handle()
+        self.frames.stage_ref().stats_handle()
     }
 
     /// The reader's counts (lines, skipped remote/error/FD frames).

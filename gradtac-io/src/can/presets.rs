@@ -21,7 +21,7 @@
 //! at id `0x710 + taxel` (16 taxels, a 4×4 module) with `X = d[1] << 8 | d[2]`,
 //! `Y = d[3] << 8 | d[4]`, `Z = d[5] << 8 | d[6]`; `d[1] ≥ 250` marks an invalid sample
 //! (counted `invalid_sample`, the taxel's value unused). The preset maps Z, the normal
-//! component, to the taxel's value (raw counts). Frames are 8 bytes (the driver reads d[1]–d[6];
+//! component, to the taxel's value (raw counts). Frames are 8 bytes (the driver reads `d[1]`–`d[6]`;
 //! the length is our assumption). Sensor `i` of the preset owns ids
 //! `base_id + i·B …` with `B` = `taxels` rounded up to a power of two — the public driver
 //! handles one board only, so ids for a second board are our extrapolation.

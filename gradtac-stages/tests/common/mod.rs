@@ -1,4 +1,4 @@
-//! Helpers shared by the tests that read the BioTacSP-DoS recordings from `../shared/data`.
+//! Helpers shared by the tests that read the BioTacSP-DoS recordings from `shared/data` beside the repository.
 
 use std::path::{Path, PathBuf};
 
@@ -12,7 +12,7 @@ pub fn read(path: &Path) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// `../shared/data/biotacsp-dos` when present; `None` (with a printed note) otherwise, so a
+/// `shared/data/biotacsp-dos` when present; `None` (with a printed note) otherwise, so a
 /// test can pass without the data.
 pub fn data_dir() -> Option<PathBuf> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/biotacsp-dos");

@@ -18,12 +18,17 @@ pub struct StageIter<I, S: Stage> {
 }
 
 impl<I, S: Stage> StageIter<I, S> {
-    /// The stage being driven.
+    /// The stage being driven (its statistics, its [`delay`](Stage::delay)).
     ///
-    /// With [`IteratorStageExt`] in scope, `it.stage()` resolves to that trait's `stage`
-    /// (a `StageIter` is an iterator too); call this one as `StageIter::stage(&it)`.
-    pub fn stage(&self) -> &S {
+    /// Named `stage_ref`, not `stage`, so that it never shadows
+    /// [`IteratorStageExt::stage`]: `it.stage(next)` on a `StageIter` always adds a stage.
+    pub fn stage_ref(&self) -> &S {
         &self.stage
+    }
+
+    /// The stage being driven, mutably.
+    pub fn stage_mut(&mut self) -> &mut S {
+        &mut self.stage
     }
 
     /// The input iterator (e.g. a reader's line count or statistics). Items it has yielded may
@@ -83,16 +88,37 @@ where
     }
 }
 
-/// Runs stages over iterators of `Result` items; implemented for every such iterator.
+/// An iterator of plain items as `Ok` items of the common [`Error`](crate::Error): the input
+/// of [`IteratorStageExt::stage_plain`].
+pub type PlainItems<I> = std::iter::Map<I, fn(<I as Iterator>::Item) -> Result<<I as Iterator>::Item, crate::Error>>;
+
+/// Runs stages over iterators; implemented for every iterator.
+///
+/// Two entry points, as `futures` has `TryStreamExt` beside `StreamExt`:
+///
+/// - [`stage`](IteratorStageExt::stage) for iterators of `Result` items (every gradtac
+///   source): the output keeps the input's error type `E`, and the stage's error must convert
+///   into it (`S::Error: Into<E>`). The error types of gradtac's crates all convert into
+///   [`gradtac_stream::Error`](crate::Error) and into `gradtac_io::Error`, so any gradtac
+///   stage follows any gradtac source or stage, and `?` lifts the result into
+///   `gradtac::Error` or `Box<dyn Error>`.
+/// - [`stage_plain`](IteratorStageExt::stage_plain) for iterators of plain items (frames held
+///   in a `Vec`): items become `Ok` items of [`gradtac_stream::Error`](crate::Error).
 ///
 /// ```
 /// use gradtac_stream::{map_stage, IteratorStageExt};
+/// // plain items
 /// let out: Result<Vec<i32>, gradtac_stream::Error> =
-///     [1, 2, 3].into_iter().map(Ok).stage(map_stage(|x: i32| x + 1)).collect();
+///     [1, 2, 3].into_iter().stage_plain(map_stage(|x: i32| x + 1)).collect();
 /// assert_eq!(out.unwrap(), vec![2, 3, 4]);
+/// // `Result` items: the error type is the input's; the first error ends the iterator
+/// use gradtac_stream::Error;
+/// let out: Result<Vec<i32>, Error> =
+///     [Ok(1), Err(Error::UnknownLayout("bad".into()))].into_iter().stage(map_stage(|x: i32| x + 1)).collect();
+/// assert!(matches!(out, Err(Error::UnknownLayout(_))));
 /// ```
 pub trait IteratorStageExt: Iterator + Sized {
-    /// Drive `stage` with this iterator's items (see [`StageIter`]).
+    /// Drive `stage` with this iterator's `Result` items (see [`StageIter`]).
     fn stage<S, E>(self, stage: S) -> StageIter<Self, S>
     where
         Self: Iterator<Item = Result<S::In, E>>,
@@ -100,6 +126,18 @@ pub trait IteratorStageExt: Iterator + Sized {
         S::Error: Into<E>,
     {
         StageIter { inner: self, stage, buf: Vec::new(), ready: VecDeque::new(), done: false }
+    }
+
+    /// Drive `stage` with this iterator's plain (not `Result`) items; the outputs are
+    /// `Result<S::Out, gradtac_stream::Error>`, so further [`stage`](IteratorStageExt::stage)
+    /// calls need no glue. Saves `.map(Ok::<_, gradtac_stream::Error>)`.
+    fn stage_plain<S>(self, stage: S) -> StageIter<PlainItems<Self>, S>
+    where
+        S: Stage<In = Self::Item>,
+        S::Error: Into<crate::Error>,
+    {
+        let ok: fn(Self::Item) -> Result<Self::Item, crate::Error> = Ok;
+        self.map(ok).stage(stage)
     }
 }
 
@@ -116,11 +154,22 @@ mod tests {
         let mut it = [1u8, 2, 3].into_iter().map(Ok::<u8, crate::Error>).stage(Counting(0));
         assert!(format!("{it:?}").contains("stage: Counting(0), queued: 0, done: false"), "{it:?}");
         assert_eq!(it.next().unwrap().unwrap(), 1);
-        assert_eq!((it.inner().len(), StageIter::stage(&it).0), (2, 1));
+        assert_eq!((it.inner().len(), it.stage_ref().0), (2, 1));
         assert_eq!(it.by_ref().map(Result::unwrap).collect::<Vec<_>>(), vec![2, 3]);
-        assert_eq!((it.inner().len(), StageIter::stage(&it).0), (0, 3));
+        assert_eq!((it.inner().len(), it.stage_ref().0), (0, 3));
         let d = format!("{it:?}");
         assert!(d.starts_with("StageIter { inner: ") && d.contains("stage: Counting(3), queued: 0, done: true"), "{d}");
+    }
+
+    /// `stage` on a `StageIter` adds a stage (no inherent method shadows it), and plain items
+    /// need no `Ok` wrapping.
+    #[test]
+    fn stage_on_a_stage_iter_chains_and_plain_items_compose() {
+        let it = [1u8, 2].into_iter().stage_plain(Counting(0)).stage(Counting(0)).stage(Counting(10));
+        assert_eq!(it.stage_ref().0, 10);
+        assert_eq!(it.inner().stage_ref().0, 0);
+        let out: Vec<u8> = it.collect::<Result<_, _>>().unwrap();
+        assert_eq!(out, [1, 2]);
     }
 
     #[derive(Debug)]

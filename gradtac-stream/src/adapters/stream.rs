@@ -26,9 +26,15 @@ pin_project! {
 }
 
 impl<St, S: Stage> StageStream<St, S> {
-    /// The stage being driven.
-    pub fn stage(&self) -> &S {
+    /// The stage being driven (named `stage_ref` so that it never shadows
+    /// [`StreamStageExt::stage`]).
+    pub fn stage_ref(&self) -> &S {
         &self.stage
+    }
+
+    /// The inner stream.
+    pub fn inner(&self) -> &St {
+        &self.inner
     }
 }
 
@@ -74,18 +80,26 @@ where
     }
 }
 
-/// Runs stages over streams of `Result` items; implemented for every such stream.
+/// A stream of plain items as `Ok` items of the common [`Error`](crate::Error): the input of
+/// [`StreamStageExt::stage_plain`].
+pub type PlainStream<St> =
+    futures::stream::Map<St, fn(<St as Stream>::Item) -> Result<<St as Stream>::Item, crate::Error>>;
+
+/// Runs stages over streams; implemented for every stream. The stream form of
+/// [`IteratorStageExt`](crate::IteratorStageExt), with the same two entry points: `stage` for
+/// `Result` items (a `TryStream`: the output keeps the input's error type, the stage's error
+/// converts into it) and `stage_plain` for plain items.
 ///
 /// ```
 /// use futures::{stream, StreamExt};
 /// use gradtac_stream::{map_stage, StreamStageExt};
 /// let out: Vec<Result<i32, gradtac_stream::Error>> = futures::executor::block_on(
-///     stream::iter([Ok(1), Ok(2)]).stage(map_stage(|x: i32| x * 10)).collect(),
+///     stream::iter([1, 2]).stage_plain(map_stage(|x: i32| x * 10)).stage(map_stage(|x: i32| x + 1)).collect(),
 /// );
-/// assert_eq!(out.into_iter().map(Result::unwrap).collect::<Vec<_>>(), vec![10, 20]);
+/// assert_eq!(out.into_iter().map(Result::unwrap).collect::<Vec<_>>(), vec![11, 21]);
 /// ```
 pub trait StreamStageExt: Stream + Sized {
-    /// Drive `stage` with this stream's items (see [`StageStream`]).
+    /// Drive `stage` with this stream's `Result` items (see [`StageStream`]).
     fn stage<S, E>(self, stage: S) -> StageStream<Self, S>
     where
         Self: Stream<Item = Result<S::In, E>>,
@@ -93,6 +107,17 @@ pub trait StreamStageExt: Stream + Sized {
         S::Error: Into<E>,
     {
         StageStream { inner: self, stage, buf: Vec::new(), ready: VecDeque::new(), done: false }
+    }
+
+    /// Drive `stage` with this stream's plain (not `Result`) items; the outputs are
+    /// `Result<S::Out, gradtac_stream::Error>`.
+    fn stage_plain<S>(self, stage: S) -> StageStream<PlainStream<Self>, S>
+    where
+        S: Stage<In = Self::Item>,
+        S::Error: Into<crate::Error>,
+    {
+        let ok: fn(Self::Item) -> Result<Self::Item, crate::Error> = Ok;
+        futures::StreamExt::map(self, ok).stage(stage)
     }
 }
 

@@ -1,0 +1,241 @@
+//! [`DosClassifier`]: the `dos` stage, raw frames in, [`DosDecision`]s out.
+
+use super::*;
+
+/// One slip-direction decision of the [`DosClassifier`] stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DosDecision {
+    /// The sensor.
+    pub sensor: SensorId,
+    /// Time of the span's first frame.
+    pub start: Timestamp,
+    /// Time of its last frame.
+    pub end: Timestamp,
+    /// Index of the last frame.
+    pub seq: u64,
+    /// Frames in the span.
+    pub frames: u64,
+    /// The decision.
+    pub decision: Decision,
+    /// The span's features (all of them, [`Feature::ALL`] order).
+    pub features: FeatureVector,
+}
+
+impl Timed for DosDecision {
+    fn time(&self) -> Timestamp {
+        self.end
+    }
+}
+
+impl HasSensor for DosDecision {
+    fn sensor(&self) -> &SensorId {
+        &self.sensor
+    }
+}
+
+/// The classifier as a [`Stage`]: raw frames of one sensor in, [`DosDecision`]s out.
+///
+/// | mode | decisions | each covers |
+/// |---|---|---|
+/// | `decision_frames = None` | one per segment, at [`finish`](Stage::finish) | the whole recording |
+/// | `decision_frames = Some(n)` | one per `n` frames (tumbling) | the last `n` frames, event references carried over |
+/// | `Some(n)` + [`with_hop`](Self::with_hop)`(h)` | one every `h` frames once `n` have arrived (sliding) | the last `n` frames, **as a fresh recording** |
+///
+/// The sliding mode is the one for a robot: an answer every `h` frames (e.g. 10 = 0.1 s) about
+/// the last `n` (e.g. 250 = 2.5 s; see the latency trade in the [module docs](crate::dos)), each
+/// computed exactly as [`DosModel::calibrate`]'s labelled recordings were — from the window's
+/// first frame, nothing carried over — so a model calibrated on recordings of `n` frames meets
+/// the same features live. It costs one extraction of `n` frames per decision (≈ 0.28 µs × `n`,
+/// 70 µs for 250 frames) on top of checking every frame as it arrives. At `finish`, frames
+/// pushed since the last decision get one more decision over the last (up to) `n` frames.
+///
+/// [`reset`](Stage::reset) drops the open span (and the sliding window). Delay: `n − 1` frames;
+/// with `None` the decision comes at `finish` and [`Stage::delay`] reports zero (no frame
+/// count describes it).
+#[derive(Clone, Debug)]
+#[must_use = "a stage does nothing until frames are pushed"]
+pub struct DosClassifier {
+    model: DosModel,
+    extractor: DosFeatureExtractor,
+    decision_frames: Option<u64>,
+    span: Option<(SensorId, Timestamp, Timestamp, u64)>,
+    /// Sliding mode: the hop, the window of the last `decision_frames` frames, frames since the
+    /// last decision, and the extractor the window is replayed through.
+    sliding: Option<Sliding>,
+}
+
+#[derive(Clone, Debug)]
+struct Sliding {
+    hop: u64,
+    /// Decide every `hop` frames from the first, before the window is full.
+    early: bool,
+    recent: std::collections::VecDeque<TaxelFrame>,
+    since: u64,
+    replay: DosFeatureExtractor,
+}
+
+impl DosClassifier {
+    /// A classifier for `layout`'s sensor; `decision_frames` (≥ 1) or `None` for one decision
+    /// per segment.
+    pub fn try_new(model: DosModel, layout: &Layout, decision_frames: Option<u64>) -> Result<Self> {
+        model.validate()?;
+        if decision_frames == Some(0) {
+            return Err(invalid("decision_frames must be ≥ 1"));
+        }
+        if let Some(n) = decision_frames.filter(|&n| n > crate::limits::MAX_DOS_FRAMES) {
+            return Err(invalid(format!(
+                "decision_frames = {n} exceeds the maximum of {}",
+                crate::limits::MAX_DOS_FRAMES
+            )));
+        }
+        let extractor = DosFeatureExtractor::try_new(&model.config, layout)?;
+        Ok(DosClassifier { model, extractor, decision_frames, span: None, sliding: None })
+    }
+
+    /// Sliding decisions: one every `hop` frames (≥ 1) over the last `decision_frames` frames,
+    /// each extracted as a fresh recording (see the table above). Needs `decision_frames`.
+    pub fn with_hop(mut self, hop: u64) -> Result<Self> {
+        let Some(n) = self.decision_frames else {
+            return Err(invalid("a hop needs decision_frames (the window the sliding decisions cover)"));
+        };
+        if hop == 0 {
+            return Err(invalid("hop must be ≥ 1 frame"));
+        }
+        if hop > crate::limits::MAX_DOS_FRAMES {
+            return Err(invalid(format!(
+                "hop_frames = {hop} exceeds the maximum of {}",
+                crate::limits::MAX_DOS_FRAMES
+            )));
+        }
+        let replay = self.extractor.clone();
+        self.sliding = Some(Sliding {
+            hop,
+            early: false,
+            recent: std::collections::VecDeque::with_capacity(usize::try_from(n).unwrap_or(0).min(1 << 20)),
+            since: 0,
+            replay,
+        });
+        Ok(self)
+    }
+
+    /// Sliding mode with early answers: a decision every `hop` frames from the first hop after
+    /// contact (a [`reset`](Stage::reset) or the start), each over all frames since then until
+    /// `decision_frames` have arrived, over the last `decision_frames` after that — what a robot
+    /// that must act before the window fills sees (the accuracy by time since contact is in the
+    /// [module docs](crate::dos)). Needs [`with_hop`](Self::with_hop) first.
+    pub fn with_early_decisions(mut self) -> Result<Self> {
+        match &mut self.sliding {
+            Some(sl) => sl.early = true,
+            None => return Err(invalid("early decisions need the sliding mode (with_hop)")),
+        }
+        Ok(self)
+    }
+
+    /// The hop of the sliding mode (`None`: tumbling spans or one decision per segment).
+    pub fn hop(&self) -> Option<u64> {
+        self.sliding.as_ref().map(|s| s.hop)
+    }
+
+    /// The model.
+    pub fn model(&self) -> &DosModel {
+        &self.model
+    }
+
+    fn emit(&mut self, out: &mut Vec<DosDecision>) -> Result<()> {
+        if let Some((sensor, start, end, seq)) = self.span.take() {
+            let features = self.extractor.features();
+            let decision = self.model.classify_vector(&features)?;
+            out.push(DosDecision { sensor, start, end, seq, frames: features.frames, decision, features });
+            self.extractor.clear_span();
+        }
+        Ok(())
+    }
+}
+
+impl DosClassifier {
+    /// Sliding mode: one decision over the frames in the window, replayed as a fresh recording.
+    fn decide_window(&mut self, out: &mut Vec<DosDecision>) -> Result<()> {
+        let Some(sl) = &mut self.sliding else { return Ok(()) };
+        let (Some(first), Some(last)) = (sl.recent.front(), sl.recent.back()) else { return Ok(()) };
+        let (sensor, start, end, seq) = (last.sensor.clone(), first.time, last.time, last.seq);
+        sl.replay.reset();
+        for f in &sl.recent {
+            sl.replay.push(f.clone())?;
+        }
+        let features = sl.replay.features();
+        let decision = self.model.classify_vector(&features)?;
+        out.push(DosDecision { sensor, start, end, seq, frames: features.frames, decision, features });
+        sl.since = 0;
+        Ok(())
+    }
+
+    fn push_sliding(&mut self, frame: TaxelFrame, out: &mut Vec<DosDecision>) -> Result<()> {
+        let n = self.decision_frames.unwrap_or(1);
+        // every frame is checked as it arrives (the same errors as the other modes)
+        self.extractor.push(frame.clone())?;
+        self.extractor.clear_span();
+        let Some(sl) = &mut self.sliding else { return Ok(()) };
+        if sl.recent.len() as u64 >= n {
+            sl.recent.pop_front();
+        }
+        sl.recent.push_back(frame);
+        sl.since += 1;
+        if (sl.early || sl.recent.len() as u64 >= n) && sl.since >= sl.hop {
+            self.decide_window(out)?;
+        }
+        Ok(())
+    }
+}
+
+impl Stage for DosClassifier {
+    type In = TaxelFrame;
+    type Out = DosDecision;
+    type Error = Error;
+
+    fn push(&mut self, frame: TaxelFrame, out: &mut Vec<DosDecision>) -> Result<()> {
+        if self.sliding.is_some() {
+            return self.push_sliding(frame, out);
+        }
+        let (sensor, time, seq) = (frame.sensor.clone(), frame.time, frame.seq);
+        self.extractor.push(frame)?;
+        match &mut self.span {
+            Some(s) => {
+                s.2 = time;
+                s.3 = seq;
+            }
+            None => self.span = Some((sensor, time, time, seq)),
+        }
+        if self.decision_frames.is_some_and(|n| self.extractor.frames() >= n) {
+            self.emit(out)?;
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, out: &mut Vec<DosDecision>) -> Result<()> {
+        if self.sliding.as_ref().is_some_and(|s| s.since > 0) {
+            self.decide_window(out)?;
+        }
+        if let Some(sl) = &mut self.sliding {
+            sl.recent.clear();
+            sl.since = 0;
+        }
+        self.emit(out)
+    }
+
+    fn reset(&mut self) {
+        self.extractor.reset();
+        self.span = None;
+        if let Some(sl) = &mut self.sliding {
+            sl.recent.clear();
+            sl.since = 0;
+        }
+    }
+
+    fn delay(&self) -> Delay {
+        match self.decision_frames {
+            Some(n) => Delay::frames(n - 1),
+            // the decision comes at `finish`, which no frame count describes
+            None => Delay::ZERO,
+        }
+    }
+}

@@ -1,0 +1,91 @@
+//! A plan checked and explained by building its chains: [`Plan::new`] (what runs, with every
+//! stage constructed once so a bad setting fails before anything is read) and
+//! [`Plan::explain`] (each stage's effective settings and the latency, read off the built
+//! chains).
+//!
+//! These two methods of [`Plan`] live here, downstream of `plan` and `chain`, so that the
+//! modules import one way: `scene` ← `plan` ← `chain` ← `sinks` / `explain` / `run`.
+
+use crate::chain::SensorChain;
+use crate::plan::{Plan, Tap};
+use crate::scene::Scene;
+use crate::Error;
+use std::fmt::Write as _;
+
+impl Plan {
+    /// Plan a scene: validate every stage setting that will be used (invalid configuration
+    /// fails here, before anything is read) and decide what each sensor runs.
+    pub fn new(scene: &Scene) -> Result<Plan, Error> {
+        let plan = Plan::decide(scene)?;
+        for p in &plan.sensors {
+            // Construct each stage once now, so a bad setting is reported before any data
+            // moves; errors name the scene file and the sensor.
+            SensorChain::build(scene, p).map_err(|e| match e {
+                Error::Scene { .. } => e,
+                other => Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {other}", p.name) },
+            })?;
+        }
+        Ok(plan)
+    }
+
+    /// The plan as text: which stages run for which sensor and why (`gradtac explain`).
+    pub fn explain(&self, scene: &Scene) -> String {
+        let mut s = String::new();
+        for p in &self.sensors {
+            let spec = &scene.sensors[p.index];
+            let _ = writeln!(
+                s,
+                "sensor {} — layout {} ({} taxels), source {} {}",
+                p.name,
+                p.layout.name(),
+                p.layout.len(),
+                spec.source.kind(),
+                scene.resolve(spec.source.path()).display()
+            );
+            if !p.is_read() {
+                let _ = writeln!(s, "  not read: no output uses this sensor");
+                continue;
+            }
+            let chain = SensorChain::build(scene, p).expect("validated by Plan::new");
+            for tap in p.stages() {
+                let tapped_by: Vec<String> = p
+                    .outputs
+                    .iter()
+                    .filter(|&&i| scene.outputs[i].tap == tap.name())
+                    .map(|&i| format!("output #{} {}", i + 1, scene.outputs[i].path.display()))
+                    .collect();
+                let why = if !tapped_by.is_empty() {
+                    format!("written to {}", tapped_by.join(", "))
+                } else {
+                    let next: Vec<&str> = p
+                        .stages()
+                        .filter(|t| t.parent_in(scene.stages.locate.method) == Some(tap))
+                        .map(Tap::name)
+                        .collect();
+                    format!("feeds {}", next.join(", "))
+                };
+                let _ = writeln!(s, "  {:<10} {:<52} {}", tap.name(), chain.describe(tap, &scene.stages), why);
+            }
+            let delay = chain.delay();
+            let later: Vec<&str> = Tap::ALL.into_iter().filter(|t| !p.runs(*t)).map(Tap::name).collect();
+            if !later.is_empty() {
+                let _ = writeln!(s, "  not built: {} (no output needs them)", later.join(", "));
+            }
+            let rate = spec.source.rate_hz();
+            let _ = writeln!(
+                s,
+                "  latency: {} frames + {:.3} ms in steady state{}; start-up holds {} frames",
+                delay.frames,
+                delay.nanos as f64 * 1e-6,
+                rate.map_or(String::new(), |r| format!(" (= {:.1} ms at {r} Hz)", delay.seconds_at(r) * 1e3)),
+                chain.startup_frames()
+            );
+        }
+        let _ = writeln!(s, "outputs:");
+        for (i, o) in scene.outputs.iter().enumerate() {
+            let who = o.sensors.as_ref().map_or("all sensors".to_string(), |v| v.join(", "));
+            let _ = writeln!(s, "  #{} {} → {} ({who})", i + 1, o.tap, scene.resolve(&o.path).display());
+        }
+        s
+    }
+}
