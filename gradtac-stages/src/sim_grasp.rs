@@ -26,7 +26,7 @@
 //! | distance | travel of each contact | `D ∈ [3, 8]` mm, at most `v · 1.5 s` (so slow slips last ≤ 1.5 s + ramp), shrunk to fit the pad |
 //! | direction | each contact moves along its finger's world up (`±y`) turned by a misalignment | `θ ∈ [−15°, 15°]` per finger |
 //! | rotation axis | rotational classes: the contacts' speeds are `v·2k` and `v·2(1−k)` (an axis off the middle) | `k ∈ [0.35, 0.65]` |
-//! | start point | anywhere on the pad: uniform until the whole path lies in [`pad_region`](crate::sim_family::pad_region) | — |
+//! | start point | anywhere on the pad: uniform until the whole path lies in [`crate::sim_family::pad_region`] | — |
 //! | grip force | one force `F` on both pads (the object is in equilibrium between them: the normal forces are equal and opposite), times `1 + a·sin(2πf t + φ)` from the press on (squeeze changes, all classes); it replaces the fingers' own force draws, their sensitivity (amplitude, gains, kernel, width) stays their own | `F ∈ [0.5, 10]` N (the family's range), `a ∈ [0, 0.3]`, `f ∈ [0.2, 1]` Hz |
 //! | end | 0.6–1.0 s of stillness after the motion (stable: the same length as a slip would have) | — |
 //!

@@ -7,7 +7,7 @@ use plotters::prelude::{BitMapBackend, SVGBackend};
 use plotters_backend::{BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingBackend, DrawingErrorKind};
 use std::path::Path;
 
-/// An image format [`super::render`] writes.
+/// An image format the plot renderer writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImageFormat {
     /// Scalable vector graphics (`.svg`).

@@ -1,6 +1,6 @@
 //! Figures of gradtac outputs (`gradtac plot`) and of the demo's results, drawn with
-//! [`plotters`] as SVG (the output ends in `.svg`: vector lines, text as text) or PNG (any
-//! other extension: a pixel buffer encoded with [`png`]); see [`ImageFormat`].
+//! [plotters](https://docs.rs/plotters) as SVG (the output ends in `.svg`: vector lines, text as text) or PNG (any
+//! other extension: a pixel buffer encoded with [png](https://docs.rs/png)); see [`ImageFormat`].
 //!
 //! The code is split by figure kind: `read` (files, archives, schema versions, filters),
 //! `style` (colours, axes, legends), `series` (frames, events, windows, force, servo),

@@ -3,8 +3,8 @@
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | start of the surface's span |
-//! | `end` | time ([`TimeBase`](super::TimeBase)), not null | end of the span |
+//! | `start` | time ([`TimeBase`]), not null | start of the surface's span |
+//! | `end` | time ([`TimeBase`]), not null | end of the span |
 //! | `seq` | `UInt64`, not null | index of the newest source frame |
 //! | `contact` | `Boolean`, not null | a maximal contour was found |
 //! | `no_contact` | `Utf8`, nullable | why there is none: `no_data`, `below_min_peak`, `flat`, `too_small`; null on contact |

@@ -5,8 +5,8 @@
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | time of the span's first frame |
-//! | `end` | time ([`TimeBase`](super::TimeBase)), not null | time of its last frame (the decision's time) |
+//! | `start` | time ([`TimeBase`]), not null | time of the span's first frame |
+//! | `end` | time ([`TimeBase`]), not null | time of its last frame (the decision's time) |
 //! | `seq` | `UInt64`, not null | index of the last frame |
 //! | `frames` | `UInt64`, not null | frames in the span ([`DosDecision::frames`], = [`FeatureVector::frames`]) |
 //! | `events` | `UInt64`, not null | events in the span ([`FeatureVector::events`]) |

@@ -3,8 +3,8 @@
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | the event's (interpolated) time, [`TactileEvent::time`] |
-//! | `frame_time` | time ([`TimeBase`](super::TimeBase)), not null | the time of the frame whose interval the event fell in ([`EventBatch::time`]) |
+//! | `time` | time ([`TimeBase`]), not null | the event's (interpolated) time, [`TactileEvent::time`] |
+//! | `frame_time` | time ([`TimeBase`]), not null | the time of the frame whose interval the event fell in ([`EventBatch::time`]) |
 //! | `seq` | `UInt64`, not null | that frame's index ([`EventBatch::seq`]) |
 //! | `taxel` | `UInt16`, not null | the taxel's **number, counting from 1** in layout order (like the names `e1` … `e24`): [`TactileEvent::taxel`] (a 0-based index) + 1; field metadata `gradtac.taxels` = JSON array of the taxel names, so `names[taxel − 1]` names it |
 //! | `polarity` | `Int8`, not null | +1 for a rise of `ln x`, −1 for a fall |

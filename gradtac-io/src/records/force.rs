@@ -3,7 +3,7 @@
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | the time the estimate describes: the contour's span end |
+//! | `time` | time ([`TimeBase`]), not null | the time the estimate describes: the contour's span end |
 //! | `seq` | `UInt64`, not null | index of the newest source frame |
 //! | `area_mm2` | `Float64`, nullable | the maximal contour's area (mm²); **null** without contact; `gradtac.unit = mm2` |
 //! | `force_n` | `Float64`, nullable | the estimated normal force (N); **null** without contact or below the stage's `min_area_mm2`; `gradtac.unit = N` |

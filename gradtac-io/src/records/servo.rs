@@ -3,7 +3,7 @@
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | the track point's time |
+//! | `time` | time ([`TimeBase`]), not null | the track point's time |
 //! | `seq` | `UInt64`, not null | index of the newest source frame |
 //! | `action` | `Utf8`, not null | `move` ([`ServoAction::Move`]) or `no_contact` ([`ServoAction::NoContact`]: no contact, or a gated point; no command) |
 //! | `offset_x_mm`, `offset_y_mm` | `Float64`, nullable | contact minus centre ([`Motion::offset_mm`], mm, layout plane); `gradtac.unit = mm` |

@@ -4,9 +4,9 @@
 //! |---|---|---|
 //! | `first` | `Utf8`, not null | the first sensor of the pair (the same in every row of a file: [`SlipShape::first`]) |
 //! | `second` | `Utf8`, not null | the second sensor, facing the first ([`SlipShape::second`]) |
-//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | when the change was decided ([`SlipEvent::time`]) |
-//! | `onset` | time ([`TimeBase`](super::TimeBase)), not null | estimated start of the new state ([`SlipEvent::onset`]) |
-//! | `first_seen` | time ([`TimeBase`](super::TimeBase)), not null | when the new state was first seen ([`SlipEvent::first_seen`]) |
+//! | `time` | time ([`TimeBase`]), not null | when the change was decided ([`SlipEvent::time`]) |
+//! | `onset` | time ([`TimeBase`]), not null | estimated start of the new state ([`SlipEvent::onset`]) |
+//! | `first_seen` | time ([`TimeBase`]), not null | when the new state was first seen ([`SlipEvent::first_seen`]) |
 //! | `class` | `Utf8`, not null | the new state: `stable`, `longitudinal_up`, `longitudinal_down`, `rotational_cw`, `rotational_ccw` ([`SlipClass::name`](gradtac_stages::slip::SlipClass::name)) |
 //! | `previous` | `Utf8`, not null | the state before (same names) |
 //! | `common_mm_s` | `Float64`, nullable | common-mode speed `L` along world up (mm/s); **null** when a finger's velocity is missing (NaN in Rust); `gradtac.unit = mm/s` |

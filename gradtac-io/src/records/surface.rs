@@ -3,8 +3,8 @@
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | start of the span the surface describes ([`Surface::start`]) |
-//! | `end` | time ([`TimeBase`](super::TimeBase)), not null | end of the span, the newest contributing frame's time ([`Surface::end`]) |
+//! | `start` | time ([`TimeBase`]), not null | start of the span the surface describes ([`Surface::start`]) |
+//! | `end` | time ([`TimeBase`]), not null | end of the span, the newest contributing frame's time ([`Surface::end`]) |
 //! | `seq` | `UInt64`, not null | index of the newest contributing source frame |
 //! | `values` | `FixedSizeList<Float64 not null>[nx·ny]`, not null | the values at the grid points, **row-major**: element `row·nx + col` is the point `(x(col), y(row))`; NaN (outside the taxels' hull) preserved bit-exactly |
 //!

@@ -3,8 +3,8 @@
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `time` | time ([`TimeBase`](super::TimeBase)), not null | the time the point describes: the end of the surface's span |
-//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | start of the surface's span (the window's start) |
+//! | `time` | time ([`TimeBase`]), not null | the time the point describes: the end of the surface's span |
+//! | `start` | time ([`TimeBase`]), not null | start of the surface's span (the window's start) |
 //! | `seq` | `UInt64`, not null | index of the newest source frame |
 //! | `state` | `Utf8`, not null | `contact` or `no_contact` |
 //! | `no_contact` | `Utf8`, nullable | why there is no contact (`no_data`, `below_min_peak`, `flat`, `too_small`); null when the point has no reason |

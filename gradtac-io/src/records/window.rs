@@ -3,8 +3,8 @@
 //! | column | Arrow type | meaning |
 //! |---|---|---|
 //! | `sensor` | `Utf8`, not null | the sensor's name |
-//! | `start` | time ([`TimeBase`](super::TimeBase)), not null | start of the window's span ([`WindowAggregate::start`]) |
-//! | `end` | time ([`TimeBase`](super::TimeBase)), not null | end of the span, the newest frame's time ([`WindowAggregate::end`]) |
+//! | `start` | time ([`TimeBase`]), not null | start of the window's span ([`WindowAggregate::start`]) |
+//! | `end` | time ([`TimeBase`]), not null | end of the span, the newest frame's time ([`WindowAggregate::end`]) |
 //! | `seq` | `UInt64`, not null | index of the newest frame in the window |
 //! | `frames` | `UInt64`, not null | number of input frames the window covers (0 for a duration window holding events only) |
 //! | `aggregate` | `Utf8`, not null | what `values` holds: `signed` (Σ polarity), `count` (number of events) or `split` (signed sum, with `positive`/`negative`) |
