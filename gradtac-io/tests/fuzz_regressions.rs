@@ -242,3 +242,49 @@ fn ipc_sensor_dictionary_is_bounded() {
     let e = read_long(ipc_file(&batch)).unwrap_err();
     assert!(e.contains("crash.arrow: batch 0") && e.contains(&format!("a dictionary of {n} sensor names")), "{e}");
 }
+
+/// Every column chunk of the Parquet file at `path` passes `parquet_check`, with as many
+/// pages as the parquet crate's own page reader finds: (column chunks, pages).
+fn check_pages_like_parquet(path: &Path) -> (usize, usize) {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let reader = SerializedFileReader::new(std::fs::File::open(path).unwrap()).unwrap();
+    let mut file = std::fs::File::open(path).unwrap();
+    let (mut chunks, mut pages) = (0, 0);
+    for (i, rg) in reader.metadata().row_groups().iter().enumerate() {
+        for (j, c) in rg.columns().iter().enumerate() {
+            let (start, len) = c.byte_range();
+            let got = gradtac_io::parquet_check::check_column_chunk(&mut file, start, len)
+                .unwrap_or_else(|e| panic!("{}: row group {i} column {j}: {e}", path.display()));
+            let expected = reader.get_row_group(i).unwrap().get_column_page_reader(j).unwrap().count();
+            assert_eq!(got.pages, expected, "{}: row group {i} column {j}", path.display());
+            chunks += 1;
+            pages += got.pages;
+        }
+    }
+    (chunks, pages)
+}
+
+/// The page-header check (`gradtac_io::parquet_check`, written for parquet 60's reader) passes
+/// another writer's files: Arrow C++ through pyarrow 26, data pages v1 and v2 with page CRCs,
+/// page statistics, dictionaries, nulls and a list column (`pyarrow_pages.py` writes them).
+#[test]
+fn parquet_check_passes_pyarrow_files() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
+    for v in [1, 2] {
+        let (chunks, pages) = check_pages_like_parquet(&dir.join(format!("pyarrow_pages_v{v}.parquet")));
+        assert_eq!((chunks, pages), (12, 66), "v{v}");
+    }
+}
+
+/// Check the page headers of Parquet files from other writers
+/// (`GRADTAC_CHECK_PARQUET=a.parquet:b.parquet cargo test -p gradtac-io --test fuzz_regressions
+/// -- --ignored --nocapture`, absolute paths): as `parquet_check_passes_pyarrow_files`.
+#[test]
+#[ignore = "needs Parquet files in GRADTAC_CHECK_PARQUET"]
+fn check_foreign_parquet_files() {
+    let Some(files) = std::env::var_os("GRADTAC_CHECK_PARQUET") else { return };
+    for path in std::env::split_paths(&files) {
+        let (chunks, pages) = check_pages_like_parquet(&path);
+        eprintln!("{}: {chunks} column chunks, {pages} pages: pass", path.display());
+    }
+}
