@@ -20,6 +20,9 @@ fn replay_plot_corpus() {
     let Some(dir) = std::env::var_os("GRADTAC_REPLAY_PLOT") else { return };
     static SEEN: Mutex<BTreeMap<String, (usize, String, String)>> = Mutex::new(BTreeMap::new());
     static FILE: Mutex<String> = Mutex::new(String::new());
+    // gradtac's quiet hook (installed once, by the first `contain`) would hide contained
+    // panics from this one: install it now and replace it
+    gradtac_io::contain::install_quiet_hook();
     std::panic::set_hook(Box::new(|info| {
         let at = info.location().map(|l| format!("{}:{}", l.file(), l.line())).unwrap_or_default();
         let at = at.rsplit("/registry/src/").next().unwrap_or(&at).to_string();
