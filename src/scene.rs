@@ -199,6 +199,37 @@ impl<'de> Deserialize<'de> for BusSpec {
     }
 }
 
+/// Each `[[bus]]` table of a scene's text with the line (1-based) where it starts (toml's
+/// span; empty if the text has no array of bus tables).
+fn bus_tables(text: &str) -> Vec<(toml::Table, usize)> {
+    #[derive(Deserialize)]
+    struct Buses {
+        #[serde(rename = "bus", default)]
+        bus: Vec<toml::Spanned<toml::Table>>,
+    }
+    let Ok(b) = toml::from_str::<Buses>(text) else { return Vec::new() };
+    b.bus
+        .into_iter()
+        .map(|t| {
+            let line = text.get(..t.span().start).map_or(0, |s| s.matches('\n').count()) + 1;
+            (t.into_inner(), line)
+        })
+        .collect()
+}
+
+/// A parse error raised inside a `[[bus]]` table, at the line of that bus (toml points such
+/// errors at the first `[[bus]]` of the file, the array's span): the first bus table that
+/// does not deserialize.
+fn bus_error_at_its_line(text: &str, message: &str) -> Option<String> {
+    let message = message.trim_end();
+    if !(message.starts_with("bus ") || message.starts_with("a [[bus]]")) {
+        return None;
+    }
+    let (_, line) =
+        bus_tables(text).into_iter().find(|(t, _)| BusSpec::deserialize(toml::Value::Table(t.clone())).is_err())?;
+    Some(format!("line {line}: {}", message.replace('\n', " ")))
+}
+
 impl<'de> Deserialize<'de> for SourceSpec {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         use serde::de::Error as _;
@@ -380,8 +411,10 @@ pub struct OutputSpec {
 impl Scene {
     /// Parse a scene from TOML text; relative paths will resolve against `base_dir`.
     pub fn from_toml(text: &str, base_dir: impl Into<PathBuf>, origin: &Path) -> Result<Self, Error> {
-        let mut scene: Scene = toml::from_str(text)
-            .map_err(|e| Error::Scene { path: origin.to_path_buf(), reason: e.to_string().trim_end().to_string() })?;
+        let mut scene: Scene = toml::from_str(text).map_err(|e| Error::Scene {
+            path: origin.to_path_buf(),
+            reason: bus_error_at_its_line(text, e.message()).unwrap_or_else(|| e.to_string().trim_end().to_string()),
+        })?;
         scene.base_dir = base_dir.into();
         scene.text = text.to_string();
         scene.origin = origin.to_path_buf();
@@ -432,7 +465,10 @@ impl Scene {
                 }
             }
         }
+        let lines = bus_tables(&self.text);
         for (i, b) in self.buses.iter().enumerate() {
+            // the line of this [[bus]] (toml's span of its table)
+            let bad = |r: String| bad(lines.get(i).map_or(r.clone(), |(_, l)| format!("line {l}: {r}")));
             if self.buses[..i].iter().any(|o| o.name == b.name) {
                 return Err(bad(format!("bus {:?} is declared twice", b.name)));
             }
@@ -633,5 +669,41 @@ path = "out/normalised.parquet"
         )
         .contains("\"th\""));
         assert!(err("").contains("no [[sensor]]"));
+    }
+}
+
+#[cfg(test)]
+mod bus_line_tests {
+    use super::*;
+
+    fn err(text: &str) -> String {
+        Scene::from_toml(text, ".", Path::new("s.toml")).unwrap_err().to_string()
+    }
+
+    /// `[[bus]]` errors name the line of their own bus (toml pointed parse errors inside any
+    /// bus at the first `[[bus]]`, and validation errors had no line).
+    #[test]
+    fn bus_errors_name_the_line_of_their_bus() {
+        let head =
+            "[[sensor]]\nname = \"ff\"\nsource = { bus = \"b\" }\n[[output]]\ntap = \"source\"\npath = \"o.parquet\"\n";
+        let bus = |name: &str, extra: &str| {
+            format!(
+                "\n[[bus]]\nname = \"{name}\"\ncandump = \"l.log\"\n{extra}codec = {{ preset = {{ kind = \"biotac-mux\", sensors = [\"ff\"] }} }}\n"
+            )
+        };
+        let two = |second: &str| format!("{head}{}{}", bus("a", ""), second);
+        // lines: the first [[bus]] at 8, the second at 13
+        let e = err(&two(&bus("b", "bogus = 1\n")));
+        assert!(e.starts_with("s.toml: line 13: bus \"b\": unknown field `bogus`"), "{e}");
+        let e = err(&format!("{head}{}{}", bus("b", ""), bus("b", "")));
+        assert_eq!(e, "s.toml: line 13: bus \"b\" is declared twice");
+        let e = err(&two("\n[[bus]]\ncandump = \"l.log\"\n"));
+        assert_eq!(e, "s.toml: line 13: a [[bus]] needs name = \"…\"");
+        let custom = "codec = { sensors = [{ name = \"ff\", taxels = 4294967295, messages = [] }] }\n";
+        let e = err(&format!("{head}{}\n[[bus]]\nname = \"b\"\ncandump = \"l.log\"\n{custom}", bus("a", "")));
+        assert!(e.starts_with("s.toml: line 13: bus \"b\": invalid configuration") && e.contains("4294967295"), "{e}");
+        // other parse errors keep toml's own position
+        let e = err(&format!("{head}{}x = [", bus("a", "")));
+        assert!(e.contains("TOML parse error at line"), "{e}");
     }
 }

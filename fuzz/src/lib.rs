@@ -57,6 +57,11 @@ pub fn contain_dependency_panics() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         let aborting = std::panic::take_hook();
+        // gradtac's quiet hook (silent inside `contain`) would hide a panic of gradtac's own
+        // code inside `contain` from the fuzzer: install it now (it is installed once per
+        // process) and replace it, so this hook decides alone.
+        gradtac_io::contain::install_quiet_hook();
+        drop(std::panic::take_hook());
         std::panic::set_hook(Box::new(move |info| {
             let file = info.location().map(|l| l.file()).unwrap_or("");
             let dependency =

@@ -19,6 +19,7 @@ pub mod csv_source;
 mod error;
 mod ipc_check;
 pub mod npy;
+pub mod parquet_check;
 pub mod parquet_sink;
 pub mod records;
 pub mod rosbag;
