@@ -171,7 +171,7 @@ pub(super) fn read_rows(o: Opened, first: usize, stride: Option<usize>) -> R<Vec
     for (i, rg) in o.meta.metadata().row_groups().iter().enumerate() {
         let at = |e: String| PlotErr(format!("row group {i}: {e}"));
         let n = rg.num_rows() as usize; // checked non-negative by `open_parquet`
-        // page headers bounded before the parquet crate reads them (its skip is unbounded)
+                                        // page headers bounded before the parquet crate reads them (its skip is unbounded)
         gradtac_io::parquet_check::check_row_group(&mut &o.file, rg).map_err(at)?;
         let file = o.file.try_clone().map_err(|e| at(format!("cannot read: {e}")))?;
         let builder = ParquetRecordBatchReaderBuilder::new_with_metadata(file, o.meta.clone()).with_row_groups(vec![i]);
