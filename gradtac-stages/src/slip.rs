@@ -572,42 +572,36 @@ impl Slip {
 
 /// Least-squares slope of x and y against t (s) over the points; `None` when degenerate.
 fn regression(points: &VecDeque<(i64, f64, f64)>) -> Option<[f64; 2]> {
-    let n = points.len() as f64;
     let t0 = points.front()?.0;
-    let ts = |p: &(i64, f64, f64)| (p.0 - t0) as f64 * 1e-9;
-    let mt = points.iter().map(ts).sum::<f64>() / n;
-    let mx = points.iter().map(|p| p.1).sum::<f64>() / n;
-    let my = points.iter().map(|p| p.2).sum::<f64>() / n;
-    let (mut stt, mut stx, mut sty) = (0.0, 0.0, 0.0);
-    for p in points {
-        let dt = ts(p) - mt;
-        stt += dt * dt;
-        stx += dt * (p.1 - mx);
-        sty += dt * (p.2 - my);
-    }
-    (stt > 0.0).then(|| [stx / stt, sty / stt])
+    let ts = move |p: &(i64, f64, f64)| (p.0 - t0) as f64 * 1e-9;
+    Some([ls_slope(points.iter().map(|p| (ts(p), p.1)), 1)?, ls_slope(points.iter().map(|p| (ts(p), p.2)), 1)?])
 }
 
 /// Least-squares slope (mm/s) of the history points newer than `since` (ns); `None` with fewer
 /// than 3 points or no time spread.
 fn slope_since(history: &VecDeque<(i64, f64)>, since: i64) -> Option<f64> {
-    let pts = history.iter().rev().take_while(|p| p.0 >= since);
-    let (mut n, mut st, mut su) = (0.0, 0.0, 0.0);
     let t0 = history.back()?.0;
-    for p in pts.clone() {
-        n += 1.0;
-        st += (p.0 - t0) as f64 * 1e-9;
-        su += p.1;
+    ls_slope(history.iter().rev().take_while(|p| p.0 >= since).map(|p| ((p.0 - t0) as f64 * 1e-9, p.1)), 3)
+}
+
+/// Least-squares slope of `u` against `t` over `(t, u)` pairs: two passes (means, then
+/// moments); `None` with fewer than `min_points` pairs or no spread in `t`.
+fn ls_slope(pts: impl Iterator<Item = (f64, f64)> + Clone, min_points: usize) -> Option<f64> {
+    let (mut n, mut st, mut su) = (0usize, 0.0, 0.0);
+    for (t, u) in pts.clone() {
+        n += 1;
+        st += t;
+        su += u;
     }
-    if n < 3.0 {
+    if n < min_points.max(1) {
         return None;
     }
-    let (mt, mu) = (st / n, su / n);
+    let (mt, mu) = (st / n as f64, su / n as f64);
     let (mut stt, mut stu) = (0.0, 0.0);
-    for p in pts {
-        let dt = (p.0 - t0) as f64 * 1e-9 - mt;
+    for (t, u) in pts {
+        let dt = t - mt;
         stt += dt * dt;
-        stu += dt * (p.1 - mu);
+        stu += dt * (u - mu);
     }
     (stt > 0.0).then(|| stu / stt)
 }
