@@ -139,11 +139,10 @@ impl Sinks {
             let names: Vec<&str> =
                 plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| p.name.as_str()).collect();
             let time = time_base(scene, &names);
-            let o = &(o, time);
             let mut sink = match tap {
-                Tap::Source | Tap::Normalise | Tap::Savgol => OutputSink::Frames(open(&path, taxels, o)?),
-                Tap::Events => OutputSink::Events(open(&path, taxels, o)?),
-                Tap::Window => OutputSink::Windows(open(&path, taxels, o)?),
+                Tap::Source | Tap::Normalise | Tap::Savgol => OutputSink::Frames(open(&path, taxels, o, time)?),
+                Tap::Events => OutputSink::Events(open(&path, taxels, o, time)?),
+                Tap::Window => OutputSink::Windows(open(&path, taxels, o, time)?),
                 Tap::Surface => {
                     let grids = users
                         .iter()
@@ -155,27 +154,27 @@ impl Sinks {
                             i + 1
                         )));
                     }
-                    OutputSink::Surfaces(open(&path, SurfaceShape::new(grids[0].clone()), o)?)
+                    OutputSink::Surfaces(open(&path, SurfaceShape::new(grids[0].clone()), o, time)?)
                 }
-                Tap::Contour => OutputSink::Contours(open(&path, (), o)?),
-                Tap::Track => OutputSink::Tracks(open(&path, (), o)?),
-                Tap::Force => OutputSink::Forces(open(&path, (), o)?),
-                Tap::Servo => OutputSink::Servo(open(&path, (), o)?),
+                Tap::Contour => OutputSink::Contours(open(&path, (), o, time)?),
+                Tap::Track => OutputSink::Tracks(open(&path, (), o, time)?),
+                Tap::Force => OutputSink::Forces(open(&path, (), o, time)?),
+                Tap::Servo => OutputSink::Servo(open(&path, (), o, time)?),
                 Tap::Dos => {
                     let d =
                         scene.stages.dos.as_ref().ok_or_else(|| bad("the dos tap needs [stages.dos] model".into()))?;
                     let model = crate::calibrate::read_model(&scene.resolve(&d.model))?;
-                    OutputSink::Dos(open(&path, DosShape::from_model(&model)?, o)?)
+                    OutputSink::Dos(open(&path, DosShape::from_model(&model)?, o, time)?)
                 }
                 Tap::Slip => {
-                    if o.0.archive.is_some() {
+                    if o.archive.is_some() {
                         return Err(bad(format!(
                             "output #{}: slip events belong to a sensor pair; write one file (no archive)",
                             i + 1
                         )));
                     }
                     let c = &scene.stages.slip;
-                    OutputSink::Slip(open_file(&path, SlipShape::new(&c.first, &c.second), o)?)
+                    OutputSink::Slip(open_file(&path, SlipShape::new(&c.first, &c.second), o, time)?)
                 }
             };
             sink.set_metadata("gradtac.scene".into(), scene.text.clone());
@@ -248,17 +247,18 @@ fn row_group(o: &OutputSpec) -> Option<usize> {
 fn open<T: Record + HasSensor + Timed>(
     path: &Path,
     shape: T::Shape,
-    (o, time): &(&OutputSpec, TimeBase),
+    o: &OutputSpec,
+    time: TimeBase,
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
     Ok(match &o.archive {
         Some(cfg) => {
-            let mut a = ParquetArchive::from_config(path, shape, cfg)?.with_time_base(*time)?;
+            let mut a = ParquetArchive::from_config(path, shape, cfg)?.with_time_base(time)?;
             if let Some(n) = row_group(o) {
                 a = a.with_row_group_size(n)?;
             }
             Box::new(a)
         }
-        None => open_file(path, shape, &(o, *time))?,
+        None => open_file(path, shape, o, time)?,
     })
 }
 
@@ -266,9 +266,10 @@ fn open<T: Record + HasSensor + Timed>(
 fn open_file<T: Record>(
     path: &Path,
     shape: T::Shape,
-    (o, time): &(&OutputSpec, TimeBase),
+    o: &OutputSpec,
+    time: TimeBase,
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
-    let mut s = ParquetSink::try_new(path, shape)?.with_time_base(*time)?;
+    let mut s = ParquetSink::try_new(path, shape)?.with_time_base(time)?;
     if let Some(n) = row_group(o) {
         s = s.with_row_group_size(n)?;
     }
