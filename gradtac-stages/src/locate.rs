@@ -264,34 +264,14 @@ impl ChangeDetector {
         let m = self.calib.len() as f64;
         let n = self.n;
         let mean: Vec<f64> = (0..n).map(|i| self.calib.iter().map(|f| f[i]).sum::<f64>() / m).collect();
-        // σ: the larger of the white-noise estimate from first differences
-        // (Var(x[k+1] − x[k]) = 2σ²) and the scatter about a straight line (which also holds
-        // slow, correlated fluctuations but not a linear trend such as a settling contact)
-        let tm = (m - 1.0) / 2.0;
-        let stt: f64 = (0..self.calib.len()).map(|k| (k as f64 - tm).powi(2)).sum();
-        let mut sigma: Vec<f64> = (0..n)
-            .map(|i| {
-                let d2: f64 = self.calib.windows(2).map(|w| (w[1][i] - w[0][i]).powi(2)).sum();
-                let white = (d2 / (2.0 * (m - 1.0))).sqrt();
-                let slope = self.calib.iter().enumerate().map(|(k, f)| (k as f64 - tm) * (f[i] - mean[i])).sum::<f64>()
-                    / stt.max(f64::MIN_POSITIVE);
-                let r2: f64 = self
-                    .calib
-                    .iter()
-                    .enumerate()
-                    .map(|(k, f)| (f[i] - mean[i] - slope * (k as f64 - tm)).powi(2))
-                    .sum();
-                let scatter = if m > 2.0 { (r2 / (m - 2.0)).sqrt() } else { 0.0 };
-                white.max(scatter)
-            })
-            .collect();
-        // floors: a quarter of the median taxel's noise (a taxel that happened to read constant
-        // is not infinitely sensitive), and a part per million of the value
-        let mut sorted = sigma.clone();
-        sorted.sort_by(f64::total_cmp);
-        let med = sorted[n / 2];
+        // σ: the larger of the white-noise estimate from first differences and the scatter
+        // about a straight line (which also holds slow, correlated fluctuations but not a
+        // linear trend such as a settling contact), floored at a quarter of the median taxel's
+        // (a taxel that happened to read constant is not infinitely sensitive) — the estimate
+        // the noise-adaptive event threshold uses — and here also at a part per million of the value
+        let mut sigma = crate::events::noise_sigma(&self.calib, n);
         for (s, x) in sigma.iter_mut().zip(&mean) {
-            *s = s.max(0.25 * med).max(1e-6 * x.abs()).max(1e-12);
+            *s = s.max(1e-6 * x.abs());
         }
         // the calibration frames seed the window with their mean
         self.baseline = mean;
