@@ -787,7 +787,9 @@ impl<R: Read> Read for LineCounter<R> {
             let end = buf[pos..n].iter().position(|&b| b == b'\n').map(|i| pos + i);
             let piece = &buf[line_from..end.unwrap_or(n)];
             self.line_len += piece.len() as u64;
-            if self.line_start.len() < KEEP {
+            // the excerpt is only read for a line over the cap: kept for a line that goes on
+            // past this read, or taken from this piece when it crosses the cap now
+            if (end.is_none() || self.line_len > self.max_line) && self.line_start.len() < KEEP {
                 let take = piece.len().min(KEEP - self.line_start.len());
                 self.line_start.extend_from_slice(&piece[..take]);
             }
@@ -877,7 +879,55 @@ fn cell_text(cell: &[u8]) -> std::result::Result<&str, String> {
     Ok(s)
 }
 
+/// Exact powers of ten as `f64` (every one up to 10²² is representable).
+const POW10: [f64; 16] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15];
+
+/// The fast path of a numeric cell: optional ASCII blanks around an optional sign, digits
+/// and at most one `.` with digits on both sides, 15 significant digits at most (no exponent,
+/// no `inf`/`nan`). Then the mantissa `m` (< 10¹⁵ < 2⁵³) and `10^k` are exact `f64`s and one
+/// IEEE division rounds `m / 10^k` correctly, which is what [`f64::from_str`] returns
+/// (Clinger's fast path). Anything else is `None`, and the cell takes the general path (with
+/// its error messages).
+fn fast_f64(cell: &[u8]) -> Option<f64> {
+    let cell = cell.trim_ascii();
+    let (negative, digits) = match cell.split_first()? {
+        (b'-', rest) => (true, rest),
+        (b'+', rest) => (false, rest),
+        _ => (false, cell),
+    };
+    let (int, frac) = match digits.iter().position(|&b| b == b'.') {
+        Some(dot) => {
+            let frac = &digits[dot + 1..];
+            if dot == 0 || frac.is_empty() {
+                return None;
+            }
+            (&digits[..dot], frac)
+        }
+        None => (digits, &digits[digits.len()..]),
+    };
+    if int.is_empty() || int.len() + frac.len() > 15 {
+        return None;
+    }
+    let mut m: u64 = 0;
+    for &b in int.iter().chain(frac) {
+        let d = b.wrapping_sub(b'0');
+        if d > 9 {
+            return None;
+        }
+        m = m * 10 + u64::from(d);
+    }
+    let v = m as f64 / POW10[frac.len()];
+    Some(if negative { -v } else { v })
+}
+
 impl<R: Read> CsvFrames<R> {
+    /// The first physical line of the current row, given the line of its last byte: less the
+    /// newlines inside quoted fields (`csv`'s own line numbers skip blank lines and CRLF line
+    /// ends). Only computed for an error.
+    fn row_line(&self, last_line: u64) -> u64 {
+        last_line - newlines_in(self.record.as_slice())
+    }
+
     fn read_frame(&mut self) -> Option<Result<TaxelFrame>> {
         match self.reader.read_byte_record(&mut self.record) {
             Ok(false) => return None,
@@ -886,16 +936,20 @@ impl<R: Read> CsvFrames<R> {
         }
         let end = self.reader.position().byte();
         self.progress.read.store(end, Ordering::Relaxed);
-        // The row's first physical line: the line of its last byte, less the newlines inside
-        // quoted fields (`csv`'s own line numbers skip blank lines and CRLF line ends).
-        let line = self.reader.get_mut().line_of(end.saturating_sub(1)) - newlines_in(self.record.as_slice());
+        // the line of the row's last byte (advancing the line counter); the row's first line
+        // is worked out from it only for an error (row_line)
+        let last_line = self.reader.get_mut().line_of(end.saturating_sub(1));
         if self.record.len() != self.header.len() {
             let reason = format!("the row has {} fields, the header has {}", self.record.len(), self.header.len());
-            return Some(Err(self.parse_error(line, None, reason)));
+            return Some(Err(self.parse_error(self.row_line(last_line), None, reason)));
         }
         let mut values = Vec::with_capacity(self.indices.len());
         for &i in &self.indices {
             let cell = &self.record[i];
+            if let Some(v) = fast_f64(cell) {
+                values.push(v);
+                continue;
+            }
             let v = cell_text(cell).and_then(|s| match s.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(v),
                 Ok(_) => Err(format!("{:?} is not a finite number", crate::error::excerpt(s, 80))),
@@ -903,7 +957,7 @@ impl<R: Read> CsvFrames<R> {
             });
             match v {
                 Ok(v) => values.push(v),
-                Err(reason) => return Some(Err(self.parse_error(line, Some(i), reason))),
+                Err(reason) => return Some(Err(self.parse_error(self.row_line(last_line), Some(i), reason))),
             }
         }
         let time = match self.time {
@@ -912,7 +966,7 @@ impl<R: Read> CsvFrames<R> {
                 None => {
                     let reason =
                         format!("frame {}: its time at {rate} Hz is beyond the i64-nanosecond range", self.seq);
-                    return Some(Err(self.parse_error(line, None, reason)));
+                    return Some(Err(self.parse_error(self.row_line(last_line), None, reason)));
                 }
             },
             TimeSource::Column { index, unit } => {
@@ -927,7 +981,7 @@ impl<R: Read> CsvFrames<R> {
                 });
                 let ns = match ns {
                     Ok(ns) => ns,
-                    Err(reason) => return Some(Err(self.parse_error(line, Some(index), reason))),
+                    Err(reason) => return Some(Err(self.parse_error(self.row_line(last_line), Some(index), reason))),
                 };
                 if let Some(prev) = self.prev_time.filter(|&p| ns < p) {
                     let reason = format!(
@@ -935,7 +989,7 @@ impl<R: Read> CsvFrames<R> {
                         crate::error::excerpt(String::from_utf8_lossy(&self.record[index]).trim(), 80),
                         prev - ns
                     );
-                    return Some(Err(self.parse_error(line, Some(index), reason)));
+                    return Some(Err(self.parse_error(self.row_line(last_line), Some(index), reason)));
                 }
                 self.prev_time = Some(ns);
                 Timestamp::from_nanos(ns)
@@ -1306,5 +1360,40 @@ mod tests {
         let e = CsvSourceConfig::new("r.csv", sel("a")).with_rate_hz(1e-9).validate().unwrap_err().to_string();
         assert!(e.contains("rate_hz must be finite and within [1e-3, 1e9] Hz"), "{e}");
         assert!(CsvSourceConfig::new("r.csv", sel("a")).with_rate_hz(1e-3).validate().is_ok());
+    }
+
+    /// The fast path of numeric cells gives exactly what `f64::from_str` gives (bit for bit,
+    /// signed zeros included), and declines what it cannot read.
+    #[test]
+    fn fast_cells_are_parsed_like_from_str() {
+        for t in ["0", "-0", "+7", "3530", " 12 ", "0.1", "-0.000", "123456789012345", "1.00000000000001", "00042.50"] {
+            let want: f64 = t.trim().parse().unwrap();
+            assert_eq!(fast_f64(t.as_bytes()).map(f64::to_bits), Some(want.to_bits()), "{t:?}");
+        }
+        for t in
+            ["", " ", "-", "+", ".", "1.", ".5", "1e3", "inf", "NaN", "1.2.3", "0x10", "1 2", "1234567890123456", "--1"]
+        {
+            assert_eq!(fast_f64(t.as_bytes()), None, "{t:?}");
+        }
+    }
+
+    proptest::proptest! {
+        /// Any short text of digits, dots, signs and blanks: where the fast path answers, it
+        /// answers what `from_str` does.
+        #[test]
+        fn fast_path_agrees_with_from_str(t in "[ ]?[-+]?[0-9]{0,17}[.]?[0-9]{0,17}[ ]?") {
+            if let Some(v) = fast_f64(t.as_bytes()) {
+                let want: f64 = t.trim().parse().unwrap();
+                proptest::prop_assert_eq!(v.to_bits(), want.to_bits());
+            }
+        }
+
+        /// Decimals the fast path must take (≤ 15 digits) are taken.
+        #[test]
+        fn short_decimals_take_the_fast_path(i in 0u64..1_000_000_000, f in 0u64..100_000, neg: bool) {
+            let t = format!("{}{i}.{f:05}", if neg { "-" } else { "" });
+            let want: f64 = t.parse().unwrap();
+            proptest::prop_assert_eq!(fast_f64(t.as_bytes()).map(f64::to_bits), Some(want.to_bits()));
+        }
     }
 }
