@@ -777,34 +777,41 @@ impl<R> LineCounter<R> {
     }
 }
 
+impl<R> LineCounter<R> {
+    /// Count `piece`, the bytes of the current line in this read (up to its newline, or to
+    /// the end of the read when `ends` is false); an error when the line passes the cap.
+    fn piece(&mut self, piece: &[u8], ends: bool) -> std::io::Result<()> {
+        const KEEP: usize = 80;
+        self.line_len += piece.len() as u64;
+        // the excerpt is only read for a line over the cap: kept for a line that goes on past
+        // this read, or taken from this piece when it crosses the cap now
+        let over = self.line_len > self.max_line;
+        if (!ends || over) && self.line_start.len() < KEEP {
+            let take = piece.len().min(KEEP - self.line_start.len());
+            self.line_start.extend_from_slice(&piece[..take]);
+        }
+        if over {
+            let e = LineTooLong { line: self.lines_read + 1, start: self.line_start.clone(), max: self.max_line };
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, e));
+        }
+        Ok(())
+    }
+}
+
 impl<R: Read> Read for LineCounter<R> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        const KEEP: usize = 80;
         let n = self.inner.read(buf)?;
+        let buf = &buf[..n];
         let mut line_from = 0;
-        let mut pos = 0;
-        loop {
-            let end = buf[pos..n].iter().position(|&b| b == b'\n').map(|i| pos + i);
-            let piece = &buf[line_from..end.unwrap_or(n)];
-            self.line_len += piece.len() as u64;
-            // the excerpt is only read for a line over the cap: kept for a line that goes on
-            // past this read, or taken from this piece when it crosses the cap now
-            if (end.is_none() || self.line_len > self.max_line) && self.line_start.len() < KEEP {
-                let take = piece.len().min(KEEP - self.line_start.len());
-                self.line_start.extend_from_slice(&piece[..take]);
-            }
-            if self.line_len > self.max_line {
-                let e = LineTooLong { line: self.lines_read + 1, start: self.line_start.clone(), max: self.max_line };
-                return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, e));
-            }
-            let Some(i) = end else { break };
+        for i in memchr::memchr_iter(b'\n', buf) {
+            self.piece(&buf[line_from..i], true)?;
             self.pending.push_back(self.offset + i as u64);
             self.lines_read += 1;
             self.line_len = 0;
             self.line_start.clear();
             line_from = i + 1;
-            pos = i + 1;
         }
+        self.piece(&buf[line_from..], false)?;
         self.offset += n as u64;
         Ok(n)
     }
@@ -890,33 +897,35 @@ const POW10: [f64; 16] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10
 /// its error messages).
 fn fast_f64(cell: &[u8]) -> Option<f64> {
     let cell = cell.trim_ascii();
-    let (negative, digits) = match cell.split_first()? {
-        (b'-', rest) => (true, rest),
-        (b'+', rest) => (false, rest),
+    let (negative, text) = match cell.first()? {
+        b'-' => (true, &cell[1..]),
+        b'+' => (false, &cell[1..]),
         _ => (false, cell),
     };
-    let (int, frac) = match digits.iter().position(|&b| b == b'.') {
-        Some(dot) => {
-            let frac = &digits[dot + 1..];
-            if dot == 0 || frac.is_empty() {
-                return None;
-            }
-            (&digits[..dot], frac)
-        }
-        None => (digits, &digits[digits.len()..]),
-    };
-    if int.is_empty() || int.len() + frac.len() > 15 {
+    // 15 digits and a dot at most (checked again below, without the dot)
+    if text.is_empty() || text.len() > 16 {
         return None;
     }
     let mut m: u64 = 0;
-    for &b in int.iter().chain(frac) {
+    let mut dot = None;
+    for (i, &b) in text.iter().enumerate() {
         let d = b.wrapping_sub(b'0');
-        if d > 9 {
+        if d <= 9 {
+            m = m * 10 + u64::from(d);
+        } else if b == b'.' && dot.is_none() {
+            dot = Some(i);
+        } else {
             return None;
         }
-        m = m * 10 + u64::from(d);
     }
-    let v = m as f64 / POW10[frac.len()];
+    let frac = match dot {
+        None if text.len() <= 15 => 0,
+        None => return None,
+        // digits on both sides of the dot
+        Some(i) if i > 0 && i + 1 < text.len() => text.len() - i - 1,
+        Some(_) => return None,
+    };
+    let v = m as f64 / POW10[frac];
     Some(if negative { -v } else { v })
 }
 
