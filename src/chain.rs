@@ -436,7 +436,11 @@ impl SensorChain {
             }
         }
         if let Some(r) = &mut self.raw_change {
-            feed(r, &mut self.raw.clone(), &mut self.windows, finish)?;
+            if self.normalise.is_none() {
+                feed(r, &mut self.raw, &mut self.windows, finish)?;
+            } else {
+                feed(r, &mut self.raw.clone(), &mut self.windows, finish)?;
+            }
         }
         self.process_events(finish, sinks)?;
         sinks.write_all(&self.taps[Tap::Window as usize], &self.windows)?;

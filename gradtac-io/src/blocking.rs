@@ -121,8 +121,9 @@ pub const CHUNK_WAIT: std::time::Duration = std::time::Duration::from_millis(1);
 /// fast source, that hand-over costs more than reading the item.
 ///
 /// - A chunk is sent when it is full, when an item arrives [`CHUNK_WAIT`] or more after the
-///   last send (so a slow source's items go one by one, as they come), at the first `Err`
-///   item (then reading stops) and at the end. A reader that blocks inside `next` holds the
+///   last send (so a slow source's items go one by one, as they come; the clock is read at
+///   chunk lengths 1, 2, 4, …, so an item of a middling source waits at most about twice
+///   `CHUNK_WAIT`), at the first `Err` item (then reading stops) and at the end. A reader that blocks inside `next` holds the
 ///   items it read within `CHUNK_WAIT` of the last send until its next item.
 /// - At most `capacity` items (rounded up to whole chunks, at least one chunk) wait in the
 ///   channel, plus the chunk being filled: constant memory.
@@ -155,7 +156,9 @@ where
         for item in iter {
             let last = item.is_err();
             buf.push(item);
-            if last || buf.len() >= chunk || sent.elapsed() >= CHUNK_WAIT {
+            // the clock is read at chunk lengths 1, 2, 4, …: an item that comes CHUNK_WAIT after
+            // the last send goes at once, later ones within twice their wait
+            if last || buf.len() >= chunk || (buf.len().is_power_of_two() && sent.elapsed() >= CHUNK_WAIT) {
                 let full = std::mem::replace(&mut buf, Vec::with_capacity(chunk));
                 if tx.blocking_send(full).is_err() || last {
                     return;
