@@ -311,7 +311,7 @@ fn open_sources(scene: &Scene, plan: &Plan) -> Result<OpenSources, Error> {
             });
         }
         progress.extend(prog);
-        streams.push(Box::pin(gradtac_io::blocking_stream_chunked(it, 1024, 64)));
+        streams.push(Box::pin(gradtac_io::blocking_stream_chunked(it, 1024, 256)));
     }
     Ok(OpenSources { streams, progress, buses })
 }
