@@ -417,7 +417,12 @@ impl SensorChain {
         self.raw.extend(frame);
         sinks.write_all(&self.taps[Tap::Source as usize], &self.raw)?;
         if let Some(d) = &mut self.dos {
-            feed(d, &mut self.raw.clone(), &mut self.decisions, finish)?;
+            // the raw frames move when nothing after the classifier reads them
+            if self.centroid.is_none() && self.raw_change.is_none() && self.normalise.is_none() {
+                feed(d, &mut self.raw, &mut self.decisions, finish)?;
+            } else {
+                feed(d, &mut self.raw.clone(), &mut self.decisions, finish)?;
+            }
             sinks.write_all(&self.taps[Tap::Dos as usize], &self.decisions)?;
             self.decisions.clear();
         }
@@ -431,7 +436,11 @@ impl SensorChain {
             }
         }
         if let Some(r) = &mut self.raw_change {
-            feed(r, &mut self.raw.clone(), &mut self.windows, finish)?;
+            if self.normalise.is_none() {
+                feed(r, &mut self.raw, &mut self.windows, finish)?;
+            } else {
+                feed(r, &mut self.raw.clone(), &mut self.windows, finish)?;
+            }
         }
         self.process_events(finish, sinks)?;
         sinks.write_all(&self.taps[Tap::Window as usize], &self.windows)?;
@@ -448,7 +457,11 @@ impl SensorChain {
         }
         sinks.write_all(&self.taps[Tap::Contour as usize], &self.contours)?;
         if let Some(f) = &mut self.force {
-            feed(f, &mut self.contours.clone(), &mut self.forces, finish)?;
+            if self.track.is_none() {
+                feed(f, &mut self.contours, &mut self.forces, finish)?;
+            } else {
+                feed(f, &mut self.contours.clone(), &mut self.forces, finish)?;
+            }
             sinks.write_all(&self.taps[Tap::Force as usize], &self.forces)?;
             self.forces.clear();
         }

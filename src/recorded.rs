@@ -29,9 +29,9 @@ pub(crate) fn open(scene: &Scene, plan: &Plan, path: &Path) -> Result<FrameStrea
     let err = |e: gradtac_io::Error| gradtac_stream::Error::from(e);
     if mcap {
         let it = McapFrames::open(path, sensors)?.map(move |r| r.map_err(err));
-        Ok(Box::pin(gradtac_io::blocking_stream(it, 1024)))
+        Ok(Box::pin(gradtac_io::blocking_stream_chunked(it, 1024, 256)))
     } else {
         let it = RosbagFrames::open(path, sensors)?.map(move |r| r.map_err(err));
-        Ok(Box::pin(gradtac_io::blocking_stream(it, 1024)))
+        Ok(Box::pin(gradtac_io::blocking_stream_chunked(it, 1024, 256)))
     }
 }

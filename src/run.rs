@@ -166,6 +166,12 @@ impl Runner {
         self.chains.iter().map(|c| (c.sensor().to_string(), c.frames_in())).collect()
     }
 
+    /// Rows written so far per output, in the scene's order (e.g. to see which pushes made a
+    /// slip decision).
+    pub fn rows(&self) -> Vec<u64> {
+        self.sinks.rows()
+    }
+
     /// End of input: flush every stage, finish every output (rename to its final name). On a
     /// flush error the outputs are left as `.partial` files.
     pub fn finish(mut self) -> Result<Vec<(Vec<PathBuf>, u64)>, Error> {
@@ -305,7 +311,7 @@ fn open_sources(scene: &Scene, plan: &Plan) -> Result<OpenSources, Error> {
             });
         }
         progress.extend(prog);
-        streams.push(Box::pin(gradtac_io::blocking_stream(it, 1024)));
+        streams.push(Box::pin(gradtac_io::blocking_stream_chunked(it, 1024, 256)));
     }
     Ok(OpenSources { streams, progress, buses })
 }

@@ -199,6 +199,11 @@ impl Sinks {
         Ok(())
     }
 
+    /// Rows written so far per output (in the scene's order; 0 for a closed one).
+    pub fn rows(&self) -> Vec<u64> {
+        self.sinks.iter().map(|s| s.as_ref().map_or(0, OutputSink::rows)).collect()
+    }
+
     /// Close and rename every output; returns (final files, rows) per output.
     pub fn finish(mut self) -> Result<Vec<(Vec<PathBuf>, u64)>, Error> {
         let mut done = Vec::new();

@@ -102,6 +102,118 @@ impl<T, E> Stream for BlockingStream<T, E> {
     }
 }
 
+/// Stream returned by [`blocking_stream_chunked`].
+#[must_use = "streams do nothing unless polled"]
+#[derive(Debug)]
+pub struct ChunkedBlockingStream<T, E> {
+    rx: mpsc::Receiver<Vec<Result<T, E>>>,
+    chunk: std::vec::IntoIter<Result<T, E>>,
+    task: Option<JoinHandle<()>>,
+}
+
+/// [`blocking_stream_chunked`] sends an item at once when the chunk before it went this long
+/// ago: a source slower than this per item hands over every item as it comes.
+pub const CHUNK_WAIT: std::time::Duration = std::time::Duration::from_millis(1);
+
+/// [`blocking_stream`] for a reader that is usually ahead of its consumer (a file read as fast
+/// as it goes): items cross the channel in chunks of up to `chunk` (at least 1), so the two
+/// threads hand over (and wake each other) once per chunk instead of once per item — on a
+/// fast source, that hand-over costs more than reading the item.
+///
+/// - A chunk is sent when it is full, when an item arrives [`CHUNK_WAIT`] or more after the
+///   last send (so a slow source's items go one by one, as they come; the clock is read at
+///   chunk lengths 1, 2, 4, …, so an item of a middling source waits at most about twice
+///   `CHUNK_WAIT`), at the first `Err` item (then reading stops) and at the end. A reader that blocks inside `next` holds the
+///   items it read within `CHUNK_WAIT` of the last send until its next item.
+/// - At most `capacity` items (rounded up to whole chunks, at least one chunk) wait in the
+///   channel, plus the chunk being filled: constant memory.
+/// - Dropping the stream stops the reader when it next sends; a panic in the iterator is
+///   resumed in the polling task, as in [`blocking_stream`].
+///
+/// # Panics
+/// Like [`tokio::task::spawn_blocking`], when called outside a tokio runtime.
+///
+/// ```
+/// use futures::StreamExt;
+/// use gradtac_io::blocking::blocking_stream_chunked;
+///
+/// # tokio::runtime::Builder::new_current_thread().build().unwrap().block_on(async {
+/// let items: Vec<Result<u32, String>> = blocking_stream_chunked((0..5).map(Ok), 4, 2).collect().await;
+/// assert_eq!(items, [Ok(0), Ok(1), Ok(2), Ok(3), Ok(4)]);
+/// # });
+/// ```
+pub fn blocking_stream_chunked<I, T, E>(iter: I, capacity: usize, chunk: usize) -> ChunkedBlockingStream<T, E>
+where
+    I: Iterator<Item = Result<T, E>> + Send + 'static,
+    T: Send + 'static,
+    E: Send + 'static,
+{
+    let chunk = chunk.max(1);
+    let (tx, rx) = mpsc::channel(capacity.div_ceil(chunk).max(1));
+    let task = tokio::task::spawn_blocking(move || {
+        let mut buf = Vec::with_capacity(chunk);
+        let mut sent = std::time::Instant::now();
+        for item in iter {
+            let last = item.is_err();
+            buf.push(item);
+            // the clock is read at chunk lengths 1, 2, 4, …: an item that comes CHUNK_WAIT after
+            // the last send goes at once, later ones within twice their wait
+            if last || buf.len() >= chunk || (buf.len().is_power_of_two() && sent.elapsed() >= CHUNK_WAIT) {
+                let full = std::mem::replace(&mut buf, Vec::with_capacity(chunk));
+                if tx.blocking_send(full).is_err() || last {
+                    return;
+                }
+                sent = std::time::Instant::now();
+            }
+        }
+        if !buf.is_empty() {
+            let _ = tx.blocking_send(buf);
+        }
+    });
+    ChunkedBlockingStream { rx, chunk: Vec::new().into_iter(), task: Some(task) }
+}
+
+// Nothing of the stream is pinned structurally: the receiver, the chunk and the task handle
+// are all polled through `&mut`.
+impl<T, E> Unpin for ChunkedBlockingStream<T, E> {}
+
+impl<T, E> Stream for ChunkedBlockingStream<T, E> {
+    type Item = Result<T, E>;
+
+    fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<Self::Item>> {
+        let this = &mut *self;
+        loop {
+            if let Some(item) = this.chunk.next() {
+                return Poll::Ready(Some(item));
+            }
+            match this.rx.poll_recv(cx) {
+                Poll::Ready(Some(chunk)) => this.chunk = chunk.into_iter(),
+                Poll::Ready(None) => break,
+                Poll::Pending => return Poll::Pending,
+            }
+        }
+        // The channel closed: the reader is done. Surface a panic instead of a silent end.
+        if let Some(task) = this.task.as_mut() {
+            match Pin::new(task).poll(cx) {
+                Poll::Pending => return Poll::Pending,
+                Poll::Ready(result) => {
+                    this.task = None;
+                    if let Err(e) = result {
+                        if e.is_panic() {
+                            std::panic::resume_unwind(e.into_panic());
+                        }
+                    }
+                }
+            }
+        }
+        Poll::Ready(None)
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        (self.chunk.len(), None)
+    }
+}
+
 enum SinkMsg<T> {
     Record(T),
     Finish,
@@ -410,6 +522,62 @@ mod tests {
         assert!(e.is_panic());
         let msg = e.into_panic();
         assert_eq!(msg.downcast_ref::<&str>(), Some(&"reader broke"));
+    }
+
+    #[tokio::test]
+    async fn chunked_yields_all_items_in_order_and_stops_after_the_first_error() {
+        for (capacity, chunk) in [(1, 1), (3, 2), (1024, 64), (5, 1000)] {
+            let got: Vec<Result<usize, ()>> =
+                blocking_stream_chunked((0..1000).map(Ok), capacity, chunk).collect().await;
+            assert_eq!(got, (0..1000).map(Ok).collect::<Vec<_>>(), "capacity {capacity}, chunk {chunk}");
+        }
+        let src = vec![Ok(1), Err("bad"), Ok(3)].into_iter();
+        let got: Vec<Result<i32, &str>> = blocking_stream_chunked(src, 8, 4).collect().await;
+        assert_eq!(got, [Ok(1), Err("bad")]);
+    }
+
+    #[tokio::test]
+    async fn chunked_stops_reading_when_the_receiver_is_dropped() {
+        let produced = Arc::new(AtomicUsize::new(0));
+        let (tx, dropped) = std::sync::mpsc::channel();
+        let (capacity, chunk) = (8, 4);
+        let mut s = blocking_stream_chunked(Watched { produced: produced.clone(), dropped: tx }, capacity, chunk);
+        for want in 0..3 {
+            assert_eq!(s.next().await, Some(Ok(want)));
+        }
+        drop(s);
+        let ended = tokio::task::spawn_blocking(move || dropped.recv_timeout(Duration::from_secs(10))).await.unwrap();
+        assert!(ended.is_ok(), "the reader did not stop after the stream was dropped");
+        // at most: the chunk consumed from, `capacity` queued, and one chunk blocked in the send
+        assert!(produced.load(Ordering::SeqCst) <= chunk + capacity + chunk, "{}", produced.load(Ordering::SeqCst));
+    }
+
+    /// A source slower than CHUNK_WAIT per item hands over each item as it comes, not after a
+    /// full chunk (the reader then stalls for 3 s).
+    #[tokio::test]
+    async fn chunked_hands_over_a_slow_sources_items() {
+        let src = (0..3).map(|i| {
+            std::thread::sleep(CHUNK_WAIT * 3);
+            Ok::<_, ()>(i)
+        });
+        let stall = std::iter::once_with(|| {
+            std::thread::sleep(Duration::from_secs(3));
+            Ok(99)
+        });
+        let mut s = blocking_stream_chunked(src.chain(stall), 1024, 1000);
+        for want in 0..3 {
+            let got = tokio::time::timeout(Duration::from_secs(2), s.next()).await;
+            assert_eq!(got.ok().flatten(), Some(Ok(want)), "item {want} came only with the stalled one");
+        }
+    }
+
+    #[tokio::test]
+    async fn chunked_reader_panic_is_not_a_silent_end() {
+        let src = (0..3).map(|i| if i == 2 { panic!("reader broke") } else { Ok::<_, ()>(i) });
+        let outcome = tokio::spawn(async move { blocking_stream_chunked(src, 4, 2).collect::<Vec<_>>().await }).await;
+        let e = outcome.unwrap_err();
+        assert!(e.is_panic());
+        assert_eq!(e.into_panic().downcast_ref::<&str>(), Some(&"reader broke"));
     }
 
     #[tokio::test]

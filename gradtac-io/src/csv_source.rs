@@ -5,7 +5,7 @@
 //! the time from a timestamp column or from a fixed sample rate (see [`CsvSourceConfig`]).
 //!
 //! Reading is streaming with constant memory: [`CsvFrames`] holds one reusable
-//! [`csv::ByteRecord`] and the `csv` crate's 8 KiB buffer, never the file. It is a plain
+//! [`csv::ByteRecord`] and a 64 KiB read buffer ([`READ_BUFFER`]), never the file. It is a plain
 //! [`Iterator`] of `Result<TaxelFrame, Error>`; run it on a tokio runtime through
 //! [`blocking_stream`](crate::blocking::blocking_stream).
 //!
@@ -642,6 +642,7 @@ impl<R: Read> CsvFrames<R> {
     pub fn from_reader(reader: R, origin: &Path, config: &CsvSourceConfig, sensor: SensorId) -> Result<Self> {
         config.validate()?;
         let mut reader = csv::ReaderBuilder::new()
+            .buffer_capacity(READ_BUFFER)
             .has_headers(true)
             .flexible(true)
             .delimiter(config.delimiter as u8)
@@ -707,6 +708,10 @@ impl<R: Read> CsvFrames<R> {
     }
 }
 
+/// Bytes a CSV source reads at a time: 64 KiB (about 500 rows of 24 taxels), so a fast run
+/// makes few `read` calls.
+pub const READ_BUFFER: usize = 64 << 10;
+
 /// Longest physical line (bytes) a CSV source accepts, header included: 1 MiB (about 40 000
 /// columns of 24-byte cells). A longer line fails with its file, line number and an excerpt,
 /// so a stray binary file or an unbounded input (`/dev/zero`) cannot grow memory without
@@ -737,7 +742,7 @@ impl std::error::Error for LineTooLong {}
 
 /// A [`Read`] that remembers where the newlines it passed on are, until asked: physical line
 /// numbers for [`CsvFrames`]. Queries must not go backwards; the queue holds only newlines
-/// the CSV parser has buffered but not yet consumed (at most its 8 KiB buffer's worth). It
+/// the CSV parser has buffered but not yet consumed (at most its [`READ_BUFFER`]'s worth). It
 /// also caps the length of a line ([`MAX_LINE_BYTES`]).
 struct LineCounter<R> {
     inner: R,
@@ -777,32 +782,41 @@ impl<R> LineCounter<R> {
     }
 }
 
+impl<R> LineCounter<R> {
+    /// Count `piece`, the bytes of the current line in this read (up to its newline, or to
+    /// the end of the read when `ends` is false); an error when the line passes the cap.
+    fn piece(&mut self, piece: &[u8], ends: bool) -> std::io::Result<()> {
+        const KEEP: usize = 80;
+        self.line_len += piece.len() as u64;
+        // the excerpt is only read for a line over the cap: kept for a line that goes on past
+        // this read, or taken from this piece when it crosses the cap now
+        let over = self.line_len > self.max_line;
+        if (!ends || over) && self.line_start.len() < KEEP {
+            let take = piece.len().min(KEEP - self.line_start.len());
+            self.line_start.extend_from_slice(&piece[..take]);
+        }
+        if over {
+            let e = LineTooLong { line: self.lines_read + 1, start: self.line_start.clone(), max: self.max_line };
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, e));
+        }
+        Ok(())
+    }
+}
+
 impl<R: Read> Read for LineCounter<R> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        const KEEP: usize = 80;
         let n = self.inner.read(buf)?;
+        let buf = &buf[..n];
         let mut line_from = 0;
-        let mut pos = 0;
-        loop {
-            let end = buf[pos..n].iter().position(|&b| b == b'\n').map(|i| pos + i);
-            let piece = &buf[line_from..end.unwrap_or(n)];
-            self.line_len += piece.len() as u64;
-            if self.line_start.len() < KEEP {
-                let take = piece.len().min(KEEP - self.line_start.len());
-                self.line_start.extend_from_slice(&piece[..take]);
-            }
-            if self.line_len > self.max_line {
-                let e = LineTooLong { line: self.lines_read + 1, start: self.line_start.clone(), max: self.max_line };
-                return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, e));
-            }
-            let Some(i) = end else { break };
+        for i in memchr::memchr_iter(b'\n', buf) {
+            self.piece(&buf[line_from..i], true)?;
             self.pending.push_back(self.offset + i as u64);
             self.lines_read += 1;
             self.line_len = 0;
             self.line_start.clear();
             line_from = i + 1;
-            pos = i + 1;
         }
+        self.piece(&buf[line_from..], false)?;
         self.offset += n as u64;
         Ok(n)
     }
@@ -877,7 +891,57 @@ fn cell_text(cell: &[u8]) -> std::result::Result<&str, String> {
     Ok(s)
 }
 
+/// Exact powers of ten as `f64` (every one up to 10²² is representable).
+const POW10: [f64; 16] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15];
+
+/// The fast path of a numeric cell: optional ASCII blanks around an optional sign, digits
+/// and at most one `.` with digits on both sides, 15 significant digits at most (no exponent,
+/// no `inf`/`nan`). Then the mantissa `m` (< 10¹⁵ < 2⁵³) and `10^k` are exact `f64`s and one
+/// IEEE division rounds `m / 10^k` correctly, which is what [`f64::from_str`] returns
+/// (Clinger's fast path). Anything else is `None`, and the cell takes the general path (with
+/// its error messages).
+fn fast_f64(cell: &[u8]) -> Option<f64> {
+    let cell = cell.trim_ascii();
+    let (negative, text) = match cell.first()? {
+        b'-' => (true, &cell[1..]),
+        b'+' => (false, &cell[1..]),
+        _ => (false, cell),
+    };
+    // 15 digits and a dot at most (checked again below, without the dot)
+    if text.is_empty() || text.len() > 16 {
+        return None;
+    }
+    let mut m: u64 = 0;
+    let mut dot = None;
+    for (i, &b) in text.iter().enumerate() {
+        let d = b.wrapping_sub(b'0');
+        if d <= 9 {
+            m = m * 10 + u64::from(d);
+        } else if b == b'.' && dot.is_none() {
+            dot = Some(i);
+        } else {
+            return None;
+        }
+    }
+    let frac = match dot {
+        None if text.len() <= 15 => 0,
+        None => return None,
+        // digits on both sides of the dot
+        Some(i) if i > 0 && i + 1 < text.len() => text.len() - i - 1,
+        Some(_) => return None,
+    };
+    let v = m as f64 / POW10[frac];
+    Some(if negative { -v } else { v })
+}
+
 impl<R: Read> CsvFrames<R> {
+    /// The first physical line of the current row, given the line of its last byte: less the
+    /// newlines inside quoted fields (`csv`'s own line numbers skip blank lines and CRLF line
+    /// ends). Only computed for an error.
+    fn row_line(&self, last_line: u64) -> u64 {
+        last_line - newlines_in(self.record.as_slice())
+    }
+
     fn read_frame(&mut self) -> Option<Result<TaxelFrame>> {
         match self.reader.read_byte_record(&mut self.record) {
             Ok(false) => return None,
@@ -886,16 +950,20 @@ impl<R: Read> CsvFrames<R> {
         }
         let end = self.reader.position().byte();
         self.progress.read.store(end, Ordering::Relaxed);
-        // The row's first physical line: the line of its last byte, less the newlines inside
-        // quoted fields (`csv`'s own line numbers skip blank lines and CRLF line ends).
-        let line = self.reader.get_mut().line_of(end.saturating_sub(1)) - newlines_in(self.record.as_slice());
+        // the line of the row's last byte (advancing the line counter); the row's first line
+        // is worked out from it only for an error (row_line)
+        let last_line = self.reader.get_mut().line_of(end.saturating_sub(1));
         if self.record.len() != self.header.len() {
             let reason = format!("the row has {} fields, the header has {}", self.record.len(), self.header.len());
-            return Some(Err(self.parse_error(line, None, reason)));
+            return Some(Err(self.parse_error(self.row_line(last_line), None, reason)));
         }
         let mut values = Vec::with_capacity(self.indices.len());
         for &i in &self.indices {
             let cell = &self.record[i];
+            if let Some(v) = fast_f64(cell) {
+                values.push(v);
+                continue;
+            }
             let v = cell_text(cell).and_then(|s| match s.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(v),
                 Ok(_) => Err(format!("{:?} is not a finite number", crate::error::excerpt(s, 80))),
@@ -903,7 +971,7 @@ impl<R: Read> CsvFrames<R> {
             });
             match v {
                 Ok(v) => values.push(v),
-                Err(reason) => return Some(Err(self.parse_error(line, Some(i), reason))),
+                Err(reason) => return Some(Err(self.parse_error(self.row_line(last_line), Some(i), reason))),
             }
         }
         let time = match self.time {
@@ -912,7 +980,7 @@ impl<R: Read> CsvFrames<R> {
                 None => {
                     let reason =
                         format!("frame {}: its time at {rate} Hz is beyond the i64-nanosecond range", self.seq);
-                    return Some(Err(self.parse_error(line, None, reason)));
+                    return Some(Err(self.parse_error(self.row_line(last_line), None, reason)));
                 }
             },
             TimeSource::Column { index, unit } => {
@@ -927,7 +995,7 @@ impl<R: Read> CsvFrames<R> {
                 });
                 let ns = match ns {
                     Ok(ns) => ns,
-                    Err(reason) => return Some(Err(self.parse_error(line, Some(index), reason))),
+                    Err(reason) => return Some(Err(self.parse_error(self.row_line(last_line), Some(index), reason))),
                 };
                 if let Some(prev) = self.prev_time.filter(|&p| ns < p) {
                     let reason = format!(
@@ -935,7 +1003,7 @@ impl<R: Read> CsvFrames<R> {
                         crate::error::excerpt(String::from_utf8_lossy(&self.record[index]).trim(), 80),
                         prev - ns
                     );
-                    return Some(Err(self.parse_error(line, Some(index), reason)));
+                    return Some(Err(self.parse_error(self.row_line(last_line), Some(index), reason)));
                 }
                 self.prev_time = Some(ns);
                 Timestamp::from_nanos(ns)
@@ -1306,5 +1374,40 @@ mod tests {
         let e = CsvSourceConfig::new("r.csv", sel("a")).with_rate_hz(1e-9).validate().unwrap_err().to_string();
         assert!(e.contains("rate_hz must be finite and within [1e-3, 1e9] Hz"), "{e}");
         assert!(CsvSourceConfig::new("r.csv", sel("a")).with_rate_hz(1e-3).validate().is_ok());
+    }
+
+    /// The fast path of numeric cells gives exactly what `f64::from_str` gives (bit for bit,
+    /// signed zeros included), and declines what it cannot read.
+    #[test]
+    fn fast_cells_are_parsed_like_from_str() {
+        for t in ["0", "-0", "+7", "3530", " 12 ", "0.1", "-0.000", "123456789012345", "1.00000000000001", "00042.50"] {
+            let want: f64 = t.trim().parse().unwrap();
+            assert_eq!(fast_f64(t.as_bytes()).map(f64::to_bits), Some(want.to_bits()), "{t:?}");
+        }
+        for t in
+            ["", " ", "-", "+", ".", "1.", ".5", "1e3", "inf", "NaN", "1.2.3", "0x10", "1 2", "1234567890123456", "--1"]
+        {
+            assert_eq!(fast_f64(t.as_bytes()), None, "{t:?}");
+        }
+    }
+
+    proptest::proptest! {
+        /// Any short text of digits, dots, signs and blanks: where the fast path answers, it
+        /// answers what `from_str` does.
+        #[test]
+        fn fast_path_agrees_with_from_str(t in "[ ]?[-+]?[0-9]{0,17}[.]?[0-9]{0,17}[ ]?") {
+            if let Some(v) = fast_f64(t.as_bytes()) {
+                let want: f64 = t.trim().parse().unwrap();
+                proptest::prop_assert_eq!(v.to_bits(), want.to_bits());
+            }
+        }
+
+        /// Decimals the fast path must take (≤ 15 digits) are taken.
+        #[test]
+        fn short_decimals_take_the_fast_path(i in 0u64..1_000_000_000, f in 0u64..100_000, neg: bool) {
+            let t = format!("{}{i}.{f:05}", if neg { "-" } else { "" });
+            let want: f64 = t.parse().unwrap();
+            proptest::prop_assert_eq!(fast_f64(t.as_bytes()).map(f64::to_bits), Some(want.to_bits()));
+        }
     }
 }

@@ -25,7 +25,10 @@ pub mod records;
 pub mod rosbag;
 
 pub use archive::{ArchiveConfig, ParquetArchive, Partitioning, RecordSink};
-pub use blocking::{blocking_archive, blocking_sink, blocking_stream, BlockingArchive, BlockingSink, BlockingStream};
+pub use blocking::{
+    blocking_archive, blocking_sink, blocking_stream, blocking_stream_chunked, BlockingArchive, BlockingSink,
+    BlockingStream, ChunkedBlockingStream,
+};
 pub use csv_source::{ColumnSelector, CsvFrames, CsvProgress, CsvSourceConfig, TimeUnit};
 pub use error::{excerpt, BagSite, Error, Result};
 pub use parquet_sink::ParquetSink;

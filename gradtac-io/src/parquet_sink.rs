@@ -62,6 +62,7 @@ use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
+use parquet::schema::types::ColumnPath;
 use std::fmt;
 use std::fs::{self, File};
 use std::path::{Path, PathBuf};
@@ -372,10 +373,7 @@ impl<T: ArrowRecord> ParquetSink<T> {
         if self.writer.is_none() {
             let file = self.file.take().ok_or_else(|| arrow_error(self.partial.display().to_string(), "no file"))?;
             let level = ZstdLevel::try_new(self.zstd_level).map_err(|e| Error::InvalidConfig(e.to_string()))?;
-            let props = WriterProperties::builder()
-                .set_compression(Compression::ZSTD(level))
-                .set_max_row_group_row_count(Some(self.row_group_size))
-                .build();
+            let props = writer_properties(&self.schema, level, self.row_group_size);
             let writer = ArrowWriter::try_new(file, self.schema.clone(), Some(props))
                 .map_err(|e| arrow_error(self.partial.display().to_string(), e))?;
             self.writer = Some(writer);
@@ -415,6 +413,26 @@ impl<T: ArrowRecord> ParquetSink<T> {
         self.failed = true; // closed: nothing more may be written
         result
     }
+}
+
+/// The writer's settings: zstd at `level`, row groups of `row_group_size` rows, and
+/// dictionary encoding only for the string columns (`sensor`, `state`, `class`, …: a few
+/// distinct values each). Numeric and time columns are written plain: their values are
+/// mostly distinct (times, sequence numbers, positions, surface values), where a dictionary
+/// costs a hash per value and saves nothing. Encodings do not change what a reader gets.
+fn writer_properties(schema: &arrow_schema::Schema, level: ZstdLevel, row_group_size: usize) -> WriterProperties {
+    use arrow_schema::DataType;
+    let mut props = WriterProperties::builder()
+        .set_compression(Compression::ZSTD(level))
+        .set_max_row_group_row_count(Some(row_group_size))
+        .set_dictionary_enabled(false);
+    for f in schema.fields() {
+        if matches!(f.data_type(), DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View | DataType::Dictionary(..))
+        {
+            props = props.set_column_dictionary_enabled(ColumnPath::from(f.name().as_str()), true);
+        }
+    }
+    props.build()
 }
 
 /// Checks a row-group size (at least 1 row); shared with
