@@ -16,8 +16,8 @@
 //! reported whole and restricted to grasps with an exponential kernel on some finger.
 
 use gradtac::stages::sim_family::KernelShape;
-use gradtac::stages::sim_grasp::{score, track_points, GraspMember, GraspScore};
-use gradtac::stages::slip::{Slip, SlipClass, SlipConfig, SlipMethod};
+use gradtac::stages::sim_grasp::{score, slip_inputs, track_points_per_frame, GraspMember, GraspRecording, GraspScore};
+use gradtac::stages::slip::{Slip, SlipClass, SlipConfig, SlipEvidence, SlipMethod};
 use gradtac::stages::track::TrackPoint;
 use gradtac::stream::StageExt;
 
@@ -25,7 +25,9 @@ struct Case {
     member: GraspMember,
     exponential: bool,
     truth: gradtac::stages::sim_grasp::GraspTruth,
-    points: Vec<TrackPoint>,
+    rec: GraspRecording,
+    /// The track points each frame produced (then the finish's).
+    tracks: Vec<Vec<TrackPoint>>,
 }
 
 fn cases(seeds: std::ops::Range<u64>, keep: impl Fn(bool) -> bool + Sync) -> Vec<Case> {
@@ -39,8 +41,8 @@ fn cases(seeds: std::ops::Range<u64>, keep: impl Fn(bool) -> bool + Sync) -> Vec
                     return None;
                 }
                 let rec = g.simulate();
-                let points = track_points(&rec).expect("simulated frames are valid");
-                Some(Case { member: *m, exponential, truth: rec.truth, points })
+                let tracks = track_points_per_frame(&rec).expect("simulated frames are valid");
+                Some(Case { member: *m, exponential, truth: rec.truth, rec, tracks })
             })
             .collect()
     };
@@ -54,9 +56,13 @@ fn cases(seeds: std::ops::Range<u64>, keep: impl Fn(bool) -> bool + Sync) -> Vec
     })
 }
 
+fn events(c: &Case, cfg: &SlipConfig) -> Vec<gradtac::stages::slip::SlipEvent> {
+    let input = slip_inputs(&c.rec, &c.tracks, cfg).expect("valid frames");
+    Slip::try_new(cfg).expect("valid").run_inputs(input).expect("valid points")
+}
+
 fn run(c: &Case, cfg: &SlipConfig) -> GraspScore {
-    let ev = Slip::try_new(cfg).expect("valid").run_all(c.points.clone()).expect("valid points");
-    score(&c.truth, &ev)
+    score(&c.truth, &events(c, cfg))
 }
 
 fn pct(v: &mut [f64], q: f64) -> f64 {
@@ -122,61 +128,62 @@ fn main() {
     let tuning = cases(0..40, |exp| !exp);
     eprintln!("{} tuning grasps simulated in {:.1?}", tuning.len(), t.elapsed());
     if tune {
-        let mut rows = Vec::new();
-        for window_s in [0.2, 0.3, 0.4, 0.6] {
-            for distance_mm in [0.4, 0.6, 0.8, 1.0] {
-                for (min_duration_s, settle_s) in [0.05, 0.1, 0.2].into_iter().flat_map(|d| [0.3, 0.5].map(|s| (d, s)))
-                {
-                    let cfg = SlipConfig {
-                        window_s,
-                        distance_mm,
-                        min_duration_s,
-                        settle_s,
-                        onset_lead_s: 0.0,
-                        ..Default::default()
-                    };
-                    let scores: Vec<GraspScore> = tuning.iter().map(|c| run(c, &cfg)).collect();
-                    let mut signed: Vec<f64> = scores
-                        .iter()
-                        .filter(|r| r.right() && r.truth.class.is_slip())
-                        .map(|r| r.onset_error_s)
-                        .collect();
-                    let bias = pct(&mut signed, 0.5);
-                    let cfg = SlipConfig { onset_lead_s: bias.max(0.0), ..cfg };
-                    let scores: Vec<GraspScore> = tuning.iter().map(|c| run(c, &cfg)).collect();
-                    let mut s = summarise(&scores);
-                    let (a, n) = s.all();
-                    let med = pct(&mut s.onset, 0.5);
-                    rows.push((
-                        s.false_alarms,
-                        usize::MAX - a,
-                        med,
-                        window_s,
-                        distance_mm,
-                        min_duration_s,
-                        cfg.onset_lead_s,
-                        s.worst_class(),
-                        n,
-                        settle_s,
-                    ));
+        // the search: where each finger's position comes from and the pattern's contact test,
+        // with the displacement threshold; the other settings at the defaults chosen before
+        let mut grid = Vec::new();
+        for distance_mm in [0.6, 0.8, 1.0] {
+            grid.push(SlipConfig { evidence: SlipEvidence::Track, distance_mm, ..Default::default() });
+            for evidence in [SlipEvidence::Pattern, SlipEvidence::Both] {
+                for pattern_contact_sigmas in [3.0, 4.0, 6.0, 8.0, 12.0] {
+                    for pattern_floor_sigmas in [1.0, 2.0, 3.0] {
+                        for pattern_window_frames in [3, 5, 9] {
+                            grid.push(SlipConfig {
+                                evidence,
+                                distance_mm,
+                                pattern_contact_sigmas,
+                                pattern_floor_sigmas,
+                                pattern_window_frames,
+                                ..Default::default()
+                            });
+                        }
+                    }
                 }
             }
         }
-        rows.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.total_cmp(&y.2)));
-        println!("tuning ({} grasps): false alarms, right, onset median, window_s, distance_mm, min_duration_s, onset_lead_s, worst class", tuning.len());
-        for r in rows.iter().take(25) {
+        let mut rows = Vec::new();
+        for cfg in grid {
+            let cfg = SlipConfig { onset_lead_s: 0.0, ..cfg };
+            let scores: Vec<GraspScore> = tuning.iter().map(|c| run(c, &cfg)).collect();
+            let mut signed: Vec<f64> =
+                scores.iter().filter(|r| r.right() && r.truth.class.is_slip()).map(|r| r.onset_error_s).collect();
+            let bias = pct(&mut signed, 0.5);
+            let cfg = SlipConfig { onset_lead_s: (bias.max(0.0) * 100.0).round() / 100.0, ..cfg };
+            let scores: Vec<GraspScore> = tuning.iter().map(|c| run(c, &cfg)).collect();
+            let mut s = summarise(&scores);
+            let (a, n) = s.all();
+            let med = pct(&mut s.onset, 0.5);
+            rows.push((s.false_alarms, a, n, med, s.worst_class(), cfg));
+        }
+        rows.sort_by(|x, y| x.0.cmp(&y.0).then(y.1.cmp(&x.1)).then(x.3.total_cmp(&y.3)));
+        println!(
+            "tuning ({} grasps), ranked by false alarms, then grasps right, then median onset error",
+            tuning.len()
+        );
+        for r in rows.iter().take(40) {
+            let c = &r.5;
             println!(
-                "FA {} right {}/{} med {:.0} ms | window {} dist {} dur {} settle {} lead {:.3} worst {:.3}",
+                "FA {} right {}/{} worst {:.3} med {:.0} ms | {} dist {} contact {} floor {} frames {} lead {:.2}",
                 r.0,
-                usize::MAX - r.1,
-                r.8,
-                r.2 * 1e3,
-                r.3,
+                r.1,
+                r.2,
                 r.4,
-                r.5,
-                r.9,
-                r.6,
-                r.7
+                r.3 * 1e3,
+                c.evidence.name(),
+                c.distance_mm,
+                c.pattern_contact_sigmas,
+                c.pattern_floor_sigmas,
+                c.pattern_window_frames,
+                c.onset_lead_s
             );
         }
         return;
@@ -233,10 +240,7 @@ fn main() {
                 c.truth.onset_s,
                 r.detected.map(|d| d.name()),
                 r.false_alarms,
-                Slip::try_new(&def)
-                    .unwrap()
-                    .run_all(c.points.clone())
-                    .unwrap()
+                events(c, &def)
                     .iter()
                     .map(|e| (e.class.name(), (e.time.as_secs_f64() * 100.0).round() / 100.0))
                     .collect::<Vec<_>>(),

@@ -14,16 +14,15 @@
 //! - the previous track-velocity rule does worse on the same grasps (the baseline; measured
 //!   22 of 40 right against 36).
 
-use gradtac::stages::sim_grasp::{score, track_points, GraspMember, GraspScore};
-use gradtac::stages::slip::{Slip, SlipConfig, SlipMethod};
-use gradtac::stream::StageExt;
+use gradtac::stages::sim_grasp::{detect, score, GraspMember, GraspScore};
+use gradtac::stages::slip::{SlipConfig, SlipMethod};
 
 fn scores(cfg: &SlipConfig) -> Vec<GraspScore> {
     GraspMember::grid(1000..1008)
         .into_iter()
         .map(|m| {
             let rec = m.simulate();
-            let ev = Slip::try_new(cfg).unwrap().run_all(track_points(&rec).unwrap()).unwrap();
+            let ev = detect(&rec, cfg).unwrap();
             score(&rec.truth, &ev)
         })
         .collect()

@@ -160,6 +160,7 @@
 //! # Ok::<(), gradtac_stages::Error>(())
 //! ```
 
+use crate::slip_pattern::PatternPoint;
 use crate::track::{ContactState, TrackPoint};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, SensorId, Stage, Timed, Timestamp};
@@ -235,6 +236,70 @@ impl SlipMethod {
     }
 }
 
+/// Where the `displacement` rule reads each finger's position (see the [module docs](self)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SlipEvidence {
+    /// The contact track only ([`SlipInput::Track`]).
+    Track,
+    /// The raw-frame change pattern only ([`SlipInput::Pattern`], [`crate::slip_pattern`]).
+    Pattern,
+    /// The track where it has evidence, else the pattern.
+    #[default]
+    Both,
+}
+
+impl SlipEvidence {
+    /// The name in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            SlipEvidence::Track => "track",
+            SlipEvidence::Pattern => "pattern",
+            SlipEvidence::Both => "both",
+        }
+    }
+
+    /// Whether the slip stage needs the raw frames' pattern points.
+    pub fn needs_frames(self) -> bool {
+        self != SlipEvidence::Track
+    }
+
+    /// Whether the slip stage needs the track points.
+    pub fn needs_tracks(self) -> bool {
+        self != SlipEvidence::Pattern
+    }
+}
+
+/// One input of the [`Slip`] stage: a track point or a pattern point, of either finger.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SlipInput {
+    /// A contact track point (`track` tap).
+    Track(TrackPoint),
+    /// A raw-frame pattern point ([`crate::slip_pattern::SlipPattern`]).
+    Pattern(PatternPoint),
+}
+
+impl From<TrackPoint> for SlipInput {
+    fn from(p: TrackPoint) -> Self {
+        SlipInput::Track(p)
+    }
+}
+
+impl From<PatternPoint> for SlipInput {
+    fn from(p: PatternPoint) -> Self {
+        SlipInput::Pattern(p)
+    }
+}
+
+impl Timed for SlipInput {
+    fn time(&self) -> Timestamp {
+        match self {
+            SlipInput::Track(p) => p.time,
+            SlipInput::Pattern(p) => p.time,
+        }
+    }
+}
+
 /// Configuration of the [`Slip`] stage (`[stages.slip]` in a scene).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -283,6 +348,23 @@ pub struct SlipConfig {
     /// How long a new candidate class must persist before it becomes the state (s, ≥ 0).
     /// Default 0.1.
     pub min_duration_s: f64,
+    /// `displacement`: where each finger's position comes from (see the [module docs](self)).
+    /// Default `both`.
+    pub evidence: SlipEvidence,
+    /// Pattern evidence ([`crate::slip_pattern`]): start-up frames measuring each taxel's
+    /// baseline and noise (2–100 000). Default 20.
+    pub pattern_calibrate_frames: u32,
+    /// Pattern evidence: frames averaged (1–1000). Default 5.
+    pub pattern_window_frames: u32,
+    /// Pattern evidence: the noise floor removed from each taxel's energy (σ of one frame,
+    /// ≥ 0). Default 2.
+    pub pattern_floor_sigmas: f64,
+    /// Pattern evidence: a finger is in contact when its energy above the floor reaches the
+    /// square of this (σ of one frame, > 0). Default 6.
+    pub pattern_contact_sigmas: f64,
+    /// Pattern evidence: time constant (s, ≥ 0; 0 = never) with which taxels below the floor
+    /// follow drift. Default 2.
+    pub pattern_follow_s: f64,
 }
 
 impl Default for SlipConfig {
@@ -304,6 +386,12 @@ impl Default for SlipConfig {
             speed_threshold_mm_s: 5.0,
             dominance: 1.5,
             min_duration_s: 0.1,
+            evidence: SlipEvidence::Both,
+            pattern_calibrate_frames: 20,
+            pattern_window_frames: 5,
+            pattern_floor_sigmas: 2.0,
+            pattern_contact_sigmas: 6.0,
+            pattern_follow_s: 2.0,
         }
     }
 }
@@ -318,8 +406,27 @@ impl SlipConfig {
         match self.method {
             SlipMethod::Displacement => format!(
                 "two-finger slip by displacement: {} mm over {} s per finger after {} s of contact, onset by \
-                 change-point fit over {} s minus {} s, dropouts > {} s start afresh; {common}",
-                self.distance_mm, self.window_s, self.settle_s, self.history_s, self.onset_lead_s, self.max_gap_s
+                 change-point fit over {} s minus {} s, dropouts > {} s start afresh; evidence {}{}; {common}",
+                self.distance_mm,
+                self.window_s,
+                self.settle_s,
+                self.history_s,
+                self.onset_lead_s,
+                self.max_gap_s,
+                self.evidence.name(),
+                if self.evidence.needs_frames() {
+                    format!(
+                        " (raw-frame pattern: calibrate {} frames, average {}, floor {} σ, contact energy ≥ ({} σ)², \
+                         follow {} s)",
+                        self.pattern_calibrate_frames,
+                        self.pattern_window_frames,
+                        self.pattern_floor_sigmas,
+                        self.pattern_contact_sigmas,
+                        self.pattern_follow_s
+                    )
+                } else {
+                    String::new()
+                }
             ),
             SlipMethod::Velocity => format!(
                 "two-finger slip by track velocity: {} mm/s over {} s (≥ {} points); {common}",
@@ -359,32 +466,56 @@ impl Timed for SlipEvent {
     }
 }
 
+/// One source's position history along world up (the `displacement` rule).
 #[derive(Clone, Debug, Default)]
-struct Finger {
-    track: Option<u64>,
-    /// (time ns, x mm, y mm): the velocity rule's regression window.
-    points: VecDeque<(i64, f64, f64)>,
-    /// (time ns, world-up position mm): the displacement rule's history.
+struct Path {
+    /// (time ns, world-up position mm).
     history: VecDeque<(i64, f64)>,
     last_time: Option<Timestamp>,
     /// Start of the current contact (ns).
     contact_since: Option<i64>,
     /// The last usable point (ns).
     last_usable: Option<i64>,
-    velocity: Option<[f64; 2]>,
     /// Displacement over the window in units of `distance_mm`, clamped to ±1.
     moved: Option<f64>,
 }
 
-impl Finger {
+impl Path {
     fn clear(&mut self) {
-        self.track = None;
-        self.points.clear();
         self.history.clear();
         self.contact_since = None;
         self.last_usable = None;
-        self.velocity = None;
         self.moved = None;
+    }
+}
+
+#[derive(Clone, Debug, Default)]
+struct Finger {
+    track: Option<u64>,
+    /// (time ns, x mm, y mm): the velocity rule's regression window.
+    points: VecDeque<(i64, f64, f64)>,
+    velocity: Option<[f64; 2]>,
+    /// `[track, pattern]` position histories.
+    paths: [Path; 2],
+}
+
+impl Finger {
+    /// Forget the track's evidence (not the pattern's).
+    fn clear_track(&mut self) {
+        self.track = None;
+        self.points.clear();
+        self.velocity = None;
+        self.paths[0].clear();
+    }
+
+    /// The displacement evidence the rule uses and the history it comes from.
+    fn evidence(&self, mode: SlipEvidence) -> Option<(f64, &Path)> {
+        let of = |k: usize| self.paths[k].moved.map(|m| (m, &self.paths[k]));
+        match mode {
+            SlipEvidence::Track => of(0),
+            SlipEvidence::Pattern => of(1),
+            SlipEvidence::Both => of(0).or_else(|| of(1)),
+        }
     }
 }
 
@@ -503,7 +634,8 @@ impl Slip {
     /// The current displacements `(first, second)` along world up over the window, in units of
     /// `distance_mm` clamped to ±1 (`displacement` rule), when both are known.
     pub fn displacements(&self) -> Option<(f64, f64)> {
-        Some((self.fingers[0].moved?, self.fingers[1].moved?))
+        let e = |i: usize| self.fingers[i].evidence(self.cfg.evidence).map(|e| e.0);
+        Some((e(0)?, e(1)?))
     }
 
     fn classify(&self, l: f64, r: f64, slip_level: f64, still_level: f64) -> SlipClass {
@@ -536,7 +668,8 @@ impl Slip {
                 (self.classify(l, r, th, th), l, r)
             }
             SlipMethod::Displacement => {
-                let (a, b) = (self.fingers[0].moved, self.fingers[1].moved);
+                let e = |i: usize| self.fingers[i].evidence(self.cfg.evidence).map(|e| e.0);
+                let (a, b) = (e(0), e(1));
                 if a.is_none() && b.is_none() {
                     return (SlipClass::Stable, f64::NAN, f64::NAN);
                 }
@@ -555,8 +688,8 @@ impl Slip {
         let mut sum = 0.0;
         let mut n = 0.0;
         for f in &self.fingers {
-            if f.moved.is_some_and(|m| m.abs() >= 0.5) {
-                if let Some(t) = change_point(&f.history) {
+            if let Some((_, path)) = f.evidence(self.cfg.evidence).filter(|e| e.0.abs() >= 0.5) {
+                if let Some(t) = change_point(&path.history) {
                     sum += t as f64;
                     n += 1.0;
                 }
@@ -568,6 +701,28 @@ impl Slip {
         let t = (sum / n).round() as i64 - (self.cfg.onset_lead_s * 1e9).round() as i64;
         Timestamp(t.min(fallback.0))
     }
+}
+
+/// A history's displacement along up over `window_ns`, `2·window_ns` and `4·window_ns`
+/// (≤ `history_ns`; least-squares slope × span), the largest in units of `distance_mm`,
+/// clamped to ±1; `None` before the history spans half a window.
+fn displacement_of(history: &VecDeque<(i64, f64)>, window_ns: i64, history_ns: i64, distance_mm: f64) -> Option<f64> {
+    let mid = history.back()?.0;
+    let span = mid - history.front().map_or(mid, |q| q.0);
+    let mut moved: Option<f64> = None;
+    for k in [1, 2, 4] {
+        let w = k * window_ns;
+        if (k > 1 && w > history_ns) || 2 * span < w {
+            break;
+        }
+        if let Some(v) = slope_since(history, mid - w) {
+            let d = v * w as f64 * 1e-9 / distance_mm;
+            if moved.is_none_or(|m| d.abs() > m.abs()) {
+                moved = Some(d);
+            }
+        }
+    }
+    moved.map(|d| d.clamp(-1.0, 1.0))
 }
 
 /// Least-squares slope of x and y against t (s) over the points; `None` when degenerate.
@@ -669,78 +824,109 @@ impl Stage for Slip {
     type Error = Error;
 
     fn push(&mut self, p: TrackPoint, out: &mut Vec<SlipEvent>) -> Result<()> {
-        let i = if p.sensor == self.first {
+        self.push_input(SlipInput::Track(p), out)
+    }
+
+    fn reset(&mut self) {
+        self.fingers = Default::default();
+        self.state = SlipClass::Stable;
+        self.candidate = None;
+    }
+
+    fn delay(&self) -> Delay {
+        Delay::nanos(self.min_duration_ns)
+    }
+}
+
+impl Slip {
+    /// Push one input of either path (a track point — what [`Stage::push`] takes — or a
+    /// raw-frame pattern point); events as [`Stage::push`].
+    pub fn push_input(&mut self, input: SlipInput, out: &mut Vec<SlipEvent>) -> Result<()> {
+        // (source 0 = track, 1 = pattern)
+        let (sensor, time, start, seq, usable, xy, gated, track, src) = match &input {
+            SlipInput::Track(p) => (
+                &p.sensor,
+                p.time,
+                p.start,
+                p.seq,
+                p.state == ContactState::Contact,
+                [p.x_mm, p.y_mm],
+                p.gated,
+                p.track,
+                0,
+            ),
+            SlipInput::Pattern(p) => (&p.sensor, p.time, p.start, p.seq, p.contact, [p.x_mm, p.y_mm], false, None, 1),
+        };
+        let i = if *sensor == self.first {
             0
-        } else if p.sensor == self.second {
+        } else if *sensor == self.second {
             1
         } else {
             return Ok(());
         };
+        let displacement = self.cfg.method == SlipMethod::Displacement;
+        let wanted = if src == 0 {
+            !displacement || self.cfg.evidence.needs_tracks()
+        } else {
+            displacement && self.cfg.evidence.needs_frames()
+        };
+        if !wanted {
+            return Ok(());
+        }
         let up = self.up[i];
         let f = &mut self.fingers[i];
-        if let Some(t) = f.last_time {
-            if p.time < t {
+        if let Some(t) = f.paths[src].last_time {
+            if time < t {
                 return Err(Error::BadInput {
                     stage: STAGE,
-                    sensor: p.sensor.to_string(),
-                    seq: p.seq,
-                    reason: format!("time {:?} is before the previous point's {t:?}", p.time),
+                    sensor: sensor.to_string(),
+                    seq,
+                    reason: format!("time {time:?} is before the previous point's {t:?}"),
                 });
             }
         }
-        f.last_time = Some(p.time);
-        let usable = p.state == ContactState::Contact && p.x_mm.is_finite() && p.y_mm.is_finite();
-        let dropout = f.last_usable.is_some_and(|t| p.time.as_nanos() - t > self.gap_ns);
-        if dropout || (!usable && self.cfg.method == SlipMethod::Velocity) {
-            f.clear();
+        f.paths[src].last_time = Some(time);
+        let usable = usable && xy[0].is_finite() && xy[1].is_finite();
+        let dropout = f.paths[src].last_usable.is_some_and(|t| time.as_nanos() - t > self.gap_ns);
+        if dropout || (!usable && !displacement) {
+            if src == 0 {
+                f.clear_track();
+            } else {
+                f.paths[1].clear();
+            }
         }
-        if usable && !p.gated {
-            let now = p.time.as_nanos();
-            f.last_usable = Some(now);
-            match self.cfg.method {
-                SlipMethod::Velocity => {
-                    if f.track != p.track {
-                        f.clear();
-                        f.track = p.track;
+        if usable && !gated {
+            let now = time.as_nanos();
+            if displacement {
+                let path = &mut f.paths[src];
+                path.last_usable = Some(now);
+                if now - *path.contact_since.get_or_insert(now) >= self.settle_ns {
+                    // the point describes the middle of the averaging span
+                    let mid = start.as_nanos().min(now) / 2 + now / 2;
+                    let mid = mid.max(path.history.back().map_or(i64::MIN, |q| q.0));
+                    path.history.push_back((mid, xy[0] * up[0] + xy[1] * up[1]));
+                    while path.history.front().is_some_and(|q| mid - q.0 > self.history_ns) {
+                        path.history.pop_front();
                     }
-                    f.points.push_back((now, p.x_mm, p.y_mm));
-                    while f.points.front().is_some_and(|q| now - q.0 > self.velocity_window_ns) {
-                        f.points.pop_front();
-                    }
-                    let span = now - f.points.front().map_or(now, |q| q.0);
-                    f.velocity = if f.points.len() >= self.cfg.min_points && 2 * span >= self.velocity_window_ns {
-                        regression(&f.points)
-                    } else {
-                        None
-                    };
+                    path.moved = displacement_of(&path.history, self.window_ns, self.history_ns, self.cfg.distance_mm);
                 }
-                SlipMethod::Displacement if now - *f.contact_since.get_or_insert(now) < self.settle_ns => {}
-                SlipMethod::Displacement => {
-                    // the point describes the middle of the locator's averaging span
-                    let mid = p.start.as_nanos().min(now) / 2 + now / 2;
-                    let mid = mid.max(f.history.back().map_or(i64::MIN, |q| q.0));
-                    f.history.push_back((mid, p.x_mm * up[0] + p.y_mm * up[1]));
-                    while f.history.front().is_some_and(|q| mid - q.0 > self.history_ns) {
-                        f.history.pop_front();
-                    }
-                    let span = mid - f.history.front().map_or(mid, |q| q.0);
-                    // displacement over the window and over 2 and 4 windows (slow slips), the
-                    // largest in units of distance_mm
-                    let mut moved: Option<f64> = None;
-                    for k in [1, 2, 4] {
-                        let w = k * self.window_ns;
-                        if (k > 1 && w > self.history_ns) || 2 * span < w {
-                            break;
-                        }
-                        if let Some(v) = slope_since(&f.history, mid - w) {
-                            let d = v * w as f64 * 1e-9 / self.cfg.distance_mm;
-                            if moved.is_none_or(|m| d.abs() > m.abs()) {
-                                moved = Some(d);
-                            }
-                        }
-                    }
-                    f.moved = moved.map(|d| d.clamp(-1.0, 1.0));
+            } else {
+                f.paths[0].last_usable = Some(now);
+                if f.track != track {
+                    f.clear_track();
+                    f.track = track;
+                    f.paths[0].last_usable = Some(now);
                 }
+                f.points.push_back((now, xy[0], xy[1]));
+                while f.points.front().is_some_and(|q| now - q.0 > self.velocity_window_ns) {
+                    f.points.pop_front();
+                }
+                let span = now - f.points.front().map_or(now, |q| q.0);
+                f.velocity = if f.points.len() >= self.cfg.min_points && 2 * span >= self.velocity_window_ns {
+                    regression(&f.points)
+                } else {
+                    None
+                };
             }
         }
         let (class, l, r) = self.candidate_now();
@@ -757,19 +943,19 @@ impl Stage for Slip {
                     .iter()
                     .filter_map(|f| f.points.front().map(|q| Timestamp(q.0)))
                     .min()
-                    .map_or(p.time, |e| e.min(p.time));
-                let evidence = if class.is_slip() { evidence } else { p.time };
-                self.candidate = Some((class, p.time, evidence));
-                (p.time, evidence)
+                    .map_or(time, |e| e.min(time));
+                let evidence = if class.is_slip() { evidence } else { time };
+                self.candidate = Some((class, time, evidence));
+                (time, evidence)
             }
         };
-        if p.time - since >= self.min_duration_ns {
+        if time - since >= self.min_duration_ns {
             let onset = match (class.is_slip(), self.cfg.method) {
                 (true, SlipMethod::Displacement) => self.fitted_onset(since),
                 _ => evidence,
             };
             out.push(SlipEvent {
-                time: p.time,
+                time: time,
                 onset,
                 first_seen: since,
                 class,
@@ -783,14 +969,14 @@ impl Stage for Slip {
         Ok(())
     }
 
-    fn reset(&mut self) {
-        self.fingers = Default::default();
-        self.state = SlipClass::Stable;
-        self.candidate = None;
-    }
-
-    fn delay(&self) -> Delay {
-        Delay::nanos(self.min_duration_ns)
+    /// Push every input in order, then [`Stage::finish`]: the events.
+    pub fn run_inputs(&mut self, inputs: impl IntoIterator<Item = SlipInput>) -> Result<Vec<SlipEvent>> {
+        let mut out = Vec::new();
+        for i in inputs {
+            self.push_input(i, &mut out)?;
+        }
+        self.finish(&mut out)?;
+        Ok(out)
     }
 }
 
@@ -827,7 +1013,7 @@ mod tests {
     }
 
     /// Moves by `v` mm/s along y after 0.5 s.
-    fn ramp(v: f64) -> impl Fn(f64) -> [f64; 2] {
+    fn ramp(v: f64) -> impl Fn(f64) -> [f64; 2] + Copy {
         move |t| [0.0, v * (t - 0.5).max(0.0)]
     }
 
@@ -985,6 +1171,107 @@ mod tests {
             assert_eq!(classes, [SlipClass::LongitudinalDown, SlipClass::Stable]);
             assert!(ev[1].onset.as_secs_f64() > 0.9);
             assert_eq!(ev[1].onset, ev[1].first_seen);
+        }
+    }
+
+    /// Pattern points of one sensor at 100 Hz from a position function (contact throughout).
+    fn pattern(n: usize, name: &str, at: impl Fn(f64) -> [f64; 2]) -> Vec<PatternPoint> {
+        (0..n)
+            .map(|k| {
+                let t = Timestamp::at_rate(k as u64, 100.0);
+                let p = at(t.as_secs_f64());
+                PatternPoint {
+                    sensor: name.into(),
+                    time: t,
+                    start: t,
+                    seq: k as u64,
+                    contact: true,
+                    energy: 100.0,
+                    x_mm: p[0],
+                    y_mm: p[1],
+                }
+            })
+            .collect()
+    }
+
+    /// The track points of `ff` only, and pattern points of both fingers, merged in time order
+    /// (pattern first at a tie, as the runner hands them over).
+    fn mixed(ff: impl Fn(f64) -> [f64; 2] + Copy, th: impl Fn(f64) -> [f64; 2] + Copy) -> Vec<SlipInput> {
+        let tracks: Vec<TrackPoint> = points(150, ff, th).into_iter().filter(|p| p.sensor.as_str() == "ff").collect();
+        let mut pats = pattern(150, "th", th);
+        pats.extend(pattern(150, "ff", ff));
+        pats.sort_by_key(|p| p.time);
+        let mut out: Vec<SlipInput> = Vec::new();
+        let mut tr = tracks.into_iter().peekable();
+        for p in pats {
+            while tr.peek().is_some_and(|q| q.time < p.time) {
+                out.push(tr.next().unwrap().into());
+            }
+            out.push(p.into());
+        }
+        out.extend(tr.map(SlipInput::from));
+        out
+    }
+
+    #[test]
+    fn the_pattern_path_stands_in_for_a_missing_track() {
+        for (ff_v, th_v, want) in CASES {
+            let input = mixed(ramp(ff_v), ramp(th_v));
+            // the track alone has one finger: no decision
+            let track_only = SlipConfig { evidence: SlipEvidence::Track, ..Default::default() };
+            assert!(Slip::try_new(&track_only).unwrap().run_inputs(input.clone()).unwrap().is_empty());
+            for evidence in [SlipEvidence::Both, SlipEvidence::Pattern] {
+                let cfg = SlipConfig { evidence, onset_lead_s: 0.0, ..Default::default() };
+                let ev = Slip::try_new(&cfg).unwrap().run_inputs(input.clone()).unwrap();
+                assert_eq!(ev.len(), 1, "{evidence:?} {want:?}: {ev:?}");
+                assert_eq!(ev[0].class, want);
+                let onset = ev[0].onset.as_secs_f64();
+                assert!((onset - 0.5).abs() <= 0.011, "{want:?}: onset {onset}");
+            }
+        }
+        // the velocity rule reads tracks only
+        let ev = Slip::try_new(&velocity()).unwrap().run_inputs(mixed(ramp(10.0), ramp(-10.0))).unwrap();
+        assert!(ev.is_empty());
+    }
+
+    #[test]
+    fn a_pattern_dropout_keeps_or_forgets_like_a_track_dropout() {
+        for (gap, slips) in [(0.2, true), (0.7, false)] {
+            let mut input = mixed(ramp(-10.0), ramp(10.0));
+            for i in input.iter_mut() {
+                if let SlipInput::Pattern(p) = i {
+                    let t = p.time.as_secs_f64();
+                    if p.sensor.as_str() == "th" && (0.45..0.45 + gap).contains(&t) {
+                        p.contact = false;
+                        p.x_mm = f64::NAN;
+                        p.y_mm = f64::NAN;
+                    }
+                }
+            }
+            let ev = Slip::try_new(&SlipConfig::default()).unwrap().run_inputs(input).unwrap();
+            assert_eq!(!ev.is_empty(), slips, "gap {gap}: {ev:?}");
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn mixed_inputs_chunking_invariance(cut in 1usize..60, vf in -20.0f64..20.0, vt in -20.0f64..20.0) {
+            let input = mixed(move |t| [0.0, vf * (t - 0.6).max(0.0)], move |t| [0.0, vt * (t - 0.6).max(0.0)]);
+            let all = Slip::try_new(&SlipConfig::default()).unwrap().run_inputs(input.clone()).unwrap();
+            let mut s = Slip::try_new(&SlipConfig::default()).unwrap();
+            let mut out = Vec::new();
+            for chunk in input.chunks(cut) {
+                let mut part = Vec::new();
+                for i in chunk {
+                    s.push_input(i.clone(), &mut part).unwrap();
+                }
+                out.extend(part);
+            }
+            s.finish(&mut out).unwrap();
+            proptest::prop_assert_eq!(&out, &all);
+            // and a reset starts afresh
+            s.reset();
+            proptest::prop_assert_eq!(s.run_inputs(input).unwrap(), all);
         }
     }
 
