@@ -354,12 +354,12 @@ impl GraspScore {
 /// ([`Centroid`](crate::centroid::Centroid) with [`LocateConfig::default`](crate::locate::LocateConfig))
 /// and [`Track`](crate::track::Track) with its defaults, per sensor.
 pub fn track_points(rec: &GraspRecording) -> crate::Result<Vec<crate::track::TrackPoint>> {
-    Ok(track_points_per_frame(rec)?.into_iter().flatten().collect())
+    Ok(track_points_per_frame(&rec.frames)?.into_iter().flatten().collect())
 }
 
-/// [`track_points`] grouped by the frame whose push produced them: one group per frame of
-/// `rec.frames`, then one for the chains' `finish`.
-pub fn track_points_per_frame(rec: &GraspRecording) -> crate::Result<Vec<Vec<crate::track::TrackPoint>>> {
+/// [`track_points`] of `ff` and `th` frames (any others are skipped) grouped by the frame whose
+/// push produced them: one group per frame, then one for the chains' `finish`.
+pub fn track_points_per_frame(frames: &[TaxelFrame]) -> crate::Result<Vec<Vec<crate::track::TrackPoint>>> {
     use crate::centroid::Centroid;
     use crate::locate::LocateConfig;
     use crate::track::{Track, TrackConfig};
@@ -370,10 +370,14 @@ pub fn track_points_per_frame(rec: &GraspRecording) -> crate::Result<Vec<Vec<cra
     };
     let mut chains = [mk()?, mk()?];
     let mut contours = Vec::new();
-    let mut groups = Vec::with_capacity(rec.frames.len() + 1);
-    for f in &rec.frames {
-        let (c, t) = &mut chains[usize::from(f.sensor.as_str() == "th")];
+    let mut groups = Vec::with_capacity(frames.len() + 1);
+    for f in frames {
         let mut points = Vec::new();
+        if !matches!(f.sensor.as_str(), "ff" | "th") {
+            groups.push(points);
+            continue;
+        }
+        let (c, t) = &mut chains[usize::from(f.sensor.as_str() == "th")];
         c.push(f.clone(), &mut contours)?;
         for x in contours.drain(..) {
             t.push(x, &mut points)?;
@@ -395,9 +399,9 @@ pub fn track_points_per_frame(rec: &GraspRecording) -> crate::Result<Vec<Vec<cra
 /// The inputs of the [`Slip`](crate::slip::Slip) stage in the order a scene's runner hands them
 /// over: per frame, its [`SlipPattern`](crate::slip_pattern::SlipPattern) point (when `cfg`'s
 /// evidence reads frames), then the track points that frame produced (`tracks`, from
-/// [`track_points_per_frame`]).
+/// [`track_points_per_frame`]). The sensors are `cfg`'s `first` and `second`, BioTac SP layouts.
 pub fn slip_inputs(
-    rec: &GraspRecording,
+    frames: &[TaxelFrame],
     tracks: &[Vec<crate::track::TrackPoint>],
     cfg: &crate::slip::SlipConfig,
 ) -> crate::Result<Vec<crate::slip::SlipInput>> {
@@ -407,24 +411,24 @@ pub fn slip_inputs(
     let mut pattern = (cfg.method == crate::slip::SlipMethod::Displacement && cfg.evidence.needs_frames())
         .then(|| crate::slip_pattern::SlipPattern::try_new(cfg, [&layout, &layout]))
         .transpose()?;
-    let mut out = Vec::with_capacity(3 * rec.frames.len());
+    let mut out = Vec::with_capacity(3 * frames.len());
     let mut pts = Vec::new();
-    for (k, f) in rec.frames.iter().enumerate() {
+    for (k, f) in frames.iter().enumerate() {
         if let Some(p) = &mut pattern {
             p.push(f.clone(), &mut pts)?;
             out.extend(pts.drain(..).map(SlipInput::Pattern));
         }
         out.extend(tracks.get(k).into_iter().flatten().cloned().map(SlipInput::Track));
     }
-    out.extend(tracks.get(rec.frames.len()).into_iter().flatten().cloned().map(SlipInput::Track));
+    out.extend(tracks.get(frames.len()).into_iter().flatten().cloned().map(SlipInput::Track));
     Ok(out)
 }
 
 /// The [`Slip`](crate::slip::Slip) stage with `cfg` over [`slip_inputs`] — what a bare scene
 /// with a `slip` output runs.
 pub fn detect(rec: &GraspRecording, cfg: &crate::slip::SlipConfig) -> crate::Result<Vec<crate::slip::SlipEvent>> {
-    let tracks = track_points_per_frame(rec)?;
-    crate::slip::Slip::try_new(cfg)?.run_inputs(slip_inputs(rec, &tracks, cfg)?)
+    let tracks = track_points_per_frame(&rec.frames)?;
+    crate::slip::Slip::try_new(cfg)?.run_inputs(slip_inputs(&rec.frames, &tracks, cfg)?)
 }
 
 /// Score the events of one grasp against its truth (see [`GraspScore`]).

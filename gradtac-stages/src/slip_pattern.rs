@@ -24,16 +24,20 @@
 //!    point moves when the pattern **shifts** across the layout. The [`slip`](crate::slip)
 //!    stage projects it on the finger's world-up vector.
 //! 5. **Baseline follow.** Taxels below the floor (`|zᵢ| ≤ f`) let their baseline follow slow
-//!    drift with time constant `pattern_follow_s` (0 = never), as the contact locator does.
+//!    drift with time constant `pattern_follow_s` (0 = never), as the contact locator does
+//!    (with `f` = 0 no taxel is below it: the baseline stays the calibration's).
 //!
 //! # Parameters (in [`SlipConfig`], `[stages.slip]`)
 //! | name | unit | default | meaning |
 //! |---|---|---|---|
 //! | `pattern_calibrate_frames` | frames (2–100 000) | 20 | baseline and noise at start-up / after a reset |
-//! | `pattern_window_frames` | frames (1–1000) | 5 | frames averaged before comparing with the baseline |
-//! | `pattern_floor_sigmas` | σ of one frame (≥ 0) | 2 | noise floor removed from each taxel's energy |
-//! | `pattern_contact_sigmas` | σ of one frame (> 0) | see [`SlipConfig`] | contact when the energy above the floor reaches its square |
+//! | `pattern_window_frames` | frames (1–1000) | 3 | frames averaged before comparing with the baseline |
+//! | `pattern_floor_sigmas` | σ of one frame (≥ 0) | 1 | noise floor removed from each taxel's energy |
+//! | `pattern_contact_sigmas` | σ of one frame (> 0) | 3 | contact when the energy above the floor reaches its square |
 //! | `pattern_follow_s` | s (≥ 0) | 2 | baseline follow of taxels below the floor |
+//!
+//! The defaults were chosen with the slip rule on tuning members of the model family (the
+//! [`slip`](crate::slip) docs: protocol, search, held-out figures).
 //!
 //! # Delay
 //! `(pattern_window_frames − 1)/2` frames: each point's `start..time` covers the frames
@@ -114,7 +118,6 @@ struct FingerPattern {
     sigma: Vec<f64>,
     ring: VecDeque<(Timestamp, Vec<f64>)>,
     sum: Vec<f64>,
-    w: Vec<f64>,
     last: Option<(Timestamp, u64)>,
 }
 
@@ -222,7 +225,6 @@ impl Stage for SlipPattern {
         f.last = Some((frame.time, frame.seq));
         if f.sum.len() != n {
             f.sum = vec![0.0; n];
-            f.w = vec![0.0; n];
         }
         for (s, v) in f.sum.iter_mut().zip(&frame.values) {
             *s += v;
@@ -269,17 +271,16 @@ impl Stage for SlipPattern {
         let k = f.ring.len() as f64;
         let beta = if self.follow_s > 0.0 { 1.0 - (-dt / self.follow_s).exp() } else { 0.0 };
         let (mut e, mut mx, mut my) = (0.0, 0.0, 0.0);
-        for j in 0..n {
-            let mean = f.sum[j] / k;
-            let z = (mean - f.baseline[j]) / f.sigma[j];
+        for ((sum, base), (sigma, at)) in f.sum.iter().zip(f.baseline.iter_mut()).zip(f.sigma.iter().zip(pos)) {
+            let mean = sum / k;
+            let z = (mean - *base) / sigma;
             let w = (z * z - self.floor2).max(0.0);
             if w == 0.0 {
-                f.baseline[j] += beta * (mean - f.baseline[j]);
+                *base += beta * (mean - *base);
             }
-            f.w[j] = w;
             e += w;
-            mx += w * pos[j][0];
-            my += w * pos[j][1];
+            mx += w * at[0];
+            my += w * at[1];
         }
         p.energy = e;
         if e >= self.contact2 && e > 0.0 && e.is_finite() {
