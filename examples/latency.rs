@@ -35,7 +35,7 @@ use gradtac::stages::normalise::{Normalise, NormaliseConfig};
 use gradtac::stages::peak::SurfaceContour;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim::{GraspConfig, Scene, SensorModel, Simulator};
-use gradtac::stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent};
+use gradtac::stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent, SlipEvidence};
 use gradtac::stages::track::{Track, TrackConfig, TrackPoint};
 use gradtac::stages::window::{Window, WindowAggregate, WindowConfig};
 use gradtac::stream::{Keyed, Layout, SensorId, Stage, StageExt, TaxelFrame, Timestamp};
@@ -147,7 +147,8 @@ fn main() -> Result<(), BoxError> {
         .then(Interpolate::try_new(&icfg, &layout)?)
         .then(Contour::try_new(&ccfg)?)
         .then(Track::try_new(&TrackConfig::default())?);
-    let slip = Slip::try_new(&SlipConfig::default())?;
+    // these pipelines end in tracks: the displacement rule on its track path
+    let slip = Slip::try_new(&SlipConfig { evidence: SlipEvidence::Track, ..SlipConfig::default() })?;
     fn pipeline<S>(chain: S, slip: Slip) -> impl Stage<In = TaxelFrame, Out = SlipEvent, Error = gradtac::stream::Error>
     where
         S: Stage<In = TaxelFrame, Out = TrackPoint, Error = gradtac::stream::Error> + Clone,

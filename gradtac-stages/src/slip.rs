@@ -851,6 +851,9 @@ impl Stage for Slip {
     type Out = SlipEvent;
     type Error = Error;
 
+    /// A track point. With `evidence = "pattern"` (the default) the `displacement` rule reads
+    /// pattern points ([`Slip::push_input`]) and ignores track points: a pipeline that feeds
+    /// only tracks sets `evidence = "track"`.
     fn push(&mut self, p: TrackPoint, out: &mut Vec<SlipEvent>) -> Result<()> {
         self.push_input(SlipInput::Track(p), out)
     }
