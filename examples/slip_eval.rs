@@ -6,6 +6,7 @@
 //! ```text
 //! cargo run --release --example slip_eval          # the tables of the slip docs
 //! cargo run --release --example slip_eval -- tune  # the settings search on the tuning seeds
+//! cargo run --release --example slip_eval -- tune rule  # then window_s × min_duration_s × dominance
 //! BIAS=1 cargo run --release --example slip_eval   # also the tuning members' signed onset bias
 //! ```
 //!
@@ -162,7 +163,17 @@ fn main() {
         // the search: where each finger's position comes from and the pattern's contact test,
         // with the displacement threshold; the other settings at the defaults chosen before
         let mut grid = Vec::new();
-        for distance_mm in [0.8, 1.0, 1.5, 2.0, 2.5] {
+        if std::env::args().any(|a| a == "rule") {
+            // second stage: the rule's own settings on the chosen evidence
+            for window_s in [0.2, 0.3, 0.4] {
+                for min_duration_s in [0.05, 0.1, 0.2] {
+                    for dominance in [1.25, 1.5, 2.0] {
+                        grid.push(SlipConfig { window_s, min_duration_s, dominance, ..Default::default() });
+                    }
+                }
+            }
+        }
+        for distance_mm in [0.8, 1.0, 1.5, 2.0, 2.5].into_iter().filter(|_| !std::env::args().any(|a| a == "rule")) {
             grid.push(SlipConfig { evidence: SlipEvidence::Track, distance_mm, ..Default::default() });
             for evidence in [SlipEvidence::Pattern, SlipEvidence::Both] {
                 for pattern_contact_sigmas in [3.0, 4.0, 6.0, 12.0] {
@@ -224,7 +235,7 @@ fn main() {
             let c = &r.5;
             let demo = r.6;
             println!(
-                "FA {} right {}/{} worst {:.3} med {:.0} ms | {} dist {} contact {} floor {} frames {} lead {:.2} | demo {:?} {:+.3} s",
+                "FA {} right {}/{} worst {:.3} med {:.0} ms | {} dist {} contact {} floor {} frames {} window {} persist {} dominance {} lead {:.2} | demo {:?} {:+.3} s",
                 r.0,
                 r.1,
                 r.2,
@@ -235,6 +246,9 @@ fn main() {
                 c.pattern_contact_sigmas,
                 c.pattern_floor_sigmas,
                 c.pattern_window_frames,
+                c.window_s,
+                c.min_duration_s,
+                c.dominance,
                 c.onset_lead_s,
                 demo.0,
                 demo.1

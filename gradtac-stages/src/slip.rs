@@ -72,7 +72,7 @@
 //! settings: dozens tied at 95/95). Searched: `evidence` ∈ {track, pattern, both},
 //! `distance_mm` ∈ {0.8, 1, 1.5, 2, 2.5}, `pattern_contact_sigmas` ∈ {3, 4, 6, 12},
 //! `pattern_floor_sigmas` ∈ {0, 1, 2}, `pattern_window_frames` ∈ {3, 5} (the other settings at
-//! the previous search's choice), each with `onset_lead_s` = its median signed onset error on
+//! the previous search's choice, re-checked below), each with `onset_lead_s` = its median signed onset error on
 //! the tuning members with no lead (to 0.01 s). Ranked by: the demo's recording (`gradtac
 //! demo`, the old simulator: neither a tuning nor a held-out member) classified right with
 //! |onset error| ≤ 0.040 s (the "as good or better" for the demo), then false alarms,
@@ -85,6 +85,11 @@
 //! - best track: rank 158 — FA 0 right 257/280 med 37 ms, dist 1.5, demo -0.080 s
 //! - best pattern: rank 1 — FA 0 right 274/280 med 30 ms, dist 1.5, demo -0.020 s
 //! - best both: rank 31 — FA 0 right 261/280 med 42 ms, dist 2.5, demo -0.035 s
+//!
+//! A second stage (`slip_eval -- tune rule`), on the chosen evidence: `window_s` ∈ {0.2, 0.3,
+//! 0.4} × `min_duration_s` ∈ {0.05, 0.1, 0.2} × `dominance` ∈ {1.25, 1.5, 2}, same ranking,
+//! kept `window_s` 0.3 s and `min_duration_s` 0.1 s (274/280, 30 ms); `dominance` made no
+//! difference on the tuning members (kept at 1.5).
 //!
 //! **Held out**: seeds 1000..1060 × 5 classes, every kernel (300 grasps; 165 with an
 //! exponential kernel — the physics not tuned on — on some finger). "Right": a stable grasp
