@@ -6,15 +6,14 @@
 //!    counts go to `recording.csv`, the ground truth to `truth.csv`.
 //! 2. The embedded [`DEMO_SCENE`] reads the recording per sensor and writes events, surfaces,
 //!    contours, tracks and slip events to Parquet (`out/`). It has no `[stages.*]` table:
-//!    every stage runs with its defaults (the taxel-centroid locator, the displacement slip
-//!    rule; `gradtac explain` prints every value). Before the defaults took over, the scene
-//!    carried the event-contour settings of the old slip tests and printed the same contact
-//!    errors (the locator default was already the centroid) and a slip onset error of
-//!    −0.040 s; with the defaults the contact errors are the same and the onset error is
-//!    −0.075 s (the change point the displacement rule fits lies 35 ms before the truth on this
-//!    recording, whose grasp closes during the locator's calibration, and the default
-//!    `onset_lead_s` adds 40 ms; over 300 held-out grasps of the model family the median
-//!    onset error is 30 ms against 126 ms for the previous rule — `gradtac_stages::slip`).
+//!    every stage runs with its defaults (the taxel-centroid locator; the displacement slip
+//!    rule on the raw-frame pattern evidence; `gradtac explain` prints every value). Before
+//!    the defaults took over, the scene carried the event-contour settings of the old slip
+//!    tests and printed the same contact errors (the locator default was already the
+//!    centroid) and a slip onset error of −0.040 s; the track-based displacement rule then
+//!    printed −0.075 s; the pattern evidence prints −0.020 s (over 300 held-out grasps of the
+//!    model family the median onset error is 25 ms against 126 ms for the previous rule —
+//!    `gradtac_stages::slip`).
 //! 3. The demo reads the tracks and slip events back and compares them with the truth:
 //!    contact localisation error (mm and fraction of sensor width) and slip class and onset.
 
@@ -36,6 +35,9 @@ use std::path::{Path, PathBuf};
 
 /// Sample rate of the simulated recording (Hz).
 pub const RATE_HZ: f64 = 100.0;
+
+/// The seed of the demo's recording.
+pub const DEMO_SEED: u64 = 7;
 
 /// The slip the demo simulates.
 pub const DEMO_SLIP: SlipClass = SlipClass::LongitudinalDown;
@@ -163,7 +165,7 @@ pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
             }
         }
     }
-    let rec = simulate(7)?;
+    let rec = simulate(DEMO_SEED)?;
     let (recording, truth) = (dir.join("recording.csv"), dir.join("truth.csv"));
     rec.write_csv(&recording, &truth).map_err(io(&recording))?;
     let scene_path = dir.join("scene.toml");

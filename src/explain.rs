@@ -47,6 +47,9 @@ impl Plan {
                 continue;
             }
             let chain = SensorChain::build(scene, p).expect("validated by Plan::new");
+            let slip = &scene.stages.slip;
+            let slip_reads_frames =
+                slip.method == gradtac_stages::slip::SlipMethod::Displacement && slip.evidence.needs_frames();
             for tap in p.stages() {
                 let tapped_by: Vec<String> = p
                     .outputs
@@ -59,7 +62,11 @@ impl Plan {
                 } else {
                     let next: Vec<&str> = p
                         .stages()
-                        .filter(|t| t.parent_in(scene.stages.locate.method) == Some(tap))
+                        .filter(|t| {
+                            t.parent_in(scene.stages.locate.method) == Some(tap)
+                                // the slip stage's pattern evidence reads the raw frames
+                                || (*t, tap) == (Tap::Slip, Tap::Source) && slip_reads_frames
+                        })
                         .map(Tap::name)
                         .collect();
                     format!("feeds {}", next.join(", "))

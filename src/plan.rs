@@ -73,16 +73,22 @@ impl Plan {
                 .iter()
                 .enumerate()
                 .filter(|(_, o)| match Tap::parse(&o.tap) {
-                    // a slip output takes the tracks of its two sensors
+                    // a slip output takes the tracks (and the frames) of its two sensors
                     Some(Tap::Slip) => slip_pair.contains(&&spec.name),
                     _ => o.sensors.as_ref().is_none_or(|v| v.contains(&spec.name)),
                 })
                 .map(|(i, _)| i)
                 .collect();
+            // a slip output whose evidence is the raw-frame pattern alone needs no track
+            let slip = &scene.stages.slip;
+            let slip_tracks = slip.method == gradtac_stages::slip::SlipMethod::Velocity || slip.evidence.needs_tracks();
             let mut needed: Vec<Tap> = outputs
                 .iter()
                 .filter_map(|&i| Tap::parse(&scene.outputs[i].tap))
-                .flat_map(|t| t.with_ancestors_in(scene.stages.locate.method))
+                .flat_map(|t| match t {
+                    Tap::Slip if !slip_tracks => vec![Tap::Source, Tap::Slip],
+                    t => t.with_ancestors_in(scene.stages.locate.method).collect(),
+                })
                 .collect();
             needed.sort();
             needed.dedup();

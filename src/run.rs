@@ -21,7 +21,8 @@ use gradtac_io::arrow_ipc::ArrowIpcConfig;
 use gradtac_io::can::{CandumpConfig, StatsHandle};
 use gradtac_io::npy::{NpyFrames, NpySourceConfig};
 use gradtac_io::{CsvFrames, CsvProgress, CsvSourceConfig};
-use gradtac_stages::slip::{Slip, SlipEvent};
+use gradtac_stages::slip::{Slip, SlipEvent, SlipInput, SlipMethod};
+use gradtac_stages::slip_pattern::{PatternPoint, SlipPattern};
 use gradtac_stream::{merge_streams, SensorId, Stage, TaxelFrame};
 use std::fmt;
 use std::path::PathBuf;
@@ -85,6 +86,9 @@ impl fmt::Display for RunReport {
 /// The cross-sensor two-finger slip stage and the outputs that tap it.
 struct SlipNode {
     stage: Slip,
+    /// The raw-frame evidence of the two sensors, when the slip settings read it.
+    pattern: Option<SlipPattern>,
+    patterns: Vec<PatternPoint>,
     first: SensorId,
     second: SensorId,
     outputs: Vec<usize>,
@@ -114,8 +118,19 @@ impl Runner {
             None
         } else {
             let c = &scene.stages.slip;
+            let layout = |name: &str| plan.sensors.iter().find(|p| p.name == name).map(|p| &p.layout);
+            let pattern = match (
+                c.method == SlipMethod::Displacement && c.evidence.needs_frames(),
+                layout(&c.first),
+                layout(&c.second),
+            ) {
+                (true, Some(a), Some(b)) => Some(SlipPattern::try_new(c, [a, b])?),
+                _ => None,
+            };
             Some(SlipNode {
                 stage: Slip::try_new(c)?,
+                pattern,
+                patterns: Vec::new(),
                 first: SensorId::new(&c.first),
                 second: SensorId::new(&c.second),
                 outputs: slip_outputs,
@@ -157,6 +172,17 @@ impl Runner {
     /// Push one frame. Frames of sensors the plan does not run are ignored.
     pub fn push(&mut self, frame: TaxelFrame) -> Result<(), Error> {
         let Some(i) = self.chain_index(&frame.sensor) else { return Ok(()) };
+        // the slip stage's raw-frame evidence first, then the track points the frame makes
+        if let Some(node) = &mut self.slip {
+            if let Some(pat) = &mut node.pattern {
+                if frame.sensor == node.first || frame.sensor == node.second {
+                    pat.push(frame.clone(), &mut node.patterns)?;
+                    for p in node.patterns.drain(..) {
+                        node.stage.push_input(SlipInput::Pattern(p), &mut node.events)?;
+                    }
+                }
+            }
+        }
         self.chains[i].process(Some(frame), false, &mut self.sinks)?;
         self.feed_slip(i, false)
     }

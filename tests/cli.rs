@@ -600,6 +600,35 @@ fn an_events_only_scene_builds_no_interpolation() {
 }
 
 #[test]
+fn a_slip_only_scene_builds_what_its_evidence_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rec.csv");
+    synthetic_csv(&csv, 10);
+    let sc = dir.path().join("scene.toml");
+    let scene = |stages: &str| {
+        format!(
+            "[[sensor]]\nname = \"ff\"\nsource = {{ csv = \"{0}\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\
+             [[sensor]]\nname = \"th\"\nsource = {{ csv = \"{0}\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\
+             {stages}[[output]]\ntap = \"slip\"\npath = \"out/slip.parquet\"\n",
+            csv.display()
+        )
+    };
+    // the default evidence (the raw-frame pattern): no locator, no track
+    fs::write(&sc, scene("")).unwrap();
+    let plan = gradtac::Plan::new(&gradtac::Scene::load(&sc).unwrap()).unwrap();
+    for p in &plan.sensors {
+        assert_eq!(p.stages().map(|t| t.name()).collect::<Vec<_>>(), ["source", "slip"]);
+    }
+    let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
+    assert!(text.contains("feeds slip") && text.contains("evidence pattern"), "{text}");
+    assert!(gradtac().arg("run").arg(&sc).output().unwrap().status.success());
+    // the track evidence: the locator and the track
+    fs::write(&sc, scene("[stages.slip]\nevidence = \"track\"\n")).unwrap();
+    let plan = gradtac::Plan::new(&gradtac::Scene::load(&sc).unwrap()).unwrap();
+    assert_eq!(plan.sensors[0].stages().map(|t| t.name()).collect::<Vec<_>>(), ["source", "contour", "track", "slip"]);
+}
+
+#[test]
 fn calibrate_cross_validates_and_takes_settings() {
     let dir = tempfile::tempdir().unwrap();
     let train = dir.path().join("train");

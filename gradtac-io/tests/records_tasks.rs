@@ -17,7 +17,7 @@ use gradtac_stages::dos::{
 };
 use gradtac_stages::force::{Force, ForceConfig, ForceEstimate, ForceModel};
 use gradtac_stages::servo::{Motion, Servo, ServoAction, ServoCommand, ServoConfig};
-use gradtac_stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent};
+use gradtac_stages::slip::{Slip, SlipClass, SlipConfig, SlipEvent, SlipEvidence};
 use gradtac_stages::track::{ContactState, TrackPoint};
 use gradtac_stream::{HasSensor, Layout, SensorId, Stage, TaxelFrame, Timed, Timestamp};
 use proptest::prelude::*;
@@ -156,7 +156,8 @@ fn the_slip_stages_events_come_back() {
     // Both fingers see the object move up by 20 mm/s (mirrored in the thumb's layout) from
     // 0.5 s to 1.5 s: stable → longitudinal up → stable.
     let ramp = |v: f64| move |t: f64| [0.0, v * (t - 0.5).clamp(0.0, 1.0)];
-    let cfg = SlipConfig::default();
+    // track points only: the displacement rule on its track path
+    let cfg = SlipConfig { evidence: SlipEvidence::Track, ..SlipConfig::default() };
     let mut slip = Slip::try_new(&cfg).unwrap();
     let mut events = Vec::new();
     // 3.5 s: the default rule returns to stable once its longest window (4 × 0.3 s) is still

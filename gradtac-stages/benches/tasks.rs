@@ -48,11 +48,16 @@ use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac_stages::savgol::{SavGol, SavGolConfig};
 use gradtac_stages::servo::{Servo, ServoConfig};
 use gradtac_stages::sim::{GraspConfig, Scene, SensorModel, Simulator};
-use gradtac_stages::slip::{Slip, SlipClass, SlipConfig};
+use gradtac_stages::slip::{Slip, SlipClass, SlipConfig, SlipEvidence};
 use gradtac_stages::track::{Track, TrackConfig, TrackPoint};
 use gradtac_stages::window::{Aggregate, Window, WindowConfig};
 use gradtac_stream::{Keyed, Layout, SensorId, Stage, StageExt, TaxelFrame};
 use std::hint::black_box;
+
+/// The displacement rule on its track path (these benches feed track points).
+fn track_slip() -> SlipConfig {
+    SlipConfig { evidence: SlipEvidence::Track, ..SlipConfig::default() }
+}
 
 fn track_chain(layout: &Layout) -> impl Stage<In = TaxelFrame, Out = TrackPoint, Error = gradtac_stream::Error> {
     let sg = SavGol::try_with_rate(layout.len(), SavGolConfig::default(), 100.0).unwrap();
@@ -89,7 +94,7 @@ fn bench(c: &mut Criterion) {
     g.bench_function("points", |b| {
         b.iter_batched(
             || points.clone(),
-            |p| black_box(Slip::try_new(&SlipConfig::default()).unwrap().run_all(p).unwrap()),
+            |p| black_box(Slip::try_new(&track_slip()).unwrap().run_all(p).unwrap()),
             BatchSize::SmallInput,
         )
     });
@@ -183,7 +188,7 @@ fn bench(c: &mut Criterion) {
             || frames.clone(),
             |f| {
                 let keyed = Keyed::new(|_: &SensorId| track_chain(&layout));
-                black_box(keyed.then(Slip::try_new(&SlipConfig::default()).unwrap()).run_all(f).unwrap())
+                black_box(keyed.then(Slip::try_new(&track_slip()).unwrap()).run_all(f).unwrap())
             },
             BatchSize::SmallInput,
         )

@@ -38,6 +38,7 @@ pub mod sim;
 pub mod sim_family;
 pub mod sim_grasp;
 pub mod slip;
+pub mod slip_pattern;
 pub mod track;
 pub mod window;
 

@@ -354,6 +354,12 @@ impl GraspScore {
 /// ([`Centroid`](crate::centroid::Centroid) with [`LocateConfig::default`](crate::locate::LocateConfig))
 /// and [`Track`](crate::track::Track) with its defaults, per sensor.
 pub fn track_points(rec: &GraspRecording) -> crate::Result<Vec<crate::track::TrackPoint>> {
+    Ok(track_points_per_frame(&rec.frames)?.into_iter().flatten().collect())
+}
+
+/// [`track_points`] of `ff` and `th` frames (any others are skipped) grouped by the frame whose
+/// push produced them: one group per frame, then one for the chains' `finish`.
+pub fn track_points_per_frame(frames: &[TaxelFrame]) -> crate::Result<Vec<Vec<crate::track::TrackPoint>>> {
     use crate::centroid::Centroid;
     use crate::locate::LocateConfig;
     use crate::track::{Track, TrackConfig};
@@ -363,14 +369,22 @@ pub fn track_points(rec: &GraspRecording) -> crate::Result<Vec<crate::track::Tra
         Ok((Centroid::try_new(&LocateConfig::default(), &layout)?, Track::try_new(&TrackConfig::default())?))
     };
     let mut chains = [mk()?, mk()?];
-    let (mut contours, mut points) = (Vec::new(), Vec::new());
-    for f in &rec.frames {
+    let mut contours = Vec::new();
+    let mut groups = Vec::with_capacity(frames.len() + 1);
+    for f in frames {
+        let mut points = Vec::new();
+        if !matches!(f.sensor.as_str(), "ff" | "th") {
+            groups.push(points);
+            continue;
+        }
         let (c, t) = &mut chains[usize::from(f.sensor.as_str() == "th")];
         c.push(f.clone(), &mut contours)?;
         for x in contours.drain(..) {
             t.push(x, &mut points)?;
         }
+        groups.push(points);
     }
+    let mut points = Vec::new();
     for (c, t) in &mut chains {
         c.finish(&mut contours)?;
         for x in contours.drain(..) {
@@ -378,13 +392,43 @@ pub fn track_points(rec: &GraspRecording) -> crate::Result<Vec<crate::track::Tra
         }
         t.finish(&mut points)?;
     }
-    Ok(points)
+    groups.push(points);
+    Ok(groups)
 }
 
-/// The [`Slip`](crate::slip::Slip) stage with `cfg` over [`track_points`].
+/// The inputs of the [`Slip`](crate::slip::Slip) stage in the order a scene's runner hands them
+/// over: per frame, its [`SlipPattern`](crate::slip_pattern::SlipPattern) point (when `cfg`'s
+/// evidence reads frames), then the track points that frame produced (`tracks`, from
+/// [`track_points_per_frame`]). The sensors are `cfg`'s `first` and `second`, BioTac SP layouts.
+pub fn slip_inputs(
+    frames: &[TaxelFrame],
+    tracks: &[Vec<crate::track::TrackPoint>],
+    cfg: &crate::slip::SlipConfig,
+) -> crate::Result<Vec<crate::slip::SlipInput>> {
+    use crate::slip::SlipInput;
+    use gradtac_stream::{Layout, Stage};
+    let layout = Layout::biotac_sp();
+    let mut pattern = (cfg.method == crate::slip::SlipMethod::Displacement && cfg.evidence.needs_frames())
+        .then(|| crate::slip_pattern::SlipPattern::try_new(cfg, [&layout, &layout]))
+        .transpose()?;
+    let mut out = Vec::with_capacity(3 * frames.len());
+    let mut pts = Vec::new();
+    for (k, f) in frames.iter().enumerate() {
+        if let Some(p) = &mut pattern {
+            p.push(f.clone(), &mut pts)?;
+            out.extend(pts.drain(..).map(SlipInput::Pattern));
+        }
+        out.extend(tracks.get(k).into_iter().flatten().cloned().map(SlipInput::Track));
+    }
+    out.extend(tracks.get(frames.len()).into_iter().flatten().cloned().map(SlipInput::Track));
+    Ok(out)
+}
+
+/// The [`Slip`](crate::slip::Slip) stage with `cfg` over [`slip_inputs`] — what a bare scene
+/// with a `slip` output runs.
 pub fn detect(rec: &GraspRecording, cfg: &crate::slip::SlipConfig) -> crate::Result<Vec<crate::slip::SlipEvent>> {
-    use gradtac_stream::StageExt;
-    crate::slip::Slip::try_new(cfg)?.run_all(track_points(rec)?)
+    let tracks = track_points_per_frame(&rec.frames)?;
+    crate::slip::Slip::try_new(cfg)?.run_inputs(slip_inputs(&rec.frames, &tracks, cfg)?)
 }
 
 /// Score the events of one grasp against its truth (see [`GraspScore`]).
