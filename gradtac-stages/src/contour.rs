@@ -314,6 +314,11 @@ fn march<F: Field>(
     let nx = z.dim().1;
     let width = (w.c1 - w.c0 + 3) as i64; // local columns -1 ..= c1-c0+1
     let height = (w.r1 - w.r0 + 3) as i64;
+    // the link tables hold NONE except at the previous march's segments: clear just those
+    for g in &s.segs {
+        s.start_of[g.from as usize] = NONE;
+        s.end_of[g.to as usize] = NONE;
+    }
     s.segs.clear();
     s.clipped = false;
     // the window's values once, surrounded by a ring of −∞, with NaN and (given `comp`) other
@@ -424,10 +429,10 @@ fn march<F: Field>(
     s.clipped = clipped;
     s.vals = vals;
     let n_ids = (2 * width * height) as usize;
-    s.start_of.clear();
-    s.start_of.resize(n_ids, NONE);
-    s.end_of.clear();
-    s.end_of.resize(n_ids, NONE);
+    if s.start_of.len() < n_ids {
+        s.start_of.resize(n_ids, NONE);
+        s.end_of.resize(n_ids, NONE);
+    }
     for (i, g) in s.segs.iter().enumerate() {
         s.start_of[g.from as usize] = i as u32;
         s.end_of[g.to as usize] = i as u32;
@@ -823,32 +828,47 @@ impl MaxContourFinder {
         while let Some((r, c)) = s.stack.pop() {
             z.prepare(r.saturating_sub(1), (r + 1).min(ny - 1), c.saturating_sub(1), (c + 1).min(nx - 1));
             let mut refused = false;
-            for (dr, dc) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)] {
-                let (rr, cc) = (r as i64 + dr, c as i64 + dc);
-                if rr < 0 || cc < 0 || rr >= ny as i64 || cc >= nx as i64 {
+            let (up, down, left, right) = (r > 0, r + 1 < ny, c > 0, c + 1 < nx);
+            let (ru, cl) = (r.wrapping_sub(1), c.wrapping_sub(1));
+            for (ok, rr, cc) in [(up, ru, c), (down, r + 1, c), (left, r, cl), (right, r, c + 1)] {
+                if !ok || s.stamp[rr * nx + cc] == gen {
                     continue;
                 }
-                let (rr, cc) = (rr as usize, cc as usize);
-                if s.stamp[rr * nx + cc] == gen {
-                    continue;
-                }
-                if z.raw(rr, cc) <= level || z.raw(rr, cc).is_nan() {
+                let above = z.raw(rr, cc) > level;
+                if !above {
                     refused = true;
                     continue;
                 }
-                if dr != 0 && dc != 0 {
-                    let (o1, o2) = (z.raw(r, cc) > level, z.raw(rr, c) > level);
-                    if o1 || o2 {
-                        // the side corner above is a member (an orthogonal neighbour, stamped
-                        // above) and links this point
-                        continue;
-                    }
-                    let (rm, cm) = (r.min(rr), c.min(cc));
-                    let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
-                    if !saddle.joins_above(v, level) {
-                        refused = true;
-                        continue;
-                    }
+                s.stamp[rr * nx + cc] = gen;
+                s.stack.push((rr, cc));
+                s.members += 1;
+                bb = Win { c0: bb.c0.min(cc), c1: bb.c1.max(cc), r0: bb.r0.min(rr), r1: bb.r1.max(rr) };
+            }
+            let diagonals = [
+                (up && left, ru, cl),
+                (up && right, ru, c + 1),
+                (down && left, r + 1, cl),
+                (down && right, r + 1, c + 1),
+            ];
+            for (ok, rr, cc) in diagonals {
+                if !ok || s.stamp[rr * nx + cc] == gen {
+                    continue;
+                }
+                let above = z.raw(rr, cc) > level;
+                if !above {
+                    refused = true;
+                    continue;
+                }
+                if z.raw(r, cc) > level || z.raw(rr, c) > level {
+                    // a side corner above is a member (an orthogonal neighbour, stamped above)
+                    // and links this point
+                    continue;
+                }
+                let (rm, cm) = (r.min(rr), c.min(cc));
+                let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
+                if !saddle.joins_above(v, level) {
+                    refused = true;
+                    continue;
                 }
                 s.stamp[rr * nx + cc] = gen;
                 s.stack.push((rr, cc));

@@ -428,6 +428,9 @@ pub struct PeakContourFinder {
     bounds: Vec<(f64, f64)>,
     order: Vec<u16>,
     full: u64,
+    // the whole surface, reused (the dense evaluation)
+    dense: Vec<f64>,
+    peak_local: bool,
 }
 
 impl PeakContourFinder {
@@ -440,7 +443,17 @@ impl PeakContourFinder {
             bounds: Vec::new(),
             order: Vec::new(),
             full: 0,
+            dense: Vec::new(),
+            peak_local: false,
         }
+    }
+
+    /// Evaluate only the blocks of grid points the maximal contour reads (`true`), or the
+    /// whole surface into a reused buffer (`false`, the default: faster on contact data, see
+    /// the [module docs](self)). Both give identical outcomes.
+    pub fn with_peak_local(mut self, peak_local: bool) -> Self {
+        self.peak_local = peak_local;
+        self
     }
 
     /// The interpolator.
@@ -463,6 +476,12 @@ impl PeakContourFinder {
         let table = self.interp.table().clone();
         assert_eq!(v.len(), table.taxels(), "one value per taxel");
         let grid = self.interp.grid().clone();
+        if !self.peak_local {
+            self.dense.resize(grid.len(), 0.0);
+            table.apply(v, &mut self.dense);
+            self.full += grid.len() as u64;
+            return self.finder.find_slice(&self.dense, &grid);
+        }
         let index = self.interp.peak_index();
         let big = v.iter().any(|x| x.is_nan() || x.abs() > MAX_LAZY);
         let outcome = if big || index.eps.is_nan() || index.eps >= 1e-6 {
@@ -537,6 +556,13 @@ impl<I> SurfaceContour<I> {
     /// The fused stage from a (shared) interpolator and a contour finder.
     pub fn from_parts(interp: Interpolator, finder: MaxContourFinder) -> Self {
         SurfaceContour { finder: PeakContourFinder::new(interp, finder), _in: std::marker::PhantomData }
+    }
+
+    /// Evaluate only the blocks of grid points the maximal contour reads (see
+    /// [`PeakContourFinder::with_peak_local`]).
+    pub fn with_peak_local(mut self, peak_local: bool) -> Self {
+        self.finder = self.finder.with_peak_local(peak_local);
+        self
     }
 
     /// The finder.
@@ -645,12 +671,18 @@ mod tests {
             for interp in interps() {
                 for cfg in finders() {
                     let mut reference = MaxContourFinder::try_new(&cfg).unwrap();
-                    let mut lazy = PeakContourFinder::new(interp.clone(), MaxContourFinder::try_new(&cfg).unwrap());
+                    let new = |lazy| {
+                        PeakContourFinder::new(interp.clone(), MaxContourFinder::try_new(&cfg).unwrap())
+                            .with_peak_local(lazy)
+                    };
+                    let (mut lazy, mut dense) = (new(true), new(false));
                     for v in &frames {
                         let want = full(interp, &mut reference, v);
-                        let got = lazy.find(v);
                         // bit for bit (NaN-free outcomes, so == is exact equality)
+                        let got = lazy.find(v);
                         prop_assert_eq!(&got, &want, "{:?} {:?} {:?}", interp.method(), cfg, v);
+                        let got = dense.find(v);
+                        prop_assert_eq!(&got, &want, "dense {:?} {:?} {:?}", interp.method(), cfg, v);
                     }
                 }
             }
@@ -662,7 +694,8 @@ mod tests {
         let l = Layout::biotac_sp();
         let interp = Interpolator::from_config(&InterpolateConfig::default(), &l).unwrap();
         let mut f =
-            PeakContourFinder::new(interp.clone(), MaxContourFinder::try_new(&ContourConfig::default()).unwrap());
+            PeakContourFinder::new(interp.clone(), MaxContourFinder::try_new(&ContourConfig::default()).unwrap())
+                .with_peak_local(true);
         let mut reference = MaxContourFinder::try_new(&ContourConfig::default()).unwrap();
         let mut v = vec![0.0; 24];
         (v[3], v[4], v[7]) = (6.0, 3.0, 2.0);
