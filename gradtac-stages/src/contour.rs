@@ -249,8 +249,7 @@ struct Scratch {
     gen: u32,
     stack: Vec<(usize, usize)>,
     clipped: bool,
-    // the growing component: members with a refused neighbour, and the members' bounding box
-    frontier: Vec<(usize, usize)>,
+    // the last component's bounding box and member count
     bbox: Win,
     members: usize,
 }
@@ -669,9 +668,8 @@ impl MaxContourFinder {
     ) -> ContourOutcome {
         let (ny, nx) = z.dim();
         let cell = grid.cell_area();
-        self.start_component(nx, ny, pr, pc);
         for &level in levels {
-            let w = self.grow(z, level);
+            let w = self.component_runs(z, level, pr, pc);
             // The region lies in the cells with a corner in the component: at most 4 per point
             // and at most the cells of its bounding box grown by one. The reference's area is
             // a float sum of at most 2 terms per cell, each of magnitude ≤ 2·(nx + ny)² (index
@@ -788,8 +786,18 @@ impl MaxContourFinder {
         })
     }
 
-    /// A new stamp generation for this surface, holding only the peak `(pr, pc)`.
-    fn start_component(&mut self, nx: usize, ny: usize, pr: usize, pc: usize) {
+    /// The component of `{z > level}` holding the peak `(pr, pc)`, stamped with a new
+    /// generation: the same set as [`component`](Self::component) (the connected set of
+    /// points above the level under 4-connectivity plus the diagonals across saddle cells the
+    /// saddle rule joins — a set, whatever the order it is found in), found by horizontal
+    /// runs: a seed is extended left and right over the points above, then the rows above and
+    /// below the run are scanned for one new seed per span of points above, and the two
+    /// diagonal neighbours beyond the run's ends are linked when the saddle rule joins them.
+    /// Records the member count and bounding box; returns the box grown by one point (clipped
+    /// to the grid).
+    fn component_runs<F: Field>(&mut self, z: &mut F, level: f64, pr: usize, pc: usize) -> Win {
+        let (ny, nx) = z.dim();
+        let saddle = self.cfg.saddle;
         let s = &mut self.s;
         if s.stamp.len() != nx * ny {
             s.stamp.clear();
@@ -801,84 +809,72 @@ impl MaxContourFinder {
             s.stamp.iter_mut().for_each(|x| *x = 0);
             s.gen = 1;
         }
-        s.stamp[pr * nx + pc] = s.gen;
-        s.frontier.clear();
-        s.frontier.push((pr, pc));
-        s.members = 1;
-        s.bbox = Win { c0: pc, c1: pc, r0: pr, r1: pr };
-    }
-
-    /// Grow the stamped component to the component of `{z > level}` holding the peak, for a
-    /// `level` at or below the previous one; returns its bounding box grown by one point
-    /// (clipped to the grid), as [`component`](Self::component) does.
-    ///
-    /// The component is the connected set of points above the level under 4-connectivity plus
-    /// the diagonals across saddle cells the saddle rule joins; as the level falls every such
-    /// link stays (a diagonal whose side corner rose above is bridged by that corner), so the
-    /// component at a lower level contains the one at a higher level. Only the *frontier* —
-    /// members with a neighbour that was refused — is expanded again.
-    fn grow<F: Field>(&mut self, z: &mut F, level: f64) -> Win {
-        let (ny, nx) = z.dim();
-        let saddle = self.cfg.saddle;
-        let s = &mut self.s;
         let gen = s.gen;
+        s.stamp[pr * nx + pc] = gen;
         s.stack.clear();
-        std::mem::swap(&mut s.stack, &mut s.frontier);
-        let mut bb = s.bbox;
+        s.stack.push((pr, pc));
+        let mut bb = Win { c0: pc, c1: pc, r0: pr, r1: pr };
+        let mut members = 0;
         while let Some((r, c)) = s.stack.pop() {
-            z.prepare(r.saturating_sub(1), (r + 1).min(ny - 1), c.saturating_sub(1), (c + 1).min(nx - 1));
-            let mut refused = false;
-            let (up, down, left, right) = (r > 0, r + 1 < ny, c > 0, c + 1 < nx);
-            let (ru, cl) = (r.wrapping_sub(1), c.wrapping_sub(1));
-            for (ok, rr, cc) in [(up, ru, c), (down, r + 1, c), (left, r, cl), (right, r, c + 1)] {
-                if !ok || s.stamp[rr * nx + cc] == gen {
-                    continue;
-                }
-                let above = z.raw(rr, cc) > level;
-                if !above {
-                    refused = true;
-                    continue;
-                }
-                s.stamp[rr * nx + cc] = gen;
-                s.stack.push((rr, cc));
-                s.members += 1;
-                bb = Win { c0: bb.c0.min(cc), c1: bb.c1.max(cc), r0: bb.r0.min(rr), r1: bb.r1.max(rr) };
+            let row = r * nx;
+            let (mut a, mut b) = (c, c);
+            while a > 0 && s.stamp[row + a - 1] != gen && {
+                z.prepare(r, r, a - 1, a - 1);
+                z.raw(r, a - 1) > level
+            } {
+                a -= 1;
+                s.stamp[row + a] = gen;
             }
-            let diagonals = [
-                (up && left, ru, cl),
-                (up && right, ru, c + 1),
-                (down && left, r + 1, cl),
-                (down && right, r + 1, c + 1),
-            ];
-            for (ok, rr, cc) in diagonals {
-                if !ok || s.stamp[rr * nx + cc] == gen {
-                    continue;
-                }
-                let above = z.raw(rr, cc) > level;
-                if !above {
-                    refused = true;
-                    continue;
-                }
-                if z.raw(r, cc) > level || z.raw(rr, c) > level {
-                    // a side corner above is a member (an orthogonal neighbour, stamped above)
-                    // and links this point
-                    continue;
-                }
-                let (rm, cm) = (r.min(rr), c.min(cc));
-                let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
-                if !saddle.joins_above(v, level) {
-                    refused = true;
-                    continue;
-                }
-                s.stamp[rr * nx + cc] = gen;
-                s.stack.push((rr, cc));
-                s.members += 1;
-                bb = Win { c0: bb.c0.min(cc), c1: bb.c1.max(cc), r0: bb.r0.min(rr), r1: bb.r1.max(rr) };
+            while b + 1 < nx && s.stamp[row + b + 1] != gen && {
+                z.prepare(r, r, b + 1, b + 1);
+                z.raw(r, b + 1) > level
+            } {
+                b += 1;
+                s.stamp[row + b] = gen;
             }
-            if refused {
-                s.frontier.push((r, c));
+            let (lo, hi) = (a.saturating_sub(1), (b + 1).min(nx - 1));
+            z.prepare(r, r, lo, hi);
+            members += b - a + 1;
+            bb = Win { c0: bb.c0.min(a), c1: bb.c1.max(b), r0: bb.r0.min(r), r1: bb.r1.max(r) };
+            for rr in [r.wrapping_sub(1), r + 1] {
+                if rr >= ny {
+                    continue;
+                }
+                z.prepare(rr, rr, lo, hi);
+                let o = rr * nx;
+                let mut in_span = false;
+                for x in a..=b {
+                    if s.stamp[o + x] != gen && z.raw(rr, x) > level {
+                        if !in_span {
+                            s.stamp[o + x] = gen;
+                            s.stack.push((rr, x));
+                            in_span = true;
+                        }
+                    } else {
+                        in_span = false;
+                    }
+                }
+                // the diagonal neighbours beyond the run's ends: linked across a saddle cell
+                // (both side corners below) that the rule joins; with a side corner above,
+                // that corner is a member and links them through its own rows
+                for (x, end) in [(a.wrapping_sub(1), a), (b + 1, b)] {
+                    if x >= nx || s.stamp[o + x] == gen {
+                        continue;
+                    }
+                    let above = z.raw(rr, x) > level;
+                    if !above || z.raw(r, x) > level || z.raw(rr, end) > level {
+                        continue;
+                    }
+                    let (rm, cm) = (r.min(rr), x.min(end));
+                    let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
+                    if saddle.joins_above(v, level) {
+                        s.stamp[o + x] = gen;
+                        s.stack.push((rr, x));
+                    }
+                }
             }
         }
+        s.members = members;
         s.bbox = bb;
         Win {
             c0: bb.c0.saturating_sub(1),

@@ -298,6 +298,8 @@ pub struct WeightTable {
     col_weights: Vec<f64>,
     // the surface before any taxel is added: 0 at points with weights, `fill` elsewhere
     base: Vec<f64>,
+    // runs `[a, b)` of consecutive points with weights (where `base` is 0)
+    weighted_runs: Vec<(u32, u32)>,
     inside: Vec<bool>,
     n_taxels: usize,
     fill: f64,
@@ -350,6 +352,18 @@ impl WeightTable {
         let mut out = self.base.clone();
         self.accumulate(values, &mut out);
         out
+    }
+
+    /// As [`apply`](Self::apply), for an `out` that already holds a surface of this table (its
+    /// points without weights hold the fill value, which no sum touches): only the points with
+    /// weights are reset, to 0, before the sums. Bit-identical to `apply`.
+    pub fn apply_again(&self, values: &[f64], out: &mut [f64]) {
+        debug_assert_eq!(values.len(), self.n_taxels);
+        debug_assert_eq!(out.len(), self.points());
+        for &(a, b) in &self.weighted_runs {
+            out[a as usize..b as usize].fill(0.0);
+        }
+        self.accumulate(values, out);
     }
 
     /// `out += Σ_k w[·,k]·values[k]` over the taxels with a non-zero value, in ascending taxel
@@ -453,7 +467,17 @@ impl WeightTable {
             run_starts.push(run_point.len() as u32);
         }
         run_weight.push(col_weights.len() as u32);
-        let base = starts.windows(2).map(|se| if se[0] == se[1] { fill } else { 0.0 }).collect();
+        let base: Vec<f64> = starts.windows(2).map(|se| if se[0] == se[1] { fill } else { 0.0 }).collect();
+        let mut weighted_runs = Vec::new();
+        for (p, se) in starts.windows(2).enumerate() {
+            if se[0] == se[1] {
+                continue;
+            }
+            match weighted_runs.last_mut() {
+                Some((_, b)) if *b == p as u32 => *b += 1,
+                _ => weighted_runs.push((p as u32, p as u32 + 1)),
+            }
+        }
         WeightTable {
             starts,
             taxels,
@@ -463,6 +487,7 @@ impl WeightTable {
             run_weight,
             col_weights,
             base,
+            weighted_runs,
             inside,
             n_taxels,
             fill,
@@ -1056,7 +1081,8 @@ mod tests {
             ], 24)) {
                 for it in tables() {
                     let dense = it.surface(&v);
-                    let via_vec = it.table().apply_to_vec(&v);
+                    let mut via_vec = it.table().apply_to_vec(&v.iter().map(|x| x * 3.0 - 1.0).collect::<Vec<_>>());
+                    it.table().apply_again(&v, &mut via_vec);
                     for (p, (&got, &alt)) in dense.as_slice().unwrap().iter().zip(&via_vec).enumerate() {
                         let want = it.table().value_at(p, &v);
                         prop_assert!(got.to_bits() == want.to_bits(), "point {}: {:e} vs {:e}", p, got, want);

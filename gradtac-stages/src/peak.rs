@@ -477,8 +477,12 @@ impl PeakContourFinder {
         assert_eq!(v.len(), table.taxels(), "one value per taxel");
         let grid = self.interp.grid().clone();
         if !self.peak_local {
-            self.dense.resize(grid.len(), 0.0);
-            table.apply(v, &mut self.dense);
+            if self.dense.len() == grid.len() {
+                table.apply_again(v, &mut self.dense);
+            } else {
+                self.dense.resize(grid.len(), 0.0);
+                table.apply(v, &mut self.dense);
+            }
             self.full += grid.len() as u64;
             return self.finder.find_slice(&self.dense, &grid);
         }
