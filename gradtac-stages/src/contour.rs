@@ -252,6 +252,9 @@ struct Scratch {
     // the last component's bounding box and member count
     bbox: Win,
     members: usize,
+    // per local row of `vals`, bit `lc` set when that value is above the level (windows of at
+    // most 64 local columns)
+    up_rows: Vec<u64>,
 }
 
 const NONE: u32 = u32::MAX;
@@ -325,8 +328,14 @@ fn march<F: Field>(
     s.vals.clear();
     s.vals.resize((width * height) as usize, f64::NEG_INFINITY);
     z.prepare(w.r0, w.r1, w.c0, w.c1);
+    // with a padded window of ≤ 64 columns, the cells with corners on both sides of the level
+    // are found from bit masks of the points above, and only they are visited
+    let masks = pad && width <= 64;
+    s.up_rows.clear();
+    s.up_rows.resize(if masks { height as usize } else { 0 }, 0);
     for r in w.r0..=w.r1 {
         let lr = (r - w.r0 + 1) * width as usize;
+        let mut up = 0u64;
         for c in w.c0..=w.c1 {
             let mut v = z.raw(r, c);
             if v.is_nan() {
@@ -337,6 +346,10 @@ fn march<F: Field>(
                 }
             }
             s.vals[lr + (c - w.c0 + 1)] = v;
+            up |= ((v > level) as u64) << ((c - w.c0 + 1) & 63);
+        }
+        if masks {
+            s.up_rows[r - w.r0 + 1] = up;
         }
     }
     let vals = std::mem::take(&mut s.vals);
@@ -375,16 +388,38 @@ fn march<F: Field>(
         let at = |c: i64, r: i64| ((r - (w.r0 as i64 - 1)) * width + c - (w.c0 as i64 - 1)) as usize;
         let n = (ce - cs + 2) as usize;
         let (top, bottom) = (&vals[at(cs, r)..at(cs, r) + n], &vals[at(cs, r + 1)..at(cs, r + 1) + n]);
-        // whole runs of cells with no corner above are skipped four corners at a time
-        let (mut up_prev_t, mut up_prev_b) = (top[0] > level, bottom[0] > level);
-        for (i, c) in (cs..=ce).enumerate() {
-            let (up_t, up_b) = (top[i + 1] > level, bottom[i + 1] > level);
-            let any = up_prev_t | up_prev_b | up_t | up_b;
-            let all = up_prev_t & up_prev_b & up_t & up_b;
-            (up_prev_t, up_prev_b) = (up_t, up_b);
-            if pad && (!any || all) {
-                continue;
+        // the cells to visit, in increasing column: with masks, those whose corners are not all
+        // on one side (bit i: cell i), else every cell
+        let cells = n - 1;
+        let mut mixed = if masks {
+            let lr = (r - (w.r0 as i64 - 1)) as usize;
+            let (t, b) = (s.up_rows[lr], s.up_rows[lr + 1]);
+            let m = (t ^ (t >> 1)) | (b ^ (b >> 1)) | (t ^ b);
+            if cells >= 64 {
+                m
+            } else {
+                m & ((1u64 << cells) - 1)
             }
+        } else {
+            0
+        };
+        let mut next = 0usize;
+        loop {
+            let i = if masks {
+                if mixed == 0 {
+                    break;
+                }
+                let i = mixed.trailing_zeros() as usize;
+                mixed &= mixed - 1;
+                i
+            } else {
+                if next == cells {
+                    break;
+                }
+                next += 1;
+                next - 1
+            };
+            let c = cs + i as i64;
             // corners counter-clockwise in (x = col, y = row): (c,r) (c+1,r) (c+1,r+1) (c,r+1)
             let v = [top[i], top[i + 1], bottom[i + 1], bottom[i]];
             debug_assert_eq!(v, [val(c, r), val(c + 1, r), val(c + 1, r + 1), val(c, r + 1)]);
