@@ -5,7 +5,10 @@
 //! The layout is fixed, so every grid point's interpolation weights are computed **once** per
 //! (layout, grid, method) into a sparse [`WeightTable`] (compressed rows: for each grid point the
 //! taxels it depends on and their weights). A frame is then a sparse weighted sum
-//! `z[p] = Σ_k w[p,k] · v[k]`. The [`Interpolate`] stage can also update the previous surface
+//! `z[p] = Σ_k w[p,k] · v[k]`, summed taxel by taxel over each taxel's runs of consecutive
+//! grid points (a loop the compiler vectorises), skipping taxels whose value is 0 (most of a
+//! window aggregate's) — bit-identical to summing each point's row in taxel order (tested).
+//! The [`Interpolate`] stage can also update the previous surface
 //! incrementally from the taxels whose value changed (`z += w[·,k] · Δv[k]`, see
 //! [`InterpolateConfig::incremental`]).
 //!
