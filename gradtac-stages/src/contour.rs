@@ -696,17 +696,18 @@ impl MaxContourFinder {
         let result = if cfg!(test) && self.reference {
             self.levels_reference(z, grid, &levels, zmax, pr, pc)
         } else {
-            self.levels_grown(z, grid, &levels, zmax, pr, pc)
+            self.levels_fast(z, grid, &levels, zmax, pr, pc)
         };
         self.levels = levels;
         result
     }
 
-    /// The level search: the component of the peak is grown level by level (it only grows
-    /// as the level falls), a level is skipped when a cheap upper bound of its region's area
-    /// is under `min_area_mm2`, and only the other levels are marched, linked and measured —
-    /// exactly as [`levels_reference`](Self::levels_reference) does for every level.
-    fn levels_grown<F: Field>(
+    /// The level search: at each level the peak's component is found by horizontal runs
+    /// ([`component_runs`](Self::component_runs)), the level is skipped when a rigorous upper
+    /// bound of its region's area is under `min_area_mm2`, and only the other levels are
+    /// marched, linked and measured — exactly as [`levels_reference`](Self::levels_reference)
+    /// does for every level.
+    fn levels_fast<F: Field>(
         &mut self,
         z: &mut F,
         grid: &Grid,
@@ -1144,7 +1145,7 @@ mod tests {
         assert_eq!(at, usize::MAX);
     }
 
-    mod grown_equals_reference {
+    mod fast_equals_reference {
         use super::*;
         use crate::interpolate::{InterpolateConfig, Interpolator};
         use gradtac_stream::Extent;
@@ -1169,10 +1170,10 @@ mod tests {
         /// which prints every float exactly).
         fn check(z: ArrayView2<'_, f64>, grid: &Grid) -> Result<(), TestCaseError> {
             for cfg in configs() {
-                let mut grown = MaxContourFinder::try_new(&cfg).unwrap();
+                let mut fast = MaxContourFinder::try_new(&cfg).unwrap();
                 let mut reference = MaxContourFinder::try_new(&cfg).unwrap();
                 reference.reference = true;
-                let (a, b) = (grown.find(z, grid), reference.find(z, grid));
+                let (a, b) = (fast.find(z, grid), reference.find(z, grid));
                 prop_assert_eq!(format!("{a:?}"), format!("{b:?}"), "{:?}", cfg);
             }
             Ok(())
