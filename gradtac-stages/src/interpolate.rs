@@ -43,19 +43,22 @@
 //! None: one surface per input, stamped with the input's time span.
 //!
 //! # Trade-offs (24 BioTac SP taxels, 64 × 64 grid, `outside = "nan"`)
-//! Per-surface and build times: medians of two runs of
-//! `cargo bench -p gradtac-stages --bench spatial` (release, one core of a shared 2-core
-//! machine; the spread between runs is the machine's noise).
+//! Per-surface times: criterion medians of `cargo bench -p gradtac-stages --bench spatial --
+//! '^surface/'` (release, one core of a shared 2-core machine at load ≈ 3–4, one run on
+//! 2026-11-26 with the column-run sums; 5 of the bench's 24 taxel values are 0 and skipped —
+//! a window aggregate usually has more zeros, so sums there are cheaper still). Before the
+//! column-run sums (row by row): natural neighbour 5.5–7.6, linear 4.6–6.8, nearest 2.4–4.3,
+//! inverse distance 17.8–21.4 µs. Build times: medians of two earlier runs.
 //!
 //! | method | smoothness | linear field exact | weights / inside point | µs / surface | build (once) |
 //! |---|---|---|---|---|---|
-//! | natural neighbour | C¹ off the taxels | yes | 4.9 | 5.5–7.6 (spade point by point: 468–507) | 0.75–0.87 ms |
-//! | linear | C⁰ (kinks on edges) | yes | 3 | 4.6–6.8 (spade point by point: 181) | 0.29–0.45 ms |
-//! | nearest | discontinuous | no | 1 | 2.4–4.3 | 0.29–0.44 ms |
-//! | inverse distance | C^∞ off taxels, flat spots at taxels | no | 24 (all) | 17.8–21.4 | 1.6–1.7 ms |
+//! | natural neighbour | C¹ off the taxels | yes | 4.9 | 3.9 (spade point by point: 468–507) | 0.75–0.87 ms |
+//! | linear | C⁰ (kinks on edges) | yes | 3 | 2.8 (spade point by point: 181) | 0.29–0.45 ms |
+//! | nearest | discontinuous | no | 1 | 1.7 | 0.29–0.44 ms |
+//! | inverse distance | C^∞ off taxels, flat spots at taxels | no | 24 (all) | 16.9 | 1.6–1.7 ms |
 //!
-//! Grid size, natural neighbour: 0.34–0.40 / 1.2–2.1 / 5.5–7.6 / 21.6–23.7 µs per surface at
-//! 16² / 32² / 64² / 128².
+//! Grid size, natural neighbour: 0.37 / 1.0 / 3.9 / 16.5 µs per surface at 16² / 32² / 64² /
+//! 128² (before: 0.34–0.40 / 1.2–2.1 / 5.5–7.6 / 21.6–23.7).
 //!
 //! | option | faster | more accurate |
 //! |---|---|---|
