@@ -12,6 +12,7 @@ use gradtac_stages::force::{Force, ForceEstimate, ForceModel};
 use gradtac_stages::interpolate::{Interpolate, Surface};
 use gradtac_stages::locate::LocateMethod;
 use gradtac_stages::normalise::{Bounds, Normalise};
+use gradtac_stages::peak::SurfaceContour;
 use gradtac_stages::raw_contour::RawChange;
 use gradtac_stages::savgol::SavGol;
 use gradtac_stages::servo::{Servo, ServoCommand};
@@ -32,6 +33,9 @@ pub struct SensorChain {
     window: Option<Window>,
     surface: Option<Interpolate>,
     contour: Option<Contour>,
+    /// Surface and contour fused (no surface allocated per window) when no output taps the
+    /// surface: the same contours, bit for bit.
+    fused: Option<SurfaceContour>,
     /// `[stages.locate] method = "centroid"`: contours from the raw frames.
     centroid: Option<Centroid>,
     /// `[stages.locate] method = "raw_contour"`: windows (relative changes) from the raw frames.
@@ -119,6 +123,8 @@ impl SensorChain {
                 taps[t as usize].push(i);
             }
         }
+        let contour = runs(Tap::Contour) && method != LocateMethod::Centroid;
+        let fuse = contour && taps[Tap::Surface as usize].is_empty();
         Ok(SensorChain {
             sensor: SensorId::new(&plan.name),
             taps,
@@ -136,9 +142,12 @@ impl SensorChain {
             raw_change: (runs(Tap::Window) && method == LocateMethod::RawContour)
                 .then(|| RawChange::try_new(n, &st.locate))
                 .transpose()?,
-            surface: runs(Tap::Surface).then(|| Interpolate::try_new(&st.surface, &plan.layout)).transpose()?,
-            contour: (runs(Tap::Contour) && method != LocateMethod::Centroid)
-                .then(|| Contour::try_new(&effective_contour(st)))
+            surface: (runs(Tap::Surface) && !fuse)
+                .then(|| Interpolate::try_new(&st.surface, &plan.layout))
+                .transpose()?,
+            contour: (contour && !fuse).then(|| Contour::try_new(&effective_contour(st))).transpose()?,
+            fused: fuse
+                .then(|| SurfaceContour::try_new(&st.surface, &effective_contour(st), &plan.layout))
                 .transpose()?,
             centroid: (runs(Tap::Contour) && method == LocateMethod::Centroid)
                 .then(|| Centroid::try_new(&st.locate, &plan.layout))
@@ -215,6 +224,7 @@ impl SensorChain {
         let d = |s: Option<Delay>| s.unwrap_or(Delay::ZERO);
         let spatial = d(self.surface.as_ref().map(Stage::delay))
             + d(self.contour.as_ref().map(Stage::delay))
+            + d(self.fused.as_ref().map(Stage::delay))
             + d(self.track.as_ref().map(Stage::delay));
         let events = d(self.normalise.as_ref().map(Stage::delay))
             + d(self.savgol.as_ref().map(Stage::delay))
@@ -444,6 +454,9 @@ impl SensorChain {
         }
         self.process_events(finish, sinks)?;
         sinks.write_all(&self.taps[Tap::Window as usize], &self.windows)?;
+        if let Some(st) = &mut self.fused {
+            feed(st, &mut self.windows, &mut self.contours, finish)?;
+        }
         match &mut self.surface {
             Some(st) => {
                 feed(st, &mut self.windows, &mut self.surfaces, finish)?;

@@ -4,10 +4,12 @@
 //!
 //! `cargo bench -p gradtac-stages --bench chain`
 //!
-//! - `chain/<input>/peak`: surface and contour fused, evaluating only the grid points the
-//!   maximal contour needs ([`SurfaceContour`]).
-//! - `chain/<input>/full`: the full 64 × 64 surface every frame, then the contour
-//!   (`Interpolate` → `Contour`, what a scene runs).
+//! - `chain/<input>/peak`: surface and contour fused ([`SurfaceContour`], what a scene runs
+//!   when no output taps the surface): the whole surface into a reused buffer.
+//! - `chain/<input>/peak_local`: the same, evaluating only the blocks of grid points the
+//!   maximal contour reads.
+//! - `chain/<input>/full`: a new 64 × 64 surface array every frame, then the contour
+//!   (`Interpolate` → `Contour`, what a scene runs when the surface is tapped).
 //! - `chain/<input>/full_incremental`: the same with `incremental = true`.
 //! - `contour_of_window/<input>/{peak,full}`: the surface + contour part alone, per window.
 //!
@@ -77,8 +79,10 @@ fn front(
         .then(Window::try_new(&WindowConfig::default()).unwrap())
 }
 
-fn run_peak(layout: &Layout, frames: Vec<TaxelFrame>) -> Vec<TrackPoint> {
-    let sc = SurfaceContour::try_new(&InterpolateConfig::default(), &ContourConfig::default(), layout).unwrap();
+fn run_peak(layout: &Layout, frames: Vec<TaxelFrame>, peak_local: bool) -> Vec<TrackPoint> {
+    let sc = SurfaceContour::try_new(&InterpolateConfig::default(), &ContourConfig::default(), layout)
+        .unwrap()
+        .with_peak_local(peak_local);
     let mut c = front(layout.len()).then(sc).then(Track::try_new(&TrackConfig::default()).unwrap());
     c.run_all(frames).unwrap()
 }
@@ -115,17 +119,19 @@ fn inputs(layout: &Layout) -> Vec<(&'static str, Vec<TaxelFrame>)> {
 fn bench(c: &mut Criterion) {
     let layout = Layout::biotac_sp();
     for (name, frames) in inputs(&layout) {
-        let peak = run_peak(&layout, frames.clone());
+        let peak = format!("{:?}", run_peak(&layout, frames.clone(), false));
         // Debug prints every float exactly (shortest round trip) and NaN as NaN
-        let same = format!("{peak:?}") == format!("{:?}", run_full(&layout, frames.clone(), false));
-        assert!(same, "{name}: peak-local and full grid disagree");
+        let same = peak == format!("{:?}", run_full(&layout, frames.clone(), false));
+        assert!(same, "{name}: fused and full grid disagree");
+        assert!(peak == format!("{:?}", run_peak(&layout, frames.clone(), true)), "{name}: peak-local differs");
         let windows = front(layout.len()).run_all(frames.clone()).unwrap();
         let mut sc = SurfaceContour::<gradtac_stages::window::WindowAggregate>::try_new(
             &InterpolateConfig::default(),
             &ContourConfig::default(),
             &layout,
         )
-        .unwrap();
+        .unwrap()
+        .with_peak_local(true);
         let contours = sc.run_all(windows.clone()).unwrap();
         let contacts = contours.iter().filter(|c| c.outcome.contact().is_some()).count();
         eprintln!(
@@ -169,7 +175,10 @@ fn bench(c: &mut Criterion) {
         let mut g = c.benchmark_group(format!("chain/{name}"));
         g.throughput(Throughput::Elements(frames.len() as u64));
         g.bench_function("peak", |b| {
-            b.iter_batched(|| frames.clone(), |f| black_box(run_peak(&layout, f)), BatchSize::LargeInput)
+            b.iter_batched(|| frames.clone(), |f| black_box(run_peak(&layout, f, false)), BatchSize::LargeInput)
+        });
+        g.bench_function("peak_local", |b| {
+            b.iter_batched(|| frames.clone(), |f| black_box(run_peak(&layout, f, true)), BatchSize::LargeInput)
         });
         g.bench_function("full", |b| {
             b.iter_batched(|| frames.clone(), |f| black_box(run_full(&layout, f, false)), BatchSize::LargeInput)

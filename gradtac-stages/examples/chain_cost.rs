@@ -3,7 +3,7 @@
 //! not depend on how loaded the machine is, wall time does).
 //!
 //! ```text
-//! cargo run --release -p gradtac-stages --example chain_cost -- <peak|full|full_incremental|front|contour_peak|contour_full> [repeats] [recording.csv]
+//! cargo run --release -p gradtac-stages --example chain_cost -- <peak|peak_local|full|full_incremental|front|contour_peak|contour_peak_local|contour_full> [repeats] [recording.csv]
 //! ```
 //! The recording defaults to `shared/data/biotacsp-dos/aw/bottle0.csv` beside the
 //! workspace (or under `$GRADTAC_SHARED_DATA`), tiled 10 times; without it a simulated grasp
@@ -96,6 +96,17 @@ fn main() {
                 .unwrap()
                 .len(),
             "front" => front(layout.len()).run_all(f).unwrap().len(),
+            "peak_local" => front(layout.len())
+                .then(SurfaceContour::try_new(&icfg, &ccfg, &layout).unwrap().with_peak_local(true))
+                .then(Track::try_new(&TrackConfig::default()).unwrap())
+                .run_all(f)
+                .unwrap()
+                .len(),
+            "contour_peak_local" => {
+                let mut s =
+                    SurfaceContour::<WindowAggregate>::try_new(&icfg, &ccfg, &layout).unwrap().with_peak_local(true);
+                s.run_all(windows.clone()).unwrap().len()
+            }
             "contour_peak" => {
                 let mut s = SurfaceContour::<WindowAggregate>::try_new(&icfg, &ccfg, &layout).unwrap();
                 s.run_all(windows.clone()).unwrap().len()

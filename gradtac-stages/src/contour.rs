@@ -13,6 +13,17 @@
 //!   boundary polygon (mm, counter-clockwise), holes, area (mm²), centroid (mm), orientation of
 //!   the principal axis (rad), eccentricity, the level and the peak.
 //!
+//! **The search** goes down the levels from the highest. At each level the peak's component
+//! of `{z > level}` is found by horizontal runs (a scanline fill: 4-connected, plus the
+//! diagonals across saddle cells the saddle rule joins). A level whose component covers
+//! fewer cells than `min_area_mm2` needs (a rigorous upper bound of its area: the cells with
+//! a corner in the component, widened for rounding) is skipped without marching. Otherwise
+//! the component is marched over its bounding box — only the cells whose corners lie on both
+//! sides of the level, found from 64-bit masks of each row's points above when the box is at
+//! most 64 columns wide — its segments linked into rings and measured (Green's theorem). The
+//! outcome is bit-identical to flooding, marching and measuring every level in turn (the
+//! reference the tests compare against on random surfaces).
+//!
 //! **Closing along the grid edge.** A region cut by the grid's edge, by NaN (outside the
 //! hull under [`Outside::Nan`](crate::interpolate::Outside)) is closed *along* that edge:
 //! outside the grid and at NaN the surface counts as −∞, so the boundary runs through the
@@ -230,7 +241,7 @@ struct Seg {
 }
 
 /// Inclusive window of grid points.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 struct Win {
     c0: usize,
     c1: usize,
@@ -249,6 +260,12 @@ struct Scratch {
     gen: u32,
     stack: Vec<(usize, usize)>,
     clipped: bool,
+    // the last component's bounding box and member count
+    bbox: Win,
+    members: usize,
+    // per local row of `vals`, bit `lc` set when that value is above the level (windows of at
+    // most 64 local columns)
+    up_rows: Vec<u64>,
 }
 
 const NONE: u32 = u32::MAX;
@@ -264,6 +281,24 @@ pub(crate) trait Field {
     fn prepare(&mut self, _r0: usize, _r1: usize, _c0: usize, _c1: usize) {}
     /// The value at `(r, c)`, which a [`prepare`](Self::prepare) covered.
     fn raw(&self, r: usize, c: usize) -> f64;
+}
+
+/// A row-major surface in a slice.
+struct Dense<'a> {
+    z: &'a [f64],
+    nx: usize,
+    ny: usize,
+}
+
+impl Field for Dense<'_> {
+    #[inline(always)]
+    fn dim(&self) -> (usize, usize) {
+        (self.ny, self.nx)
+    }
+    #[inline(always)]
+    fn raw(&self, r: usize, c: usize) -> f64 {
+        self.z[r * self.nx + c]
+    }
 }
 
 impl Field for ArrayView2<'_, f64> {
@@ -292,6 +327,11 @@ fn march<F: Field>(
     let nx = z.dim().1;
     let width = (w.c1 - w.c0 + 3) as i64; // local columns -1 ..= c1-c0+1
     let height = (w.r1 - w.r0 + 3) as i64;
+    // the link tables hold NONE except at the previous march's segments: clear just those
+    for g in &s.segs {
+        s.start_of[g.from as usize] = NONE;
+        s.end_of[g.to as usize] = NONE;
+    }
     s.segs.clear();
     s.clipped = false;
     // the window's values once, surrounded by a ring of −∞, with NaN and (given `comp`) other
@@ -299,8 +339,14 @@ fn march<F: Field>(
     s.vals.clear();
     s.vals.resize((width * height) as usize, f64::NEG_INFINITY);
     z.prepare(w.r0, w.r1, w.c0, w.c1);
+    // with a padded window of ≤ 64 columns, the cells with corners on both sides of the level
+    // are found from bit masks of the points above, and only they are visited
+    let masks = pad && width <= 64;
+    s.up_rows.clear();
+    s.up_rows.resize(if masks { height as usize } else { 0 }, 0);
     for r in w.r0..=w.r1 {
         let lr = (r - w.r0 + 1) * width as usize;
+        let mut up = 0u64;
         for c in w.c0..=w.c1 {
             let mut v = z.raw(r, c);
             if v.is_nan() {
@@ -311,6 +357,10 @@ fn march<F: Field>(
                 }
             }
             s.vals[lr + (c - w.c0 + 1)] = v;
+            up |= ((v > level) as u64) << ((c - w.c0 + 1) & 63);
+        }
+        if masks {
+            s.up_rows[r - w.r0 + 1] = up;
         }
     }
     let vals = std::mem::take(&mut s.vals);
@@ -345,9 +395,48 @@ fn march<F: Field>(
         }
     };
     for r in rs..=re {
-        for c in cs..=ce {
+        // the two rows of the cells' corners (local columns from `cs`)
+        let at = |c: i64, r: i64| ((r - (w.r0 as i64 - 1)) * width + c - (w.c0 as i64 - 1)) as usize;
+        let n = (ce - cs + 2) as usize;
+        let (top, bottom) = (&vals[at(cs, r)..at(cs, r) + n], &vals[at(cs, r + 1)..at(cs, r + 1) + n]);
+        // the cells to visit, in increasing column: with masks, those whose corners are not all
+        // on one side (bit i: cell i), else every cell
+        let cells = n - 1;
+        let mut mixed = if masks {
+            let lr = (r - (w.r0 as i64 - 1)) as usize;
+            let (t, b) = (s.up_rows[lr], s.up_rows[lr + 1]);
+            let m = (t ^ (t >> 1)) | (b ^ (b >> 1)) | (t ^ b);
+            if cells >= 64 {
+                m
+            } else {
+                m & ((1u64 << cells) - 1)
+            }
+        } else {
+            0
+        };
+        let mut next = 0usize;
+        loop {
+            let i = if masks {
+                if mixed == 0 {
+                    break;
+                }
+                let i = mixed.trailing_zeros() as usize;
+                mixed &= mixed - 1;
+                i
+            } else {
+                if next == cells {
+                    break;
+                }
+                next += 1;
+                next - 1
+            };
+            let c = cs + i as i64;
             // corners counter-clockwise in (x = col, y = row): (c,r) (c+1,r) (c+1,r+1) (c,r+1)
-            let v = [val(c, r), val(c + 1, r), val(c + 1, r + 1), val(c, r + 1)];
+            let v = [top[i], top[i + 1], bottom[i + 1], bottom[i]];
+            debug_assert_eq!(
+                v.map(f64::to_bits),
+                [val(c, r), val(c + 1, r), val(c + 1, r + 1), val(c, r + 1)].map(f64::to_bits)
+            );
             if !pad && v.iter().any(|x| x.is_nan()) {
                 continue;
             }
@@ -388,10 +477,10 @@ fn march<F: Field>(
     s.clipped = clipped;
     s.vals = vals;
     let n_ids = (2 * width * height) as usize;
-    s.start_of.clear();
-    s.start_of.resize(n_ids, NONE);
-    s.end_of.clear();
-    s.end_of.resize(n_ids, NONE);
+    if s.start_of.len() < n_ids {
+        s.start_of.resize(n_ids, NONE);
+        s.end_of.resize(n_ids, NONE);
+    }
     for (i, g) in s.segs.iter().enumerate() {
         s.start_of[g.from as usize] = i as u32;
         s.end_of[g.to as usize] = i as u32;
@@ -495,6 +584,8 @@ pub struct MaxContourFinder {
     cfg: ContourConfig,
     s: Scratch,
     levels: Vec<f64>,
+    // tests: search levels the way first written (the exactness reference)
+    reference: bool,
 }
 
 impl MaxContourFinder {
@@ -518,7 +609,7 @@ impl MaxContourFinder {
         if !cfg.min_peak.is_finite() {
             return bad(format!("`min_peak` = {} must be finite", cfg.min_peak));
         }
-        Ok(MaxContourFinder { cfg: cfg.clone(), s: Scratch::default(), levels: Vec::new() })
+        Ok(MaxContourFinder { cfg: cfg.clone(), s: Scratch::default(), levels: Vec::new(), reference: false })
     }
 
     /// The configuration.
@@ -534,17 +625,27 @@ impl MaxContourFinder {
     pub fn find(&mut self, z: ArrayView2<'_, f64>, grid: &Grid) -> ContourOutcome {
         let (ny, nx) = z.dim();
         assert_eq!((ny, nx), (grid.ny(), grid.nx()), "surface shape must match its grid");
-        // peak (first in raster order) and finite minimum
-        let (mut zmax, mut zmin, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
         match z.as_slice() {
-            Some(sl) => scan(sl, &mut zmax, &mut zmin, &mut at),
+            Some(sl) => self.find_slice(sl, grid),
             None => {
                 let v: Vec<f64> = z.iter().copied().collect();
-                scan(&v, &mut zmax, &mut zmin, &mut at)
+                self.find_slice(&v, grid)
             }
         }
-        let mut z = z;
-        self.find_in(&mut z, grid, zmax, zmin, at)
+    }
+
+    /// The maximal contour of a row-major surface `z` (`grid.len()` values), as
+    /// [`find`](Self::find).
+    ///
+    /// # Panics
+    /// If `z.len() != grid.len()`.
+    pub fn find_slice(&mut self, z: &[f64], grid: &Grid) -> ContourOutcome {
+        let (ny, nx) = (grid.ny(), grid.nx());
+        assert_eq!(z.len(), nx * ny, "surface length must match its grid");
+        // peak (first in raster order) and finite minimum
+        let (mut zmax, mut zmin, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
+        scan(z, &mut zmax, &mut zmin, &mut at);
+        self.find_in(&mut Dense { z, nx, ny }, grid, zmax, zmin, at)
     }
 
     /// The maximal contour given the surface's finite maximum `zmax` (first at raster index
@@ -558,7 +659,7 @@ impl MaxContourFinder {
         zmin: f64,
         at: usize,
     ) -> ContourOutcome {
-        let (ny, nx) = z.dim();
+        let nx = z.dim().1;
         if at == usize::MAX || zmax == f64::INFINITY || zmin == f64::NEG_INFINITY {
             // no finite value, or ±∞ (which no level can split)
             return ContourOutcome::NoContact(NoContact::NoData);
@@ -591,75 +692,246 @@ impl MaxContourFinder {
         self.levels.retain(|l| l.is_finite());
         self.levels.sort_by(|a, b| b.total_cmp(a));
         self.levels.dedup();
-        let cell = grid.cell_area();
-        let peak_mm = [grid.x(pc), grid.y(pr)];
         let levels = std::mem::take(&mut self.levels);
-        let mut result = ContourOutcome::NoContact(NoContact::TooSmall);
-        for &level in &levels {
-            let w = self.component(z, level, pr, pc);
-            let win = if self.cfg.peak_only { w } else { Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 } };
-            let gen = self.s.gen;
-            let stamp = std::mem::take(&mut self.s.stamp);
-            march(z, level, self.cfg.saddle, win, true, Some((&stamp, gen)), &mut self.s);
-            self.s.stamp = stamp;
-            let clipped = self.s.clipped;
-            let rings = link(&mut self.s);
-            // moments in index units about the peak, scaled to mm afterwards
-            // (x_mm = x_min + dx·col, y_mm = y_min + dy·row)
-            let origin = [pc as f64, pr as f64];
-            let mut outer = (0usize, f64::NEG_INFINITY);
-            let mut m = [0.0; 6];
-            for (i, r) in rings.iter().enumerate() {
-                let mi = moments(&r.points, origin);
-                if mi[0] > outer.1 {
-                    outer = (i, mi[0]);
-                }
-                for k in 0..6 {
-                    m[k] += mi[k];
-                }
-            }
-            if rings.is_empty() || m[0] * cell < self.cfg.min_area_mm2 {
-                continue;
-            }
-            let to_mm = |p: &[f64; 2]| grid.index_to_mm(p[0], p[1]);
-            let (dx, dy) = (grid.dx(), grid.dy());
-            let a = m[0] * cell;
-            let (ci, cj) = (m[1] / m[0], m[2] / m[0]);
-            let (cx, cy) = (dx * ci, dy * cj);
-            let mu20 = dx * dx * (m[3] / m[0] - ci * ci);
-            let mu11 = dx * dy * (m[4] / m[0] - ci * cj);
-            let mu02 = dy * dy * (m[5] / m[0] - cj * cj);
-            let mut theta = 0.5 * (2.0 * mu11).atan2(mu20 - mu02);
-            if theta <= -std::f64::consts::FRAC_PI_2 {
-                theta += std::f64::consts::PI;
-            }
-            let half_tr = 0.5 * (mu20 + mu02);
-            let disc = (0.25 * (mu20 - mu02).powi(2) + mu11 * mu11).sqrt();
-            let (l1, l2) = (half_tr + disc, half_tr - disc);
-            let ecc = if l1 > 0.0 { (1.0 - (l2 / l1).max(0.0)).max(0.0).sqrt() } else { 0.0 };
-            let polygon = rings[outer.0].points.iter().map(to_mm).collect();
-            let holes = rings
-                .iter()
-                .enumerate()
-                .filter(|&(i, _)| i != outer.0)
-                .map(|(_, r)| r.points.iter().map(to_mm).collect())
-                .collect();
-            result = ContourOutcome::Contact(MaxContour {
-                level,
-                polygon,
-                holes,
-                area_mm2: a,
-                centroid_mm: [peak_mm[0] + cx, peak_mm[1] + cy],
-                orientation_rad: theta,
-                eccentricity: ecc,
-                peak: zmax,
-                peak_mm,
-                clipped,
-            });
-            break;
-        }
+        let result = if cfg!(test) && self.reference {
+            self.levels_reference(z, grid, &levels, zmax, pr, pc)
+        } else {
+            self.levels_fast(z, grid, &levels, zmax, pr, pc)
+        };
         self.levels = levels;
         result
+    }
+
+    /// The level search: at each level the peak's component is found by horizontal runs
+    /// ([`component_runs`](Self::component_runs)), the level is skipped when a rigorous upper
+    /// bound of its region's area is under `min_area_mm2`, and only the other levels are
+    /// marched, linked and measured — exactly as [`levels_reference`](Self::levels_reference)
+    /// does for every level.
+    fn levels_fast<F: Field>(
+        &mut self,
+        z: &mut F,
+        grid: &Grid,
+        levels: &[f64],
+        zmax: f64,
+        pr: usize,
+        pc: usize,
+    ) -> ContourOutcome {
+        let (ny, nx) = z.dim();
+        let cell = grid.cell_area();
+        for &level in levels {
+            let w = self.component_runs(z, level, pr, pc);
+            // The region lies in the cells with a corner in the component: at most 4 per point
+            // and at most the cells of its bounding box grown by one. The reference's area is
+            // a float sum of at most 2 terms per cell, each of magnitude ≤ 2·(nx + ny)² (index
+            // units about the peak), so it exceeds the true area by at most `slack`.
+            let b = self.s.bbox;
+            let cells = (4 * self.s.members).min((b.c1 - b.c0 + 2) * (b.r1 - b.r0 + 2)) as f64;
+            let span = (nx + ny + 2) as f64;
+            let slack = (2.0 * cells).powi(2) * f64::EPSILON * 2.0 * span * span;
+            if (cells + slack) * cell * (1.0 + 4.0 * f64::EPSILON) < self.cfg.min_area_mm2 {
+                continue;
+            }
+            let win = if self.cfg.peak_only { w } else { Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 } };
+            if let Some(c) = self.contour_at(z, grid, level, win, zmax, pr, pc) {
+                return ContourOutcome::Contact(c);
+            }
+        }
+        ContourOutcome::NoContact(NoContact::TooSmall)
+    }
+
+    /// The level search as first written (the exactness reference of the tests): for every
+    /// level, flood the peak's component afresh, march, link and measure.
+    fn levels_reference<F: Field>(
+        &mut self,
+        z: &mut F,
+        grid: &Grid,
+        levels: &[f64],
+        zmax: f64,
+        pr: usize,
+        pc: usize,
+    ) -> ContourOutcome {
+        let (ny, nx) = z.dim();
+        for &level in levels {
+            let w = self.component(z, level, pr, pc);
+            let win = if self.cfg.peak_only { w } else { Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 } };
+            if let Some(c) = self.contour_at(z, grid, level, win, zmax, pr, pc) {
+                return ContourOutcome::Contact(c);
+            }
+        }
+        ContourOutcome::NoContact(NoContact::TooSmall)
+    }
+
+    /// March the stamped component at `level` over `win`, link its rings and measure them: the
+    /// maximal contour when its area reaches `min_area_mm2`.
+    #[allow(clippy::too_many_arguments)]
+    fn contour_at<F: Field>(
+        &mut self,
+        z: &mut F,
+        grid: &Grid,
+        level: f64,
+        win: Win,
+        zmax: f64,
+        pr: usize,
+        pc: usize,
+    ) -> Option<MaxContour> {
+        let cell = grid.cell_area();
+        let peak_mm = [grid.x(pc), grid.y(pr)];
+        let gen = self.s.gen;
+        let stamp = std::mem::take(&mut self.s.stamp);
+        march(z, level, self.cfg.saddle, win, true, Some((&stamp, gen)), &mut self.s);
+        self.s.stamp = stamp;
+        let clipped = self.s.clipped;
+        let rings = link(&mut self.s);
+        // moments in index units about the peak, scaled to mm afterwards
+        // (x_mm = x_min + dx·col, y_mm = y_min + dy·row)
+        let origin = [pc as f64, pr as f64];
+        let mut outer = (0usize, f64::NEG_INFINITY);
+        let mut m = [0.0; 6];
+        for (i, r) in rings.iter().enumerate() {
+            let mi = moments(&r.points, origin);
+            if mi[0] > outer.1 {
+                outer = (i, mi[0]);
+            }
+            for k in 0..6 {
+                m[k] += mi[k];
+            }
+        }
+        if rings.is_empty() || m[0] * cell < self.cfg.min_area_mm2 {
+            return None;
+        }
+        let to_mm = |p: &[f64; 2]| grid.index_to_mm(p[0], p[1]);
+        let (dx, dy) = (grid.dx(), grid.dy());
+        let a = m[0] * cell;
+        let (ci, cj) = (m[1] / m[0], m[2] / m[0]);
+        let (cx, cy) = (dx * ci, dy * cj);
+        let mu20 = dx * dx * (m[3] / m[0] - ci * ci);
+        let mu11 = dx * dy * (m[4] / m[0] - ci * cj);
+        let mu02 = dy * dy * (m[5] / m[0] - cj * cj);
+        let mut theta = 0.5 * (2.0 * mu11).atan2(mu20 - mu02);
+        if theta <= -std::f64::consts::FRAC_PI_2 {
+            theta += std::f64::consts::PI;
+        }
+        let half_tr = 0.5 * (mu20 + mu02);
+        let disc = (0.25 * (mu20 - mu02).powi(2) + mu11 * mu11).sqrt();
+        let (l1, l2) = (half_tr + disc, half_tr - disc);
+        let ecc = if l1 > 0.0 { (1.0 - (l2 / l1).max(0.0)).max(0.0).sqrt() } else { 0.0 };
+        let polygon = rings[outer.0].points.iter().map(to_mm).collect();
+        let holes = rings
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| i != outer.0)
+            .map(|(_, r)| r.points.iter().map(to_mm).collect())
+            .collect();
+        Some(MaxContour {
+            level,
+            polygon,
+            holes,
+            area_mm2: a,
+            centroid_mm: [peak_mm[0] + cx, peak_mm[1] + cy],
+            orientation_rad: theta,
+            eccentricity: ecc,
+            peak: zmax,
+            peak_mm,
+            clipped,
+        })
+    }
+
+    /// The component of `{z > level}` holding the peak `(pr, pc)`, stamped with a new
+    /// generation: the same set as [`component`](Self::component) (the connected set of
+    /// points above the level under 4-connectivity plus the diagonals across saddle cells the
+    /// saddle rule joins — a set, whatever the order it is found in), found by horizontal
+    /// runs: a seed is extended left and right over the points above, then the rows above and
+    /// below the run are scanned for one new seed per span of points above, and the two
+    /// diagonal neighbours beyond the run's ends are linked when the saddle rule joins them.
+    /// Records the member count and bounding box; returns the box grown by one point (clipped
+    /// to the grid).
+    fn component_runs<F: Field>(&mut self, z: &mut F, level: f64, pr: usize, pc: usize) -> Win {
+        let (ny, nx) = z.dim();
+        let saddle = self.cfg.saddle;
+        let s = &mut self.s;
+        if s.stamp.len() != nx * ny {
+            s.stamp.clear();
+            s.stamp.resize(nx * ny, 0);
+            s.gen = 0;
+        }
+        s.gen = s.gen.wrapping_add(1);
+        if s.gen == 0 {
+            s.stamp.iter_mut().for_each(|x| *x = 0);
+            s.gen = 1;
+        }
+        let gen = s.gen;
+        s.stamp[pr * nx + pc] = gen;
+        s.stack.clear();
+        s.stack.push((pr, pc));
+        let mut bb = Win { c0: pc, c1: pc, r0: pr, r1: pr };
+        let mut members = 0;
+        while let Some((r, c)) = s.stack.pop() {
+            let row = r * nx;
+            let (mut a, mut b) = (c, c);
+            while a > 0 && s.stamp[row + a - 1] != gen && {
+                z.prepare(r, r, a - 1, a - 1);
+                z.raw(r, a - 1) > level
+            } {
+                a -= 1;
+                s.stamp[row + a] = gen;
+            }
+            while b + 1 < nx && s.stamp[row + b + 1] != gen && {
+                z.prepare(r, r, b + 1, b + 1);
+                z.raw(r, b + 1) > level
+            } {
+                b += 1;
+                s.stamp[row + b] = gen;
+            }
+            let (lo, hi) = (a.saturating_sub(1), (b + 1).min(nx - 1));
+            z.prepare(r, r, lo, hi);
+            members += b - a + 1;
+            bb = Win { c0: bb.c0.min(a), c1: bb.c1.max(b), r0: bb.r0.min(r), r1: bb.r1.max(r) };
+            for rr in [r.wrapping_sub(1), r + 1] {
+                if rr >= ny {
+                    continue;
+                }
+                z.prepare(rr, rr, lo, hi);
+                let o = rr * nx;
+                let mut in_span = false;
+                for x in a..=b {
+                    if s.stamp[o + x] != gen && z.raw(rr, x) > level {
+                        if !in_span {
+                            s.stamp[o + x] = gen;
+                            s.stack.push((rr, x));
+                            in_span = true;
+                        }
+                    } else {
+                        in_span = false;
+                    }
+                }
+                // the diagonal neighbours beyond the run's ends: linked across a saddle cell
+                // (both side corners below) that the rule joins; with a side corner above,
+                // that corner is a member and links them through its own rows
+                for (x, end) in [(a.wrapping_sub(1), a), (b + 1, b)] {
+                    if x >= nx || s.stamp[o + x] == gen {
+                        continue;
+                    }
+                    let above = z.raw(rr, x) > level;
+                    if !above || z.raw(r, x) > level || z.raw(rr, end) > level {
+                        continue;
+                    }
+                    let (rm, cm) = (r.min(rr), x.min(end));
+                    let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
+                    if saddle.joins_above(v, level) {
+                        s.stamp[o + x] = gen;
+                        s.stack.push((rr, x));
+                    }
+                }
+            }
+        }
+        s.members = members;
+        s.bbox = bb;
+        Win {
+            c0: bb.c0.saturating_sub(1),
+            c1: (bb.c1 + 1).min(nx - 1),
+            r0: bb.r0.saturating_sub(1),
+            r1: (bb.r1 + 1).min(ny - 1),
+        }
     }
 
     /// Flood-fill the component of `{z > level}` containing (pr, pc) — 4-connected, plus
@@ -871,6 +1143,74 @@ mod tests {
         let (mut hi, mut lo, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
         scan(&[f64::NAN; 9], &mut hi, &mut lo, &mut at);
         assert_eq!(at, usize::MAX);
+    }
+
+    mod fast_equals_reference {
+        use super::*;
+        use crate::interpolate::{InterpolateConfig, Interpolator};
+        use gradtac_stream::Extent;
+        use proptest::prelude::*;
+
+        fn configs() -> Vec<ContourConfig> {
+            vec![
+                ContourConfig::default(),
+                ContourConfig { min_area_mm2: 0.0, saddle: Saddle::Low, ..Default::default() },
+                ContourConfig { min_area_mm2: 15.0, saddle: Saddle::High, peak_only: false, ..Default::default() },
+                ContourConfig { levels: Levels::Count(25), min_area_mm2: 3.0, min_peak: -1e9, ..Default::default() },
+                ContourConfig {
+                    levels: Levels::Explicit(vec![0.5, 1.5, 2.5, 3.5]),
+                    min_area_mm2: 2.0,
+                    min_peak: -1e9,
+                    ..Default::default()
+                },
+            ]
+        }
+
+        /// Both level searches on one surface: identical outcomes (compared through `Debug`,
+        /// which prints every float exactly).
+        fn check(z: ArrayView2<'_, f64>, grid: &Grid) -> Result<(), TestCaseError> {
+            for cfg in configs() {
+                let mut fast = MaxContourFinder::try_new(&cfg).unwrap();
+                let mut reference = MaxContourFinder::try_new(&cfg).unwrap();
+                reference.reference = true;
+                let (a, b) = (fast.find(z, grid), reference.find(z, grid));
+                prop_assert_eq!(format!("{a:?}"), format!("{b:?}"), "{:?}", cfg);
+            }
+            Ok(())
+        }
+
+        fn interp() -> &'static Interpolator {
+            static I: std::sync::OnceLock<Interpolator> = std::sync::OnceLock::new();
+            I.get_or_init(|| {
+                Interpolator::from_config(&InterpolateConfig::default(), &gradtac_stream::Layout::biotac_sp()).unwrap()
+            })
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+            /// Small grids of few distinct values (ties, plateaus, saddles, several peaks) with NaN.
+            #[test]
+            fn on_random_grids(v in proptest::collection::vec(prop_oneof![
+                4 => (0u8..5).prop_map(f64::from),
+                1 => Just(f64::NAN),
+                1 => -3.0f64..7.0,
+            ], 11 * 9)) {
+                let grid = Grid::try_new(Extent { x_min: 0.0, x_max: 4.0, y_min: -1.0, y_max: 2.0 }, 11, 9).unwrap();
+                let z = Array2::from_shape_vec((9, 11), v).unwrap();
+                check(z.view(), &grid)?;
+            }
+
+            /// Natural-neighbour 64 × 64 surfaces of random window aggregates (the default chain).
+            #[test]
+            fn on_interpolated_surfaces(v in proptest::collection::vec(prop_oneof![
+                3 => Just(0.0),
+                3 => (-3i8..8).prop_map(f64::from),
+                1 => -20.0f64..20.0,
+            ], 24)) {
+                let it = interp();
+                check(it.surface(&v).view(), it.grid())?;
+            }
+        }
     }
 
     #[test]

@@ -5,7 +5,10 @@
 //! The layout is fixed, so every grid point's interpolation weights are computed **once** per
 //! (layout, grid, method) into a sparse [`WeightTable`] (compressed rows: for each grid point the
 //! taxels it depends on and their weights). A frame is then a sparse weighted sum
-//! `z[p] = Σ_k w[p,k] · v[k]`. The [`Interpolate`] stage can also update the previous surface
+//! `z[p] = Σ_k w[p,k] · v[k]`, summed taxel by taxel over each taxel's runs of consecutive
+//! grid points (a loop the compiler vectorises), skipping taxels whose value is 0 (most of a
+//! window aggregate's) — bit-identical to summing each point's row in taxel order (tested).
+//! The [`Interpolate`] stage can also update the previous surface
 //! incrementally from the taxels whose value changed (`z += w[·,k] · Δv[k]`, see
 //! [`InterpolateConfig::incremental`]).
 //!
@@ -40,19 +43,22 @@
 //! None: one surface per input, stamped with the input's time span.
 //!
 //! # Trade-offs (24 BioTac SP taxels, 64 × 64 grid, `outside = "nan"`)
-//! Per-surface and build times: medians of two runs of
-//! `cargo bench -p gradtac-stages --bench spatial` (release, one core of a shared 2-core
-//! machine; the spread between runs is the machine's noise).
+//! Per-surface times: criterion medians of `cargo bench -p gradtac-stages --bench spatial --
+//! '^surface/'` (release, one core of a shared 2-core machine at load ≈ 3–4, one run on
+//! 2026-11-26 with the column-run sums; 5 of the bench's 24 taxel values are 0 and skipped —
+//! a window aggregate usually has more zeros, so sums there are cheaper still). Before the
+//! column-run sums (row by row): natural neighbour 5.5–7.6, linear 4.6–6.8, nearest 2.4–4.3,
+//! inverse distance 17.8–21.4 µs. Build times: medians of two earlier runs.
 //!
 //! | method | smoothness | linear field exact | weights / inside point | µs / surface | build (once) |
 //! |---|---|---|---|---|---|
-//! | natural neighbour | C¹ off the taxels | yes | 4.9 | 5.5–7.6 (spade point by point: 468–507) | 0.75–0.87 ms |
-//! | linear | C⁰ (kinks on edges) | yes | 3 | 4.6–6.8 (spade point by point: 181) | 0.29–0.45 ms |
-//! | nearest | discontinuous | no | 1 | 2.4–4.3 | 0.29–0.44 ms |
-//! | inverse distance | C^∞ off taxels, flat spots at taxels | no | 24 (all) | 17.8–21.4 | 1.6–1.7 ms |
+//! | natural neighbour | C¹ off the taxels | yes | 4.9 | 3.9 (spade point by point: 468–507) | 0.75–0.87 ms |
+//! | linear | C⁰ (kinks on edges) | yes | 3 | 2.8 (spade point by point: 181) | 0.29–0.45 ms |
+//! | nearest | discontinuous | no | 1 | 1.7 | 0.29–0.44 ms |
+//! | inverse distance | C^∞ off taxels, flat spots at taxels | no | 24 (all) | 16.9 | 1.6–1.7 ms |
 //!
-//! Grid size, natural neighbour: 0.34–0.40 / 1.2–2.1 / 5.5–7.6 / 21.6–23.7 µs per surface at
-//! 16² / 32² / 64² / 128².
+//! Grid size, natural neighbour: 0.37 / 1.0 / 3.9 / 16.5 µs per surface at 16² / 32² / 64² /
+//! 128² (before: 0.34–0.40 / 1.2–2.1 / 5.5–7.6 / 21.6–23.7).
 //!
 //! | option | faster | more accurate |
 //! |---|---|---|
@@ -296,6 +302,10 @@ pub struct WeightTable {
     run_point: Vec<u32>,
     run_weight: Vec<u32>,
     col_weights: Vec<f64>,
+    // the surface before any taxel is added: 0 at points with weights, `fill` elsewhere
+    base: Vec<f64>,
+    // runs `[a, b)` of consecutive points with weights (where `base` is 0)
+    weighted_runs: Vec<(u32, u32)>,
     inside: Vec<bool>,
     n_taxels: usize,
     fill: f64,
@@ -329,18 +339,48 @@ impl WeightTable {
     }
 
     /// `out[p] = Σ w·values` for every grid point (`out.len() == points()`).
+    ///
+    /// Summed taxel by taxel over the table's column runs (contiguous grid points, a loop the
+    /// compiler vectorises), skipping taxels whose value is 0. Every point sees the same
+    /// operations in the same order as its row sum `((0 + w₀v₀) + w₁v₁) + …` (ascending
+    /// taxel), and adding `w·0 = ±0` to a sum that starts at `+0` never changes it, so the
+    /// result is bit-identical to [`value_at`](Self::value_at) at every point (tested).
     pub fn apply(&self, values: &[f64], out: &mut [f64]) {
         debug_assert_eq!(values.len(), self.n_taxels);
         debug_assert_eq!(out.len(), self.points());
-        for (o, se) in out.iter_mut().zip(self.starts.windows(2)) {
-            *o = self.row_value(se[0] as usize, se[1] as usize, values);
-        }
+        out.copy_from_slice(&self.base);
+        self.accumulate(values, out);
     }
 
-    /// A new row-major vector of `Σ w·values` for every grid point.
+    /// A new row-major vector of `Σ w·values` for every grid point (as [`apply`](Self::apply)).
     pub fn apply_to_vec(&self, values: &[f64]) -> Vec<f64> {
         debug_assert_eq!(values.len(), self.n_taxels);
-        self.starts.windows(2).map(|se| self.row_value(se[0] as usize, se[1] as usize, values)).collect()
+        let mut out = self.base.clone();
+        self.accumulate(values, &mut out);
+        out
+    }
+
+    /// As [`apply`](Self::apply), for an `out` that already holds a surface of this table (its
+    /// points without weights hold the fill value, which no sum touches): only the points with
+    /// weights are reset, to 0, before the sums. Bit-identical to `apply`.
+    pub fn apply_again(&self, values: &[f64], out: &mut [f64]) {
+        debug_assert_eq!(values.len(), self.n_taxels);
+        debug_assert_eq!(out.len(), self.points());
+        for &(a, b) in &self.weighted_runs {
+            out[a as usize..b as usize].fill(0.0);
+        }
+        self.accumulate(values, out);
+    }
+
+    /// `out += Σ_k w[·,k]·values[k]` over the taxels with a non-zero value, in ascending taxel
+    /// order, run by run.
+    fn accumulate(&self, values: &[f64], out: &mut [f64]) {
+        for (k, &v) in values.iter().enumerate() {
+            if v == 0.0 {
+                continue;
+            }
+            self.add_taxel(k, v, out);
+        }
     }
 
     /// `Σ w·values` at grid point `p` alone — bit-identical to that point of [`apply`](Self::apply).
@@ -381,10 +421,11 @@ impl WeightTable {
     /// by `delta`.
     pub fn add_taxel(&self, taxel: usize, delta: f64, out: &mut [f64]) {
         let (a, b) = (self.run_starts[taxel] as usize, self.run_starts[taxel + 1] as usize);
-        for r in a..b {
-            let (w0, w1) = (self.run_weight[r] as usize, self.run_weight[r + 1] as usize);
-            let p = self.run_point[r] as usize;
-            for (o, &w) in out[p..p + (w1 - w0)].iter_mut().zip(&self.col_weights[w0..w1]) {
+        let bounds = self.run_weight[a..=b].windows(2);
+        for (&p, w) in self.run_point[a..b].iter().zip(bounds) {
+            let (w0, w1, p) = (w[0] as usize, w[1] as usize, p as usize);
+            let ws = &self.col_weights[w0..w1];
+            for (o, &w) in out[p..p + ws.len()].iter_mut().zip(ws) {
                 *o += w * delta;
             }
         }
@@ -432,7 +473,31 @@ impl WeightTable {
             run_starts.push(run_point.len() as u32);
         }
         run_weight.push(col_weights.len() as u32);
-        WeightTable { starts, taxels, weights, run_starts, run_point, run_weight, col_weights, inside, n_taxels, fill }
+        let base: Vec<f64> = starts.windows(2).map(|se| if se[0] == se[1] { fill } else { 0.0 }).collect();
+        let mut weighted_runs = Vec::new();
+        for (p, se) in starts.windows(2).enumerate() {
+            if se[0] == se[1] {
+                continue;
+            }
+            match weighted_runs.last_mut() {
+                Some((_, b)) if *b == p as u32 => *b += 1,
+                _ => weighted_runs.push((p as u32, p as u32 + 1)),
+            }
+        }
+        WeightTable {
+            starts,
+            taxels,
+            weights,
+            run_starts,
+            run_point,
+            run_weight,
+            col_weights,
+            base,
+            weighted_runs,
+            inside,
+            n_taxels,
+            fill,
+        }
     }
 }
 
@@ -1002,6 +1067,61 @@ mod tests {
                 assert!(a.is_nan() && b.is_nan() || (a - b).abs() <= 1e-12 * (1.0 + b.abs()), "{a} vs {b}");
             }
         }
+    }
+
+    mod column_sums {
+        use super::*;
+        use proptest::prelude::*;
+
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+            /// The column-run sum (`apply`, zero taxels skipped) is bit-identical to every
+            /// point's row sum, for every method and outside policy.
+            #[test]
+            fn equal_row_sums_bit_for_bit(v in proptest::collection::vec(prop_oneof![
+                Just(0.0),
+                Just(-0.0),
+                (-8i8..9).prop_map(f64::from),
+                -1e6f64..1e6,
+                -1e300f64..1e300,
+            ], 24)) {
+                for it in tables() {
+                    let dense = it.surface(&v);
+                    let mut via_vec = it.table().apply_to_vec(&v.iter().map(|x| x * 3.0 - 1.0).collect::<Vec<_>>());
+                    it.table().apply_again(&v, &mut via_vec);
+                    for (p, (&got, &alt)) in dense.as_slice().unwrap().iter().zip(&via_vec).enumerate() {
+                        let want = it.table().value_at(p, &v);
+                        prop_assert!(got.to_bits() == want.to_bits(), "point {}: {:e} vs {:e}", p, got, want);
+                        prop_assert!(alt.to_bits() == want.to_bits());
+                    }
+                }
+            }
+        }
+    }
+
+    fn tables() -> &'static [Interpolator] {
+        static ALL: std::sync::OnceLock<Vec<Interpolator>> = std::sync::OnceLock::new();
+        ALL.get_or_init(|| {
+            let l = Layout::biotac_sp();
+            let mut out = Vec::new();
+            for (method, outside) in [
+                (Method::NaturalNeighbour, Outside::Nan),
+                (Method::NaturalNeighbour, Outside::Extend),
+                (Method::Linear, Outside::Fill),
+                (Method::Nearest, Outside::Nan),
+                (Method::InverseDistance, Outside::Fill),
+            ] {
+                let cfg = InterpolateConfig {
+                    method,
+                    outside,
+                    fill_value: 0.25,
+                    grid: GridConfig { nx: 64, ..Default::default() },
+                    ..Default::default()
+                };
+                out.push(Interpolator::from_config(&cfg, &l).unwrap());
+            }
+            out
+        })
     }
 
     #[test]

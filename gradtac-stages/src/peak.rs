@@ -1,56 +1,78 @@
-//! Peak-local surfaces: the maximal contour of an interpolated surface without evaluating the
-//! whole grid (method.md, stages 5–6 fused).
+//! The surface and the maximal contour fused: the maximal contour of an interpolated surface
+//! without a surface array per frame (method.md, stages 5–6 fused).
 //!
 //! # What it does
-//! The maximal contour ([`crate::contour`]) needs the surface's peak (first in raster order),
-//! its finite minimum (for counted levels) and the values in and around the peak's region — not
-//! all `nx·ny` points. [`SurfaceContour`] takes per-taxel values (a window aggregate) and
-//! returns the same [`ContourFrame`] as [`Interpolate`](crate::interpolate::Interpolate) →
-//! [`Contour`](crate::contour::Contour), **bit for bit**, while evaluating grid points only on
-//! demand:
+//! [`SurfaceContour`] takes per-taxel values (a window aggregate) and returns the same
+//! [`ContourFrame`] as [`Interpolate`](crate::interpolate::Interpolate) →
+//! [`Contour`](crate::contour::Contour), **bit for bit** (tested), without allocating a
+//! [`Surface`](crate::interpolate::Surface) per frame. The scene chain runs it whenever no
+//! output taps the surface. Two evaluations, identical outcomes:
 //!
-//! 1. The grid is cut into blocks (8 × 8 points on a 64 × 64 grid; a power of two a side). For each block the
-//!    [`PeakIndex`] (built once per interpolator) holds the union of the taxels its points'
-//!    weights use. Interpolation weights are convex (non-negative, summing to 1 for natural
-//!    neighbour, linear, nearest, inverse distance and the hull extension), so every value in a
-//!    block lies within `[min, max]` of those taxels' values, widened by a rigorous rounding
-//!    slack (`ε·max|v|` with `ε` from the table's worst weight-sum error and row length; exact
-//!    0 when all taxels are ≥ 0 or ≤ 0 on that side).
-//! 2. The peak: evaluate the block with the highest upper bound, then only blocks whose upper
-//!    bound reaches the best value found (`≥`, so ties in raster order are resolved exactly).
-//!    The minimum likewise from below. A peak bound under `min_peak` ends the frame without
-//!    evaluating anything.
-//! 3. The region search and marching squares read values through a cache that evaluates a
-//!    block the first time one of its points is read (at most once per frame) — with the same
-//!    summation order as the full grid, so every value is bit-identical.
+//! - **Dense** (default): the whole surface into a buffer kept between frames, by the weight
+//!   table's column runs with zero taxels skipped
+//!   ([`WeightTable::apply_again`](crate::interpolate::WeightTable::apply_again)), then
+//!   [`MaxContourFinder::find_slice`].
+//! - **Peak-local** ([`SurfaceContour::with_peak_local`]): the maximal contour needs the
+//!   surface's peak (first in raster order), its finite minimum (for counted levels) and the
+//!   values in and around the peak's region — not all `nx·ny` points. Grid points are
+//!   evaluated only on demand:
 //!
-//! Inputs with `max|v| > 1e300`, or tables with negative weights beyond rounding, fall back to
-//! evaluating every point (identical results, full cost).
+//!   1. The grid is cut into blocks (8 × 8 points on a 64 × 64 grid; a power of two a side).
+//!      For each block the [`PeakIndex`] (built once per interpolator) holds the union of the
+//!      taxels its points' weights use. Interpolation weights are convex (non-negative,
+//!      summing to 1 for natural neighbour, linear, nearest, inverse distance and the hull
+//!      extension), so every value in a block lies within `[min, max]` of those taxels'
+//!      values, widened by a rigorous rounding slack (`ε·max|v|` with `ε` from the table's
+//!      worst weight-sum error and row length; exact 0 when all taxels are ≥ 0 or ≤ 0 on that
+//!      side).
+//!   2. The peak: evaluate the block with the highest upper bound, then only blocks whose
+//!      upper bound reaches the best value found (`≥`, so ties in raster order are resolved
+//!      exactly). The minimum likewise from below. A peak bound under `min_peak` ends the
+//!      frame without evaluating anything.
+//!   3. The region search and marching squares read values through a cache that evaluates a
+//!      block the first time one of its points is read (at most once per frame) — with the
+//!      same summation order as the full grid, so every value is bit-identical.
+//!
+//!   Inputs with `max|v| > 1e300`, or tables with negative weights beyond rounding, fall back
+//!   to evaluating every point (identical results, full cost).
+//!
+//! `incremental` (an [`InterpolateConfig`] setting of the tapped surface) does not apply: the
+//! fused stage always sums afresh, so its contours are those of `incremental = false`
+//! (incremental surfaces differ from fresh sums by ≤ 1e-12 relative).
 //!
 //! # Delay
 //! None: one [`ContourFrame`] per input.
 //!
 //! # Trade-offs
-//! Measured with `cargo run --release -p gradtac-stages --example chain_cost -- <variant> 10`
-//! (CPU seconds from `/usr/bin/time`, two runs each, alternating, on a 2-core machine at load
-//! average 8–13): per window of the default chain (signed 10-frame windows, natural neighbour
-//! 64 × 64, 10 levels, min area 1 mm²) on a real BioTacSP-DoS recording tiled 10 times
-//! (2,790 windows, 2,759 with contact) and on the simulated grasp (200 windows).
+//! Per window of the default chain (signed 10-frame windows, natural neighbour 64 × 64, 10
+//! levels, min area 1 mm²) on a real BioTacSP-DoS recording tiled 10 times (2,790 windows,
+//! 2,759 with contact): instructions per raw frame of the whole chain (raw frame → track
+//! point) from `valgrind --tool=callgrind` on
+//! `cargo run --release -p gradtac-stages --example chain_cost -- <variant> <1|2>` (the
+//! difference of 2 and 1 repeats, so set-up cancels; repeatable to the instruction), and
+//! criterion medians of `cargo bench -p gradtac-stages --bench chain` (2-core machine shared
+//! with other builds: wall times are noisy, the instruction counts are not).
 //!
-//! | input | peak-local: points evaluated / window | peak-local CPU | full grid CPU |
+//! | variant | real: instructions / frame | real: criterion median (2,790 frames) | simulated grasp: instructions / frame |
 //! |---|---|---|---|
-//! | real recording | ≈ 800 of 4,096 (whole blocks: more) | 33–35 µs | 28 µs |
-//! | simulated grasp (200 repeats) | ≈ 320 of 4,096 | 19 µs | 17 µs |
-//! | no contact (bound under `min_peak`) | 0 | ≪ 1 µs | ≈ 6 µs + scan |
+//! | fused, dense (default, what a scene runs) | **166 k** | 40.5 / 51.2 ms (69 k / 55 k frames/s) | **125 k** |
+//! | fused, peak-local (≈ 1,600 of 4,096 points evaluated) | 270 k | 89.0 / 98.1 ms | — |
+//! | `Interpolate` → `Contour` (a surface array per window, what a scene runs when the surface is tapped) | 196 k | 57.2 / 54.8 ms | 155 k |
+//! | the same, `incremental = true` | 193 k | 50.4 / 53.4 ms | — |
+//! | before (row sums, a flood, march and link per level): `Interpolate` → `Contour` | 465 k | 83.0 / 125.1 ms (34 k / 22 k frames/s) | 301 k |
+//! | before: peak-local | 421 k | 91.3 / 130.2 ms | — |
 //!
-//! On these inputs the maximal contour itself (region search and marching squares over regions
-//! of hundreds of points at several levels) costs 3–4× the surface, and the block bounds eat
-//! what the skipped points save: the peak-local path pays off only where most frames have no
-//! contact or small regions. The scene runner therefore keeps the full surface; the fused
-//! stage is there for embedding (and as the exactness reference for future work on the
-//! contour search). Both give identical outcomes (tested on random aggregates with ties, flat,
-//! two peaks, edges). `incremental` only concerns the full surface; the peak-local path always
-//! sums afresh (bit-reproducible).
+//! The front end (normalise → Savitzky–Golay → events → window) is 18 k of these instructions
+//! per frame on the real recording (26 k on the simulated one); the dense surface (column
+//! runs, zero taxels skipped) ≈ 40 k; the maximal contour ≈ 104 k (the scan for peak and
+//! minimum 12 k; the rest grows with the region: ≈ 900 points at the accepted level, 1.35
+//! levels tried per window on average). Criterion medians are of two runs, old and new
+//! binaries alternating, at load average 2.5–4.
+//!
+//! On contact data the dense evaluation wins: the block bounds cost more than the points they
+//! skip, because the maximal contour's region covers a large part of the grid (≈ 900 points
+//! at the accepted level). Peak-local pays off only where most frames have no contact (a
+//! peak bound under `min_peak` settles the frame with no point evaluated) or tiny regions.
 
 use crate::contour::{ContourConfig, ContourFrame, ContourOutcome, Field, MaxContourFinder, NoContact};
 use crate::interpolate::{Grid, InterpolateConfig, Interpolator, TaxelValues, WeightTable};
@@ -428,6 +450,9 @@ pub struct PeakContourFinder {
     bounds: Vec<(f64, f64)>,
     order: Vec<u16>,
     full: u64,
+    // the whole surface, reused (the dense evaluation)
+    dense: Vec<f64>,
+    peak_local: bool,
 }
 
 impl PeakContourFinder {
@@ -440,7 +465,17 @@ impl PeakContourFinder {
             bounds: Vec::new(),
             order: Vec::new(),
             full: 0,
+            dense: Vec::new(),
+            peak_local: false,
         }
+    }
+
+    /// Evaluate only the blocks of grid points the maximal contour reads (`true`), or the
+    /// whole surface into a reused buffer (`false`, the default: faster on contact data, see
+    /// the [module docs](self)). Both give identical outcomes.
+    pub fn with_peak_local(mut self, peak_local: bool) -> Self {
+        self.peak_local = peak_local;
+        self
     }
 
     /// The interpolator.
@@ -463,6 +498,16 @@ impl PeakContourFinder {
         let table = self.interp.table().clone();
         assert_eq!(v.len(), table.taxels(), "one value per taxel");
         let grid = self.interp.grid().clone();
+        if !self.peak_local {
+            if self.dense.len() == grid.len() {
+                table.apply_again(v, &mut self.dense);
+            } else {
+                self.dense.resize(grid.len(), 0.0);
+                table.apply(v, &mut self.dense);
+            }
+            self.full += grid.len() as u64;
+            return self.finder.find_slice(&self.dense, &grid);
+        }
         let index = self.interp.peak_index();
         let big = v.iter().any(|x| x.is_nan() || x.abs() > MAX_LAZY);
         let outcome = if big || index.eps.is_nan() || index.eps >= 1e-6 {
@@ -537,6 +582,13 @@ impl<I> SurfaceContour<I> {
     /// The fused stage from a (shared) interpolator and a contour finder.
     pub fn from_parts(interp: Interpolator, finder: MaxContourFinder) -> Self {
         SurfaceContour { finder: PeakContourFinder::new(interp, finder), _in: std::marker::PhantomData }
+    }
+
+    /// Evaluate only the blocks of grid points the maximal contour reads (see
+    /// [`PeakContourFinder::with_peak_local`]).
+    pub fn with_peak_local(mut self, peak_local: bool) -> Self {
+        self.finder = self.finder.with_peak_local(peak_local);
+        self
     }
 
     /// The finder.
@@ -645,12 +697,18 @@ mod tests {
             for interp in interps() {
                 for cfg in finders() {
                     let mut reference = MaxContourFinder::try_new(&cfg).unwrap();
-                    let mut lazy = PeakContourFinder::new(interp.clone(), MaxContourFinder::try_new(&cfg).unwrap());
+                    let new = |lazy| {
+                        PeakContourFinder::new(interp.clone(), MaxContourFinder::try_new(&cfg).unwrap())
+                            .with_peak_local(lazy)
+                    };
+                    let (mut lazy, mut dense) = (new(true), new(false));
                     for v in &frames {
                         let want = full(interp, &mut reference, v);
-                        let got = lazy.find(v);
                         // bit for bit (NaN-free outcomes, so == is exact equality)
+                        let got = lazy.find(v);
                         prop_assert_eq!(&got, &want, "{:?} {:?} {:?}", interp.method(), cfg, v);
+                        let got = dense.find(v);
+                        prop_assert_eq!(&got, &want, "dense {:?} {:?} {:?}", interp.method(), cfg, v);
                     }
                 }
             }
@@ -662,7 +720,8 @@ mod tests {
         let l = Layout::biotac_sp();
         let interp = Interpolator::from_config(&InterpolateConfig::default(), &l).unwrap();
         let mut f =
-            PeakContourFinder::new(interp.clone(), MaxContourFinder::try_new(&ContourConfig::default()).unwrap());
+            PeakContourFinder::new(interp.clone(), MaxContourFinder::try_new(&ContourConfig::default()).unwrap())
+                .with_peak_local(true);
         let mut reference = MaxContourFinder::try_new(&ContourConfig::default()).unwrap();
         let mut v = vec![0.0; 24];
         (v[3], v[4], v[7]) = (6.0, 3.0, 2.0);
