@@ -162,8 +162,10 @@
 //!
 //! # Cost
 //! Per point O(history) for the slopes (≤ `history_s` × rate points, 150 at 100 Hz;
-//! `history_s` ≤ [`MAX_HISTORY_S`]), and once per slip decision O(4 · 256 · history) for the change
-//! point. The pattern path adds O(taxels) per frame ([`crate::slip_pattern`]); with
+//! `history_s` ≤ [`MAX_HISTORY_S`]), and once per slip decision the change point: O(history) suffix
+//! sums, then O(4 · 256 · soft-start points) for the candidates (≤ 30 points each at 100 Hz) and
+//! O(history) for each of the few candidates re-scored exactly — the same onset as the direct
+//! O(4 · 256 · 2 · history) fit, to the candidate. The pattern path adds O(taxels) per frame ([`crate::slip_pattern`]); with
 //! `evidence = "pattern"` a slip output needs no locator or track.
 //!
 //! # Trade-offs
@@ -794,11 +796,21 @@ fn ls_slope(pts: impl Iterator<Item = (f64, f64)> + Clone, min_points: usize) ->
     (stt > 0.0).then(|| stu / stt)
 }
 
+/// Tails of at most this many points are summed directly in [`change_point`].
+const DIRECT_TAIL: usize = 32;
+
 /// The change point of a still-then-moving position history: the start `t₀` of the soft-start
 /// hinge `u = a + b·z(t − t₀)` (`z`: distance of a unit-speed motion whose speed rises linearly
 /// over `r` ∈ [`SOFT_STARTS_S`]) with the least squared error; `t₀` over the history's sample
-/// times (leaving 3 points on either side; at most 256 of them, evenly spaced). O(n) per
-/// candidate, run once per slip decision.
+/// times (leaving 3 points on either side; at most 256 of them, evenly spaced). Run once per
+/// slip decision, so it bounds that frame's latency.
+///
+/// Cost: each candidate's regression moments come from suffix sums for the points past the
+/// soft start (O(1)) plus the ≤ `r`·rate points inside it, and its squared error in closed form
+/// (`Cuu − Czu²/Czz`); the candidates within a rounding margin of the least closed-form error
+/// are then re-scored with the direct two-pass sums of [`change_point_direct`] and chosen by its
+/// rule, so the answer is the direct fit's (tested to the candidate on random and simulated
+/// histories) at O(256 · 4 · r·rate) instead of O(256 · 4 · 2n).
 fn change_point(h: &VecDeque<(i64, f64)>) -> Option<i64> {
     let n = h.len();
     if n < 8 {
@@ -806,42 +818,133 @@ fn change_point(h: &VecDeque<(i64, f64)>) -> Option<i64> {
     }
     let t0 = h[0].0;
     let ts: Vec<f64> = h.iter().map(|p| (p.0 - t0) as f64 * 1e-9).collect();
-    let mut best: Option<(f64, usize)> = None;
-    // at most 256 candidates (evenly spaced): O(256·n·4) however long the history
-    let step = (n - 6).div_ceil(256).max(1);
+    // the screen's own axes: times (s) back from the newest point, so a short tail near the end
+    // sums small numbers, and positions about their mean, so no offset cancels
+    let t_end = h[n - 1].0;
+    let te: Vec<f64> = h.iter().map(|p| (p.0 - t_end) as f64 * 1e-9).collect();
+    let mean = h.iter().map(|p| p.1).sum::<f64>() / n as f64;
+    let us: Vec<f64> = h.iter().map(|p| p.1 - mean).collect();
+    let raw_scale: f64 = h.iter().map(|p| p.1 * p.1).sum();
+    // suffix sums over points j.. of 1, t, t², u, t·u (index n: none)
+    let mut suf = vec![[0.0f64; 5]; n + 1];
+    for j in (0..n).rev() {
+        let (t, u) = (te[j], us[j]);
+        let s = suf[j + 1];
+        suf[j] = [s[0] + 1.0, s[1] + t, s[2] + t * t, s[3] + u, s[4] + t * u];
+    }
     let m = n as f64;
+    let su = suf[0][3];
+    let cuu = us.iter().map(|u| u * u).sum::<f64>() - su * su / m;
+    // rounding margin: far above the closed form's error and the direct sums' own noise
+    let margin = 1e-9 * cuu.abs() + 1e-13 * raw_scale;
+    if !(cuu > 1e3 * margin.max(f64::MIN_POSITIVE)) {
+        // flat to rounding: the candidates differ by noise alone; the direct rule decides
+        return change_point_direct(&ts, h);
+    }
+    let step = (n - 6).div_ceil(256).max(1);
+    // closed-form error of every candidate, in the direct rule's order
+    let mut approx: Vec<(f64, usize, f64)> = Vec::with_capacity(4 * (n / step + 1));
     for k in (3..n - 3).step_by(step) {
-        let c = ts[k];
+        let c = te[k];
         for r in SOFT_STARTS_S {
-            // the motion's progress after a start that speeds up linearly over r seconds
-            let z = |t: f64| {
-                let d = t - c;
-                if d <= 0.0 {
-                    0.0
-                } else if d < r {
-                    d * d / (2.0 * r)
-                } else {
-                    d - r / 2.0
-                }
-            };
-            // regression of u on z
-            let (mut sz, mut su, mut szz, mut szu) = (0.0, 0.0, 0.0, 0.0);
-            for (&t, p) in ts.iter().zip(h) {
-                let z = z(t);
+            let (mut sz, mut szz, mut szu) = (0.0, 0.0, 0.0);
+            let mut j = k;
+            while j < n && te[j] - c <= 0.0 {
+                j += 1;
+            }
+            while j < n && te[j] - c < r {
+                let d = te[j] - c;
+                let z = d * d / (2.0 * r);
                 sz += z;
-                su += p.1;
                 szz += z * z;
-                szu += z * p.1;
+                szu += z * us[j];
+                j += 1;
+            }
+            // past the soft start z = t − e: a short tail directly, a long one (whose z has
+            // the spread to absorb the cancellation) from the suffix sums
+            let e = c + r / 2.0;
+            if n - j <= DIRECT_TAIL {
+                for q in j..n {
+                    let z = te[q] - e;
+                    sz += z;
+                    szz += z * z;
+                    szu += z * us[q];
+                }
+            } else {
+                let [c0, c1, c2, cu0, cu1] = suf[j];
+                sz += c1 - e * c0;
+                szz += c2 - 2.0 * e * c1 + e * e * c0;
+                szu += cu1 - e * cu0;
             }
             let var = szz - sz * sz / m;
-            if var <= 0.0 {
-                continue;
-            }
-            let b = (szu - sz * su / m) / var;
-            let a = (su - b * sz) / m;
-            let sse: f64 = ts.iter().zip(h).map(|(&t, p)| (p.1 - a - b * z(t)).powi(2)).sum();
+            let czu = szu - sz * su / m;
+            let sse = if var > 0.0 { cuu - czu * czu / var } else { f64::INFINITY };
+            approx.push((sse, k, r));
+        }
+    }
+    let least = approx.iter().map(|a| a.0).fold(f64::INFINITY, f64::min);
+    if !least.is_finite() {
+        return change_point_direct(&ts, h);
+    }
+    let mut best: Option<(f64, usize)> = None;
+    for &(a, k, r) in &approx {
+        if a > least + margin {
+            continue;
+        }
+        if let Some(sse) = direct_sse(&ts, h, ts[k], r) {
             if best.is_none_or(|(e, _)| sse < e) {
                 best = Some((sse, k));
+            }
+        }
+    }
+    best.map(|(_, k)| h[k].0)
+}
+
+/// The soft-start progress `z(t − c)` of a motion whose speed rises linearly over `r` seconds.
+fn soft_z(t: f64, c: f64, r: f64) -> f64 {
+    let d = t - c;
+    if d <= 0.0 {
+        0.0
+    } else if d < r {
+        d * d / (2.0 * r)
+    } else {
+        d - r / 2.0
+    }
+}
+
+/// The squared error of the hinge `u = a + b·z(t − c)` fitted by direct sums over every point
+/// (`ts`: the history's times in s); `None` when `z` has no spread.
+fn direct_sse(ts: &[f64], h: &VecDeque<(i64, f64)>, c: f64, r: f64) -> Option<f64> {
+    let m = h.len() as f64;
+    let (mut sz, mut su, mut szz, mut szu) = (0.0, 0.0, 0.0, 0.0);
+    for (&t, p) in ts.iter().zip(h) {
+        let z = soft_z(t, c, r);
+        sz += z;
+        su += p.1;
+        szz += z * z;
+        szu += z * p.1;
+    }
+    let var = szz - sz * sz / m;
+    if var <= 0.0 {
+        return None;
+    }
+    let b = (szu - sz * su / m) / var;
+    let a = (su - b * sz) / m;
+    Some(ts.iter().zip(h).map(|(&t, p)| (p.1 - a - b * soft_z(t, c, r)).powi(2)).sum())
+}
+
+/// [`change_point`] by direct sums for every candidate: O(256 · 4 · 2n). The reference the
+/// screened search reproduces, and its fallback when the history is flat to rounding.
+fn change_point_direct(ts: &[f64], h: &VecDeque<(i64, f64)>) -> Option<i64> {
+    let n = h.len();
+    let step = (n - 6).div_ceil(256).max(1);
+    let mut best: Option<(f64, usize)> = None;
+    for k in (3..n - 3).step_by(step) {
+        for r in SOFT_STARTS_S {
+            if let Some(sse) = direct_sse(ts, h, ts[k], r) {
+                if best.is_none_or(|(e, _)| sse < e) {
+                    best = Some((sse, k));
+                }
             }
         }
     }
@@ -1019,6 +1122,82 @@ impl Slip {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A still-then-moving history: `n` points from `t0_ns` every `dt_ns` (± `jitter` of it),
+    /// position `offset` + noise, then moving at `speed` after `onset` (s) with a soft start `r`.
+    #[allow(clippy::too_many_arguments)]
+    fn hinge_history(
+        n: usize,
+        t0_ns: i64,
+        dt_ns: i64,
+        jitter: &[f64],
+        offset: f64,
+        noise: &[f64],
+        onset: f64,
+        speed: f64,
+        r: f64,
+    ) -> VecDeque<(i64, f64)> {
+        let mut t = t0_ns;
+        (0..n)
+            .map(|i| {
+                t += dt_ns + (dt_ns as f64 * 0.3 * jitter[i % jitter.len()]) as i64;
+                let s = (t - t0_ns) as f64 * 1e-9;
+                (t, offset + noise[i % noise.len()] + speed * soft_z(s, onset, r))
+            })
+            .collect()
+    }
+
+    fn direct(h: &VecDeque<(i64, f64)>) -> Option<i64> {
+        if h.len() < 8 {
+            return None;
+        }
+        let ts: Vec<f64> = h.iter().map(|p| (p.0 - h[0].0) as f64 * 1e-9).collect();
+        change_point_direct(&ts, h)
+    }
+
+    #[test]
+    fn change_point_dates_a_clean_hinge() {
+        // 1.5 s at 100 Hz, still then 10 mm/s from 0.8 s, sudden and soft starts
+        for r in SOFT_STARTS_S {
+            let h = hinge_history(150, 0, 10_000_000, &[0.0], 3.0, &[0.0], 0.8, 10.0, r);
+            let t = change_point(&h).expect("a hinge");
+            assert!((t as f64 * 1e-9 - 0.8).abs() <= 0.0101, "r = {r}: {t}");
+            assert_eq!(Some(t), direct(&h));
+        }
+    }
+
+    #[test]
+    fn change_point_of_flat_and_long_histories_is_the_direct_fit() {
+        // exactly flat: the candidates differ by rounding alone; the direct rule decides
+        let flat: VecDeque<(i64, f64)> = (0..40).map(|i| (i * 10_000_000, 0.1)).collect();
+        assert_eq!(change_point(&flat), direct(&flat));
+        // 60 s at 1 kHz (the longest history) with a late onset: same candidate
+        let noise: Vec<f64> = (0..97).map(|i| ((i * 37 % 97) as f64 / 97.0 - 0.5) * 0.01).collect();
+        let h = hinge_history(60_000, 5_000_000_000, 1_000_000, &[0.0], 12.0, &noise, 59.2, 5.0, 0.1);
+        assert_eq!(change_point(&h), direct(&h));
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+        /// The screened search picks exactly the candidate the direct two-pass fit picks.
+        #[test]
+        fn change_point_is_the_direct_fit(
+            n in 8usize..400,
+            dt_ns in proptest::sample::select(vec![1_000_000i64, 3_000_000, 10_000_000, 33_333_333]),
+            jitter in proptest::collection::vec(-1.0f64..1.0, 1..8),
+            offset in proptest::sample::select(vec![0.0, -4.2, 13.0, 1e4]),
+            noise_scale in proptest::sample::select(vec![0.0, 1e-6, 0.01, 0.3]),
+            noise in proptest::collection::vec(-1.0f64..1.0, 1..50),
+            onset_frac in 0.0f64..1.2,
+            speed in -30.0f64..30.0,
+            r in 0.0f64..0.4,
+        ) {
+            let noise: Vec<f64> = noise.iter().map(|x| x * noise_scale).collect();
+            let span = n as f64 * dt_ns as f64 * 1e-9;
+            let h = hinge_history(n, 1_700_000_000_000_000_000, dt_ns, &jitter, offset, &noise, onset_frac * span, speed, r);
+            proptest::prop_assert_eq!(change_point(&h), direct(&h));
+        }
+    }
     use gradtac_stream::StageExt;
 
     /// Track points of `ff` and `th` at 100 Hz; each finger's position from a function of t (s).
