@@ -9,20 +9,24 @@
 //! ```
 //!
 //! The chains are the ones `gradtac run` builds for a scene of two fingertips on a CAN bus
-//! with one output, the two-finger `slip` tap, and no stage settings but the contact-location
-//! method: [`Runner`] over [`Plan::new`] of that scene, so whatever a scene runs by default is
-//! what is timed (routing between stages and the slip output's sink included).
-//! - `events`: `[stages.locate] method = "events"`, the natural-neighbour event chain —
-//!   normalise → Savitzky–Golay → events → window → surface (64 × 64) → maximal contour →
-//!   track;
-//! - `centroid`: the default scene (`method = "centroid"`): taxel centroid → track.
+//! with the two-finger `slip` output and no stage settings but the contact-location method:
+//! [`Runner`] over [`Plan::new`] of that scene, so whatever a scene runs by default is what is
+//! timed (routing between stages and the outputs' sinks included). Three scenes:
+//! - `slip`: the slip output alone, all defaults. The slip's default evidence is the raw
+//!   frames' change pattern (`slip_pattern`), so the plan builds source → slip and nothing
+//!   else: the fastest path from a CAN frame to a slip decision.
+//! - `centroid+track`: also a `track` output, default locator (`method = "centroid"`): taxel
+//!   centroid → track runs beside the slip.
+//! - `events+track`: also a `track` output with `[stages.locate] method = "events"`, the
+//!   natural-neighbour event chain — normalise → Savitzky–Golay → events → window → surface
+//!   (64 × 64) and maximal contour (fused) → track — beside the slip.
 //!
 //! The hand is the simulator's two-finger grasp that slips (thumb `th`, first finger `ff`),
 //! tiled in time to the requested length. The CAN frames are encoded up front (that is the
 //! hand's work); the timed part is, per CAN frame that completes a fingertip's set, decoding
 //! it and pushing the taxel frame through the runner (that finger's chain and the slip
 //! stage): the time from the CAN frame's arrival to the slip decision it allows. The two
-//! variants run alternately in blocks of 1,000 taxel frames, so both meet the same machine
+//! scenes run alternately in blocks of 1,000 taxel frames, so all meet the same machine
 //! load.
 //!
 //! Output: p50 / p99 / p99.9 / max per variant over the taxel frames (the first 2,000 are
@@ -50,9 +54,14 @@ const PERIOD_NS: i64 = 10_000_000;
 const WARMUP: usize = 2_000;
 const BLOCK: usize = 1_000;
 
-/// The scene `gradtac run` would read: two fingertips on a CAN bus, the slip output, and the
-/// contact-location method.
-fn scene_text(method: &str) -> String {
+/// The scene `gradtac run` would read: two fingertips on a CAN bus, the slip output (first),
+/// with `track` also the track output, and the contact-location method.
+fn scene_text(method: &str, track: bool) -> String {
+    let track_output = if track {
+        format!("[[output]]\ntap = \"track\"\npath = \"out/track-{method}.parquet\"\n")
+    } else {
+        String::new()
+    };
     format!(
         r#"
 [[bus]]
@@ -70,14 +79,10 @@ source = {{ bus = "hand" }}
 [stages.locate]
 method = "{method}"
 
-[stages.slip]
-first = "th"
-second = "ff"
-
 [[output]]
 tap = "slip"
-path = "out/slip-{method}.parquet"
-"#
+path = "out/slip-{method}-{track}.parquet"
+{track_output}"#
     )
 }
 
@@ -96,8 +101,16 @@ struct Loop {
 }
 
 impl Loop {
-    fn new(name: &'static str, dir: &Path, codec: &CanCodec, capacity: usize) -> Result<Loop, BoxError> {
-        let scene = Scene::from_toml(&scene_text(name), dir, &dir.join(format!("{name}.toml")))?;
+    fn new(
+        name: &'static str,
+        method: &str,
+        track: bool,
+        dir: &Path,
+        codec: &CanCodec,
+        capacity: usize,
+    ) -> Result<Loop, BoxError> {
+        let file = dir.join(format!("{method}-{track}.toml"));
+        let scene = Scene::from_toml(&scene_text(method, track), dir, &file)?;
         let plan = Plan::new(&scene)?;
         Ok(Loop {
             name,
@@ -161,7 +174,7 @@ impl Loop {
         for (what, decided) in [("all", None), ("decision", Some(true)), ("other", Some(false))] {
             let s = pick(decided);
             println!(
-                "{:<9} {:<9} {:>9} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>12}",
+                "{:<15} {:<9} {:>9} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>12}",
                 self.name,
                 what,
                 s.len(),
@@ -213,7 +226,11 @@ fn main() -> Result<(), BoxError> {
     let dir = std::env::temp_dir().join(format!("gradtac-latency-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     std::fs::write(dir.join("hand.log"), "")?;
-    let mut loops = [Loop::new("events", &dir, &codec, wanted)?, Loop::new("centroid", &dir, &codec, wanted)?];
+    let mut loops = [
+        Loop::new("slip", "centroid", false, &dir, &codec, wanted)?,
+        Loop::new("centroid+track", "centroid", true, &dir, &codec, wanted)?,
+        Loop::new("events+track", "events", true, &dir, &codec, wanted)?,
+    ];
     let load_before = load();
     while loops.iter().any(|l| l.frames < wanted + WARMUP && l.cursor < can.len()) {
         for l in &mut loops {
@@ -221,8 +238,8 @@ fn main() -> Result<(), BoxError> {
         }
     }
     println!(
-        "live latency, CAN frame → decode → 2 fingertip chains (a scene's default stages for the method) → slip decision\n\
-         {} CAN frames for {} taxel frames per variant ({} warm-up not counted); load average before {}, after {}",
+        "live latency, CAN frame → decode → 2 fingertips (the stages each scene runs) → slip decision\n\
+         {} CAN frames for {} taxel frames per scene ({} warm-up not counted); load average before {}, after {}",
         can.len(),
         wanted,
         WARMUP,
@@ -230,8 +247,8 @@ fn main() -> Result<(), BoxError> {
         load()
     );
     println!(
-        "{:<9} {:<9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>12}",
-        "method", "frames", "count", "p50 µs", "p99 µs", "p99.9 µs", "max µs", "slip events"
+        "{:<15} {:<9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>12}",
+        "scene", "frames", "count", "p50 µs", "p99 µs", "p99.9 µs", "max µs", "rows written"
     );
     for l in &mut loops {
         l.report()?;
