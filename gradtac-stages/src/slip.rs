@@ -837,7 +837,7 @@ fn change_point(h: &VecDeque<(i64, f64)>) -> Option<i64> {
     let cuu = us.iter().map(|u| u * u).sum::<f64>() - su * su / m;
     // rounding margin: far above the closed form's error and the direct sums' own noise
     let margin = 1e-9 * cuu.abs() + 1e-13 * raw_scale;
-    if !(cuu > 1e3 * margin.max(f64::MIN_POSITIVE)) {
+    if cuu.is_nan() || cuu <= 1e3 * margin.max(f64::MIN_POSITIVE) {
         // flat to rounding: the candidates differ by noise alone; the direct rule decides
         return change_point_direct(&ts, h);
     }
