@@ -8,7 +8,14 @@
 //! cargo run --release --example slip_eval -- tune  # the settings search on the tuning seeds
 //! cargo run --release --example slip_eval -- tune rule  # then window_s × min_duration_s × dominance
 //! BIAS=1 cargo run --release --example slip_eval   # also the tuning members' signed onset bias
+//! DIAG_SEEDS=400 cargo run --release --example slip_eval -- diag  # the tuning members' misses
 //! ```
+//!
+//! `-- diag` lists the defaults' misses on tuning members (seeds `0..DIAG_SEEDS`, default 120;
+//! Gaussian / difference-of-Gaussians kernels only, never a held-out seed) with each finger's
+//! physics and displacement trace (units of `distance_mm`, every 40 ms around the motion), then
+//! their table row; `DIAG_HISTORY`, `DIAG_PERSIST`, `DIAG_SETTLE`, `DIAG_GAP`, `DIAG_FOLLOW`
+//! override `history_s`, `min_duration_s`, `settle_s`, `max_gap_s`, `pattern_follow_s` there.
 //!
 //! `onset_lead_s` is that bias measured with `onset_lead_s = 0` (0.03 s).
 //!
@@ -159,6 +166,73 @@ fn main() {
     let t = std::time::Instant::now();
     let tuning = cases(0..TUNING_SEEDS, |exp| !exp);
     eprintln!("{} tuning grasps simulated in {:.1?}", tuning.len(), t.elapsed());
+    if std::env::args().any(|a| a == "diag") {
+        // the tuning members' failures under the defaults, with each finger's displacement
+        // (units of distance_mm) around the decision
+        let n: u64 = std::env::var("DIAG_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(TUNING_SEEDS);
+        let tuning = if n == TUNING_SEEDS { tuning } else { cases(0..n, |exp| !exp) };
+        let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+        let d0 = SlipConfig::default();
+        let def = SlipConfig {
+            pattern_follow_s: env("DIAG_FOLLOW", d0.pattern_follow_s),
+            max_gap_s: env("DIAG_GAP", d0.max_gap_s),
+            settle_s: env("DIAG_SETTLE", d0.settle_s),
+            min_duration_s: env("DIAG_PERSIST", d0.min_duration_s),
+            history_s: env("DIAG_HISTORY", d0.history_s),
+            ..d0
+        };
+        let mut sc = Vec::new();
+        for c in &tuning {
+            let r = run(c, &def);
+            sc.push(r);
+            if r.right() {
+                continue;
+            }
+            let ev = events(c, &def);
+            println!(
+                "seed {} {:>17} onset {:.2} end {:.2} speed {:.1} ramp {:.2} lag {:.3}/{:.3}: got {:?} FA {} {:?}",
+                c.member.seed,
+                c.truth.class.name(),
+                c.truth.onset_s,
+                c.truth.end_s,
+                c.truth.speed_mm_s,
+                c.truth.ramp_s,
+                c.rec.grasp.fingers[0].physics.lag_s,
+                c.rec.grasp.fingers[1].physics.lag_s,
+                r.detected.map(|d| d.name()),
+                r.false_alarms,
+                ev.iter().map(|e| (e.class.name(), (e.time.as_secs_f64() * 100.0).round() / 100.0)).collect::<Vec<_>>()
+            );
+            for f in &c.rec.grasp.fingers {
+                let ph = &f.physics;
+                println!(
+                    "   {} move {:+.2},{:+.2} mm from {:.1},{:.1} kernel {:?} width {:.2} amp·F {:.1} knee {:.0} noise {:.1}",
+                    f.sensor, f.to[0] - f.from[0], f.to[1] - f.from[1], f.from[0], f.from[1],
+                    ph.kernel, ph.width_mm, ph.amplitude * ph.force_n, ph.knee_counts, ph.noise_counts
+                );
+            }
+            let input = slip_inputs(&c.rec.frames, &c.tracks, &def).expect("valid");
+            let mut s = Slip::try_new(&def).expect("valid");
+            let mut out = Vec::new();
+            let mut line = String::new();
+            let mut last_k = -1;
+            for i in input {
+                let t = gradtac::stream::Timed::time(&i).as_secs_f64();
+                s.push_input(i, &mut out).expect("ok");
+                let k = (t * 100.0).round() as i64;
+                if k % 4 == 0 && k != last_k && t > c.truth.onset_s - 0.3 && t < c.truth.end_s + 0.3 {
+                    last_k = k;
+                    if let Some((a, b)) = s.displacements() {
+                        line.push_str(&format!(" {:.2}:{:+.2}/{:+.2}", t, a, b));
+                    }
+                }
+            }
+            println!("   {line}");
+        }
+        println!("{}", HEADER);
+        println!("{}", summarise(&sc).row("default, tuning"));
+        return;
+    }
     if tune {
         // the search: where each finger's position comes from and the pattern's contact test,
         // with the displacement threshold; the other settings at the defaults chosen before

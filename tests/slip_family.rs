@@ -1,8 +1,9 @@
 //! Two-finger slip with the bare default scene's chain (taxel centroid → track → slip, every
 //! stage at its defaults) on grasps drawn from the family of forward models
 //! (`gradtac_stages::sim_grasp`), members **not** used for choosing the defaults: seeds
-//! 1000..1008 × 5 classes (the defaults were chosen on seeds 0..40 with Gaussian or
-//! difference-of-Gaussians kernels on both fingers; `examples/slip_eval.rs`).
+//! 1000..1008 × 5 classes (the defaults were chosen on seeds 0..120, and `history_s` on
+//! seeds 0..400, with Gaussian or difference-of-Gaussians kernels on both fingers;
+//! `examples/slip_eval.rs`).
 //!
 //! Stated bounds (measured values in the comments; the full held-out table of 300 grasps is in
 //! the slip module docs, where the targets — every class ≥ 95 %, median onset error ≤ 30 ms —
@@ -10,9 +11,10 @@
 //! - no slip event on any stable grasp (the "no false alarm on stable grasps");
 //! - at most one slipping grasp with a slip event before its onset (measured 1: 3.6 mm/s,
 //!   exponential kernel);
-//! - at least 30 of the 32 slipping grasps classified right (measured 30: the one above, and
-//!   one rotational slip at 3.2 mm/s without a decision);
-//! - median onset error ≤ 40 ms (measured 33 ms on these few; 25 ms over the 300 held out);
+//! - at least 31 of the 32 slipping grasps classified right (measured 31: all but the one
+//!   above; a rotational slip at 3.2 mm/s with a slow start was missed before the window
+//!   ladder reached 2.4 s);
+//! - median onset error ≤ 40 ms (measured 33 ms on these few; 28 ms over the 300 held out);
 //! - the previous track-velocity rule does worse on the same grasps (the baseline).
 
 use gradtac::stages::sim_grasp::{detect, score, GraspMember, GraspScore};
@@ -53,7 +55,7 @@ fn defaults_hold_on_held_out_members() {
     err.sort_by(f64::total_cmp);
     let median = err[err.len() / 2];
     eprintln!("{right} of {} slips right, median onset error {:.0} ms", slipping.len(), median * 1e3);
-    assert!(right >= 30, "{right} of {} right", slipping.len());
+    assert!(right >= 31, "{right} of {} right", slipping.len());
     assert!(median <= 0.040, "median onset error {median} s");
 
     let base = scores(&SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..Default::default() });
