@@ -10,6 +10,7 @@ use crate::chain::SensorChain;
 use crate::plan::{Plan, Tap};
 use crate::scene::Scene;
 use crate::Error;
+use gradtac_stream::Stage as _;
 use std::fmt::Write as _;
 
 impl Plan {
@@ -73,7 +74,20 @@ impl Plan {
                 };
                 let _ = writeln!(s, "  {:<10} {:<52} {}", tap.name(), chain.describe(tap, &scene.stages), why);
             }
-            let delay = chain.delay();
+            let mut delay = chain.delay();
+            let mut what = "";
+            if p.runs(Tap::Slip) {
+                // the slip decision is the latest output: its evidence's delay, then persistence
+                let built = gradtac_stages::slip::Slip::try_new(slip).expect("validated by Plan::new");
+                if slip_reads_frames {
+                    let pattern = gradtac_stages::slip_pattern::SlipPattern::try_new(slip, [&p.layout, &p.layout])
+                        .expect("validated by Plan::new");
+                    delay = pattern.delay() + built.delay();
+                } else {
+                    delay = delay + built.delay();
+                }
+                what = " to the slip decision";
+            }
             let later: Vec<&str> = Tap::ALL.into_iter().filter(|t| !p.runs(*t)).map(Tap::name).collect();
             if !later.is_empty() {
                 let _ = writeln!(s, "  not built: {} (no output needs them)", later.join(", "));
@@ -81,7 +95,7 @@ impl Plan {
             let rate = spec.source.rate_hz();
             let _ = writeln!(
                 s,
-                "  latency: {} frames + {:.3} ms in steady state{}; start-up holds {} frames",
+                "  latency{what}: {} frames + {:.3} ms in steady state{}; start-up holds {} frames",
                 delay.frames,
                 delay.nanos as f64 * 1e-6,
                 rate.map_or(String::new(), |r| format!(" (= {:.1} ms at {r} Hz)", delay.seconds_at(r) * 1e3)),

@@ -621,11 +621,17 @@ fn a_slip_only_scene_builds_what_its_evidence_reads() {
     }
     let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
     assert!(text.contains("feeds slip") && text.contains("evidence pattern"), "{text}");
+    // the latency counts the pattern's centred average (3 frames: 1) and the slip's persistence
+    assert!(text.contains("latency to the slip decision: 1 frames + 100.000 ms"), "{text}");
     assert!(gradtac().arg("run").arg(&sc).output().unwrap().status.success());
     // the track evidence: the locator and the track
     fs::write(&sc, scene("[stages.slip]\nevidence = \"track\"\n")).unwrap();
     let plan = gradtac::Plan::new(&gradtac::Scene::load(&sc).unwrap()).unwrap();
     assert_eq!(plan.sensors[0].stages().map(|t| t.name()).collect::<Vec<_>>(), ["source", "contour", "track", "slip"]);
+    // the track path's delay (the centroid's averaging) plus the persistence
+    let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
+    let line = text.lines().find(|l| l.contains("latency to the slip decision")).expect("a slip latency line");
+    assert!(line.contains("+ 100.000 ms") && !line.contains(": 0 frames"), "{text}");
 }
 
 #[test]
