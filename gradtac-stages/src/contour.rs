@@ -266,6 +266,13 @@ struct Scratch {
     // per local row of `vals`, bit `lc` set when that value is above the level (windows of at
     // most 64 local columns)
     up_rows: Vec<u64>,
+    // per grid row (grids of at most 64 columns): bit `c` set when the point is above the
+    // level (`a_rows`, valid where `a_known` holds the level's generation) and when it is in
+    // the peak's component (`c_rows`)
+    a_rows: Vec<u64>,
+    a_known: Vec<u32>,
+    a_gen: u32,
+    c_rows: Vec<u64>,
 }
 
 const NONE: u32 = u32::MAX;
@@ -281,6 +288,14 @@ pub(crate) trait Field {
     fn prepare(&mut self, _r0: usize, _r1: usize, _c0: usize, _c1: usize) {}
     /// The value at `(r, c)`, which a [`prepare`](Self::prepare) covered.
     fn raw(&self, r: usize, c: usize) -> f64;
+    /// Bit `c` set when point `(r, c)` is above `level` (NaN never is), for a grid of at most
+    /// 64 columns; prepares the row first.
+    #[inline(always)]
+    fn row_above(&mut self, r: usize, level: f64) -> u64 {
+        let nx = self.dim().1;
+        self.prepare(r, r, 0, nx - 1);
+        (0..nx).fold(0u64, |m, c| m | ((self.raw(r, c) > level) as u64) << c)
+    }
 }
 
 /// A row-major surface in a slice.
@@ -299,6 +314,25 @@ impl Field for Dense<'_> {
     fn raw(&self, r: usize, c: usize) -> f64 {
         self.z[r * self.nx + c]
     }
+    #[inline(always)]
+    fn row_above(&mut self, r: usize, level: f64) -> u64 {
+        let row = &self.z[r * self.nx..(r + 1) * self.nx];
+        let chunks = row.chunks_exact(8);
+        let rest = chunks.remainder();
+        let mut m = 0u64;
+        for (k, ch) in chunks.enumerate() {
+            let mut b = 0u64;
+            for (j, &x) in ch.iter().enumerate() {
+                b |= ((x > level) as u64) << j;
+            }
+            m |= b << (8 * k);
+        }
+        let base = row.len() - rest.len();
+        for (j, &x) in rest.iter().enumerate() {
+            m |= ((x > level) as u64) << (base + j);
+        }
+        m
+    }
 }
 
 impl Field for ArrayView2<'_, f64> {
@@ -314,14 +348,14 @@ impl Field for ArrayView2<'_, f64> {
 
 /// March the cells of a window. `pad`: the window is surrounded by −∞ and NaN counts as −∞
 /// (closed rings); otherwise squares with a NaN corner are skipped (skimage's rule).
-/// `comp`: when given, points above the level that are not stamped `gen` count as −∞.
+/// `comp`: when given, points above the level that are not members of the component count as −∞.
 fn march<F: Field>(
     z: &mut F,
     level: f64,
     saddle: Saddle,
     w: Win,
     pad: bool,
-    comp: Option<(&[u32], u32)>,
+    comp: Option<Member<'_>>,
     s: &mut Scratch,
 ) {
     let nx = z.dim().1;
@@ -351,8 +385,8 @@ fn march<F: Field>(
             let mut v = z.raw(r, c);
             if v.is_nan() {
                 v = if pad { f64::NEG_INFINITY } else { f64::NAN };
-            } else if let Some((stamp, gen)) = comp {
-                if v > level && stamp[r * nx + c] != gen {
+            } else if let Some(m) = comp {
+                if v > level && !m.has(r, r * nx + c, c) {
                     v = f64::NEG_INFINITY;
                 }
             }
@@ -487,6 +521,56 @@ fn march<F: Field>(
     }
 }
 
+/// The members of a component: stamped with a generation, or bits of per-row masks.
+#[derive(Clone, Copy)]
+enum Member<'a> {
+    Stamp(&'a [u32], u32),
+    Rows(&'a [u64]),
+}
+
+impl Member<'_> {
+    /// Whether point `(r, c)` (raster index `i`) is a member.
+    #[inline(always)]
+    fn has(self, r: usize, i: usize, c: usize) -> bool {
+        match self {
+            Member::Stamp(stamp, gen) => stamp[i] == gen,
+            Member::Rows(rows) => rows[r] >> c & 1 == 1,
+        }
+    }
+}
+
+/// The bits of `a` in the runs of consecutive bits of `a` that hold a bit of `s` (an occluded
+/// fill both ways, Kogge–Stone).
+#[inline(always)]
+fn fill_runs(a: u64, s: u64) -> u64 {
+    let x = s & a;
+    let (mut g, mut up) = (a, x);
+    up |= g & (up << 1);
+    g &= g << 1;
+    up |= g & (up << 2);
+    g &= g << 2;
+    up |= g & (up << 4);
+    g &= g << 4;
+    up |= g & (up << 8);
+    g &= g << 8;
+    up |= g & (up << 16);
+    g &= g << 16;
+    up |= g & (up << 32);
+    let (mut g, mut down) = (a, x);
+    down |= g & (down >> 1);
+    g &= g >> 1;
+    down |= g & (down >> 2);
+    g &= g >> 2;
+    down |= g & (down >> 4);
+    g &= g >> 4;
+    down |= g & (down >> 8);
+    g &= g >> 8;
+    down |= g & (down >> 16);
+    g &= g >> 16;
+    down |= g & (down >> 32);
+    up | down
+}
+
 /// Link the segments of the last [`march`] into lines.
 fn link(s: &mut Scratch) -> Vec<Isoline> {
     let n = s.segs.len();
@@ -586,6 +670,8 @@ pub struct MaxContourFinder {
     levels: Vec<f64>,
     // tests: search levels the way first written (the exactness reference)
     reference: bool,
+    // the last component was found as row masks (`Scratch::c_rows`), not stamps
+    bits: bool,
 }
 
 impl MaxContourFinder {
@@ -609,7 +695,13 @@ impl MaxContourFinder {
         if !cfg.min_peak.is_finite() {
             return bad(format!("`min_peak` = {} must be finite", cfg.min_peak));
         }
-        Ok(MaxContourFinder { cfg: cfg.clone(), s: Scratch::default(), levels: Vec::new(), reference: false })
+        Ok(MaxContourFinder {
+            cfg: cfg.clone(),
+            s: Scratch::default(),
+            levels: Vec::new(),
+            reference: false,
+            bits: false,
+        })
     }
 
     /// The configuration.
@@ -718,8 +810,10 @@ impl MaxContourFinder {
     ) -> ContourOutcome {
         let (ny, nx) = z.dim();
         let cell = grid.cell_area();
+        self.bits = nx <= 64 && ny <= 64;
         for &level in levels {
-            let w = self.component_runs(z, level, pr, pc);
+            let w =
+                if self.bits { self.component_bits(z, level, pr, pc) } else { self.component_runs(z, level, pr, pc) };
             // The region lies in the cells with a corner in the component: at most 4 per point
             // and at most the cells of its bounding box grown by one. The reference's area is
             // a float sum of at most 2 terms per cell, each of magnitude ≤ 2·(nx + ny)² (index
@@ -751,6 +845,7 @@ impl MaxContourFinder {
         pc: usize,
     ) -> ContourOutcome {
         let (ny, nx) = z.dim();
+        self.bits = false;
         for &level in levels {
             let w = self.component(z, level, pr, pc);
             let win = if self.cfg.peak_only { w } else { Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 } };
@@ -778,8 +873,11 @@ impl MaxContourFinder {
         let peak_mm = [grid.x(pc), grid.y(pr)];
         let gen = self.s.gen;
         let stamp = std::mem::take(&mut self.s.stamp);
-        march(z, level, self.cfg.saddle, win, true, Some((&stamp, gen)), &mut self.s);
+        let c_rows = std::mem::take(&mut self.s.c_rows);
+        let member = if self.bits { Member::Rows(&c_rows) } else { Member::Stamp(&stamp, gen) };
+        march(z, level, self.cfg.saddle, win, true, Some(member), &mut self.s);
         self.s.stamp = stamp;
+        self.s.c_rows = c_rows;
         let clipped = self.s.clipped;
         let rings = link(&mut self.s);
         // moments in index units about the peak, scaled to mm afterwards
@@ -834,6 +932,136 @@ impl MaxContourFinder {
             peak_mm,
             clipped,
         })
+    }
+
+    /// The component of `{z > level}` holding the peak `(pr, pc)` as per-row bit masks
+    /// (`Scratch::c_rows`, grids of at most 64 × 64 points): the same set as
+    /// [`component`](Self::component), grown row against row — a row's members are the runs of
+    /// its points above that hold a member of the row above or below, or the diagonal
+    /// neighbour of one across a saddle cell the saddle rule joins — row by row down and up
+    /// from the peak's row, a row growing its neighbours again only after it changed. Each row's mask of points above is computed once per
+    /// level, for the rows the component reaches and their neighbours. Records the member
+    /// count and bounding box; returns the box grown by one point (clipped to the grid).
+    fn component_bits<F: Field>(&mut self, z: &mut F, level: f64, pr: usize, pc: usize) -> Win {
+        let (ny, nx) = z.dim();
+        debug_assert!(nx <= 64 && ny <= 64);
+        let saddle = self.cfg.saddle;
+        let s = &mut self.s;
+        if s.a_rows.len() != ny {
+            s.a_rows.clear();
+            s.a_rows.resize(ny, 0);
+            s.a_known.clear();
+            s.a_known.resize(ny, 0);
+            s.c_rows.clear();
+            s.c_rows.resize(ny, 0);
+            s.a_gen = 0;
+        }
+        s.a_gen = s.a_gen.wrapping_add(1);
+        if s.a_gen == 0 {
+            s.a_known.iter_mut().for_each(|x| *x = 0);
+            s.a_gen = 1;
+        }
+        let gen = s.a_gen;
+        let (a_rows, a_known, c_rows) = (&mut s.a_rows, &mut s.a_known, &mut s.c_rows);
+        let mut above = |z: &mut F, r: usize| -> u64 {
+            if a_known[r] != gen {
+                let m = z.row_above(r, level);
+                a_rows[r] = m;
+                a_known[r] = gen;
+            }
+            a_rows[r]
+        };
+        // members of rows rlo..=rhi only
+        let (mut rlo, mut rhi) = (pr, pr);
+        c_rows[pr] = fill_runs(above(z, pr), 1 << pc);
+        // row `r` grown from its neighbour row `q`: whether it changed
+        let mut grow = |z: &mut F, c_rows: &mut [u64], r: usize, q: usize| -> bool {
+            let cq = c_rows[q];
+            if cq == 0 {
+                return false;
+            }
+            let (ar, aq) = (above(z, r), above(z, q));
+            let mut seeds = cq & ar;
+            // diagonals across saddle cells: member (q, c) and (r, c ± 1) above, the two side
+            // corners (q, c ± 1) and (r, c) below
+            let right = cq & !(aq >> 1) & !ar & (ar >> 1);
+            let left = cq & !(aq << 1) & !ar & (ar << 1);
+            for (mut k, dir) in [(right, 1i64), (left, -1i64)] {
+                while k != 0 {
+                    let c = k.trailing_zeros() as usize;
+                    k &= k - 1;
+                    let x = (c as i64 + dir) as usize;
+                    if seeds >> x & 1 == 1 || c_rows[r] >> x & 1 == 1 {
+                        continue;
+                    }
+                    let (rm, cm) = (r.min(q), x.min(c));
+                    let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
+                    if saddle.joins_above(v, level) {
+                        seeds |= 1 << x;
+                    }
+                }
+            }
+            let old = c_rows[r];
+            let new = fill_runs(ar, seeds | old);
+            c_rows[r] = new;
+            new != old
+        };
+        // rows changed since they last grew the row below (`down`) / above (`up`)
+        let (mut down, mut up) = (1u64 << pr, 1u64 << pr);
+        while down | up != 0 {
+            while down != 0 {
+                let q = down.trailing_zeros() as usize;
+                down &= down - 1;
+                let r = q + 1;
+                if r >= ny {
+                    continue;
+                }
+                if r > rhi {
+                    c_rows[r] = 0;
+                }
+                if grow(z, c_rows, r, q) {
+                    rhi = rhi.max(r);
+                    down |= 1 << r;
+                    up |= 1 << r;
+                }
+            }
+            while up != 0 {
+                let q = 63 - up.leading_zeros() as usize;
+                up &= !(1 << q);
+                if q == 0 {
+                    continue;
+                }
+                let r = q - 1;
+                if r < rlo {
+                    c_rows[r] = 0;
+                }
+                if grow(z, c_rows, r, q) {
+                    rlo = rlo.min(r);
+                    down |= 1 << r;
+                    up |= 1 << r;
+                }
+            }
+        }
+        let mut members = 0;
+        let mut bb = Win { c0: pc, c1: pc, r0: rlo, r1: rhi };
+        for &m in &c_rows[rlo..=rhi] {
+            if m != 0 {
+                members += m.count_ones() as usize;
+                bb.c0 = bb.c0.min(m.trailing_zeros() as usize);
+                bb.c1 = bb.c1.max(63 - m.leading_zeros() as usize);
+            }
+        }
+        // rows outside rlo..=rhi hold no members (cleared when first reached)
+        c_rows[..rlo].fill(0);
+        c_rows[rhi + 1..].fill(0);
+        s.members = members;
+        s.bbox = bb;
+        Win {
+            c0: bb.c0.saturating_sub(1),
+            c1: (bb.c1 + 1).min(nx - 1),
+            r0: bb.r0.saturating_sub(1),
+            r1: (bb.r1 + 1).min(ny - 1),
+        }
     }
 
     /// The component of `{z > level}` holding the peak `(pr, pc)`, stamped with a new
@@ -1197,6 +1425,18 @@ mod tests {
             ], 11 * 9)) {
                 let grid = Grid::try_new(Extent { x_min: 0.0, x_max: 4.0, y_min: -1.0, y_max: 2.0 }, 11, 9).unwrap();
                 let z = Array2::from_shape_vec((9, 11), v).unwrap();
+                check(z.view(), &grid)?;
+            }
+
+            /// Grids wider than 64 columns (the component found by runs, not row masks).
+            #[test]
+            fn on_wide_grids(v in proptest::collection::vec(prop_oneof![
+                4 => (0u8..5).prop_map(f64::from),
+                1 => Just(f64::NAN),
+                1 => -3.0f64..7.0,
+            ], 67 * 5)) {
+                let grid = Grid::try_new(Extent { x_min: 0.0, x_max: 20.0, y_min: -1.0, y_max: 2.0 }, 67, 5).unwrap();
+                let z = Array2::from_shape_vec((5, 67), v).unwrap();
                 check(z.view(), &grid)?;
             }
 
