@@ -265,7 +265,7 @@ struct Scratch {
     members: usize,
     // per local row of `vals`, bit `lc` set when that value is above the level (windows of at
     // most 64 local columns)
-    up_rows: Vec<u64>,
+    up_rows: Vec<u128>,
     // per grid row (grids of at most 64 columns): bit `c` set when the point is above the
     // level (`a_rows`, valid where `a_known` holds the level's generation) and when it is in
     // the peak's component (`c_rows`)
@@ -371,32 +371,64 @@ fn march<F: Field>(
     // the window's values once, surrounded by a ring of −∞, with NaN and (given `comp`) other
     // components' points above the level replaced by −∞
     s.vals.clear();
-    s.vals.resize((width * height) as usize, f64::NEG_INFINITY);
+    if !matches!(comp, Some(Member::Rows(_)) if pad) {
+        s.vals.resize((width * height) as usize, f64::NEG_INFINITY);
+    }
     z.prepare(w.r0, w.r1, w.c0, w.c1);
     // with a padded window of ≤ 64 columns, the cells with corners on both sides of the level
-    // are found from bit masks of the points above, and only they are visited
-    let masks = pad && width <= 64;
+    // are found from bit masks of the points above, and only they are visited; with the
+    // component as row masks, those masks are the component's and the values are read from
+    // `z` only at the visited cells' corners (`vals` stays empty)
+    let rows = match comp {
+        Some(Member::Rows(rows)) if pad => Some(rows),
+        _ => None,
+    };
+    let masks = pad && (width <= 64 || rows.is_some());
     s.up_rows.clear();
     s.up_rows.resize(if masks { height as usize } else { 0 }, 0);
-    for r in w.r0..=w.r1 {
-        let lr = (r - w.r0 + 1) * width as usize;
-        let mut up = 0u64;
-        for c in w.c0..=w.c1 {
-            let mut v = z.raw(r, c);
-            if v.is_nan() {
-                v = if pad { f64::NEG_INFINITY } else { f64::NAN };
-            } else if let Some(m) = comp {
-                if v > level && !m.has(r, r * nx + c, c) {
-                    v = f64::NEG_INFINITY;
-                }
-            }
-            s.vals[lr + (c - w.c0 + 1)] = v;
-            up |= ((v > level) as u64) << ((c - w.c0 + 1) & 63);
+    if let Some(rows) = rows {
+        let keep = (1u128 << (w.c1 - w.c0 + 1)) - 1;
+        for r in w.r0..=w.r1 {
+            s.up_rows[r - w.r0 + 1] = ((rows[r] >> w.c0) as u128 & keep) << 1;
         }
-        if masks {
-            s.up_rows[r - w.r0 + 1] = up;
+    } else {
+        for r in w.r0..=w.r1 {
+            let lr = (r - w.r0 + 1) * width as usize;
+            let mut up = 0u64;
+            for c in w.c0..=w.c1 {
+                let mut v = z.raw(r, c);
+                if v.is_nan() {
+                    v = if pad { f64::NEG_INFINITY } else { f64::NAN };
+                } else if let Some(m) = comp {
+                    if v > level && !m.has(r, r * nx + c, c) {
+                        v = f64::NEG_INFINITY;
+                    }
+                }
+                s.vals[lr + (c - w.c0 + 1)] = v;
+                up |= ((v > level) as u64) << ((c - w.c0 + 1) & 63);
+            }
+            if masks {
+                s.up_rows[r - w.r0 + 1] = up as u128;
+            }
         }
     }
+    // a point's value as marched (only with `rows`): −∞ outside the window and at NaN and at
+    // points above the level that are not members
+    let lazy = |z: &F, c: i64, r: i64| -> f64 {
+        let rows = rows.expect("lazy values with row masks");
+        if c < w.c0 as i64 || c > w.c1 as i64 || r < w.r0 as i64 || r > w.r1 as i64 {
+            return f64::NEG_INFINITY;
+        }
+        let (r, c) = (r as usize, c as usize);
+        let v = z.raw(r, c);
+        if rows[r] >> c & 1 == 1 {
+            v
+        } else if v.is_nan() || v > level {
+            f64::NEG_INFINITY
+        } else {
+            v
+        }
+    };
     let vals = std::mem::take(&mut s.vals);
     let val = |c: i64, r: i64| -> f64 {
         let lc = c - (w.c0 as i64 - 1);
@@ -432,7 +464,11 @@ fn march<F: Field>(
         // the two rows of the cells' corners (local columns from `cs`)
         let at = |c: i64, r: i64| ((r - (w.r0 as i64 - 1)) * width + c - (w.c0 as i64 - 1)) as usize;
         let n = (ce - cs + 2) as usize;
-        let (top, bottom) = (&vals[at(cs, r)..at(cs, r) + n], &vals[at(cs, r + 1)..at(cs, r + 1) + n]);
+        let (top, bottom) = if rows.is_some() {
+            (&[][..], &[][..])
+        } else {
+            (&vals[at(cs, r)..at(cs, r) + n], &vals[at(cs, r + 1)..at(cs, r + 1) + n])
+        };
         // the cells to visit, in increasing column: with masks, those whose corners are not all
         // on one side (bit i: cell i), else every cell
         let cells = n - 1;
@@ -440,10 +476,10 @@ fn march<F: Field>(
             let lr = (r - (w.r0 as i64 - 1)) as usize;
             let (t, b) = (s.up_rows[lr], s.up_rows[lr + 1]);
             let m = (t ^ (t >> 1)) | (b ^ (b >> 1)) | (t ^ b);
-            if cells >= 64 {
+            if cells >= 128 {
                 m
             } else {
-                m & ((1u64 << cells) - 1)
+                m & ((1u128 << cells) - 1)
             }
         } else {
             0
@@ -466,10 +502,15 @@ fn march<F: Field>(
             };
             let c = cs + i as i64;
             // corners counter-clockwise in (x = col, y = row): (c,r) (c+1,r) (c+1,r+1) (c,r+1)
-            let v = [top[i], top[i + 1], bottom[i + 1], bottom[i]];
-            debug_assert_eq!(
-                v.map(f64::to_bits),
-                [val(c, r), val(c + 1, r), val(c + 1, r + 1), val(c, r + 1)].map(f64::to_bits)
+            let v = if rows.is_some() {
+                [lazy(z, c, r), lazy(z, c + 1, r), lazy(z, c + 1, r + 1), lazy(z, c, r + 1)]
+            } else {
+                [top[i], top[i + 1], bottom[i + 1], bottom[i]]
+            };
+            debug_assert!(
+                rows.is_some()
+                    || v.map(f64::to_bits)
+                        == [val(c, r), val(c + 1, r), val(c + 1, r + 1), val(c, r + 1)].map(f64::to_bits)
             );
             if !pad && v.iter().any(|x| x.is_nan()) {
                 continue;
