@@ -321,10 +321,13 @@ impl Field for Dense<'_> {
         let rest = chunks.remainder();
         let mut m = 0u64;
         for (k, ch) in chunks.enumerate() {
-            let mut b = 0u64;
-            for (j, &x) in ch.iter().enumerate() {
-                b |= ((x > level) as u64) << j;
+            // one byte 0/1 per value, gathered into 8 bits by a multiplication (exact: every
+            // partial product lands on a distinct bit, the wanted ones at bits 56..64)
+            let mut bytes = [0u8; 8];
+            for (b, &x) in bytes.iter_mut().zip(ch) {
+                *b = (x > level) as u8;
             }
+            let b = u64::from_le_bytes(bytes).wrapping_mul(0x0102_0408_1020_4080) >> 56;
             m |= b << (8 * k);
         }
         let base = row.len() - rest.len();
@@ -388,8 +391,8 @@ fn march<F: Field>(
     s.up_rows.resize(if masks { height as usize } else { 0 }, 0);
     if let Some(rows) = rows {
         let keep = (1u128 << (w.c1 - w.c0 + 1)) - 1;
-        for r in w.r0..=w.r1 {
-            s.up_rows[r - w.r0 + 1] = ((rows[r] >> w.c0) as u128 & keep) << 1;
+        for (up, &m) in s.up_rows[1..].iter_mut().zip(&rows[w.r0..=w.r1]) {
+            *up = ((m >> w.c0) as u128 & keep) << 1;
         }
     } else {
         for r in w.r0..=w.r1 {
@@ -1023,10 +1026,15 @@ impl MaxContourFinder {
             }
             let (ar, aq) = (above(z, r), above(z, q));
             let mut seeds = cq & ar;
-            // diagonals across saddle cells: member (q, c) and (r, c ± 1) above, the two side
-            // corners (q, c ± 1) and (r, c) below
             let right = cq & !(aq >> 1) & !ar & (ar >> 1);
             let left = cq & !(aq << 1) & !ar & (ar << 1);
+            let old = c_rows[r];
+            if seeds & !old == 0 && right | left == 0 {
+                // every seed is a member already: a row's members are whole runs
+                return false;
+            }
+            // diagonals across saddle cells (`right`, `left`): member (q, c) and (r, c ± 1)
+            // above, the two side corners (q, c ± 1) and (r, c) below
             for (mut k, dir) in [(right, 1i64), (left, -1i64)] {
                 while k != 0 {
                     let c = k.trailing_zeros() as usize;
@@ -1042,7 +1050,6 @@ impl MaxContourFinder {
                     }
                 }
             }
-            let old = c_rows[r];
             let new = fill_runs(ar, seeds | old);
             c_rows[r] = new;
             new != old
