@@ -14,15 +14,20 @@
 //!   the principal axis (rad), eccentricity, the level and the peak.
 //!
 //! **The search** goes down the levels from the highest. At each level the peak's component
-//! of `{z > level}` is found by horizontal runs (a scanline fill: 4-connected, plus the
-//! diagonals across saddle cells the saddle rule joins). A level whose component covers
-//! fewer cells than `min_area_mm2` needs (a rigorous upper bound of its area: the cells with
-//! a corner in the component, widened for rounding) is skipped without marching. Otherwise
-//! the component is marched over its bounding box — only the cells whose corners lie on both
-//! sides of the level, found from 64-bit masks of each row's points above when the box is at
-//! most 64 columns wide — its segments linked into rings and measured (Green's theorem). The
-//! outcome is bit-identical to flooding, marching and measuring every level in turn (the
-//! reference the tests compare against on random surfaces).
+//! of `{z > level}` (4-connected, plus the diagonals across saddle cells the saddle rule
+//! joins) is found on grids of at most 64 × 64 points as one 64-bit mask per row: a row's
+//! mask of points above is computed once per level (only for the rows the component reaches
+//! and their neighbours), and a row's members are the runs of that mask holding a member of
+//! the row above or below (or the diagonal neighbour of one across a joined saddle cell),
+//! grown row against row with bit operations until nothing changes. Larger grids use a
+//! scanline fill by horizontal runs. A level whose component covers fewer cells than
+//! `min_area_mm2` needs (a rigorous upper bound of its area: the cells with a corner in the
+//! component, widened for rounding) is skipped without marching. Otherwise the component is
+//! marched over its bounding box — only the cells whose corners lie on both sides of the
+//! level, found from the row masks (with row masks, values are read only at those cells'
+//! corners) — its segments linked into rings and measured (Green's theorem). The outcome is
+//! bit-identical to flooding, marching and measuring every level in turn (the reference the
+//! tests compare against on random surfaces, narrow and wider than 64 columns).
 //!
 //! **Closing along the grid edge.** A region cut by the grid's edge, by NaN (outside the
 //! hull under [`Outside::Nan`](crate::interpolate::Outside)) is closed *along* that edge:
