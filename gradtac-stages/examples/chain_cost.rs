@@ -3,7 +3,7 @@
 //! not depend on how loaded the machine is, wall time does).
 //!
 //! ```text
-//! cargo run --release -p gradtac-stages --example chain_cost -- <peak|peak_local|full|full_incremental|front|contour_peak|contour_peak_local|contour_full> [repeats] [recording.csv]
+//! cargo run --release -p gradtac-stages --example chain_cost -- <peak|peak_local|full|full_incremental|front|contour_peak|contour_peak_local|contour_full|digest> [repeats] [recording.csv]
 //! ```
 //! The recording defaults to `shared/data/biotacsp-dos/aw/bottle0.csv` beside the
 //! workspace (or under `$GRADTAC_SHARED_DATA`), tiled 10 times; without it a simulated grasp
@@ -114,6 +114,22 @@ fn main() {
             "contour_full" => {
                 let mut s = Interpolate::try_new(&icfg, &layout).unwrap().then(Contour::try_new(&ccfg).unwrap());
                 s.run_all(windows.clone()).unwrap().len()
+            }
+            "digest" => {
+                // a fingerprint of every output (Debug prints each float exactly): compare it
+                // across commits to check that a speed-up changed no bit
+                use std::hash::{Hash, Hasher};
+                let track = front(layout.len())
+                    .then(SurfaceContour::try_new(&icfg, &ccfg, &layout).unwrap())
+                    .then(Track::try_new(&TrackConfig::default()).unwrap())
+                    .run_all(f)
+                    .unwrap();
+                let mut s = Interpolate::try_new(&icfg, &layout).unwrap().then(Contour::try_new(&ccfg).unwrap());
+                let contours = s.run_all(windows.clone()).unwrap();
+                let mut h = std::collections::hash_map::DefaultHasher::new();
+                format!("{track:?}{contours:?}").hash(&mut h);
+                println!("digest: {:016x} ({} track points, {} contours)", h.finish(), track.len(), contours.len());
+                track.len()
             }
             v => panic!("unknown variant {v}"),
         };

@@ -14,15 +14,20 @@
 //!   the principal axis (rad), eccentricity, the level and the peak.
 //!
 //! **The search** goes down the levels from the highest. At each level the peak's component
-//! of `{z > level}` is found by horizontal runs (a scanline fill: 4-connected, plus the
-//! diagonals across saddle cells the saddle rule joins). A level whose component covers
-//! fewer cells than `min_area_mm2` needs (a rigorous upper bound of its area: the cells with
-//! a corner in the component, widened for rounding) is skipped without marching. Otherwise
-//! the component is marched over its bounding box — only the cells whose corners lie on both
-//! sides of the level, found from 64-bit masks of each row's points above when the box is at
-//! most 64 columns wide — its segments linked into rings and measured (Green's theorem). The
-//! outcome is bit-identical to flooding, marching and measuring every level in turn (the
-//! reference the tests compare against on random surfaces).
+//! of `{z > level}` (4-connected, plus the diagonals across saddle cells the saddle rule
+//! joins) is found on grids of at most 64 × 64 points as one 64-bit mask per row: a row's
+//! mask of points above is computed once per level (only for the rows the component reaches
+//! and their neighbours), and a row's members are the runs of that mask holding a member of
+//! the row above or below (or the diagonal neighbour of one across a joined saddle cell),
+//! grown row against row with bit operations until nothing changes. Larger grids use a
+//! scanline fill by horizontal runs. A level whose component covers fewer cells than
+//! `min_area_mm2` needs (a rigorous upper bound of its area: the cells with a corner in the
+//! component, widened for rounding) is skipped without marching. Otherwise the component is
+//! marched over its bounding box — only the cells whose corners lie on both sides of the
+//! level, found from the row masks (with row masks, values are read only at those cells'
+//! corners) — its segments linked into rings and measured (Green's theorem). The outcome is
+//! bit-identical to flooding, marching and measuring every level in turn (the reference the
+//! tests compare against on random surfaces, narrow and wider than 64 columns).
 //!
 //! **Closing along the grid edge.** A region cut by the grid's edge, by NaN (outside the
 //! hull under [`Outside::Nan`](crate::interpolate::Outside)) is closed *along* that edge:
@@ -265,7 +270,14 @@ struct Scratch {
     members: usize,
     // per local row of `vals`, bit `lc` set when that value is above the level (windows of at
     // most 64 local columns)
-    up_rows: Vec<u64>,
+    up_rows: Vec<u128>,
+    // per grid row (grids of at most 64 columns): bit `c` set when the point is above the
+    // level (`a_rows`, valid where `a_known` holds the level's generation) and when it is in
+    // the peak's component (`c_rows`)
+    a_rows: Vec<u64>,
+    a_known: Vec<u32>,
+    a_gen: u32,
+    c_rows: Vec<u64>,
 }
 
 const NONE: u32 = u32::MAX;
@@ -281,6 +293,14 @@ pub(crate) trait Field {
     fn prepare(&mut self, _r0: usize, _r1: usize, _c0: usize, _c1: usize) {}
     /// The value at `(r, c)`, which a [`prepare`](Self::prepare) covered.
     fn raw(&self, r: usize, c: usize) -> f64;
+    /// Bit `c` set when point `(r, c)` is above `level` (NaN never is), for a grid of at most
+    /// 64 columns; prepares the row first.
+    #[inline(always)]
+    fn row_above(&mut self, r: usize, level: f64) -> u64 {
+        let nx = self.dim().1;
+        self.prepare(r, r, 0, nx - 1);
+        (0..nx).fold(0u64, |m, c| m | ((self.raw(r, c) > level) as u64) << c)
+    }
 }
 
 /// A row-major surface in a slice.
@@ -299,6 +319,28 @@ impl Field for Dense<'_> {
     fn raw(&self, r: usize, c: usize) -> f64 {
         self.z[r * self.nx + c]
     }
+    #[inline(always)]
+    fn row_above(&mut self, r: usize, level: f64) -> u64 {
+        let row = &self.z[r * self.nx..(r + 1) * self.nx];
+        let chunks = row.chunks_exact(8);
+        let rest = chunks.remainder();
+        let mut m = 0u64;
+        for (k, ch) in chunks.enumerate() {
+            // one byte 0/1 per value, gathered into 8 bits by a multiplication (exact: every
+            // partial product lands on a distinct bit, the wanted ones at bits 56..64)
+            let mut bytes = [0u8; 8];
+            for (b, &x) in bytes.iter_mut().zip(ch) {
+                *b = (x > level) as u8;
+            }
+            let b = u64::from_le_bytes(bytes).wrapping_mul(0x0102_0408_1020_4080) >> 56;
+            m |= b << (8 * k);
+        }
+        let base = row.len() - rest.len();
+        for (j, &x) in rest.iter().enumerate() {
+            m |= ((x > level) as u64) << (base + j);
+        }
+        m
+    }
 }
 
 impl Field for ArrayView2<'_, f64> {
@@ -314,14 +356,14 @@ impl Field for ArrayView2<'_, f64> {
 
 /// March the cells of a window. `pad`: the window is surrounded by −∞ and NaN counts as −∞
 /// (closed rings); otherwise squares with a NaN corner are skipped (skimage's rule).
-/// `comp`: when given, points above the level that are not stamped `gen` count as −∞.
+/// `comp`: when given, points above the level that are not members of the component count as −∞.
 fn march<F: Field>(
     z: &mut F,
     level: f64,
     saddle: Saddle,
     w: Win,
     pad: bool,
-    comp: Option<(&[u32], u32)>,
+    comp: Option<Member<'_>>,
     s: &mut Scratch,
 ) {
     let nx = z.dim().1;
@@ -337,32 +379,64 @@ fn march<F: Field>(
     // the window's values once, surrounded by a ring of −∞, with NaN and (given `comp`) other
     // components' points above the level replaced by −∞
     s.vals.clear();
-    s.vals.resize((width * height) as usize, f64::NEG_INFINITY);
+    if !matches!(comp, Some(Member::Rows(_)) if pad) {
+        s.vals.resize((width * height) as usize, f64::NEG_INFINITY);
+    }
     z.prepare(w.r0, w.r1, w.c0, w.c1);
     // with a padded window of ≤ 64 columns, the cells with corners on both sides of the level
-    // are found from bit masks of the points above, and only they are visited
-    let masks = pad && width <= 64;
+    // are found from bit masks of the points above, and only they are visited; with the
+    // component as row masks, those masks are the component's and the values are read from
+    // `z` only at the visited cells' corners (`vals` stays empty)
+    let rows = match comp {
+        Some(Member::Rows(rows)) if pad => Some(rows),
+        _ => None,
+    };
+    let masks = pad && (width <= 64 || rows.is_some());
     s.up_rows.clear();
     s.up_rows.resize(if masks { height as usize } else { 0 }, 0);
-    for r in w.r0..=w.r1 {
-        let lr = (r - w.r0 + 1) * width as usize;
-        let mut up = 0u64;
-        for c in w.c0..=w.c1 {
-            let mut v = z.raw(r, c);
-            if v.is_nan() {
-                v = if pad { f64::NEG_INFINITY } else { f64::NAN };
-            } else if let Some((stamp, gen)) = comp {
-                if v > level && stamp[r * nx + c] != gen {
-                    v = f64::NEG_INFINITY;
-                }
-            }
-            s.vals[lr + (c - w.c0 + 1)] = v;
-            up |= ((v > level) as u64) << ((c - w.c0 + 1) & 63);
+    if let Some(rows) = rows {
+        let keep = (1u128 << (w.c1 - w.c0 + 1)) - 1;
+        for (up, &m) in s.up_rows[1..].iter_mut().zip(&rows[w.r0..=w.r1]) {
+            *up = ((m >> w.c0) as u128 & keep) << 1;
         }
-        if masks {
-            s.up_rows[r - w.r0 + 1] = up;
+    } else {
+        for r in w.r0..=w.r1 {
+            let lr = (r - w.r0 + 1) * width as usize;
+            let mut up = 0u64;
+            for c in w.c0..=w.c1 {
+                let mut v = z.raw(r, c);
+                if v.is_nan() {
+                    v = if pad { f64::NEG_INFINITY } else { f64::NAN };
+                } else if let Some(m) = comp {
+                    if v > level && !m.has(r, r * nx + c, c) {
+                        v = f64::NEG_INFINITY;
+                    }
+                }
+                s.vals[lr + (c - w.c0 + 1)] = v;
+                up |= ((v > level) as u64) << ((c - w.c0 + 1) & 63);
+            }
+            if masks {
+                s.up_rows[r - w.r0 + 1] = up as u128;
+            }
         }
     }
+    // a point's value as marched (only with `rows`): −∞ outside the window and at NaN and at
+    // points above the level that are not members
+    let lazy = |z: &F, c: i64, r: i64| -> f64 {
+        let rows = rows.expect("lazy values with row masks");
+        if c < w.c0 as i64 || c > w.c1 as i64 || r < w.r0 as i64 || r > w.r1 as i64 {
+            return f64::NEG_INFINITY;
+        }
+        let (r, c) = (r as usize, c as usize);
+        let v = z.raw(r, c);
+        if rows[r] >> c & 1 == 1 {
+            v
+        } else if v.is_nan() || v > level {
+            f64::NEG_INFINITY
+        } else {
+            v
+        }
+    };
     let vals = std::mem::take(&mut s.vals);
     let val = |c: i64, r: i64| -> f64 {
         let lc = c - (w.c0 as i64 - 1);
@@ -398,7 +472,11 @@ fn march<F: Field>(
         // the two rows of the cells' corners (local columns from `cs`)
         let at = |c: i64, r: i64| ((r - (w.r0 as i64 - 1)) * width + c - (w.c0 as i64 - 1)) as usize;
         let n = (ce - cs + 2) as usize;
-        let (top, bottom) = (&vals[at(cs, r)..at(cs, r) + n], &vals[at(cs, r + 1)..at(cs, r + 1) + n]);
+        let (top, bottom) = if rows.is_some() {
+            (&[][..], &[][..])
+        } else {
+            (&vals[at(cs, r)..at(cs, r) + n], &vals[at(cs, r + 1)..at(cs, r + 1) + n])
+        };
         // the cells to visit, in increasing column: with masks, those whose corners are not all
         // on one side (bit i: cell i), else every cell
         let cells = n - 1;
@@ -406,10 +484,10 @@ fn march<F: Field>(
             let lr = (r - (w.r0 as i64 - 1)) as usize;
             let (t, b) = (s.up_rows[lr], s.up_rows[lr + 1]);
             let m = (t ^ (t >> 1)) | (b ^ (b >> 1)) | (t ^ b);
-            if cells >= 64 {
+            if cells >= 128 {
                 m
             } else {
-                m & ((1u64 << cells) - 1)
+                m & ((1u128 << cells) - 1)
             }
         } else {
             0
@@ -432,10 +510,15 @@ fn march<F: Field>(
             };
             let c = cs + i as i64;
             // corners counter-clockwise in (x = col, y = row): (c,r) (c+1,r) (c+1,r+1) (c,r+1)
-            let v = [top[i], top[i + 1], bottom[i + 1], bottom[i]];
-            debug_assert_eq!(
-                v.map(f64::to_bits),
-                [val(c, r), val(c + 1, r), val(c + 1, r + 1), val(c, r + 1)].map(f64::to_bits)
+            let v = if rows.is_some() {
+                [lazy(z, c, r), lazy(z, c + 1, r), lazy(z, c + 1, r + 1), lazy(z, c, r + 1)]
+            } else {
+                [top[i], top[i + 1], bottom[i + 1], bottom[i]]
+            };
+            debug_assert!(
+                rows.is_some()
+                    || v.map(f64::to_bits)
+                        == [val(c, r), val(c + 1, r), val(c + 1, r + 1), val(c, r + 1)].map(f64::to_bits)
             );
             if !pad && v.iter().any(|x| x.is_nan()) {
                 continue;
@@ -485,6 +568,56 @@ fn march<F: Field>(
         s.start_of[g.from as usize] = i as u32;
         s.end_of[g.to as usize] = i as u32;
     }
+}
+
+/// The members of a component: stamped with a generation, or bits of per-row masks.
+#[derive(Clone, Copy)]
+enum Member<'a> {
+    Stamp(&'a [u32], u32),
+    Rows(&'a [u64]),
+}
+
+impl Member<'_> {
+    /// Whether point `(r, c)` (raster index `i`) is a member.
+    #[inline(always)]
+    fn has(self, r: usize, i: usize, c: usize) -> bool {
+        match self {
+            Member::Stamp(stamp, gen) => stamp[i] == gen,
+            Member::Rows(rows) => rows[r] >> c & 1 == 1,
+        }
+    }
+}
+
+/// The bits of `a` in the runs of consecutive bits of `a` that hold a bit of `s` (an occluded
+/// fill both ways, Kogge–Stone).
+#[inline(always)]
+fn fill_runs(a: u64, s: u64) -> u64 {
+    let x = s & a;
+    let (mut g, mut up) = (a, x);
+    up |= g & (up << 1);
+    g &= g << 1;
+    up |= g & (up << 2);
+    g &= g << 2;
+    up |= g & (up << 4);
+    g &= g << 4;
+    up |= g & (up << 8);
+    g &= g << 8;
+    up |= g & (up << 16);
+    g &= g << 16;
+    up |= g & (up << 32);
+    let (mut g, mut down) = (a, x);
+    down |= g & (down >> 1);
+    g &= g >> 1;
+    down |= g & (down >> 2);
+    g &= g >> 2;
+    down |= g & (down >> 4);
+    g &= g >> 4;
+    down |= g & (down >> 8);
+    g &= g >> 8;
+    down |= g & (down >> 16);
+    g &= g >> 16;
+    down |= g & (down >> 32);
+    up | down
 }
 
 /// Link the segments of the last [`march`] into lines.
@@ -586,6 +719,8 @@ pub struct MaxContourFinder {
     levels: Vec<f64>,
     // tests: search levels the way first written (the exactness reference)
     reference: bool,
+    // the last component was found as row masks (`Scratch::c_rows`), not stamps
+    bits: bool,
 }
 
 impl MaxContourFinder {
@@ -609,7 +744,13 @@ impl MaxContourFinder {
         if !cfg.min_peak.is_finite() {
             return bad(format!("`min_peak` = {} must be finite", cfg.min_peak));
         }
-        Ok(MaxContourFinder { cfg: cfg.clone(), s: Scratch::default(), levels: Vec::new(), reference: false })
+        Ok(MaxContourFinder {
+            cfg: cfg.clone(),
+            s: Scratch::default(),
+            levels: Vec::new(),
+            reference: false,
+            bits: false,
+        })
     }
 
     /// The configuration.
@@ -718,8 +859,10 @@ impl MaxContourFinder {
     ) -> ContourOutcome {
         let (ny, nx) = z.dim();
         let cell = grid.cell_area();
+        self.bits = nx <= 64 && ny <= 64;
         for &level in levels {
-            let w = self.component_runs(z, level, pr, pc);
+            let w =
+                if self.bits { self.component_bits(z, level, pr, pc) } else { self.component_runs(z, level, pr, pc) };
             // The region lies in the cells with a corner in the component: at most 4 per point
             // and at most the cells of its bounding box grown by one. The reference's area is
             // a float sum of at most 2 terms per cell, each of magnitude ≤ 2·(nx + ny)² (index
@@ -751,6 +894,7 @@ impl MaxContourFinder {
         pc: usize,
     ) -> ContourOutcome {
         let (ny, nx) = z.dim();
+        self.bits = false;
         for &level in levels {
             let w = self.component(z, level, pr, pc);
             let win = if self.cfg.peak_only { w } else { Win { c0: 0, c1: nx - 1, r0: 0, r1: ny - 1 } };
@@ -778,8 +922,11 @@ impl MaxContourFinder {
         let peak_mm = [grid.x(pc), grid.y(pr)];
         let gen = self.s.gen;
         let stamp = std::mem::take(&mut self.s.stamp);
-        march(z, level, self.cfg.saddle, win, true, Some((&stamp, gen)), &mut self.s);
+        let c_rows = std::mem::take(&mut self.s.c_rows);
+        let member = if self.bits { Member::Rows(&c_rows) } else { Member::Stamp(&stamp, gen) };
+        march(z, level, self.cfg.saddle, win, true, Some(member), &mut self.s);
         self.s.stamp = stamp;
+        self.s.c_rows = c_rows;
         let clipped = self.s.clipped;
         let rings = link(&mut self.s);
         // moments in index units about the peak, scaled to mm afterwards
@@ -834,6 +981,140 @@ impl MaxContourFinder {
             peak_mm,
             clipped,
         })
+    }
+
+    /// The component of `{z > level}` holding the peak `(pr, pc)` as per-row bit masks
+    /// (`Scratch::c_rows`, grids of at most 64 × 64 points): the same set as
+    /// [`component`](Self::component), grown row against row — a row's members are the runs of
+    /// its points above that hold a member of the row above or below, or the diagonal
+    /// neighbour of one across a saddle cell the saddle rule joins — row by row down and up
+    /// from the peak's row, a row growing its neighbours again only after it changed. Each row's mask of points above is computed once per
+    /// level, for the rows the component reaches and their neighbours. Records the member
+    /// count and bounding box; returns the box grown by one point (clipped to the grid).
+    fn component_bits<F: Field>(&mut self, z: &mut F, level: f64, pr: usize, pc: usize) -> Win {
+        let (ny, nx) = z.dim();
+        debug_assert!(nx <= 64 && ny <= 64);
+        let saddle = self.cfg.saddle;
+        let s = &mut self.s;
+        if s.a_rows.len() != ny {
+            s.a_rows.clear();
+            s.a_rows.resize(ny, 0);
+            s.a_known.clear();
+            s.a_known.resize(ny, 0);
+            s.c_rows.clear();
+            s.c_rows.resize(ny, 0);
+            s.a_gen = 0;
+        }
+        s.a_gen = s.a_gen.wrapping_add(1);
+        if s.a_gen == 0 {
+            s.a_known.iter_mut().for_each(|x| *x = 0);
+            s.a_gen = 1;
+        }
+        let gen = s.a_gen;
+        let (a_rows, a_known, c_rows) = (&mut s.a_rows, &mut s.a_known, &mut s.c_rows);
+        let mut above = |z: &mut F, r: usize| -> u64 {
+            if a_known[r] != gen {
+                let m = z.row_above(r, level);
+                a_rows[r] = m;
+                a_known[r] = gen;
+            }
+            a_rows[r]
+        };
+        // members of rows rlo..=rhi only
+        let (mut rlo, mut rhi) = (pr, pr);
+        c_rows[pr] = fill_runs(above(z, pr), 1 << pc);
+        // row `r` grown from its neighbour row `q`: whether it changed
+        let mut grow = |z: &mut F, c_rows: &mut [u64], r: usize, q: usize| -> bool {
+            let cq = c_rows[q];
+            if cq == 0 {
+                return false;
+            }
+            let (ar, aq) = (above(z, r), above(z, q));
+            let mut seeds = cq & ar;
+            let right = cq & !(aq >> 1) & !ar & (ar >> 1);
+            let left = cq & !(aq << 1) & !ar & (ar << 1);
+            let old = c_rows[r];
+            if seeds & !old == 0 && right | left == 0 {
+                // every seed is a member already: a row's members are whole runs
+                return false;
+            }
+            // diagonals across saddle cells (`right`, `left`): member (q, c) and (r, c ± 1)
+            // above, the two side corners (q, c ± 1) and (r, c) below
+            for (mut k, dir) in [(right, 1i64), (left, -1i64)] {
+                while k != 0 {
+                    let c = k.trailing_zeros() as usize;
+                    k &= k - 1;
+                    let x = (c as i64 + dir) as usize;
+                    if seeds >> x & 1 == 1 || c_rows[r] >> x & 1 == 1 {
+                        continue;
+                    }
+                    let (rm, cm) = (r.min(q), x.min(c));
+                    let v = [z.raw(rm, cm), z.raw(rm, cm + 1), z.raw(rm + 1, cm + 1), z.raw(rm + 1, cm)];
+                    if saddle.joins_above(v, level) {
+                        seeds |= 1 << x;
+                    }
+                }
+            }
+            let new = fill_runs(ar, seeds | old);
+            c_rows[r] = new;
+            new != old
+        };
+        // rows changed since they last grew the row below (`down`) / above (`up`)
+        let (mut down, mut up) = (1u64 << pr, 1u64 << pr);
+        while down | up != 0 {
+            while down != 0 {
+                let q = down.trailing_zeros() as usize;
+                down &= down - 1;
+                let r = q + 1;
+                if r >= ny {
+                    continue;
+                }
+                if r > rhi {
+                    c_rows[r] = 0;
+                }
+                if grow(z, c_rows, r, q) {
+                    rhi = rhi.max(r);
+                    down |= 1 << r;
+                    up |= 1 << r;
+                }
+            }
+            while up != 0 {
+                let q = 63 - up.leading_zeros() as usize;
+                up &= !(1 << q);
+                if q == 0 {
+                    continue;
+                }
+                let r = q - 1;
+                if r < rlo {
+                    c_rows[r] = 0;
+                }
+                if grow(z, c_rows, r, q) {
+                    rlo = rlo.min(r);
+                    down |= 1 << r;
+                    up |= 1 << r;
+                }
+            }
+        }
+        let mut members = 0;
+        let mut bb = Win { c0: pc, c1: pc, r0: rlo, r1: rhi };
+        for &m in &c_rows[rlo..=rhi] {
+            if m != 0 {
+                members += m.count_ones() as usize;
+                bb.c0 = bb.c0.min(m.trailing_zeros() as usize);
+                bb.c1 = bb.c1.max(63 - m.leading_zeros() as usize);
+            }
+        }
+        // rows outside rlo..=rhi hold no members (cleared when first reached)
+        c_rows[..rlo].fill(0);
+        c_rows[rhi + 1..].fill(0);
+        s.members = members;
+        s.bbox = bb;
+        Win {
+            c0: bb.c0.saturating_sub(1),
+            c1: (bb.c1 + 1).min(nx - 1),
+            r0: bb.r0.saturating_sub(1),
+            r1: (bb.r1 + 1).min(ny - 1),
+        }
     }
 
     /// The component of `{z > level}` holding the peak `(pr, pc)`, stamped with a new
@@ -1197,6 +1478,18 @@ mod tests {
             ], 11 * 9)) {
                 let grid = Grid::try_new(Extent { x_min: 0.0, x_max: 4.0, y_min: -1.0, y_max: 2.0 }, 11, 9).unwrap();
                 let z = Array2::from_shape_vec((9, 11), v).unwrap();
+                check(z.view(), &grid)?;
+            }
+
+            /// Grids wider than 64 columns (the component found by runs, not row masks).
+            #[test]
+            fn on_wide_grids(v in proptest::collection::vec(prop_oneof![
+                4 => (0u8..5).prop_map(f64::from),
+                1 => Just(f64::NAN),
+                1 => -3.0f64..7.0,
+            ], 67 * 5)) {
+                let grid = Grid::try_new(Extent { x_min: 0.0, x_max: 20.0, y_min: -1.0, y_max: 2.0 }, 67, 5).unwrap();
+                let z = Array2::from_shape_vec((5, 67), v).unwrap();
                 check(z.view(), &grid)?;
             }
 

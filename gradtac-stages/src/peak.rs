@@ -55,19 +55,25 @@
 //!
 //! | variant | real: instructions / frame | real: criterion median (2,790 frames) | simulated grasp: instructions / frame |
 //! |---|---|---|---|
-//! | fused, dense (default, what a scene runs) | **166 k** | 40.5 / 51.2 ms (69 k / 55 k frames/s) | **125 k** |
-//! | fused, peak-local (≈ 1,600 of 4,096 points evaluated) | 270 k | 89.0 / 98.1 ms | — |
-//! | `Interpolate` → `Contour` (a surface array per window, what a scene runs when the surface is tapped) | 196 k | 57.2 / 54.8 ms | 155 k |
-//! | the same, `incremental = true` | 193 k | 50.4 / 53.4 ms | — |
-//! | before (row sums, a flood, march and link per level): `Interpolate` → `Contour` | 465 k | 83.0 / 125.1 ms (34 k / 22 k frames/s) | 301 k |
-//! | before: peak-local | 421 k | 91.3 / 130.2 ms | — |
+//! | fused, dense (default, what a scene runs) | **136 k** | 29.1 / 29.0 ms (96 k frames/s) | **122 k** |
+//! | fused, peak-local (≈ 2,100 of 4,096 points evaluated: the row masks read whole rows) | 257 k | — | — |
+//! | `Interpolate` → `Contour` (a surface array per window, what a scene runs when the surface is tapped) | 166 k | — | 152 k |
+//! | before the row masks (component by runs, window copied for marching): fused, dense | 166 k | 35.5 / 36.4 ms (79 k / 77 k frames/s) | 125 k |
+//! | before the row masks: peak-local (≈ 1,600 points evaluated) | 271 k | — | — |
+//! | before the row masks: `Interpolate` → `Contour` | 196 k | — | 155 k |
+//! | before any of these speed-ups (row sums, a flood, march and link per level): `Interpolate` → `Contour` | 465 k | 83.0 / 125.1 ms (34 k / 22 k frames/s) | 301 k |
 //!
 //! The front end (normalise → Savitzky–Golay → events → window) is 18 k of these instructions
 //! per frame on the real recording (26 k on the simulated one); the dense surface (column
-//! runs, zero taxels skipped) ≈ 40 k; the maximal contour ≈ 104 k (the scan for peak and
-//! minimum 12 k; the rest grows with the region: ≈ 900 points at the accepted level, 1.35
-//! levels tried per window on average). Criterion medians are of two runs, old and new
-//! binaries alternating, at load average 2.5–4.
+//! runs, zero taxels skipped) ≈ 43 k; the maximal contour ≈ 74 k (was 104 k before the row
+//! masks; the scan for peak and minimum is 10.5 k of it, linking and measuring the rings
+//! ≈ 9 k; the rest grows with the region: ≈ 900 points at the accepted level, 1.35 levels
+//! tried per window on average). Criterion medians of the fused dense chain: two runs each, old and new
+//! binaries alternating, load average ≈ 3–4.5 (simulated grasp, 200 frames: 2.18 / 1.97 ms
+//! before, 2.01 / 1.76 ms after). Earlier medians of the other rows (before the row masks,
+//! alternating runs at load 2.5–4): peak-local 89.0 / 98.1 ms, `Interpolate` → `Contour`
+//! 57.2 / 54.8 ms. The `digest` variant of `chain_cost` fingerprints every track point and
+//! contour outcome: identical before and after the row masks, real and simulated.
 //!
 //! On contact data the dense evaluation wins: the block bounds cost more than the points they
 //! skip, because the maximal contour's region covers a large part of the grid (≈ 900 points
