@@ -160,8 +160,9 @@ fn the_slip_stages_events_come_back() {
     let cfg = SlipConfig { evidence: SlipEvidence::Track, ..SlipConfig::default() };
     let mut slip = Slip::try_new(&cfg).unwrap();
     let mut events = Vec::new();
-    // 3.5 s: the default rule returns to stable once its longest window (4 × 0.3 s) is still
-    for p in grasp(350, ramp(20.0), ramp(-20.0)) {
+    // 4.5 s: the default rule returns to stable once its longest window (the ladder 0.3 s,
+    // doubling up to `history_s` = 2.4 s) has been still
+    for p in grasp(450, ramp(20.0), ramp(-20.0)) {
         slip.push(p, &mut events).unwrap();
     }
     slip.finish(&mut events).unwrap();
