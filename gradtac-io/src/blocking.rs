@@ -42,6 +42,21 @@ pub struct BlockingStream<T, E> {
 ///   reaches its end, rather than ending the stream silently as if the input were complete.
 ///
 /// # Panics
+/// Once a reader's channel has closed: wait for its task to end and re-raise its panic, if
+/// it panicked (a panicking reader must not look like a short source).
+fn reader_end(task: &mut Option<JoinHandle<()>>, cx: &mut Context<'_>) -> Poll<()> {
+    if let Some(t) = task.as_mut() {
+        let result = std::task::ready!(Pin::new(t).poll(cx));
+        *task = None;
+        if let Err(e) = result {
+            if e.is_panic() {
+                std::panic::resume_unwind(e.into_panic());
+            }
+        }
+    }
+    Poll::Ready(())
+}
+
 /// Like [`tokio::task::spawn_blocking`], when called outside a tokio runtime.
 ///
 /// ```
@@ -81,20 +96,7 @@ impl<T, E> Stream for BlockingStream<T, E> {
             other => return other,
         }
         // The channel closed: the reader is done. Surface a panic instead of a silent end.
-        if let Some(task) = this.task.as_mut() {
-            match Pin::new(task).poll(cx) {
-                Poll::Pending => return Poll::Pending,
-                Poll::Ready(result) => {
-                    this.task = None;
-                    if let Err(e) = result {
-                        if e.is_panic() {
-                            std::panic::resume_unwind(e.into_panic());
-                        }
-                    }
-                }
-            }
-        }
-        Poll::Ready(None)
+        reader_end(&mut this.task, cx).map(|()| None)
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
@@ -193,20 +195,7 @@ impl<T, E> Stream for ChunkedBlockingStream<T, E> {
             }
         }
         // The channel closed: the reader is done. Surface a panic instead of a silent end.
-        if let Some(task) = this.task.as_mut() {
-            match Pin::new(task).poll(cx) {
-                Poll::Pending => return Poll::Pending,
-                Poll::Ready(result) => {
-                    this.task = None;
-                    if let Err(e) = result {
-                        if e.is_panic() {
-                            std::panic::resume_unwind(e.into_panic());
-                        }
-                    }
-                }
-            }
-        }
-        Poll::Ready(None)
+        reader_end(&mut this.task, cx).map(|()| None)
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {

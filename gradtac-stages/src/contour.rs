@@ -254,6 +254,18 @@ struct Win {
     r1: usize,
 }
 
+impl Win {
+    /// The box grown by one point on every side, clipped to an `nx` × `ny` grid.
+    fn grown(self, nx: usize, ny: usize) -> Win {
+        Win {
+            c0: self.c0.saturating_sub(1),
+            c1: (self.c1 + 1).min(nx - 1),
+            r0: self.r0.saturating_sub(1),
+            r1: (self.r1 + 1).min(ny - 1),
+        }
+    }
+}
+
 #[derive(Default, Debug, Clone)]
 struct Scratch {
     vals: Vec<f64>,
@@ -1109,12 +1121,7 @@ impl MaxContourFinder {
         c_rows[rhi + 1..].fill(0);
         s.members = members;
         s.bbox = bb;
-        Win {
-            c0: bb.c0.saturating_sub(1),
-            c1: (bb.c1 + 1).min(nx - 1),
-            r0: bb.r0.saturating_sub(1),
-            r1: (bb.r1 + 1).min(ny - 1),
-        }
+        bb.grown(nx, ny)
     }
 
     /// The component of `{z > level}` holding the peak `(pr, pc)`, stamped with a new
@@ -1207,12 +1214,7 @@ impl MaxContourFinder {
         }
         s.members = members;
         s.bbox = bb;
-        Win {
-            c0: bb.c0.saturating_sub(1),
-            c1: (bb.c1 + 1).min(nx - 1),
-            r0: bb.r0.saturating_sub(1),
-            r1: (bb.r1 + 1).min(ny - 1),
-        }
+        bb.grown(nx, ny)
     }
 
     /// Flood-fill the component of `{z > level}` containing (pr, pc) — 4-connected, plus
@@ -1271,7 +1273,7 @@ impl MaxContourFinder {
                 s.stack.push((rr, cc));
             }
         }
-        Win { c0: c0.saturating_sub(1), c1: (c1 + 1).min(nx - 1), r0: r0.saturating_sub(1), r1: (r1 + 1).min(ny - 1) }
+        Win { c0, c1, r0, r1 }.grown(nx, ny)
     }
 }
 
