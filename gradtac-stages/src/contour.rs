@@ -1469,15 +1469,20 @@ mod tests {
             })
         }
 
+        /// `len` grid values, mostly a few distinct small integers (ties, plateaus, saddles,
+        /// several peaks), some NaN, some arbitrary.
+        fn few_values(len: usize) -> impl Strategy<Value = Vec<f64>> {
+            proptest::collection::vec(
+                prop_oneof![4 => (0u8..5).prop_map(f64::from), 1 => Just(f64::NAN), 1 => -3.0f64..7.0],
+                len,
+            )
+        }
+
         proptest! {
             #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
             /// Small grids of few distinct values (ties, plateaus, saddles, several peaks) with NaN.
             #[test]
-            fn on_random_grids(v in proptest::collection::vec(prop_oneof![
-                4 => (0u8..5).prop_map(f64::from),
-                1 => Just(f64::NAN),
-                1 => -3.0f64..7.0,
-            ], 11 * 9)) {
+            fn on_random_grids(v in few_values(11 * 9)) {
                 let grid = Grid::try_new(Extent { x_min: 0.0, x_max: 4.0, y_min: -1.0, y_max: 2.0 }, 11, 9).unwrap();
                 let z = Array2::from_shape_vec((9, 11), v).unwrap();
                 check(z.view(), &grid)?;
@@ -1485,11 +1490,7 @@ mod tests {
 
             /// Grids wider than 64 columns (the component found by runs, not row masks).
             #[test]
-            fn on_wide_grids(v in proptest::collection::vec(prop_oneof![
-                4 => (0u8..5).prop_map(f64::from),
-                1 => Just(f64::NAN),
-                1 => -3.0f64..7.0,
-            ], 67 * 5)) {
+            fn on_wide_grids(v in few_values(67 * 5)) {
                 let grid = Grid::try_new(Extent { x_min: 0.0, x_max: 20.0, y_min: -1.0, y_max: 2.0 }, 67, 5).unwrap();
                 let z = Array2::from_shape_vec((5, 67), v).unwrap();
                 check(z.view(), &grid)?;
