@@ -292,6 +292,24 @@ struct Scratch {
     c_rows: Vec<u64>,
 }
 
+impl Scratch {
+    /// A fresh stamp generation for a grid of `points` points: the stamps resized (and
+    /// cleared) when the grid changed, cleared when the generation counter wraps.
+    fn next_generation(&mut self, points: usize) -> u32 {
+        if self.stamp.len() != points {
+            self.stamp.clear();
+            self.stamp.resize(points, 0);
+            self.gen = 0;
+        }
+        self.gen = self.gen.wrapping_add(1);
+        if self.gen == 0 {
+            self.stamp.iter_mut().for_each(|x| *x = 0);
+            self.gen = 1;
+        }
+        self.gen
+    }
+}
+
 const NONE: u32 = u32::MAX;
 
 /// Read access to a surface's values by `(row, col)`: an array, or a surface evaluated lazily
@@ -1137,17 +1155,7 @@ impl MaxContourFinder {
         let (ny, nx) = z.dim();
         let saddle = self.cfg.saddle;
         let s = &mut self.s;
-        if s.stamp.len() != nx * ny {
-            s.stamp.clear();
-            s.stamp.resize(nx * ny, 0);
-            s.gen = 0;
-        }
-        s.gen = s.gen.wrapping_add(1);
-        if s.gen == 0 {
-            s.stamp.iter_mut().for_each(|x| *x = 0);
-            s.gen = 1;
-        }
-        let gen = s.gen;
+        let gen = s.next_generation(nx * ny);
         s.stamp[pr * nx + pc] = gen;
         s.stack.clear();
         s.stack.push((pr, pc));
@@ -1223,17 +1231,7 @@ impl MaxContourFinder {
     fn component<F: Field>(&mut self, z: &mut F, level: f64, pr: usize, pc: usize) -> Win {
         let (ny, nx) = z.dim();
         let s = &mut self.s;
-        if s.stamp.len() != nx * ny {
-            s.stamp.clear();
-            s.stamp.resize(nx * ny, 0);
-            s.gen = 0;
-        }
-        s.gen = s.gen.wrapping_add(1);
-        if s.gen == 0 {
-            s.stamp.iter_mut().for_each(|x| *x = 0);
-            s.gen = 1;
-        }
-        let gen = s.gen;
+        let gen = s.next_generation(nx * ny);
         // NaN is never above
         let (mut r0, mut r1, mut c0, mut c1) = (pr, pr, pc, pc);
         s.stack.clear();
