@@ -49,8 +49,7 @@ impl Plan {
             }
             let chain = SensorChain::build(scene, p).expect("validated by Plan::new");
             let slip = &scene.stages.slip;
-            let slip_reads_frames =
-                slip.method == gradtac_stages::slip::SlipMethod::Displacement && slip.evidence.needs_frames();
+            let slip_reads_frames = slip.reads_frames();
             for tap in p.stages() {
                 let tapped_by: Vec<String> = p
                     .outputs

@@ -81,7 +81,7 @@ impl Plan {
                 .collect();
             // a slip output whose evidence is the raw-frame pattern alone needs no track
             let slip = &scene.stages.slip;
-            let slip_tracks = slip.method == gradtac_stages::slip::SlipMethod::Velocity || slip.evidence.needs_tracks();
+            let slip_tracks = slip.reads_tracks();
             let mut needed: Vec<Tap> = outputs
                 .iter()
                 .filter_map(|&i| Tap::parse(&scene.outputs[i].tap))

@@ -21,7 +21,7 @@ use gradtac_io::arrow_ipc::ArrowIpcConfig;
 use gradtac_io::can::{CandumpConfig, StatsHandle};
 use gradtac_io::npy::{NpyFrames, NpySourceConfig};
 use gradtac_io::{CsvFrames, CsvProgress, CsvSourceConfig};
-use gradtac_stages::slip::{Slip, SlipEvent, SlipInput, SlipMethod};
+use gradtac_stages::slip::{Slip, SlipEvent, SlipInput};
 use gradtac_stages::slip_pattern::{PatternPoint, SlipPattern};
 use gradtac_stream::{merge_streams, SensorId, Stage, TaxelFrame};
 use std::fmt;
@@ -119,11 +119,7 @@ impl Runner {
         } else {
             let c = &scene.stages.slip;
             let layout = |name: &str| plan.sensors.iter().find(|p| p.name == name).map(|p| &p.layout);
-            let pattern = match (
-                c.method == SlipMethod::Displacement && c.evidence.needs_frames(),
-                layout(&c.first),
-                layout(&c.second),
-            ) {
+            let pattern = match (c.reads_frames(), layout(&c.first), layout(&c.second)) {
                 (true, Some(a), Some(b)) => Some(SlipPattern::try_new(c, [a, b])?),
                 _ => None,
             };

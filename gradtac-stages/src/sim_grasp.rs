@@ -408,9 +408,8 @@ pub fn slip_inputs(
     use crate::slip::SlipInput;
     use gradtac_stream::{Layout, Stage};
     let layout = Layout::biotac_sp();
-    let mut pattern = (cfg.method == crate::slip::SlipMethod::Displacement && cfg.evidence.needs_frames())
-        .then(|| crate::slip_pattern::SlipPattern::try_new(cfg, [&layout, &layout]))
-        .transpose()?;
+    let mut pattern =
+        cfg.reads_frames().then(|| crate::slip_pattern::SlipPattern::try_new(cfg, [&layout, &layout])).transpose()?;
     let mut out = Vec::with_capacity(3 * frames.len());
     let mut pts = Vec::new();
     for (k, f) in frames.iter().enumerate() {

@@ -481,6 +481,18 @@ impl Default for SlipConfig {
 }
 
 impl SlipConfig {
+    /// Whether the stage decides from raw-frame pattern points (the displacement rule with
+    /// `pattern` or `both` evidence): a scene then feeds it [`crate::slip_pattern`]'s points.
+    pub fn reads_frames(&self) -> bool {
+        self.method == SlipMethod::Displacement && self.evidence.needs_frames()
+    }
+
+    /// Whether the stage decides from track points (the velocity rule, or the displacement
+    /// rule with `track` or `both` evidence): a scene then builds the locator and the track.
+    pub fn reads_tracks(&self) -> bool {
+        self.method == SlipMethod::Velocity || self.evidence.needs_tracks()
+    }
+
     /// One line with every effective value (for `explain`).
     pub fn describe(&self) -> String {
         let common = format!(
@@ -1071,7 +1083,7 @@ impl Slip {
         let displacement = self.cfg.method == SlipMethod::Displacement;
         if src == 1 {
             self.pattern_seen = true;
-        } else if displacement && !self.cfg.evidence.needs_tracks() && !self.pattern_seen {
+        } else if !self.cfg.reads_tracks() && !self.pattern_seen {
             return Err(Error::BadInput {
                 stage: STAGE,
                 sensor: sensor.to_string(),
@@ -1084,11 +1096,7 @@ impl Slip {
                 ),
             });
         }
-        let wanted = if src == 0 {
-            !displacement || self.cfg.evidence.needs_tracks()
-        } else {
-            displacement && self.cfg.evidence.needs_frames()
-        };
+        let wanted = if src == 0 { self.cfg.reads_tracks() } else { self.cfg.reads_frames() };
         if !wanted {
             return Ok(());
         }
