@@ -172,7 +172,7 @@ impl Runner {
         if let Some(node) = &mut self.slip {
             if let Some(pat) = &mut node.pattern {
                 if frame.sensor == node.first || frame.sensor == node.second {
-                    pat.push(frame.clone(), &mut node.patterns)?;
+                    pat.push_frame(&frame, &mut node.patterns)?;
                     for p in node.patterns.drain(..) {
                         node.stage.push_input(SlipInput::Pattern(p), &mut node.events)?;
                     }

@@ -182,14 +182,10 @@ impl SlipPattern {
     pub fn noise(&self, i: usize) -> &[f64] {
         self.fingers.get(i).map_or(&[], |f| &f.sigma)
     }
-}
 
-impl Stage for SlipPattern {
-    type In = TaxelFrame;
-    type Out = PatternPoint;
-    type Error = Error;
-
-    fn push(&mut self, frame: TaxelFrame, out: &mut Vec<PatternPoint>) -> Result<()> {
+    /// [`Stage::push`] by reference: a runner that also hands the frame to the sensor's chain
+    /// needs no copy of it (the averaging ring reuses its oldest buffer).
+    pub fn push_frame(&mut self, frame: &TaxelFrame, out: &mut Vec<PatternPoint>) -> Result<()> {
         let Some(i) = self.sensors.iter().position(|s| *s == frame.sensor) else { return Ok(()) };
         let pos = &self.positions[i];
         let n = pos.len();
@@ -229,14 +225,21 @@ impl Stage for SlipPattern {
         for (s, v) in f.sum.iter_mut().zip(&frame.values) {
             *s += v;
         }
-        f.ring.push_back((frame.time, frame.values.clone()));
-        if f.ring.len() > self.window {
-            if let Some((_, old)) = f.ring.pop_front() {
+        // the ring holds the last `window` frames: the oldest leaves the sum, its buffer
+        // takes the new frame's values
+        let mut buf = match f.ring.len() >= self.window {
+            true => f.ring.pop_front().map(|(_, old)| {
                 for (s, v) in f.sum.iter_mut().zip(&old) {
                     *s -= v;
                 }
-            }
+                old
+            }),
+            false => None,
         }
+        .unwrap_or_default();
+        buf.clear();
+        buf.extend_from_slice(&frame.values);
+        f.ring.push_back((frame.time, buf));
         // a running sum drifts by rounding over millions of frames: recompute now and then
         if frame.seq % 4096 == 0 {
             for (k, s) in f.sum.iter_mut().enumerate() {
@@ -255,7 +258,7 @@ impl Stage for SlipPattern {
             y_mm: f64::NAN,
         };
         if f.baseline.is_empty() {
-            f.calib.push(frame.values);
+            f.calib.push(frame.values.clone());
             if f.calib.len() >= self.calibrate {
                 let m = f.calib.len() as f64;
                 f.baseline = (0..n).map(|k| f.calib.iter().map(|c| c[k]).sum::<f64>() / m).collect();
@@ -290,6 +293,16 @@ impl Stage for SlipPattern {
         }
         out.push(p);
         Ok(())
+    }
+}
+
+impl Stage for SlipPattern {
+    type In = TaxelFrame;
+    type Out = PatternPoint;
+    type Error = Error;
+
+    fn push(&mut self, frame: TaxelFrame, out: &mut Vec<PatternPoint>) -> Result<()> {
+        self.push_frame(&frame, out)
     }
 
     fn reset(&mut self) {
