@@ -340,15 +340,21 @@ fn dropping_the_async_handle_finishes_the_open_files() {
     let rt = tokio::runtime::Builder::new_current_thread().enable_time().build().unwrap();
     rt.block_on(async {
         let w = blocking_archive(a, 4);
+        // The task says when its 15th send is in the channel; aborting on a timer instead
+        // raced the writer thread on a loaded machine (the task was still waiting on a full
+        // channel at send 14, so only 14 records were sent).
+        let (sent, all_sent) = tokio::sync::oneshot::channel::<()>();
         let task = tokio::spawn(async move {
+            let mut sent = Some(sent);
             for k in 0.. {
                 w.send(frame("ff", k, 2)).await.unwrap();
                 if k == 14 {
+                    let _ = sent.take().expect("signalled once").send(());
                     std::future::pending::<()>().await; // cancelled here, holding the handle
                 }
             }
         });
-        tokio::time::sleep(Duration::from_millis(50)).await;
+        all_sent.await.unwrap();
         task.abort();
         let _ = task.await;
     });
