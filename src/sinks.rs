@@ -1,4 +1,9 @@
 //! The outputs of a run: one Parquet sink per scene output, typed by the stage it taps.
+//!
+//! Every file encodes, compresses and writes on a thread of its own
+//! ([`ParquetSink::with_writer_thread`]): the runner's thread only appends rows and hands
+//! over finished batches, so closing a row group (milliseconds of zstd) never stalls the
+//! frames of a live run, and a file run overlaps encoding with the chains on a second core.
 
 use crate::plan::{Plan, Tap};
 use crate::scene::{OutputSpec, Scene, SourceSpec};
@@ -257,7 +262,8 @@ fn open<T: Record + HasSensor + Timed>(
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
     Ok(match &o.archive {
         Some(cfg) => {
-            let mut a = ParquetArchive::from_config(path, shape, cfg)?.with_time_base(time)?;
+            let mut a =
+                ParquetArchive::from_config(path, shape, cfg)?.with_time_base(time)?.with_writer_thread(true)?;
             if let Some(n) = row_group(o) {
                 a = a.with_row_group_size(n)?;
             }
@@ -274,7 +280,7 @@ fn open_file<T: Record>(
     o: &OutputSpec,
     time: TimeBase,
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
-    let mut s = ParquetSink::try_new(path, shape)?.with_time_base(time)?;
+    let mut s = ParquetSink::try_new(path, shape)?.with_time_base(time)?.with_writer_thread(true)?;
     if let Some(n) = row_group(o) {
         s = s.with_row_group_size(n)?;
     }

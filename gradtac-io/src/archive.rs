@@ -211,6 +211,7 @@ pub struct ParquetArchive<T: ArrowRecord> {
     roll_span_ns: Option<i64>,
     row_group_size: usize,
     zstd_level: i32,
+    writer_thread: bool,
     metadata: Vec<(String, String)>,
     /// Open files by partition directory name (`""` when not partitioned).
     open: BTreeMap<String, OpenFile<T>>,
@@ -233,6 +234,7 @@ impl<T: ArrowRecord> fmt::Debug for ParquetArchive<T> {
             .field("roll_span_ns", &self.roll_span_ns)
             .field("row_group_size", &self.row_group_size)
             .field("zstd_level", &self.zstd_level)
+            .field("writer_thread", &self.writer_thread)
             .field("open", &self.open.keys().collect::<Vec<_>>())
             .field("finished", &self.finished.len())
             .field("rows", &self.rows)
@@ -268,6 +270,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
             roll_span_ns: None,
             row_group_size: DEFAULT_ROW_GROUP_SIZE,
             zstd_level: DEFAULT_ZSTD_LEVEL,
+            writer_thread: false,
             metadata: Vec::new(),
             open: BTreeMap::new(),
             next_index: BTreeMap::new(),
@@ -421,6 +424,17 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
         self.check_not_started("zstd level")?;
         check_zstd_level(level)?;
         self.zstd_level = level;
+        Ok(self)
+    }
+
+    /// Each open file encodes and writes on a thread of its own (see
+    /// [`ParquetSink::with_writer_thread`]; default `false`). Before the first record. With
+    /// [`roll_bytes`](Self::with_roll_bytes) the size estimate then counts only the batches a
+    /// file's thread has written, so a file may overshoot `roll_bytes` by up to two more
+    /// batches of `min(row_group_size, 8192)` records.
+    pub fn with_writer_thread(mut self, on: bool) -> Result<Self> {
+        self.check_not_started("writer thread")?;
+        self.writer_thread = on;
         Ok(self)
     }
 
@@ -600,7 +614,8 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
             .and_then(|s| s.with_time_base(self.time))
             .and_then(|s| if drop { s.without_column(PARTITION_COLUMN) } else { Ok(s) })
             .and_then(|s| s.with_row_group_size(self.row_group_size))
-            .and_then(|s| s.with_zstd_level(self.zstd_level));
+            .and_then(|s| s.with_zstd_level(self.zstd_level))
+            .and_then(|s| s.with_writer_thread(self.writer_thread));
         let sink = match sink {
             Ok(s) => s,
             Err(e) => {

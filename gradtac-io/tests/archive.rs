@@ -328,6 +328,37 @@ async fn blocking_archive_finishes_on_error_cancel_and_drop() {
     );
 }
 
+/// Files written through writer threads (one per open file) are the inline files, byte for
+/// byte: partitioned by sensor, rolled by rows, several row groups per file.
+#[test]
+fn writer_threads_write_the_same_archive() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, thread: bool| {
+        let mut a = ParquetArchive::<TaxelFrame>::try_new(dir.path().join(name), FrameShape::unnamed(3).unwrap())
+            .unwrap()
+            .with_partitioning(Partitioning::Sensor)
+            .unwrap()
+            .with_roll_rows(2_500)
+            .unwrap()
+            .with_row_group_size(1_000)
+            .unwrap()
+            .with_writer_thread(thread)
+            .unwrap();
+        for k in 0..12_000 {
+            a.push(&frame(if k % 4 == 0 { "th" } else { "ff" }, k, 3)).unwrap();
+        }
+        a.finish().unwrap();
+        let files = tree(&dir.path().join(name));
+        let bytes: Vec<Vec<u8>> = files.iter().map(|f| fs::read(dir.path().join(name).join(f)).unwrap()).collect();
+        (files, bytes)
+    };
+    let (inline_files, inline) = write("inline", false);
+    let (thread_files, threaded) = write("thread", true);
+    assert_eq!(inline_files, thread_files);
+    assert_eq!(inline_files.len(), 4 + 2, "ff: 9000 rows in 4 files, th: 3000 in 2");
+    assert!(inline == threaded, "a writer thread changed a file");
+}
+
 /// Dropping the handle (a cancelled task) finishes the open files on the writer's thread;
 /// the runtime waits for it on shutdown.
 #[test]
