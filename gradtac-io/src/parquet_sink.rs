@@ -104,7 +104,7 @@ fn row_bytes(schema: &arrow_schema::Schema) -> usize {
 
 /// The Parquet encoder: on the pushing thread, or on a thread of its own.
 enum Writer {
-    Inline(ArrowWriter<File>),
+    Inline(Box<ArrowWriter<File>>),
     Thread(WriterThread),
 }
 
@@ -431,7 +431,7 @@ impl<T: ArrowRecord> ParquetSink<T> {
             self.writer = Some(if self.writer_thread {
                 Writer::Thread(WriterThread::spawn(writer, context)?)
             } else {
-                Writer::Inline(writer)
+                Writer::Inline(Box::new(writer))
             });
         }
         Ok(self.writer.as_mut().expect("set above"))
