@@ -802,11 +802,142 @@ impl Slip {
     }
 }
 
+/// Most windows of the ladder: `window_ns` doubles each step and stays within `i64`.
+const MAX_LADDER: usize = 64;
+
 /// A history's displacement along up over the window ladder `window_ns`, `2·window_ns`,
 /// `4·window_ns`, … (each ≤ `history_ns` but the first; least-squares slope × span), the
 /// largest in units of `distance_mm`, clamped to ±1; `None` before the history spans half a
 /// window.
+///
+/// Runs on every pattern or track point, so it is written for speed without changing a bit:
+/// the windows are nested (each holds the newest points of the next), so one pass from the
+/// newest point gives every window's sums of `t` and `u` (the running sums where the window
+/// ends), and a second pass accumulates every window's centred moments side by side —
+/// independent sums, each over the same points in the same order as a separate two-pass
+/// fit per window ([`displacement_reference`] in the tests, compared bit for bit).
 fn displacement_of(history: &VecDeque<(i64, f64)>, window_ns: i64, history_ns: i64, distance_mm: f64) -> Option<f64> {
+    let mid = history.back()?.0;
+    let span = mid - history.front().map_or(mid, |q| q.0);
+    // the ladder: (window, oldest time it holds)
+    let mut ws = [0i64; MAX_LADDER];
+    let mut nw = 0;
+    let mut w = window_ns;
+    while nw < MAX_LADDER {
+        if nw > 0 {
+            match w.checked_mul(2) {
+                Some(x) => w = x,
+                None => break,
+            }
+        }
+        if (nw > 0 && w > history_ns) || 2 * span < w {
+            break;
+        }
+        ws[nw] = w;
+        nw += 1;
+    }
+    if nw == 0 {
+        return None;
+    }
+    let t_of = |p: &(i64, f64)| (p.0 - mid) as f64 * 1e-9;
+    // pass 1: per window, the count and the sums of t and u over its points, newest first
+    let mut n = [0usize; MAX_LADDER];
+    let mut st = [0.0f64; MAX_LADDER];
+    let mut su = [0.0f64; MAX_LADDER];
+    let (mut cn, mut cst, mut csu) = (0usize, 0.0f64, 0.0f64);
+    let mut open = 0; // windows before `open` are closed
+    for p in history.iter().rev() {
+        while open < nw && p.0 < mid - ws[open] {
+            (n[open], st[open], su[open]) = (cn, cst, csu);
+            open += 1;
+        }
+        if open == nw {
+            break;
+        }
+        cn += 1;
+        cst += t_of(p);
+        csu += p.1;
+    }
+    for k in open..nw {
+        (n[k], st[k], su[k]) = (cn, cst, csu);
+    }
+    // windows of fewer than 3 points have no slope; the others hold at least their points
+    let first = (0..nw).find(|&k| n[k] >= 3).unwrap_or(nw);
+    let mut mt = [0.0f64; MAX_LADDER];
+    let mut mu = [0.0f64; MAX_LADDER];
+    for k in first..nw {
+        mt[k] = st[k] / n[k] as f64;
+        mu[k] = su[k] / n[k] as f64;
+    }
+    // pass 2: the centred moments of every window, in groups of up to 4 windows side by side
+    // (independent sums in registers); within a group, the points newest first in segments
+    // held by the same windows
+    let mut stt = [0.0f64; MAX_LADDER];
+    let mut stu = [0.0f64; MAX_LADDER];
+    let len = history.len();
+    let mut g = first;
+    while g < nw {
+        let end = (g + 4).min(nw);
+        let mut from = 0;
+        for j in g..end {
+            // points from..n[j] (newest first) lie in windows j..end
+            let pts = history.range(len - n[j]..len - from).rev().map(|p| (t_of(p), p.1));
+            let (a, b) = (j, end);
+            match b - a {
+                4 => centred::<4>(pts, &mt[a..b], &mu[a..b], &mut stt[a..b], &mut stu[a..b]),
+                3 => centred::<3>(pts, &mt[a..b], &mu[a..b], &mut stt[a..b], &mut stu[a..b]),
+                2 => centred::<2>(pts, &mt[a..b], &mu[a..b], &mut stt[a..b], &mut stu[a..b]),
+                _ => centred::<1>(pts, &mt[a..b], &mu[a..b], &mut stt[a..b], &mut stu[a..b]),
+            }
+            from = n[j];
+        }
+        g = end;
+    }
+    let mut moved: Option<f64> = None;
+    for k in first..nw {
+        if stt[k] > 0.0 {
+            let d = stu[k] / stt[k] * ws[k] as f64 * 1e-9 / distance_mm;
+            if moved.is_none_or(|m| d.abs() > m.abs()) {
+                moved = Some(d);
+            }
+        }
+    }
+    moved.map(|d| d.clamp(-1.0, 1.0))
+}
+
+/// `stt[k] += (t − mt[k])²`, `stu[k] += (t − mt[k])·(u − mu[k])` over the points, for `N`
+/// windows at once (each sum in the points' order; `N` fixed so the sums stay in registers).
+#[inline(always)]
+fn centred<const N: usize>(
+    pts: impl Iterator<Item = (f64, f64)>,
+    mt: &[f64],
+    mu: &[f64],
+    stt: &mut [f64],
+    stu: &mut [f64],
+) {
+    let (mt, mu): ([f64; N], [f64; N]) = (mt.try_into().expect("N means"), mu.try_into().expect("N means"));
+    let mut a: [f64; N] = stt.try_into().expect("N sums");
+    let mut b: [f64; N] = stu.try_into().expect("N sums");
+    for (t, u) in pts {
+        for k in 0..N {
+            let dt = t - mt[k];
+            a[k] += dt * dt;
+            b[k] += dt * (u - mu[k]);
+        }
+    }
+    stt.copy_from_slice(&a);
+    stu.copy_from_slice(&b);
+}
+
+/// [`displacement_of`] as first written: a separate two-pass fit per window (the tests'
+/// bit-for-bit reference).
+#[cfg(test)]
+fn displacement_reference(
+    history: &VecDeque<(i64, f64)>,
+    window_ns: i64,
+    history_ns: i64,
+    distance_mm: f64,
+) -> Option<f64> {
     let mid = history.back()?.0;
     let span = mid - history.front().map_or(mid, |q| q.0);
     let mut moved: Option<f64> = None;
@@ -837,6 +968,7 @@ fn regression(points: &VecDeque<(i64, f64, f64)>) -> Option<[f64; 2]> {
 
 /// Least-squares slope (mm/s) of the history points newer than `since` (ns); `None` with fewer
 /// than 3 points or no time spread.
+#[cfg(test)]
 fn slope_since(history: &VecDeque<(i64, f64)>, since: i64) -> Option<f64> {
     let t0 = history.back()?.0;
     ls_slope(history.iter().rev().take_while(|p| p.0 >= since).map(|p| ((p.0 - t0) as f64 * 1e-9, p.1)), 3)
@@ -1286,6 +1418,53 @@ mod tests {
             proptest::prop_assert_eq!(change_point(&h), direct(&h));
         }
     }
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+        /// The one-pass ladder gives the separate per-window fits' displacement bit for bit:
+        /// any history (repeated times, gaps, offsets far from the motion), any ladder.
+        #[test]
+        fn displacement_is_the_per_window_fit(
+            n in 0usize..300,
+            steps in proptest::collection::vec(0i64..40_000_000, 1..20),
+            values in proptest::collection::vec(-1.0f64..1.0, 1..40),
+            offset in proptest::sample::select(vec![0.0, -3.7, 250.0, 1e6]),
+            slope in -40.0f64..40.0,
+            window_ns in proptest::sample::select(vec![1_000_000i64, 30_000_000, 300_000_000, 1_000_000_000]),
+            ladder in 0u32..6,
+            distance_mm in 0.05f64..5.0,
+            regular in proptest::prelude::any::<bool>(),
+        ) {
+            // regular: 100 Hz, so points fall exactly on the windows' ends
+            let mut t = 1_700_000_000_000_000_000i64;
+            let h: VecDeque<(i64, f64)> = (0..n)
+                .map(|i| {
+                    t += if regular { 10_000_000 } else { steps[i % steps.len()] };
+                    (t, offset + slope * (i as f64) * 0.01 + values[i % values.len()])
+                })
+                .collect();
+            let history_ns = window_ns << ladder;
+            let got = displacement_of(&h, window_ns, history_ns, distance_mm);
+            let want = displacement_reference(&h, window_ns, history_ns, distance_mm);
+            proptest::prop_assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits));
+        }
+    }
+
+    /// The ladder's fits on a history that moves only lately: the longest window does not
+    /// win, a middle one does (the reference and the one-pass version agree on which).
+    #[test]
+    fn displacement_takes_the_largest_window_displacement() {
+        // 2.4 s at 100 Hz: still for 2.1 s, then 0.3 s at 10 mm/s
+        let h: VecDeque<(i64, f64)> =
+            (0..240).map(|i| (i as i64 * 10_000_000, if i < 210 { 0.0 } else { (i - 210) as f64 * 0.1 })).collect();
+        let got = displacement_of(&h, 300_000_000, 2_400_000_000, 5.0).unwrap();
+        assert_eq!(got.to_bits(), displacement_reference(&h, 300_000_000, 2_400_000_000, 5.0).unwrap().to_bits());
+        // the 0.3 s window sees the motion alone (3.0 mm of 5), the longer ones dilute it (2.9, 1.8, 1.0 mm)
+        assert!(got > 0.5 && got < 0.7, "{got}");
+        // a history shorter than half the first window has no displacement
+        let short: VecDeque<(i64, f64)> = (0..10).map(|i| (i as i64 * 10_000_000, i as f64)).collect();
+        assert_eq!(displacement_of(&short, 300_000_000, 2_400_000_000, 1.0), None);
+    }
+
     use gradtac_stream::StageExt;
 
     /// Track points of `ff` and `th` at 100 Hz; each finger's position from a function of t (s).
