@@ -1046,20 +1046,29 @@ fn change_point(h: &VecDeque<(i64, f64)>) -> Option<i64> {
     let mut approx: Vec<(f64, usize, f64)> = Vec::with_capacity(4 * (n / step + 1));
     for k in (3..n - 3).step_by(step) {
         let c = te[k];
-        for r in SOFT_STARTS_S {
-            let (mut sz, mut szz, mut szu) = (0.0, 0.0, 0.0);
-            let mut j = k;
-            while j < n && te[j] - c <= 0.0 {
-                j += 1;
-            }
+        let mut j = k;
+        while j < n && te[j] - c <= 0.0 {
+            j += 1;
+        }
+        // inside the soft starts (0 < d < r, z = d²/2r): Σd², Σd⁴, Σd²·u over the points of
+        // the longest, recorded where each shorter one ends (the screen's sums for every r
+        // in one pass: z-sums are these over 2r, 4r², 2r)
+        let mut soft = [(0usize, 0.0f64, 0.0f64, 0.0f64); SOFT_STARTS_S.len()];
+        let (mut s2, mut s4, mut s2u) = (0.0f64, 0.0f64, 0.0f64);
+        for (slot, &r) in soft.iter_mut().zip(&SOFT_STARTS_S) {
             while j < n && te[j] - c < r {
                 let d = te[j] - c;
-                let z = d * d / (2.0 * r);
-                sz += z;
-                szz += z * z;
-                szu += z * us[j];
+                let d2 = d * d;
+                s2 += d2;
+                s4 += d2 * d2;
+                s2u += d2 * us[j];
                 j += 1;
             }
+            *slot = (j, s2, s4, s2u);
+        }
+        for (&r, &(j, s2, s4, s2u)) in SOFT_STARTS_S.iter().zip(&soft) {
+            let (mut sz, mut szz, mut szu) =
+                if r > 0.0 { (s2 / (2.0 * r), s4 / (4.0 * r * r), s2u / (2.0 * r)) } else { (0.0, 0.0, 0.0) };
             // past the soft start z = t − e: a short tail directly, a long one (whose z has
             // the spread to absorb the cancellation) from the suffix sums
             let e = c + r / 2.0;
