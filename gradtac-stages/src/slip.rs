@@ -882,17 +882,17 @@ fn displacement_of(history: &VecDeque<(i64, f64)>, window_ns: i64, history_ns: i
     while g < nw {
         let end = (g + 4).min(nw);
         let mut from = 0;
-        for j in g..end {
-            // points from..n[j] (newest first) lie in windows j..end
-            let pts = history.range(len - n[j]..len - from).rev().map(|p| (t_of(p), p.1));
-            let (a, b) = (j, end);
+        for (a, &to) in n.iter().enumerate().take(end).skip(g) {
+            // points from..to (newest first) lie in windows a..end
+            let pts = history.range(len - to..len - from).rev().map(|p| (t_of(p), p.1));
+            let b = end;
             match b - a {
                 4 => centred::<4>(pts, &mt[a..b], &mu[a..b], &mut stt[a..b], &mut stu[a..b]),
                 3 => centred::<3>(pts, &mt[a..b], &mu[a..b], &mut stt[a..b], &mut stu[a..b]),
                 2 => centred::<2>(pts, &mt[a..b], &mu[a..b], &mut stt[a..b], &mut stu[a..b]),
                 _ => centred::<1>(pts, &mt[a..b], &mu[a..b], &mut stt[a..b], &mut stu[a..b]),
             }
-            from = n[j];
+            from = to;
         }
         g = end;
     }
