@@ -4,6 +4,9 @@
 //! ([`ParquetSink::with_writer_thread`]): the runner's thread only appends rows and hands
 //! over finished batches, so closing a row group (milliseconds of zstd) never stalls the
 //! frames of a live run, and a file run overlaps encoding with the chains on a second core.
+//! The exception is an archive rolled by bytes (`roll_bytes`), which encodes on the runner's
+//! thread so that its size estimate counts every batch and its files overshoot the limit by
+//! at most one batch.
 
 use crate::plan::{Plan, Tap};
 use crate::scene::{OutputSpec, Scene, SourceSpec};
@@ -262,8 +265,10 @@ fn open<T: Record + HasSensor + Timed>(
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
     Ok(match &o.archive {
         Some(cfg) => {
+            // rolled by bytes, the size estimate must include every batch pushed: encode inline
+            let threads = cfg.roll_bytes.is_none();
             let mut a =
-                ParquetArchive::from_config(path, shape, cfg)?.with_time_base(time)?.with_writer_thread(true)?;
+                ParquetArchive::from_config(path, shape, cfg)?.with_time_base(time)?.with_writer_thread(threads)?;
             if let Some(n) = row_group(o) {
                 a = a.with_row_group_size(n)?;
             }

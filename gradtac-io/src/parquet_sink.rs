@@ -25,6 +25,14 @@
 //! [`MAX_BATCH_BYTES`] of buffered records and [`MAX_ROW_GROUP_BYTES`] of row group, whatever
 //! `row_group_size` says (a row group is closed early when it reaches that size).
 //!
+//! # Writer thread
+//! By default the pushing thread also encodes and compresses: every
+//! `min(row_group_size, 8192)` records a [`push`](ParquetSink::push) hands a batch to the
+//! Parquet writer, and one that fills a row group compresses it there (milliseconds). With
+//! [`with_writer_thread`](ParquetSink::with_writer_thread) a thread of the sink's own does
+//! that work and `push` only appends and hands over (the files are the same, byte for byte);
+//! `gradtac run` uses it for its outputs.
+//!
 //! # Metadata
 //! The file's key-value metadata holds `gradtac.version` (this crate's version),
 //! `gradtac.schema` ([`ArrowRecord::SCHEMA_ID`], e.g. `frame/2`), the Arrow schema (key
