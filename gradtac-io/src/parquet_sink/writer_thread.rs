@@ -132,3 +132,63 @@ impl Drop for WriterThread {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use arrow_array::{Float64Array, Int64Array};
+    use arrow_schema::{DataType, Field, Schema};
+
+    fn batch(name: &str, dt: DataType, n: i64) -> RecordBatch {
+        let schema = Arc::new(Schema::new(vec![Field::new(name, dt.clone(), false)]));
+        let col: arrow_array::ArrayRef = match dt {
+            DataType::Int64 => Arc::new(Int64Array::from_iter_values(0..n)),
+            _ => Arc::new(Float64Array::from_iter_values((0..n).map(|x| x as f64))),
+        };
+        RecordBatch::try_new(schema, vec![col]).unwrap()
+    }
+
+    fn writer(dir: &std::path::Path) -> ArrowWriter<File> {
+        let file = File::create(dir.join("w.parquet")).unwrap();
+        ArrowWriter::try_new(file, batch("x", DataType::Int64, 1).schema(), None).unwrap()
+    }
+
+    /// A batch the writer rejects stops the thread; the error (naming the file) comes back at
+    /// the next hand-over and at close, never a panic or a hang.
+    #[test]
+    fn the_threads_error_surfaces_at_the_next_write_and_at_close() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut t = WriterThread::spawn(writer(dir.path()), "w.parquet".into()).unwrap();
+        t.write(batch("x", DataType::Int64, 10)).unwrap();
+        // another schema: ArrowWriter::write fails on the thread
+        let _ = t.write(batch("y", DataType::Float64, 10));
+        let mut failed = None;
+        for _ in 0..3 {
+            if let Err(e) = t.write(batch("x", DataType::Int64, 10)) {
+                failed = Some(e);
+                break;
+            }
+        }
+        let e = failed.expect("a write after the thread stopped fails");
+        assert!(e.to_string().contains("w.parquet"), "{e}");
+        assert!(t.close(Vec::new()).is_err(), "close after the failure fails");
+    }
+
+    /// Close writes the footer and the file reads back; the size estimate is that of the file.
+    #[test]
+    fn close_finishes_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut t = WriterThread::spawn(writer(dir.path()), "w.parquet".into()).unwrap();
+        for _ in 0..3 {
+            t.write(batch("x", DataType::Int64, 1000)).unwrap();
+        }
+        t.close(vec![KeyValue::new("k".to_string(), "v".to_string())]).unwrap();
+        let size = std::fs::metadata(dir.path().join("w.parquet")).unwrap().len();
+        assert_eq!(t.estimated_size(), size);
+        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(
+            File::open(dir.path().join("w.parquet")).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(reader.metadata().file_metadata().num_rows(), 3000);
+    }
+}
