@@ -292,21 +292,27 @@ struct Scratch {
     c_rows: Vec<u64>,
 }
 
+/// A fresh generation of `marks` (a slot is marked when it holds the current generation, so
+/// a new generation unmarks every slot at once) for `len` slots: the marks resized (and
+/// cleared) when `len` changed, cleared when the generation counter wraps.
+fn next_generation(marks: &mut Vec<u32>, gen: &mut u32, len: usize) -> u32 {
+    if marks.len() != len {
+        marks.clear();
+        marks.resize(len, 0);
+        *gen = 0;
+    }
+    *gen = gen.wrapping_add(1);
+    if *gen == 0 {
+        marks.iter_mut().for_each(|x| *x = 0);
+        *gen = 1;
+    }
+    *gen
+}
+
 impl Scratch {
-    /// A fresh stamp generation for a grid of `points` points: the stamps resized (and
-    /// cleared) when the grid changed, cleared when the generation counter wraps.
+    /// A fresh stamp generation for a grid of `points` points ([`next_generation`]).
     fn next_generation(&mut self, points: usize) -> u32 {
-        if self.stamp.len() != points {
-            self.stamp.clear();
-            self.stamp.resize(points, 0);
-            self.gen = 0;
-        }
-        self.gen = self.gen.wrapping_add(1);
-        if self.gen == 0 {
-            self.stamp.iter_mut().for_each(|x| *x = 0);
-            self.gen = 1;
-        }
-        self.gen
+        next_generation(&mut self.stamp, &mut self.gen, points)
     }
 }
 
@@ -1029,18 +1035,10 @@ impl MaxContourFinder {
         if s.a_rows.len() != ny {
             s.a_rows.clear();
             s.a_rows.resize(ny, 0);
-            s.a_known.clear();
-            s.a_known.resize(ny, 0);
             s.c_rows.clear();
             s.c_rows.resize(ny, 0);
-            s.a_gen = 0;
         }
-        s.a_gen = s.a_gen.wrapping_add(1);
-        if s.a_gen == 0 {
-            s.a_known.iter_mut().for_each(|x| *x = 0);
-            s.a_gen = 1;
-        }
-        let gen = s.a_gen;
+        let gen = next_generation(&mut s.a_known, &mut s.a_gen, ny);
         let (a_rows, a_known, c_rows) = (&mut s.a_rows, &mut s.a_known, &mut s.c_rows);
         let mut above = |z: &mut F, r: usize| -> u64 {
             if a_known[r] != gen {
