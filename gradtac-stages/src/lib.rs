@@ -42,6 +42,29 @@ pub mod slip_pattern;
 pub mod track;
 pub mod window;
 
+/// Helpers of the crate's own tests.
+#[cfg(test)]
+pub(crate) mod test_util {
+    /// Push `input` in chunks of `cut` items, each chunk's outputs collected in a vector of
+    /// its own and appended, as a caller feeding a stage piecewise does; the caller then
+    /// `finish`es. The chunking tests compare this with one run over the whole input.
+    pub(crate) fn push_in_chunks<T, O, E: std::fmt::Debug>(
+        input: &[T],
+        cut: usize,
+        mut push: impl FnMut(&T, &mut Vec<O>) -> Result<(), E>,
+    ) -> Vec<O> {
+        let mut out = Vec::new();
+        for chunk in input.chunks(cut) {
+            let mut part = Vec::new();
+            for x in chunk {
+                push(x, &mut part).unwrap();
+            }
+            out.extend(part);
+        }
+        out
+    }
+}
+
 pub use context::{FromConfig, StageContext};
 pub use error::{Error, Result};
 pub use event::{EventBatch, TactileEvent};

@@ -1592,14 +1592,7 @@ mod tests {
 
     fn chunked(cfg: &SlipConfig, input: &[TrackPoint], cut: usize) -> Vec<SlipEvent> {
         let mut s = Slip::try_new(cfg).unwrap();
-        let mut out = Vec::new();
-        for chunk in input.chunks(cut) {
-            let mut part = Vec::new();
-            for p in chunk {
-                s.push(p.clone(), &mut part).unwrap();
-            }
-            out.extend(part);
-        }
+        let mut out = crate::test_util::push_in_chunks(input, cut, |p, part| s.push(p.clone(), part));
         s.finish(&mut out).unwrap();
         out
     }
@@ -1770,14 +1763,7 @@ mod tests {
             let input = mixed(move |t| [0.0, vf * (t - 0.6).max(0.0)], move |t| [0.0, vt * (t - 0.6).max(0.0)]);
             let all = Slip::try_new(&track()).unwrap().run_inputs(input.clone()).unwrap();
             let mut s = Slip::try_new(&track()).unwrap();
-            let mut out = Vec::new();
-            for chunk in input.chunks(cut) {
-                let mut part = Vec::new();
-                for i in chunk {
-                    s.push_input(i.clone(), &mut part).unwrap();
-                }
-                out.extend(part);
-            }
+            let mut out = crate::test_util::push_in_chunks(&input, cut, |i, part| s.push_input(i.clone(), part));
             s.finish(&mut out).unwrap();
             proptest::prop_assert_eq!(&out, &all);
             // and a reset starts afresh

@@ -431,14 +431,7 @@ mod tests {
         assert_eq!(show(&s.run_all(input.clone()).unwrap()), show(&all), "reset starts afresh");
         proptest::proptest!(|(cut in 1usize..100)| {
             let mut s = stage();
-            let mut out = Vec::new();
-            for chunk in input.chunks(cut) {
-                let mut part = Vec::new();
-                for f in chunk {
-                    s.push(f.clone(), &mut part).unwrap();
-                }
-                out.extend(part);
-            }
+            let mut out = crate::test_util::push_in_chunks(&input, cut, |f, part| s.push(f.clone(), part));
             s.finish(&mut out).unwrap();
             proptest::prop_assert_eq!(show(&out), show(&all));
         });

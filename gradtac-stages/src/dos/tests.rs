@@ -528,14 +528,7 @@ fn stage_decides_per_span_and_chunking_does_not_matter() {
     assert_eq!(all.iter().map(|d| d.frames).collect::<Vec<_>>(), [64, 64, 64, 8]);
     for cut in [1, 5, 63, 64, 65, 199] {
         let mut s = DosClassifier::try_new(model.clone(), &l, Some(64)).unwrap();
-        let mut out = Vec::new();
-        for chunk in input.chunks(cut) {
-            let mut part = Vec::new();
-            for f in chunk {
-                s.push(f.clone(), &mut part).unwrap();
-            }
-            out.extend(part);
-        }
+        let mut out = crate::test_util::push_in_chunks(&input, cut, |f, part| s.push(f.clone(), part));
         s.finish(&mut out).unwrap();
         assert_eq!(out, all, "chunks of {cut}");
     }
