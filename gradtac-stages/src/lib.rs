@@ -42,6 +42,10 @@ pub mod slip_pattern;
 pub mod track;
 pub mod window;
 
+pub use context::{FromConfig, StageContext};
+pub use error::{Error, Result};
+pub use event::{EventBatch, TactileEvent};
+
 /// Helpers of the crate's own tests.
 #[cfg(test)]
 pub(crate) mod test_util {
@@ -64,7 +68,3 @@ pub(crate) mod test_util {
         out
     }
 }
-
-pub use context::{FromConfig, StageContext};
-pub use error::{Error, Result};
-pub use event::{EventBatch, TactileEvent};
