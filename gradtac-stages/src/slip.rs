@@ -736,8 +736,12 @@ impl Slip {
     /// The current displacements `(first, second)` along world up over the window, in units of
     /// `distance_mm` clamped to ±1 (`displacement` rule), when both are known.
     pub fn displacements(&self) -> Option<(f64, f64)> {
-        let e = |i: usize| self.fingers[i].evidence(self.cfg.evidence).map(|e| e.0);
-        Some((e(0)?, e(1)?))
+        Some((self.moved(0)?, self.moved(1)?))
+    }
+
+    /// Finger `i`'s displacement from the evidence the rule uses, when known.
+    fn moved(&self, i: usize) -> Option<f64> {
+        self.fingers[i].evidence(self.cfg.evidence).map(|e| e.0)
     }
 
     fn classify(&self, l: f64, r: f64, slip_level: f64, still_level: f64) -> SlipClass {
@@ -770,8 +774,7 @@ impl Slip {
                 (self.classify(l, r, th, th), l, r)
             }
             SlipMethod::Displacement => {
-                let e = |i: usize| self.fingers[i].evidence(self.cfg.evidence).map(|e| e.0);
-                let (a, b) = (e(0), e(1));
+                let (a, b) = (self.moved(0), self.moved(1));
                 if a.is_none() && b.is_none() {
                     return (SlipClass::Stable, f64::NAN, f64::NAN);
                 }
