@@ -1050,10 +1050,9 @@ fn change_point(h: &VecDeque<(i64, f64)>) -> Option<i64> {
         // flat to rounding: the candidates differ by noise alone; the direct rule decides
         return change_point_direct(&ts, h);
     }
-    let step = (n - 6).div_ceil(256).max(1);
     // closed-form error of every candidate, in the direct rule's order
-    let mut approx: Vec<(f64, usize, f64)> = Vec::with_capacity(4 * (n / step + 1));
-    for k in (3..n - 3).step_by(step) {
+    let mut approx: Vec<(f64, usize, f64)> = Vec::with_capacity(SOFT_STARTS_S.len() * candidates(n).len());
+    for k in candidates(n) {
         let c = te[k];
         let mut j = k;
         while j < n && te[j] - c <= 0.0 {
@@ -1118,6 +1117,12 @@ fn change_point(h: &VecDeque<(i64, f64)>) -> Option<i64> {
     best.map(|(_, k)| h[k].0)
 }
 
+/// The change-point candidates of a history of `n` ≥ 8 points: indices leaving 3 points on
+/// either side, at most 256 of them, evenly spaced.
+fn candidates(n: usize) -> std::iter::StepBy<std::ops::Range<usize>> {
+    (3..n - 3).step_by((n - 6).div_ceil(256).max(1))
+}
+
 /// The soft-start progress `z(t − c)` of a motion whose speed rises linearly over `r` seconds.
 fn soft_z(t: f64, c: f64, r: f64) -> f64 {
     let d = t - c;
@@ -1154,10 +1159,8 @@ fn direct_sse(ts: &[f64], h: &VecDeque<(i64, f64)>, c: f64, r: f64) -> Option<f6
 /// [`change_point`] by direct sums for every candidate: O(256 · 4 · 2n). The reference the
 /// screened search reproduces, and its fallback when the history is flat to rounding.
 fn change_point_direct(ts: &[f64], h: &VecDeque<(i64, f64)>) -> Option<i64> {
-    let n = h.len();
-    let step = (n - 6).div_ceil(256).max(1);
     let mut best: Option<(f64, usize)> = None;
-    for k in (3..n - 3).step_by(step) {
+    for k in candidates(h.len()) {
         for r in SOFT_STARTS_S {
             if let Some(sse) = direct_sse(ts, h, ts[k], r) {
                 if best.is_none_or(|(e, _)| sse < e) {
