@@ -78,6 +78,32 @@ where
     Ok(())
 }
 
+/// [`feed`] from an input that stages after this one read too (`shared`): its items are
+/// cloned into the stage and stay for them; otherwise they move, as in [`feed`].
+fn feed_from<S>(
+    stage: &mut S,
+    input: &mut Vec<S::In>,
+    shared: bool,
+    out: &mut Vec<S::Out>,
+    finish: bool,
+) -> Result<(), Error>
+where
+    S: Stage,
+    S::In: Clone,
+    S::Error: Into<Error>,
+{
+    if !shared {
+        return feed(stage, input, out, finish);
+    }
+    for x in input.iter() {
+        stage.push(x.clone(), out).map_err(Into::into)?;
+    }
+    if finish {
+        stage.finish(out).map_err(Into::into)?;
+    }
+    Ok(())
+}
+
 /// The change detector's effective settings, for `explain`.
 fn describe_detector(l: &gradtac_stages::locate::LocateConfig) -> String {
     format!(
@@ -426,31 +452,20 @@ impl SensorChain {
         self.points.clear();
         self.raw.extend(frame);
         sinks.write_all(&self.taps[Tap::Source as usize], &self.raw)?;
+        // the raw frames move into the last stage that reads them (the contact-location front
+        // ends, then the normalisation), and are copied for those before it
         if let Some(d) = &mut self.dos {
-            // the raw frames move when nothing after the classifier reads them
-            if self.centroid.is_none() && self.raw_change.is_none() && self.normalise.is_none() {
-                feed(d, &mut self.raw, &mut self.decisions, finish)?;
-            } else {
-                feed(d, &mut self.raw.clone(), &mut self.decisions, finish)?;
-            }
+            let shared = self.centroid.is_some() || self.raw_change.is_some() || self.normalise.is_some();
+            feed_from(d, &mut self.raw, shared, &mut self.decisions, finish)?;
             sinks.write_all(&self.taps[Tap::Dos as usize], &self.decisions)?;
             self.decisions.clear();
         }
-        // the contact-location front ends on the raw frames; the centroid (the default) takes
-        // them without a copy when nothing after it reads them
         if let Some(c) = &mut self.centroid {
-            if self.raw_change.is_none() && self.normalise.is_none() {
-                feed(c, &mut self.raw, &mut self.contours, finish)?;
-            } else {
-                feed(c, &mut self.raw.clone(), &mut self.contours, finish)?;
-            }
+            let shared = self.raw_change.is_some() || self.normalise.is_some();
+            feed_from(c, &mut self.raw, shared, &mut self.contours, finish)?;
         }
         if let Some(r) = &mut self.raw_change {
-            if self.normalise.is_none() {
-                feed(r, &mut self.raw, &mut self.windows, finish)?;
-            } else {
-                feed(r, &mut self.raw.clone(), &mut self.windows, finish)?;
-            }
+            feed_from(r, &mut self.raw, self.normalise.is_some(), &mut self.windows, finish)?;
         }
         self.process_events(finish, sinks)?;
         sinks.write_all(&self.taps[Tap::Window as usize], &self.windows)?;
@@ -470,11 +485,7 @@ impl SensorChain {
         }
         sinks.write_all(&self.taps[Tap::Contour as usize], &self.contours)?;
         if let Some(f) = &mut self.force {
-            if self.track.is_none() {
-                feed(f, &mut self.contours, &mut self.forces, finish)?;
-            } else {
-                feed(f, &mut self.contours.clone(), &mut self.forces, finish)?;
-            }
+            feed_from(f, &mut self.contours, self.track.is_some(), &mut self.forces, finish)?;
             sinks.write_all(&self.taps[Tap::Force as usize], &self.forces)?;
             self.forces.clear();
         }
@@ -485,7 +496,8 @@ impl SensorChain {
         feed(st, &mut self.contours, &mut self.points, finish)?;
         sinks.write_all(&self.taps[Tap::Track as usize], &self.points)?;
         if let Some(sv) = &mut self.servo {
-            feed(sv, &mut self.points.clone(), &mut self.commands, finish)?;
+            // the points stay for the runner's slip stage
+            feed_from(sv, &mut self.points, true, &mut self.commands, finish)?;
             sinks.write_all(&self.taps[Tap::Servo as usize], &self.commands)?;
             self.commands.clear();
         }
