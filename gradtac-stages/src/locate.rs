@@ -173,6 +173,23 @@ impl LocateConfig {
     }
 }
 
+/// Per-taxel baseline (the mean) and noise σ of one frame from calibration frames `calib` of
+/// `n` taxels: σ is the larger of the white-noise estimate from first differences and the
+/// scatter about a straight line (which also holds slow, correlated fluctuations but not a
+/// linear trend such as a settling contact), floored at a quarter of the median taxel's (a
+/// taxel that happened to read constant is not infinitely sensitive) — the estimate the
+/// noise-adaptive event threshold uses ([`crate::events::noise_sigma`]) — and here also at a
+/// part per million of the value. The change detector's calibration, and the slip pattern's.
+pub(crate) fn baseline_and_noise(calib: &[Vec<f64>], n: usize) -> (Vec<f64>, Vec<f64>) {
+    let m = calib.len() as f64;
+    let mean: Vec<f64> = (0..n).map(|i| calib.iter().map(|f| f[i]).sum::<f64>() / m).collect();
+    let mut sigma = crate::events::noise_sigma(calib, n);
+    for (s, x) in sigma.iter_mut().zip(&mean) {
+        *s = s.max(1e-6 * x.abs());
+    }
+    (mean, sigma)
+}
+
 /// One frame's changes ([`ChangeDetector::push`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Changes {
@@ -261,45 +278,14 @@ impl ChangeDetector {
     }
 
     fn finish_calibration(&mut self) {
-        let m = self.calib.len() as f64;
-        let n = self.n;
-        let mean: Vec<f64> = (0..n).map(|i| self.calib.iter().map(|f| f[i]).sum::<f64>() / m).collect();
-        // σ: the larger of the white-noise estimate from first differences and the scatter
-        // about a straight line (which also holds slow, correlated fluctuations but not a
-        // linear trend such as a settling contact), floored at a quarter of the median taxel's
-        // (a taxel that happened to read constant is not infinitely sensitive) — the estimate
-        // the noise-adaptive event threshold uses — and here also at a part per million of the value
-        let mut sigma = crate::events::noise_sigma(&self.calib, n);
-        for (s, x) in sigma.iter_mut().zip(&mean) {
-            *s = s.max(1e-6 * x.abs());
-        }
-        // the calibration frames seed the window with their mean
-        self.baseline = mean;
-        self.sigma = sigma;
+        (self.baseline, self.sigma) = baseline_and_noise(&self.calib, self.n);
         self.calib.clear();
     }
 
     /// Push one frame; the relative changes are then in [`ChangeDetector::relative`].
     pub fn push(&mut self, f: &TaxelFrame, stage: &'static str) -> Result<Changes> {
-        if f.values.len() != self.n {
-            return Err(Error::TaxelCount {
-                stage,
-                sensor: f.sensor.to_string(),
-                seq: f.seq,
-                expected: self.n,
-                got: f.values.len(),
-            });
-        }
-        if let Some((i, &v)) = f.values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(Error::BadValue {
-                stage,
-                sensor: f.sensor.to_string(),
-                seq: f.seq,
-                taxel: i,
-                value: v,
-                reason: "not finite",
-            });
-        }
+        crate::error::check_taxel_count(stage, &f.sensor, f.seq, self.n, f.values.len())?;
+        crate::error::check_finite(stage, f)?;
         if self.sensor.as_ref().is_some_and(|s| s != &f.sensor) {
             return Err(Error::BadInput {
                 stage,

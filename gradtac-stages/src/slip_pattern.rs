@@ -192,25 +192,8 @@ impl SlipPattern {
         let f = &mut self.fingers[i];
         let bad_input =
             |reason: String| Error::BadInput { stage: STAGE, sensor: frame.sensor.to_string(), seq: frame.seq, reason };
-        if frame.values.len() != n {
-            return Err(Error::TaxelCount {
-                stage: STAGE,
-                sensor: frame.sensor.to_string(),
-                seq: frame.seq,
-                expected: n,
-                got: frame.values.len(),
-            });
-        }
-        if let Some((taxel, &value)) = frame.values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(Error::BadValue {
-                stage: STAGE,
-                sensor: frame.sensor.to_string(),
-                seq: frame.seq,
-                taxel,
-                value,
-                reason: "not finite",
-            });
-        }
+        crate::error::check_taxel_count(STAGE, &frame.sensor, frame.seq, n, frame.values.len())?;
+        crate::error::check_finite(STAGE, frame)?;
         let dt = match f.last {
             Some((t, _)) if frame.time < t => {
                 return Err(bad_input(format!("time {:?} is before the previous frame's {t:?}", frame.time)))
@@ -260,12 +243,9 @@ impl SlipPattern {
         if f.baseline.is_empty() {
             f.calib.push(frame.values.clone());
             if f.calib.len() >= self.calibrate {
-                let m = f.calib.len() as f64;
-                f.baseline = (0..n).map(|k| f.calib.iter().map(|c| c[k]).sum::<f64>() / m).collect();
-                f.sigma = crate::events::noise_sigma(&f.calib, n);
-                for (s, x) in f.sigma.iter_mut().zip(&f.baseline) {
-                    *s = s.max(1e-6 * x.abs()).max(1e-12);
-                }
+                // the contact locator's calibration; σ also kept from 0 (z divides by it)
+                (f.baseline, f.sigma) = crate::locate::baseline_and_noise(&f.calib, n);
+                f.sigma.iter_mut().for_each(|s| *s = s.max(1e-12));
                 f.calib = Vec::new();
             }
             out.push(p);
