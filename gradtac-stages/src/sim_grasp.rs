@@ -406,7 +406,7 @@ pub fn slip_inputs(
     cfg: &crate::slip::SlipConfig,
 ) -> crate::Result<Vec<crate::slip::SlipInput>> {
     use crate::slip::SlipInput;
-    use gradtac_stream::{Layout, Stage};
+    use gradtac_stream::Layout;
     let layout = Layout::biotac_sp();
     let mut pattern =
         cfg.reads_frames().then(|| crate::slip_pattern::SlipPattern::try_new(cfg, [&layout, &layout])).transpose()?;
@@ -414,7 +414,7 @@ pub fn slip_inputs(
     let mut pts = Vec::new();
     for (k, f) in frames.iter().enumerate() {
         if let Some(p) = &mut pattern {
-            p.push(f.clone(), &mut pts)?;
+            p.push_frame(f, &mut pts)?;
             out.extend(pts.drain(..).map(SlipInput::Pattern));
         }
         out.extend(tracks.get(k).into_iter().flatten().cloned().map(SlipInput::Track));
