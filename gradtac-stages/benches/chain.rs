@@ -1,6 +1,9 @@
 //! The default event chain end to end, per raw frame: normalise → Savitzky–Golay → events →
 //! window → natural neighbour 64 × 64 → maximal contour → track, every stage at its default
-//! settings (the settings of a bare scene).
+//! settings (those of a bare scene with `[stages.locate] method = "events"`: the event threshold
+//! measured as 4 σ of each taxel's noise). `<input>_dense` is the stress case: the same chain
+//! with a fixed event threshold τ = 0.05, which puts nearly every window of the real recording
+//! in contact, so every window pays the full surface and contour.
 //!
 //! `cargo bench -p gradtac-stages --bench chain`
 //!
@@ -20,7 +23,7 @@
 //! frames per second. The three variants give identical track points (checked before timing).
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use gradtac_stages::contour::{Contour, ContourConfig};
-use gradtac_stages::events::{Events, EventsConfig};
+use gradtac_stages::events::{Events, EventsConfig, Threshold};
 use gradtac_stages::interpolate::{Interpolate, InterpolateConfig};
 use gradtac_stages::normalise::{Normalise, NormaliseConfig};
 use gradtac_stages::peak::SurfaceContour;
@@ -69,27 +72,37 @@ pub fn tile(rows: &[Vec<f64>], times: usize) -> Vec<TaxelFrame> {
         .collect()
 }
 
+/// The stress case's fixed event threshold: on the real recording nearly every window holds a
+/// contact (2,759 of 2,790), so every window pays the full surface and contour.
+const DENSE_TAU: f64 = 0.05;
+
 fn front(
     n: usize,
+    dense: bool,
 ) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::window::WindowAggregate, Error = gradtac_stream::Error> {
+    let ecfg = if dense {
+        EventsConfig { threshold: Threshold::Uniform(DENSE_TAU), ..Default::default() }
+    } else {
+        EventsConfig::default()
+    };
     Normalise::try_new(n, &NormaliseConfig::default())
         .unwrap()
         .then(SavGol::try_with_rate(n, SavGolConfig::default(), RATE_HZ).unwrap())
-        .then(Events::try_new(n, EventsConfig::default()).unwrap())
+        .then(Events::try_new(n, ecfg).unwrap())
         .then(Window::try_new(&WindowConfig::default()).unwrap())
 }
 
-fn run_peak(layout: &Layout, frames: Vec<TaxelFrame>, peak_local: bool) -> Vec<TrackPoint> {
+fn run_peak(layout: &Layout, frames: Vec<TaxelFrame>, dense: bool, peak_local: bool) -> Vec<TrackPoint> {
     let sc = SurfaceContour::try_new(&InterpolateConfig::default(), &ContourConfig::default(), layout)
         .unwrap()
         .with_peak_local(peak_local);
-    let mut c = front(layout.len()).then(sc).then(Track::try_new(&TrackConfig::default()).unwrap());
+    let mut c = front(layout.len(), dense).then(sc).then(Track::try_new(&TrackConfig::default()).unwrap());
     c.run_all(frames).unwrap()
 }
 
-fn run_full(layout: &Layout, frames: Vec<TaxelFrame>, incremental: bool) -> Vec<TrackPoint> {
+fn run_full(layout: &Layout, frames: Vec<TaxelFrame>, dense: bool, incremental: bool) -> Vec<TrackPoint> {
     let icfg = InterpolateConfig { incremental, ..Default::default() };
-    let mut c = front(layout.len())
+    let mut c = front(layout.len(), dense)
         .then(Interpolate::try_new(&icfg, layout).unwrap())
         .then(Contour::try_new(&ContourConfig::default()).unwrap())
         .then(Track::try_new(&TrackConfig::default()).unwrap());
@@ -118,76 +131,84 @@ fn inputs(layout: &Layout) -> Vec<(&'static str, Vec<TaxelFrame>)> {
 
 fn bench(c: &mut Criterion) {
     let layout = Layout::biotac_sp();
-    for (name, frames) in inputs(&layout) {
-        let peak = format!("{:?}", run_peak(&layout, frames.clone(), false));
-        // Debug prints every float exactly (shortest round trip) and NaN as NaN
-        let same = peak == format!("{:?}", run_full(&layout, frames.clone(), false));
-        assert!(same, "{name}: fused and full grid disagree");
-        assert!(peak == format!("{:?}", run_peak(&layout, frames.clone(), true)), "{name}: peak-local differs");
-        let windows = front(layout.len()).run_all(frames.clone()).unwrap();
-        let mut sc = SurfaceContour::<gradtac_stages::window::WindowAggregate>::try_new(
-            &InterpolateConfig::default(),
-            &ContourConfig::default(),
-            &layout,
-        )
-        .unwrap()
-        .with_peak_local(true);
-        let contours = sc.run_all(windows.clone()).unwrap();
-        let contacts = contours.iter().filter(|c| c.outcome.contact().is_some()).count();
-        eprintln!(
-            "chain/{name}: {} frames, {} windows, {contacts} contacts; peak-local evaluation: {:.0} grid points per window (of {})",
-            frames.len(),
-            windows.len(),
-            sc.finder().points_evaluated() as f64 / windows.len() as f64,
-            sc.finder().interpolator().grid().len()
-        );
-        // the surface → contour part alone, per window
-        let mut g = c.benchmark_group(format!("contour_of_window/{name}"));
-        g.throughput(Throughput::Elements(windows.len() as u64));
-        g.bench_function("peak", |b| {
-            b.iter_batched(
-                || windows.clone(),
-                |w| {
-                    let mut sc = SurfaceContour::<gradtac_stages::window::WindowAggregate>::try_new(
-                        &InterpolateConfig::default(),
-                        &ContourConfig::default(),
-                        &layout,
-                    )
-                    .unwrap();
-                    black_box(sc.run_all(w).unwrap())
-                },
-                BatchSize::LargeInput,
-            )
-        });
-        g.bench_function("full", |b| {
-            b.iter_batched(
-                || windows.clone(),
-                |w| {
-                    let mut st = Interpolate::try_new(&InterpolateConfig::default(), &layout)
-                        .unwrap()
-                        .then(Contour::try_new(&ContourConfig::default()).unwrap());
-                    black_box(st.run_all(w).unwrap())
-                },
-                BatchSize::LargeInput,
-            )
-        });
-        g.finish();
-        let mut g = c.benchmark_group(format!("chain/{name}"));
-        g.throughput(Throughput::Elements(frames.len() as u64));
-        g.bench_function("peak", |b| {
-            b.iter_batched(|| frames.clone(), |f| black_box(run_peak(&layout, f, false)), BatchSize::LargeInput)
-        });
-        g.bench_function("peak_local", |b| {
-            b.iter_batched(|| frames.clone(), |f| black_box(run_peak(&layout, f, true)), BatchSize::LargeInput)
-        });
-        g.bench_function("full", |b| {
-            b.iter_batched(|| frames.clone(), |f| black_box(run_full(&layout, f, false)), BatchSize::LargeInput)
-        });
-        g.bench_function("full_incremental", |b| {
-            b.iter_batched(|| frames.clone(), |f| black_box(run_full(&layout, f, true)), BatchSize::LargeInput)
-        });
-        g.finish();
+    for (input, frames) in inputs(&layout) {
+        for dense in [false, true] {
+            let name = if dense { format!("{input}_dense") } else { input.to_string() };
+            bench_one(c, &layout, &name, &frames, dense);
+        }
     }
+}
+
+fn bench_one(c: &mut Criterion, layout: &Layout, name: &str, frames: &[TaxelFrame], dense: bool) {
+    let frames = frames.to_vec();
+    let peak = format!("{:?}", run_peak(layout, frames.clone(), dense, false));
+    // Debug prints every float exactly (shortest round trip) and NaN as NaN
+    let same = peak == format!("{:?}", run_full(layout, frames.clone(), dense, false));
+    assert!(same, "{name}: fused and full grid disagree");
+    assert!(peak == format!("{:?}", run_peak(layout, frames.clone(), dense, true)), "{name}: peak-local differs");
+    let windows = front(layout.len(), dense).run_all(frames.clone()).unwrap();
+    let mut sc = SurfaceContour::<gradtac_stages::window::WindowAggregate>::try_new(
+        &InterpolateConfig::default(),
+        &ContourConfig::default(),
+        layout,
+    )
+    .unwrap()
+    .with_peak_local(true);
+    let contours = sc.run_all(windows.clone()).unwrap();
+    let contacts = contours.iter().filter(|c| c.outcome.contact().is_some()).count();
+    eprintln!(
+        "chain/{name}: {} frames, {} windows, {contacts} contacts; peak-local evaluation: {:.0} grid points per window (of {})",
+        frames.len(),
+        windows.len(),
+        sc.finder().points_evaluated() as f64 / windows.len() as f64,
+        sc.finder().interpolator().grid().len()
+    );
+    // the surface → contour part alone, per window
+    let mut g = c.benchmark_group(format!("contour_of_window/{name}"));
+    g.throughput(Throughput::Elements(windows.len() as u64));
+    g.bench_function("peak", |b| {
+        b.iter_batched(
+            || windows.clone(),
+            |w| {
+                let mut sc = SurfaceContour::<gradtac_stages::window::WindowAggregate>::try_new(
+                    &InterpolateConfig::default(),
+                    &ContourConfig::default(),
+                    layout,
+                )
+                .unwrap();
+                black_box(sc.run_all(w).unwrap())
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    g.bench_function("full", |b| {
+        b.iter_batched(
+            || windows.clone(),
+            |w| {
+                let mut st = Interpolate::try_new(&InterpolateConfig::default(), layout)
+                    .unwrap()
+                    .then(Contour::try_new(&ContourConfig::default()).unwrap());
+                black_box(st.run_all(w).unwrap())
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    g.finish();
+    let mut g = c.benchmark_group(format!("chain/{name}"));
+    g.throughput(Throughput::Elements(frames.len() as u64));
+    g.bench_function("peak", |b| {
+        b.iter_batched(|| frames.clone(), |f| black_box(run_peak(layout, f, dense, false)), BatchSize::LargeInput)
+    });
+    g.bench_function("peak_local", |b| {
+        b.iter_batched(|| frames.clone(), |f| black_box(run_peak(layout, f, dense, true)), BatchSize::LargeInput)
+    });
+    g.bench_function("full", |b| {
+        b.iter_batched(|| frames.clone(), |f| black_box(run_full(layout, f, dense, false)), BatchSize::LargeInput)
+    });
+    g.bench_function("full_incremental", |b| {
+        b.iter_batched(|| frames.clone(), |f| black_box(run_full(layout, f, dense, true)), BatchSize::LargeInput)
+    });
+    g.finish();
 }
 
 criterion_group! {

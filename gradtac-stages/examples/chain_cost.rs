@@ -7,9 +7,12 @@
 //! ```
 //! The recording defaults to `shared/data/biotacsp-dos/aw/bottle0.csv` beside the
 //! workspace (or under `$GRADTAC_SHARED_DATA`), tiled 10 times; without it a simulated grasp
-//! is used. Prints frames, windows, contacts, wall ns per frame.
+//! is used. Prints frames, windows, contacts, wall ns per frame. Every variant runs the stage
+//! defaults (the event threshold measured as 4 σ of each taxel's noise); with the suffix
+//! `_dense` (`peak_dense`, `digest_dense`, …) the events use a fixed τ = 0.05 instead, the
+//! stress case in which nearly every window of the real recording holds a contact.
 use gradtac_stages::contour::{Contour, ContourConfig};
-use gradtac_stages::events::{Events, EventsConfig};
+use gradtac_stages::events::{Events, EventsConfig, Threshold};
 use gradtac_stages::interpolate::{Interpolate, InterpolateConfig};
 use gradtac_stages::normalise::{Normalise, NormaliseConfig};
 use gradtac_stages::peak::SurfaceContour;
@@ -23,11 +26,20 @@ use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-fn front(n: usize) -> impl Stage<In = TaxelFrame, Out = WindowAggregate, Error = gradtac_stream::Error> {
+/// The stress case's fixed event threshold (the `_dense` variants): nearly every window of the
+/// real recording holds a contact.
+const DENSE_TAU: f64 = 0.05;
+
+fn front(n: usize, dense: bool) -> impl Stage<In = TaxelFrame, Out = WindowAggregate, Error = gradtac_stream::Error> {
+    let ecfg = if dense {
+        EventsConfig { threshold: Threshold::Uniform(DENSE_TAU), ..Default::default() }
+    } else {
+        EventsConfig::default()
+    };
     Normalise::try_new(n, &NormaliseConfig::default())
         .unwrap()
         .then(SavGol::try_with_rate(n, SavGolConfig::default(), 100.0).unwrap())
-        .then(Events::try_new(n, EventsConfig::default()).unwrap())
+        .then(Events::try_new(n, ecfg).unwrap())
         .then(Window::try_new(&WindowConfig::default()).unwrap())
 }
 
@@ -64,11 +76,15 @@ fn frames(layout: &Layout, path: Option<PathBuf>) -> Vec<TaxelFrame> {
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let variant = args.next().unwrap_or_else(|| "peak".into());
+    let arg = args.next().unwrap_or_else(|| "peak".into());
+    let (variant, dense) = match arg.strip_suffix("_dense") {
+        Some(v) => (v.to_string(), true),
+        None => (arg.clone(), false),
+    };
     let repeats: usize = args.next().map_or(20, |s| s.parse().expect("repeats"));
     let layout = Layout::biotac_sp();
     let input = frames(&layout, args.next().map(PathBuf::from));
-    let windows = front(layout.len()).run_all(input.clone()).unwrap();
+    let windows = front(layout.len(), dense).run_all(input.clone()).unwrap();
     let icfg = InterpolateConfig::default();
     let ccfg = ContourConfig::default();
     let t0 = Instant::now();
@@ -76,13 +92,13 @@ fn main() {
     for _ in 0..repeats {
         let f = input.clone();
         outputs += match variant.as_str() {
-            "peak" => front(layout.len())
+            "peak" => front(layout.len(), dense)
                 .then(SurfaceContour::try_new(&icfg, &ccfg, &layout).unwrap())
                 .then(Track::try_new(&TrackConfig::default()).unwrap())
                 .run_all(f)
                 .unwrap()
                 .len(),
-            "full" | "full_incremental" => front(layout.len())
+            "full" | "full_incremental" => front(layout.len(), dense)
                 .then(
                     Interpolate::try_new(
                         &InterpolateConfig { incremental: variant != "full", ..icfg.clone() },
@@ -95,8 +111,8 @@ fn main() {
                 .run_all(f)
                 .unwrap()
                 .len(),
-            "front" => front(layout.len()).run_all(f).unwrap().len(),
-            "peak_local" => front(layout.len())
+            "front" => front(layout.len(), dense).run_all(f).unwrap().len(),
+            "peak_local" => front(layout.len(), dense)
                 .then(SurfaceContour::try_new(&icfg, &ccfg, &layout).unwrap().with_peak_local(true))
                 .then(Track::try_new(&TrackConfig::default()).unwrap())
                 .run_all(f)
@@ -119,7 +135,7 @@ fn main() {
                 // a fingerprint of every output (Debug prints each float exactly): compare it
                 // across commits to check that a speed-up changed no bit
                 use std::hash::{Hash, Hasher};
-                let track = front(layout.len())
+                let track = front(layout.len(), dense)
                     .then(SurfaceContour::try_new(&icfg, &ccfg, &layout).unwrap())
                     .then(Track::try_new(&TrackConfig::default()).unwrap())
                     .run_all(f)
@@ -128,7 +144,13 @@ fn main() {
                 let contours = s.run_all(windows.clone()).unwrap();
                 let mut h = std::collections::hash_map::DefaultHasher::new();
                 format!("{track:?}{contours:?}").hash(&mut h);
-                println!("digest: {:016x} ({} track points, {} contours)", h.finish(), track.len(), contours.len());
+                let contacts = contours.iter().filter(|c| c.outcome.contact().is_some()).count();
+                println!(
+                    "digest: {:016x} ({} track points, {} contours, {contacts} in contact)",
+                    h.finish(),
+                    track.len(),
+                    contours.len()
+                );
                 track.len()
             }
             v => panic!("unknown variant {v}"),
@@ -137,7 +159,7 @@ fn main() {
     }
     let per = t0.elapsed().as_nanos() as f64 / (repeats * input.len()) as f64;
     println!(
-        "{variant}: {} frames × {repeats}, {} windows, {outputs} outputs, {per:.0} ns/frame wall ({:.0} frames/s)",
+        "{arg}: {} frames × {repeats}, {} windows, {outputs} outputs, {per:.0} ns/frame wall ({:.0} frames/s)",
         input.len(),
         windows.len(),
         1e9 / per
