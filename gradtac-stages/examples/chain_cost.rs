@@ -23,6 +23,7 @@ use gradtac_stages::track::{Track, TrackConfig};
 use gradtac_stages::window::{Window, WindowAggregate, WindowConfig};
 use gradtac_stream::{Layout, SensorId, Stage, StageExt, TaxelFrame, Timestamp};
 use std::hint::black_box;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -145,7 +146,9 @@ fn main() {
                 let mut h = std::collections::hash_map::DefaultHasher::new();
                 format!("{track:?}{contours:?}").hash(&mut h);
                 let contacts = contours.iter().filter(|c| c.outcome.contact().is_some()).count();
-                println!(
+                // a closed stdout (`| head -1`) is not an error of this measurement
+                let _ = writeln!(
+                    std::io::stdout(),
                     "digest: {:016x} ({} track points, {} contours, {contacts} in contact)",
                     h.finish(),
                     track.len(),
@@ -158,7 +161,8 @@ fn main() {
         black_box(outputs);
     }
     let per = t0.elapsed().as_nanos() as f64 / (repeats * input.len()) as f64;
-    println!(
+    let _ = writeln!(
+        std::io::stdout(),
         "{arg}: {} frames × {repeats}, {} windows, {outputs} outputs, {per:.0} ns/frame wall ({:.0} frames/s)",
         input.len(),
         windows.len(),

@@ -11,7 +11,10 @@
 //! - **Dense** (default): the whole surface into a buffer kept between frames, by the weight
 //!   table's column runs with zero taxels skipped
 //!   ([`WeightTable::apply_again`](crate::interpolate::WeightTable::apply_again)), then
-//!   [`MaxContourFinder::find_slice`].
+//!   [`MaxContourFinder::find_slice`]. First, a rigorous upper bound of the whole surface (the
+//!   largest taxel value widened by the rounding slack below, and the fill value) settles a
+//!   window whose bound is under `min_peak` as "below min peak" without summing the grid — a
+//!   window without events costs `O(taxels)`.
 //! - **Peak-local** ([`SurfaceContour::with_peak_local`]): the maximal contour needs the
 //!   surface's peak (first in raster order), its finite minimum (for counted levels) and the
 //!   values in and around the peak's region — not all `nx·ny` points. Grid points are
@@ -113,6 +116,9 @@ pub struct PeakIndex {
     // the support); empty when too large or when weights can be negative
     wmax: Vec<f64>,
     n_taxels: usize,
+    // some block holds a point with a non-empty row / with an empty row
+    any_row: bool,
+    any_empty: bool,
 }
 
 /// Largest dense `blocks × taxels` table of per-block weight maxima kept.
@@ -186,6 +192,7 @@ impl PeakIndex {
         if !nonneg {
             wmax = Vec::new();
         }
+        let (any_row, any_empty) = (has_row.iter().any(|&r| r), has_empty.iter().any(|&e| e));
         PeakIndex {
             nx,
             ny,
@@ -201,6 +208,8 @@ impl PeakIndex {
             fill: table.fill(),
             wmax,
             n_taxels,
+            any_row,
+            any_empty,
         }
     }
 
@@ -505,6 +514,9 @@ impl PeakContourFinder {
         assert_eq!(v.len(), table.taxels(), "one value per taxel");
         let grid = self.interp.grid().clone();
         if !self.peak_local {
+            if let Some(outcome) = self.below_min_peak(v) {
+                return outcome;
+            }
             if self.dense.len() == grid.len() {
                 table.apply_again(v, &mut self.dense);
             } else {
@@ -537,6 +549,40 @@ impl PeakContourFinder {
             }
         };
         outcome
+    }
+
+    /// `Some(BelowMinPeak)` when a rigorous upper bound of every surface value is under
+    /// `min_peak`: the full grid's outcome, settled without evaluating it. The bound is the
+    /// largest taxel value widened by the table's rounding slack (`ε·max|v|`, clamped to 0 when
+    /// every value is ≤ 0 and the weights are non-negative), and the fill value where points
+    /// have no weights — the union of the block bounds of the peak-local evaluation, so just as
+    /// rigorous. `O(taxels)`; a window without events (all zeros) costs no grid sum. `None`
+    /// (evaluate) for values beyond `±1e300`, a table without any weighted point, or one whose
+    /// weights are not convex within rounding.
+    fn below_min_peak(&self, v: &[f64]) -> Option<ContourOutcome> {
+        let index = self.interp.peak_index();
+        if !index.any_row || index.eps.is_nan() || index.eps >= 1e-6 {
+            return None;
+        }
+        let (mut a, mut m) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &x in v {
+            if !(x.abs() <= MAX_LAZY) {
+                return None;
+            }
+            a = if x < a { x } else { a };
+            m = if x > m { x } else { m };
+        }
+        let mut hi = m + index.eps * a.abs().max(m.abs());
+        if index.nonneg && m <= 0.0 {
+            hi = hi.min(0.0);
+        }
+        if index.any_empty && !index.fill.is_nan() {
+            if !index.fill.is_finite() {
+                return None;
+            }
+            hi = hi.max(index.fill);
+        }
+        (hi < self.finder.config().min_peak).then_some(ContourOutcome::NoContact(NoContact::BelowMinPeak))
     }
 
     /// Forget the previous frame (a discontinuity): nothing is carried between frames.
@@ -693,6 +739,8 @@ mod tests {
             proptest::collection::vec(-4i8..5, 24).prop_map(|v| v.into_iter().map(f64::from).collect()),
             proptest::collection::vec(-1e6f64..1e6, 24),
             proptest::collection::vec(prop_oneof![Just(0.0), 1e-300f64..1e-290, 1e290f64..1e300], 24),
+            // at and just under the default min_peak (1): the dense path's early exit
+            proptest::collection::vec(prop_oneof![Just(1.0), Just(1.0 - f64::EPSILON / 2.0), 0.999f64..1.0], 24),
         ]
     }
 
