@@ -566,7 +566,7 @@ impl PeakContourFinder {
         }
         let (mut a, mut m) = (f64::INFINITY, f64::NEG_INFINITY);
         for &x in v {
-            if !(x.abs() <= MAX_LAZY) {
+            if x.is_nan() || x.abs() > MAX_LAZY {
                 return None;
             }
             a = if x < a { x } else { a };
