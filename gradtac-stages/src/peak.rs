@@ -47,11 +47,12 @@
 //! None: one [`ContourFrame`] per input.
 //!
 //! # Trade-offs
-//! Per window of the default chain (signed 10-frame windows, natural neighbour 64 × 64, 10
-//! levels, min area 1 mm²) on a real BioTacSP-DoS recording tiled 10 times (2,790 windows,
-//! 2,759 with contact): instructions per raw frame of the whole chain (raw frame → track
+//! Per window of the dense stress chain (fixed event τ = 0.05, the events' default before it
+//! became the measured 4 σ; signed 10-frame windows, natural neighbour 64 × 64, 10 levels, min
+//! area 1 mm²) on a real BioTacSP-DoS recording tiled 10 times (2,790 windows, 2,759 with
+//! contact): instructions per raw frame of the whole chain (raw frame → track
 //! point) from `valgrind --tool=callgrind` on
-//! `cargo run --release -p gradtac-stages --example chain_cost -- <variant> <1|2>` (the
+//! `cargo run --release -p gradtac-stages --example chain_cost -- <variant>_dense <1|2>` (the
 //! difference of 2 and 1 repeats, so set-up cancels; repeatable to the instruction), and
 //! criterion medians of `cargo bench -p gradtac-stages --bench chain` (2-core machine shared
 //! with other builds: wall times are noisy, the instruction counts are not).
