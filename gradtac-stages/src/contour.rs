@@ -662,24 +662,28 @@ fn link(s: &mut Scratch) -> Vec<Isoline> {
     s.used.clear();
     s.used.resize(n, false);
     let mut lines = Vec::new();
+    // segments not yet in a line: a line has at most that many points plus one, so its points
+    // are allocated once (a maximal contour is usually one ring holding every segment)
+    let mut left = n;
     // open lines start where no segment ends
     for i in 0..n {
         if s.end_of[s.segs[i].from as usize] == NONE {
-            lines.push(follow(s, i, false));
+            lines.push(follow(s, i, false, &mut left));
         }
     }
     for i in 0..n {
         if !s.used[i] {
-            lines.push(follow(s, i, true));
+            lines.push(follow(s, i, true, &mut left));
         }
     }
     lines
 }
 
-fn follow(s: &mut Scratch, first: usize, closed: bool) -> Isoline {
-    let mut pts = Vec::new();
+fn follow(s: &mut Scratch, first: usize, closed: bool, left: &mut usize) -> Isoline {
+    let mut pts = Vec::with_capacity(*left + 1);
     let mut i = first;
     loop {
+        *left -= 1;
         s.used[i] = true;
         let g = s.segs[i];
         pts.push(g.a);
@@ -822,6 +826,17 @@ impl MaxContourFinder {
         // peak (first in raster order) and finite minimum
         let (mut zmax, mut zmin, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
         scan(z, &mut zmax, &mut zmin, &mut at);
+        self.find_in(&mut Dense { z, nx, ny }, grid, zmax, zmin, at)
+    }
+
+    /// As [`find_slice`](Self::find_slice) for a surface whose values outside the chunk
+    /// `ranges` (see [`scan_in`]) are all NaN: the peak and minimum are looked for in the
+    /// ranges only. The outcome is identical.
+    pub(crate) fn find_slice_in(&mut self, z: &[f64], ranges: &[(u32, u32)], grid: &Grid) -> ContourOutcome {
+        let (ny, nx) = (grid.ny(), grid.nx());
+        assert_eq!(z.len(), nx * ny, "surface length must match its grid");
+        let (mut zmax, mut zmin, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
+        scan_in(z, ranges, &mut zmax, &mut zmin, &mut at);
         self.find_in(&mut Dense { z, nx, ny }, grid, zmax, zmin, at)
     }
 
@@ -998,13 +1013,15 @@ impl MaxContourFinder {
         let disc = (0.25 * (mu20 - mu02).powi(2) + mu11 * mu11).sqrt();
         let (l1, l2) = (half_tr + disc, half_tr - disc);
         let ecc = if l1 > 0.0 { (1.0 - (l2 / l1).max(0.0)).max(0.0).sqrt() } else { 0.0 };
-        let polygon = rings[outer.0].points.iter().map(to_mm).collect();
-        let holes = rings
-            .iter()
-            .enumerate()
-            .filter(|&(i, _)| i != outer.0)
-            .map(|(_, r)| r.points.iter().map(to_mm).collect())
-            .collect();
+        // the rings' own vectors, converted to mm in place
+        let in_mm = |mut pts: Vec<[f64; 2]>| {
+            pts.iter_mut().for_each(|p| *p = to_mm(p));
+            pts
+        };
+        let mut rings = rings;
+        let polygon = in_mm(std::mem::take(&mut rings[outer.0].points));
+        let holes =
+            rings.into_iter().enumerate().filter(|&(i, _)| i != outer.0).map(|(_, r)| in_mm(r.points)).collect();
         Some(MaxContour {
             level,
             polygon,
@@ -1276,19 +1293,32 @@ impl MaxContourFinder {
 /// Finite maximum (first index in raster order) and minimum. Eight independent lanes with
 /// `x < m ? x : m` selects (NaN never selected) so the compiler vectorises the pass.
 fn scan(v: &[f64], zmax: &mut f64, zmin: &mut f64, at: &mut usize) {
-    const L: usize = 8;
+    let full = v.len() - v.len() % SCAN_LANES;
+    scan_in(v, &[(0, full as u32)], zmax, zmin, at);
+}
+
+/// Lanes of [`scan`].
+pub(crate) const SCAN_LANES: usize = 8;
+
+/// [`scan`] over the chunks of [`SCAN_LANES`] values in `ranges` (each `[a, b)` with `a`, `b`
+/// multiples of `SCAN_LANES`, ascending, within the whole chunks of `v`) and the remainder of `v`
+/// after its last whole chunk. Bit-identical to [`scan`] when every value outside the ranges
+/// (and the remainder) is NaN: each value meets the same lane in the same order, and NaN is
+/// never selected.
+pub(crate) fn scan_in(v: &[f64], ranges: &[(u32, u32)], zmax: &mut f64, zmin: &mut f64, at: &mut usize) {
+    const L: usize = SCAN_LANES;
     let mut mn = [f64::INFINITY; L];
     let mut mx = [f64::NEG_INFINITY; L];
-    let chunks = v.chunks_exact(L);
-    let rest = chunks.remainder();
-    for c in chunks {
-        for l in 0..L {
-            let x = c[l];
-            mn[l] = if x < mn[l] { x } else { mn[l] };
-            mx[l] = if x > mx[l] { x } else { mx[l] };
+    for &(a, b) in ranges {
+        for c in v[a as usize..b as usize].chunks_exact(L) {
+            for l in 0..L {
+                let x = c[l];
+                mn[l] = if x < mn[l] { x } else { mn[l] };
+                mx[l] = if x > mx[l] { x } else { mx[l] };
+            }
         }
     }
-    for &x in rest {
+    for &x in &v[v.len() - v.len() % L..] {
         mn[0] = if x < mn[0] { x } else { mn[0] };
         mx[0] = if x > mx[0] { x } else { mx[0] };
     }
@@ -1297,15 +1327,19 @@ fn scan(v: &[f64], zmax: &mut f64, zmin: &mut f64, at: &mut usize) {
         return;
     }
     // first index of the maximum: find the chunk with a branch-free (vectorisable) test, then
-    // the element inside it
+    // the element inside it (the ranges' values, then the remainder's)
     const C: usize = 16;
-    let mut base = 0;
-    for c in v.chunks(C) {
-        if c.iter().fold(false, |a, &x| a | (x == hi)) {
-            *at = base + c.iter().position(|&x| x == hi).expect("the chunk holds the maximum");
-            break;
+    let rest = v.len() - v.len() % L;
+    let spans = ranges.iter().map(|&(a, b)| (a as usize, b as usize)).chain(std::iter::once((rest, v.len())));
+    'found: for (a, b) in spans {
+        let mut base = a;
+        for c in v[a..b].chunks(C) {
+            if c.iter().fold(false, |acc, &x| acc | (x == hi)) {
+                *at = base + c.iter().position(|&x| x == hi).expect("the chunk holds the maximum");
+                break 'found;
+            }
+            base += c.len();
         }
-        base += c.len();
     }
     *zmax = hi;
     *zmin = mn.iter().copied().fold(f64::INFINITY, |a, b| if b < a { b } else { a });
@@ -1422,6 +1456,49 @@ mod tests {
         let (mut hi, mut lo, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
         scan(&[f64::NAN; 9], &mut hi, &mut lo, &mut at);
         assert_eq!(at, usize::MAX);
+    }
+
+    #[test]
+    fn scan_in_ranges_equals_the_whole_scan_when_the_rest_is_nan() {
+        // every chunk pattern of a few lengths, values with ±0, ties of the maximum and NaN
+        for n in [8usize, 9, 16, 31, 40, 67] {
+            let chunks = n / SCAN_LANES;
+            for mask in 0u32..(1 << chunks) {
+                for seed in 0..4u64 {
+                    let mut v: Vec<f64> = (0..n)
+                        .map(|i| match (i as u64 * 7 + seed * 3) % 6 {
+                            0 => 0.0,
+                            1 => -0.0,
+                            2 => 3.0,
+                            3 => f64::NAN,
+                            4 => -2.5,
+                            _ => 3.0 - (i as f64) * 1e-3,
+                        })
+                        .collect();
+                    let mut ranges: Vec<(u32, u32)> = Vec::new();
+                    for c in 0..chunks {
+                        let (a, b) = (c * SCAN_LANES, (c + 1) * SCAN_LANES);
+                        if mask >> c & 1 == 0 {
+                            v[a..b].iter_mut().for_each(|x| *x = f64::NAN);
+                        } else {
+                            match ranges.last_mut() {
+                                Some((_, e)) if *e == a as u32 => *e = b as u32,
+                                _ => ranges.push((a as u32, b as u32)),
+                            }
+                        }
+                    }
+                    let mut whole = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
+                    scan(&v, &mut whole.0, &mut whole.1, &mut whole.2);
+                    let mut part = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
+                    scan_in(&v, &ranges, &mut part.0, &mut part.1, &mut part.2);
+                    assert_eq!(
+                        (whole.0.to_bits(), whole.1.to_bits(), whole.2),
+                        (part.0.to_bits(), part.1.to_bits(), part.2),
+                        "n {n} mask {mask:b} seed {seed}"
+                    );
+                }
+            }
+        }
     }
 
     mod fast_equals_reference {

@@ -309,9 +309,18 @@ pub struct WeightTable {
     inside: Vec<bool>,
     n_taxels: usize,
     fill: f64,
+    // the whole chunks of `contour::SCAN_LANES` points that can hold a finite value (a point
+    // with weights, or any point when the fill is not NaN), merged into ranges `[a, b)`
+    finite_chunks: Vec<(u32, u32)>,
 }
 
 impl WeightTable {
+    /// Ranges of whole [`SCAN_LANES`](crate::contour::SCAN_LANES)-point chunks outside which
+    /// (up to the remainder after the last whole chunk) every surface value is NaN.
+    pub(crate) fn finite_chunks(&self) -> &[(u32, u32)] {
+        &self.finite_chunks
+    }
+
     /// Number of grid points (rows).
     pub fn points(&self) -> usize {
         self.starts.len() - 1
@@ -484,7 +493,21 @@ impl WeightTable {
                 _ => weighted_runs.push((p as u32, p as u32 + 1)),
             }
         }
+        let lanes = crate::contour::SCAN_LANES;
+        let whole = (rows.len() / lanes) * lanes;
+        let mut finite_chunks: Vec<(u32, u32)> = Vec::new();
+        for a in (0..whole).step_by(lanes) {
+            let finite = !fill.is_nan() || (a..a + lanes).any(|p| starts[p] != starts[p + 1]);
+            if !finite {
+                continue;
+            }
+            match finite_chunks.last_mut() {
+                Some((_, b)) if *b == a as u32 => *b += lanes as u32,
+                _ => finite_chunks.push((a as u32, (a + lanes) as u32)),
+            }
+        }
         WeightTable {
+            finite_chunks,
             starts,
             taxels,
             weights,

@@ -525,7 +525,8 @@ impl PeakContourFinder {
                 table.apply(v, &mut self.dense);
             }
             self.full += grid.len() as u64;
-            return self.finder.find_slice(&self.dense, &grid);
+            // points without weights hold the fill: with NaN there, the peak scan skips them
+            return self.finder.find_slice_in(&self.dense, table.finite_chunks(), &grid);
         }
         let index = self.interp.peak_index();
         let big = v.iter().any(|x| x.is_nan() || x.abs() > MAX_LAZY);
