@@ -1300,6 +1300,20 @@ fn scan(v: &[f64], zmax: &mut f64, zmin: &mut f64, at: &mut usize) {
 /// Lanes of [`scan`].
 pub(crate) const SCAN_LANES: usize = 8;
 
+/// The lanes' minima and maxima carried over the whole chunks of `v` (a loop of its own, so
+/// that the lanes stay in registers and the compiler vectorises it).
+#[inline(never)]
+fn lanes(v: &[f64], mut mn: [f64; SCAN_LANES], mut mx: [f64; SCAN_LANES]) -> ([f64; SCAN_LANES], [f64; SCAN_LANES]) {
+    for c in v.chunks_exact(SCAN_LANES) {
+        for l in 0..SCAN_LANES {
+            let x = c[l];
+            mn[l] = if x < mn[l] { x } else { mn[l] };
+            mx[l] = if x > mx[l] { x } else { mx[l] };
+        }
+    }
+    (mn, mx)
+}
+
 /// [`scan`] over the chunks of [`SCAN_LANES`] values in `ranges` (each `[a, b)` with `a`, `b`
 /// multiples of `SCAN_LANES`, ascending, within the whole chunks of `v`) and the remainder of `v`
 /// after its last whole chunk. Bit-identical to [`scan`] when every value outside the ranges
@@ -1310,13 +1324,7 @@ pub(crate) fn scan_in(v: &[f64], ranges: &[(u32, u32)], zmax: &mut f64, zmin: &m
     let mut mn = [f64::INFINITY; L];
     let mut mx = [f64::NEG_INFINITY; L];
     for &(a, b) in ranges {
-        for c in v[a as usize..b as usize].chunks_exact(L) {
-            for l in 0..L {
-                let x = c[l];
-                mn[l] = if x < mn[l] { x } else { mn[l] };
-                mx[l] = if x > mx[l] { x } else { mx[l] };
-            }
-        }
+        (mn, mx) = lanes(&v[a as usize..b as usize], mn, mx);
     }
     for &x in &v[v.len() - v.len() % L..] {
         mn[0] = if x < mn[0] { x } else { mn[0] };
