@@ -1334,21 +1334,30 @@ pub(crate) fn scan_in(v: &[f64], ranges: &[(u32, u32)], zmax: &mut f64, zmin: &m
     if hi == f64::NEG_INFINITY {
         return;
     }
-    // first index of the maximum: find the chunk with a branch-free (vectorisable) test, then
-    // the element inside it (the ranges' values, then the remainder's)
-    const C: usize = 16;
+    // first index of the maximum: only the lanes whose maximum equals it hold it, and in each
+    // such lane the first value equal to it is looked for (a stride of `L` through the ranges,
+    // then the remainder for lane 0, which took the remainder's values)
     let rest = v.len() - v.len() % L;
-    let spans = ranges.iter().map(|&(a, b)| (a as usize, b as usize)).chain(std::iter::once((rest, v.len())));
-    'found: for (a, b) in spans {
-        let mut base = a;
-        for c in v[a..b].chunks(C) {
-            if c.iter().fold(false, |acc, &x| acc | (x == hi)) {
-                *at = base + c.iter().position(|&x| x == hi).expect("the chunk holds the maximum");
-                break 'found;
-            }
-            base += c.len();
+    let mut first = usize::MAX;
+    for l in 0..L {
+        if mx[l] != hi {
+            continue;
         }
+        let mut found = usize::MAX;
+        'lane: for &(a, b) in ranges {
+            for i in (a as usize + l..(b as usize).min(first)).step_by(L) {
+                if v[i] == hi {
+                    found = i;
+                    break 'lane;
+                }
+            }
+        }
+        if found == usize::MAX && l == 0 {
+            found = v[rest..].iter().position(|&x| x == hi).map_or(usize::MAX, |i| rest + i);
+        }
+        first = first.min(found);
     }
+    *at = first;
     *zmax = hi;
     *zmin = mn.iter().copied().fold(f64::INFINITY, |a, b| if b < a { b } else { a });
 }
@@ -1504,6 +1513,15 @@ mod tests {
                         (part.0.to_bits(), part.1.to_bits(), part.2),
                         "n {n} mask {mask:b} seed {seed}"
                     );
+                    // and against brute force: the first index equal to the maximum
+                    let finite: Vec<f64> = v.iter().copied().filter(|x| !x.is_nan()).collect();
+                    if finite.is_empty() {
+                        assert_eq!(part.2, usize::MAX);
+                    } else {
+                        let max = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                        assert_eq!(part.0, max);
+                        assert_eq!(part.2, v.iter().position(|&x| x == max).unwrap(), "n {n} mask {mask:b}");
+                    }
                 }
             }
         }
