@@ -1339,8 +1339,8 @@ pub(crate) fn scan_in(v: &[f64], ranges: &[(u32, u32)], zmax: &mut f64, zmin: &m
     // then the remainder for lane 0, which took the remainder's values)
     let rest = v.len() - v.len() % L;
     let mut first = usize::MAX;
-    for l in 0..L {
-        if mx[l] != hi {
+    for (l, &m) in mx.iter().enumerate() {
+        if m != hi {
             continue;
         }
         let mut found = usize::MAX;
