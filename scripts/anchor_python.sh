@@ -7,10 +7,10 @@
 #
 # Makes a venv in $CARGO_TARGET_DIR/anchor-venv (or target/anchor-venv) with numpy, scipy,
 # scikit-image and pyarrow; tiles ../shared/data/biotacsp-dos/aw/bottle0.csv 10 times; runs
-# `gradtac run` with the stage-default events (fixed τ = 0.001: nearly every window in
-# contact) writing the window, surface and contour taps; then scripts/anchor_python.py times
+# `gradtac run` with a fixed event threshold τ = 0.05 (the dense stress case of
+# benches/chain.rs: nearly every window in contact) writing the window, surface and contour taps; then scripts/anchor_python.py times
 # the Python step per window and checks that it finds the same contacts. gradtac's time for
-# the same step is `cargo bench -p gradtac-stages --bench chain -- contour_of_window/real/peak`.
+# the same step is `cargo bench -p gradtac-stages --bench chain -- contour_of_window/real_dense/peak`.
 # Skipped when the data is absent.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -44,6 +44,8 @@ source = { csv = "tiled.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }
 [stages.locate]
 method = "events"
 event_tau_sigmas = 0.0
+[stages.events]
+threshold = 0.05
 [[output]]
 tap = "window"
 path = "out/window.parquet"

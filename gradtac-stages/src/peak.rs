@@ -59,7 +59,8 @@
 //!
 //! | variant | real: instructions / frame | real: criterion median (2,790 frames) | simulated grasp: instructions / frame |
 //! |---|---|---|---|
-//! | fused, dense (default, what a scene runs) | **136 k** | 29.1 / 29.0 ms (96 k frames/s) | **122 k** |
+//! | fused, dense (default, what a scene runs) | **127 k** | 25.2 ms (111 k frames/s) | **114 k** |
+//! | the same before the peak scan skipped NaN chunks and found the peak's index by lanes, and rings were allocated once | 136 k | 29.1 / 29.0 ms (96 k frames/s) | 122 k |
 //! | fused, peak-local (≈ 2,100 of 4,096 points evaluated: the row masks read whole rows) | 257 k | — | — |
 //! | `Interpolate` → `Contour` (a surface array per window, what a scene runs when the surface is tapped) | 166 k | — | 152 k |
 //! | before the row masks (component by runs, window copied for marching): fused, dense | 166 k | 35.5 / 36.4 ms (79 k / 77 k frames/s) | 125 k |
@@ -67,12 +68,13 @@
 //! | before the row masks: `Interpolate` → `Contour` | 196 k | — | 155 k |
 //! | before any of these speed-ups (row sums, a flood, march and link per level): `Interpolate` → `Contour` | 465 k | 83.0 / 125.1 ms (34 k / 22 k frames/s) | 301 k |
 //!
-//! The front end (normalise → Savitzky–Golay → events → window) is 18 k of these instructions
-//! per frame on the real recording (26 k on the simulated one); the dense surface (column
-//! runs, zero taxels skipped) ≈ 43 k; the maximal contour ≈ 74 k (was 104 k before the row
-//! masks; the scan for peak and minimum is 10.5 k of it, linking and measuring the rings
-//! ≈ 9 k; the rest grows with the region: ≈ 900 points at the accepted level, 1.35 levels
-//! tried per window on average). Criterion medians of the fused dense chain: two runs each, old and new
+//! The front end (normalise → Savitzky–Golay → events → window) and the track are ≈ 19 k of
+//! these instructions per frame on the real recording; the dense surface (column runs, zero
+//! taxels skipped) ≈ 42 k; the scan for peak and minimum ≈ 14 k (only the 8-point chunks
+//! inside the hull, the peak's index looked for in its lane alone);
+//! the region search, marching, linking and measuring ≈ 51 k (≈ 900 points at the accepted
+//! level, 1.35 levels tried per window on average; 104 k for the whole maximal contour before
+//! the row masks). Criterion medians of the fused dense chain: two runs each, old and new
 //! binaries alternating, load average ≈ 3–4.5 (simulated grasp, 200 frames: 2.18 / 1.97 ms
 //! before, 2.01 / 1.76 ms after). Earlier medians of the other rows (before the row masks,
 //! alternating runs at load 2.5–4): peak-local 89.0 / 98.1 ms, `Interpolate` → `Contour`
