@@ -11,10 +11,11 @@
 //! - **Dense** (default): the whole surface into a buffer kept between frames, by the weight
 //!   table's column runs with zero taxels skipped
 //!   ([`WeightTable::apply_again`](crate::interpolate::WeightTable::apply_again)), then
-//!   [`MaxContourFinder::find_slice`]. First, a rigorous upper bound of the whole surface (the
-//!   largest taxel value widened by the rounding slack below, and the fill value) settles a
-//!   window whose bound is under `min_peak` as "below min peak" without summing the grid — a
-//!   window without events costs `O(taxels)`.
+//!   [`MaxContourFinder::find_slice`]'s search (its scan for peak and minimum reads only the
+//!   8-point chunks that hold a point with weights when the fill is NaN). First, a rigorous
+//!   upper bound of the whole surface (the largest taxel value widened by the rounding slack
+//!   below, and the fill value) settles a window whose bound is under `min_peak` as "below min
+//!   peak" without summing the grid — a window without events costs `O(taxels)`.
 //! - **Peak-local** ([`SurfaceContour::with_peak_local`]): the maximal contour needs the
 //!   surface's peak (first in raster order), its finite minimum (for counted levels) and the
 //!   values in and around the peak's region — not all `nx·ny` points. Grid points are
