@@ -390,13 +390,9 @@ impl<T: ArrowRecord> ParquetSink<T> {
             self.flush_batch()?;
             // (a writer thread checks this itself after each batch)
             if let Some(Writer::Inline(w)) = self.writer.as_mut() {
-                if w.in_progress_size() <= MAX_ROW_GROUP_BYTES {
-                    return Ok(());
-                }
-                let context = self.partial.display().to_string();
-                let flushed = w.flush().map_err(|e| arrow_error(context, e));
-                self.failed |= flushed.is_err();
-                flushed?;
+                let bounded = bound_row_group(w, &self.partial.display().to_string());
+                self.failed |= bounded.is_err();
+                bounded?;
             }
         }
         Ok(())
@@ -472,19 +468,31 @@ impl<T: ArrowRecord> ParquetSink<T> {
             let metadata = self.metadata.clone();
             let metadata: Vec<KeyValue> = metadata.into_iter().map(|(k, v)| KeyValue::new(k, v)).collect();
             match self.writer()? {
-                Writer::Inline(writer) => {
-                    for kv in metadata {
-                        writer.append_key_value_metadata(kv);
-                    }
-                    writer.finish().map_err(|e| arrow_error(&context, e))?;
-                    writer.inner().sync_all().map_err(|source| Error::Io { path: PathBuf::from(&context), source })
-                }
+                Writer::Inline(writer) => finish_writer(writer, metadata, &context),
                 Writer::Thread(t) => t.close(metadata),
             }
         });
         self.failed = true; // closed: nothing more may be written
         result
     }
+}
+
+/// Close the open row group early when it holds more than [`MAX_ROW_GROUP_BYTES`] (after a
+/// batch was written; the pushing thread's writer or the writer thread's).
+fn bound_row_group(w: &mut ArrowWriter<File>, context: &str) -> Result<()> {
+    if w.in_progress_size() > MAX_ROW_GROUP_BYTES {
+        w.flush().map_err(|e| arrow_error(context, e))?;
+    }
+    Ok(())
+}
+
+/// Write the footer with `metadata` and `fsync` the file (`context` names it in errors).
+fn finish_writer(w: &mut ArrowWriter<File>, metadata: Vec<KeyValue>, context: &str) -> Result<()> {
+    for kv in metadata {
+        w.append_key_value_metadata(kv);
+    }
+    w.finish().map_err(|e| arrow_error(context, e))?;
+    w.inner().sync_all().map_err(|source| Error::Io { path: PathBuf::from(context), source })
 }
 
 /// The writer's settings: zstd at `level`, row groups of `row_group_size` rows, and

@@ -10,7 +10,7 @@
 //!
 //! [`ParquetSink::with_writer_thread`]: super::ParquetSink::with_writer_thread
 
-use super::MAX_ROW_GROUP_BYTES;
+use super::{bound_row_group, finish_writer};
 use crate::records::arrow_error;
 use crate::{Error, Result};
 use arrow_array::RecordBatch;
@@ -47,26 +47,17 @@ impl WriterThread {
             .name("gradtac-parquet".into())
             .spawn(move || -> Result<()> {
                 let mut w = writer;
-                let fail = |e: &dyn std::fmt::Display| arrow_error(ctx.as_str(), e);
                 // a closed channel without `Close` (the sink was dropped): leave the file as
                 // it is, like a sink dropped on the pushing thread
                 while let Ok(msg) = rx.recv() {
                     match msg {
                         Msg::Batch(b) => {
-                            w.write(&b).map_err(|e| fail(&e))?;
-                            if w.in_progress_size() > MAX_ROW_GROUP_BYTES {
-                                w.flush().map_err(|e| fail(&e))?;
-                            }
+                            w.write(&b).map_err(|e| arrow_error(ctx.as_str(), e))?;
+                            bound_row_group(&mut w, &ctx)?;
                             seen.store((w.bytes_written() + w.in_progress_size()) as u64, Ordering::Relaxed);
                         }
                         Msg::Close(metadata) => {
-                            for kv in metadata {
-                                w.append_key_value_metadata(kv);
-                            }
-                            w.finish().map_err(|e| fail(&e))?;
-                            w.inner()
-                                .sync_all()
-                                .map_err(|source| Error::Io { path: PathBuf::from(ctx.as_str()), source })?;
+                            finish_writer(&mut w, metadata, &ctx)?;
                             seen.store(w.bytes_written() as u64, Ordering::Relaxed);
                             return Ok(());
                         }
