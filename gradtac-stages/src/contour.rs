@@ -821,12 +821,7 @@ impl MaxContourFinder {
     /// # Panics
     /// If `z.len() != grid.len()`.
     pub fn find_slice(&mut self, z: &[f64], grid: &Grid) -> ContourOutcome {
-        let (ny, nx) = (grid.ny(), grid.nx());
-        assert_eq!(z.len(), nx * ny, "surface length must match its grid");
-        // peak (first in raster order) and finite minimum
-        let (mut zmax, mut zmin, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
-        scan(z, &mut zmax, &mut zmin, &mut at);
-        self.find_in(&mut Dense { z, nx, ny }, grid, zmax, zmin, at)
+        self.find_slice_in(z, &whole_chunks(z.len()), grid)
     }
 
     /// As [`find_slice`](Self::find_slice) for a surface whose values outside the chunk
@@ -835,6 +830,7 @@ impl MaxContourFinder {
     pub(crate) fn find_slice_in(&mut self, z: &[f64], ranges: &[(u32, u32)], grid: &Grid) -> ContourOutcome {
         let (ny, nx) = (grid.ny(), grid.nx());
         assert_eq!(z.len(), nx * ny, "surface length must match its grid");
+        // peak (first in raster order) and finite minimum
         let (mut zmax, mut zmin, mut at) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
         scan_in(z, ranges, &mut zmax, &mut zmin, &mut at);
         self.find_in(&mut Dense { z, nx, ny }, grid, zmax, zmin, at)
@@ -1290,15 +1286,21 @@ impl MaxContourFinder {
     }
 }
 
-/// Finite maximum (first index in raster order) and minimum. Eight independent lanes with
-/// `x < m ? x : m` selects (NaN never selected) so the compiler vectorises the pass.
+/// Finite maximum (first index in raster order) and minimum of all of `v` ([`scan_in`] over
+/// [`whole_chunks`]; the tests' entry).
+#[cfg(test)]
 fn scan(v: &[f64], zmax: &mut f64, zmin: &mut f64, at: &mut usize) {
-    let full = v.len() - v.len() % SCAN_LANES;
-    scan_in(v, &[(0, full as u32)], zmax, zmin, at);
+    scan_in(v, &whole_chunks(v.len()), zmax, zmin, at);
 }
 
-/// Lanes of [`scan`].
+/// Lanes of [`scan_in`]: eight independent lanes with `x < m ? x : m` selects (NaN never
+/// selected), so the compiler vectorises the pass.
 pub(crate) const SCAN_LANES: usize = 8;
+
+/// The one range of every whole chunk of a slice of `len` values, for [`scan_in`].
+fn whole_chunks(len: usize) -> [(u32, u32); 1] {
+    [(0, (len - len % SCAN_LANES) as u32)]
+}
 
 /// The lanes' minima and maxima carried over the whole chunks of `v` (a loop of its own, so
 /// that the lanes stay in registers and the compiler vectorises it).

@@ -214,8 +214,9 @@
 //! starts; ≤ 30 points at 100 Hz) and O(history) for each of the few candidates re-scored
 //! exactly — the same onset as the direct O(4 · 256 · 2 · history) fit, to the candidate.
 //! Live (`examples/latency.rs`, two fingertips on a CAN bus, 100 Hz, default settings): a
-//! frame that decides a slip ≈ 40 µs, any other ≈ 1.2 µs (medians). The pattern path adds O(taxels) per frame ([`crate::slip_pattern`]); with
-//! `evidence = "pattern"` a slip output needs no locator or track.
+//! frame that decides a slip ≈ 40 µs, any other ≈ 1.2 µs (medians). The pattern path adds
+//! O(taxels) per frame ([`crate::slip_pattern`]); with `evidence = "pattern"` a slip output
+//! needs no locator or track.
 //!
 //! # Trade-offs
 //! | knob | lower | higher |
