@@ -28,14 +28,7 @@ fi
 (cd "$root" && cargo build --release --quiet --bin gradtac)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-python3 - "$rec" "$tmp/tiled.csv" <<'PY'
-import sys
-lines = [l for l in open(sys.argv[1]).read().splitlines() if l.strip()]
-with open(sys.argv[2], "w") as f:
-    f.write(lines[0] + "\n")
-    for _ in range(10):
-        f.write("\n".join(lines[1:]) + "\n")
-PY
+python3 "$root/scripts/tile_csv.py" "$rec" "$tmp/tiled.csv" x10
 cat > "$tmp/scene.toml" <<'TOML'
 [[sensor]]
 name = "ff"

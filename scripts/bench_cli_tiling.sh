@@ -30,20 +30,7 @@ bins=("$@")
 [ ${#bins[@]} -eq 0 ] && bins=("$root/target/release/gradtac")
 tmp=$(mktemp -d)
 if [ "${KEEP:-0}" = 1 ]; then echo "outputs kept in $tmp"; else trap 'rm -rf "$tmp"' EXIT; fi
-python3 - "$rec" "$tmp/tiled.csv" "$frames" <<'PY'
-import sys
-src, out, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
-lines = [l for l in open(src).read().splitlines() if l.strip()]
-header, rows = lines[0], lines[1:]
-with open(out, "w") as f:
-    f.write(header + "\n")
-    full, rest = divmod(n, len(rows))
-    block = "\n".join(rows) + "\n"
-    for _ in range(full):
-        f.write(block)
-    if rest:
-        f.write("\n".join(rows[:rest]) + "\n")
-PY
+python3 "$root/scripts/tile_csv.py" "$rec" "$tmp/tiled.csv" "$frames"
 for m in $methods; do
     cat > "$tmp/scene-$m.toml" <<TOML
 [[sensor]]
