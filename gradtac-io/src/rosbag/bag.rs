@@ -19,14 +19,16 @@
 //!
 //! **Bounds.** A record's header and data may not run past the end of the file (or of the
 //! chunk), a header is at most [`MAX_HEADER_BYTES`], a chunk at most [`MAX_CHUNK_BYTES`]
-//! uncompressed, and decompressed bytes are allocated as they arrive, never from a declared
-//! size alone: a malformed bag is an [`Error::Bag`] naming the byte offset, never a panic or
-//! a huge allocation.
+//! uncompressed and within the file's [`InflateBudget`] (a ratio bound per chunk and a total
+//! per file, checked before a chunk is decompressed), and decompressed bytes are allocated as
+//! they arrive, never from a declared size alone: a malformed bag is an [`Error::Bag`] naming
+//! the byte offset, never a panic or a huge allocation.
 //!
 //! Why not the `rosbag` crate: it memory-maps the whole file (a bag truncated or rewritten
 //! while read is a SIGBUS, not an error), builds C code for bzip2 and lz4, and gives no byte
 //! offsets in its errors; the container itself is small enough to read from the spec.
 
+use super::inflate::{inflate_into, InflateBudget};
 use crate::error::BagSite;
 use crate::{Error, Result};
 use std::collections::HashMap;
@@ -163,6 +165,7 @@ pub struct BagReader {
     connections: HashMap<u32, Arc<Connection>>,
     counts: HashMap<u32, u64>,
     chunks: u64,
+    budget: InflateBudget,
     /// The last message returned: connection, time, offset, bytes, index.
     cur: Option<(u32, RosTime, u64, Held, u64)>,
 }
@@ -194,6 +197,7 @@ impl BagReader {
             connections: HashMap::new(),
             counts: HashMap::new(),
             chunks: 0,
+            budget: InflateBudget::for_file(meta.len()),
             cur: None,
         };
         let mut magic = [0u8; MAGIC.len()];
@@ -439,12 +443,18 @@ impl BagReader {
         Ok(())
     }
 
-    fn decompress(&self, h: &Header<'_>, data: Vec<u8>, at: u64) -> Result<Vec<u8>> {
+    fn decompress(&mut self, h: &Header<'_>, data: Vec<u8>, at: u64) -> Result<Vec<u8>> {
         let size = h.u32("size").map_err(|r| self.err(at, r))?;
         if size > MAX_CHUNK_BYTES {
             return Err(self.err(at, format!("a chunk of {size} bytes uncompressed (limit {MAX_CHUNK_BYTES})")));
         }
         let kind = h.string("compression").map_err(|r| self.err(at, r))?;
+        if kind != "none" {
+            let n = data.len() as u64;
+            self.budget
+                .admit(&kind, n, u64::from(size))
+                .map_err(|r| self.err(at, format!("chunk #{}: {r}", self.chunks + 1)))?;
+        }
         let out = match kind.as_str() {
             "none" => data,
             "bz2" => self.inflate(bzip2::read::BzDecoder::new(&data[..]), size, at, "bz2")?,
@@ -459,10 +469,10 @@ impl BagReader {
 
     /// Decompress at most `size + 1` bytes, growing the buffer as bytes arrive.
     fn inflate(&self, r: impl Read, size: u32, at: u64, kind: &str) -> Result<Vec<u8>> {
-        let mut out = Vec::with_capacity((size as usize).min(1 << 20));
-        r.take(u64::from(size) + 1)
-            .read_to_end(&mut out)
-            .map_err(|e| self.err(at, format!("a {kind} chunk does not decompress: {e}")))?;
+        let mut out = Vec::new();
+        inflate_into(r, u64::from(size), &mut out).map_err(|e| {
+            self.err(at, format!("chunk #{}: a {kind} chunk does not decompress: {e}", self.chunks + 1))
+        })?;
         Ok(out)
     }
 }

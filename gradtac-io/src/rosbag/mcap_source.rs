@@ -2,11 +2,12 @@
 //! CDR-encoded messages and `ros2msg` schemas, yielding the taxel frames of every sensor that
 //! reads it.
 //!
-//! The container is read by the `mcap` crate's streaming reader (memory bounded by the largest
-//! record or chunk: [`MAX_RECORD_BYTES`]; uncompressed and zstd chunks); the messages are
-//! decoded by the schema text each channel's schema carries (`ros2msg`, parsed with ROS 2
-//! rules) and the CDR decoder. Times: `header.stamp` (`builtin_interfaces/Time`) or, with
-//! `time = "record"`, the message's `log_time`.
+//! The container is read by [`McapReader`](super::mcap_read::McapReader) (every length a
+//! record claims checked before anything is allocated for it; chunks uncompressed, zstd or
+//! lz4, within the decompression budget); the messages are decoded by the schema text each
+//! channel's schema carries (`ros2msg`, parsed with ROS 2 rules) and the CDR decoder. Times:
+//! `header.stamp` (`builtin_interfaces/Time`) or, with `time = "record"`, the message's
+//! `log_time`.
 
 use super::decode::Wire;
 use super::extract::{BagSensor, Demux, Fault, QueuedFrames};
@@ -15,19 +16,17 @@ use crate::error::BagSite;
 use crate::{Error, Result};
 use gradtac_stream::TaxelFrame;
 use std::collections::{HashMap, VecDeque};
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-/// Largest MCAP record (and uncompressed chunk) accepted.
-pub const MAX_RECORD_BYTES: usize = 256 << 20;
+use super::mcap_read::McapReader;
+pub use super::mcap_read::MAX_RECORD_BYTES;
 
 /// The frames of several sensors read from one MCAP file in one pass, in file order (an
 /// `Iterator<Item = Result<TaxelFrame>>`); see [`RosbagFrames`](super::RosbagFrames) for the
 /// per-sensor rules, which are the same.
 pub struct McapFrames {
     path: PathBuf,
-    reader: mcap::io::MessageReader<BufReader<File>>,
+    reader: McapReader,
     demux: Demux,
     counts: HashMap<u16, u64>,
     pending: VecDeque<TaxelFrame>,
@@ -42,13 +41,7 @@ impl McapFrames {
         if sensors.is_empty() {
             return Err(Error::InvalidConfig("an MCAP source needs at least one sensor".into()));
         }
-        let f = File::open(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-        let meta = f.metadata().map_err(|source| Error::Io { path: path.clone(), source })?;
-        if !meta.is_file() {
-            return Err(Error::Bag { path, site: Box::default(), reason: "not a regular file".into() });
-        }
-        let opts = mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(MAX_RECORD_BYTES);
-        let reader = mcap::io::MessageReader::new_with_options(BufReader::with_capacity(1 << 16, f), opts);
+        let reader = McapReader::open(&path)?;
         Ok(McapFrames {
             path,
             reader,
@@ -60,28 +53,29 @@ impl McapFrames {
         })
     }
 
-    fn fault(&self, f: Fault) -> Error {
+    /// File bytes consumed so far and the file's size (for progress).
+    pub fn progress(&self) -> (u64, u64) {
+        self.reader.progress()
+    }
+
+    fn fault(&self, offset: u64, f: Fault) -> Error {
         Error::Bag {
             path: self.path.clone(),
-            site: Box::new(BagSite { offset: None, topic: Some(f.topic), msg_type: Some(f.msg_type), index: f.index }),
+            site: Box::new(BagSite {
+                offset: Some(offset),
+                topic: Some(f.topic),
+                msg_type: Some(f.msg_type),
+                index: f.index,
+            }),
             reason: f.reason,
         }
     }
 
     fn fill(&mut self) -> Result<bool> {
         loop {
-            let m = match self.reader.next() {
-                None => return Ok(false),
-                Some(Ok(m)) => m,
-                Some(Err(e)) => {
-                    let reason = match e {
-                        mcap::McapError::BadMagic => "not an MCAP file (no MCAP magic)".to_string(),
-                        e => format!("MCAP: {e}"),
-                    };
-                    return Err(Error::Bag { path: self.path.clone(), site: Box::default(), reason });
-                }
-            };
-            let ch = &m.channel;
+            let Some(m) = self.reader.next_message()? else { return Ok(false) };
+            let ch = m.channel.clone();
+            let offset = m.offset;
             let id = u32::from(ch.id);
             if !self.demux.knows(id) {
                 let (ty, encoding, text) = match &ch.schema {
@@ -92,22 +86,29 @@ impl McapFrames {
                     |reason: String| Fault { topic: ch.topic.clone(), msg_type: ty.clone(), index: None, reason };
                 let readers = self.demux.reads(&ch.topic);
                 if readers && ch.message_encoding != "cdr" {
-                    return Err(self.fault(wrong(format!(
-                        "message encoding {:?}; only \"cdr\" (ROS 2) is read",
-                        ch.message_encoding
-                    ))));
+                    return Err(self.fault(
+                        offset,
+                        wrong(format!("message encoding {:?}; only \"cdr\" (ROS 2) is read", ch.message_encoding)),
+                    ));
                 }
                 if readers && encoding != "ros2msg" {
-                    return Err(self
-                        .fault(wrong(format!("schema encoding {encoding:?}; only \"ros2msg\" definitions are read"))));
+                    return Err(self.fault(
+                        offset,
+                        wrong(format!("schema encoding {encoding:?}; only \"ros2msg\" definitions are read")),
+                    ));
                 }
-                self.demux.connect(id, &ch.topic, &ty, &text).map_err(|f| self.fault(f))?;
+                self.demux.connect(id, &ch.topic, &ty, &text).map_err(|f| self.fault(offset, f))?;
             }
             let count = self.counts.entry(ch.id).or_insert(0);
             let index = *count;
             *count += 1;
+            // borrow again: `connect` needed `&mut self`
+            let Some(m) = self.reader.current() else { return Ok(false) };
             let t = i64::try_from(m.log_time).unwrap_or(i64::MAX);
-            self.demux.message(id, index, t, &m.data, &mut self.buf).map_err(|f| self.fault(f))?;
+            let r = self.demux.message(id, index, t, m.data, &mut self.buf);
+            if let Err(f) = r {
+                return Err(self.fault(offset, f));
+            }
             if !self.buf.is_empty() {
                 self.pending.extend(self.buf.drain(..));
                 return Ok(true);

@@ -5,10 +5,13 @@
 //! ```text
 //! ROS 1 bag ── BagReader (container: records, none/bz2/lz4 chunks) ──┐
 //!                                                                    ├─ Schema (msgdef) ─ decode (ROS 1 / CDR) ─ ElectrodePlan ─> TaxelFrame
-//! MCAP ─────── mcap crate (container: chunks, channels, schemas) ────┘
+//! MCAP ─────── McapReader (container: chunks, channels, schemas) ───┘
 //! ```
 //!
 //! - [`bag::BagReader`]: the ROS bag 2.0 container, written from the public format spec.
+//! - [`mcap_read::McapReader`]: the MCAP container, written from the public spec; every
+//!   length a record claims is checked before anything is allocated for it.
+//! - [`inflate::InflateBudget`]: what a file's chunks may decompress (ratio and total).
 //! - [`msgdef::Schema`]: the `.msg` definition text (ROS 1 and ROS 2 rules) parsed and resolved.
 //! - [`decode::decode`]: a generic decoder driven by a schema, for the ROS 1 wire format and
 //!   CDR; bounded by the message's own length.
@@ -27,6 +30,8 @@
 pub mod bag;
 pub mod decode;
 pub mod extract;
+pub mod inflate;
+pub mod mcap_read;
 pub mod mcap_source;
 pub mod msgdef;
 mod source;
