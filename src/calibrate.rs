@@ -123,13 +123,47 @@ pub fn labelled_spans(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> R
     let files = labelled_files(dir)?;
     let mut extractor = DosFeatureExtractor::try_new(&opts.features, layout)?;
     let mut spans = Vec::with_capacity(files.len());
+    // recordings a model cannot learn from: shorter than the longest drift lag, or constant
+    let longest = opts.features.drift_lags.iter().copied().max().unwrap_or(0);
+    let mut unfit = Vec::new();
     for (class, path) in &files {
         let cfg = CsvSourceConfig::new(path, opts.columns.clone()).with_rate_hz(opts.rate_hz);
         extractor.reset();
+        let (mut frames, mut first, mut varies) = (0u64, None::<Vec<f64>>, false);
         for frame in CsvFrames::open(&cfg, SensorId::new("ff"))? {
-            extractor.push(frame?)?;
+            let frame = frame?;
+            frames += 1;
+            match &first {
+                None => first = Some(frame.values.clone()),
+                Some(f) => varies |= *f != frame.values,
+            }
+            extractor.push(frame)?;
+        }
+        if frames <= longest as u64 {
+            unfit.push(format!(
+                "{} has {frames} frame{}, not more than the longest drift lag ({longest} frames)",
+                path.display(),
+                if frames == 1 { "" } else { "s" }
+            ));
+        } else if !varies {
+            unfit.push(format!("{} does not vary: every taxel is constant over its {frames} frames", path.display()));
         }
         spans.push(LabelledSpan { class: *class, group: object_of(path), features: extractor.features() });
+    }
+    if !unfit.is_empty() {
+        let n = unfit.len();
+        let mut list: Vec<String> = unfit.into_iter().take(5).collect();
+        if n > 5 {
+            list.push(format!("and {} more", n - 5));
+        }
+        return Err(Error::Scene {
+            path: dir.to_path_buf(),
+            reason: format!(
+                "{n} recording{} cannot be calibrated on (a model fitted on them would be degenerate): {}",
+                if n == 1 { "" } else { "s" },
+                list.join("; ")
+            ),
+        });
     }
     Ok(spans)
 }

@@ -14,6 +14,16 @@ pub enum Error {
         /// What is wrong.
         reason: String,
     },
+    /// A scene setting that is refused, at the line of its key (`scene.toml:12: …`).
+    #[error("{path}:{line}: {reason}")]
+    SceneAt {
+        /// The scene file.
+        path: PathBuf,
+        /// 1-based line of the key (or of its table).
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
     /// An I/O error with its path.
     #[error("{path}: {source}")]
     Io {

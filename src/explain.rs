@@ -22,7 +22,7 @@ impl Plan {
             // Construct each stage once now, so a bad setting is reported before any data
             // moves; errors name the scene file and the sensor.
             SensorChain::build(scene, p).map_err(|e| match e {
-                Error::Scene { .. } => e,
+                Error::Scene { .. } | Error::SceneAt { .. } => e,
                 other => Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {other}", p.name) },
             })?;
         }

@@ -113,7 +113,8 @@ fn main() -> ExitCode {
     match execute(cli.command) {
         Ok(code) => code,
         Err(e) => {
-            let top = e.to_string();
+            // one line: a dependency's message may span several (arrow's flatbuffer verifier)
+            let top = e.to_string().split_whitespace().collect::<Vec<_>>().join(" ");
             // a last guard: whatever an error quotes from an input, the line stays readable
             eprintln!("gradtac: error: {}", gradtac::io::excerpt(&top, 4000));
             let mut src = std::error::Error::source(&e);

@@ -61,12 +61,46 @@ impl Plan {
         for (index, spec) in scene.sensors.iter().enumerate() {
             // errors name the scene file and the sensor
             let at = |e: Error| match e {
-                Error::Scene { .. } => e,
+                Error::Scene { .. } | Error::SceneAt { .. } => e,
                 other => {
                     Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {other}", spec.name) }
                 }
             };
             let layout = scene.layout(spec).map_err(at)?;
+            // a CAN sensor's taxel count is the codec's: checked against the layout now, not
+            // by the first stage on the first frame
+            if let crate::scene::SourceSpec::Bus { bus } = &spec.source {
+                if let Some((i, b)) = scene.buses.iter().enumerate().find(|(_, b)| &b.name == bus) {
+                    let (codec, log) = match &b.source {
+                        crate::scene::BusSource::Candump(c) => (&c.codec, format!(" ({})", c.path.display())),
+                        #[cfg(target_os = "linux")]
+                        crate::scene::BusSource::Live(c) => (&c.codec, String::new()),
+                    };
+                    let codec = gradtac_io::can::CanCodec::try_new(codec)?;
+                    let id = gradtac_stream::SensorId::new(&spec.name);
+                    use crate::scene::Step;
+                    let line = [Step::Key("bus"), Step::Index(i), Step::Key("codec")];
+                    match codec.sensor_index(&id) {
+                        None => {
+                            return Err(scene
+                                .at(&line, format!("bus {bus:?}{log}: its codec carries no sensor {:?}", spec.name)))
+                        }
+                        Some(k) if codec.taxels(k) != layout.len() => {
+                            return Err(scene.at(
+                                &line,
+                                format!(
+                                    "bus {bus:?}{log}: sensor {:?} carries {} taxels, but its layout {} has {}",
+                                    spec.name,
+                                    codec.taxels(k),
+                                    layout.name(),
+                                    layout.len()
+                                ),
+                            ))
+                        }
+                        Some(_) => {}
+                    }
+                }
+            }
             let slip_pair = [&scene.stages.slip.first, &scene.stages.slip.second];
             let outputs: Vec<usize> = scene
                 .outputs
@@ -107,7 +141,13 @@ impl Plan {
                     });
                 }
             }
-            let _validated = gradtac_stages::slip::Slip::try_new(c)?;
+            // a bad slip setting names the scene file and the line of `[stages.slip]` (of
+            // `second` when the two sensors are one)
+            let _validated = gradtac_stages::slip::Slip::try_new(c).map_err(|e| {
+                use crate::scene::Step;
+                let key = if c.first == c.second { "second" } else { "first" };
+                scene.at(&[Step::Key("stages"), Step::Key("slip"), Step::Key(key)], format!("[stages.slip]: {e}"))
+            })?;
         }
         Ok(Plan { sensors })
     }

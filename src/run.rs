@@ -250,7 +250,24 @@ fn open_source(scene: &Scene, p: &SensorPlan) -> Result<(FrameIter, Option<usize
             }
             let frames = gradtac_io::arrow_ipc::open(&cfg, sensor)?;
             let n = frames.decoder().taxel_count();
-            (Box::new(frames.map(move |r| r.map_err(err))), n, None)
+            if n.is_some() {
+                (Box::new(frames.map(move |r| r.map_err(err))), n, None)
+            } else {
+                // values of a list type: the taxel count is each row's; checked here, at the
+                // source with its file, not by the first stage
+                let (want, layout, path) = (p.layout.len(), p.layout.name().to_string(), cfg.path.clone());
+                let checked = frames.map(move |r| {
+                    let f = r.map_err(err)?;
+                    if f.values.len() != want {
+                        return Err(err(gradtac_io::Error::Arrow {
+                            context: format!("{}: sensor {} frame {}", path.display(), f.sensor, f.seq),
+                            reason: format!("{} taxel values, but layout {layout} has {want} taxels", f.values.len()),
+                        }));
+                    }
+                    Ok(f)
+                });
+                (Box::new(checked), n, None)
+            }
         }
     })
 }

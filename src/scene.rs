@@ -217,17 +217,70 @@ fn bus_tables(text: &str) -> Vec<(toml::Table, usize)> {
         .collect()
 }
 
+/// A step on the path to a key of a scene's text: a table key or an index into an array of
+/// tables (`[[output]]` #2 is `Key("output"), Index(1)`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Step<'a> {
+    /// A key.
+    Key(&'a str),
+    /// An element of an array.
+    Index(usize),
+}
+
+/// The 1-based line where the key at `path` is written in `text` (of the deepest step found:
+/// a key left at its default names the line of its table), `None` when not even the first
+/// step is there.
+pub(crate) fn key_line(text: &str, path: &[Step<'_>]) -> Option<usize> {
+    use toml::de::{DeTable, DeValue};
+    let root = DeTable::parse(text).ok()?;
+    let mut value: Option<&DeValue<'_>> = None;
+    let mut at = None;
+    for step in path {
+        let next = match (step, value) {
+            (Step::Key(k), None) => {
+                root.get_ref().iter().find(|(key, _)| key.get_ref() == k).map(|(k, v)| (k.span(), v))
+            }
+            (Step::Key(k), Some(DeValue::Table(t))) => {
+                t.iter().find(|(key, _)| key.get_ref() == k).map(|(k, v)| (k.span(), v))
+            }
+            (Step::Index(i), Some(DeValue::Array(a))) => a.iter().nth(*i).map(|v| (v.span(), v)),
+            _ => None,
+        };
+        let Some((span, v)) = next else { break };
+        at = Some(span.start);
+        value = Some(v.get_ref());
+    }
+    at.map(|start| text.get(..start).map_or(0, |s| s.matches('\n').count()) + 1)
+}
+
 /// A parse error raised inside a `[[bus]]` table, at the line of that bus (toml points such
 /// errors at the first `[[bus]]` of the file, the array's span): the first bus table that
 /// does not deserialize.
-fn bus_error_at_its_line(text: &str, message: &str) -> Option<String> {
+fn bus_error_at_its_line(text: &str, message: &str) -> Option<(usize, String)> {
     let message = message.trim_end();
     if !(message.starts_with("bus ") || message.starts_with("a [[bus]]")) {
         return None;
     }
     let (_, line) =
         bus_tables(text).into_iter().find(|(t, _)| BusSpec::deserialize(toml::Value::Table(t.clone())).is_err())?;
-    Some(format!("line {line}: {}", message.replace('\n', " ")))
+    Some((line, message.replace('\n', " ")))
+}
+
+/// A TOML or scene-structure error as one line at the line it points to
+/// (`scene.toml:7: unknown field `x`, expected …`).
+fn parse_error(text: &str, origin: &Path, e: &toml::de::Error) -> Error {
+    if let Some((line, reason)) = bus_error_at_its_line(text, e.message()) {
+        return Error::SceneAt { path: origin.to_path_buf(), line, reason };
+    }
+    let reason = e.message().trim_end().replace('\n', " ");
+    match e.span() {
+        Some(span) => Error::SceneAt {
+            path: origin.to_path_buf(),
+            line: text.get(..span.start).map_or(0, |s| s.matches('\n').count()) + 1,
+            reason,
+        },
+        None => Error::Scene { path: origin.to_path_buf(), reason },
+    }
 }
 
 impl<'de> Deserialize<'de> for SourceSpec {
@@ -411,10 +464,7 @@ pub struct OutputSpec {
 impl Scene {
     /// Parse a scene from TOML text; relative paths will resolve against `base_dir`.
     pub fn from_toml(text: &str, base_dir: impl Into<PathBuf>, origin: &Path) -> Result<Self, Error> {
-        let mut scene: Scene = toml::from_str(text).map_err(|e| Error::Scene {
-            path: origin.to_path_buf(),
-            reason: bus_error_at_its_line(text, e.message()).unwrap_or_else(|| e.to_string().trim_end().to_string()),
-        })?;
+        let mut scene: Scene = toml::from_str(text).map_err(|e| parse_error(text, origin, &e))?;
         scene.base_dir = base_dir.into();
         scene.text = text.to_string();
         scene.origin = origin.to_path_buf();
@@ -435,6 +485,16 @@ impl Scene {
             p.to_path_buf()
         } else {
             self.base_dir.join(p)
+        }
+    }
+
+    /// An error about the setting at `path`, naming the scene file and the line of its key
+    /// (`scene.toml:12: …`; without a line when the scene has no text, e.g. built in code).
+    pub(crate) fn at(&self, path: &[Step<'_>], reason: impl Into<String>) -> Error {
+        let reason = reason.into();
+        match key_line(&self.text, path) {
+            Some(line) => Error::SceneAt { path: self.origin.clone(), line, reason },
+            None => Error::Scene { path: self.origin.clone(), reason },
         }
     }
 
@@ -468,12 +528,29 @@ impl Scene {
         let lines = bus_tables(&self.text);
         for (i, b) in self.buses.iter().enumerate() {
             // the line of this [[bus]] (toml's span of its table)
-            let bad = |r: String| bad(lines.get(i).map_or(r.clone(), |(_, l)| format!("line {l}: {r}")));
+            let bad = |r: String| match lines.get(i) {
+                Some(&(_, line)) => Error::SceneAt { path: origin.to_path_buf(), line, reason: r },
+                None => bad(r),
+            };
             if self.buses[..i].iter().any(|o| o.name == b.name) {
                 return Err(bad(format!("bus {:?} is declared twice", b.name)));
             }
             let codec = match &b.source {
-                BusSource::Candump(c) => &c.codec,
+                BusSource::Candump(c) => {
+                    // the replay speed, at the line of its key
+                    if let Err(r) = gradtac_io::can::stream::check_replay_speed(c.speed) {
+                        let key = [Step::Key("bus"), Step::Index(i), Step::Key("speed")];
+                        return Err(match key_line(&self.text, &key) {
+                            Some(line) => Error::SceneAt {
+                                path: origin.to_path_buf(),
+                                line,
+                                reason: format!("bus {:?}: {r}", b.name),
+                            },
+                            None => bad(format!("bus {:?}: {r}", b.name)),
+                        });
+                    }
+                    &c.codec
+                }
                 #[cfg(target_os = "linux")]
                 BusSource::Live(c) => &c.codec,
             };
@@ -510,6 +587,21 @@ impl Scene {
             }
             if self.outputs[..i].iter().any(|p| p.path == o.path) {
                 return Err(bad(format!("two outputs write {}", o.path.display())));
+            }
+            // sink settings, checked here so that `explain` refuses what `run` would
+            let out = |key: &str, r: String| {
+                let at = [Step::Key("output"), Step::Index(i), Step::Key(key)];
+                self.at(&at, format!("output #{} ({}): {r}", i + 1, o.path.display()))
+            };
+            if let Some(n) = o.row_group_size {
+                gradtac_io::parquet_sink::check_row_group_size(n)
+                    .map_err(|e| out("row_group_size", e.to_string().replace("invalid configuration: ", "")))?;
+            }
+            if let Some(a) = &o.archive {
+                a.check().map_err(|(key, r)| {
+                    let at = [Step::Key("output"), Step::Index(i), Step::Key("archive"), Step::Key(key)];
+                    self.at(&at, format!("output #{} ({}): archive: {r}", i + 1, o.path.display()))
+                })?;
             }
         }
         Ok(())
@@ -694,16 +786,16 @@ mod bus_line_tests {
         let two = |second: &str| format!("{head}{}{}", bus("a", ""), second);
         // lines: the first [[bus]] at 8, the second at 13
         let e = err(&two(&bus("b", "bogus = 1\n")));
-        assert!(e.starts_with("s.toml: line 13: bus \"b\": unknown field `bogus`"), "{e}");
+        assert!(e.starts_with("s.toml:13: bus \"b\": unknown field `bogus`"), "{e}");
         let e = err(&format!("{head}{}{}", bus("b", ""), bus("b", "")));
-        assert_eq!(e, "s.toml: line 13: bus \"b\" is declared twice");
+        assert_eq!(e, "s.toml:13: bus \"b\" is declared twice");
         let e = err(&two("\n[[bus]]\ncandump = \"l.log\"\n"));
-        assert_eq!(e, "s.toml: line 13: a [[bus]] needs name = \"…\"");
+        assert_eq!(e, "s.toml:13: a [[bus]] needs name = \"…\"");
         let custom = "codec = { sensors = [{ name = \"ff\", taxels = 4294967295, messages = [] }] }\n";
         let e = err(&format!("{head}{}\n[[bus]]\nname = \"b\"\ncandump = \"l.log\"\n{custom}", bus("a", "")));
-        assert!(e.starts_with("s.toml: line 13: bus \"b\": invalid configuration") && e.contains("4294967295"), "{e}");
-        // other parse errors keep toml's own position
+        assert!(e.starts_with("s.toml:13: bus \"b\": invalid configuration") && e.contains("4294967295"), "{e}");
+        // other parse errors: one line, at toml's position
         let e = err(&format!("{head}{}x = [", bus("a", "")));
-        assert!(e.contains("TOML parse error at line"), "{e}");
+        assert!(e.starts_with("s.toml:13: ") && !e.contains('\n'), "{e}");
     }
 }

@@ -48,6 +48,24 @@ pub fn split_at<'a>(data: &'a [u8], sep: &[u8]) -> (&'a [u8], Option<&'a [u8]>) 
     }
 }
 
+/// The sensors a recorded-hand target reads, from a mode byte: topic `/rh/tactile`; bit 0:
+/// finger `ff` and `th` (else one sensor without a finger); bit 1: record time.
+pub fn bag_sensors(mode: u8) -> Vec<gradtac_io::rosbag::BagSensor> {
+    use gradtac_io::rosbag::{BagSensor, Finger, StampSource};
+    let time = if mode & 2 != 0 { StampSource::Record } else { StampSource::Header };
+    let one = |name: &str, finger| BagSensor {
+        sensor: gradtac_stream::SensorId::new(name),
+        topic: "/rh/tactile".into(),
+        finger,
+        time,
+    };
+    if mode & 1 != 0 {
+        vec![one("ff", Some(Finger::Ff)), one("th", Some(Finger::Th))]
+    } else {
+        vec![one("x", None)]
+    }
+}
+
 /// Let panics raised inside the Arrow / Parquet crates unwind (instead of aborting at once,
 /// as libfuzzer-sys's hook does) so that gradtac's containment at the source boundary
 /// ([`gradtac_io::contain`]) can turn them into errors; a panic anywhere else, or one that

@@ -187,6 +187,61 @@ impl Default for ArchiveConfig {
     }
 }
 
+impl ArchiveConfig {
+    /// Check every option without touching the file system (what
+    /// [`ParquetArchive::from_config`] would refuse): on failure, the offending key and why.
+    /// A planner calls this before anything is read, so `explain` refuses what `run` would.
+    pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
+        if self.roll_bytes == Some(0) {
+            return Err(("roll_bytes", "roll_bytes must be at least 1".into()));
+        }
+        if self.roll_rows == Some(0) {
+            return Err(("roll_rows", "roll_rows must be at least 1".into()));
+        }
+        if let Some(s) = self.roll_seconds {
+            roll_span(s).map_err(|e| ("roll_seconds", plain(e)))?;
+        }
+        check_row_group_size(self.row_group_size).map_err(|e| ("row_group_size", plain(e)))?;
+        check_zstd_level(self.zstd_level).map_err(|e| ("zstd_level", plain(e)))?;
+        check_prefix(&self.prefix).map_err(|e| ("prefix", plain(e)))?;
+        Ok(())
+    }
+}
+
+/// An `InvalidConfig` message without its prefix (the caller adds where).
+fn plain(e: Error) -> String {
+    match e {
+        Error::InvalidConfig(r) => r,
+        e => e.to_string(),
+    }
+}
+
+/// `roll_seconds` as a span: positive, finite, at least 1 ns and at most 292 years.
+fn roll_span(s: f64) -> Result<Duration> {
+    let short = gradtac_stream::num::Short(s);
+    if !(s.is_finite() && s > 0.0) {
+        return Err(Error::InvalidConfig(format!("roll_seconds must be positive and finite, got {short}")));
+    }
+    let span = Duration::try_from_secs_f64(s)
+        .ok()
+        .filter(|d| d.as_nanos() >= 1 && d.as_nanos() <= i64::MAX as u128)
+        .ok_or_else(|| Error::InvalidConfig(format!("roll_seconds = {short} must be between 1 ns and 292 years")))?;
+    Ok(span)
+}
+
+fn check_prefix(prefix: &str) -> Result<()> {
+    let ok = !prefix.is_empty()
+        && prefix.len() <= 64
+        && !prefix.starts_with('_')
+        && prefix.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_');
+    if !ok {
+        return Err(Error::InvalidConfig(format!(
+            "archive prefix {prefix:?} must be 1-64 ASCII letters, digits, '-' or '_', not starting with '_'"
+        )));
+    }
+    Ok(())
+}
+
 /// One open file.
 struct OpenFile<T: ArrowRecord> {
     sink: ParquetSink<T>,
@@ -295,12 +350,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
             a = a.with_roll_rows(r)?;
         }
         if let Some(s) = config.roll_seconds {
-            if !(s.is_finite() && s > 0.0) {
-                return Err(Error::InvalidConfig(format!("roll_seconds must be positive and finite, got {s}")));
-            }
-            let span =
-                Duration::try_from_secs_f64(s).map_err(|e| Error::InvalidConfig(format!("roll_seconds = {s}: {e}")))?;
-            a = a.with_roll_span(span)?;
+            a = a.with_roll_span(roll_span(s)?)?;
         }
         Ok(a)
     }
@@ -397,15 +447,7 @@ impl<T: ArrowRecord + HasSensor + Timed> ParquetArchive<T> {
     /// first record.
     pub fn with_prefix(mut self, prefix: &str) -> Result<Self> {
         self.check_not_started("prefix")?;
-        let ok = !prefix.is_empty()
-            && prefix.len() <= 64
-            && !prefix.starts_with('_')
-            && prefix.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_');
-        if !ok {
-            return Err(Error::InvalidConfig(format!(
-                "archive prefix {prefix:?} must be 1-64 ASCII letters, digits, '-' or '_', not starting with '_'"
-            )));
-        }
+        check_prefix(prefix)?;
         self.prefix = prefix.to_string();
         Ok(self)
     }

@@ -374,9 +374,14 @@ fn reader_call<T>(path: &Path, open: impl FnOnce() -> std::result::Result<T, Arr
     let fail = |reason: String| Error::Arrow { context: format!("{}: reading Arrow IPC", path.display()), reason };
     match crate::contain::contain(open) {
         Ok(Ok(r)) => Ok(r),
-        Ok(Err(e)) => Err(fail(e.to_string())),
-        Err(panic) => Err(fail(format!("malformed IPC data (the arrow-ipc reader panicked: {panic})"))),
+        Ok(Err(e)) => Err(fail(one_line(&e.to_string()))),
+        Err(panic) => Err(fail(format!("malformed IPC data (the arrow-ipc reader panicked: {})", one_line(&panic)))),
     }
+}
+
+/// A dependency's message on one line (arrow's flatbuffer verifier reports over 4–7 lines).
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// An IPC batch reader whose panics are contained: a panic ends the iteration with one
@@ -506,7 +511,9 @@ impl BatchDecoder {
             Resolved::Long { sensor, time, seq, values, keep } => {
                 let (sensor, time, seq, values) = (*sensor, *time, *seq, *values);
                 let names = strings(batch.column(sensor)).map_err(|r| self.err(None, format!("column sensor: {r}")))?;
-                let times = i64s(batch.column(time), "time_ns").map_err(|r| self.err(None, r))?;
+                // errors name the time column by its name in the file (`time` in frame/2)
+                let time_name = batch.schema().field(time).name().clone();
+                let times = i64s(batch.column(time), &time_name).map_err(|r| self.err(None, r))?;
                 let seqs = seq
                     .map(|s| u64s(batch.column(s)))
                     .transpose()
@@ -517,13 +524,14 @@ impl BatchDecoder {
                     if keep.as_ref().is_some_and(|k| !k.contains(&name)) {
                         continue;
                     }
-                    let t = times.get(r).ok_or_else(|| self.err(Some(r), "time_ns is null"))?;
+                    let t = times.get(r).ok_or_else(|| self.err(Some(r), format!("{time_name} is null")))?;
                     let v = vals.row(r).map_err(|e| self.err(Some(r), format!("values: {e}")))?;
                     self.check_values(r, &v)?;
                     let id = SensorId::new(name);
                     match self.long_times.insert(id.clone(), t) {
                         Some(prev) if t < prev => {
-                            let reason = format!("sensor {id}: time_ns {t} is earlier than its row before ({prev} ns)");
+                            let reason =
+                                format!("sensor {id}: {time_name} {t} is earlier than its row before ({prev} ns)");
                             return Err(self.err(Some(r), reason));
                         }
                         _ => {}
@@ -613,7 +621,7 @@ where
     fn next(&mut self) -> Option<Result<TaxelFrame>> {
         Some(self.frames.next()?.map_err(|e| match e {
             // named after the batches decoded so far, as the decoder's own errors
-            Failed::Read(e) => self.frames.stage_ref().0.err(None, e.to_string()),
+            Failed::Read(e) => self.frames.stage_ref().0.err(None, one_line(&e.to_string())),
             Failed::Decode(e) => e,
         }))
     }

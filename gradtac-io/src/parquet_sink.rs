@@ -517,7 +517,7 @@ fn writer_properties(schema: &arrow_schema::Schema, level: ZstdLevel, row_group_
 
 /// Checks a row-group size (at least 1 row); shared with
 /// [`ParquetArchive`](crate::archive::ParquetArchive).
-pub(crate) fn check_row_group_size(rows: usize) -> Result<()> {
+pub fn check_row_group_size(rows: usize) -> Result<()> {
     if rows == 0 {
         return Err(Error::InvalidConfig("row_group_size must be at least 1".into()));
     }
@@ -526,7 +526,7 @@ pub(crate) fn check_row_group_size(rows: usize) -> Result<()> {
 
 /// Checks a zstd level (any level zstd accepts); shared with
 /// [`ParquetArchive`](crate::archive::ParquetArchive).
-pub(crate) fn check_zstd_level(level: i32) -> Result<()> {
+pub fn check_zstd_level(level: i32) -> Result<()> {
     ZstdLevel::try_new(level).map_err(|e| Error::InvalidConfig(format!("zstd level {level}: {e}")))?;
     Ok(())
 }

@@ -34,6 +34,7 @@ mod frame;
 mod keyed;
 pub mod layout;
 pub mod merge;
+pub mod num;
 mod sensor;
 mod stage;
 mod time;

@@ -101,18 +101,40 @@ impl fmt::Display for Timestamp {
     }
 }
 
+/// `ns` nanoseconds later, **saturating** at the ends of the `i64` range (a time from a file
+/// near `i64::MAX` plus a window never wraps to the far past, nor panics in a debug build);
+/// [`checked_add`](Timestamp::checked_add) says when it would not fit.
 impl Add<i64> for Timestamp {
     type Output = Timestamp;
     fn add(self, ns: i64) -> Timestamp {
-        Timestamp(self.0 + ns)
+        Timestamp(self.0.saturating_add(ns))
     }
 }
 
+/// `ns` nanoseconds earlier, saturating like `+`.
 impl Sub<i64> for Timestamp {
     type Output = Timestamp;
     /// `ns` nanoseconds earlier.
     fn sub(self, ns: i64) -> Timestamp {
-        Timestamp(self.0 - ns)
+        Timestamp(self.0.saturating_sub(ns))
+    }
+}
+
+impl Timestamp {
+    /// `ns` nanoseconds later, or `None` outside the `i64` range.
+    pub fn checked_add(self, ns: i64) -> Option<Timestamp> {
+        self.0.checked_add(ns).map(Timestamp)
+    }
+
+    /// `ns` nanoseconds earlier, or `None` outside the `i64` range.
+    pub fn checked_sub(self, ns: i64) -> Option<Timestamp> {
+        self.0.checked_sub(ns).map(Timestamp)
+    }
+
+    /// The difference `self − earlier` in nanoseconds, or `None` when it does not fit in `i64`
+    /// (times at both ends of the range).
+    pub fn checked_since(self, earlier: Timestamp) -> Option<i64> {
+        self.0.checked_sub(earlier.0)
     }
 }
 
@@ -129,11 +151,13 @@ impl Timestamp {
     }
 }
 
+/// The difference in nanoseconds, saturating at the `i64` range (times ±292 years apart);
+/// [`checked_since`](Timestamp::checked_since) says when it would not fit.
 impl Sub for Timestamp {
     type Output = i64;
     /// The difference in nanoseconds.
     fn sub(self, rhs: Timestamp) -> i64 {
-        self.0 - rhs.0
+        self.0.saturating_sub(rhs.0)
     }
 }
 
@@ -175,6 +199,15 @@ mod tests {
         assert_eq!(Timestamp::from_secs_f64(1e300), None);
         assert_eq!(Timestamp(2_000_000_000) - Timestamp(500), 1_999_999_500);
         assert_eq!(Timestamp(2_000) - 500, Timestamp(1_500));
+        // at the ends of the range: saturating, never wrapping (nor a debug-build panic)
+        assert_eq!(Timestamp(i64::MAX) + 1, Timestamp(i64::MAX));
+        assert_eq!(Timestamp(i64::MIN) - 1, Timestamp(i64::MIN));
+        assert_eq!(Timestamp(i64::MAX) - Timestamp(i64::MIN), i64::MAX);
+        assert_eq!(Timestamp(i64::MIN) - Timestamp(i64::MAX), i64::MIN);
+        assert_eq!(Timestamp(i64::MAX).checked_add(1), None);
+        assert_eq!(Timestamp(i64::MIN).checked_sub(1), None);
+        assert_eq!(Timestamp(i64::MAX).checked_since(Timestamp(-1)), None);
+        assert_eq!(Timestamp(5).checked_since(Timestamp(2)), Some(3));
         let d = std::time::Duration::from_millis(10);
         assert_eq!(Timestamp(5).after(d), Timestamp(10_000_005));
         assert_eq!(Timestamp(10_000_005).since(Timestamp(5)), d);

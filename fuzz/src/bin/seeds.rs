@@ -226,5 +226,111 @@ fn main() {
     parquet(&dir, "contour", (), &contours, &layout);
     let points = Track::try_new(&TrackConfig::default()).unwrap().run_all(contours).unwrap();
     parquet(&dir, "track", (), &points, &layout);
+    recorded_hands(&dir);
     println!("seeds written to {}", dir.display());
+}
+
+/// Seeds of the `mcap` and `bag_chunks` targets: files written by hand (header, schema or
+/// connection, messages with a header stamp and an `int16[] electrodes` array; loose and in
+/// chunks of every compression), each prefixed with the mode byte (0: one sensor, header
+/// time; 2: record time).
+fn recorded_hands(dir: &Path) {
+    use std::io::Write;
+    fn lz4(b: &[u8]) -> Vec<u8> {
+        let mut e = lz4_flex::frame::FrameEncoder::new(Vec::new());
+        e.write_all(b).unwrap();
+        e.finish().unwrap()
+    }
+    fn bz2(b: &[u8]) -> Vec<u8> {
+        let mut e = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::best());
+        e.write_all(b).unwrap();
+        e.finish().unwrap()
+    }
+    fn string(s: &[u8]) -> Vec<u8> {
+        [&(s.len() as u32).to_le_bytes()[..], s].concat()
+    }
+    // MCAP
+    let rec = |op: u8, c: &[u8]| [&[op][..], &(c.len() as u64).to_le_bytes(), c].concat();
+    let def = "std_msgs/Header header\nint16[] electrodes\n\
+================================================================================\nMSG: std_msgs/Header\n\
+builtin_interfaces/Time stamp\nstring frame_id\n\
+================================================================================\nMSG: builtin_interfaces/Time\n\
+int32 sec\nuint32 nanosec\n";
+    let schema = rec(3, &[&1u16.to_le_bytes()[..], &string(b"x/msg/E"), &string(b"ros2msg"), &string(def.as_bytes())].concat());
+    let meta = [string(b"k"), string(b"v")].concat();
+    let channel = rec(
+        4,
+        &[&1u16.to_le_bytes()[..], &1u16.to_le_bytes(), &string(b"/rh/tactile"), &string(b"cdr"), &string(&meta)].concat(),
+    );
+    let mut msgs = Vec::new();
+    for i in 0..4u32 {
+        let mut cdr = vec![0u8, 1, 0, 0];
+        cdr.extend(7i32.to_le_bytes());
+        cdr.extend((i * 1000).to_le_bytes());
+        cdr.extend(string(b"tip\0"));
+        cdr.extend(3u32.to_le_bytes());
+        for e in 0..3i16 {
+            cdr.extend((100 * i as i16 + e).to_le_bytes());
+        }
+        let head = [&1u16.to_le_bytes()[..], &i.to_le_bytes(), &u64::from(i).to_le_bytes(), &u64::from(i).to_le_bytes()].concat();
+        msgs.push(rec(5, &[head, cdr].concat()));
+    }
+    let header = rec(1, &[string(b"ros2"), string(b"seed")].concat());
+    let inner: Vec<u8> = [schema.clone(), channel.clone()].into_iter().chain(msgs.iter().cloned()).flatten().collect();
+    let chunk = |kind: &str, data: &[u8]| {
+        let c = [
+            &0u64.to_le_bytes()[..],
+            &9u64.to_le_bytes(),
+            &(inner.len() as u64).to_le_bytes(),
+            &0u32.to_le_bytes(),
+            &string(kind.as_bytes()),
+            &(data.len() as u64).to_le_bytes(),
+            data,
+        ]
+        .concat();
+        rec(6, &c)
+    };
+    let tail = [rec(0x0F, &0u32.to_le_bytes()), rec(2, &[0u8; 20]), b"\x89MCAP0\r\n".to_vec()].concat();
+    let magic = b"\x89MCAP0\r\n".to_vec();
+    let loose = [magic.clone(), header.clone(), inner.clone(), tail.clone()].concat();
+    put(dir, "mcap", "loose", &with_mode(0, &loose));
+    put(dir, "mcap", "loose-record-time", &with_mode(2, &loose));
+    for (kind, data) in [("", inner.clone()), ("lz4", lz4(&inner)), ("zstd", zstd::bulk::compress(&inner, 3).unwrap())] {
+        let f = [magic.clone(), header.clone(), chunk(kind, &data), tail.clone()].concat();
+        put(dir, "mcap", &format!("chunk-{}", if kind.is_empty() { "none" } else { kind }), &with_mode(0, &f));
+    }
+
+    // ROS 1 bag
+    let field = |name: &str, value: &[u8]| [&((name.len() + 1 + value.len()) as u32).to_le_bytes()[..], name.as_bytes(), b"=", value].concat();
+    let brec = |fields: &[(&str, &[u8])], data: &[u8]| {
+        let h: Vec<u8> = fields.iter().flat_map(|(n, v)| field(n, v)).collect();
+        [&(h.len() as u32).to_le_bytes()[..], &h, &(data.len() as u32).to_le_bytes(), data].concat()
+    };
+    let def = "Header header\nint16[] electrodes\n\
+================================================================================\nMSG: std_msgs/Header\n\
+uint32 seq\ntime stamp\nstring frame_id\n";
+    let conn_data = [field("topic", b"/rh/tactile"), field("type", b"x/E"), field("md5sum", b"0"), field("message_definition", def.as_bytes())].concat();
+    let conn = brec(&[("op", &[7]), ("conn", &0u32.to_le_bytes()), ("topic", b"/rh/tactile")], &conn_data);
+    let mut inner = conn.clone();
+    for i in 0..4u32 {
+        let mut m = i.to_le_bytes().to_vec();
+        m.extend(7u32.to_le_bytes());
+        m.extend((i * 1000).to_le_bytes());
+        m.extend(string(b"tip"));
+        m.extend(3u32.to_le_bytes());
+        for e in 0..3i16 {
+            m.extend((100 * i as i16 + e).to_le_bytes());
+        }
+        let t = [7u32.to_le_bytes(), (i * 1000).to_le_bytes()].concat();
+        inner.extend(brec(&[("op", &[2]), ("conn", &0u32.to_le_bytes()), ("time", &t)], &m));
+    }
+    let bag_header = brec(&[("op", &[3]), ("index_pos", &0u64.to_le_bytes())], &[b' '; 16]);
+    for (kind, data) in [("none", inner.clone()), ("bz2", bz2(&inner)), ("lz4", lz4(&inner))] {
+        let c = brec(&[("op", &[5]), ("compression", kind.as_bytes()), ("size", &(inner.len() as u32).to_le_bytes())], &data);
+        let idx = brec(&[("op", &[4]), ("ver", &1u32.to_le_bytes()), ("conn", &0u32.to_le_bytes())], &[0; 12]);
+        let f = [b"#ROSBAG V2.0\n".to_vec(), bag_header.clone(), c, idx, conn.clone()].concat();
+        put(dir, "bag_chunks", kind, &with_mode(0, &f));
+    }
+    let f = [b"#ROSBAG V2.0\n".to_vec(), bag_header, inner].concat();
+    put(dir, "bag_chunks", "loose", &with_mode(2, &f));
 }

@@ -1156,8 +1156,26 @@ fn compile_message(
             m.bits
         ));
     }
+    let short = gradtac_stream::num::Short;
     if !m.scale.is_finite() || m.scale == 0.0 || !m.offset.is_finite() {
-        return Err(format!("scale ({}) must be finite and non-zero, offset ({}) finite", m.scale, m.offset));
+        return Err(format!(
+            "scale ({}) must be finite and non-zero, offset ({}) finite",
+            short(m.scale),
+            short(m.offset)
+        ));
+    }
+    // every raw value of the valid range must decode to a finite number
+    for raw in [raw_min, raw_max] {
+        let v = raw as f64 * m.scale + m.offset;
+        if !v.is_finite() {
+            return Err(format!(
+                "raw {raw} · scale {} + offset {} = {} is not finite: values up to raw_max {raw_max} (from raw_min \
+                 {raw_min}) must decode to finite numbers",
+                short(m.scale),
+                short(m.offset),
+                short(v)
+            ));
+        }
     }
     let groups = id_groups * mux.as_ref().map_or(1, |x| u64::from(x.1));
     let stride = m.stride.unwrap_or(m.count);

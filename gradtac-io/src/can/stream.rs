@@ -57,6 +57,28 @@ struct Pace {
     origin: Option<(Timestamp, Instant)>,
 }
 
+/// Slowest replay speed of `timing = "original"`: 1/1000 of real time (a one-second log
+/// replays in 17 minutes). `speed = 1e-9` used to be accepted and slept for days.
+pub const MIN_REPLAY_SPEED: f64 = 1e-3;
+/// Fastest replay speed of `timing = "original"`: 10⁶ × real time (beyond it the pacing is
+/// below the timer's resolution; use `timing = "fast"`).
+pub const MAX_REPLAY_SPEED: f64 = 1e6;
+
+/// Check a replay `speed`: finite and within [`MIN_REPLAY_SPEED`] … [`MAX_REPLAY_SPEED`]
+/// (NaN, infinities, zero, negative and subnormal values are refused); the message says the
+/// range and the value in short form.
+pub fn check_replay_speed(speed: f64) -> std::result::Result<(), String> {
+    if speed.is_finite() && (MIN_REPLAY_SPEED..=MAX_REPLAY_SPEED).contains(&speed) {
+        Ok(())
+    } else {
+        Err(format!(
+            "speed = {} is outside {MIN_REPLAY_SPEED:e} … {MAX_REPLAY_SPEED:e} (a factor on the log's own pace: 2 replays \
+             twice as fast)",
+            gradtac_stream::num::Short(speed)
+        ))
+    }
+}
+
 impl<S> CanStream<S>
 where
     S: Stream<Item = Result<CanFrame>> + Unpin,
@@ -76,11 +98,10 @@ where
         }
     }
 
-    /// Pace frames by their timestamps (see [`Timing`]); `speed` must be positive and finite.
+    /// Pace frames by their timestamps (see [`Timing`]); `speed` within
+    /// [`MIN_REPLAY_SPEED`] … [`MAX_REPLAY_SPEED`] ([`check_replay_speed`]).
     pub fn with_timing(mut self, timing: Timing, speed: f64) -> Result<Self> {
-        if !(speed.is_finite() && speed > 0.0) {
-            return Err(Error::InvalidConfig(format!("replay speed must be positive and finite, got {speed}")));
-        }
+        check_replay_speed(speed).map_err(Error::InvalidConfig)?;
         self.pace = match timing {
             Timing::Fast => None,
             Timing::Original => Some(Pace { speed, origin: None }),
