@@ -796,6 +796,6 @@ mod bus_line_tests {
         assert!(e.starts_with("s.toml:13: bus \"b\": invalid configuration") && e.contains("4294967295"), "{e}");
         // other parse errors: one line, at toml's position
         let e = err(&format!("{head}{}x = [", bus("a", "")));
-        assert!(e.starts_with("s.toml:13: ") && !e.contains('\n'), "{e}");
+        assert!(e.starts_with("s.toml:12: ") && !e.contains('\n'), "{e}");
     }
 }

@@ -67,8 +67,10 @@ pub enum ScanError {
     NeedMore,
     /// The header goes on past the bytes it may span.
     PastEnd,
-    /// Malformed, or beyond a bound.
+    /// Malformed.
     Bad(String),
+    /// Beyond a bound: more work than the bytes allow, a string past its span, nesting.
+    Bound(String),
 }
 
 /// The pages of a checked column chunk.
@@ -78,12 +80,35 @@ pub struct ChunkPages {
     pub pages: usize,
     /// Bytes of all page headers.
     pub header_bytes: u64,
+    /// Bytes the pages declare uncompressed.
+    pub uncompressed_bytes: u64,
+}
+
+/// Largest accepted ratio of a page's declared uncompressed size to its compressed size
+/// (beyond [`PAGE_RATIO_FLOOR_BYTES`]): the parquet crate sizes its decompression buffer by
+/// the declared size.
+pub const MAX_PAGE_RATIO: u64 = 1024;
+/// A page may declare up to this many bytes uncompressed whatever its compressed size (16 MiB;
+/// writers cut pages at about 1 MiB).
+pub const PAGE_RATIO_FLOOR_BYTES: u64 = 16 << 20;
+/// The pages of a file may declare this many times the file's size uncompressed in all ...
+pub const MAX_FILE_RATIO: u64 = 64;
+/// ... or this many bytes (256 MiB), whichever is more.
+pub const FILE_FLOOR_BYTES: u64 = 256 << 20;
+
+/// The uncompressed bytes the pages of a file of `file_len` bytes may declare in all.
+pub fn file_budget(file_len: u64) -> u64 {
+    file_len.saturating_mul(MAX_FILE_RATIO).max(FILE_FLOOR_BYTES)
 }
 
 type Scan<T> = Result<T, ScanError>;
 
 fn bad<T>(s: impl Into<String>) -> Scan<T> {
     Err(ScanError::Bad(s.into()))
+}
+
+fn beyond<T>(s: impl Into<String>) -> Scan<T> {
+    Err(ScanError::Bound(s.into()))
 }
 
 /// A field of a struct the parquet crate reads typed (by field id, whatever type the field
@@ -169,7 +194,7 @@ impl Cursor<'_> {
     fn skip_bytes(&mut self, n: u64, what: &str) -> Scan<()> {
         let left = self.span - self.pos as u64;
         if n > left {
-            return bad(format!("{what} of {n} bytes, {left} left for the page header"));
+            return beyond(format!("{what} of {n} bytes, {left} left for the page header"));
         }
         let to = self.pos as u64 + n;
         if to > self.buf.len() as u64 {
@@ -185,7 +210,7 @@ impl Cursor<'_> {
                 self.budget = b;
                 Ok(())
             }
-            None => bad(format!("{} (more than the column chunk's bytes allow)", what())),
+            None => beyond(format!("{} (more than the column chunk's bytes allow)", what())),
         }
     }
 
@@ -239,7 +264,7 @@ impl Cursor<'_> {
     /// in a field header or as a list element, takes no bytes there).
     fn skip(&mut self, ty: u8, depth: u32) -> Scan<()> {
         if depth == 0 {
-            return bad(format!("fields nested deeper than {MAX_DEPTH}"));
+            return beyond(format!("fields nested deeper than {MAX_DEPTH}"));
         }
         match ty {
             T_BOOL_TRUE | T_BOOL_FALSE => Ok(()),
@@ -379,7 +404,7 @@ pub fn check_column_chunk<R: Read + Seek>(r: &mut R, start: u64, len: u64) -> Re
     let end = start.checked_add(len).ok_or_else(|| format!("a column chunk of {len} bytes at byte {start}"))?;
     let mut budget = len.saturating_add(WORK_SLACK);
     let mut window = Window { start: 0, buf: Vec::new() };
-    let (mut at, mut pages, mut header_bytes) = (start, 0usize, 0u64);
+    let (mut at, mut pages, mut header_bytes, mut uncompressed_bytes) = (start, 0usize, 0u64, 0u64);
     while at < end {
         let left = end - at;
         let span = left.min(MAX_PAGE_HEADER_BYTES);
@@ -402,7 +427,9 @@ pub fn check_column_chunk<R: Read + Seek>(r: &mut R, start: u64, len: u64) -> Re
                         "the page header runs past the end of the column chunk ({left} bytes left)"
                     )))
                 }
-                Err(ScanError::Bad(e)) => return Err(page(format!("malformed page header: {e}"))),
+                Err(ScanError::Bad(e) | ScanError::Bound(e)) => {
+                    return Err(page(format!("malformed page header: {e}")))
+                }
             }
         };
         let after = left - h.header_len as u64;
@@ -412,19 +439,77 @@ pub fn check_column_chunk<R: Read + Seek>(r: &mut R, start: u64, len: u64) -> Re
                 h.compressed_page_size, h.uncompressed_page_size
             )));
         }
-        at += h.header_len as u64 + h.compressed_page_size as u64;
+        let (c, u) = (h.compressed_page_size as u64, h.uncompressed_page_size as u64);
+        if u > c.saturating_mul(MAX_PAGE_RATIO).max(PAGE_RATIO_FLOOR_BYTES) {
+            return Err(page(format!(
+                "a page of {c} bytes declares {u} bytes uncompressed: more than {MAX_PAGE_RATIO} times its size (and \
+                 above {PAGE_RATIO_FLOOR_BYTES} bytes); refused as a decompression bomb"
+            )));
+        }
+        at += h.header_len as u64 + c;
         header_bytes += h.header_len as u64;
+        uncompressed_bytes += u;
         pages += 1;
     }
-    Ok(ChunkPages { pages, header_bytes })
+    Ok(ChunkPages { pages, header_bytes, uncompressed_bytes })
+}
+
+/// The most bytes a Parquet footer's metadata may take (64 MiB; gradtac's files hold a few
+/// kB, and the parquet crate reads the whole footer into memory).
+pub const MAX_FOOTER_BYTES: u64 = 64 << 20;
+
+/// Check a Parquet file's footer (the Thrift `FileMetaData` before the closing
+/// `len: u32, "PAR1"`) before the parquet crate parses it: its length inside the file and
+/// ≤ [`MAX_FOOTER_BYTES`], and its Thrift structure walked as the parquet crate's skip would
+/// with the bounds of a page header (strings inside the footer, nesting ≤ [`MAX_DEPTH`],
+/// fields, list elements and map entries ≤ its bytes + [`WORK_SLACK`]). The parquet crate's
+/// skip of an unknown list of booleans reads no byte per element, so a footer field claiming
+/// 2³¹ booleans kept it busy for minutes, as page headers did. A file without the plain
+/// `PAR1` trailer (too short, encrypted `PARE`) is left to the parquet crate to refuse.
+pub fn check_footer<R: Read + Seek>(r: &mut R) -> Result<(), String> {
+    let io = |e: std::io::Error| format!("cannot read the footer: {e}");
+    let len = r.seek(SeekFrom::End(0)).map_err(io)?;
+    if len < 12 {
+        return Ok(());
+    }
+    let mut tail = [0u8; 8];
+    r.seek(SeekFrom::Start(len - 8)).map_err(io)?;
+    r.read_exact(&mut tail).map_err(io)?;
+    if &tail[4..] != b"PAR1" {
+        return Ok(());
+    }
+    let n = u64::from(u32::from_le_bytes([tail[0], tail[1], tail[2], tail[3]]));
+    if n > len - 12 {
+        return Err(format!("the footer claims {n} bytes of metadata, but the file holds {} before it", len - 12));
+    }
+    if n > MAX_FOOTER_BYTES {
+        return Err(format!("a footer of {n} bytes (limit {MAX_FOOTER_BYTES})"));
+    }
+    let at = len - 8 - n;
+    let mut buf = vec![0u8; n as usize];
+    r.seek(SeekFrom::Start(at)).map_err(io)?;
+    r.read_exact(&mut buf).map_err(io)?;
+    let mut c = Cursor { buf: &buf, pos: 0, span: n, budget: n.saturating_add(WORK_SLACK) };
+    // Walked as one skipped struct; the parquet crate reads its known fields typed (whatever
+    // type a field header declares), so where the two readings part (a malformed type, a
+    // premature end) the walk stops and the parquet crate decides; a bound broken before
+    // that is refused.
+    match c.skip(T_STRUCT, MAX_DEPTH) {
+        Err(ScanError::Bound(e)) => {
+            Err(format!("malformed footer at byte {}: {}", at + c.pos as u64, e.replace("column chunk", "footer")))
+        }
+        Ok(()) | Err(ScanError::Bad(_) | ScanError::NeedMore | ScanError::PastEnd) => Ok(()),
+    }
 }
 
 /// [`check_column_chunk`] for every column chunk of a row group (before the parquet crate
-/// reads it); the error names the column (index and path).
+/// reads it); the error names the column (index and path). Returns the bytes its pages
+/// declare uncompressed (the caller bounds a file's total by [`file_budget`]).
 pub fn check_row_group<R: Read + Seek>(
     r: &mut R,
     rg: &parquet::file::metadata::RowGroupMetaData,
-) -> Result<(), String> {
+) -> Result<u64, String> {
+    let mut total = 0u64;
     for (j, c) in rg.columns().iter().enumerate() {
         let col = || format!("column {j} ({})", c.column_path());
         let start = c.dictionary_page_offset().unwrap_or(c.data_page_offset());
@@ -432,9 +517,10 @@ pub fn check_row_group<R: Read + Seek>(
             .ok()
             .zip(u64::try_from(c.compressed_size()).ok())
             .ok_or_else(|| format!("{}: at byte {start}, {} bytes", col(), c.compressed_size()))?;
-        check_column_chunk(r, start, len).map_err(|e| format!("{}: {e}", col()))?;
+        let pages = check_column_chunk(r, start, len).map_err(|e| format!("{}: {e}", col()))?;
+        total = total.saturating_add(pages.uncompressed_bytes);
     }
-    Ok(())
+    Ok(total)
 }
 
 #[cfg(test)]
@@ -500,7 +586,31 @@ mod tests {
             PageHeaderInfo { header_len: w.0.len(), page_type: 0, uncompressed_page_size: 5, compressed_page_size: 5 }
         );
         w.raw(b"hello");
-        assert_eq!(chunk(&w.0).unwrap(), ChunkPages { pages: 1, header_bytes: w.0.len() as u64 - 5 });
+        assert_eq!(
+            chunk(&w.0).unwrap(),
+            ChunkPages { pages: 1, header_bytes: w.0.len() as u64 - 5, uncompressed_bytes: 5 }
+        );
+    }
+
+    /// A page declaring 2 GB uncompressed from 5 bytes (the parquet crate sizes its
+    /// decompression buffer by the claim) is refused; up to the 16 MiB floor any page passes.
+    #[test]
+    fn page_decompression_bombs_are_refused() {
+        let page = |uncompressed: i32| {
+            let mut w = W::default();
+            w.i32_field(1, 0).i32_field(1, uncompressed).i32_field(1, 5);
+            w.field(2, T_STRUCT).i32_field(1, 10).i32_field(1, 0).i32_field(1, 3).i32_field(1, 3);
+            w.stop().stop().raw(b"hello");
+            chunk(&w.0)
+        };
+        assert_eq!(page(16 << 20).unwrap().uncompressed_bytes, 16 << 20);
+        let e = page(i32::MAX).unwrap_err();
+        assert!(
+            e.contains("page 0 at byte 0: a page of 5 bytes declares 2147483647 bytes") && e.contains("bomb"),
+            "{e}"
+        );
+        assert_eq!(file_budget(1000), FILE_FLOOR_BYTES);
+        assert_eq!(file_budget(1 << 30), 64 << 30);
     }
 
     #[test]
@@ -696,5 +806,42 @@ mod tests {
             }
             assert_eq!(checked, 9);
         }
+    }
+
+    /// The footer: a well-formed one passes; one whose unknown field claims a list of 2³¹
+    /// booleans (the footer twin of the slow page header) is refused at once.
+    #[test]
+    fn footers_are_checked_like_page_headers() {
+        let file = |meta: &[u8]| {
+            let mut f = b"PAR1".to_vec();
+            f.extend(meta);
+            f.extend((meta.len() as u32).to_le_bytes());
+            f.extend(b"PAR1");
+            std::io::Cursor::new(f)
+        };
+        // FileMetaData { 1: version = 1 (i32), 3: num_rows = 0 (i64), stop }
+        let mut w = W(Vec::new());
+        w.field(1, T_I32).raw(&[0x02]).field(2, T_I64).raw(&[0x00]).raw(&[0x00]);
+        assert!(check_footer(&mut file(&w.0)).is_ok());
+        // an unknown field 9: a list of i32::MAX booleans, in 7 bytes
+        let mut w = W(Vec::new());
+        w.field(9, T_LIST).raw(&[0xF1, 0xFF, 0xFF, 0xFF, 0xFF, 0x07]).raw(&[0x00]);
+        let t = std::time::Instant::now();
+        let e = check_footer(&mut file(&w.0)).unwrap_err();
+        assert!(e.contains("a list of 2147483647 elements"), "{e}");
+        assert!(t.elapsed().as_secs_f64() < 0.1);
+        // a length beyond the file, and a string beyond the footer
+        let mut f = file(&[0x00]).into_inner();
+        let k = f.len() - 8;
+        f[k..k + 4].copy_from_slice(&1000u32.to_le_bytes());
+        let e = check_footer(&mut std::io::Cursor::new(f)).unwrap_err();
+        assert!(e.contains("claims 1000 bytes"), "{e}");
+        let mut w = W(Vec::new());
+        w.field(4, T_BINARY).raw(&[0xFF, 0x7F]).raw(&[0x00]);
+        assert!(check_footer(&mut file(&w.0)).unwrap_err().contains("a string of 16383 bytes"));
+        // a malformed type is left to the parquet crate (it reads known fields typed)
+        assert!(check_footer(&mut file(&[0x1F, 0x00])).is_ok());
+        // not Parquet or encrypted: left to the parquet crate
+        assert!(check_footer(&mut std::io::Cursor::new(b"PAR1xxxxPARE".to_vec())).is_ok());
     }
 }

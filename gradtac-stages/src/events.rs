@@ -327,7 +327,10 @@ impl Events {
             }
             Threshold::Noise { noise_sigmas, calibrate_frames } => {
                 if !(noise_sigmas.is_finite() && *noise_sigmas > 0.0 && *noise_sigmas <= 1000.0) {
-                    return Err(invalid(format!("threshold noise_sigmas must be in (0, 1000], got {noise_sigmas}")));
+                    return Err(invalid(format!(
+                        "threshold noise_sigmas must be in (0, 1000], got {}",
+                        gradtac_stream::num::Short(*noise_sigmas)
+                    )));
                 }
                 if !(2..=100_000).contains(calibrate_frames) {
                     return Err(invalid(format!(
@@ -339,11 +342,17 @@ impl Events {
             }
         };
         if let Some((i, t)) = tau.iter().enumerate().find(|(_, t)| !(t.is_finite() && **t >= MIN_THRESHOLD)) {
-            return Err(invalid(format!("threshold of taxel {i} must be finite and >= {MIN_THRESHOLD:e}, got {t}")));
+            return Err(invalid(format!(
+                "threshold of taxel {i} must be finite and >= {MIN_THRESHOLD:e}, got {}",
+                gradtac_stream::num::Short(*t)
+            )));
         }
         let r = config.refractory_s;
         if !(r.is_finite() && (0.0..=9.0e9).contains(&r)) {
-            return Err(invalid(format!("refractory_s must be finite, >= 0 and at most 9e9 s, got {r}")));
+            return Err(invalid(format!(
+                "refractory_s must be finite, >= 0 and at most 9e9 s, got {}",
+                gradtac_stream::num::Short(r)
+            )));
         }
         if config.max_events_per_step == 0 {
             return Err(invalid("max_events_per_step must be at least 1"));
@@ -356,15 +365,23 @@ impl Events {
             )));
         }
         if !(config.floor.is_finite() && config.floor > 0.0) {
-            return Err(invalid(format!("floor must be finite and > 0 (it keeps ln finite), got {}", config.floor)));
+            return Err(invalid(format!(
+                "floor must be finite and > 0 (it keeps ln finite), got {}",
+                gradtac_stream::num::Short(config.floor)
+            )));
         }
         if !config.offset.is_finite() {
-            return Err(invalid(format!("offset must be finite, got {}", config.offset)));
+            return Err(invalid(format!("offset must be finite, got {}", gradtac_stream::num::Short(config.offset))));
         }
         let max_gap_ns = match config.max_gap_s {
             None => None,
             Some(g) if g.is_finite() && g > 0.0 && g <= 9.0e9 => Some((g * 1e9).round() as i64),
-            Some(g) => return Err(invalid(format!("max_gap_s must be finite, > 0 and at most 9e9 s, got {g}"))),
+            Some(g) => {
+                return Err(invalid(format!(
+                    "max_gap_s must be finite, > 0 and at most 9e9 s, got {}",
+                    gradtac_stream::num::Short(g)
+                )))
+            }
         };
         Ok(Events {
             taxels,

@@ -131,7 +131,7 @@ impl Normalise {
         let bounds = config.bounds(taxels)?;
         let min_span = config.min_span.unwrap_or(1.0);
         if !(min_span > 0.0 && min_span.is_finite()) {
-            return Err(bad(format!("min_span must be finite and > 0, got {min_span}")));
+            return Err(bad(format!("min_span must be finite and > 0, got {}", gradtac_stream::num::Short(min_span))));
         }
         if taxels == 0 {
             return Err(bad("a frame needs at least one taxel".into()));

@@ -263,7 +263,10 @@ fn check_fit(window: usize, polyorder: usize, delta: f64) -> Result<Fit> {
         )));
     }
     if !(delta.is_finite() && delta > 0.0) {
-        return Err(invalid(format!("delta (sample spacing) must be finite and > 0, got {delta}")));
+        return Err(invalid(format!(
+            "delta (sample spacing) must be finite and > 0, got {}",
+            gradtac_stream::num::Short(delta)
+        )));
     }
     let fit = Fit::new(window, polyorder);
     if fit.cond.is_nan() || fit.cond > MAX_CONDITION {
@@ -451,7 +454,10 @@ impl SavGol {
     /// As [`SavGol::try_new`], and for a non-positive or non-finite rate.
     pub fn try_with_rate(taxels: usize, config: SavGolConfig, rate_hz: f64) -> Result<SavGol> {
         if !(rate_hz.is_finite() && rate_hz > 0.0) {
-            return Err(invalid(format!("rate must be finite and > 0 Hz, got {rate_hz}")));
+            return Err(invalid(format!(
+                "rate must be finite and > 0 Hz, got {}",
+                gradtac_stream::num::Short(rate_hz)
+            )));
         }
         Self::build(taxels, config, Some(rate_hz))
     }
@@ -474,7 +480,10 @@ impl SavGol {
             )));
         }
         if !(config.gap_factor.is_finite() && config.gap_factor > 1.0) {
-            return Err(invalid(format!("gap_factor must be finite and > 1, got {}", config.gap_factor)));
+            return Err(invalid(format!(
+                "gap_factor must be finite and > 1, got {}",
+                gradtac_stream::num::Short(config.gap_factor)
+            )));
         }
         let (delta, period_ns) = match (config.delta, rate_hz) {
             (Some(d), _) => (d, Some(d * 1e9)),

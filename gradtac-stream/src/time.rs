@@ -72,8 +72,9 @@ impl Timestamp {
         } else {
             Err(format!(
                 "rate_hz must be finite and within [{MIN_RATE_HZ:e}, {MAX_RATE_HZ:e}] Hz (below, frame times leave \
-                 the i64-nanosecond range within {} frames; above, frames are less than 1 ns apart), got {rate_hz}",
-                (i64::MAX as f64 * MIN_RATE_HZ * 1e-9) as u64
+                 the i64-nanosecond range within {} frames; above, frames are less than 1 ns apart), got {}",
+                (i64::MAX as f64 * MIN_RATE_HZ * 1e-9) as u64,
+                crate::num::Short(rate_hz)
             ))
         }
     }

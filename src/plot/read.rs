@@ -75,7 +75,9 @@ pub(super) struct Opened {
 /// upstream bug) is contained and reported as this file's error (see
 /// [`gradtac_io::contain`]). The row counts of the footer must add up.
 pub(super) fn open_parquet(path: &Path) -> R<Opened> {
-    let file = std::fs::File::open(path).map_err(|e| PlotErr(format!("cannot open: {e}")))?;
+    let mut file = std::fs::File::open(path).map_err(|e| PlotErr(format!("cannot open: {e}")))?;
+    // the footer's lengths and Thrift structure first (bounded work; see parquet_check)
+    gradtac_io::parquet_check::check_footer(&mut file).map_err(PlotErr)?;
     let meta = match gradtac_io::contain::contain(|| ArrowReaderMetadata::load(&file, ArrowReaderOptions::new())) {
         Ok(Ok(m)) => m,
         Ok(Err(e)) => return Err(PlotErr(format!("not a readable Parquet file: {e}"))),
@@ -168,11 +170,21 @@ pub(super) fn every_kth(rows: usize, first: usize, k: usize) -> RowSelection {
 pub(super) fn read_rows(o: Opened, first: usize, stride: Option<usize>) -> R<Vec<RecordBatch>> {
     let mut batches = Vec::new();
     let mut start = 0usize;
+    let mut inflated = 0u64;
     for (i, rg) in o.meta.metadata().row_groups().iter().enumerate() {
         let at = |e: String| PlotErr(format!("row group {i}: {e}"));
         let n = rg.num_rows() as usize; // checked non-negative by `open_parquet`
                                         // page headers bounded before the parquet crate reads them (its skip is unbounded)
-        gradtac_io::parquet_check::check_row_group(&mut &o.file, rg).map_err(at)?;
+        let declared = gradtac_io::parquet_check::check_row_group(&mut &o.file, rg).map_err(at)?;
+        // a file's pages together decompress to at most 64 × its size (at least 256 MiB)
+        inflated = inflated.saturating_add(declared);
+        let budget = gradtac_io::parquet_check::file_budget(o.file.metadata().map_or(0, |m| m.len()));
+        if inflated > budget {
+            return Err(at(format!(
+                "its pages and those before declare {inflated} bytes uncompressed, more than the file's budget of \
+                 {budget} bytes (64 times its size, at least 256 MiB); refused as a decompression bomb"
+            )));
+        }
         let file = o.file.try_clone().map_err(|e| at(format!("cannot read: {e}")))?;
         let builder = ParquetRecordBatchReaderBuilder::new_with_metadata(file, o.meta.clone()).with_row_groups(vec![i]);
         let builder = match stride {

@@ -680,7 +680,10 @@ impl CanCodec {
                 return Err(bad(format!("{who}: taxels = {}; at most {MAX_TAXELS} are supported", s.taxels)));
             }
             if !(s.timeout_ms.is_finite() && s.timeout_ms > 0.0 && s.timeout_ms < 1e9) {
-                return Err(bad(format!("{who}: timeout_ms must be positive and finite, got {}", s.timeout_ms)));
+                return Err(bad(format!(
+                    "{who}: timeout_ms must be positive and finite, got {}",
+                    gradtac_stream::num::Short(s.timeout_ms)
+                )));
             }
             if s.messages.is_empty() {
                 return Err(bad(format!("{who}: no messages")));
