@@ -87,6 +87,13 @@ fn bad_scenes() -> Vec<(&'static str, String, &'static str, usize)> {
             1,
         ),
     ];
+    // a CAN sensor whose codec carries another taxel count than its layout: at the codec
+    v.push((
+        "CAN taxel count",
+        format!("{}[[sensor]]\nname = \"ff\"\nsource = {{ bus = \"hand\" }}\n{out}", bus("", "")),
+        "bus \"hand\" (hand.log): sensor \"ff\" carries 3 taxels, but its layout biotac-sp has 24",
+        4,
+    ));
     for (speed, shown) in [
         ("1e-9", "1e-9"),
         ("5e-324", "5e-324"),
@@ -265,5 +272,76 @@ fn mcap_claims_and_bag_bombs_end_in_one_line_under_a_256_mb_cap() {
         assert!(t.elapsed().as_secs_f64() < 5.0, "{kind}: {:?}", t.elapsed());
         let e = failed(&o);
         assert!(e.contains(want), "{kind}: {e}");
+    }
+}
+
+/// An Arrow IPC file in the long layout (sensor, time, values as a variable-length list).
+fn long_ipc(path: &Path, time_name: &str, time: arrow_array::ArrayRef, values_per_row: usize) {
+    use arrow_array::builder::{Float64Builder, ListBuilder};
+    use arrow_array::{ArrayRef, RecordBatch, StringArray};
+    use std::sync::Arc;
+    let rows = 4;
+    let mut values = ListBuilder::new(Float64Builder::new());
+    for k in 0..rows {
+        for j in 0..values_per_row {
+            values.values().append_value((k * 10 + j) as f64);
+        }
+        values.append(true);
+    }
+    let batch = RecordBatch::try_from_iter([
+        ("sensor", Arc::new(StringArray::from(vec!["ff"; rows])) as ArrayRef),
+        (time_name, time),
+        ("values", Arc::new(values.finish()) as ArrayRef),
+    ])
+    .unwrap();
+    let mut w = arrow_ipc::writer::FileWriter::try_new(fs::File::create(path).unwrap(), &batch.schema()).unwrap();
+    w.write(&batch).unwrap();
+    w.finish().unwrap();
+}
+
+/// A taxel-count mismatch from an Arrow IPC source (list-valued `values`) was caught by the
+/// first stage (`centroid: sensor ff frame 0: expected 24 taxels, got 1`); now at the source,
+/// naming its file. The time column is named as the file names it (`time` in frame/2, was
+/// called `time_ns`), and a damaged IPC file's error is one line.
+#[test]
+fn arrow_sources_say_where_on_one_line() {
+    use arrow_array::{ArrayRef, Int64Array, StringArray};
+    use std::sync::Arc;
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path());
+    let times = || Arc::new(Int64Array::from(vec![0, 10_000_000, 20_000_000, 30_000_000])) as ArrayRef;
+    long_ipc(&dir.path().join("one.arrow"), "time", times(), 1);
+    let scene = |file: &str| {
+        format!(
+            "[[sensor]]\nname = \"ff\"\nlayout = \"tri.csv\"\nsource = {{ arrow = \"{file}\" }}\n\
+             [[output]]\ntap = \"normalise\"\npath = \"o.parquet\"\n"
+        )
+    };
+    fs::write(dir.path().join("scene.toml"), scene("one.arrow")).unwrap();
+    let e = failed(&gradtac(dir.path(), &["run", "-q", "scene.toml"]));
+    assert!(e.contains("one.arrow: sensor ff frame 0: 1 taxel values, but layout tri has 3 taxels"), "{e}");
+    // three values per row: read and normalised
+    long_ipc(&dir.path().join("three.arrow"), "time", times(), 3);
+    fs::write(dir.path().join("scene.toml"), scene("three.arrow")).unwrap();
+    let o = gradtac(dir.path(), &["run", "-q", "scene.toml"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // a time column of the wrong type, named `time` as in the file
+    let text = Arc::new(StringArray::from(vec!["a", "b", "c", "d"])) as ArrayRef;
+    long_ipc(&dir.path().join("t.arrow"), "time", text, 3);
+    fs::write(dir.path().join("scene.toml"), scene("t.arrow")).unwrap();
+    let e = failed(&gradtac(dir.path(), &["run", "-q", "scene.toml"]));
+    assert!(e.contains("column time: type Utf8") && !e.contains("time_ns"), "{e}");
+    // damaged files: every error is one line (`failed` checks), whatever arrow's verifier says
+    let good = fs::read(dir.path().join("three.arrow")).unwrap();
+    for at in (8..good.len().min(600)).step_by(11) {
+        let mut b = good.clone();
+        b[at] ^= 0xFF;
+        fs::write(dir.path().join("bad.arrow"), &b).unwrap();
+        fs::write(dir.path().join("scene.toml"), scene("bad.arrow")).unwrap();
+        let o = gradtac(dir.path(), &["run", "-q", "scene.toml"]);
+        if !o.status.success() {
+            let e = failed(&o);
+            assert!(e.contains("bad.arrow"), "byte {at}: {e}");
+        }
     }
 }
