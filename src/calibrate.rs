@@ -139,7 +139,7 @@ pub fn labelled_spans(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> R
             }
             extractor.push(frame)?;
         }
-        if frames <= longest as u64 {
+        if frames <= longest {
             unfit.push(format!(
                 "{} has {frames} frame{}, not more than the longest drift lag ({longest} frames)",
                 path.display(),

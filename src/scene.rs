@@ -243,7 +243,7 @@ pub(crate) fn key_line(text: &str, path: &[Step<'_>]) -> Option<usize> {
             (Step::Key(k), Some(DeValue::Table(t))) => {
                 t.iter().find(|(key, _)| key.get_ref() == k).map(|(k, v)| (k.span(), v))
             }
-            (Step::Index(i), Some(DeValue::Array(a))) => a.iter().nth(*i).map(|v| (v.span(), v)),
+            (Step::Index(i), Some(DeValue::Array(a))) => a.get(*i).map(|v| (v.span(), v)),
             _ => None,
         };
         let Some((span, v)) = next else { break };
