@@ -326,3 +326,89 @@ fn bz2_bomb_chunks_are_refused_before_decompressing() {
     let e = read_all(&p, vec![sensor("ff", Some(Finger::Ff))]).unwrap_err().to_string();
     assert!(e.contains("chunk") && !e.contains("decompression bomb"), "{e}");
 }
+
+/// With the bag's index (connection and chunk-info records after the data, as `rosbag
+/// record` writes), chunks whose connections are all on topics no sensor reads are seeked over
+/// unread: the bomb (100 bz2 chunks declaring 250 MiB each on `/camera`) between
+/// the chunks of `/rh/tactile` costs nothing, and the frames read are exact.
+#[test]
+fn chunks_of_unread_topics_are_skipped_through_the_index() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("indexed.bag");
+    let def = biotac_all_def(false);
+    let conn_data = |topic: &[u8], ty: &[u8], d: &[u8]| {
+        [field("topic", topic), field("type", ty), field("md5sum", b"0"), field("message_definition", d)].concat()
+    };
+    let tactile = record(
+        &[("op", &[7]), ("conn", &0u32.to_le_bytes()), ("topic", b"/rh/tactile")],
+        &conn_data(b"/rh/tactile", b"sr_robot_msgs/BiotacAll", def.as_bytes()),
+    );
+    let camera = record(
+        &[("op", &[7]), ("conn", &1u32.to_le_bytes()), ("topic", b"/camera")],
+        &conn_data(b"/camera", b"x/Y", b"uint8[] data\n"),
+    );
+    let mut e = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::best());
+    e.write_all(&vec![0u8; 1 << 20]).unwrap();
+    let zeros = e.finish().unwrap();
+    let msgs = messages(4);
+    let mut out = b"#ROSBAG V2.0\n".to_vec();
+    let header_at = out.len();
+    out.extend(record(&[("op", &[3]), ("index_pos", &0u64.to_le_bytes())], &[b' '; 16]));
+    let mut infos = Vec::new();
+    for (k, m) in msgs.iter().enumerate() {
+        // one tactile chunk (its connection inside, as rosbag writes), then 25 bombs
+        let mut inner = if k == 0 { tactile.clone() } else { Vec::new() };
+        let t = [m.sec.to_le_bytes(), m.nsec.to_le_bytes()].concat();
+        inner.extend(record(
+            &[("op", &[2]), ("conn", &0u32.to_le_bytes()), ("time", &t)],
+            &serialise(m, k as u32, false),
+        ));
+        infos.push((out.len() as u64, 0u32));
+        out.extend(record(
+            &[("op", &[5]), ("compression", b"none"), ("size", &(inner.len() as u32).to_le_bytes())],
+            &inner,
+        ));
+        for _ in 0..25 {
+            infos.push((out.len() as u64, 1u32));
+            out.extend(record(
+                &[("op", &[5]), ("compression", b"bz2"), ("size", &(250u32 << 20).to_le_bytes())],
+                &zeros,
+            ));
+        }
+    }
+    let index_pos = out.len() as u64;
+    out.extend(&tactile);
+    out.extend(&camera);
+    for (pos, conn) in &infos {
+        let data = [conn.to_le_bytes(), 1u32.to_le_bytes()].concat();
+        out.extend(record(
+            &[
+                ("op", &[6]),
+                ("ver", &1u32.to_le_bytes()),
+                ("chunk_pos", &pos.to_le_bytes()),
+                ("count", &1u32.to_le_bytes()),
+            ],
+            &data,
+        ));
+    }
+    // the bag header's index_pos (its field value is the last 8 bytes of its header)
+    let hlen = u32::from_le_bytes(out[header_at..header_at + 4].try_into().unwrap()) as usize;
+    let v = header_at + 4 + hlen - 8;
+    out[v..v + 8].copy_from_slice(&index_pos.to_le_bytes());
+    std::fs::write(&p, &out).unwrap();
+    let t = std::time::Instant::now();
+    let frames = read_all(&p, vec![sensor("ff", Some(Finger::Ff))]).unwrap();
+    assert!(t.elapsed().as_secs_f64() < 5.0);
+    assert_eq!(frames.len(), 4);
+    for (f, m) in frames.iter().zip(&msgs) {
+        assert_eq!(f.values, m.tactiles[0].1.iter().map(|&v| f64::from(v)).collect::<Vec<_>>());
+    }
+    let mut r = BagReader::open(&p).unwrap().with_topics(["/rh/tactile".to_string()]).unwrap();
+    while r.next_message().unwrap().is_some() {}
+    assert_eq!((r.chunks_read(), r.chunks_skipped()), (104, 100));
+    // the same bag without its index: the first bomb is refused (bounded, one line)
+    out[v..v + 8].copy_from_slice(&0u64.to_le_bytes());
+    std::fs::write(&p, &out).unwrap();
+    let e = read_all(&p, vec![sensor("ff", Some(Finger::Ff))]).unwrap_err().to_string();
+    assert!(e.contains("chunk #2: a bz2 chunk of") && e.contains("decompression bomb"), "{e}");
+}

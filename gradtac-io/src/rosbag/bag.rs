@@ -10,11 +10,13 @@
 //! | `0x05` | chunk (`compression` = `none` / `bz2` / `lz4`, `size` uncompressed); data = records | decompressed, its records read |
 //! | `0x07` | connection (`conn`, `topic`); data = a header with `type`, `md5sum`, `message_definition` | kept |
 //! | `0x02` | message data (`conn`, `time` = sec `u32` + nsec `u32`); data = the serialised message | yielded |
-//! | `0x04`, `0x06` | index data, chunk info | skipped |
+//! | `0x04`, `0x06` | index data, chunk info | skipped (chunk infos read by [`BagReader::with_topics`]) |
 //!
 //! The reader walks the file front to back (it does not need the index, so a bag whose
 //! recording was cut off before the index was written still reads), yielding messages in
-//! the order they were recorded. `lz4` chunks are LZ4 frames (`roslz4`), `bz2` chunks bzip2
+//! the order they were recorded. With [`BagReader::with_topics`] it first reads the index
+//! (when the bag has one) and seeks over the chunks whose connections are all on other
+//! topics, without reading or decompressing them. `lz4` chunks are LZ4 frames (`roslz4`), `bz2` chunks bzip2
 //! streams; both are decoded by pure-Rust crates.
 //!
 //! **Bounds.** A record's header and data may not run past the end of the file (or of the
@@ -49,6 +51,7 @@ mod op {
     pub const MSG_DATA: u8 = 0x02;
     pub const BAG_HEADER: u8 = 0x03;
     pub const CHUNK: u8 = 0x05;
+    pub const CHUNK_INFO: u8 = 0x06;
     pub const CONNECTION: u8 = 0x07;
 }
 
@@ -166,6 +169,11 @@ pub struct BagReader {
     counts: HashMap<u32, u64>,
     chunks: u64,
     budget: InflateBudget,
+    /// From the bag's index (when [`with_topics`](BagReader::with_topics) read one): the
+    /// connections of each chunk, by the chunk's offset, and the topics wanted.
+    chunk_conns: HashMap<u64, Vec<u32>>,
+    topics: Option<std::collections::HashSet<String>>,
+    skipped: u64,
     /// The last message returned: connection, time, offset, bytes, index.
     cur: Option<(u32, RosTime, u64, Held, u64)>,
 }
@@ -198,6 +206,9 @@ impl BagReader {
             counts: HashMap::new(),
             chunks: 0,
             budget: InflateBudget::for_file(meta.len()),
+            chunk_conns: HashMap::new(),
+            topics: None,
+            skipped: 0,
             cur: None,
         };
         let mut magic = [0u8; MAGIC.len()];
@@ -213,6 +224,88 @@ impl BagReader {
             return Err(r.err(0, reason));
         }
         Ok(r)
+    }
+
+    /// Read only what `topics` need: when the bag has an index (the connection and chunk-info
+    /// records `rosbag record` writes at its end), chunks whose connections are all on other
+    /// topics are seeked over without being read or decompressed (a camera topic, or a
+    /// decompression bomb on a topic no sensor reads, costs nothing). Without a readable index
+    /// every chunk is read as before; a malformed index is ignored (the data section is what
+    /// counts). Call right after [`open`](Self::open).
+    pub fn with_topics(mut self, topics: impl IntoIterator<Item = String>) -> Result<Self> {
+        let start = self.pos;
+        if let Ok(Some(map)) = self.read_index() {
+            self.chunk_conns = map;
+        } else {
+            self.chunk_conns.clear();
+        }
+        self.file.seek(SeekFrom::Start(start)).map_err(|e| self.io(e))?;
+        self.pos = start;
+        self.topics = Some(topics.into_iter().collect());
+        Ok(self)
+    }
+
+    /// The index: the chunk-info records' connections per chunk offset, and the connection
+    /// records (kept); `None` when the bag header names no index.
+    fn read_index(&mut self) -> Result<Option<HashMap<u64, Vec<u32>>>> {
+        let at = self.pos;
+        let Some(hlen) = self.read_len(at, "record header")? else { return Ok(None) };
+        if hlen > MAX_HEADER_BYTES {
+            return Ok(None);
+        }
+        let hbytes = self.read_vec(u64::from(hlen), at, "header")?;
+        let header = Header::parse(&hbytes).map_err(|r| self.err(at, r))?;
+        if header.op().ok() != Some(op::BAG_HEADER) {
+            return Ok(None);
+        }
+        let index_pos = match header.get("index_pos") {
+            Some(v) if v.len() == 8 => u64::from_le_bytes(v.try_into().expect("8 bytes")),
+            _ => return Ok(None),
+        };
+        if index_pos <= at || index_pos >= self.len {
+            return Ok(None);
+        }
+        self.file.seek(SeekFrom::Start(index_pos)).map_err(|e| self.io(e))?;
+        self.pos = index_pos;
+        let mut map = HashMap::new();
+        loop {
+            let at = self.pos;
+            let Some(hlen) = self.read_len(at, "record header")? else { break };
+            if hlen > MAX_HEADER_BYTES {
+                return Ok(None);
+            }
+            let hbytes = self.read_vec(u64::from(hlen), at, "header")?;
+            let header = Header::parse(&hbytes).map_err(|r| self.err(at, r))?;
+            let dlen = self.read_len(at, "record data")?.ok_or_else(|| self.err(at, "no data length"))?;
+            match header.op().map_err(|r| self.err(at, r))? {
+                op::CONNECTION => {
+                    let data = self.read_vec(u64::from(dlen), at, "connection data")?;
+                    self.add_connection(&header, &data, at)?;
+                }
+                op::CHUNK_INFO => {
+                    let pos = match header.get("chunk_pos") {
+                        Some(v) if v.len() == 8 => u64::from_le_bytes(v.try_into().expect("8 bytes")),
+                        _ => return Ok(None),
+                    };
+                    let data = self.read_vec(u64::from(dlen), at, "chunk info data")?;
+                    let conns = data.chunks_exact(8).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+                    map.insert(pos, conns);
+                }
+                _ => self.skip(u64::from(dlen), at)?,
+            }
+        }
+        Ok(Some(map))
+    }
+
+    /// Chunks seeked over unread (their connections are all on topics not wanted).
+    pub fn chunks_skipped(&self) -> u64 {
+        self.skipped
+    }
+
+    /// True when the index says the chunk at `at` holds only connections of unwanted topics.
+    fn unwanted_chunk(&self, at: u64) -> bool {
+        let (Some(topics), Some(conns)) = (&self.topics, self.chunk_conns.get(&at)) else { return false };
+        conns.iter().all(|c| self.connections.get(c).is_some_and(|c| !topics.contains(&c.topic)))
     }
 
     /// The file.
@@ -350,6 +443,11 @@ impl BagReader {
                 .read_len(at, "record data")?
                 .ok_or_else(|| self.err(at, "the file ended before the record's data length"))?;
             match op {
+                op::CHUNK if self.unwanted_chunk(at) => {
+                    self.skip(u64::from(dlen), at)?;
+                    self.chunks += 1;
+                    self.skipped += 1;
+                }
                 op::CHUNK => {
                     let data = self.read_vec(u64::from(dlen), at, "chunk data")?;
                     self.chunk = self.decompress(&header, data, at)?;

@@ -33,8 +33,10 @@ impl RosbagFrames {
         if sensors.is_empty() {
             return Err(Error::InvalidConfig("a ROS bag source needs at least one sensor".into()));
         }
+        // chunks of topics no sensor reads are seeked over when the bag has an index
+        let topics: Vec<String> = sensors.iter().map(|s| s.topic.clone()).collect();
         Ok(RosbagFrames {
-            reader: BagReader::open(path)?,
+            reader: BagReader::open(path)?.with_topics(topics)?,
             demux: Demux::new(sensors, Wire::Ros1, Dialect::Ros1),
             pending: VecDeque::new(),
             buf: Vec::new(),
