@@ -326,3 +326,25 @@ fn ipc_remaining_dependency_panics_are_file_errors() {
         assert!(errors.iter().any(|e| e.contains("panicked") && e.contains(expect)), "{name}: {errors:?}");
     }
 }
+
+/// Found by the `mcap` fuzz target (issue 24's run): a schema whose `builtin_interfaces/Time`
+/// declares `int64 sec` let a stamp's seconds overflow `sec · 10⁹ + nsec` (a debug-build
+/// panic, a wrapped time in release). Now the message is an error naming file, offset, topic
+/// and message.
+#[test]
+fn mcap_int64_stamp_seconds_is_a_message_error() {
+    use gradtac_io::rosbag::{BagSensor, McapFrames, StampSource};
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("stamp.mcap");
+    std::fs::write(&p, crash("mcap_int64_stamp_seconds.mcap")).unwrap();
+    let s = BagSensor {
+        sensor: gradtac_stream::SensorId::new("x"),
+        topic: "/rh/tactile".into(),
+        finger: None,
+        time: StampSource::Header,
+    };
+    let r: Result<Vec<_>, _> = McapFrames::open(&p, vec![s]).unwrap().collect();
+    let e = r.unwrap_err().to_string();
+    assert!(e.contains("stamp.mcap at byte") && e.contains("topic /rh/tactile"), "{e}");
+    assert!(e.contains("does not fit in i64 nanoseconds"), "{e}");
+}

@@ -300,6 +300,25 @@ int32 sec\nuint32 nanosec\n";
         put(dir, "mcap", &format!("chunk-{}", if kind.is_empty() { "none" } else { kind }), &with_mode(0, &f));
     }
 
+    // an MCAP file as the `mcap` crate's writer makes it (zstd chunks, message indexes,
+    // the summary section)
+    {
+        let mut w = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Zstd))
+            .chunk_size(Some(256))
+            .create(std::io::Cursor::new(Vec::new()))
+            .unwrap();
+        let schema = w.add_schema("x/msg/E", "ros2msg", def.as_bytes()).unwrap();
+        let ch = w.add_channel(schema, "/rh/tactile", "cdr", &std::collections::BTreeMap::new()).unwrap();
+        for (i, m) in msgs.iter().enumerate() {
+            let data = &m[9 + 22..];
+            let h = mcap::records::MessageHeader { channel_id: ch, sequence: i as u32, log_time: i as u64, publish_time: 0 };
+            w.write_to_known_channel(&h, data).unwrap();
+        }
+        w.finish().unwrap();
+        put(dir, "mcap", "writer-zstd", &with_mode(0, &w.into_inner().into_inner()));
+    }
+
     // ROS 1 bag
     let field = |name: &str, value: &[u8]| [&((name.len() + 1 + value.len()) as u32).to_le_bytes()[..], name.as_bytes(), b"=", value].concat();
     let brec = |fields: &[(&str, &[u8])], data: &[u8]| {

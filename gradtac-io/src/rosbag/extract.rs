@@ -153,7 +153,10 @@ fn stamp_nanos(v: &Value) -> Result<i64, String> {
     if !(0..1_000_000_000).contains(&nsec) {
         return Err(format!("header.stamp has {nsec} nanoseconds (must be 0 … 999999999)"));
     }
-    Ok(sec * 1_000_000_000 + nsec)
+    // a schema may declare `int64 sec` (found by the `mcap` fuzz target): any i64 seconds
+    sec.checked_mul(1_000_000_000)
+        .and_then(|ns| ns.checked_add(nsec))
+        .ok_or_else(|| format!("header.stamp of {sec} s does not fit in i64 nanoseconds (±292 years)"))
 }
 
 /// One scene sensor read from a recorded-hand file.
