@@ -94,6 +94,7 @@ pub mod demo;
 mod error;
 mod explain;
 pub mod guard;
+pub mod memory;
 pub mod plan;
 #[cfg(feature = "plot")]
 pub mod plot;

@@ -12,6 +12,7 @@
 //! outputs are finished (renamed): they hold everything read so far.
 
 use crate::chain::SensorChain;
+use crate::memory::MemoryOutputs;
 use crate::plan::{Plan, SensorPlan, Tap};
 use crate::scene::{BusSource, BusSpec, Scene, SourceSpec};
 use crate::sinks::Sinks;
@@ -106,6 +107,11 @@ pub struct Runner {
 impl Runner {
     /// Build every planned stage and open (as `.partial`) every output.
     pub fn new(scene: &Scene, plan: &Plan) -> Result<Runner, Error> {
+        Runner::new_in(scene, plan, None)
+    }
+
+    /// [`Runner::new`] with every output in `memory` instead of a file when given.
+    pub fn new_in(scene: &Scene, plan: &Plan, memory: Option<&MemoryOutputs>) -> Result<Runner, Error> {
         let chains = plan
             .sensors
             .iter()
@@ -133,7 +139,7 @@ impl Runner {
                 events: Vec::new(),
             })
         };
-        let sinks = Sinks::open(scene, plan)?;
+        let sinks = Sinks::open_in(scene, plan, memory)?;
         Ok(Runner { chains, slip, sinks, last: 0 })
     }
 
@@ -399,9 +405,22 @@ mod progress_bar {
 
 /// Run a scene on a tokio runtime (see the [module docs](self)).
 pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunReport, Error> {
+    run_in(scene, plan, opts, None).await
+}
+
+/// [`run`], with the outputs (and no bus statistics file) in `memory` when given.
+pub async fn run_in(
+    scene: &Scene,
+    plan: &Plan,
+    opts: &RunOptions,
+    memory: Option<&MemoryOutputs>,
+) -> Result<RunReport, Error> {
     let start = Instant::now();
-    let OpenSources { streams, progress, buses } = open_sources(scene, plan)?;
-    let mut runner = Runner::new(scene, plan)?;
+    let OpenSources { streams, progress, mut buses } = open_sources(scene, plan)?;
+    if memory.is_some() {
+        buses.iter_mut().for_each(|b| b.stats_path = None);
+    }
+    let mut runner = Runner::new_in(scene, plan, memory)?;
     let bar = opts.progress.then(|| progress_bar::new(progress.iter().filter_map(CsvProgress::total_bytes).sum()));
     let mut merged = merge_streams(streams, 256);
     let ctrl_c = tokio::signal::ctrl_c();
@@ -451,4 +470,19 @@ pub fn run_blocking(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<Run
         .build()
         .map_err(|source| Error::Io { path: PathBuf::from("<tokio runtime>"), source })?;
     rt.block_on(run(scene, plan, opts))
+}
+
+/// [`run_blocking`] with the outputs in `memory` when given ([`crate::memory::run`]).
+pub fn run_blocking_in(
+    scene: &Scene,
+    plan: &Plan,
+    opts: &RunOptions,
+    memory: Option<&MemoryOutputs>,
+) -> Result<RunReport, Error> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .map_err(|source| Error::Io { path: PathBuf::from("<tokio runtime>"), source })?;
+    rt.block_on(run_in(scene, plan, opts, memory))
 }

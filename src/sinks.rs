@@ -8,6 +8,7 @@
 //! thread so that its size estimate counts every batch and its files overshoot the limit by
 //! at most one batch.
 
+use crate::memory::MemoryOutputs;
 use crate::plan::{Plan, Tap};
 use crate::scene::{OutputSpec, Scene, SourceSpec};
 use crate::Error;
@@ -122,8 +123,14 @@ pub struct Sinks {
 impl Sinks {
     /// Open every output of the scene. Outputs shared by several sensors need layouts of one size.
     pub fn open(scene: &Scene, plan: &Plan) -> Result<Sinks, Error> {
+        Sinks::open_in(scene, plan, None)
+    }
+
+    /// [`Sinks::open`], every output in `memory` (and nothing on disk) when given.
+    pub fn open_in(scene: &Scene, plan: &Plan, memory: Option<&MemoryOutputs>) -> Result<Sinks, Error> {
         let mut sinks = Vec::new();
         for (i, o) in scene.outputs.iter().enumerate() {
+            let dest = Dest { memory, output: i };
             let tap = Tap::parse(&o.tap).expect("validated by Scene");
             let users: Vec<&Layout> =
                 plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| &p.layout).collect();
@@ -140,7 +147,7 @@ impl Sinks {
                 )));
             }
             let path = scene.resolve(&o.path);
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty() && memory.is_none()) {
                 std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
             }
             let taxels = FrameShape::from_layout(layout);
@@ -148,9 +155,9 @@ impl Sinks {
                 plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| p.name.as_str()).collect();
             let time = time_base(scene, &names);
             let mut sink = match tap {
-                Tap::Source | Tap::Normalise | Tap::Savgol => OutputSink::Frames(open(&path, taxels, o, time)?),
-                Tap::Events => OutputSink::Events(open(&path, taxels, o, time)?),
-                Tap::Window => OutputSink::Windows(open(&path, taxels, o, time)?),
+                Tap::Source | Tap::Normalise | Tap::Savgol => OutputSink::Frames(open(&path, taxels, o, time, dest)?),
+                Tap::Events => OutputSink::Events(open(&path, taxels, o, time, dest)?),
+                Tap::Window => OutputSink::Windows(open(&path, taxels, o, time, dest)?),
                 Tap::Surface => {
                     let grids = users
                         .iter()
@@ -162,17 +169,17 @@ impl Sinks {
                             i + 1
                         )));
                     }
-                    OutputSink::Surfaces(open(&path, SurfaceShape::new(grids[0].clone()), o, time)?)
+                    OutputSink::Surfaces(open(&path, SurfaceShape::new(grids[0].clone()), o, time, dest)?)
                 }
-                Tap::Contour => OutputSink::Contours(open(&path, (), o, time)?),
-                Tap::Track => OutputSink::Tracks(open(&path, (), o, time)?),
-                Tap::Force => OutputSink::Forces(open(&path, (), o, time)?),
-                Tap::Servo => OutputSink::Servo(open(&path, (), o, time)?),
+                Tap::Contour => OutputSink::Contours(open(&path, (), o, time, dest)?),
+                Tap::Track => OutputSink::Tracks(open(&path, (), o, time, dest)?),
+                Tap::Force => OutputSink::Forces(open(&path, (), o, time, dest)?),
+                Tap::Servo => OutputSink::Servo(open(&path, (), o, time, dest)?),
                 Tap::Dos => {
                     let d =
                         scene.stages.dos.as_ref().ok_or_else(|| bad("the dos tap needs [stages.dos] model".into()))?;
                     let model = crate::calibrate::read_model(&scene.resolve(&d.model))?;
-                    OutputSink::Dos(open(&path, DosShape::from_model(&model)?, o, time)?)
+                    OutputSink::Dos(open(&path, DosShape::from_model(&model)?, o, time, dest)?)
                 }
                 Tap::Slip => {
                     if o.archive.is_some() {
@@ -182,7 +189,7 @@ impl Sinks {
                         )));
                     }
                     let c = &scene.stages.slip;
-                    OutputSink::Slip(open_file(&path, SlipShape::new(&c.first, &c.second), o, time)?)
+                    OutputSink::Slip(open_file(&path, SlipShape::new(&c.first, &c.second), o, time, dest)?)
                 }
             };
             sink.set_metadata("gradtac.scene".into(), scene.text.clone());
@@ -256,13 +263,24 @@ fn row_group(o: &OutputSpec) -> Option<usize> {
     o.row_group_size.or((o.tap == Tap::Surface.name()).then_some(SURFACE_ROW_GROUP))
 }
 
+/// Where an output goes: a file or archive, or `memory` when given (`output`: its index).
+#[derive(Clone, Copy)]
+struct Dest<'a> {
+    memory: Option<&'a MemoryOutputs>,
+    output: usize,
+}
+
 /// One output's sink: an archive directory when the output has `archive` settings, else one file.
 fn open<T: Record + HasSensor + Timed>(
     path: &Path,
     shape: T::Shape,
     o: &OutputSpec,
     time: TimeBase,
+    dest: Dest<'_>,
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
+    if let Some(m) = dest.memory {
+        return Ok(m.sink(dest.output, shape, time));
+    }
     Ok(match &o.archive {
         Some(cfg) => {
             // rolled by bytes, the size estimate must include every batch pushed: encode inline
@@ -274,7 +292,7 @@ fn open<T: Record + HasSensor + Timed>(
             }
             Box::new(a)
         }
-        None => open_file(path, shape, o, time)?,
+        None => open_file(path, shape, o, time, dest)?,
     })
 }
 
@@ -284,7 +302,11 @@ fn open_file<T: Record>(
     shape: T::Shape,
     o: &OutputSpec,
     time: TimeBase,
+    dest: Dest<'_>,
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
+    if let Some(m) = dest.memory {
+        return Ok(m.sink(dest.output, shape, time));
+    }
     let mut s = ParquetSink::try_new(path, shape)?.with_time_base(time)?.with_writer_thread(true)?;
     if let Some(n) = row_group(o) {
         s = s.with_row_group_size(n)?;
