@@ -35,6 +35,10 @@ pub struct RunOptions {
     /// Draw a progress bar (on stderr) over the sources' bytes (with the `cli` feature; without
     /// it nothing is drawn).
     pub progress: bool,
+    /// Threads for the sensors' chains: `0` the available cores, `1` everything on the calling
+    /// thread (the single-threaded path), `n` up to `n` chain threads. The outputs are byte
+    /// for byte the same whatever the number (see the [module docs](self)).
+    pub threads: usize,
 }
 
 /// What a run did.
