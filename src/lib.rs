@@ -95,6 +95,7 @@ pub mod demo;
 mod error;
 mod explain;
 pub mod guard;
+mod parallel;
 pub mod plan;
 #[cfg(feature = "plot")]
 pub mod plot;
