@@ -87,6 +87,7 @@ pub use gradtac_io as io;
 pub use gradtac_stages as stages;
 pub use gradtac_stream as stream;
 
+pub mod batch;
 pub mod calibrate;
 pub mod chain;
 #[cfg(feature = "plot")]
@@ -95,6 +96,7 @@ mod error;
 mod explain;
 pub mod guard;
 pub mod memory;
+mod parallel;
 pub mod plan;
 #[cfg(feature = "plot")]
 pub mod plot;

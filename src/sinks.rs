@@ -55,9 +55,27 @@ pub enum OutputSink {
 }
 
 /// An output type the runner can write: finds its own sink among the variants.
-pub trait Record: ArrowRecord + Send + 'static {
+pub trait Record: ArrowRecord + Clone + Send + 'static {
     /// The typed sink, when `s` writes this type.
     fn sink(s: &mut OutputSink) -> Option<&mut Box<dyn RecordSink<Self>>>;
+    /// The records as [`Rows`] (copied), for a [`Collected`] buffer.
+    fn rows(records: &[Self]) -> Rows;
+}
+
+/// Records of one output type, owned: what a [`Collected`] buffer holds per write.
+#[derive(Clone, Debug)]
+#[allow(missing_docs)] // one variant per output type, named as in [`OutputSink`]
+pub enum Rows {
+    Frames(Vec<TaxelFrame>),
+    Events(Vec<EventBatch>),
+    Windows(Vec<WindowAggregate>),
+    Surfaces(Vec<Surface>),
+    Contours(Vec<ContourFrame>),
+    Tracks(Vec<TrackPoint>),
+    Forces(Vec<ForceEstimate>),
+    Servo(Vec<ServoCommand>),
+    Slip(Vec<SlipEvent>),
+    Dos(Vec<DosDecision>),
 }
 
 macro_rules! record {
@@ -68,6 +86,9 @@ macro_rules! record {
                     OutputSink::$variant(s) => Some(s),
                     _ => None,
                 }
+            }
+            fn rows(records: &[Self]) -> Rows {
+                Rows::$variant(records.to_vec())
             }
         }
     };
@@ -112,6 +133,61 @@ impl OutputSink {
     }
     fn set_metadata(&mut self, k: String, v: String) {
         each_sink!(self, s => s.set_metadata(k, v))
+    }
+}
+
+/// Where a sensor's chain writes its records: the [`Sinks`] themselves (one thread), or a
+/// [`Collected`] buffer that a chain on a thread of its own fills and the runner's thread
+/// replays into the sinks in the frames' order (so the files are the same byte for byte).
+pub trait RecordWriter {
+    /// Write `records` to each output in `outputs` (indices into the scene's outputs).
+    fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error>;
+}
+
+impl RecordWriter for Sinks {
+    fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
+        Sinks::write_all(self, outputs, records)
+    }
+}
+
+/// Writes recorded in order, to be [replayed](Collected::replay) into the sinks later.
+#[derive(Clone, Debug, Default)]
+pub struct Collected {
+    writes: Vec<(Vec<usize>, Rows)>,
+}
+
+impl RecordWriter for Collected {
+    fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
+        if !outputs.is_empty() && !records.is_empty() {
+            self.writes.push((outputs.to_vec(), T::rows(records)));
+        }
+        Ok(())
+    }
+}
+
+impl Collected {
+    /// True when nothing was written.
+    pub fn is_empty(&self) -> bool {
+        self.writes.is_empty()
+    }
+
+    /// Write everything recorded into `sinks`, in the order it was written (emptying the buffer).
+    pub fn replay(&mut self, sinks: &mut Sinks) -> Result<(), Error> {
+        for (outputs, rows) in self.writes.drain(..) {
+            match &rows {
+                Rows::Frames(r) => sinks.write_all(&outputs, r)?,
+                Rows::Events(r) => sinks.write_all(&outputs, r)?,
+                Rows::Windows(r) => sinks.write_all(&outputs, r)?,
+                Rows::Surfaces(r) => sinks.write_all(&outputs, r)?,
+                Rows::Contours(r) => sinks.write_all(&outputs, r)?,
+                Rows::Tracks(r) => sinks.write_all(&outputs, r)?,
+                Rows::Forces(r) => sinks.write_all(&outputs, r)?,
+                Rows::Servo(r) => sinks.write_all(&outputs, r)?,
+                Rows::Slip(r) => sinks.write_all(&outputs, r)?,
+                Rows::Dos(r) => sinks.write_all(&outputs, r)?,
+            }
+        }
+        Ok(())
     }
 }
 

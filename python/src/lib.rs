@@ -163,7 +163,7 @@ impl Scene {
         let report = py
             .detach(|| {
                 let plan = Plan::new(scene)?;
-                gradtac::run::run_blocking(scene, &plan, &RunOptions { progress: false })
+                gradtac::run::run_blocking(scene, &plan, &RunOptions { progress: false, threads: 0 })
             })
             .map_err(py_err)?;
         report_dict(py, &report)
