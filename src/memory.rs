@@ -379,8 +379,8 @@ impl Pipeline {
         doc.insert("stages".into(), settings.clone().into());
         doc.insert("output".into(), toml::Value::Array(vec![o.into()]));
         let text = toml::to_string(&doc).map_err(|e| at(e.to_string()))?;
-        let base = std::env::current_dir().unwrap_or_default();
-        let scene = Scene::from_toml(&text, base, Path::new(PIPELINE_PATH))?;
+        // relative paths (a dos model) resolve against the working directory
+        let scene = Scene::from_toml(&text, PathBuf::new(), Path::new(PIPELINE_PATH))?;
         let plan = Plan::new(&scene)?;
         let taxels = plan.sensors[0].layout.len();
         let out = MemoryOutputs::queue();

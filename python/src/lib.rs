@@ -19,7 +19,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyFileNotFoundError, PyPermissionError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::mpsc::Receiver;
 use std::sync::Mutex;
 use std::thread::JoinHandle;
@@ -116,13 +116,93 @@ impl Scene {
         Ok(Scene { inner })
     }
 
-    /// Parse TOML text; relative paths resolve against `base_dir` (default: the working directory).
+    /// Parse TOML text; relative paths resolve against `base_dir` (default: the working
+    /// directory); `origin` is the scene file errors name (and no output may replace).
     #[staticmethod]
-    #[pyo3(signature = (text, base_dir=None))]
-    fn from_toml(text: &str, base_dir: Option<PathBuf>) -> PyResult<Scene> {
+    #[pyo3(signature = (text, base_dir=None, origin=None))]
+    fn from_toml(text: &str, base_dir: Option<PathBuf>, origin: Option<PathBuf>) -> PyResult<Scene> {
         let base = base_dir.unwrap_or_else(|| std::env::current_dir().unwrap_or_default());
-        let inner = RustScene::from_toml(text, base, Path::new("<scene>")).map_err(py_err)?;
+        let origin = origin.unwrap_or_else(|| PathBuf::from("<scene>"));
+        let inner = RustScene::from_toml(text, base, &origin).map_err(py_err)?;
         Ok(Scene { inner })
+    }
+
+    /// The directory relative paths resolve against.
+    #[getter]
+    fn base_dir(&self) -> PathBuf {
+        self.inner.base_dir.clone()
+    }
+
+    /// The scene file it was read from (`<scene>` for text and dicts).
+    #[getter]
+    fn origin(&self) -> PathBuf {
+        self.inner.origin.clone()
+    }
+
+    /// Pickled as its text, base directory and origin (Ray ships scenes to workers so).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (String, PathBuf, PathBuf))> {
+        let me = slf.get();
+        let ctor = slf.get_type().getattr("from_toml")?;
+        Ok((ctor, (me.inner.text.clone(), me.inner.base_dir.clone(), me.inner.origin.clone())))
+    }
+
+    /// Check that `recordings` can be batched with this scene (`gradtac batch`'s checks, before
+    /// anything runs): the scene reads one file, its outputs have distinct table names, and no
+    /// two recordings share a file stem.
+    fn check_batch(&self, recordings: Vec<PathBuf>) -> PyResult<()> {
+        gradtac::batch::check_stems(&recordings).map_err(py_err)?;
+        gradtac::batch::check_batchable(&self.inner).map_err(py_err)
+    }
+
+    /// The archive's table name of each output (the file stem of its path).
+    #[getter]
+    fn output_names(&self) -> PyResult<Vec<String>> {
+        gradtac::batch::output_names(&self.inner).map_err(py_err)
+    }
+
+    /// Run the scene on one recording into the batch archive under `out`
+    /// (`gradtac::batch::run_recording`: `<out>/<output>/recording=<stem>/sensor=<name>/part-000000.parquet`,
+    /// exactly as `gradtac batch` writes it); returns `{"recording", "frames", "files"}`.
+    fn run_recording<'py>(&self, py: Python<'py>, recording: PathBuf, out: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+        let scene = &self.inner;
+        let s = py.detach(|| gradtac::batch::run_recording(scene, &recording, &out)).map_err(py_err)?;
+        let d = PyDict::new(py);
+        d.set_item("recording", s.recording.display().to_string())?;
+        d.set_item("frames", s.frames)?;
+        d.set_item("files", s.files.iter().map(|p| p.display().to_string()).collect::<Vec<_>>())?;
+        Ok(d)
+    }
+
+    /// `gradtac batch` in this process: every recording on a pool of `jobs` threads (0: the
+    /// available cores); returns `{"done": [...], "failed": [(recording, message)], "seconds", "jobs"}`.
+    #[pyo3(signature = (recordings, out, jobs=0))]
+    fn run_batch<'py>(
+        &self,
+        py: Python<'py>,
+        recordings: Vec<PathBuf>,
+        out: PathBuf,
+        jobs: usize,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let scene = &self.inner;
+        let opts = gradtac::batch::BatchOptions { jobs, progress: false };
+        let r = py.detach(|| gradtac::batch::run_batch(scene, &recordings, &out, &opts)).map_err(py_err)?;
+        let d = PyDict::new(py);
+        let done = PyList::empty(py);
+        for s in &r.done {
+            let x = PyDict::new(py);
+            x.set_item("recording", s.recording.display().to_string())?;
+            x.set_item("frames", s.frames)?;
+            x.set_item("files", s.files.iter().map(|p| p.display().to_string()).collect::<Vec<_>>())?;
+            done.append(x)?;
+        }
+        d.set_item("done", done)?;
+        let failed: Vec<(String, String)> =
+            r.failed.iter().map(|(p, e)| (p.display().to_string(), e.to_string())).collect();
+        d.set_item("failed", failed)?;
+        d.set_item("skipped", r.skipped)?;
+        d.set_item("seconds", r.seconds)?;
+        d.set_item("jobs", r.jobs)?;
+        Ok(d)
     }
 
     /// A scene from a dict of the TOML's structure (`{"sensor": [...], "stages": {...}, "output": [...]}`).
@@ -130,7 +210,7 @@ impl Scene {
     #[pyo3(signature = (scene, base_dir=None))]
     fn from_dict(scene: &Bound<'_, PyDict>, base_dir: Option<PathBuf>) -> PyResult<Scene> {
         let text = dict_to_toml(scene)?;
-        Scene::from_toml(&text, base_dir)
+        Scene::from_toml(&text, base_dir, None)
     }
 
     /// The TOML text (stored in every output's metadata).
