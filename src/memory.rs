@@ -336,6 +336,10 @@ pub struct Pipeline {
     failed: bool,
 }
 
+fn unreachable_runner() -> Error {
+    Error::Scene { path: PathBuf::from(PIPELINE_PATH), reason: "no runner; call reset()".into() }
+}
+
 /// The name of a pipeline's (never opened) source and output in its scene.
 const PIPELINE_PATH: &str = "<pipeline>";
 
@@ -420,13 +424,13 @@ impl Pipeline {
     }
 
     fn runner(&mut self) -> Result<&mut Runner, Error> {
-        if self.failed {
+        if self.failed || self.runner.is_none() {
             return Err(Error::Scene {
                 path: PathBuf::from(PIPELINE_PATH),
                 reason: "an earlier push failed; call reset() before pushing again".into(),
             });
         }
-        Ok(self.runner.as_mut().expect("a runner between calls"))
+        self.runner.as_mut().ok_or_else(unreachable_runner)
     }
 
     /// Push one frame (its `values` must have [`taxels`](Self::taxels) entries).
@@ -499,27 +503,28 @@ impl Pipeline {
     /// next push begins a new stream, as after [`reset`](Self::reset)).
     pub fn finish(&mut self) -> Result<RecordBatch, Error> {
         self.runner()?;
-        let runner = self.runner.take().expect("a runner between calls");
+        let runner = self.runner.take().ok_or_else(unreachable_runner)?;
+        self.failed = true; // until the reset below succeeds
         let finished = runner.finish();
         let batch = finished.and_then(|_| self.take());
-        self.reset();
-        if batch.is_err() {
-            self.failed = false;
-        }
+        self.reset()?;
         batch
     }
 
     /// Drop every stage's state and every pending record (a gap in the stream): the next push
-    /// begins a new stream.
-    pub fn reset(&mut self) {
+    /// begins a new stream. Fails only if the stages cannot be built again (a model file
+    /// removed since); the pipeline then refuses pushes until a reset succeeds.
+    pub fn reset(&mut self) -> Result<(), Error> {
         self.out.clear();
         self.runner = None;
+        self.failed = true;
         let out = MemoryOutputs::queue();
-        self.runner = Some(Runner::new_in(&self.scene, &self.plan, Some(&out)).expect("built once already"));
+        self.runner = Some(Runner::new_in(&self.scene, &self.plan, Some(&out))?);
         self.out = out;
         self.seq = 0;
         self.frames = 0;
         self.failed = false;
+        Ok(())
     }
 }
 

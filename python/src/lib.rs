@@ -488,8 +488,8 @@ impl Pipeline {
     }
 
     /// Drop every stage's state (a gap): the next push starts a new stream.
-    fn reset(&self, py: Python<'_>) {
-        self.with(py, |p| p.reset())
+    fn reset(&self, py: Python<'_>) -> PyResult<()> {
+        self.with(py, |p| p.reset()).map_err(py_err)
     }
 }
 

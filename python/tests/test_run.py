@@ -103,3 +103,24 @@ def test_a_dev_recording_matches_the_cli(tmp_path: Path, gradtac_bin):
     tables = gradtac.run_tables(scene)
     for name, table in tables.items():
         assert canonical(table) == canonical(pq.read_table(tmp_path / name)), name
+
+
+def test_ctrl_c_still_raises_keyboard_interrupt_after_a_run(recording_dir: Path):
+    # a run installs tokio's SIGINT handler (it finishes the outputs on Ctrl-C); Python's own
+    # handler must still see later Ctrl-Cs
+    import subprocess
+    import sys
+
+    code = (
+        "import os, signal, time, gradtac\n"
+        f"gradtac.run_tables({str(recording_dir / 'scene.toml')!r})\n"
+        f"gradtac.run({str(recording_dir / 'scene.toml')!r}, write=True)\n"
+        "try:\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "    time.sleep(5)\n"
+        "    print('no interrupt')\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.stdout.strip() == "interrupted", (out.stdout, out.stderr)
