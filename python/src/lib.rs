@@ -284,7 +284,7 @@ fn dict_to_toml(d: &Bound<'_, PyDict>) -> PyResult<String> {
 
 fn report_dict<'py>(py: Python<'py>, r: &RunReport) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item("frames", r.frames.iter().cloned().collect::<Vec<_>>())?;
+    d.set_item("frames", r.frames.to_vec())?;
     let outputs: Vec<(Vec<String>, u64)> =
         r.outputs.iter().map(|(p, n)| (p.iter().map(|p| p.display().to_string()).collect(), *n)).collect();
     d.set_item("outputs", outputs)?;
