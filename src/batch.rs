@@ -35,6 +35,7 @@ use crate::run::{run_blocking, RunOptions};
 use crate::scene::{BusSource, OutputSpec, Scene, SourceSpec};
 use crate::{Error, Plan, Tap};
 use gradtac_io::archive::{hive_segment, ArchiveConfig, Partitioning};
+use gradtac_io::parquet_sink::PARTIAL_SUFFIX;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -257,7 +258,9 @@ pub fn batch_scene(scene: &Scene, recording: &Path, out: &Path) -> Result<Scene,
 ///
 /// Fails before any data moves when the scene reads more than one file or a live source, when
 /// an output would resolve to an input ([`crate::guard`]), or when the recording is already in
-/// the archive. A run that fails leaves its files under their temporary names.
+/// the archive. A run that fails leaves its files under their temporary names; so does one
+/// that Ctrl-C cuts short (its finished files are renamed back, and the error is
+/// [`Error::Interrupted`]), so a final name in the archive always holds a whole recording.
 pub fn run_recording(scene: &Scene, recording: &Path, out: &Path) -> Result<RecordingSummary, Error> {
     let s = batch_scene(scene, recording, out)?;
     for bus in &s.buses {
@@ -268,6 +271,18 @@ pub fn run_recording(scene: &Scene, recording: &Path, out: &Path) -> Result<Reco
     let plan = Plan::new(&s)?;
     let report = run_blocking(&s, &plan, &RunOptions { progress: false, threads: 1 })?;
     if report.interrupted {
+        // a recording cut short is a failed one: its files go back to temporary names, so
+        // the archive's final names only ever hold whole recordings
+        for f in report.outputs.iter().flat_map(|(files, _)| files) {
+            let (Some(dir), Some(name)) = (f.parent(), f.file_name().and_then(|n| n.to_str())) else { continue };
+            let hidden = if name == FIRST_FILE && s.outputs.iter().any(|o| o.path == *f) {
+                format!("{name}{PARTIAL_SUFFIX}")
+            } else {
+                format!(".{name}{PARTIAL_SUFFIX}")
+            };
+            let to = dir.join(hidden);
+            std::fs::rename(f, &to).map_err(|source| Error::Io { path: f.clone(), source })?;
+        }
         return Err(Error::Interrupted);
     }
     Ok(RecordingSummary {
