@@ -434,3 +434,111 @@ pub fn run_batch(scene: &Scene, recordings: &[PathBuf], out: &Path, opts: &Batch
     report.seconds = start.elapsed().as_secs_f64();
     Ok(report)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(text: &str) -> Scene {
+        Scene::from_toml(text, "/base", Path::new("/base/scene.toml")).unwrap()
+    }
+
+    const BUS: &str = r#"
+[[bus]]
+name = "hand"
+candump = "hand.log"
+codec = { preset = { kind = "biotac-mux", sensors = ["ff", "th"] } }
+stats = "out/can-stats.json"
+[[sensor]]
+name = "ff"
+source = { bus = "hand" }
+[[sensor]]
+name = "th"
+source = { bus = "hand" }
+[[output]]
+tap = "source"
+path = "out/raw.parquet"
+[[output]]
+tap = "slip"
+path = "out/slip.parquet"
+"#;
+
+    #[test]
+    fn a_bus_scene_reads_the_recording_and_writes_into_the_partitions() {
+        let s = batch_scene(&scene(BUS), Path::new("/data/g 1.log"), Path::new("/arch")).unwrap();
+        let BusSource::Candump(c) = &s.buses[0].source else { panic!("a candump bus") };
+        assert_eq!(c.path, Path::new("/data/g 1.log"));
+        assert_eq!(s.buses[0].stats.as_deref(), Some(Path::new("/arch/can-stats/recording=g%201/hand.json")));
+        assert_eq!(s.outputs[0].path, Path::new("/arch/raw/recording=g%201"));
+        let a = s.outputs[0].archive.as_ref().unwrap();
+        assert_eq!((a.partition, a.partition_column), (Partitioning::Sensor, false));
+        assert_eq!(s.outputs[1].path, Path::new("/arch/slip/recording=g%201/part-000000.parquet"));
+        assert!(s.outputs[1].archive.is_none());
+        assert_eq!(
+            batch_layout_dir(Path::new("/arch"), "raw", "g 1", "ff"),
+            Path::new("/arch/raw/recording=g%201/sensor=ff")
+        );
+    }
+
+    #[test]
+    fn an_archive_output_keeps_its_rolling_and_is_partitioned_by_sensor() {
+        let text = r#"
+[[sensor]]
+name = "ff"
+source = { csv = "a.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }
+[[output]]
+tap = "track"
+path = "out/tracks"
+archive = { roll_rows = 100, zstd_level = 5 }
+"#;
+        let s = batch_scene(&scene(text), Path::new("/d/r.csv"), Path::new("/arch")).unwrap();
+        let a = s.outputs[0].archive.as_ref().unwrap();
+        assert_eq!((a.roll_rows, a.zstd_level, a.partition), (Some(100), 5, Partitioning::Sensor));
+        assert_eq!(s.outputs[0].path, Path::new("/arch/tracks/recording=r"));
+        let SourceSpec::Csv(c) = &s.sensors[0].source else { panic!("csv") };
+        assert_eq!(c.path, Path::new("/d/r.csv"));
+    }
+
+    #[test]
+    fn scenes_that_read_more_than_one_file_are_refused_naming_the_keys() {
+        let two = r#"
+[[sensor]]
+name = "ff"
+source = { csv = "a.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }
+[[sensor]]
+name = "th"
+source = { npy = "b.npy", rate_hz = 100.0 }
+[[output]]
+tap = "source"
+path = "out/raw.parquet"
+"#;
+        let e = check_batchable(&scene(two)).unwrap_err().to_string();
+        assert!(e.contains("sensor \"ff\" source.csv") && e.contains("sensor \"th\" source.npy"), "{e}");
+        let ts = two.replace("b.npy\", rate_hz = 100.0", "a.csv\", timestamps = \"t.npy\"");
+        let e = check_batchable(&scene(&ts)).unwrap_err().to_string();
+        assert!(e.contains("sensor \"th\" source.timestamps"), "{e}");
+        // the same file read by two sensors is one file
+        let same = two.replace(
+            "{ npy = \"b.npy\", rate_hz = 100.0 }",
+            "{ csv = \"./a.csv\", columns = \"th_e{1..24}\", rate_hz = 100.0 }",
+        );
+        check_batchable(&scene(&same)).unwrap();
+        #[cfg(target_os = "linux")]
+        {
+            let live = BUS.replace("candump = \"hand.log\"", "interface = \"can0\"");
+            let e = check_batchable(&scene(&live)).unwrap_err().to_string();
+            assert!(e.contains("bus \"hand\" interface"), "{e}");
+        }
+    }
+
+    #[test]
+    fn stems_and_table_names() {
+        assert_eq!(recording_stem(Path::new("a/b/bottle12.csv")).unwrap(), "bottle12");
+        assert!(recording_stem(Path::new("/")).is_err());
+        let e = check_stems(&[PathBuf::from("a/x.csv"), PathBuf::from("b/y.csv"), PathBuf::from("c/x.npy")])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a/x.csv") && e.contains("c/x.npy"), "{e}");
+        assert_eq!(output_names(&scene(BUS)).unwrap(), ["raw", "slip"]);
+    }
+}
