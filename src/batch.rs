@@ -398,26 +398,48 @@ pub fn run_batch(scene: &Scene, recordings: &[PathBuf], out: &Path, opts: &Batch
         Mutex::new((0..recordings.len()).map(|_| None).collect());
     let failures = AtomicUsize::new(0);
     let bar = opts.progress.then(|| progress_bar::Bar::new(recordings.len() as u64));
+    let (done_tx, done_rx) = tokio::sync::oneshot::channel::<()>();
     std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| loop {
-                if stop.load(Ordering::Relaxed) {
-                    return;
+        // Ctrl-C: no recording starts after it (those running stop as `gradtac run` does)
+        let stop = &stop;
+        scope.spawn(move || {
+            let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_all().build() else { return };
+            rt.block_on(async {
+                tokio::select! {
+                    r = tokio::signal::ctrl_c() => if r.is_ok() { stop.store(true, Ordering::Relaxed) },
+                    _ = done_rx => {}
                 }
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(rec) = recordings.get(i) else { return };
-                let r = run_recording(scene, rec, out);
-                if r.is_err() {
-                    failures.fetch_add(1, Ordering::Relaxed);
-                }
-                if matches!(r, Err(Error::Interrupted)) {
-                    stop.store(true, Ordering::Relaxed);
-                }
-                if let Some(b) = &bar {
-                    b.inc(failures.load(Ordering::Relaxed));
-                }
-                results.lock().expect("no panic holds the lock")[i] = Some(r);
             });
+        });
+        let workers: Vec<_> = (0..jobs)
+            .map(|_| {
+                scope.spawn(|| loop {
+                    if stop.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(rec) = recordings.get(i) else { return };
+                    let r = run_recording(scene, rec, out);
+                    if r.is_err() {
+                        failures.fetch_add(1, Ordering::Relaxed);
+                    }
+                    if matches!(r, Err(Error::Interrupted)) {
+                        stop.store(true, Ordering::Relaxed);
+                    }
+                    if let Some(b) = &bar {
+                        b.inc(failures.load(Ordering::Relaxed));
+                    }
+                    results.lock().expect("no panic holds the lock")[i] = Some(r);
+                })
+            })
+            .collect();
+        let joined: Vec<_> = workers.into_iter().map(|w| w.join()).collect();
+        // end the Ctrl-C listener before a worker's panic goes on
+        let _ = done_tx.send(());
+        for j in joined {
+            if let Err(panic) = j {
+                std::panic::resume_unwind(panic);
+            }
         }
     });
     if let Some(b) = &bar {

@@ -248,3 +248,60 @@ fn batch_refuses_what_it_cannot_run_before_anything_runs() {
     assert!(!out.status.success() && err.contains("already holds"), "{err}");
     assert_eq!(fs::read_dir(&layout_dir).unwrap().count(), 0);
 }
+
+#[cfg(unix)]
+#[test]
+fn ctrl_c_starts_no_more_recordings_and_leaves_only_whole_ones() {
+    let (dir, sc, recs) = setup(1);
+    // 200 copies of one recording
+    let mut all = Vec::new();
+    for k in 0..200 {
+        let p = dir.path().join(format!("data/copy{k}.csv"));
+        fs::copy(&recs[0], &p).unwrap();
+        all.push(p);
+    }
+    let arch = dir.path().join("arch");
+    let mut child = gradtac()
+        .arg("batch")
+        .arg(&sc)
+        .args(&all)
+        .args(["--jobs", "2", "-o"])
+        .arg(&arch)
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while walk(&arch).len() < 8 && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    assert!(Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap().success());
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    if out.status.success() {
+        eprintln!("the batch finished before the signal arrived: {stdout}");
+        return;
+    }
+    assert_eq!(out.status.code(), Some(130), "{stdout}");
+    assert!(stdout.contains("not started (interrupted)"), "{stdout}");
+    // every recording with a final file has all four, each a valid Parquet file
+    let finals: Vec<PathBuf> = walk(&arch).into_iter().filter(|p| !p.to_string_lossy().ends_with(".partial")).collect();
+    let mut stems: Vec<String> = finals
+        .iter()
+        .filter_map(|p| {
+            p.components().find_map(|c| c.as_os_str().to_str()?.strip_prefix("recording=").map(str::to_string))
+        })
+        .collect();
+    stems.sort();
+    stems.dedup();
+    assert!(!stems.is_empty() && stems.len() < 200, "{}", stems.len());
+    for stem in &stems {
+        for f in [
+            batch_layout_dir(&arch, "tracks", stem, "ff").join(FIRST_FILE),
+            batch_layout_dir(&arch, "tracks", stem, "th").join(FIRST_FILE),
+            batch_layout_dir(&arch, "frames", stem, "th").join(FIRST_FILE),
+            arch.join("slip").join(format!("recording={stem}")).join(FIRST_FILE),
+        ] {
+            assert!(read(&f).num_rows() > 0 || f.to_string_lossy().contains("slip"), "{}", f.display());
+        }
+    }
+}
