@@ -261,7 +261,7 @@ fn ctrl_c_starts_no_more_recordings_and_leaves_only_whole_ones() {
         all.push(p);
     }
     let arch = dir.path().join("arch");
-    let mut child = gradtac()
+    let child = gradtac()
         .arg("batch")
         .arg(&sc)
         .args(&all)
