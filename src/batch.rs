@@ -35,6 +35,7 @@ use crate::run::{run_blocking, RunOptions};
 use crate::scene::{BusSource, OutputSpec, Scene, SourceSpec};
 use crate::{Error, Plan, Tap};
 use gradtac_io::archive::{hive_segment, ArchiveConfig, Partitioning};
+use gradtac_io::parquet_sink::PARTIAL_SUFFIX;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -257,7 +258,9 @@ pub fn batch_scene(scene: &Scene, recording: &Path, out: &Path) -> Result<Scene,
 ///
 /// Fails before any data moves when the scene reads more than one file or a live source, when
 /// an output would resolve to an input ([`crate::guard`]), or when the recording is already in
-/// the archive. A run that fails leaves its files under their temporary names.
+/// the archive. A run that fails leaves its files under their temporary names; so does one
+/// that Ctrl-C cuts short (its finished files are renamed back, and the error is
+/// [`Error::Interrupted`]), so a final name in the archive always holds a whole recording.
 pub fn run_recording(scene: &Scene, recording: &Path, out: &Path) -> Result<RecordingSummary, Error> {
     let s = batch_scene(scene, recording, out)?;
     for bus in &s.buses {
@@ -268,6 +271,18 @@ pub fn run_recording(scene: &Scene, recording: &Path, out: &Path) -> Result<Reco
     let plan = Plan::new(&s)?;
     let report = run_blocking(&s, &plan, &RunOptions { progress: false, threads: 1 })?;
     if report.interrupted {
+        // a recording cut short is a failed one: its files go back to temporary names, so
+        // the archive's final names only ever hold whole recordings
+        for f in report.outputs.iter().flat_map(|(files, _)| files) {
+            let (Some(dir), Some(name)) = (f.parent(), f.file_name().and_then(|n| n.to_str())) else { continue };
+            let hidden = if name == FIRST_FILE && s.outputs.iter().any(|o| o.path == *f) {
+                format!("{name}{PARTIAL_SUFFIX}")
+            } else {
+                format!(".{name}{PARTIAL_SUFFIX}")
+            };
+            let to = dir.join(hidden);
+            std::fs::rename(f, &to).map_err(|source| Error::Io { path: f.clone(), source })?;
+        }
         return Err(Error::Interrupted);
     }
     Ok(RecordingSummary {
@@ -383,26 +398,48 @@ pub fn run_batch(scene: &Scene, recordings: &[PathBuf], out: &Path, opts: &Batch
         Mutex::new((0..recordings.len()).map(|_| None).collect());
     let failures = AtomicUsize::new(0);
     let bar = opts.progress.then(|| progress_bar::Bar::new(recordings.len() as u64));
+    let (done_tx, done_rx) = tokio::sync::oneshot::channel::<()>();
     std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| loop {
-                if stop.load(Ordering::Relaxed) {
-                    return;
+        // Ctrl-C: no recording starts after it (those running stop as `gradtac run` does)
+        let stop = &stop;
+        scope.spawn(move || {
+            let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_all().build() else { return };
+            rt.block_on(async {
+                tokio::select! {
+                    r = tokio::signal::ctrl_c() => if r.is_ok() { stop.store(true, Ordering::Relaxed) },
+                    _ = done_rx => {}
                 }
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(rec) = recordings.get(i) else { return };
-                let r = run_recording(scene, rec, out);
-                if r.is_err() {
-                    failures.fetch_add(1, Ordering::Relaxed);
-                }
-                if matches!(r, Err(Error::Interrupted)) {
-                    stop.store(true, Ordering::Relaxed);
-                }
-                if let Some(b) = &bar {
-                    b.inc(failures.load(Ordering::Relaxed));
-                }
-                results.lock().expect("no panic holds the lock")[i] = Some(r);
             });
+        });
+        let workers: Vec<_> = (0..jobs)
+            .map(|_| {
+                scope.spawn(|| loop {
+                    if stop.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(rec) = recordings.get(i) else { return };
+                    let r = run_recording(scene, rec, out);
+                    if r.is_err() {
+                        failures.fetch_add(1, Ordering::Relaxed);
+                    }
+                    if matches!(r, Err(Error::Interrupted)) {
+                        stop.store(true, Ordering::Relaxed);
+                    }
+                    if let Some(b) = &bar {
+                        b.inc(failures.load(Ordering::Relaxed));
+                    }
+                    results.lock().expect("no panic holds the lock")[i] = Some(r);
+                })
+            })
+            .collect();
+        let joined: Vec<_> = workers.into_iter().map(|w| w.join()).collect();
+        // end the Ctrl-C listener before a worker's panic goes on
+        let _ = done_tx.send(());
+        for j in joined {
+            if let Err(panic) = j {
+                std::panic::resume_unwind(panic);
+            }
         }
     });
     if let Some(b) = &bar {
@@ -418,4 +455,112 @@ pub fn run_batch(scene: &Scene, recordings: &[PathBuf], out: &Path, opts: &Batch
     }
     report.seconds = start.elapsed().as_secs_f64();
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(text: &str) -> Scene {
+        Scene::from_toml(text, "/base", Path::new("/base/scene.toml")).unwrap()
+    }
+
+    const BUS: &str = r#"
+[[bus]]
+name = "hand"
+candump = "hand.log"
+codec = { preset = { kind = "biotac-mux", sensors = ["ff", "th"] } }
+stats = "out/can-stats.json"
+[[sensor]]
+name = "ff"
+source = { bus = "hand" }
+[[sensor]]
+name = "th"
+source = { bus = "hand" }
+[[output]]
+tap = "source"
+path = "out/raw.parquet"
+[[output]]
+tap = "slip"
+path = "out/slip.parquet"
+"#;
+
+    #[test]
+    fn a_bus_scene_reads_the_recording_and_writes_into_the_partitions() {
+        let s = batch_scene(&scene(BUS), Path::new("/data/g 1.log"), Path::new("/arch")).unwrap();
+        let BusSource::Candump(c) = &s.buses[0].source else { panic!("a candump bus") };
+        assert_eq!(c.path, Path::new("/data/g 1.log"));
+        assert_eq!(s.buses[0].stats.as_deref(), Some(Path::new("/arch/can-stats/recording=g%201/hand.json")));
+        assert_eq!(s.outputs[0].path, Path::new("/arch/raw/recording=g%201"));
+        let a = s.outputs[0].archive.as_ref().unwrap();
+        assert_eq!((a.partition, a.partition_column), (Partitioning::Sensor, false));
+        assert_eq!(s.outputs[1].path, Path::new("/arch/slip/recording=g%201/part-000000.parquet"));
+        assert!(s.outputs[1].archive.is_none());
+        assert_eq!(
+            batch_layout_dir(Path::new("/arch"), "raw", "g 1", "ff"),
+            Path::new("/arch/raw/recording=g%201/sensor=ff")
+        );
+    }
+
+    #[test]
+    fn an_archive_output_keeps_its_rolling_and_is_partitioned_by_sensor() {
+        let text = r#"
+[[sensor]]
+name = "ff"
+source = { csv = "a.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }
+[[output]]
+tap = "track"
+path = "out/tracks"
+archive = { roll_rows = 100, zstd_level = 5 }
+"#;
+        let s = batch_scene(&scene(text), Path::new("/d/r.csv"), Path::new("/arch")).unwrap();
+        let a = s.outputs[0].archive.as_ref().unwrap();
+        assert_eq!((a.roll_rows, a.zstd_level, a.partition), (Some(100), 5, Partitioning::Sensor));
+        assert_eq!(s.outputs[0].path, Path::new("/arch/tracks/recording=r"));
+        let SourceSpec::Csv(c) = &s.sensors[0].source else { panic!("csv") };
+        assert_eq!(c.path, Path::new("/d/r.csv"));
+    }
+
+    #[test]
+    fn scenes_that_read_more_than_one_file_are_refused_naming_the_keys() {
+        let two = r#"
+[[sensor]]
+name = "ff"
+source = { csv = "a.csv", columns = "ff_e{1..24}", rate_hz = 100.0 }
+[[sensor]]
+name = "th"
+source = { npy = "b.npy", rate_hz = 100.0 }
+[[output]]
+tap = "source"
+path = "out/raw.parquet"
+"#;
+        let e = check_batchable(&scene(two)).unwrap_err().to_string();
+        assert!(e.contains("sensor \"ff\" source.csv") && e.contains("sensor \"th\" source.npy"), "{e}");
+        let ts = two.replace("b.npy\", rate_hz = 100.0", "a.csv\", timestamps = \"t.npy\"");
+        let e = check_batchable(&scene(&ts)).unwrap_err().to_string();
+        assert!(e.contains("sensor \"th\" source.timestamps"), "{e}");
+        // the same file read by two sensors is one file
+        let same = two.replace(
+            "{ npy = \"b.npy\", rate_hz = 100.0 }",
+            "{ csv = \"./a.csv\", columns = \"th_e{1..24}\", rate_hz = 100.0 }",
+        );
+        check_batchable(&scene(&same)).unwrap();
+        #[cfg(target_os = "linux")]
+        {
+            let live = BUS.replace("candump = \"hand.log\"", "interface = \"can0\"");
+            let e = check_batchable(&scene(&live)).unwrap_err().to_string();
+            assert!(e.contains("bus \"hand\" interface"), "{e}");
+        }
+    }
+
+    #[test]
+    fn stems_and_table_names() {
+        assert_eq!(recording_stem(Path::new("a/b/bottle12.csv")).unwrap(), "bottle12");
+        assert!(recording_stem(Path::new("/")).is_err());
+        let e = check_stems(&[PathBuf::from("a/x.csv"), PathBuf::from("b/y.csv"), PathBuf::from("c/x.npy")])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a/x.csv") && e.contains("c/x.npy"), "{e}");
+        assert_eq!(output_names(&scene(BUS)).unwrap(), ["raw", "slip"]);
+    }
 }
