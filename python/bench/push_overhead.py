@@ -2,28 +2,25 @@
 
 Times `gradtac.Pipeline(tap=...).push(times, values)` over N synthetic frames (a press that
 moves across a BioTac SP) pushed in batches of 1 and of 1,000 frames, and the same frames
-through `gradtac::memory::Pipeline::push_frames` in Rust (`examples/pipeline_push.rs`, release
-build). Prints a table of medians over REPEATS runs (ns per frame) and the Python overhead.
+through `gradtac::memory::Pipeline::push_frames` in a loop in Rust alone (`_bench_rust_push` in
+the same compiled module, so both sides are the same build). Prints a table of medians over REPEATS runs (ns per frame) and the Python overhead.
 
     python python/bench/push_overhead.py [--frames 20000] [--repeats 7] [--tap track]
 """
 
 import argparse
-import os
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 import gradtac
+from gradtac import _gradtac
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import press  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def python_ns_per_frame(values, tap, batch, repeats):
@@ -50,19 +47,7 @@ def main():
     values = np.ascontiguousarray(
         np.vstack([press(frames=1000, seed=s) for s in range(args.frames // 1000)]), dtype=np.float64
     )
-    with tempfile.TemporaryDirectory() as d:
-        raw = Path(d) / "frames.f64"
-        values.astype("<f8").tofile(raw)
-        rust = subprocess.run(
-            ["cargo", "run", "--quiet", "--release", "--example", "pipeline_push", "--",
-             str(raw), "24", args.tap, str(args.repeats), "1", "1000"],
-            cwd=ROOT, capture_output=True, text=True, check=True,
-        ).stdout
-    rust_ns = {}
-    for line in rust.split("\n"):
-        if line.startswith("batch="):
-            kv = dict(x.split("=") for x in line.split())
-            rust_ns[int(kv["batch"])] = (float(kv["median_ns_per_frame"]), int(kv["rows"]))
+    rust_ns = {b: _gradtac._bench_rust_push(values, args.tap, b, args.repeats) for b in (1, 1000)}
     print(f"Pipeline(tap={args.tap!r}) over {len(values)} frames, medians of {args.repeats} runs, ns per frame")
     print(f"{'batch':>6} {'python':>10} {'rust':>10} {'overhead':>10} {'ratio':>6}")
     for batch in (1, 1000):

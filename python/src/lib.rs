@@ -493,12 +493,47 @@ impl Pipeline {
     }
 }
 
+/// Benchmark support (`python/bench/push_overhead.py`): push `values` (frames × taxels, at
+/// 100 Hz) through a fresh `gradtac::memory::Pipeline` in batches of `batch` frames, in Rust
+/// alone, `repeats` times; returns (median ns per frame, records out).
+#[pyfunction]
+fn _bench_rust_push(
+    py: Python<'_>,
+    values: PyReadonlyArray2<'_, f64>,
+    tap: &str,
+    batch: usize,
+    repeats: usize,
+) -> PyResult<(f64, usize)> {
+    let taxels = values.shape()[1];
+    let v = c_slice(&values)?;
+    let frames = v.len() / taxels.max(1);
+    let times: Vec<i64> = (0..frames as i64).map(|k| k * 10_000_000).collect();
+    let run = || -> Result<(f64, usize), gradtac::Error> {
+        let mut per_frame = Vec::with_capacity(repeats.max(1));
+        let mut rows = 0;
+        for _ in 0..repeats.max(1) {
+            let mut p = RustPipeline::new("biotac-sp", tap, &toml::Table::new(), Some(100.0), "ff")?;
+            rows = 0;
+            let start = std::time::Instant::now();
+            for (t, x) in times.chunks(batch.max(1)).zip(v.chunks(batch.max(1) * taxels)) {
+                rows += std::hint::black_box(p.push_frames(t, x)?).num_rows();
+            }
+            rows += p.finish()?.num_rows();
+            per_frame.push(start.elapsed().as_nanos() as f64 / frames.max(1) as f64);
+        }
+        per_frame.sort_by(f64::total_cmp);
+        Ok((per_frame[per_frame.len() / 2], rows))
+    };
+    py.detach(run).map_err(py_err)
+}
+
 /// The compiled core of gradtac.
 #[pymodule]
 fn _gradtac(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Scene>()?;
     m.add_class::<RunIter>()?;
     m.add_class::<Pipeline>()?;
+    m.add_function(wrap_pyfunction!(_bench_rust_push, m)?)?;
     m.add("GradtacError", m.py().get_type::<GradtacError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
