@@ -504,7 +504,7 @@ fn _bench_rust_push(
     batch: usize,
     repeats: usize,
 ) -> PyResult<(f64, usize)> {
-    let taxels = values.shape()[1];
+    let taxels = values.as_array().ncols();
     let v = c_slice(&values)?;
     let frames = v.len() / taxels.max(1);
     let times: Vec<i64> = (0..frames as i64).map(|k| k * 10_000_000).collect();
