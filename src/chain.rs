@@ -2,7 +2,7 @@
 
 use crate::plan::{SensorPlan, Tap};
 use crate::scene::{Scene, StageSettings};
-use crate::sinks::Sinks;
+use crate::sinks::RecordWriter;
 use crate::Error;
 use gradtac_stages::centroid::Centroid;
 use gradtac_stages::contour::{Contour, ContourConfig, ContourFrame, Levels};
@@ -403,7 +403,7 @@ impl SensorChain {
 
     /// The event front end: normalise → Savitzky–Golay → events → window, from `self.raw`
     /// (consumed) to `self.windows` (appended to).
-    fn process_events(&mut self, finish: bool, sinks: &mut Sinks) -> Result<(), Error> {
+    fn process_events<W: RecordWriter>(&mut self, finish: bool, sinks: &mut W) -> Result<(), Error> {
         let Some(st) = &mut self.normalise else {
             self.raw.clear();
             return Ok(());
@@ -433,7 +433,12 @@ impl SensorChain {
 
     /// Push one frame (or, with `finish`, flush) through every built stage, writing each
     /// stage's outputs to the outputs that tap it.
-    pub fn process(&mut self, frame: Option<TaxelFrame>, finish: bool, sinks: &mut Sinks) -> Result<(), Error> {
+    pub fn process<W: RecordWriter>(
+        &mut self,
+        frame: Option<TaxelFrame>,
+        finish: bool,
+        sinks: &mut W,
+    ) -> Result<(), Error> {
         if let Some(f) = &frame {
             self.frames_in += 1;
             self.same_time += u64::from(self.last_time == Some(f.time));

@@ -172,7 +172,7 @@ pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
     std::fs::write(&scene_path, DEMO_SCENE).map_err(io(&scene_path))?;
     let scene = Scene::load(&scene_path)?;
     let plan = Plan::new(&scene)?;
-    let run = run_blocking(&scene, &plan, &RunOptions { progress })?;
+    let run = run_blocking(&scene, &plan, &RunOptions { progress, ..Default::default() })?;
 
     let layout = Layout::biotac_sp();
     let mut localisation = Vec::new();

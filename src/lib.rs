@@ -87,6 +87,7 @@ pub use gradtac_io as io;
 pub use gradtac_stages as stages;
 pub use gradtac_stream as stream;
 
+pub mod batch;
 pub mod calibrate;
 pub mod chain;
 #[cfg(feature = "plot")]
@@ -94,6 +95,8 @@ pub mod demo;
 mod error;
 mod explain;
 pub mod guard;
+pub mod memory;
+mod parallel;
 pub mod plan;
 #[cfg(feature = "plot")]
 pub mod plot;

@@ -24,6 +24,32 @@ enum Command {
         /// No progress bar or summary; errors are still printed.
         #[arg(long, short)]
         quiet: bool,
+        /// Threads for the sensors' chains (default: the available cores; 1: one thread).
+        /// The outputs are the same byte for byte whatever the number.
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+    },
+    /// Run a scene once per recording, on a pool of threads, into one hive-partitioned archive
+    /// (`OUT/<output>/recording=<stem>/sensor=<name>/part-000000.parquet`; see docs/batch.md).
+    /// Every file the scene's sensors read is replaced by the recording. A recording that
+    /// fails is reported (one line: file and reason) and does not stop the others; the exit
+    /// status is non-zero if any failed.
+    Batch {
+        /// The scene file (TOML); its sensors must read one file (and no live source).
+        scene: PathBuf,
+        /// The recordings: paths or glob patterns (`'data/**/*.csv'`, quoted so that gradtac
+        /// expands them).
+        #[arg(required = true, value_name = "RECORDINGS")]
+        recordings: Vec<String>,
+        /// The archive's directory.
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Recordings run at once (default: the available cores).
+        #[arg(long, short, value_name = "N")]
+        jobs: Option<usize>,
+        /// No progress bar or summary; failures are still printed.
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Print the planned graph: which stages run for which sensor, and why.
     Explain {
@@ -159,10 +185,11 @@ fn write_stdout(args: std::fmt::Arguments<'_>) {
 
 fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
     match cmd {
-        Command::Run { scene, quiet } => {
+        Command::Run { scene, quiet, threads } => {
+            let threads = threads.unwrap_or(0);
             let scene = Scene::load(&scene)?;
             let plan = Plan::new(&scene)?;
-            let report = run::run_blocking(&scene, &plan, &run::RunOptions { progress: !quiet })?;
+            let report = run::run_blocking(&scene, &plan, &run::RunOptions { progress: !quiet, threads })?;
             if report.interrupted {
                 eprint!("gradtac: {report}");
                 return Ok(ExitCode::from(INTERRUPTED));
@@ -171,6 +198,31 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 say!("{report}");
             }
             Ok(ExitCode::SUCCESS)
+        }
+        Command::Batch { scene, recordings, out, jobs, quiet } => {
+            let scene = Scene::load(&scene)?;
+            let recordings = expand_recordings(&recordings)?;
+            let opts = gradtac::batch::BatchOptions { jobs: jobs.unwrap_or(0), progress: !quiet };
+            let report = gradtac::batch::run_batch(&scene, &recordings, &out, &opts)?;
+            for (r, e) in &report.failed {
+                eprintln!(
+                    "gradtac: failed: {}: {}",
+                    r.display(),
+                    gradtac::io::excerpt(&e.to_string(), 2000).replace('\n', " ")
+                );
+            }
+            let summary = report.to_string();
+            let last = summary.lines().last().unwrap_or_default();
+            if !quiet {
+                sayln!("{last}");
+            } else if !report.failed.is_empty() {
+                eprintln!("gradtac: {last}");
+            }
+            Ok(match (report.skipped, report.failed.len()) {
+                (s, _) if s > 0 => ExitCode::from(INTERRUPTED),
+                (_, 0) => ExitCode::SUCCESS,
+                _ => ExitCode::FAILURE,
+            })
         }
         Command::Calibrate {
             data,
@@ -273,4 +325,33 @@ fn default_png(input: &std::path::Path) -> PathBuf {
         }
         None => dir.join("plot.png"),
     }
+}
+
+/// The recordings of `gradtac batch`: each argument is a path, or (when no such file exists
+/// and it holds `*`, `?` or `[`) a glob pattern expanded in sorted order; a pattern that
+/// matches no file is an error.
+fn expand_recordings(args: &[String]) -> Result<Vec<PathBuf>, gradtac::Error> {
+    let mut out = Vec::new();
+    for a in args {
+        let p = PathBuf::from(a);
+        if p.exists() || !a.contains(['*', '?', '[']) {
+            out.push(p);
+            continue;
+        }
+        let bad = |reason: String| gradtac::Error::Scene { path: p.clone(), reason };
+        let paths = glob::glob(a).map_err(|e| bad(format!("not a glob pattern: {e}")))?;
+        let mut found = Vec::new();
+        for entry in paths {
+            let path = entry.map_err(|e| bad(format!("while expanding: {e}")))?;
+            if path.is_file() {
+                found.push(path);
+            }
+        }
+        if found.is_empty() {
+            return Err(bad("the pattern matches no file".into()));
+        }
+        found.sort();
+        out.extend(found);
+    }
+    Ok(out)
 }

@@ -12,6 +12,7 @@
 //! outputs are finished (renamed): they hold everything read so far.
 
 use crate::chain::SensorChain;
+use crate::memory::MemoryOutputs;
 use crate::plan::{Plan, SensorPlan, Tap};
 use crate::scene::{BusSource, BusSpec, Scene, SourceSpec};
 use crate::sinks::Sinks;
@@ -23,6 +24,7 @@ use gradtac_io::npy::{NpyFrames, NpySourceConfig};
 use gradtac_io::{CsvFrames, CsvProgress, CsvSourceConfig};
 use gradtac_stages::slip::{Slip, SlipEvent, SlipInput};
 use gradtac_stages::slip_pattern::{PatternPoint, SlipPattern};
+use gradtac_stages::track::TrackPoint;
 use gradtac_stream::{merge_streams, SensorId, Stage, TaxelFrame};
 use std::fmt;
 use std::path::PathBuf;
@@ -35,6 +37,10 @@ pub struct RunOptions {
     /// Draw a progress bar (on stderr) over the sources' bytes (with the `cli` feature; without
     /// it nothing is drawn).
     pub progress: bool,
+    /// Threads for the sensors' chains: `0` the available cores, `1` everything on the calling
+    /// thread (the single-threaded path), `n` up to `n` chain threads. The outputs are byte
+    /// for byte the same whatever the number (see the [module docs](self)).
+    pub threads: usize,
 }
 
 /// What a run did.
@@ -84,7 +90,7 @@ impl fmt::Display for RunReport {
 }
 
 /// The cross-sensor two-finger slip stage and the outputs that tap it.
-struct SlipNode {
+pub(crate) struct SlipNode {
     stage: Slip,
     /// The raw-frame evidence of the two sensors, when the slip settings read it.
     pattern: Option<SlipPattern>,
@@ -103,18 +109,12 @@ pub struct Runner {
     last: usize,
 }
 
-impl Runner {
-    /// Build every planned stage and open (as `.partial`) every output.
-    pub fn new(scene: &Scene, plan: &Plan) -> Result<Runner, Error> {
-        let chains = plan
-            .sensors
-            .iter()
-            .filter(|p| p.is_read())
-            .map(|p| SensorChain::build(scene, p))
-            .collect::<Result<Vec<_>, _>>()?;
+impl SlipNode {
+    /// The slip stage of the scene, when an output taps it.
+    pub(crate) fn build(scene: &Scene, plan: &Plan) -> Result<Option<SlipNode>, Error> {
         let slip_outputs: Vec<usize> =
             scene.outputs.iter().enumerate().filter(|(_, o)| o.tap == Tap::Slip.name()).map(|(i, _)| i).collect();
-        let slip = if slip_outputs.is_empty() {
+        Ok(if slip_outputs.is_empty() {
             None
         } else {
             let c = &scene.stages.slip;
@@ -132,8 +132,71 @@ impl Runner {
                 outputs: slip_outputs,
                 events: Vec::new(),
             })
-        };
-        let sinks = Sinks::open(scene, plan)?;
+        })
+    }
+
+    /// True when the raw frames of `sensor` are evidence of the slip stage.
+    pub(crate) fn reads_frames_of(&self, sensor: &SensorId) -> bool {
+        self.pattern.is_some() && (sensor == &self.first || sensor == &self.second)
+    }
+
+    /// A raw frame of one of the two sensors: its evidence into the stage (events kept for
+    /// [`write_events`](Self::write_events)).
+    pub(crate) fn push_frame(&mut self, frame: &TaxelFrame) -> Result<(), Error> {
+        if let Some(pat) = &mut self.pattern {
+            if frame.sensor == self.first || frame.sensor == self.second {
+                pat.push_frame(frame, &mut self.patterns)?;
+                for p in self.patterns.drain(..) {
+                    self.stage.push_input(SlipInput::Pattern(p), &mut self.events)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The track points a sensor's chain just made (ignored unless it is one of the two);
+    /// with `finish`, then the end of the stage.
+    pub(crate) fn push_points(
+        &mut self,
+        sensor: &SensorId,
+        points: impl Iterator<Item = TrackPoint>,
+        finish: bool,
+    ) -> Result<(), Error> {
+        if sensor == &self.first || sensor == &self.second {
+            for p in points {
+                self.stage.push(p, &mut self.events)?;
+            }
+        }
+        if finish {
+            self.stage.finish(&mut self.events)?;
+        }
+        Ok(())
+    }
+
+    /// Write the events made so far to the slip outputs.
+    pub(crate) fn write_events(&mut self, sinks: &mut Sinks) -> Result<(), Error> {
+        sinks.write_all(&self.outputs, &self.events)?;
+        self.events.clear();
+        Ok(())
+    }
+}
+
+impl Runner {
+    /// Build every planned stage and open (as `.partial`) every output.
+    pub fn new(scene: &Scene, plan: &Plan) -> Result<Runner, Error> {
+        Runner::new_in(scene, plan, None)
+    }
+
+    /// [`Runner::new`] with every output in `memory` instead of a file when given.
+    pub fn new_in(scene: &Scene, plan: &Plan, memory: Option<&MemoryOutputs>) -> Result<Runner, Error> {
+        let chains = plan
+            .sensors
+            .iter()
+            .filter(|p| p.is_read())
+            .map(|p| SensorChain::build(scene, p))
+            .collect::<Result<Vec<_>, _>>()?;
+        let slip = SlipNode::build(scene, plan)?;
+        let sinks = Sinks::open_in(scene, plan, memory)?;
         Ok(Runner { chains, slip, sinks, last: 0 })
     }
 
@@ -142,17 +205,9 @@ impl Runner {
     fn feed_slip(&mut self, i: usize, finish: bool) -> Result<(), Error> {
         let Some(node) = &mut self.slip else { return Ok(()) };
         let chain = &mut self.chains[i];
-        if chain.sensor() == &node.first || chain.sensor() == &node.second {
-            for p in chain.take_points() {
-                node.stage.push(p, &mut node.events)?;
-            }
-        }
-        if finish {
-            node.stage.finish(&mut node.events)?;
-        }
-        self.sinks.write_all(&node.outputs, &node.events)?;
-        node.events.clear();
-        Ok(())
+        let sensor = chain.sensor().clone();
+        node.push_points(&sensor, chain.take_points(), finish)?;
+        node.write_events(&mut self.sinks)
     }
 
     fn chain_index(&mut self, s: &SensorId) -> Option<usize> {
@@ -170,14 +225,7 @@ impl Runner {
         let Some(i) = self.chain_index(&frame.sensor) else { return Ok(()) };
         // the slip stage's raw-frame evidence first, then the track points the frame makes
         if let Some(node) = &mut self.slip {
-            if let Some(pat) = &mut node.pattern {
-                if frame.sensor == node.first || frame.sensor == node.second {
-                    pat.push_frame(&frame, &mut node.patterns)?;
-                    for p in node.patterns.drain(..) {
-                        node.stage.push_input(SlipInput::Pattern(p), &mut node.events)?;
-                    }
-                }
-            }
+            node.push_frame(&frame)?;
         }
         self.chains[i].process(Some(frame), false, &mut self.sinks)?;
         self.feed_slip(i, false)
@@ -414,28 +462,134 @@ mod progress_bar {
     }
 }
 
+/// The runner of a run: every chain on the runner's thread, or on chain threads
+/// ([`crate::parallel`]); the outputs are the same byte for byte.
+enum Engine {
+    Serial(Runner),
+    Parallel(crate::parallel::Parallel),
+}
+
+impl Engine {
+    fn new(scene: &Scene, plan: &Plan, threads: usize, memory: Option<&MemoryOutputs>) -> Result<Engine, Error> {
+        let threads = if threads == 0 { crate::batch::available_threads() } else { threads };
+        let chains = plan.sensors.iter().filter(|p| p.is_read()).count();
+        Ok(if threads > 1 && chains > 1 {
+            Engine::Parallel(crate::parallel::Parallel::new(scene, plan, threads, memory)?)
+        } else {
+            Engine::Serial(Runner::new_in(scene, plan, memory)?)
+        })
+    }
+
+    /// Push frames in time order (the serial runner stops at the first error).
+    fn push_batch(&mut self, frames: Vec<TaxelFrame>) -> Result<(), Error> {
+        match self {
+            Engine::Serial(r) => frames.into_iter().try_for_each(|f| r.push(f)),
+            Engine::Parallel(p) => p.push_batch(frames),
+        }
+    }
+
+    /// Write everything pushed so far before waiting for input.
+    fn drain(&mut self) -> Result<(), Error> {
+        match self {
+            Engine::Serial(_) => Ok(()),
+            Engine::Parallel(p) => p.drain(),
+        }
+    }
+
+    fn frames_in(&self) -> Vec<(String, u64)> {
+        match self {
+            Engine::Serial(r) => r.frames_in(),
+            Engine::Parallel(p) => p.frames_in(),
+        }
+    }
+
+    fn finish(self) -> Result<Vec<(Vec<PathBuf>, u64)>, Error> {
+        match self {
+            Engine::Serial(r) => r.finish(),
+            Engine::Parallel(p) => p.finish(),
+        }
+    }
+
+    fn abort(self) -> Vec<PathBuf> {
+        match self {
+            Engine::Serial(r) => r.abort(),
+            Engine::Parallel(p) => p.abort(),
+        }
+    }
+}
+
+/// Frames taken from the merged stream at once while it has them ready (one hand-over to the
+/// chain threads per batch).
+const BATCH_FRAMES: usize = 512;
+
 /// Run a scene on a tokio runtime (see the [module docs](self)).
 pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunReport, Error> {
+    run_in(scene, plan, opts, None).await
+}
+
+/// [`run`], with the outputs (and no bus statistics file) in `memory` when given.
+pub async fn run_in(
+    scene: &Scene,
+    plan: &Plan,
+    opts: &RunOptions,
+    memory: Option<&MemoryOutputs>,
+) -> Result<RunReport, Error> {
+    use futures::FutureExt as _;
     let start = Instant::now();
-    let OpenSources { streams, progress, buses } = open_sources(scene, plan)?;
-    let mut runner = Runner::new(scene, plan)?;
+    let OpenSources { streams, progress, mut buses } = open_sources(scene, plan)?;
+    if memory.is_some() {
+        buses.iter_mut().for_each(|b| b.stats_path = None);
+    }
+    let mut runner = Engine::new(scene, plan, opts.threads, memory)?;
     let bar = opts.progress.then(|| progress_bar::new(progress.iter().filter_map(CsvProgress::total_bytes).sum()));
     let mut merged = merge_streams(streams, 256);
     let ctrl_c = tokio::signal::ctrl_c();
     tokio::pin!(ctrl_c);
     let mut interrupted = false;
     let mut n: u64 = 0;
-    loop {
-        let item = tokio::select! {
-            biased;
-            _ = &mut ctrl_c => { interrupted = true; break; }
-            item = merged.next() => item,
-        };
-        let pushed = match item {
-            Some(Ok(frame)) => runner.push(frame),
-            Some(Err(e)) => Err(Error::from_pipeline(e)),
-            None => break,
-        };
+    let mut batch: Vec<TaxelFrame> = Vec::with_capacity(BATCH_FRAMES);
+    let mut ended = false;
+    while !ended {
+        // wait for a frame (writing out what is in flight first), then take what else is ready
+        let mut waited = None;
+        if let Err(e) = runner.drain() {
+            waited = Some(Err(e));
+        } else {
+            let item = tokio::select! {
+                biased;
+                _ = &mut ctrl_c => { interrupted = true; break; }
+                item = merged.next() => item,
+            };
+            let mut next = item;
+            loop {
+                match next {
+                    Some(Ok(frame)) => batch.push(frame),
+                    Some(Err(e)) => {
+                        waited = Some(Err(Error::from_pipeline(e)));
+                        break;
+                    }
+                    None => {
+                        ended = true;
+                        break;
+                    }
+                }
+                if batch.len() >= BATCH_FRAMES {
+                    break;
+                }
+                match merged.next().now_or_never() {
+                    Some(item) => next = item,
+                    None => break,
+                }
+            }
+        }
+        let taken = batch.len() as u64;
+        // the frames before a source error are processed, as one frame at a time would
+        let mut pushed = runner.push_batch(std::mem::take(&mut batch));
+        if pushed.is_ok() {
+            if let Some(e) = waited {
+                pushed = e;
+            }
+        }
         if let Err(e) = pushed {
             if let Some(b) = &bar {
                 b.abandon_with_message("failed");
@@ -445,8 +599,9 @@ pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunRep
             tracing::warn!(?partial, "run failed; outputs left under their temporary names");
             return Err(e);
         }
-        n += 1;
-        if let Some(b) = bar.as_ref().filter(|_| n % 4096 == 0) {
+        let before = n;
+        n += taken;
+        if let Some(b) = bar.as_ref().filter(|_| n / 4096 != before / 4096) {
             b.set_position(progress.iter().map(CsvProgress::bytes_read).sum());
         }
     }
@@ -468,4 +623,19 @@ pub fn run_blocking(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<Run
         .build()
         .map_err(|source| Error::Io { path: PathBuf::from("<tokio runtime>"), source })?;
     rt.block_on(run(scene, plan, opts))
+}
+
+/// [`run_blocking`] with the outputs in `memory` when given ([`crate::memory::run`]).
+pub fn run_blocking_in(
+    scene: &Scene,
+    plan: &Plan,
+    opts: &RunOptions,
+    memory: Option<&MemoryOutputs>,
+) -> Result<RunReport, Error> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .map_err(|source| Error::Io { path: PathBuf::from("<tokio runtime>"), source })?;
+    rt.block_on(run_in(scene, plan, opts, memory))
 }

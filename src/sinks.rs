@@ -8,6 +8,7 @@
 //! thread so that its size estimate counts every batch and its files overshoot the limit by
 //! at most one batch.
 
+use crate::memory::MemoryOutputs;
 use crate::plan::{Plan, Tap};
 use crate::scene::{OutputSpec, Scene, SourceSpec};
 use crate::Error;
@@ -54,9 +55,27 @@ pub enum OutputSink {
 }
 
 /// An output type the runner can write: finds its own sink among the variants.
-pub trait Record: ArrowRecord + Send + 'static {
+pub trait Record: ArrowRecord + Clone + Send + 'static {
     /// The typed sink, when `s` writes this type.
     fn sink(s: &mut OutputSink) -> Option<&mut Box<dyn RecordSink<Self>>>;
+    /// The records as [`Rows`] (copied), for a [`Collected`] buffer.
+    fn rows(records: &[Self]) -> Rows;
+}
+
+/// Records of one output type, owned: what a [`Collected`] buffer holds per write.
+#[derive(Clone, Debug)]
+#[allow(missing_docs)] // one variant per output type, named as in [`OutputSink`]
+pub enum Rows {
+    Frames(Vec<TaxelFrame>),
+    Events(Vec<EventBatch>),
+    Windows(Vec<WindowAggregate>),
+    Surfaces(Vec<Surface>),
+    Contours(Vec<ContourFrame>),
+    Tracks(Vec<TrackPoint>),
+    Forces(Vec<ForceEstimate>),
+    Servo(Vec<ServoCommand>),
+    Slip(Vec<SlipEvent>),
+    Dos(Vec<DosDecision>),
 }
 
 macro_rules! record {
@@ -67,6 +86,9 @@ macro_rules! record {
                     OutputSink::$variant(s) => Some(s),
                     _ => None,
                 }
+            }
+            fn rows(records: &[Self]) -> Rows {
+                Rows::$variant(records.to_vec())
             }
         }
     };
@@ -114,6 +136,61 @@ impl OutputSink {
     }
 }
 
+/// Where a sensor's chain writes its records: the [`Sinks`] themselves (one thread), or a
+/// [`Collected`] buffer that a chain on a thread of its own fills and the runner's thread
+/// replays into the sinks in the frames' order (so the files are the same byte for byte).
+pub trait RecordWriter {
+    /// Write `records` to each output in `outputs` (indices into the scene's outputs).
+    fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error>;
+}
+
+impl RecordWriter for Sinks {
+    fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
+        Sinks::write_all(self, outputs, records)
+    }
+}
+
+/// Writes recorded in order, to be [replayed](Collected::replay) into the sinks later.
+#[derive(Clone, Debug, Default)]
+pub struct Collected {
+    writes: Vec<(Vec<usize>, Rows)>,
+}
+
+impl RecordWriter for Collected {
+    fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
+        if !outputs.is_empty() && !records.is_empty() {
+            self.writes.push((outputs.to_vec(), T::rows(records)));
+        }
+        Ok(())
+    }
+}
+
+impl Collected {
+    /// True when nothing was written.
+    pub fn is_empty(&self) -> bool {
+        self.writes.is_empty()
+    }
+
+    /// Write everything recorded into `sinks`, in the order it was written (emptying the buffer).
+    pub fn replay(&mut self, sinks: &mut Sinks) -> Result<(), Error> {
+        for (outputs, rows) in self.writes.drain(..) {
+            match &rows {
+                Rows::Frames(r) => sinks.write_all(&outputs, r)?,
+                Rows::Events(r) => sinks.write_all(&outputs, r)?,
+                Rows::Windows(r) => sinks.write_all(&outputs, r)?,
+                Rows::Surfaces(r) => sinks.write_all(&outputs, r)?,
+                Rows::Contours(r) => sinks.write_all(&outputs, r)?,
+                Rows::Tracks(r) => sinks.write_all(&outputs, r)?,
+                Rows::Forces(r) => sinks.write_all(&outputs, r)?,
+                Rows::Servo(r) => sinks.write_all(&outputs, r)?,
+                Rows::Slip(r) => sinks.write_all(&outputs, r)?,
+                Rows::Dos(r) => sinks.write_all(&outputs, r)?,
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Every output of a run, open as `<path>.partial` until [`Sinks::finish`].
 pub struct Sinks {
     sinks: Vec<Option<OutputSink>>,
@@ -122,8 +199,14 @@ pub struct Sinks {
 impl Sinks {
     /// Open every output of the scene. Outputs shared by several sensors need layouts of one size.
     pub fn open(scene: &Scene, plan: &Plan) -> Result<Sinks, Error> {
+        Sinks::open_in(scene, plan, None)
+    }
+
+    /// [`Sinks::open`], every output in `memory` (and nothing on disk) when given.
+    pub fn open_in(scene: &Scene, plan: &Plan, memory: Option<&MemoryOutputs>) -> Result<Sinks, Error> {
         let mut sinks = Vec::new();
         for (i, o) in scene.outputs.iter().enumerate() {
+            let dest = Dest { memory, output: i };
             let tap = Tap::parse(&o.tap).expect("validated by Scene");
             let users: Vec<&Layout> =
                 plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| &p.layout).collect();
@@ -140,7 +223,7 @@ impl Sinks {
                 )));
             }
             let path = scene.resolve(&o.path);
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty() && memory.is_none()) {
                 std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
             }
             let taxels = FrameShape::from_layout(layout);
@@ -148,9 +231,9 @@ impl Sinks {
                 plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| p.name.as_str()).collect();
             let time = time_base(scene, &names);
             let mut sink = match tap {
-                Tap::Source | Tap::Normalise | Tap::Savgol => OutputSink::Frames(open(&path, taxels, o, time)?),
-                Tap::Events => OutputSink::Events(open(&path, taxels, o, time)?),
-                Tap::Window => OutputSink::Windows(open(&path, taxels, o, time)?),
+                Tap::Source | Tap::Normalise | Tap::Savgol => OutputSink::Frames(open(&path, taxels, o, time, dest)?),
+                Tap::Events => OutputSink::Events(open(&path, taxels, o, time, dest)?),
+                Tap::Window => OutputSink::Windows(open(&path, taxels, o, time, dest)?),
                 Tap::Surface => {
                     let grids = users
                         .iter()
@@ -162,17 +245,17 @@ impl Sinks {
                             i + 1
                         )));
                     }
-                    OutputSink::Surfaces(open(&path, SurfaceShape::new(grids[0].clone()), o, time)?)
+                    OutputSink::Surfaces(open(&path, SurfaceShape::new(grids[0].clone()), o, time, dest)?)
                 }
-                Tap::Contour => OutputSink::Contours(open(&path, (), o, time)?),
-                Tap::Track => OutputSink::Tracks(open(&path, (), o, time)?),
-                Tap::Force => OutputSink::Forces(open(&path, (), o, time)?),
-                Tap::Servo => OutputSink::Servo(open(&path, (), o, time)?),
+                Tap::Contour => OutputSink::Contours(open(&path, (), o, time, dest)?),
+                Tap::Track => OutputSink::Tracks(open(&path, (), o, time, dest)?),
+                Tap::Force => OutputSink::Forces(open(&path, (), o, time, dest)?),
+                Tap::Servo => OutputSink::Servo(open(&path, (), o, time, dest)?),
                 Tap::Dos => {
                     let d =
                         scene.stages.dos.as_ref().ok_or_else(|| bad("the dos tap needs [stages.dos] model".into()))?;
                     let model = crate::calibrate::read_model(&scene.resolve(&d.model))?;
-                    OutputSink::Dos(open(&path, DosShape::from_model(&model)?, o, time)?)
+                    OutputSink::Dos(open(&path, DosShape::from_model(&model)?, o, time, dest)?)
                 }
                 Tap::Slip => {
                     if o.archive.is_some() {
@@ -182,7 +265,7 @@ impl Sinks {
                         )));
                     }
                     let c = &scene.stages.slip;
-                    OutputSink::Slip(open_file(&path, SlipShape::new(&c.first, &c.second), o, time)?)
+                    OutputSink::Slip(open_file(&path, SlipShape::new(&c.first, &c.second), o, time, dest)?)
                 }
             };
             sink.set_metadata("gradtac.scene".into(), scene.text.clone());
@@ -256,13 +339,24 @@ fn row_group(o: &OutputSpec) -> Option<usize> {
     o.row_group_size.or((o.tap == Tap::Surface.name()).then_some(SURFACE_ROW_GROUP))
 }
 
+/// Where an output goes: a file or archive, or `memory` when given (`output`: its index).
+#[derive(Clone, Copy)]
+struct Dest<'a> {
+    memory: Option<&'a MemoryOutputs>,
+    output: usize,
+}
+
 /// One output's sink: an archive directory when the output has `archive` settings, else one file.
 fn open<T: Record + HasSensor + Timed>(
     path: &Path,
     shape: T::Shape,
     o: &OutputSpec,
     time: TimeBase,
+    dest: Dest<'_>,
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
+    if let Some(m) = dest.memory {
+        return Ok(m.sink(dest.output, shape, time));
+    }
     Ok(match &o.archive {
         Some(cfg) => {
             // rolled by bytes, the size estimate must include every batch pushed: encode inline
@@ -274,7 +368,7 @@ fn open<T: Record + HasSensor + Timed>(
             }
             Box::new(a)
         }
-        None => open_file(path, shape, o, time)?,
+        None => open_file(path, shape, o, time, dest)?,
     })
 }
 
@@ -284,7 +378,11 @@ fn open_file<T: Record>(
     shape: T::Shape,
     o: &OutputSpec,
     time: TimeBase,
+    dest: Dest<'_>,
 ) -> Result<Box<dyn RecordSink<T>>, Error> {
+    if let Some(m) = dest.memory {
+        return Ok(m.sink(dest.output, shape, time));
+    }
     let mut s = ParquetSink::try_new(path, shape)?.with_time_base(time)?.with_writer_thread(true)?;
     if let Some(n) = row_group(o) {
         s = s.with_row_group_size(n)?;
