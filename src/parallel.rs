@@ -3,8 +3,8 @@
 //! The runner's thread keeps everything whose order matters: the merge by time, the sinks and
 //! the cross-sensor slip stage. It hands the frames to chain threads in batches (each chain
 //! lives on one thread; a thread holds one or more chains, assigned round-robin) and each
-//! chain records what it would have written ([`Collected`]) per frame, with the track points
-//! it made. The runner's thread then replays the batch frame by frame, in the merged order: the
+//! chain records what it would have written ([`Collected`], one buffer per batch with a mark
+//! per frame), with the track points it made. The runner's thread then replays the batch frame by frame, in the merged order: the
 //! slip stage's raw-frame evidence of the frame, the chain's writes, the chain's track points
 //! into the slip stage, the slip events — exactly the sequence of calls [`Runner`] makes on
 //! one thread, so every sink receives the same records in the same order and writes the same
@@ -33,11 +33,26 @@ use std::thread::JoinHandle;
 /// Batches handed out and not yet replayed, at most.
 pub(crate) const IN_FLIGHT: usize = 2;
 
-/// What a chain did with one frame (or its flush).
-struct FrameOut {
+/// What a chain thread's chains did with a batch of frames (or their flushes), frame by frame:
+/// the writes and track points of frame `k` are those between the marks `k - 1` and `k`.
+#[derive(Default)]
+struct BatchOut {
     writes: Collected,
+    /// Per frame: `writes.len()` after it.
+    ends: Vec<usize>,
     points: Vec<TrackPoint>,
-    error: Option<Error>,
+    /// Per frame: `points.len()` after it.
+    point_ends: Vec<usize>,
+    /// The first error: the frame's index in the batch and the error.
+    error: Option<(usize, Error)>,
+}
+
+impl BatchOut {
+    /// Frame `k`'s writes and points.
+    fn ranges(&self, k: usize) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+        let from = |v: &[usize]| if k == 0 { 0 } else { v[k - 1] };
+        (from(&self.ends)..self.ends[k], from(&self.point_ends)..self.point_ends[k])
+    }
 }
 
 enum Job {
@@ -48,8 +63,8 @@ enum Job {
 }
 
 enum Reply {
-    Frames(Vec<FrameOut>),
-    Finished(Vec<FrameOut>),
+    Frames(BatchOut),
+    Finished(BatchOut),
 }
 
 struct Worker {
@@ -62,25 +77,33 @@ struct Worker {
 /// are left alone (the runner stops at the first error it replays).
 fn work(mut chains: Vec<SensorChain>, jobs: Receiver<Job>, replies: Sender<Reply>) {
     let mut failed = false;
-    let step = |chain: &mut SensorChain, frame: Option<TaxelFrame>, failed: &mut bool| {
-        let mut out = FrameOut { writes: Collected::default(), points: Vec::new(), error: None };
-        if *failed {
-            return out;
+    let step = |out: &mut BatchOut, chain: &mut SensorChain, frame: Option<TaxelFrame>, failed: &mut bool| {
+        if !*failed {
+            let finish = frame.is_none();
+            if let Err(e) = chain.process(frame, finish, &mut out.writes) {
+                out.error = Some((out.ends.len(), e));
+                *failed = true;
+            }
+            out.points.extend(chain.take_points());
         }
-        let finish = frame.is_none();
-        if let Err(e) = chain.process(frame, finish, &mut out.writes) {
-            out.error = Some(e);
-            *failed = true;
-        }
-        out.points.extend(chain.take_points());
-        out
+        out.ends.push(out.writes.len());
+        out.point_ends.push(out.points.len());
     };
     while let Ok(job) = jobs.recv() {
+        let mut out = BatchOut::default();
         let reply = match job {
             Job::Frames(frames) => {
-                Reply::Frames(frames.into_iter().map(|(i, f)| step(&mut chains[i], Some(f), &mut failed)).collect())
+                for (i, f) in frames {
+                    step(&mut out, &mut chains[i], Some(f), &mut failed);
+                }
+                Reply::Frames(out)
             }
-            Job::Finish => Reply::Finished(chains.iter_mut().map(|c| step(c, None, &mut failed)).collect()),
+            Job::Finish => {
+                for c in &mut chains {
+                    step(&mut out, c, None, &mut failed);
+                }
+                Reply::Finished(out)
+            }
         };
         if replies.send(reply).is_err() {
             return;
@@ -212,29 +235,33 @@ impl Parallel {
 
     fn replay_oldest(&mut self) -> Result<(), Error> {
         let Some(p) = self.pending.pop_front() else { return Ok(()) };
-        let mut outs: Vec<std::vec::IntoIter<FrameOut>> =
-            (0..self.workers.len()).map(|_| Vec::new().into_iter()).collect();
+        let mut outs: Vec<(BatchOut, usize)> = (0..self.workers.len()).map(|_| (BatchOut::default(), 0)).collect();
         for &w in &p.workers {
             match self.workers[w].replies.recv() {
-                Ok(Reply::Frames(v)) => outs[w] = v.into_iter(),
+                Ok(Reply::Frames(v)) => outs[w].0 = v,
                 _ => return Err(thread_gone()),
             }
         }
         let sinks = self.sinks.as_mut().expect("open until finish or abort");
         for (j, &i) in p.chains.iter().enumerate() {
             let (w, _) = self.owner[i];
-            let mut out = outs[w].next().ok_or_else(thread_gone)?;
+            let (out, k) = &mut outs[w];
+            if *k >= out.ends.len() {
+                return Err(thread_gone());
+            }
             if let (Some(node), Some(Some(frame))) = (&mut self.slip, p.slip_frames.get(j)) {
                 node.push_frame(frame)?;
             }
-            out.writes.replay(sinks)?;
-            if let Some(e) = out.error {
-                return Err(e);
+            let (writes, points) = out.ranges(*k);
+            out.writes.replay_range(writes, sinks)?;
+            if out.error.as_ref().is_some_and(|(at, _)| at == k) {
+                return Err(out.error.take().expect("checked").1);
             }
             if let Some(node) = &mut self.slip {
-                node.push_points(&self.sensors[i], out.points.into_iter(), false)?;
+                node.push_points(&self.sensors[i], out.points[points].iter().cloned(), false)?;
                 node.write_events(sinks)?;
             }
+            *k += 1;
         }
         Ok(())
     }
@@ -265,10 +292,10 @@ impl Parallel {
         for w in &self.workers {
             w.jobs.send(Job::Finish).map_err(|_| thread_gone())?;
         }
-        let mut flushed: Vec<std::vec::IntoIter<FrameOut>> = Vec::with_capacity(self.workers.len());
+        let mut flushed: Vec<(BatchOut, usize)> = Vec::with_capacity(self.workers.len());
         for w in &self.workers {
             match w.replies.recv() {
-                Ok(Reply::Finished(v)) => flushed.push(v.into_iter()),
+                Ok(Reply::Finished(v)) => flushed.push((v, 0)),
                 _ => return Err(thread_gone()),
             }
         }
@@ -276,15 +303,20 @@ impl Parallel {
         let n = self.owner.len();
         for i in 0..n {
             let (w, _) = self.owner[i];
-            let mut out = flushed[w].next().ok_or_else(thread_gone)?;
-            out.writes.replay(sinks)?;
-            if let Some(e) = out.error {
-                return Err(e);
+            let (out, k) = &mut flushed[w];
+            if *k >= out.ends.len() {
+                return Err(thread_gone());
+            }
+            let (writes, points) = out.ranges(*k);
+            out.writes.replay_range(writes, sinks)?;
+            if out.error.as_ref().is_some_and(|(at, _)| at == k) {
+                return Err(out.error.take().expect("checked").1);
             }
             if let Some(node) = &mut self.slip {
-                node.push_points(&self.sensors[i], out.points.into_iter(), i + 1 == n)?;
+                node.push_points(&self.sensors[i], out.points[points].iter().cloned(), i + 1 == n)?;
                 node.write_events(sinks)?;
             }
+            *k += 1;
         }
         Ok(())
     }

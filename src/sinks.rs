@@ -153,13 +153,18 @@ impl RecordWriter for Sinks {
 /// Writes recorded in order, to be [replayed](Collected::replay) into the sinks later.
 #[derive(Clone, Debug, Default)]
 pub struct Collected {
-    writes: Vec<(Vec<usize>, Rows)>,
+    /// The output indices of every write, one after the other.
+    outputs: Vec<usize>,
+    /// Per write: its range in `outputs` and its records.
+    writes: Vec<(usize, usize, Rows)>,
 }
 
 impl RecordWriter for Collected {
     fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
         if !outputs.is_empty() && !records.is_empty() {
-            self.writes.push((outputs.to_vec(), T::rows(records)));
+            let start = self.outputs.len();
+            self.outputs.extend_from_slice(outputs);
+            self.writes.push((start, self.outputs.len(), T::rows(records)));
         }
         Ok(())
     }
@@ -171,23 +176,37 @@ impl Collected {
         self.writes.is_empty()
     }
 
-    /// Write everything recorded into `sinks`, in the order it was written (emptying the buffer).
-    pub fn replay(&mut self, sinks: &mut Sinks) -> Result<(), Error> {
-        for (outputs, rows) in self.writes.drain(..) {
-            match &rows {
-                Rows::Frames(r) => sinks.write_all(&outputs, r)?,
-                Rows::Events(r) => sinks.write_all(&outputs, r)?,
-                Rows::Windows(r) => sinks.write_all(&outputs, r)?,
-                Rows::Surfaces(r) => sinks.write_all(&outputs, r)?,
-                Rows::Contours(r) => sinks.write_all(&outputs, r)?,
-                Rows::Tracks(r) => sinks.write_all(&outputs, r)?,
-                Rows::Forces(r) => sinks.write_all(&outputs, r)?,
-                Rows::Servo(r) => sinks.write_all(&outputs, r)?,
-                Rows::Slip(r) => sinks.write_all(&outputs, r)?,
-                Rows::Dos(r) => sinks.write_all(&outputs, r)?,
+    /// The number of writes recorded (a mark for [`replay_range`](Self::replay_range)).
+    pub fn len(&self) -> usize {
+        self.writes.len()
+    }
+
+    /// Write the writes `range` (marks from [`len`](Self::len)) into `sinks`, in order.
+    pub fn replay_range(&self, range: std::ops::Range<usize>, sinks: &mut Sinks) -> Result<(), Error> {
+        for (start, end, rows) in &self.writes[range] {
+            let outputs = &self.outputs[*start..*end];
+            match rows {
+                Rows::Frames(r) => sinks.write_all(outputs, r)?,
+                Rows::Events(r) => sinks.write_all(outputs, r)?,
+                Rows::Windows(r) => sinks.write_all(outputs, r)?,
+                Rows::Surfaces(r) => sinks.write_all(outputs, r)?,
+                Rows::Contours(r) => sinks.write_all(outputs, r)?,
+                Rows::Tracks(r) => sinks.write_all(outputs, r)?,
+                Rows::Forces(r) => sinks.write_all(outputs, r)?,
+                Rows::Servo(r) => sinks.write_all(outputs, r)?,
+                Rows::Slip(r) => sinks.write_all(outputs, r)?,
+                Rows::Dos(r) => sinks.write_all(outputs, r)?,
             }
         }
         Ok(())
+    }
+
+    /// Write everything recorded into `sinks`, in the order it was written (emptying the buffer).
+    pub fn replay(&mut self, sinks: &mut Sinks) -> Result<(), Error> {
+        let all = self.replay_range(0..self.writes.len(), sinks);
+        self.outputs.clear();
+        self.writes.clear();
+        all
     }
 }
 
