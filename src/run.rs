@@ -35,6 +35,10 @@ pub struct RunOptions {
     /// Draw a progress bar (on stderr) over the sources' bytes (with the `cli` feature; without
     /// it nothing is drawn).
     pub progress: bool,
+    /// Offer the raw frames and every record written to a rerun view (feature `view`; see
+    /// [`crate::view`]). The run declares each sensor it reads (layout, clock) first.
+    #[cfg(feature = "view")]
+    pub view: Option<crate::view::ViewHandle>,
 }
 
 /// What a run did.
@@ -207,6 +211,24 @@ impl Runner {
             }
         }
         self.sinks.finish()
+    }
+
+    /// Offer the raw frames and every record written from now on to a rerun view, after
+    /// declaring each sensor the plan reads (its layout; its clock: `utc` for CAN buses, ROS
+    /// bags and MCAP files, the `time` duration otherwise).
+    #[cfg(feature = "view")]
+    pub fn set_view(&mut self, scene: &Scene, plan: &Plan, view: Option<crate::view::ViewHandle>) {
+        if let Some(v) = &view {
+            for p in plan.sensors.iter().filter(|p| p.is_read()) {
+                let utc = matches!(
+                    scene.sensors[p.index].source,
+                    SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) | SourceSpec::Mcap(_)
+                );
+                let clock = if utc { crate::view::Clock::Utc } else { crate::view::Clock::Relative };
+                v.sensor(&p.name, Some(&p.layout), clock);
+            }
+        }
+        self.sinks.set_view(view);
     }
 
     /// After an error: close every output as a valid `.partial` file; returns their paths.
@@ -402,6 +424,8 @@ pub async fn run(scene: &Scene, plan: &Plan, opts: &RunOptions) -> Result<RunRep
     let start = Instant::now();
     let OpenSources { streams, progress, buses } = open_sources(scene, plan)?;
     let mut runner = Runner::new(scene, plan)?;
+    #[cfg(feature = "view")]
+    runner.set_view(scene, plan, opts.view.clone());
     let bar = opts.progress.then(|| progress_bar::new(progress.iter().filter_map(CsvProgress::total_bytes).sum()));
     let mut merged = merge_streams(streams, 256);
     let ctrl_c = tokio::signal::ctrl_c();

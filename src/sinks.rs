@@ -57,6 +57,9 @@ pub enum OutputSink {
 pub trait Record: ArrowRecord + Send + 'static {
     /// The typed sink, when `s` writes this type.
     fn sink(s: &mut OutputSink) -> Option<&mut Box<dyn RecordSink<Self>>>;
+    /// Offer records of `tap` to the rerun view (feature `view`).
+    #[cfg(feature = "view")]
+    fn view(v: &crate::view::ViewHandle, tap: Tap, records: &[Self]);
 }
 
 macro_rules! record {
@@ -67,6 +70,10 @@ macro_rules! record {
                     OutputSink::$variant(s) => Some(s),
                     _ => None,
                 }
+            }
+            #[cfg(feature = "view")]
+            fn view(v: &crate::view::ViewHandle, tap: Tap, records: &[Self]) {
+                v.log_frames(crate::view::FrameKind::of_tap(tap), records)
             }
         }
     };
@@ -117,14 +124,22 @@ impl OutputSink {
 /// Every output of a run, open as `<path>.partial` until [`Sinks::finish`].
 pub struct Sinks {
     sinks: Vec<Option<OutputSink>>,
+    /// The tap of each output (read by the view).
+    #[cfg_attr(not(feature = "view"), allow(dead_code))]
+    taps: Vec<Tap>,
+    /// The rerun view every written record is offered to (feature `view`).
+    #[cfg(feature = "view")]
+    view: Option<crate::view::ViewHandle>,
 }
 
 impl Sinks {
     /// Open every output of the scene. Outputs shared by several sensors need layouts of one size.
     pub fn open(scene: &Scene, plan: &Plan) -> Result<Sinks, Error> {
         let mut sinks = Vec::new();
+        let mut taps = Vec::new();
         for (i, o) in scene.outputs.iter().enumerate() {
             let tap = Tap::parse(&o.tap).expect("validated by Scene");
+            taps.push(tap);
             let users: Vec<&Layout> =
                 plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| &p.layout).collect();
             let bad = |reason: String| Error::Scene { path: scene.origin.clone(), reason };
@@ -193,11 +208,38 @@ impl Sinks {
             }
             sinks.push(Some(sink));
         }
-        Ok(Sinks { sinks })
+        Ok(Sinks {
+            sinks,
+            taps,
+            #[cfg(feature = "view")]
+            view: None,
+        })
+    }
+
+    /// Offer every record written from now on (once per stage, whatever the number of outputs
+    /// tapping it) to a rerun view, and the raw frames of [`view_source`](Self::view_source).
+    #[cfg(feature = "view")]
+    pub fn set_view(&mut self, view: Option<crate::view::ViewHandle>) {
+        self.view = view;
+    }
+
+    /// Raw frames no output taps: offered to the view (if any), so that it always shows the
+    /// electrodes. Nothing without the `view` feature.
+    pub fn view_source(&self, outputs: &[usize], frames: &[TaxelFrame]) {
+        #[cfg(feature = "view")]
+        if let (Some(v), true) = (&self.view, outputs.is_empty()) {
+            v.log_frames(crate::view::FrameKind::Raw, frames);
+        }
+        #[cfg(not(feature = "view"))]
+        let _ = (outputs, frames);
     }
 
     /// Write `records` to each output in `outputs` (indices into the scene's outputs).
     pub fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
+        #[cfg(feature = "view")]
+        if let (Some(v), Some(&o)) = (&self.view, outputs.first()) {
+            T::view(v, self.taps[o], records);
+        }
         for &o in outputs {
             let sink = self.sinks[o].as_mut().and_then(T::sink).expect("the planner opened a sink of the tap's type");
             for r in records {
