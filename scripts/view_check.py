@@ -125,6 +125,7 @@ def main():
         else:
             failed += 1
 
+    strips = collections.Counter()
     for rrd in rrds:
         rec = Recording(rrd)
         tag = os.path.basename(rrd)
@@ -163,8 +164,14 @@ def main():
             if "surface" in outputs:
                 same("plane/surface", "buffer", outputs["surface"], "end", label="surface")
             if "contour" in outputs:
-                same("plane/contour", "strips", outputs["contour"], "end",
-                     mask=lambda t: pc.equal(t["contact"], True), label="contact=true contour")
+                same("series/contact_area", "scalars", outputs["contour"], "end",
+                     mask=lambda t: pc.and_(pc.equal(t["contact"], True), pc.is_valid(t["area_mm2"])),
+                     label="contact=true contour")
+                # outlines: the contours that have one (the centroid locator's have none)
+                got, _ = same("plane/contour", "strips", outputs["contour"], "end",
+                              mask=lambda t: pc.greater(pc.fill_null(pc.list_value_length(t["polygon"]), 0), 0),
+                              label="with-polygon contour")
+                strips[tag] += len(got)
             if "track" in outputs:
                 same("plane/contact", "positions", outputs["track"], "time",
                      mask=lambda t: pc.equal(t["state"], "contact"), label="state=contact track")
@@ -177,8 +184,11 @@ def main():
             check(len(got) == want.num_rows, f"{tag}: /slip/log: {len(got)} rows == {want.num_rows} slip events")
             got_t = np.array([t for t, _ in got], dtype=np.int64)
             check(bool(np.all(got_t == np.sort(ns(want["time"])))), f"{tag}: /slip/log times equal the slip `time` column")
-            classes = [v.split("→ ")[1].split(" ")[0] for _, v in got]
+            classes = [v[0].split("→ ")[1].split(" ")[0] for _, v in got]
             check(classes == want.sort_by("time")["class"].to_pylist(), f"{tag}: /slip/log classes equal the slip `class` column")
+    if "contour" in outputs:
+        for tag, k in sorted(strips.items()):
+            check(k > 0, f"{tag}: {k} contour outlines drawn (the scene's contours have polygons)")
     print(f"{passed} passed, {failed} failed")
     sys.exit(1 if failed else 0)
 

@@ -8,7 +8,7 @@
 use super::surface::grid_of;
 use super::*;
 use crate::view::rec::{Clock, FrameKind, Rec};
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 /// What [`replay_records`] read.
 #[derive(Clone, Debug, Default)]
@@ -40,7 +40,8 @@ pub(crate) fn replay_records(input: &Path, sink: &mut dyn FnMut(Vec<Rec>)) -> Re
         (vec![input.to_path_buf()], 0)
     };
     let mut counts = ReadCounts { partial, ..ReadCounts::default() };
-    let mut declared: HashSet<String> = HashSet::new();
+    // per sensor declared: whether with a layout
+    let mut declared: HashMap<String, bool> = HashMap::new();
     for f in &files {
         let in_file = |e: PlotErr| Error::View(format!("{}: {}", f.display(), e.0));
         let o = open_parquet(f).map_err(in_file)?;
@@ -133,7 +134,7 @@ fn sigma_column(b: &RecordBatch) -> Option<String> {
         .map(|f| f.name().clone())
 }
 
-fn batch_records(header: &Table, b: &RecordBatch, declared: &mut HashSet<String>, out: &mut Vec<Rec>) -> R<()> {
+fn batch_records(header: &Table, b: &RecordBatch, declared: &mut HashMap<String, bool>, out: &mut Vec<Rec>) -> R<()> {
     let (family, _) = family(&header.schema_id);
     let time_col = if b.column_by_name("time").is_some() { "time" } else { "end" };
     let clock = clock_of(b, time_col);
@@ -141,13 +142,17 @@ fn batch_records(header: &Table, b: &RecordBatch, declared: &mut HashSet<String>
         "frame" | "window" => Some(fixed_lists(&b.slice(0, b.num_rows().min(1)), "values")?.0),
         _ => None,
     };
-    // declare each sensor once, before its first record
+    // declare each sensor before its first record; again with its layout from the first file
+    // of frames (the files of contours or tracks hold no taxel count)
     let mut declare = |sensor: &str, out: &mut Vec<Rec>| {
-        if declared.insert(sensor.to_string()) {
-            let mut notes = Vec::new();
-            let layout = if taxels.is_some() { header.layout(sensor, taxels, &mut notes) } else { None };
-            out.push(Rec::Sensor { sensor: sensor.to_string(), layout, clock });
+        let had_layout = declared.get(sensor).copied();
+        if had_layout == Some(true) || (had_layout == Some(false) && taxels.is_none()) {
+            return;
         }
+        let mut notes = Vec::new();
+        let layout = if taxels.is_some() { header.layout(sensor, taxels, &mut notes) } else { None };
+        declared.insert(sensor.to_string(), layout.is_some());
+        out.push(Rec::Sensor { sensor: sensor.to_string(), layout, clock });
     };
     if family == "slip" {
         let (first, second) = (strings(b, "first")?, strings(b, "second")?);
@@ -234,11 +239,11 @@ fn batch_records(header: &Table, b: &RecordBatch, declared: &mut HashSet<String>
             let contact = column(b, "contact")?;
             let contact = contact.as_boolean_opt().ok_or_else(|| wrong("contact", contact))?;
             for i in 0..n {
-                let c = contact.value(i) && !polys[i].is_empty();
+                let c = contact.value(i);
                 out.push(Rec::Contour {
                     sensor: sensors[i].clone(),
                     t: t[i],
-                    polygon: c.then(|| polys[i].clone()),
+                    polygon: (c && !polys[i].is_empty()).then(|| polys[i].clone()),
                     centroid: some(cx[i]).zip(some(cy[i])).map(|(x, y)| [x, y]),
                     area: if c { some(area[i]) } else { None },
                 });
@@ -246,7 +251,11 @@ fn batch_records(header: &Table, b: &RecordBatch, declared: &mut HashSet<String>
         }
         "track" => {
             let (x, y) = (f64s(b, "x_mm")?, f64s(b, "y_mm")?);
-            let state = strings(b, "state")?;
+            // `track/1` has no `state`: a contact is a finite position
+            let state = match b.column_by_name("state") {
+                Some(_) => strings(b, "state")?,
+                None => vec!["contact".to_string(); n],
+            };
             let sigma = match sigma_column(b) {
                 Some(c) => f64s(b, &c)?,
                 None => vec![f64::NAN; n],

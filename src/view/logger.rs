@@ -160,6 +160,10 @@ impl Logger {
                 let p = path(&sensor, &["plane", "contour"]);
                 let a = self.series(&sensor, "contact_area");
                 self.at(&sensor, t);
+                if let Some(area) = area.filter(|a| a.is_finite()) {
+                    self.put(&a, &rerun::Scalars::new([area]));
+                }
+                // the taxel-centroid locator finds a contact without an outline
                 match polygon {
                     Some(mut poly) if !poly.is_empty() => {
                         poly.push(poly[0]);
@@ -170,9 +174,6 @@ impl Logger {
                                 .with_colors([rerun::Color::from_rgb(255, 255, 255)])
                                 .with_radii([0.15]),
                         );
-                        if let Some(area) = area {
-                            self.put(&a, &rerun::Scalars::new([area]));
-                        }
                     }
                     _ => self.put(&p, &rerun::Clear::flat()),
                 }
