@@ -343,9 +343,20 @@ impl Logger {
         }
     }
 
-    pub fn finish(self) {
-        if let Err(e) = self.rec.flush_blocking() {
-            tracing::warn!(%e, "the rerun recording could not be flushed");
+    /// Flush (waiting at most `timeout`; `None`: until done) and close the stream.
+    pub fn finish(self, timeout: Option<std::time::Duration>) {
+        let flushed = match timeout {
+            None => self.rec.flush_blocking(),
+            Some(t) => self.rec.flush_with_timeout(t),
+        };
+        match flushed {
+            Ok(()) => drop(self.rec),
+            Err(e) => {
+                tracing::warn!(%e, "the rerun recording could not be flushed (is the viewer still there?)");
+                // rerun's gRPC client waits forever on drop for a viewer that never takes
+                // the data: leave the stream (its thread and buffer) rather than hang the run
+                std::mem::forget(self.rec);
+            }
         }
     }
 }

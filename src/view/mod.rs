@@ -90,11 +90,20 @@ pub struct ViewOptions {
     pub lossless: bool,
     /// Send a blueprint (one panel per sensor). Default `true`.
     pub blueprint: bool,
+    /// How long [`View::finish`] waits for a viewer to take what is still buffered (a viewer
+    /// that went away, or never listened, must not hang the end of a run). Default 10 s.
+    /// An `.rrd` file ([`View::save`]) is always flushed completely.
+    pub flush_timeout: std::time::Duration,
 }
 
 impl Default for ViewOptions {
     fn default() -> Self {
-        ViewOptions { queue: DEFAULT_QUEUE, lossless: false, blueprint: true }
+        ViewOptions {
+            queue: DEFAULT_QUEUE,
+            lossless: false,
+            blueprint: true,
+            flush_timeout: std::time::Duration::from_secs(10),
+        }
     }
 }
 
@@ -452,12 +461,22 @@ impl View {
         let rec = rerun::RecordingStreamBuilder::new(APPLICATION_ID)
             .save(path)
             .map_err(|e| view_error(&format!("cannot write the recording {}", path.display()), e))?;
-        View::from_stream(rec, path.display().to_string(), options)
+        View::start(rec, path.display().to_string(), options, None)
     }
 
     /// Log into a stream the embedding code built (any sink: memory, a file, a viewer).
     /// `target` names it in the report.
     pub fn from_stream(rec: rerun::RecordingStream, target: String, options: &ViewOptions) -> Result<View, Error> {
+        View::start(rec, target, options, Some(options.flush_timeout))
+    }
+
+    /// `flush`: how long to wait for the stream's sink at the end (`None`: until it is done).
+    fn start(
+        rec: rerun::RecordingStream,
+        target: String,
+        options: &ViewOptions,
+        flush: Option<std::time::Duration>,
+    ) -> Result<View, Error> {
         if options.queue == 0 || options.queue > MAX_QUEUE {
             return Err(Error::View(format!(
                 "view queue must be within 1..={MAX_QUEUE} messages, got {}",
@@ -470,7 +489,7 @@ impl View {
         let blueprint = options.blueprint;
         let thread = std::thread::Builder::new()
             .name("gradtac-view".into())
-            .spawn(move || run_logger(rec, rx, &c, blueprint))
+            .spawn(move || run_logger(rec, rx, &c, blueprint, flush))
             .map_err(|e| view_error("cannot start the view thread", e))?;
         let handle = ViewHandle { tx, counters: counters.clone(), lossless: options.lossless };
         Ok(View { handle, counters, thread: Some(thread), target })
@@ -511,7 +530,13 @@ impl Drop for View {
     }
 }
 
-fn run_logger(rec: rerun::RecordingStream, rx: Receiver<Msg>, counters: &Counters, blueprint: bool) {
+fn run_logger(
+    rec: rerun::RecordingStream,
+    rx: Receiver<Msg>,
+    counters: &Counters,
+    blueprint: bool,
+    flush: Option<std::time::Duration>,
+) {
     let mut logger = logger::Logger::new(rec, blueprint);
     while let Ok(msg) = rx.recv() {
         match msg {
@@ -526,7 +551,7 @@ fn run_logger(rec: rerun::RecordingStream, rx: Receiver<Msg>, counters: &Counter
             Msg::Finish => break,
         }
     }
-    logger.finish();
+    logger.finish(flush);
 }
 
 #[cfg(test)]
