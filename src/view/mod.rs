@@ -7,7 +7,8 @@
 //! [`ViewHandle::log`], or appends a [`ViewTap`] (a pass-through [`Stage`]) to any chain.
 //!
 //! **Rate discipline.** The handle copies each record into a compact form and offers it to a
-//! bounded queue (`try_send`): it never waits for the viewer. When the queue is full (the
+//! bounded queue ([`DEFAULT_QUEUE`] messages, at most [`MAX_QUEUE_BYTES`] of data;
+//! `try_send`): it never waits for the viewer. When the queue is full (the
 //! viewer, the network or the disk is slower than the pipeline) the record is dropped and
 //! counted; [`View::finish`] returns the counts ([`ViewReport`]) and the CLI prints them. All
 //! rerun work (Arrow encoding, batching, the socket or file) runs on the view's thread and
@@ -79,6 +80,9 @@ pub const APPLICATION_ID: &str = "gradtac";
 pub const DEFAULT_QUEUE: usize = 4096;
 /// Largest queue capacity accepted.
 pub const MAX_QUEUE: usize = 1 << 20;
+/// At most this many bytes of record data wait in the queue, whatever the message count (a
+/// 1024 × 1024 surface is 4 MiB): past it a record is dropped, or, lossless, waits.
+pub const MAX_QUEUE_BYTES: u64 = 256 << 20;
 
 /// Settings of a [`View`].
 #[derive(Clone, Debug)]
@@ -125,6 +129,8 @@ struct Counters {
     sent: AtomicU64,
     dropped: AtomicU64,
     logged: AtomicU64,
+    /// Bytes of record data in the queue.
+    queued_bytes: AtomicU64,
 }
 
 /// What a view logged (see [`View::finish`]).
@@ -162,6 +168,11 @@ enum Msg {
     Finish,
 }
 
+/// Bytes a message holds (for [`MAX_QUEUE_BYTES`]).
+fn message_bytes(recs: &[Rec]) -> u64 {
+    recs.iter().map(|r| (std::mem::size_of::<Rec>() + r.heap_bytes()) as u64).sum()
+}
+
 /// The producer side of a [`View`]: offer records to its queue (cheap to clone, `Send`).
 #[derive(Clone)]
 pub struct ViewHandle {
@@ -183,6 +194,18 @@ impl ViewHandle {
         }
         let n = recs.len() as u64;
         self.counters.sent.fetch_add(n, Ordering::Relaxed);
+        let bytes = message_bytes(&recs);
+        let queued = &self.counters.queued_bytes;
+        if self.lossless {
+            // wait for the view to take enough (the count bound waits in `send`)
+            while queued.load(Ordering::Relaxed) + bytes > MAX_QUEUE_BYTES && queued.load(Ordering::Relaxed) > 0 {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+        } else if queued.load(Ordering::Relaxed) + bytes > MAX_QUEUE_BYTES {
+            self.counters.dropped.fetch_add(n, Ordering::Relaxed);
+            return;
+        }
+        queued.fetch_add(bytes, Ordering::Relaxed);
         let msg = Msg::Recs(recs);
         let ok = if self.lossless {
             self.tx.send(msg).is_ok()
@@ -193,6 +216,7 @@ impl ViewHandle {
             }
         };
         if !ok {
+            queued.fetch_sub(bytes, Ordering::Relaxed);
             self.counters.dropped.fetch_add(n, Ordering::Relaxed);
         }
     }
@@ -201,9 +225,13 @@ impl ViewHandle {
     /// clock. Records of a sensor not declared are logged on the `time` duration timeline
     /// without a layout plane. Never dropped (it waits for room in the queue).
     pub fn sensor(&self, name: &str, layout: Option<&Layout>, clock: Clock) {
-        let rec = Rec::Sensor { sensor: name.to_string(), layout: layout.cloned(), clock };
+        let recs = vec![Rec::Sensor { sensor: name.to_string(), layout: layout.cloned(), clock }];
         // rare and small: wait for room so that the sensor's records find their layout
-        let _ = self.tx.send(Msg::Recs(vec![rec]));
+        let bytes = message_bytes(&recs);
+        self.counters.queued_bytes.fetch_add(bytes, Ordering::Relaxed);
+        if self.tx.send(Msg::Recs(recs)).is_err() {
+            self.counters.queued_bytes.fetch_sub(bytes, Ordering::Relaxed);
+        }
     }
 
     /// Log records (of any sensor). Frames log as [`FrameKind::Raw`]; see
@@ -541,6 +569,7 @@ fn run_logger(
     while let Ok(msg) = rx.recv() {
         match msg {
             Msg::Recs(recs) => {
+                counters.queued_bytes.fetch_sub(message_bytes(&recs), Ordering::Relaxed);
                 for r in recs {
                     if !matches!(r, Rec::Sensor { .. }) {
                         counters.logged.fetch_add(1, Ordering::Relaxed);

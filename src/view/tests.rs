@@ -146,3 +146,31 @@ fn settings_are_checked_and_nothing_empty_is_offered() {
     let batch = EventBatch { sensor: SensorId::new("ff"), time: Timestamp(0), seq: 0, taxels: 24, events: vec![] };
     assert!(batch.to_rec(FrameKind::Raw).is_none(), "a frame without events logs nothing");
 }
+
+#[test]
+fn large_records_are_bounded_by_bytes_too() {
+    let (tx, _rx) = std::sync::mpsc::sync_channel(1 << 16);
+    let counters = Arc::new(Counters::default());
+    let h = ViewHandle { tx, counters: counters.clone(), lossless: false };
+    // 1024 × 1024 surfaces (4 MiB each as f32): at most MAX_QUEUE_BYTES of them wait
+    let grid = gradtac_stages::interpolate::Grid::try_new(
+        gradtac_stream::Extent { x_min: 0.0, x_max: 1.0, y_min: 0.0, y_max: 1.0 },
+        1024,
+        1024,
+    )
+    .unwrap();
+    let surface = Surface {
+        sensor: SensorId::new("ff"),
+        start: Timestamp(0),
+        end: Timestamp(0),
+        seq: 0,
+        grid: Arc::new(grid),
+        values: ndarray::Array2::zeros((1024, 1024)),
+    };
+    for _ in 0..100 {
+        h.log(std::slice::from_ref(&surface));
+    }
+    let kept = 100 - counters.dropped.load(Ordering::Relaxed);
+    assert!(counters.queued_bytes.load(Ordering::Relaxed) <= MAX_QUEUE_BYTES);
+    assert_eq!(kept, MAX_QUEUE_BYTES / (4 << 20) - 1, "the rest are dropped, not queued");
+}
