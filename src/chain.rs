@@ -457,6 +457,7 @@ impl SensorChain {
         self.points.clear();
         self.raw.extend(frame);
         sinks.write_all(&self.taps[Tap::Source as usize], &self.raw)?;
+        sinks.view_source(&self.taps[Tap::Source as usize], &self.raw);
         // the raw frames move into the last stage that reads them (the contact-location front
         // ends, then the normalisation), and are copied for those before it
         if let Some(d) = &mut self.dos {

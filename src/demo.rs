@@ -143,6 +143,11 @@ pub fn simulate(seed: u64) -> Result<Recording, Error> {
 
 /// Run the demo in `dir` (created if missing).
 pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
+    run_demo_with(dir, &RunOptions { progress, ..RunOptions::default() })
+}
+
+/// [`run_demo`] with the run's options (a progress bar; with the `view` feature, a rerun view).
+pub fn run_demo_with(dir: &Path, options: &RunOptions) -> Result<DemoReport, Error> {
     let io = |path: &Path| {
         let path = path.to_path_buf();
         move |source| Error::Io { path, source }
@@ -172,7 +177,7 @@ pub fn run_demo(dir: &Path, progress: bool) -> Result<DemoReport, Error> {
     std::fs::write(&scene_path, DEMO_SCENE).map_err(io(&scene_path))?;
     let scene = Scene::load(&scene_path)?;
     let plan = Plan::new(&scene)?;
-    let run = run_blocking(&scene, &plan, &RunOptions { progress, ..Default::default() })?;
+    let run = run_blocking(&scene, &plan, options)?;
 
     let layout = Layout::biotac_sp();
     let mut localisation = Vec::new();

@@ -52,6 +52,9 @@ pub enum Error {
         /// What went wrong.
         reason: String,
     },
+    /// The rerun view (feature `view`) could not be opened or written.
+    #[error("view: {0}")]
+    View(String),
 }
 
 impl Error {

@@ -235,6 +235,22 @@ pub fn check_outputs(scene: &Scene) -> Result<(), Error> {
     Ok(())
 }
 
+/// For a file a run writes besides its outputs (`gradtac run --view-save`): refuse it when it
+/// resolves to one of the scene's inputs (the scene file included) or outputs, or exists and is
+/// not a regular file. Call it before reading anything.
+pub fn check_side_output(scene: &Scene, out: &Path) -> Result<(), Error> {
+    let named = inputs(scene);
+    let outs: Vec<(String, PathBuf)> = scene
+        .outputs
+        .iter()
+        .enumerate()
+        .map(|(i, o)| (format!("output #{} ({})", i + 1, o.path.display()), scene.resolve(&o.path)))
+        .collect();
+    let mut all: Vec<(&str, &Path)> = named.iter().map(|n| (n.what.as_str(), n.path.as_path())).collect();
+    all.extend(outs.iter().map(|(w, p)| (w.as_str(), p.as_path())));
+    check_output_file(out, &all)
+}
+
 /// For the commands that write one file (`gradtac plot --out`, `gradtac calibrate --out`):
 /// refuse `out` when it resolves to one of `inputs` (a file, or any file inside an input
 /// directory) or exists and is not a regular file. Call it before reading anything.

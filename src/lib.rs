@@ -78,6 +78,7 @@
 //! |---|---|---|
 //! | `cli` | on | the `gradtac` binary (clap, tracing-subscriber) and the runner's progress bars (indicatif) |
 //! | `plot` | on | the `plot` module and `gradtac plot` / `gradtac demo`'s figures (plotters) |
+//! | `view` | off | the [rerun](https://rerun.io) view: the `view` module, `gradtac run --view` / `--view-save`, `gradtac view`, `demo --view` (rerun `=0.36`, SDK only; needs Rust 1.95) |
 //!
 //! A library user who needs neither depends on `gradtac = { version = "…", default-features = false }`:
 //! the pipeline, the sources and sinks, scenes, plans and runs stay.
@@ -104,6 +105,8 @@ mod recorded;
 pub mod run;
 pub mod scene;
 pub mod sinks;
+#[cfg(feature = "view")]
+pub mod view;
 
 pub use error::Error;
 pub use plan::{Plan, Tap};

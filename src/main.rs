@@ -28,6 +28,9 @@ enum Command {
         /// The outputs are the same byte for byte whatever the number.
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
+        #[cfg(feature = "view")]
+        #[command(flatten)]
+        view: ViewArgs,
     },
     /// Run a scene once per recording, on a pool of threads, into one hive-partitioned archive
     /// (`OUT/<output>/recording=<stem>/sensor=<name>/part-000000.parquet`; see docs/batch.md).
@@ -50,6 +53,20 @@ enum Command {
         /// No progress bar or summary; failures are still printed.
         #[arg(long, short)]
         quiet: bool,
+    },
+    /// Replay gradtac Parquet outputs (a file, a run's output directory or an archive; any
+    /// schema, any version) into a rerun viewer, or into an `.rrd` recording with `--save`.
+    #[cfg(all(feature = "view", feature = "plot"))]
+    View {
+        /// The Parquet file or directory (read recursively).
+        input: PathBuf,
+        /// Write an `.rrd` recording here instead of showing a viewer.
+        #[arg(long, value_name = "RRD")]
+        save: Option<PathBuf>,
+        /// Stream to the viewer at this URL instead of spawning one
+        /// (e.g. `rerun+http://127.0.0.1:9876/proxy`).
+        #[arg(long, value_name = "URL", conflicts_with = "save")]
+        url: Option<String>,
     },
     /// Print the planned graph: which stages run for which sensor, and why.
     Explain {
@@ -126,7 +143,53 @@ enum Command {
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
+        #[cfg(feature = "view")]
+        #[command(flatten)]
+        view: ViewArgs,
     },
+}
+
+/// The rerun view of a run (feature `view`).
+#[cfg(feature = "view")]
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// Show the run in a rerun viewer (rerun 0.36): spawn one (`rerun` on PATH), or stream to
+    /// the one already listening on the default port.
+    #[arg(long)]
+    view: bool,
+    /// Write the view as an `.rrd` recording (no viewer needed).
+    #[arg(long, value_name = "RRD", conflicts_with = "view_url")]
+    view_save: Option<PathBuf>,
+    /// Stream the view to the viewer at this URL (e.g. `rerun+http://127.0.0.1:9876/proxy`).
+    #[arg(long, value_name = "URL")]
+    view_url: Option<String>,
+    /// Drop view records when the viewer is slower than the run, even for file sources (live
+    /// CAN buses always drop: the pipeline never waits for the viewer). Without it a run of
+    /// files, whose pace is the reader's, waits so that the view is complete.
+    #[arg(long)]
+    view_drop: bool,
+}
+
+#[cfg(feature = "view")]
+impl ViewArgs {
+    /// The view asked for, opened (`None`: no view). `live`: a source is a live bus.
+    fn open(&self, live: bool) -> Result<Option<gradtac::view::View>, gradtac::Error> {
+        use gradtac::view::{View, ViewOptions, ViewTarget};
+        let target = match (&self.view_save, &self.view_url, self.view) {
+            (Some(p), _, _) => ViewTarget::Save(p.clone()),
+            (None, Some(u), _) => ViewTarget::Connect(u.clone()),
+            (None, None, true) => ViewTarget::Spawn,
+            (None, None, false) => return Ok(None),
+        };
+        let options = ViewOptions { lossless: !(live || self.view_drop), ..ViewOptions::default() };
+        View::open(&target, &options).map(Some)
+    }
+}
+
+/// Does the scene read a live CAN bus?
+#[cfg(feature = "view")]
+fn reads_live_bus(scene: &Scene) -> bool {
+    scene.buses.iter().any(|b| !matches!(b.source, gradtac::scene::BusSource::Candump(_)))
 }
 
 fn main() -> ExitCode {
@@ -185,11 +248,35 @@ fn write_stdout(args: std::fmt::Arguments<'_>) {
 
 fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
     match cmd {
-        Command::Run { scene, quiet, threads } => {
+        Command::Run {
+            scene,
+            quiet,
+            threads,
+            #[cfg(feature = "view")]
+            view,
+        } => {
             let threads = threads.unwrap_or(0);
             let scene = Scene::load(&scene)?;
+            #[cfg(feature = "view")]
+            if let Some(rrd) = &view.view_save {
+                gradtac::guard::check_side_output(&scene, rrd)?;
+            }
             let plan = Plan::new(&scene)?;
-            let report = run::run_blocking(&scene, &plan, &run::RunOptions { progress: !quiet, threads })?;
+            #[allow(unused_mut)]
+            let mut options = run::RunOptions { progress: !quiet, threads, ..Default::default() };
+            #[cfg(feature = "view")]
+            let view = view.open(reads_live_bus(&scene))?;
+            #[cfg(feature = "view")]
+            {
+                options.view = view.as_ref().map(gradtac::view::View::handle);
+            }
+            let report = run::run_blocking(&scene, &plan, &options);
+            #[cfg(feature = "view")]
+            {
+                drop(options);
+                finish_view(view, quiet)?;
+            }
+            let report = report?;
             if report.interrupted {
                 eprint!("gradtac: {report}");
                 return Ok(ExitCode::from(INTERRUPTED));
@@ -223,6 +310,24 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 (_, 0) => ExitCode::SUCCESS,
                 _ => ExitCode::FAILURE,
             })
+        }
+        #[cfg(all(feature = "view", feature = "plot"))]
+        Command::View { input, save, url } => {
+            use gradtac::view::{View, ViewOptions, ViewTarget};
+            let target = match (save, url) {
+                (Some(p), _) => {
+                    gradtac::guard::check_output_file(&p, &[("the replayed input", &input)])?;
+                    ViewTarget::Save(p)
+                }
+                (None, Some(u)) => ViewTarget::Connect(u),
+                (None, None) => ViewTarget::Spawn,
+            };
+            // a replay has no pace to keep: every row is logged
+            let view = View::open(&target, &ViewOptions { lossless: true, ..ViewOptions::default() })?;
+            let summary = gradtac::view::replay(&input, &view.handle())?;
+            say!("{summary}");
+            finish_view(Some(view), false)?;
+            Ok(ExitCode::SUCCESS)
         }
         Command::Calibrate {
             data,
@@ -288,7 +393,12 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             Ok(ExitCode::SUCCESS)
         }
         #[cfg(feature = "plot")]
-        Command::Demo { dir, quiet } => {
+        Command::Demo {
+            dir,
+            quiet,
+            #[cfg(feature = "view")]
+            view,
+        } => {
             let dir = match dir {
                 Some(d) => d,
                 None => demo::fresh_dir()?,
@@ -298,7 +408,28 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 demo::DEMO_SLIP.name(),
                 demo::RATE_HZ
             );
-            let report = demo::run_demo(&dir, !quiet)?;
+            #[cfg(feature = "view")]
+            if let Some(rrd) = &view.view_save {
+                let files = ["scene.toml", "recording.csv", "truth.csv", "out"].map(|n| dir.join(n));
+                let named: Vec<(&str, &std::path::Path)> =
+                    files.iter().map(|p| ("a file of the demo", p.as_path())).collect();
+                gradtac::guard::check_output_file(rrd, &named)?;
+            }
+            #[allow(unused_mut)]
+            let mut options = run::RunOptions { progress: !quiet, ..Default::default() };
+            #[cfg(feature = "view")]
+            let view = view.open(false)?;
+            #[cfg(feature = "view")]
+            {
+                options.view = view.as_ref().map(gradtac::view::View::handle);
+            }
+            let report = demo::run_demo_with(&dir, &options);
+            #[cfg(feature = "view")]
+            {
+                drop(options);
+                finish_view(view, quiet)?;
+            }
+            let report = report?;
             say!("{report}");
             say!("{}", demo::where_lines(&report, &dir));
             Ok(ExitCode::SUCCESS)
@@ -354,4 +485,20 @@ fn expand_recordings(args: &[String]) -> Result<Vec<PathBuf>, gradtac::Error> {
         out.extend(found);
     }
     Ok(out)
+}
+
+/// Finish a view and say what it logged (on stderr when `quiet`).
+#[cfg(feature = "view")]
+fn finish_view(view: Option<gradtac::view::View>, quiet: bool) -> Result<(), gradtac::Error> {
+    if let Some(v) = view {
+        let report = v.finish()?;
+        if report.dropped > 0 || !quiet {
+            if quiet {
+                eprint!("gradtac: {report}");
+            } else {
+                say!("{report}");
+            }
+        }
+    }
+    Ok(())
 }

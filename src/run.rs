@@ -41,6 +41,10 @@ pub struct RunOptions {
     /// thread (the single-threaded path), `n` up to `n` chain threads. The outputs are byte
     /// for byte the same whatever the number (see the [module docs](self)).
     pub threads: usize,
+    /// Offer the raw frames and every record written to a rerun view (feature `view`; see
+    /// [`crate::view`]). The run declares each sensor it reads (layout, clock) first.
+    #[cfg(feature = "view")]
+    pub view: Option<crate::view::ViewHandle>,
 }
 
 /// What a run did.
@@ -255,6 +259,24 @@ impl Runner {
             }
         }
         self.sinks.finish()
+    }
+
+    /// Offer the raw frames and every record written from now on to a rerun view, after
+    /// declaring each sensor the plan reads (its layout; its clock: `utc` for CAN buses, ROS
+    /// bags and MCAP files, the `time` duration otherwise).
+    #[cfg(feature = "view")]
+    pub fn set_view(&mut self, scene: &Scene, plan: &Plan, view: Option<crate::view::ViewHandle>) {
+        if let Some(v) = &view {
+            for p in plan.sensors.iter().filter(|p| p.is_read()) {
+                let utc = matches!(
+                    scene.sensors[p.index].source,
+                    SourceSpec::Bus { .. } | SourceSpec::Rosbag(_) | SourceSpec::Mcap(_)
+                );
+                let clock = if utc { crate::view::Clock::Utc } else { crate::view::Clock::Relative };
+                v.sensor(&p.name, Some(&p.layout), clock);
+            }
+        }
+        self.sinks.set_view(view);
     }
 
     /// After an error: close every output as a valid `.partial` file; returns their paths.
@@ -480,6 +502,15 @@ impl Engine {
         })
     }
 
+    /// Hand the view to the runner (the engine is serial whenever a view is set).
+    #[cfg(feature = "view")]
+    fn set_view(&mut self, scene: &Scene, plan: &Plan, view: Option<crate::view::ViewHandle>) {
+        match self {
+            Engine::Serial(r) => r.set_view(scene, plan, view),
+            Engine::Parallel(_) => debug_assert!(view.is_none(), "a view runs the chains serially"),
+        }
+    }
+
     /// Push frames in time order (the serial runner stops at the first error).
     fn push_batch(&mut self, frames: Vec<TaxelFrame>) -> Result<(), Error> {
         match self {
@@ -540,7 +571,14 @@ pub async fn run_in(
     if memory.is_some() {
         buses.iter_mut().for_each(|b| b.stats_path = None);
     }
-    let mut runner = Engine::new(scene, plan, opts.threads, memory)?;
+    // a rerun view is fed from the runner's thread: with a view the chains run there too
+    #[cfg(feature = "view")]
+    let threads = if opts.view.is_some() { 1 } else { opts.threads };
+    #[cfg(not(feature = "view"))]
+    let threads = opts.threads;
+    let mut runner = Engine::new(scene, plan, threads, memory)?;
+    #[cfg(feature = "view")]
+    runner.set_view(scene, plan, opts.view.clone());
     let bar = opts.progress.then(|| progress_bar::new(progress.iter().filter_map(CsvProgress::total_bytes).sum()));
     let mut merged = merge_streams(streams, 256);
     let ctrl_c = tokio::signal::ctrl_c();

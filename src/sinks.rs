@@ -60,6 +60,9 @@ pub trait Record: ArrowRecord + Clone + Send + 'static {
     fn sink(s: &mut OutputSink) -> Option<&mut Box<dyn RecordSink<Self>>>;
     /// The records as [`Rows`] (copied), for a [`Collected`] buffer.
     fn rows(records: &[Self]) -> Rows;
+    /// Offer records of `tap` to the rerun view (feature `view`).
+    #[cfg(feature = "view")]
+    fn view(v: &crate::view::ViewHandle, tap: Tap, records: &[Self]);
 }
 
 /// Records of one output type, owned: what a [`Collected`] buffer holds per write.
@@ -89,6 +92,10 @@ macro_rules! record {
             }
             fn rows(records: &[Self]) -> Rows {
                 Rows::$variant(records.to_vec())
+            }
+            #[cfg(feature = "view")]
+            fn view(v: &crate::view::ViewHandle, tap: Tap, records: &[Self]) {
+                v.log_frames(crate::view::FrameKind::of_tap(tap), records)
             }
         }
     };
@@ -142,11 +149,19 @@ impl OutputSink {
 pub trait RecordWriter {
     /// Write `records` to each output in `outputs` (indices into the scene's outputs).
     fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error>;
+
+    /// Raw frames no output taps, for a view (nothing by default: only [`Sinks`] holds one,
+    /// and a run with a view runs its chains serially into the sinks).
+    fn view_source(&self, _outputs: &[usize], _frames: &[TaxelFrame]) {}
 }
 
 impl RecordWriter for Sinks {
     fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
         Sinks::write_all(self, outputs, records)
+    }
+
+    fn view_source(&self, outputs: &[usize], frames: &[TaxelFrame]) {
+        Sinks::view_source(self, outputs, frames)
     }
 }
 
@@ -213,6 +228,12 @@ impl Collected {
 /// Every output of a run, open as `<path>.partial` until [`Sinks::finish`].
 pub struct Sinks {
     sinks: Vec<Option<OutputSink>>,
+    /// The tap of each output (read by the view).
+    #[cfg_attr(not(feature = "view"), allow(dead_code))]
+    taps: Vec<Tap>,
+    /// The rerun view every written record is offered to (feature `view`).
+    #[cfg(feature = "view")]
+    view: Option<crate::view::ViewHandle>,
 }
 
 impl Sinks {
@@ -224,9 +245,11 @@ impl Sinks {
     /// [`Sinks::open`], every output in `memory` (and nothing on disk) when given.
     pub fn open_in(scene: &Scene, plan: &Plan, memory: Option<&MemoryOutputs>) -> Result<Sinks, Error> {
         let mut sinks = Vec::new();
+        let mut taps = Vec::new();
         for (i, o) in scene.outputs.iter().enumerate() {
             let dest = Dest { memory, output: i };
             let tap = Tap::parse(&o.tap).expect("validated by Scene");
+            taps.push(tap);
             let users: Vec<&Layout> =
                 plan.sensors.iter().filter(|p| p.outputs.contains(&i)).map(|p| &p.layout).collect();
             let bad = |reason: String| Error::Scene { path: scene.origin.clone(), reason };
@@ -295,11 +318,38 @@ impl Sinks {
             }
             sinks.push(Some(sink));
         }
-        Ok(Sinks { sinks })
+        Ok(Sinks {
+            sinks,
+            taps,
+            #[cfg(feature = "view")]
+            view: None,
+        })
+    }
+
+    /// Offer every record written from now on (once per stage, whatever the number of outputs
+    /// tapping it) to a rerun view, and the raw frames of [`view_source`](Self::view_source).
+    #[cfg(feature = "view")]
+    pub fn set_view(&mut self, view: Option<crate::view::ViewHandle>) {
+        self.view = view;
+    }
+
+    /// Raw frames no output taps: offered to the view (if any), so that it always shows the
+    /// electrodes. Nothing without the `view` feature.
+    pub fn view_source(&self, outputs: &[usize], frames: &[TaxelFrame]) {
+        #[cfg(feature = "view")]
+        if let (Some(v), true) = (&self.view, outputs.is_empty()) {
+            v.log_frames(crate::view::FrameKind::Raw, frames);
+        }
+        #[cfg(not(feature = "view"))]
+        let _ = (outputs, frames);
     }
 
     /// Write `records` to each output in `outputs` (indices into the scene's outputs).
     pub fn write_all<T: Record>(&mut self, outputs: &[usize], records: &[T]) -> Result<(), Error> {
+        #[cfg(feature = "view")]
+        if let (Some(v), Some(&o)) = (&self.view, outputs.first()) {
+            T::view(v, self.taps[o], records);
+        }
         for &o in outputs {
             let sink = self.sinks[o].as_mut().and_then(T::sink).expect("the planner opened a sink of the tap's type");
             for r in records {

@@ -266,6 +266,8 @@ mod slip;
 mod style;
 mod surface;
 mod track;
+#[cfg(feature = "view")]
+pub(crate) mod view_read;
 use backend::AnyBackend;
 pub use backend::ImageFormat;
 use contour::*;

@@ -381,7 +381,7 @@ fn percent_decode(s: &str) -> String {
 
 /// `b` with a leading `sensor` column of the partition's value, when the file left it out (the
 /// archive default); a file that keeps its own column must agree with its directory.
-fn with_sensor_column(b: RecordBatch, sensor: &str) -> R<RecordBatch> {
+pub(super) fn with_sensor_column(b: RecordBatch, sensor: &str) -> R<RecordBatch> {
     if let Some(col) = b.column_by_name(PARTITION) {
         let own = strings_of(col).ok_or_else(|| wrong(PARTITION, col))?;
         if let Some(other) = own.iter().find(|s| s.as_str() != sensor) {
