@@ -289,11 +289,15 @@
 //! means and one for their centred sums side by side (2 × `history_s` × rate point visits,
 //! 480 at 100 Hz; `history_s` ≤ [`MAX_HISTORY_S`]; bit-identical to a separate fit per
 //! window). Once per slip decision the change point: O(history) suffix sums, then
-//! O(256 · longest soft-start's points) for the candidates (one pass serves the four soft
-//! starts; ≤ 30 points at 100 Hz) and O(history) for each of the few candidates re-scored
-//! exactly — the same onset as the direct O(4 · 256 · 2 · history) fit, to the candidate.
-//! Live (`examples/latency.rs`, two fingertips on a CAN bus, 100 Hz, default settings): a
-//! frame that decides a slip ≈ 40 µs, any other ≈ 1.2 µs (medians). The pattern path adds
+//! O(256 · longest start's points) for the candidates (one pass serves every start; ≤ 40
+//! points at 100 Hz with `linear_smooth`, ≤ 30 with `linear`) and O(history) for each of the
+//! few candidates re-scored exactly — the same onset as the direct O(starts · 256 · 2 ·
+//! history) fit, to the candidate. Live (`examples/latency.rs`, two fingertips on a CAN bus,
+//! 100 Hz, three runs on a loaded 2-core machine, medians of the runs): a frame that decides a
+//! slip 67–68 µs p50 with the default `onset_starts = "linear_smooth"` against 47 µs with
+//! `linear` (the fit before the widened family); every frame 0.9 µs p50, 1.2 µs p99 with
+//! either (1.2–1.4 µs with `linear`: noise); decision frames' p99 3–8 ms under that load for
+//! both. The pattern path adds
 //! O(taxels) per frame ([`crate::slip_pattern`]); with `evidence = "pattern"` a slip output
 //! needs no locator or track.
 //!
@@ -1183,20 +1187,23 @@ fn ls_slope(pts: impl Iterator<Item = (f64, f64)> + Clone, min_points: usize) ->
 const DIRECT_TAIL: usize = 32;
 
 /// The change point of a still-then-moving position history: the start `t₀` of the soft-start
-/// hinge `u = a + b·z(t − t₀)` (`z`: distance of a unit-speed motion whose speed rises linearly
-/// over `r` ∈ [`SOFT_STARTS_S`]) with the least squared error; `t₀` over the history's sample
+/// hinge `u = a + b·z(t − t₀)` (with `drift`, `+ g·t`: the ramp null; `z`: distance of a
+/// unit-speed motion with a start of [`STARTS`] — all of them with `smooth`, else the linear
+/// ones) with the least squared error, and that start; `t₀` over the history's sample
 /// times (leaving 3 points on either side; at most 256 of them, evenly spaced). Run once per
 /// slip decision, so it bounds that frame's latency.
 ///
 /// Cost: each candidate's regression moments come from suffix sums for the points past the
 /// soft start (O(1); a tail of at most [`DIRECT_TAIL`] points is summed directly) plus the
-/// points inside it — one pass over the longest soft start's ≤ 0.3 s·rate points serves all
-/// four, its sums recorded where each shorter one ends — and its squared error in closed form
-/// (`Cuu − Czu²/Czz`); the candidates within a rounding margin of the least closed-form error
-/// are then re-scored with the direct two-pass sums of [`change_point_direct`] and chosen by its
-/// rule, so the answer is the direct fit's (tested to the candidate on random and simulated
-/// histories) at O(256 · 0.3 s·rate) instead of O(256 · 4 · 2n). Both fingers' fits at 240
-/// history points (2.4 s at 100 Hz): ≈ 40 µs of a decision frame (`examples/latency.rs`).
+/// points inside it — one pass over the longest start's ≤ 0.4 s·rate points serves all of
+/// them, its power sums recorded where each shorter one ends — and its squared error in closed
+/// form (`Cuu − Czu²/Czz`, with the drift projected out first); the candidates within a
+/// rounding margin of the least closed-form error are then re-scored with the direct two-pass
+/// sums of [`change_point_direct`] and chosen by its rule, so the answer is the direct fit's
+/// (tested to the candidate on random and simulated histories, both nulls, both start sets) at
+/// O(256 · 0.4 s·rate) instead of O(256 · 7 · 2n). Both fingers' fits at 240 history points
+/// (2.4 s at 100 Hz): ≈ 67 µs of a decision frame with every start, 47 µs with the linear
+/// ones (`examples/latency.rs`).
 fn change_point(h: &VecDeque<(i64, f64)>, drift: bool, smooth: bool) -> Option<(i64, Start)> {
     let (starts, ends) = if smooth {
         (&STARTS[..], &START_ENDS_S[..])
@@ -1386,7 +1393,7 @@ fn direct_sse(ts: &[f64], h: &VecDeque<(i64, f64)>, c: f64, start: Start, drift:
             return None;
         }
         let var = szz - szt * szt / stt;
-        if !(var > DRIFT_VAR_FLOOR * raw_zz.max(f64::MIN_POSITIVE)) {
+        if var.is_nan() || var <= DRIFT_VAR_FLOOR * raw_zz.max(f64::MIN_POSITIVE) {
             return None;
         }
         let b = (szu - szt * stu / stt) / var;
