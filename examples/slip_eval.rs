@@ -455,10 +455,10 @@ fn main() {
         ("none of the three", |c| c.truth.grip_start == 1.0 && c.truth.load_rise == 0.0 && c.truth.finger_lag_s == 0.0),
         ("slower than 4 mm/s", |c| c.truth.speed_mm_s < 4.0),
     ];
-    for k in 0..2 {
+    for (k, (label, _)) in configs.iter().enumerate().take(2) {
         for (name, f) in &props {
             let sc = sel(k, &|c| !c.truth.class.is_slip() || f(c));
-            println!("{}", summarise(&sc).row(&format!("{}, {name}", configs[k].0)));
+            println!("{}", summarise(&sc).row(&format!("{label}, {name}")));
         }
     }
     println!(
