@@ -17,6 +17,9 @@
 //!   else: the fastest path from a CAN frame to a slip decision.
 //! - `centroid+track`: also a `track` output, default locator (`method = "centroid"`): taxel
 //!   centroid → track runs beside the slip.
+//! - `slip (linear)`: the slip output alone with the onset fit of before the widened grasp
+//!   family (`onset_starts = "linear"`: sudden and linear starts only): the cost of the
+//!   default's smooth starts is the difference of the decision frames against `slip`.
 //! - `events+track`: also a `track` output with `[stages.locate] method = "events"`, the
 //!   natural-neighbour event chain — normalise → Savitzky–Golay → events → window → surface
 //!   (64 × 64) and maximal contour (fused) → track — beside the slip.
@@ -54,14 +57,19 @@ const PERIOD_NS: i64 = 10_000_000;
 const WARMUP: usize = 2_000;
 const BLOCK: usize = 1_000;
 
+/// The slip output with the onset fit of before the widened family (linear starts only): the
+/// `slip (linear)` scene, for the cost of the default's smooth starts.
+const HINGE: &str = "[stages.slip]\nonset_starts = \"linear\"\nonset_lead_s = 0.03\n";
+
 /// The scene `gradtac run` would read: two fingertips on a CAN bus, the slip output (first),
 /// with `track` also the track output, and the contact-location method.
-fn scene_text(method: &str, track: bool) -> String {
+fn scene_text(method: &str, track: bool, slip: &str) -> String {
     let track_output = if track {
         format!("[[output]]\ntap = \"track\"\npath = \"out/track-{method}.parquet\"\n")
     } else {
         String::new()
     };
+    let hinge = if slip.is_empty() { "" } else { "-hinge" };
     format!(
         r#"
 [[bus]]
@@ -78,10 +86,10 @@ source = {{ bus = "hand" }}
 
 [stages.locate]
 method = "{method}"
-
+{slip}
 [[output]]
 tap = "slip"
-path = "out/slip-{method}-{track}.parquet"
+path = "out/slip-{method}-{track}{hinge}.parquet"
 {track_output}"#
     )
 }
@@ -105,12 +113,13 @@ impl Loop {
         name: &'static str,
         method: &str,
         track: bool,
+        slip: &str,
         dir: &Path,
         codec: &CanCodec,
         capacity: usize,
     ) -> Result<Loop, BoxError> {
-        let file = dir.join(format!("{method}-{track}.toml"));
-        let scene = Scene::from_toml(&scene_text(method, track), dir, &file)?;
+        let file = dir.join(format!("{name}.toml").replace(['+', ' ', '(', ')'], "_"));
+        let scene = Scene::from_toml(&scene_text(method, track, slip), dir, &file)?;
         let plan = Plan::new(&scene)?;
         Ok(Loop {
             name,
@@ -227,9 +236,10 @@ fn main() -> Result<(), BoxError> {
     std::fs::create_dir_all(&dir)?;
     std::fs::write(dir.join("hand.log"), "")?;
     let mut loops = [
-        Loop::new("slip", "centroid", false, &dir, &codec, wanted)?,
-        Loop::new("centroid+track", "centroid", true, &dir, &codec, wanted)?,
-        Loop::new("events+track", "events", true, &dir, &codec, wanted)?,
+        Loop::new("slip", "centroid", false, "", &dir, &codec, wanted)?,
+        Loop::new("slip (linear)", "centroid", false, HINGE, &dir, &codec, wanted)?,
+        Loop::new("centroid+track", "centroid", true, "", &dir, &codec, wanted)?,
+        Loop::new("events+track", "events", true, "", &dir, &codec, wanted)?,
     ];
     let load_before = load();
     while loops.iter().any(|l| l.frames < wanted + WARMUP && l.cursor < can.len()) {

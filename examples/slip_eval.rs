@@ -1,13 +1,18 @@
-//! Two-finger slip on grasps drawn from the family of forward models
-//! (`gradtac_stages::sim_grasp`): the default chain of a bare scene (raw frames → slip_pattern →
-//! slip) scored on held-out members, against the previous track-velocity rule (taxel centroid →
-//! track → slip), with the demo's recording (`gradtac demo`) through the same inputs.
+//! Two-finger slip on grasps drawn from the widened family of forward models
+//! (`gradtac_stages::sim_grasp`, `GraspFamily::widened`): the default chain of a bare scene
+//! (raw frames → slip_pattern → slip) scored on held-out members — whole, by start shape
+//! (step / linear / smooth) and by widened property — against the onset estimate before the
+//! widened family and the track-velocity baseline (taxel centroid → track → slip), with the
+//! demo's recording (`gradtac demo`) through the same inputs and a held-out variant of the
+//! family never used for a choice.
 //!
 //! ```text
-//! cargo run --release --example slip_eval          # the tables of the slip docs
-//! cargo run --release --example slip_eval -- tune  # the settings search on the tuning seeds
-//! cargo run --release --example slip_eval -- tune rule  # then window_s × min_duration_s × dominance
-//! BIAS=1 cargo run --release --example slip_eval   # also the tuning members' signed onset bias
+//! cargo run --release --example slip_eval                # the tables of the slip docs (≈ 10 s)
+//! cargo run --release --example slip_eval -- trade       # also the decision latency trade
+//! cargo run --release --example slip_eval -- tune onset  # the onset search on the tuning seeds
+//! cargo run --release --example slip_eval -- onsetdiag   # each tuning slip's signed error and properties
+//! cargo run --release --example slip_eval -- tune        # the (earlier) evidence search
+//! cargo run --release --example slip_eval -- tune rule   # then window_s × min_duration_s × dominance
 //! DIAG_SEEDS=400 cargo run --release --example slip_eval -- diag  # the tuning members' misses
 //! ```
 //!
@@ -17,17 +22,22 @@
 //! their table row; `DIAG_HISTORY`, `DIAG_PERSIST`, `DIAG_SETTLE`, `DIAG_GAP`, `DIAG_FOLLOW`
 //! override `history_s`, `min_duration_s`, `settle_s`, `max_gap_s`, `pattern_follow_s` there.
 //!
-//! `onset_lead_s` is that bias measured with `onset_lead_s = 0` (0.03 s).
-//!
-//! Protocol: tuning members are seeds 0..120 × 5 classes whose two fingers both draw a Gaussian
-//! or difference-of-Gaussians kernel (the exponential kernel is held-out physics); settings are
-//! chosen on them only, among settings that keep the demo's onset error within 0.040 s (the
-//! demo's recording is from the old simulator: neither a tuning nor a held-out member). Held-out members are seeds 1000..1060 × 5 classes (every kernel),
-//! reported whole and restricted to grasps with an exponential kernel on some finger.
+//! Protocol: tuning members are seeds 0..120 × 5 classes of the widened family whose two
+//! fingers both draw a Gaussian or difference-of-Gaussians kernel (the exponential kernel is
+//! held-out physics); settings are chosen on them only (`onset_lead_s` is the chosen fit's
+//! mean signed onset error there). Held-out members are seeds 1000..1100 × 5 classes of the
+//! same family (every kernel), reported whole, by start shape, by property and restricted to
+//! grasps with an exponential kernel on some finger; the held-out variant
+//! (`GraspFamily::held_out_variant`, seeds 2000..2040) is scored only. The demo's recording is
+//! from the old simulator: neither a tuning nor a held-out member.
 
 use gradtac::stages::sim_family::KernelShape;
-use gradtac::stages::sim_grasp::{score, slip_inputs, track_points_per_frame, GraspMember, GraspRecording, GraspScore};
-use gradtac::stages::slip::{Slip, SlipClass, SlipConfig, SlipEvidence, SlipMethod};
+use gradtac::stages::sim_grasp::{
+    score, slip_inputs, track_points_per_frame, GraspFamily, GraspMember, GraspRecording, GraspScore, StartShape,
+};
+use gradtac::stages::slip::{
+    OnsetFingers, OnsetModel, OnsetStarts, Slip, SlipClass, SlipConfig, SlipEvidence, SlipMethod,
+};
 use gradtac::stages::track::TrackPoint;
 
 struct Case {
@@ -35,22 +45,32 @@ struct Case {
     exponential: bool,
     truth: gradtac::stages::sim_grasp::GraspTruth,
     rec: GraspRecording,
-    /// The track points each frame produced (then the finish's).
+    /// The track points each frame produced (then the finish's); empty unless asked for (the
+    /// default chain reads the raw frames only).
     tracks: Vec<Vec<TrackPoint>>,
 }
 
-fn cases(seeds: std::ops::Range<u64>, keep: impl Fn(bool) -> bool + Sync) -> Vec<Case> {
+fn cases(
+    seeds: std::ops::Range<u64>,
+    family: &GraspFamily,
+    with_tracks: bool,
+    keep: impl Fn(bool) -> bool + Sync,
+) -> Vec<Case> {
     let members = GraspMember::grid(seeds);
     let work = |ms: &[GraspMember]| -> Vec<Case> {
         ms.iter()
             .filter_map(|m| {
-                let g = m.draw();
+                let g = m.draw_in(family);
                 let exponential = g.fingers.iter().any(|f| matches!(f.physics.kernel, KernelShape::Exponential));
                 if !keep(exponential) {
                     return None;
                 }
                 let rec = g.simulate();
-                let tracks = track_points_per_frame(&rec.frames).expect("simulated frames are valid");
+                let tracks = if with_tracks {
+                    track_points_per_frame(&rec.frames).expect("simulated frames are valid")
+                } else {
+                    vec![]
+                };
                 Some(Case { member: *m, exponential, truth: rec.truth, rec, tracks })
             })
             .collect()
@@ -82,29 +102,42 @@ fn pct(v: &mut [f64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
-/// (right fraction per class ×5, all right, onset |err| median, p90, FA per min, decision median)
+/// Per class (right, of), onset errors of the slips right, decisions, false alarms, still time.
 struct Summary {
     right: [(usize, usize); 5],
     onset: Vec<f64>,
+    signed: Vec<f64>,
     decided: Vec<f64>,
     false_alarms: usize,
     stable_min: f64,
 }
 
 fn summarise(scores: &[GraspScore]) -> Summary {
-    let mut s = Summary { right: [(0, 0); 5], onset: vec![], decided: vec![], false_alarms: 0, stable_min: 0.0 };
+    let mut s = Summary {
+        right: [(0, 0); 5],
+        onset: vec![],
+        signed: vec![],
+        decided: vec![],
+        false_alarms: 0,
+        stable_min: 0.0,
+    };
     for r in scores {
         let k = SlipClass::ALL.iter().position(|c| *c == r.truth.class).unwrap();
         s.right[k].1 += 1;
         s.right[k].0 += usize::from(r.right());
         if r.right() && r.truth.class.is_slip() {
             s.onset.push(r.onset_error_s.abs());
+            s.signed.push(r.onset_error_s);
             s.decided.push(r.decided_s);
         }
         s.false_alarms += r.false_alarms;
         s.stable_min += r.still_s / 60.0;
     }
     s
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len() as f64
 }
 
 impl Summary {
@@ -118,10 +151,11 @@ impl Summary {
         let cls: Vec<String> = self.right.iter().map(|r| format!("{}/{}", r.0, r.1)).collect();
         let (a, n) = self.all();
         format!(
-            "| {label} | {} | {a}/{n} ({:.1} %) | {:.0} | {:.0} | {:.0} | {:.2} |",
+            "| {label} | {} | {a}/{n} ({:.1} %) | {:.0} | {:+.0} | {:.0} | {:.0} | {:.2} |",
             cls.join(" | "),
             100.0 * a as f64 / n.max(1) as f64,
             1e3 * pct(&mut self.onset, 0.5),
+            1e3 * mean(&self.signed),
             1e3 * pct(&mut self.onset, 0.9),
             1e3 * pct(&mut self.decided, 0.5),
             self.false_alarms as f64 / self.stable_min.max(1e-9),
@@ -129,7 +163,7 @@ impl Summary {
     }
 }
 
-const HEADER: &str = "| | stable | long. up | long. down | rot. cw | rot. ccw | all right | onset err median (ms) | p90 (ms) | decided after onset, median (ms) | false alarms / min still |\n|---|---|---|---|---|---|---|---|---|---|---|";
+const HEADER: &str = "| | stable | long. up | long. down | rot. cw | rot. ccw | all right | onset \\|err\\| median (ms) | mean signed (ms) | \\|err\\| p90 (ms) | decided after onset, median (ms) | false alarms / min still |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// The demo's recording (`gradtac demo`: another simulator, neither a tuning nor a held-out
 /// member) as frames, with the track points each frame makes.
@@ -164,13 +198,13 @@ fn main() {
     let demo = demo_frames();
     let tune = std::env::args().any(|a| a == "tune");
     let t = std::time::Instant::now();
-    let tuning = cases(0..TUNING_SEEDS, |exp| !exp);
+    let tuning = cases(0..TUNING_SEEDS, &GraspFamily::widened(), false, |exp| !exp);
     eprintln!("{} tuning grasps simulated in {:.1?}", tuning.len(), t.elapsed());
     if std::env::args().any(|a| a == "diag") {
         // the tuning members' failures under the defaults, with each finger's displacement
         // (units of distance_mm) around the decision
         let n: u64 = std::env::var("DIAG_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(TUNING_SEEDS);
-        let tuning = if n == TUNING_SEEDS { tuning } else { cases(0..n, |exp| !exp) };
+        let tuning = if n == TUNING_SEEDS { tuning } else { cases(0..n, &GraspFamily::widened(), false, |exp| !exp) };
         let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
         let d0 = SlipConfig::default();
         let def = SlipConfig {
@@ -231,6 +265,40 @@ fn main() {
         }
         println!("{}", HEADER);
         println!("{}", summarise(&sc).row("default, tuning"));
+        return;
+    }
+    if std::env::args().any(|a| a == "onsetdiag") {
+        for (model, fingers) in
+            [(OnsetModel::Hinge, OnsetFingers::Mean), (OnsetModel::RampHinge, OnsetFingers::Earliest)]
+        {
+            let cfg =
+                SlipConfig { onset_model: model, onset_fingers: fingers, onset_lead_s: 0.0, ..Default::default() };
+            for c in &tuning {
+                let r = run(c, &cfg);
+                if r.right() && c.truth.class.is_slip() {
+                    let t = &c.truth;
+                    println!(
+                        "{} {} {:>6} r {:.2} grip {:.2} load {:.1} lag {:.2} v {:5.1} err {:+.3} decided {:.3} flag {:.3}/{:.3}",
+                        model.name(),
+                        c.member.seed,
+                        t.start.name(),
+                        t.ramp_s,
+                        t.grip_start,
+                        t.load_rise,
+                        t.finger_lag_s,
+                        t.speed_mm_s,
+                        r.onset_error_s,
+                        r.decided_s,
+                        c.rec.grasp.fingers[0].physics.lag_s,
+                        c.rec.grasp.fingers[1].physics.lag_s,
+                    );
+                }
+            }
+        }
+        return;
+    }
+    if tune && std::env::args().any(|a| a == "onset") {
+        tune_onset(&tuning, &demo);
         return;
     }
     if tune {
@@ -330,55 +398,94 @@ fn main() {
         }
         return;
     }
-    let held = cases(1000..1060, |_| true);
-    eprintln!("{} held-out grasps simulated in {:.1?}", held.len(), t.elapsed());
+    let held = cases(HELD_OUT, &GraspFamily::widened(), true, |_| true);
+    let variant = cases(VARIANT, &GraspFamily::held_out_variant(), false, |_| true);
+    eprintln!("{} held-out grasps, {} variant grasps simulated in {:.1?}", held.len(), variant.len(), t.elapsed());
     let def = SlipConfig::default();
+    let before = previous_onset();
     let d = demo_onset(&demo, &def);
-    println!("demo recording (`gradtac demo`), default: {:?} onset error {:+.3} s\n", d.0, d.1);
+    println!("demo recording (`gradtac demo`), default: {:?} onset error {:+.3} s", d.0, d.1);
+    let d = demo_onset(&demo, &before);
+    println!(
+        "demo recording, previous onset estimate (hinge, mean, lead 0.03 s): {:?} onset error {:+.3} s\n",
+        d.0, d.1
+    );
     let base = SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..Default::default() };
-    println!("## Held-out members (seeds 1000..1060 × 5 classes, every kernel), bare default scene\n");
+    let configs = [
+        ("displacement (default)", &def),
+        ("displacement, previous onset estimate", &before),
+        ("track velocity (baseline)", &base),
+    ];
+    let runs: Vec<Vec<GraspScore>> =
+        configs.iter().map(|(_, cfg)| held.iter().map(|c| run(c, cfg)).collect()).collect();
+    let sel = |k: usize, f: &dyn Fn(&Case) -> bool| -> Vec<GraspScore> {
+        held.iter().zip(&runs[k]).filter(|(c, _)| f(c)).map(|(_, r)| *r).collect()
+    };
+    println!(
+        "## Held-out members (seeds {}..{} × 5 classes, widened family, every kernel), bare default scene\n",
+        HELD_OUT.start, HELD_OUT.end
+    );
     println!("{HEADER}");
-    for (label, cfg) in [("displacement (default)", &def), ("track velocity (previous rule, baseline)", &base)] {
-        let all: Vec<GraspScore> = held.iter().map(|c| run(c, cfg)).collect();
-        if std::env::var("BIAS").is_ok() {
+    for (k, (label, cfg)) in configs.iter().enumerate() {
+        println!("{}", summarise(&runs[k]).row(&format!("{label}, all")));
+        println!(
+            "{}",
+            summarise(&sel(k, &|c| c.exponential)).row(&format!("{label}, exponential kernel (held-out physics)"))
+        );
+        if k < 2 {
             let tun: Vec<GraspScore> = tuning.iter().map(|c| run(c, cfg)).collect();
-            let mut b: Vec<f64> =
-                tun.iter().filter(|r| r.right() && r.truth.class.is_slip()).map(|r| r.onset_error_s).collect();
-            eprintln!("{label}: tuning signed onset error median {:.3} s", pct(&mut b, 0.5));
+            println!("{}", summarise(&tun).row(&format!("{label}, tuning members (in-sample)")));
         }
-        println!("{}", summarise(&all).row(&format!("{label}, all")));
-        let exp: Vec<GraspScore> = held.iter().filter(|c| c.exponential).map(|c| run(c, cfg)).collect();
-        println!("{}", summarise(&exp).row(&format!("{label}, exponential kernel (held-out physics)")));
-        let tun: Vec<GraspScore> = tuning.iter().map(|c| run(c, cfg)).collect();
-        println!("{}", summarise(&tun).row(&format!("{label}, tuning members (in-sample)")));
     }
-    println!("\n## By slip speed (held-out, default)\n");
+    println!("\n## By start shape (held-out; each row: the slips of that shape and all stable grasps)\n");
     println!("{HEADER}");
-    let stable: Vec<GraspScore> = held.iter().filter(|c| !c.truth.class.is_slip()).map(|c| run(c, &def)).collect();
-    for (lo, hi) in [(2.0, 4.0), (4.0, 8.0), (8.0, 15.0), (15.0, 30.0)] {
-        let mut sc: Vec<GraspScore> = held
-            .iter()
-            .filter(|c| c.truth.class.is_slip() && (lo..hi).contains(&c.truth.speed_mm_s))
-            .map(|c| run(c, &def))
-            .collect();
-        sc.extend(stable.iter().copied());
-        println!("{}", summarise(&sc).row(&format!("{lo}–{hi} mm/s (+ all stable)")));
+    for (k, (label, _)) in configs.iter().enumerate() {
+        for shape in StartShape::FAMILY {
+            let sc = sel(k, &|c| !c.truth.class.is_slip() || c.truth.start == shape);
+            println!("{}", summarise(&sc).row(&format!("{label}, {} start", shape.name())));
+        }
     }
-    println!("\n## Decision latency trade (held-out; window_s × min_duration_s, other settings default)\n");
+    println!("\n## By widened property (held-out, default vs previous onset estimate; slips with the property + all stable)\n");
     println!("{HEADER}");
-    for window_s in [0.2, 0.3, 0.4, 0.6] {
-        for min_duration_s in [0.0, 0.05, 0.1, 0.2] {
-            let cfg = SlipConfig { window_s, min_duration_s, ..def.clone() };
-            let sc: Vec<GraspScore> = held.iter().map(|c| run(c, &cfg)).collect();
-            println!("{}", summarise(&sc).row(&format!("window {window_s} s, persist {min_duration_s} s")));
+    type Prop = (&'static str, fn(&Case) -> bool);
+    let props: [Prop; 5] = [
+        ("grip still ramping at the onset", |c| c.truth.grip_start != 1.0),
+        ("load rising while slipping", |c| c.truth.load_rise > 0.0),
+        ("one finger first", |c| c.truth.finger_lag_s > 0.0),
+        ("none of the three", |c| c.truth.grip_start == 1.0 && c.truth.load_rise == 0.0 && c.truth.finger_lag_s == 0.0),
+        ("slower than 4 mm/s", |c| c.truth.speed_mm_s < 4.0),
+    ];
+    for (k, (label, _)) in configs.iter().enumerate().take(2) {
+        for (name, f) in &props {
+            let sc = sel(k, &|c| !c.truth.class.is_slip() || f(c));
+            println!("{}", summarise(&sc).row(&format!("{label}, {name}")));
+        }
+    }
+    println!(
+        "\n## Held-out variant (seeds {}..{} × 5 classes, `GraspFamily::held_out_variant`: exponential starts, wider ramps and lags; never used for a choice)\n",
+        VARIANT.start, VARIANT.end
+    );
+    println!("{HEADER}");
+    for (label, cfg) in &configs[..2] {
+        let sc: Vec<GraspScore> = variant.iter().map(|c| run(c, cfg)).collect();
+        println!("{}", summarise(&sc).row(&format!("{label}, exponential start")));
+    }
+    if std::env::args().any(|a| a == "trade") {
+        println!("\n## Decision latency trade (held-out; window_s × min_duration_s, other settings default)\n");
+        println!("{HEADER}");
+        for window_s in [0.2, 0.3, 0.4, 0.6] {
+            for min_duration_s in [0.0, 0.05, 0.1, 0.2] {
+                let cfg = SlipConfig { window_s, min_duration_s, ..def.clone() };
+                let sc: Vec<GraspScore> = held.iter().map(|c| run(c, &cfg)).collect();
+                println!("{}", summarise(&sc).row(&format!("window {window_s} s, persist {min_duration_s} s")));
+            }
         }
     }
     println!("\nfailures (held-out, default):");
-    for c in &held {
-        let r = run(c, &def);
+    for (c, r) in held.iter().zip(&runs[0]) {
         if !r.right() {
             println!(
-                "  seed {} {:>17} onset {:.2}: got {:?}, FA {} {:?}, speed {:.1} mm/s, ramp {:.2} s, exp {}",
+                "  seed {} {:>17} onset {:.2}: got {:?}, FA {} {:?}, speed {:.1} mm/s, {} start {:.2} s, exp {}",
                 c.member.seed,
                 c.truth.class.name(),
                 c.truth.onset_s,
@@ -389,9 +496,87 @@ fn main() {
                     .map(|e| (e.class.name(), (e.time.as_secs_f64() * 100.0).round() / 100.0))
                     .collect::<Vec<_>>(),
                 c.truth.speed_mm_s,
+                c.truth.start.name(),
                 c.truth.ramp_s,
                 c.exponential
             );
         }
+    }
+}
+
+/// Held-out members of the widened family (every kernel).
+const HELD_OUT: std::ops::Range<u64> = 1000..1100;
+/// Held-out variant members ([`GraspFamily::held_out_variant`]).
+const VARIANT: std::ops::Range<u64> = 2000..2040;
+
+/// The onset estimate before the widened family: a still-then-moving hinge, the fingers' mean,
+/// lead 0.03 s (everything else default).
+fn previous_onset() -> SlipConfig {
+    SlipConfig {
+        onset_model: OnsetModel::Hinge,
+        onset_fingers: OnsetFingers::Mean,
+        onset_starts: OnsetStarts::Linear,
+        onset_lead_s: 0.03,
+        ..Default::default()
+    }
+}
+
+/// The onset estimate's search on the tuning members only: model × finger combination, each
+/// with `onset_lead_s` = its mean signed onset error on the tuning members without a lead
+/// (to 0.005 s); ranked by the worst start shape's median |error| after the correction, then
+/// the worst start shape's |mean signed error|. The decisions (class, false alarms) do not
+/// depend on these settings: only the onset's dating does.
+fn tune_onset(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<Vec<TrackPoint>>)) {
+    let mut rows = Vec::new();
+    for (onset_model, onset_fingers, onset_starts) in [OnsetModel::Hinge, OnsetModel::RampHinge]
+        .into_iter()
+        .flat_map(|m| [OnsetFingers::Mean, OnsetFingers::Earliest].map(|f| (m, f)))
+        .flat_map(|(m, f)| [OnsetStarts::Linear, OnsetStarts::LinearSmooth].map(|s| (m, f, s)))
+    {
+        {
+            let cfg = SlipConfig { onset_model, onset_fingers, onset_starts, onset_lead_s: 0.0, ..Default::default() };
+            let scores: Vec<GraspScore> = tuning.iter().map(|c| run(c, &cfg)).collect();
+            let signed: Vec<f64> =
+                scores.iter().filter(|r| r.right() && r.truth.class.is_slip()).map(|r| r.onset_error_s).collect();
+            let lead = (mean(&signed) * 200.0).round() / 200.0;
+            let cfg = SlipConfig { onset_lead_s: lead, ..cfg };
+            let mut worst_med: f64 = 0.0;
+            let mut worst_mean: f64 = 0.0;
+            let mut per = String::new();
+            for shape in StartShape::FAMILY {
+                let sc: Vec<GraspScore> = tuning
+                    .iter()
+                    .zip(&scores)
+                    .filter(|(c, _)| c.truth.class.is_slip() && c.truth.start == shape)
+                    .map(|(_, r)| GraspScore { onset_error_s: r.onset_error_s - lead, ..*r })
+                    .collect();
+                let mut s = summarise(&sc);
+                let (med, mn) = (pct(&mut s.onset, 0.5), mean(&s.signed));
+                worst_med = worst_med.max(med);
+                worst_mean = worst_mean.max(mn.abs());
+                per.push_str(&format!(" {} {:.0}/{:+.0}", shape.name(), med * 1e3, mn * 1e3));
+            }
+            let d = demo_onset(demo, &cfg);
+            rows.push((worst_med, worst_mean, cfg, per, d));
+        }
+    }
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    println!(
+        "onset search on {} tuning grasps (ranked by the worst start shape's median |error|, then |mean signed|)",
+        tuning.len()
+    );
+    for (med, mn, cfg, per, d) in rows {
+        println!(
+            "worst median {:.0} ms, worst |mean| {:.0} ms | {} {} {} lead {:+.3} | per shape median/mean (ms):{} | demo {:?} {:+.3} s",
+            med * 1e3,
+            mn * 1e3,
+            cfg.onset_model.name(),
+            cfg.onset_starts.name(),
+            cfg.onset_fingers.name(),
+            cfg.onset_lead_s,
+            per,
+            d.0,
+            d.1
+        );
     }
 }

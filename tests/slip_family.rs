@@ -1,24 +1,25 @@
-//! Two-finger slip with the bare default scene's chain (taxel centroid → track → slip, every
-//! stage at its defaults) on grasps drawn from the family of forward models
-//! (`gradtac_stages::sim_grasp`), members **not** used for choosing the defaults: seeds
-//! 1000..1008 × 5 classes (the defaults were chosen on seeds 0..120, and `history_s` on
-//! seeds 0..400, with Gaussian or difference-of-Gaussians kernels on both fingers;
-//! `examples/slip_eval.rs`).
+//! Two-finger slip with the bare default scene's chain (raw frames → slip_pattern → slip, every
+//! stage at its defaults) on grasps drawn from the **widened** family of forward models
+//! (`gradtac_stages::sim_grasp`: step / linear / smooth starts, grips still ramping at the
+//! onset, loads rising while slipping, slips that start on one finger first), members **not**
+//! used for choosing the defaults: seeds 1000..1008 × 5 classes (the onset settings were chosen
+//! on seeds 0..120 with Gaussian or difference-of-Gaussians kernels on both fingers,
+//! `slip_eval -- tune onset`; the decision settings earlier on the same seeds).
 //!
-//! Stated bounds (measured values in the comments; the full held-out table of 300 grasps is in
-//! the slip module docs, where the targets — every class ≥ 95 %, median onset error ≤ 30 ms —
-//! are compared with it):
-//! - no slip event on any stable grasp (the "no false alarm on stable grasps");
-//! - at most one slipping grasp with a slip event before its onset (measured 1: 3.6 mm/s,
-//!   exponential kernel);
-//! - at least 31 of the 32 slipping grasps classified right (measured 31: all but the one
-//!   above; a rotational slip at 3.2 mm/s with a slow start was missed before the window
-//!   ladder reached 2.4 s);
-//! - median onset error ≤ 40 ms (measured 33 ms on these few; 28 ms over the 300 held out);
+//! Stated bounds (measured values in the comments; the full held-out tables of 500 grasps are
+//! in the slip module docs):
+//! - no slip event on any stable grasp;
+//! - at most one slipping grasp with a slip event before its onset (measured 1);
+//! - at least 31 of the 32 slipping grasps classified right (measured 31);
+//! - median |onset error| ≤ 75 ms (measured 67 ms on these few; 52 ms over the 400 held-out
+//!   slips of `slip_eval`, 45–61 ms per start shape — above the 30 ms target);
+//! - |mean signed onset error| ≤ 35 ms (measured −23 ms here; the previous estimate — linear
+//!   starts only, lead 0.03 s — gives −10 ms on these few, +24 ms against the default's −9 ms
+//!   over the 400 held-out slips: too few grasps here to rank the two);
 //! - the previous track-velocity rule does worse on the same grasps (the baseline).
 
 use gradtac::stages::sim_grasp::{detect, score, GraspMember, GraspScore};
-use gradtac::stages::slip::{SlipConfig, SlipMethod};
+use gradtac::stages::slip::{OnsetStarts, SlipConfig, SlipMethod};
 
 fn scores(cfg: &SlipConfig) -> Vec<GraspScore> {
     GraspMember::grid(1000..1008)
@@ -31,14 +32,20 @@ fn scores(cfg: &SlipConfig) -> Vec<GraspScore> {
         .collect()
 }
 
+fn mean_signed(s: &[GraspScore]) -> f64 {
+    let e: Vec<f64> = s.iter().filter(|r| r.right() && r.truth.class.is_slip()).map(|r| r.onset_error_s).collect();
+    e.iter().sum::<f64>() / e.len() as f64
+}
+
 #[test]
 fn defaults_hold_on_held_out_members() {
     let s = scores(&SlipConfig::default());
     for r in &s {
         eprintln!(
-            "{:>17} {:5.1} mm/s: {:?} onset {:+.3} s decided {:+.3} s FA {}",
+            "{:>17} {:5.1} mm/s {:>6} start: {:?} onset {:+.3} s decided {:+.3} s FA {}",
             r.truth.class.name(),
             r.truth.speed_mm_s,
+            r.truth.start.name(),
             r.detected.map(|c| c.name()),
             r.onset_error_s,
             r.decided_s,
@@ -56,7 +63,12 @@ fn defaults_hold_on_held_out_members() {
     let median = err[err.len() / 2];
     eprintln!("{right} of {} slips right, median onset error {:.0} ms", slipping.len(), median * 1e3);
     assert!(right >= 31, "{right} of {} right", slipping.len());
-    assert!(median <= 0.040, "median onset error {median} s");
+    assert!(median <= 0.075, "median onset error {median} s");
+
+    let previous = SlipConfig { onset_starts: OnsetStarts::Linear, onset_lead_s: 0.03, ..Default::default() };
+    let (def, prev) = (mean_signed(&s), mean_signed(&scores(&previous)));
+    eprintln!("mean signed onset error: default {:+.0} ms, previous estimate {:+.0} ms", def * 1e3, prev * 1e3);
+    assert!(def.abs() <= 0.035, "mean signed onset error {def} s (previous estimate {prev} s)");
 
     let base = scores(&SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..Default::default() });
     let base_right = base.iter().filter(|r| r.right()).count();
