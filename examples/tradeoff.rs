@@ -26,7 +26,8 @@
 //!   over all way-points of all test recordings maps the track onto the truth; mean and worst
 //!   kind of the remaining error (a way-point without a contact counts as the distance from the
 //!   pad centre). Reported as a fraction of the 26.6 mm width and, as the protocol, of
-//!   the **14.5 mm core width** (the x extent of the electrodes' COMSOL core positions).
+//!   the **14.5 mm core width** (the y extent, across the finger, of the electrodes' COMSOL
+//!   core positions).
 //! - **Held-out physics**: the worst kind over the held-out members whose physics no choice saw
 //!   (a Mexican-hat kernel or a lag over 30 ms).
 //! - **µs/frame**: the method's whole chain from raw counts to track points per frame, median
@@ -382,8 +383,9 @@ fn main() {
     let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };
     let layout = Layout::biotac_sp();
     let width = layout.extent().width();
-    let core_width = CORE_MM.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max)
-        - CORE_MM.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min);
+    // the "14.5 mm width across the core": the y extent of the core positions
+    let core_width = CORE_MM.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max)
+        - CORE_MM.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
     // τ < 0: noise-adaptive, τᵢ = |τ| σᵢ of each taxel's measured noise
     let taus: &[f64] = &[0.002, -4.0];
 
@@ -647,7 +649,7 @@ fn main() {
     }
     println!();
     println!(
-        "Sensor width {width:.1} mm (BioTac SP layout x extent); core width {core_width:.1} mm (x extent of the electrodes' COMSOL core positions). Front end of the event contours (Savitzky–Golay + events, included in their µs/frame): {}.",
+        "Sensor width {width:.1} mm (BioTac SP layout x extent); core width {core_width:.1} mm (y extent, across the finger, of the electrodes' COMSOL core positions). Front end of the event contours (Savitzky–Golay + events, included in their µs/frame): {}.",
         taus.iter()
             .map(|t| {
                 let label = if *t < 0.0 { format!("{} σ", -t) } else { t.to_string() };
