@@ -31,7 +31,7 @@
 //! - **Held-out physics**: the worst kind over the held-out members whose physics no choice saw
 //!   (a Mexican-hat kernel or a lag over 30 ms).
 //! - **µs/frame**: the method's whole chain from raw counts to track points per frame, median
-//!   over the test recordings (one run each; release build).
+//!   over the test recordings (the faster of two runs each; release build).
 //!
 //! - **Front**: the settings no faster setting beats on held-out worst kind (★); **presets**: the
 //!   setting with the lowest *tuning* worst kind at ≤ 5 µs/frame (`fast`, ≥ 200 k frames/s per
@@ -488,7 +488,11 @@ fn main() {
                 .enumerate()
                 .map(|(i, r)| {
                     let b = tau.map(|t| &front[&(is_test, i, t)]);
-                    let (pts, u) = run(s, &layout, r, b);
+                    let (pts, mut u) = run(s, &layout, r, b);
+                    if is_test {
+                        // the faster of two runs: a loaded machine's pauses are not the method's
+                        u = u.min(run(s, &layout, r, b).1);
+                    }
                     us.push(u + tau.map_or(0.0, |t| median(front_us[&t].clone())));
                     score(r, &pts)
                 })
@@ -583,8 +587,12 @@ fn main() {
     println!();
     println!("| method | setting | held-out worst kind | held-out mean | held-out physics worst kind | paper worst kind ÷ 14.5 mm | µs/frame |");
     println!("|---|---|---|---|---|---|---|");
-    let mut methods: Vec<&str> = rows.iter().map(|r| r.s.method()).collect();
-    methods.dedup();
+    let mut methods: Vec<&str> = Vec::new();
+    for r in &rows {
+        if !methods.contains(&r.s.method()) {
+            methods.push(r.s.method());
+        }
+    }
     let mut centroid_best = None;
     for m in methods {
         if let Some(r) = rows
