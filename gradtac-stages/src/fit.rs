@@ -80,6 +80,10 @@
 //! | `fit_model_error` | trusts the kernel: strongest electrodes dominate | spreads trust; less precise |
 //! | `window_frames` | immediate, noisier | smoother, more delay |
 
+// small dense linear algebra (5×5 normal equations, Cholesky) and per-electrode arrays read
+// most clearly indexed
+#![allow(clippy::needless_range_loop)]
+
 use crate::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
 use crate::locate::{ChangeDetector, LocateConfig};
 use crate::sim_family::{CORE_MM, SKIN_L_MM, SKIN_MM, SKIN_R_MM};
@@ -231,7 +235,7 @@ fn cholesky_solve(h: &[[f64; NP]; NP], g: &[f64; NP]) -> Option<[f64; NP]> {
                 s -= l[i][k] * l[j][k];
             }
             if i == j {
-                if !(s > 0.0) {
+                if s <= 0.0 || s.is_nan() {
                     return None;
                 }
                 l[i][i] = s.sqrt();
@@ -457,12 +461,10 @@ impl Fit {
                 dmax = dmax.max(self.d[i].abs());
             }
         }
-        if n - excluded as usize >= MIN_USED {
-            // fall through
-        } else {
+        if n - (excluded as usize) < MIN_USED {
             return None;
         }
-        if !(dmax > 0.0) {
+        if dmax <= 0.0 || dmax.is_nan() {
             return None;
         }
         let eps = cfg.fit_model_error * dmax;
