@@ -1,8 +1,9 @@
 //! Plausibility of the default contact track on every BioTacSP-DoS dev recording.
 //!
-//! Runs two scenes through the real scene → plan → run path on each recording (`track`
-//! output only): the **bare** scene (no `[stages.*]` table at all) and the **README's** scene
-//! (`[stages.normalise] calibrate_frames = 20`). For each it reports, over all recordings:
+//! Runs three scenes through the real scene → plan → run path on each recording (`track`
+//! output only): the **bare** scene (no `[stages.*]` table at all), the **README's** scene
+//! (`[stages.normalise] calibrate_frames = 20`) and the **accurate preset** scene
+//! (`[stages.locate] preset = "accurate"`, `docs/tradeoff.md`). For each it reports, over all recordings:
 //! the share of frames with a contact, per class; the per-frame jump of the contact point
 //! between consecutive contact frames at 100 Hz (median, 99th percentile, largest; and the
 //! largest per-recording 99th percentile); and the share of contact frames in which the raw
@@ -32,8 +33,9 @@
 //! not chosen on real data. The figures over all 167 recordings are printed too, but they are
 //! in-sample for whichever fold chose.
 //!
-//! Floors (CI runs this example, so a regression fails it; `--no-floors` skips them): for each
-//! scene, on all recordings and on each object set, at least [`FLOOR_ABOVE_NOISE`] of the
+//! Floors (CI runs this example, so a regression fails it; `--no-floors` skips them; the
+//! accurate preset scene's are printed, not enforced — the model fit does not meet the
+//! speed-bound floor yet, `docs/tradeoff.md`): for each scene, on all recordings and on each object set, at least [`FLOOR_ABOVE_NOISE`] of the
 //! contact frames have a raw signal above noise, and the largest per-frame jump is at most
 //! [`FLOOR_MAX_JUMP_MM`] (the speed bound allows 0.30 mm at 100 Hz); over all recordings at
 //! most [`FLOOR_AT_BOUND`] of the frame pairs have the estimate at the speed bound.
@@ -422,9 +424,14 @@ fn main() {
         .find(|w| w[0] == "--locate")
         .map(|w| format!("[stages.locate]\n{}\n", w[1].replace(';', "\n")))
         .unwrap_or_default();
-    for (label, stages) in
-        [("bare default scene", ""), ("README's scene", "[stages.normalise]\ncalibrate_frames = 20\n")]
-    {
+    for (label, stages) in [
+        ("bare default scene", ""),
+        ("README's scene", "[stages.normalise]\ncalibrate_frames = 20\n"),
+        ("accurate preset scene", "[stages.locate]\npreset = \"accurate\"\n"),
+    ] {
+        if !extra.is_empty() && label.starts_with("accurate") {
+            continue; // `--locate` writes a [stages.locate] table of its own
+        }
         let stages = format!("{stages}{extra}");
         let mut all = Stats::default();
         let mut by_set: BTreeMap<Set, Stats> = BTreeMap::new();
@@ -485,6 +492,14 @@ fn main() {
         }
     }
     let _ = std::fs::remove_dir_all(&tmp);
+    // the accurate preset (the model fit) is measured against the same floors but does not fail
+    // the run: on these recordings it runs into the speed bound far more often than the centroid
+    // (docs/tradeoff.md)
+    let (informative, below): (Vec<String>, Vec<String>) =
+        below.into_iter().partition(|b| b.starts_with("accurate preset scene"));
+    if !informative.is_empty() {
+        println!("accurate preset scene, below the floors (reported, not enforced):\n  {}", informative.join("\n  "));
+    }
     if floors && !below.is_empty() {
         eprintln!("locate_dos: below the floors:\n  {}", below.join("\n  "));
         std::process::exit(1);

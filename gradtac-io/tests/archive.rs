@@ -67,6 +67,7 @@ fn track(sensor: &str, k: u64) -> TrackPoint {
         peak: if contact { value(k, 3) } else { nan },
         velocity_mm_s: (contact && k % 10 != 0).then_some([value(k, 5), -3.25]),
         gated: k % 7 == 0,
+        fit: None,
     }
 }
 
@@ -220,7 +221,7 @@ fn tracks_round_trip_through_an_archive_rolled_by_time() {
     for (i, f) in files.iter().enumerate() {
         assert_eq!(f, &dir.path().join(format!("tracks-{i:06}.parquet")));
         let back = read(f);
-        assert_eq!(back.kv["gradtac.schema"], "track/2");
+        assert_eq!(back.kv["gradtac.schema"], "track/3");
         let times: Vec<i64> = back
             .batches
             .iter()

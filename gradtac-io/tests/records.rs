@@ -478,6 +478,7 @@ fn contours_of(r: &ReadBack) -> Vec<ContourFrame> {
                     peak: v[6],
                     peak_mm: [v[7], v[8]],
                     clipped: clipped[i].unwrap(),
+                    fit: None,
                 })
             } else {
                 assert!(floats.iter().all(|c| c[i].is_none()) && clipped[i].is_none());
@@ -559,6 +560,7 @@ fn some_contours() -> Vec<ContourFrame> {
                     peak: special(k + 2),
                     peak_mm: [-0.0, f64::MIN_POSITIVE],
                     clipped: k % 2 == 0,
+                    fit: None,
                 })
             };
             ContourFrame {
@@ -626,6 +628,7 @@ fn tracks_of(r: &ReadBack) -> Vec<TrackPoint> {
                 velocity_mm_s: (vx[i].is_some() || vy[i].is_some())
                     .then(|| [vx[i].unwrap_or(f64::NAN), vy[i].unwrap_or(f64::NAN)]),
                 gated: gated[i].unwrap(),
+                fit: None,
             });
         }
     }
@@ -685,6 +688,7 @@ fn some_tracks() -> Vec<TrackPoint> {
                 peak: if contact { special(k + 3) } else { nan },
                 velocity_mm_s: (contact && k % 10 != 0).then_some([special(k + 5), -3.25]),
                 gated: k % 7 == 0,
+                fit: None,
             }
         })
         .collect()
@@ -695,7 +699,7 @@ fn tracks_round_trip_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_tracks();
     let r = read(&write(&dir.path().join("t.parquet"), (), &input, 16));
-    assert_eq!(schema_id(&r), "track/2");
+    assert_eq!(schema_id(&r), "track/3");
     assert_eq!(track_keys(&tracks_of(&r)), track_keys(&input));
     assert_eq!(unit(&r, "velocity_x_mm_s").as_deref(), Some("mm/s"));
     // no contact: null, never NaN, in every float column (avg() in an SQL engine is a number)
@@ -789,6 +793,7 @@ fn any_track_point() -> impl Strategy<Value = TrackPoint> {
             peak: f[4],
             velocity_mm_s: v.map(|(a, b)| [a, b]),
             gated,
+            fit: None,
         })
 }
 
@@ -815,6 +820,7 @@ fn any_contour() -> impl Strategy<Value = ContourFrame> {
                 peak: f[6],
                 peak_mm: [f[7], f[8]],
                 clipped,
+                fit: None,
             })
         });
     let outcome = prop_oneof![contact, any_no_contact().prop_map(ContourOutcome::NoContact)];
@@ -990,7 +996,7 @@ fn pyarrow_reads_every_schema() {
 
     // track/1
     let t = &v[4];
-    assert_eq!(t["schema"], "track/2");
+    assert_eq!(t["schema"], "track/3");
     let rows: Vec<Value> = tracks
         .iter()
         .map(|p| {
@@ -1000,7 +1006,8 @@ fn pyarrow_reads_every_schema() {
                    "track": p.track, "x_mm": hn(p.x_mm), "y_mm": hn(p.y_mm), "area_mm2": hn(p.area_mm2),
                    "orientation_rad": hn(p.orientation_rad), "peak": hn(p.peak),
                    "velocity_x_mm_s": p.velocity_mm_s.map(|v| hn(v[0])), "velocity_y_mm_s": p.velocity_mm_s.map(|v| hn(v[1])),
-                   "gated": p.gated})
+                   "gated": p.gated, "fit_amplitude": null, "fit_spread_mm": null, "fit_residual": null,
+                   "fit_sigma_mm": null})
         })
         .collect();
     assert_eq!(t["rows"], Value::Array(rows));

@@ -123,6 +123,7 @@ impl Centroid {
             peak,
             peak_mm: at,
             clipped: false,
+            fit: None,
         })
     }
 }
