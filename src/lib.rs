@@ -101,6 +101,7 @@ mod recorded;
 pub mod run;
 pub mod scene;
 pub mod sinks;
+pub mod unused;
 
 pub use error::Error;
 pub use plan::{Plan, Tap};
