@@ -28,8 +28,9 @@ use gradtac::scene::StageSettings;
 use gradtac::stages::centroid::Centroid;
 use gradtac::stages::contour::{ContourFrame, ContourOutcome};
 use gradtac::stages::events::Events;
+use gradtac::stages::fit::Fit;
 use gradtac::stages::force::ForceMethod;
-use gradtac::stages::force_model::{calibrate, CalibratedForce, CalibrationMethod, GaugeSample};
+use gradtac::stages::force_model::{calibrate, CalibrationMethod, GaugeSample};
 use gradtac::stages::locate::{LocateConfig, LocateMethod};
 use gradtac::stages::normalise::Normalise;
 use gradtac::stages::peak::SurfaceContour;
@@ -51,6 +52,10 @@ enum Source {
     Changes,
     /// Contour area under a locate method.
     Area(LocateMethod),
+    /// The contact fit's amplitude.
+    Amplitude,
+    /// The sum of the changes' magnitudes.
+    Total,
 }
 
 impl Source {
@@ -58,6 +63,8 @@ impl Source {
         match self {
             Source::Changes => "ridge on the 24 changes (baseline)".into(),
             Source::Area(m) => format!("contour area, {} chain", m.name()),
+            Source::Amplitude => "the contact fit's amplitude (fit chain)".into(),
+            Source::Total => "total change Σ|Δᵢ| through a curve".into(),
         }
     }
 }
@@ -75,7 +82,7 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
     let n = frames.len() as f64;
     let t0 = Instant::now();
     let rows: Vec<Row> = match source {
-        Source::Changes => {
+        Source::Changes | Source::Total => {
             let mut c = Centroid::try_new(&LocateConfig::default(), &layout).unwrap();
             let mut out = Vec::new();
             frames
@@ -90,16 +97,22 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                             change: c.detector().change().to_vec(),
                             contact: matches!(cf.outcome, ContourOutcome::Contact(_)),
                             area_mm2: None,
+                            amplitude: Some(c.detector().change().iter().map(|d| d.abs()).sum()),
                             force_n: 0.0,
                         },
                     }
                 })
                 .collect()
         }
-        Source::Area(method) => {
+        Source::Area(_) | Source::Amplitude => {
+            let method = match source {
+                Source::Area(m) => m,
+                _ => LocateMethod::Fit,
+            };
             let st = StageSettings { locate: LocateConfig { method, ..Default::default() }, ..Default::default() };
             let contours: Vec<ContourFrame> = match method {
                 LocateMethod::Centroid => Centroid::try_new(&st.locate, &layout).unwrap().run_all(frames).unwrap(),
+                LocateMethod::Fit => Fit::try_new(&st.locate, &layout).unwrap().run_all(frames).unwrap(),
                 LocateMethod::RawContour => RawChange::try_new(24, &st.locate)
                     .unwrap()
                     .then(SurfaceContour::try_new(&st.surface, &effective_contour(&st), &layout).unwrap())
@@ -117,9 +130,9 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
             contours
                 .into_iter()
                 .map(|cf| {
-                    let area = match &cf.outcome {
-                        ContourOutcome::Contact(c) => Some(c.area_mm2),
-                        ContourOutcome::NoContact(_) => None,
+                    let (area, amplitude) = match &cf.outcome {
+                        ContourOutcome::Contact(c) => (Some(c.area_mm2), c.fit.as_ref().map(|f| f.amplitude)),
+                        ContourOutcome::NoContact(_) => (None, None),
                     };
                     Row {
                         t: 0.5 * (cf.start.as_secs_f64() + cf.end.as_secs_f64()),
@@ -127,6 +140,7 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                             change: Vec::new(),
                             contact: area.is_some(),
                             area_mm2: area,
+                            amplitude,
                             force_n: 0.0,
                         },
                     }
@@ -186,15 +200,7 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
         .map(|r| GaugeSample { force_n: at(&m.rec.gauge, r.t), ..r.sample.clone() })
         .collect();
     let Ok(file) = calibrate(&train, method, lambda, curve, &layout) else { return (100.0, 0, 0) };
-    let predict = |s: &GaugeSample| -> Option<f64> {
-        if !s.contact {
-            return None;
-        }
-        match &file.model {
-            CalibratedForce::Area { curve } => s.area_mm2.map(|a| curve.predict(a)),
-            model => model.predict_changes(&s.change),
-        }
-    };
+    let predict = |s: &GaugeSample| file.model.predict_sample(s);
     let (mut sum, mut n, mut untouched, mut over) = (0.0, 0usize, 0u64, 0u64);
     for r in rows {
         let f = at(&m.rec.force, r.t);
@@ -208,6 +214,17 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
             sum += p.map_or(1.0, |p| (p - f).abs() / f);
             n += 1;
         }
+    }
+    if std::env::var_os("FORCE_EVAL_DEBUG").is_some() {
+        eprintln!(
+            "seed {} {:?}: in-sample {:.1} % on {} samples, held-out {:.1} % on {n}; untouched {over}/{untouched}; {:?}",
+            m.session.seed,
+            method,
+            file.calibration.in_sample_mape_pct,
+            file.calibration.samples,
+            100.0 * sum / n.max(1) as f64,
+            m.session.response
+        );
     }
     (100.0 * sum / n.max(1) as f64, untouched, over)
 }
@@ -250,6 +267,8 @@ fn main() {
     };
     let (tune, test) = (members(tune), members(test));
     let sources = [
+        Source::Total,
+        Source::Amplitude,
         Source::Changes,
         Source::Area(LocateMethod::Centroid),
         Source::Area(LocateMethod::RawContour),
@@ -273,6 +292,9 @@ fn main() {
                 .collect(),
             Source::Area(_) => {
                 curves.iter().map(|&c| (CalibrationMethod::Area, 0.0, c, format!("{c:?} curve"))).collect()
+            }
+            Source::Amplitude | Source::Total => {
+                curves.iter().map(|&c| (CalibrationMethod::Amplitude, 0.0, c, format!("{c:?} curve"))).collect()
             }
         };
         let chosen = settings

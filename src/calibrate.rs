@@ -545,6 +545,13 @@ fn contour_front(
             }
             boxed(r.then(fused()?))
         }
+        LocateMethod::Fit => {
+            let mut f = gradtac_stages::fit::Fit::try_new(&st.locate, layout)?;
+            if let Some(t) = &tare {
+                f = f.with_tare(t)?;
+            }
+            boxed(f)
+        }
         LocateMethod::Events => {
             let sg = match rate_hz {
                 Some(r) => gradtac_stages::savgol::SavGol::try_with_rate(n, st.savgol.clone(), r)?,
@@ -604,26 +611,38 @@ pub fn calibrate_force(
                         change: det.change().to_vec(),
                         contact: ch.contact,
                         area_mm2: None,
+                        amplitude: None,
                         force_n,
                     });
                 }
                 Ok(true)
             })?;
         }
-        CalibrationMethod::Area => {
+        CalibrationMethod::Area | CalibrationMethod::Amplitude => {
+            if opts.method == CalibrationMethod::Amplitude
+                && scene.stages.locate.method != gradtac_stages::locate::LocateMethod::Fit
+            {
+                return Err(Error::Scene {
+                    path: scene.origin.clone(),
+                    reason: "--method amplitude reads the contact fit: set [stages.locate] method = \"fit\"".into(),
+                });
+            }
             let mut front = contour_front(scene, &layout, spec.source.rate_hz())?;
             let mut out = Vec::new();
             let push = |out: &mut Vec<ContourFrame>, samples: &mut Vec<GaugeSample>| {
                 for c in out.drain(..) {
                     if let Some(force_n) = gauge_at(&gauge, centre(c.start, c.end), max_gap) {
-                        let area = match &c.outcome {
-                            gradtac_stages::contour::ContourOutcome::Contact(m) => Some(m.area_mm2),
-                            _ => None,
+                        let (area, amplitude) = match &c.outcome {
+                            gradtac_stages::contour::ContourOutcome::Contact(m) => {
+                                (Some(m.area_mm2), m.fit.as_ref().map(|f| f.amplitude))
+                            }
+                            _ => (None, None),
                         };
                         samples.push(GaugeSample {
                             change: Vec::new(),
                             contact: area.is_some(),
                             area_mm2: area,
+                            amplitude,
                             force_n,
                         });
                     }
@@ -644,15 +663,7 @@ pub fn calibrate_force(
         &layout,
     )
     .map_err(|e| Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {e}", spec.name) })?;
-    let predict = |s: &GaugeSample| -> Option<f64> {
-        if !s.contact {
-            return None;
-        }
-        match &file.model {
-            force_model::CalibratedForce::Area { curve } => s.area_mm2.map(|a| curve.predict(a)),
-            m => m.predict_changes(&s.change),
-        }
-    };
+    let predict = |s: &GaugeSample| file.model.predict_sample(s);
     let quiet: Vec<&GaugeSample> = samples.iter().filter(|s| s.force_n < force_model::MIN_CALIBRATION_N).collect();
     let over = quiet.iter().filter(|s| predict(s).is_some_and(|p| p > 0.5)).count() as u64;
     let report =

@@ -49,7 +49,8 @@ fn locate_key_used(key: &str, method: LocateMethod, detector_elsewhere: bool) ->
         "event_tau_sigmas" => method == LocateMethod::Events,
         "calibrate_frames" if method == LocateMethod::Events => true,
         k if detector.contains(&k) => method != LocateMethod::Events || detector_elsewhere,
-        k if centroid_only.contains(&k) => method == LocateMethod::Centroid,
+        k if centroid_only.contains(&k) => matches!(method, LocateMethod::Centroid | LocateMethod::Fit),
+        k if k.starts_with("fit_") => method == LocateMethod::Fit,
         _ => true,
     }
 }
@@ -76,11 +77,13 @@ pub fn unused_settings(scene: &Scene, plan: &Plan) -> Vec<Unused> {
                     no_output(name)
                 })
             }
-            "surface" | "contour" if method == LocateMethod::Centroid => Some(if runs(Tap::Contour) {
-                format!("{m} locates contact as the taxels' centroid: no surface or contour is computed")
-            } else {
-                no_output(name)
-            }),
+            "surface" | "contour" if matches!(method, LocateMethod::Centroid | LocateMethod::Fit) => {
+                Some(if runs(Tap::Contour) {
+                    format!("{m} locates contact from the taxels directly: no surface or contour is computed")
+                } else {
+                    no_output(name)
+                })
+            }
             "locate" if !located && !force_frames => {
                 Some("no output needs contact location (contour, track, force, servo or slip by tracks)".into())
             }

@@ -58,6 +58,7 @@ fn ridge_of(seed: u64) -> gradtac::stages::force_model::ForceFile {
                 change: det.change().to_vec(),
                 contact: ch.contact,
                 area_mm2: None,
+                amplitude: None,
                 force_n: rec.gauge[k.round() as usize],
             }
         })

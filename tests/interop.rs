@@ -128,6 +128,7 @@ fn point(sensor: &str, k: u64) -> TrackPoint {
         peak: if contact { 1.5 } else { nan },
         velocity_mm_s: (contact && k % 5 != 4).then_some([1.0, -2.0]),
         gated: false,
+        fit: None,
     }
 }
 

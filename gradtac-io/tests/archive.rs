@@ -67,6 +67,7 @@ fn track(sensor: &str, k: u64) -> TrackPoint {
         peak: if contact { value(k, 3) } else { nan },
         velocity_mm_s: (contact && k % 10 != 0).then_some([value(k, 5), -3.25]),
         gated: k % 7 == 0,
+        fit: None,
     }
 }
 

@@ -478,6 +478,7 @@ fn contours_of(r: &ReadBack) -> Vec<ContourFrame> {
                     peak: v[6],
                     peak_mm: [v[7], v[8]],
                     clipped: clipped[i].unwrap(),
+                    fit: None,
                 })
             } else {
                 assert!(floats.iter().all(|c| c[i].is_none()) && clipped[i].is_none());
@@ -559,6 +560,7 @@ fn some_contours() -> Vec<ContourFrame> {
                     peak: special(k + 2),
                     peak_mm: [-0.0, f64::MIN_POSITIVE],
                     clipped: k % 2 == 0,
+                    fit: None,
                 })
             };
             ContourFrame {
@@ -626,6 +628,7 @@ fn tracks_of(r: &ReadBack) -> Vec<TrackPoint> {
                 velocity_mm_s: (vx[i].is_some() || vy[i].is_some())
                     .then(|| [vx[i].unwrap_or(f64::NAN), vy[i].unwrap_or(f64::NAN)]),
                 gated: gated[i].unwrap(),
+                fit: None,
             });
         }
     }
@@ -685,6 +688,7 @@ fn some_tracks() -> Vec<TrackPoint> {
                 peak: if contact { special(k + 3) } else { nan },
                 velocity_mm_s: (contact && k % 10 != 0).then_some([special(k + 5), -3.25]),
                 gated: k % 7 == 0,
+                fit: None,
             }
         })
         .collect()
@@ -789,6 +793,7 @@ fn any_track_point() -> impl Strategy<Value = TrackPoint> {
             peak: f[4],
             velocity_mm_s: v.map(|(a, b)| [a, b]),
             gated,
+            fit: None,
         })
 }
 
@@ -815,6 +820,7 @@ fn any_contour() -> impl Strategy<Value = ContourFrame> {
                 peak: f[6],
                 peak_mm: [f[7], f[8]],
                 clipped,
+                fit: None,
             })
         });
     let outcome = prop_oneof![contact, any_no_contact().prop_map(ContourOutcome::NoContact)];

@@ -145,6 +145,7 @@ fn grasp(n: usize, ff: impl Fn(f64) -> [f64; 2], th: impl Fn(f64) -> [f64; 2]) -
                 peak: 5.0,
                 velocity_mm_s: None,
                 gated: false,
+                fit: None,
             });
         }
     }
@@ -266,6 +267,7 @@ fn contour(seq: u64, area: Option<f64>) -> ContourFrame {
                 peak: 3.0,
                 peak_mm: [0.0, 0.0],
                 clipped: false,
+                fit: None,
             }),
             None => ContourOutcome::NoContact(NoContact::BelowMinPeak),
         },

@@ -130,6 +130,7 @@ impl Centroid {
             peak,
             peak_mm: at,
             clipped: false,
+            fit: None,
         })
     }
 }

@@ -170,8 +170,12 @@ pub struct MaxContour {
     pub peak: f64,
     /// Where the peak is (mm, a grid point).
     pub peak_mm: [f64; 2],
-    /// True when the region was closed along the grid edge or a NaN (outside-hull) boundary.
+    /// True when the region was closed along the grid edge or a NaN (outside-hull) boundary
+    /// (for `method = "fit"`: the fitted position hit the layout's extent).
     pub clipped: bool,
+    /// What the model fit says about the point (`method = "fit"`); `None` for the other methods.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<crate::fit::FitSummary>,
 }
 
 /// Why a surface has no contact.
@@ -1029,6 +1033,7 @@ impl MaxContourFinder {
             peak: zmax,
             peak_mm,
             clipped,
+            fit: None,
         })
     }
 

@@ -535,6 +535,7 @@ mod tests {
                     peak: 2.0,
                     peak_mm: [0.0, 0.0],
                     clipped: false,
+                    fit: None,
                 }),
             },
         };

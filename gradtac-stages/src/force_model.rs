@@ -54,6 +54,8 @@ pub enum CalibrationMethod {
     Ridge,
     /// A curve over the contour area.
     Area,
+    /// A curve over the contact fit's amplitude (`[stages.locate] method = "fit"`).
+    Amplitude,
 }
 
 impl CalibrationMethod {
@@ -62,12 +64,15 @@ impl CalibrationMethod {
         match self {
             CalibrationMethod::Ridge => "ridge",
             CalibrationMethod::Area => "area",
+            CalibrationMethod::Amplitude => "amplitude",
         }
     }
 
     /// Parse a name.
     pub fn parse(s: &str) -> Option<CalibrationMethod> {
-        [CalibrationMethod::Ridge, CalibrationMethod::Area].into_iter().find(|m| m.name() == s)
+        [CalibrationMethod::Ridge, CalibrationMethod::Area, CalibrationMethod::Amplitude]
+            .into_iter()
+            .find(|m| m.name() == s)
     }
 }
 
@@ -76,9 +81,9 @@ impl CalibrationMethod {
 pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Ridge;
 /// The ridge penalty (relative to the standardised features' scale) chosen on the tuning
 /// members (`examples/force_eval.rs`).
-pub const DEFAULT_RIDGE_LAMBDA: f64 = 1e-3;
-/// The area curve chosen on the tuning members.
-pub const DEFAULT_AREA_CURVE: ForceMethod = ForceMethod::Isotonic;
+pub const DEFAULT_RIDGE_LAMBDA: f64 = 1.0;
+/// The area curve chosen on the tuning members for the default (centroid) chain.
+pub const DEFAULT_AREA_CURVE: ForceMethod = ForceMethod::PowerLaw;
 
 /// A calibrated model (tagged by `method`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -98,6 +103,12 @@ pub enum CalibratedForce {
         /// The curve.
         curve: ForceModel,
     },
+    /// A curve over the contact fit's amplitude (input units; the curve's `area_mm2` axis
+    /// holds amplitudes) — needs `[stages.locate] method = "fit"`.
+    Amplitude {
+        /// The curve.
+        curve: ForceModel,
+    },
 }
 
 impl CalibratedForce {
@@ -106,6 +117,20 @@ impl CalibratedForce {
         match self {
             CalibratedForce::Ridge { .. } => CalibrationMethod::Ridge,
             CalibratedForce::Area { .. } => CalibrationMethod::Area,
+            CalibratedForce::Amplitude { .. } => CalibrationMethod::Amplitude,
+        }
+    }
+
+    /// The prediction for one calibration sample (N; `None` without a contact or the
+    /// model's feature).
+    pub fn predict_sample(&self, s: &GaugeSample) -> Option<f64> {
+        if !s.contact {
+            return None;
+        }
+        match self {
+            CalibratedForce::Area { curve } => s.area_mm2.map(|a| curve.predict(a)),
+            CalibratedForce::Amplitude { curve } => s.amplitude.map(|a| curve.predict(a)),
+            m => m.predict_changes(&s.change),
         }
     }
 
@@ -121,7 +146,7 @@ impl CalibratedForce {
                 let f = intercept_n + weights.iter().zip(delta).map(|(w, d)| w * d).sum::<f64>();
                 Some(if f.is_nan() { f } else { f.max(0.0) })
             }
-            CalibratedForce::Area { .. } => None,
+            CalibratedForce::Area { .. } | CalibratedForce::Amplitude { .. } => None,
         }
     }
 }
@@ -184,7 +209,7 @@ impl ForceFile {
                     return Err(invalid("a ridge parameter is not finite".into()));
                 }
             }
-            CalibratedForce::Area { curve } => {
+            CalibratedForce::Area { curve } | CalibratedForce::Amplitude { curve } => {
                 if let ForceModel::Isotonic { area_mm2, .. } = curve {
                     if area_mm2.len() > MAX_KNOTS {
                         return Err(invalid(format!("{} knots (at most {MAX_KNOTS})", area_mm2.len())));
@@ -337,6 +362,8 @@ pub struct GaugeSample {
     pub contact: bool,
     /// Contour area (mm²), when there is a contour.
     pub area_mm2: Option<f64>,
+    /// The contact fit's amplitude, when the location is a fit.
+    pub amplitude: Option<f64>,
     /// Measured force (N).
     pub force_n: f64,
 }
@@ -377,18 +404,19 @@ pub fn calibrate(
                 acc.solve(lambda).ok_or_else(|| invalid("the ridge system is singular".into()))?;
             CalibratedForce::Ridge { intercept_n, weights, lambda }
         }
-        CalibrationMethod::Area => {
-            let pairs: Vec<ForceSample> = used
-                .iter()
-                .filter_map(|s| s.area_mm2.map(|a| ForceSample { area_mm2: a, force_n: s.force_n }))
-                .collect();
-            CalibratedForce::Area { curve: ForceModel::fit(curve, &pairs)? }
+        CalibrationMethod::Area | CalibrationMethod::Amplitude => {
+            let x = |s: &GaugeSample| if method == CalibrationMethod::Area { s.area_mm2 } else { s.amplitude };
+            let pairs: Vec<ForceSample> =
+                used.iter().filter_map(|s| x(s).map(|a| ForceSample { area_mm2: a, force_n: s.force_n })).collect();
+            let c = ForceModel::fit(curve, &pairs)?;
+            if method == CalibrationMethod::Area {
+                CalibratedForce::Area { curve: c }
+            } else {
+                CalibratedForce::Amplitude { curve: c }
+            }
         }
     };
-    let predict = |s: &GaugeSample| match &model {
-        CalibratedForce::Area { curve } => s.area_mm2.map(|a| curve.predict(a)),
-        m => m.predict_changes(&s.change),
-    };
+    let predict = |s: &GaugeSample| model.predict_sample(s);
     let scored: Vec<f64> = used
         .iter()
         .filter(|s| s.force_n > 0.5)

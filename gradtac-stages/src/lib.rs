@@ -25,6 +25,7 @@ pub mod dos;
 pub mod dos_select;
 pub mod drift;
 pub mod events;
+pub mod fit;
 pub mod force;
 pub mod force_model;
 pub mod interpolate;

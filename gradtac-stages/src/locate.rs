@@ -51,6 +51,8 @@ pub enum LocateMethod {
     /// The paper's event contours: normalise → Savitzky–Golay → events → window → surface →
     /// contour.
     Events,
+    /// A contact model fitted per frame by robust Levenberg–Marquardt ([`Fit`](crate::fit::Fit)).
+    Fit,
 }
 
 impl LocateMethod {
@@ -60,15 +62,43 @@ impl LocateMethod {
             LocateMethod::Centroid => "centroid",
             LocateMethod::RawContour => "raw_contour",
             LocateMethod::Events => "events",
+            LocateMethod::Fit => "fit",
         }
     }
 }
 
-/// `[stages.locate]`: the method and the change detector's settings (used by `centroid` and
-/// `raw_contour`; `events` uses the event stages' own tables).
+/// A point of the speed-for-accuracy front (`[stages.locate] preset`, `docs/tradeoff.md`): the
+/// method and settings a preset stands for; keys a scene sets explicitly override them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Preset {
+    /// The front's most accurate point (held out) at ≥ 200 k frames/s per core. The default.
+    #[default]
+    Fast,
+    /// The front's most accurate point (held out) at ≥ 20 k frames/s per core.
+    Accurate,
+}
+
+impl Preset {
+    /// The name in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Fast => "fast",
+            Preset::Accurate => "accurate",
+        }
+    }
+}
+
+/// `[stages.locate]`: the method and the change detector's settings (used by `centroid`,
+/// `raw_contour` and `fit`; `events` uses the event stages' own tables).
+///
+/// A scene's table starts from its `preset` ([`LocateConfig::preset`]; `fast` when absent) and
+/// the keys it sets override the preset's values; `explain` shows the result.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(from = "LocateToml")]
 pub struct LocateConfig {
+    /// The point of the speed-for-accuracy front the other values started from. Default `fast`.
+    pub preset: Preset,
     /// The method. Default `centroid` (`docs/tradeoff.md`: within 0.005 of the width of the best
     /// held-out worst-kind error, at 1/20–1/600 of the cost of the contour methods).
     ///
@@ -109,6 +139,19 @@ pub struct LocateConfig {
     /// ([`Threshold::Noise`](crate::events::Threshold::Noise)), so the event-count contact
     /// threshold (`[stages.contour] min_peak`) means the same number of σ on any sensor. Default 4.
     pub event_tau_sigmas: f64,
+    /// `fit`: most Levenberg–Marquardt iterations per frame (1–100). Default 10.
+    pub fit_iterations: u32,
+    /// `fit`: rate (0–1; 0 = fixed unit gains) at which each electrode's signed gain follows
+    /// what the converged fits measure at it during contact. Default 0.02.
+    pub fit_gain_rate: f64,
+    /// `fit`: model error as a fraction of the frame's largest change, added in quadrature to
+    /// each electrode's measured noise (≥ 0, ≤ 1): how much the response may differ from the
+    /// fitted kernel before an electrode stops counting fully. Default 0.05.
+    pub fit_model_error: f64,
+    /// `fit`: the ADC rails `[low, high]` (input units): an electrode reading at or beyond one is
+    /// saturated and left out of the fit (and counted in the point's `excluded`). Default
+    /// `[0, 4095]` (12 bit); `[-inf, inf]` turns it off.
+    pub fit_rails: [f64; 2],
     /// `centroid` / `raw_contour` (and a changes-based force model): a stored untouched
     /// baseline (`gradtac calibrate baseline`, [`Tare`](crate::tare::Tare)), relative to the
     /// scene. With it the detector skips its start-up calibration — a hand that starts in
@@ -120,9 +163,83 @@ pub struct LocateConfig {
     pub baseline: Option<std::path::PathBuf>,
 }
 
+/// `[stages.locate]` as written in a scene: every key optional, applied over the preset.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LocateToml {
+    preset: Option<Preset>,
+    method: Option<LocateMethod>,
+    calibrate_frames: Option<u32>,
+    window_frames: Option<u32>,
+    floor_sigmas: Option<f64>,
+    contact_sigmas: Option<f64>,
+    follow_s: Option<f64>,
+    power: Option<f64>,
+    top_k: Option<usize>,
+    smooth_frames: Option<u32>,
+    max_speed_mm_s: Option<f64>,
+    event_tau_sigmas: Option<f64>,
+    fit_iterations: Option<u32>,
+    fit_gain_rate: Option<f64>,
+    fit_model_error: Option<f64>,
+    fit_rails: Option<[f64; 2]>,
+    baseline: Option<std::path::PathBuf>,
+}
+
+impl From<LocateToml> for LocateConfig {
+    fn from(t: LocateToml) -> Self {
+        let mut c = LocateConfig::preset(t.preset.unwrap_or_default());
+        macro_rules! set {
+            ($($f:ident),*) => { $( if let Some(v) = t.$f { c.$f = v; } )* };
+        }
+        set!(
+            method,
+            calibrate_frames,
+            window_frames,
+            floor_sigmas,
+            contact_sigmas,
+            follow_s,
+            power,
+            smooth_frames,
+            max_speed_mm_s,
+            event_tau_sigmas,
+            fit_iterations,
+            fit_gain_rate,
+            fit_model_error,
+            fit_rails
+        );
+        if t.top_k.is_some() {
+            c.top_k = t.top_k;
+        }
+        if t.baseline.is_some() {
+            c.baseline = t.baseline;
+        }
+        c
+    }
+}
+
 impl Default for LocateConfig {
+    /// The `fast` preset.
     fn default() -> Self {
+        LocateConfig::preset(Preset::Fast)
+    }
+}
+
+impl LocateConfig {
+    /// The settings a preset stands for (chosen by `examples/tradeoff.rs` on the tuning members
+    /// of the forward-model family; `docs/tradeoff.md`).
+    pub fn preset(p: Preset) -> Self {
+        let base = LocateConfig::base();
+        match p {
+            Preset::Fast => base,
+            Preset::Accurate => LocateConfig { preset: p, ..base },
+        }
+    }
+
+    /// The values every preset starts from.
+    fn base() -> Self {
         LocateConfig {
+            preset: Preset::Fast,
             method: LocateMethod::default(),
             calibrate_frames: 20,
             window_frames: 9,
@@ -134,12 +251,14 @@ impl Default for LocateConfig {
             smooth_frames: 3,
             max_speed_mm_s: 30.0,
             event_tau_sigmas: 4.0,
+            fit_iterations: 10,
+            fit_gain_rate: 0.02,
+            fit_model_error: 0.05,
+            fit_rails: [0.0, 4095.0],
             baseline: None,
         }
     }
-}
 
-impl LocateConfig {
     /// Checks every field; the error names the first bad one.
     pub fn validate(&self) -> Result<()> {
         let bad = |reason: String| Err(Error::InvalidConfig { stage: STAGE, reason });
@@ -175,6 +294,19 @@ impl LocateConfig {
                 "`event_tau_sigmas` = {} must be in [0, 1000] (0 = [stages.events] threshold)",
                 self.event_tau_sigmas
             ));
+        }
+        if !(1..=100).contains(&self.fit_iterations) {
+            return bad(format!("`fit_iterations` = {} must be in 1..=100", self.fit_iterations));
+        }
+        if !(self.fit_gain_rate.is_finite() && (0.0..=1.0).contains(&self.fit_gain_rate)) {
+            return bad(format!("`fit_gain_rate` = {} must be in [0, 1]", self.fit_gain_rate));
+        }
+        if !(self.fit_model_error.is_finite() && (0.0..=1.0).contains(&self.fit_model_error)) {
+            return bad(format!("`fit_model_error` = {} must be in [0, 1]", self.fit_model_error));
+        }
+        let [lo, hi] = self.fit_rails;
+        if lo.is_nan() || hi.is_nan() || lo >= hi {
+            return bad(format!("`fit_rails` = [{lo}, {hi}] must be two numbers, low < high"));
         }
         if self.top_k == Some(0) {
             return bad("`top_k` must be ≥ 1 (or absent for all taxels)".into());
@@ -326,6 +458,18 @@ impl ChangeDetector {
     /// frame; all 0 while calibrating.
     pub fn relative(&self) -> &[f64] {
         &self.rel
+    }
+
+    /// The signed change `x̄ − x₀` of every taxel (input units: the mean of the last `window`
+    /// frames less the baseline) after the last [`push`](Self::push), written into `out`
+    /// (cleared first; left empty while calibrating).
+    pub fn signed_changes(&self, out: &mut Vec<f64>) {
+        out.clear();
+        if self.baseline.is_empty() || self.ring.is_empty() {
+            return;
+        }
+        let k = self.ring.len() as f64;
+        out.extend(self.sum.iter().zip(&self.baseline).map(|(s, b)| s / k - b));
     }
 
     /// Forget everything; the next frames calibrate again.

@@ -242,6 +242,7 @@ mod tests {
             peak: 3.0,
             velocity_mm_s: None,
             gated,
+            fit: None,
         }
     }
 

@@ -101,9 +101,9 @@ pub const CORE_MM: [[f64; 3]; 24] = [
 pub const SKIN_MM: [[f64; 3]; 24] = gradtac_stream::layout::BIOTAC_SP_SKIN_MM;
 
 /// Fingertip ellipsoid: cross-section radius at x = 0 (mm).
-const SKIN_R_MM: f64 = 10.6;
+pub const SKIN_R_MM: f64 = 10.6;
 /// Fingertip ellipsoid: half length (mm).
-const SKIN_L_MM: f64 = 13.9;
+pub const SKIN_L_MM: f64 = 13.9;
 
 /// The skin point (mm, 3-D) under a layout-plane point `[x, s]` (see the [module docs](self)).
 pub fn skin_point(p: [f64; 2]) -> [f64; 3] {

@@ -1518,6 +1518,7 @@ mod tests {
                     peak: 5.0,
                     velocity_mm_s: None,
                     gated: false,
+                    fit: None,
                 });
             }
         }

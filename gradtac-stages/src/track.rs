@@ -150,6 +150,10 @@ pub struct TrackPoint {
     pub velocity_mm_s: Option<[f64; 2]>,
     /// True when the point repeats the last accepted one because the contour jumped.
     pub gated: bool,
+    /// The model fit's amplitude, spread, residual and position uncertainty
+    /// (`[stages.locate] method = "fit"`); `None` for the other methods and without contact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<crate::fit::FitSummary>,
 }
 
 impl Timed for TrackPoint {
@@ -173,6 +177,7 @@ struct Accepted {
     orientation: f64,
     peak: f64,
     velocity: Option<[f64; 2]>,
+    fit: Option<crate::fit::FitSummary>,
 }
 
 /// The tracker stage (see the [module docs](self)). One instance per sensor.
@@ -251,6 +256,7 @@ impl Stage for Track {
             peak: f64::NAN,
             velocity_mm_s: None,
             gated: false,
+            fit: None,
         };
         match f.outcome {
             ContourOutcome::NoContact(reason) => {
@@ -274,6 +280,7 @@ impl Stage for Track {
                     orientation: c.orientation_rad,
                     peak: c.peak,
                     velocity: None,
+                    fit: c.fit,
                 };
                 let mut accept = true;
                 match (self.track, self.last) {
@@ -316,6 +323,7 @@ impl Stage for Track {
                 p.orientation_rad = new.orientation;
                 p.peak = new.peak;
                 p.velocity_mm_s = new.velocity;
+                p.fit = new.fit;
             }
         }
         out.push(p);
@@ -355,6 +363,7 @@ mod tests {
                 peak: 3.0,
                 peak_mm: c,
                 clipped: false,
+                fit: None,
             }),
         };
         ContourFrame { sensor: "th".into(), start: Timestamp(t), end: Timestamp(t), seq: t as u64, outcome }
