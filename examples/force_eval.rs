@@ -31,14 +31,14 @@ use gradtac::stages::events::Events;
 use gradtac::stages::fit::Fit;
 use gradtac::stages::force::ForceMethod;
 use gradtac::stages::force_model::{calibrate, CalibrationMethod, GaugeSample};
-use gradtac::stages::locate::{LocateConfig, LocateMethod};
+use gradtac::stages::locate::{ChangeDetector, LocateConfig, LocateMethod};
 use gradtac::stages::normalise::Normalise;
 use gradtac::stages::peak::SurfaceContour;
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::SavGol;
 use gradtac::stages::sim_force::{ForceRecording, ForceSession, Segment};
 use gradtac::stages::window::Window;
-use gradtac::stream::{Layout, Stage, StageExt};
+use gradtac::stream::{Layout, StageExt};
 use std::time::Instant;
 
 const TUNE: std::ops::Range<u64> = 0..8;
@@ -83,21 +83,19 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
     let t0 = Instant::now();
     let rows: Vec<Row> = match source {
         Source::Changes | Source::Total => {
-            let mut c = Centroid::try_new(&LocateConfig::default(), &layout).unwrap();
-            let mut out = Vec::new();
+            // what the force stage runs: its own detector, following drift whenever untouched
+            let mut det = ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().follow_all_when_untouched();
             frames
                 .into_iter()
                 .map(|f| {
-                    out.clear();
-                    c.push(f, &mut out).unwrap();
-                    let cf = &out[0];
+                    let ch = det.push(&f, "force").unwrap();
                     Row {
-                        t: 0.5 * (cf.start.as_secs_f64() + cf.end.as_secs_f64()),
+                        t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
                         sample: GaugeSample {
-                            change: c.detector().change().to_vec(),
-                            contact: matches!(cf.outcome, ContourOutcome::Contact(_)),
+                            change: det.change().to_vec(),
+                            contact: ch.contact,
                             area_mm2: None,
-                            amplitude: Some(c.detector().change().iter().map(|d| d.abs()).sum()),
+                            amplitude: Some(det.change().iter().map(|d| d.abs()).sum()),
                             force_n: 0.0,
                         },
                     }

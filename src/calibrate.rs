@@ -600,7 +600,8 @@ pub fn calibrate_force(
     let centre = |s: gradtac_stream::Timestamp, e: gradtac_stream::Timestamp| s.0 + (e.0 - s.0) / 2;
     match opts.method {
         CalibrationMethod::Ridge => {
-            let mut det = gradtac_stages::locate::ChangeDetector::try_new(layout.len(), &scene.stages.locate)?;
+            let mut det = gradtac_stages::locate::ChangeDetector::try_new(layout.len(), &scene.stages.locate)?
+                .follow_all_when_untouched();
             if let Some(t) = &scene.loaded.tare {
                 det = det.with_tare(t)?;
             }

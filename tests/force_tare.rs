@@ -47,7 +47,7 @@ fn member(seed: u64, rest_after_s: f64) -> (Vec<TaxelFrame>, ForceSession, Vec<T
 fn ridge_of(seed: u64) -> gradtac::stages::force_model::ForceFile {
     let session = ForceSession { noise_stream: 3, ..ForceSession::presses(seed, 4) };
     let rec = session.simulate();
-    let mut det = ChangeDetector::try_new(24, &LocateConfig::default()).unwrap();
+    let mut det = ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().follow_all_when_untouched();
     let samples: Vec<GaugeSample> = rec
         .frames
         .iter()

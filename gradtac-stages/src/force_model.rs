@@ -81,7 +81,7 @@ impl CalibrationMethod {
 pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Ridge;
 /// The ridge penalty (relative to the standardised features' scale) chosen on the tuning
 /// members (`examples/force_eval.rs`).
-pub const DEFAULT_RIDGE_LAMBDA: f64 = 1.0;
+pub const DEFAULT_RIDGE_LAMBDA: f64 = 0.1;
 /// The area curve chosen on the tuning members for the default (centroid) chain.
 pub const DEFAULT_AREA_CURVE: ForceMethod = ForceMethod::PowerLaw;
 
@@ -460,7 +460,8 @@ impl ChangeForce {
                 file.model.method().name()
             )));
         }
-        Ok(ChangeForce { det: ChangeDetector::try_new(file.taxels, locate)?, model: file.model.clone() })
+        let det = ChangeDetector::try_new(file.taxels, locate)?.follow_all_when_untouched();
+        Ok(ChangeForce { det, model: file.model.clone() })
     }
 
     /// Measure against a stored untouched baseline.

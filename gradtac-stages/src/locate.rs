@@ -367,6 +367,9 @@ pub struct ChangeDetector {
     delta: Vec<f64>,
     /// The stored untouched baseline, when one is used.
     tare: Option<crate::tare::Tare>,
+    /// Every taxel's baseline follows drift in frames without a contact (not only those below
+    /// their floor): [`follow_all_when_untouched`](Self::follow_all_when_untouched).
+    follow_all: bool,
     /// Since when most taxels sat beyond the contact threshold (a shift), and since when
     /// nearly all did with mixed signs (another sensor's offsets).
     off_since: Option<Timestamp>,
@@ -394,6 +397,7 @@ impl ChangeDetector {
             sensor: None,
             delta: vec![0.0; taxels],
             tare: None,
+            follow_all: false,
             off_since: None,
             mixed_since: None,
             mismatch: None,
@@ -415,6 +419,16 @@ impl ChangeDetector {
         self.sigma = tare.noise.clone();
         self.tare = Some(tare.clone());
         Ok(self)
+    }
+
+    /// In frames without a contact let every taxel's baseline follow drift, not only those
+    /// below their noise floor. Without it a taxel drifting faster than `floor_sigmas · σ /
+    /// follow_s` leaves its floor for good and, `contact_sigmas` later, reads as a contact on
+    /// an untouched sensor; the force stage turns this on (untouched frames must report no
+    /// force); the location methods keep the documented rule.
+    pub fn follow_all_when_untouched(mut self) -> Self {
+        self.follow_all = true;
+        self
     }
 
     /// The stored baseline in use, if any.
@@ -575,6 +589,14 @@ impl ChangeDetector {
         }
         if !contact {
             self.rel.iter_mut().for_each(|r| *r = 0.0);
+            if self.follow_all {
+                for i in 0..self.n {
+                    let mean = self.sum[i] / k;
+                    if (mean - self.baseline[i]).abs() > self.cfg.floor_sigmas * self.sigma[i] * scale {
+                        self.baseline[i] += beta * (mean - self.baseline[i]);
+                    }
+                }
+            }
         }
         if self.tare.is_some() && self.mismatch.is_none() {
             let shifted = 4 * beyond > 3 * self.n;
