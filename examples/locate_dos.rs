@@ -1,8 +1,9 @@
 //! Plausibility of the default contact track on every BioTacSP-DoS dev recording.
 //!
-//! Runs two scenes through the real scene → plan → run path on each recording (`track`
-//! output only): the **bare** scene (no `[stages.*]` table at all) and the **README's** scene
-//! (`[stages.normalise] calibrate_frames = 20`). For each it reports, over all recordings:
+//! Runs three scenes through the real scene → plan → run path on each recording (`track`
+//! output only): the **bare** scene (no `[stages.*]` table at all), the **README's** scene
+//! (`[stages.normalise] calibrate_frames = 20`) and the **accurate preset** scene
+//! (`[stages.locate] preset = "accurate"`, `docs/tradeoff.md`). For each it reports, over all recordings:
 //! the share of frames with a contact, per class; the per-frame jump of the contact point
 //! between consecutive contact frames at 100 Hz (median, 99th percentile, largest; and the
 //! largest per-recording 99th percentile); and the share of contact frames in which the raw
@@ -422,9 +423,14 @@ fn main() {
         .find(|w| w[0] == "--locate")
         .map(|w| format!("[stages.locate]\n{}\n", w[1].replace(';', "\n")))
         .unwrap_or_default();
-    for (label, stages) in
-        [("bare default scene", ""), ("README's scene", "[stages.normalise]\ncalibrate_frames = 20\n")]
-    {
+    for (label, stages) in [
+        ("bare default scene", ""),
+        ("README's scene", "[stages.normalise]\ncalibrate_frames = 20\n"),
+        ("accurate preset scene", "[stages.locate]\npreset = \"accurate\"\n"),
+    ] {
+        if !extra.is_empty() && label.starts_with("accurate") {
+            continue; // `--locate` writes a [stages.locate] table of its own
+        }
         let stages = format!("{stages}{extra}");
         let mut all = Stats::default();
         let mut by_set: BTreeMap<Set, Stats> = BTreeMap::new();

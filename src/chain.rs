@@ -8,6 +8,7 @@ use gradtac_stages::centroid::Centroid;
 use gradtac_stages::contour::{Contour, ContourConfig, ContourFrame, Levels};
 use gradtac_stages::dos::{DosClassifier, DosDecision};
 use gradtac_stages::events::{Events, Threshold};
+use gradtac_stages::fit::Fit;
 use gradtac_stages::force::{Force, ForceConfig, ForceEstimate, ForceModel};
 use gradtac_stages::force_model::{CalibratedForce, ChangeForce};
 use gradtac_stages::interpolate::{Interpolate, Surface};
@@ -39,6 +40,8 @@ pub struct SensorChain {
     fused: Option<SurfaceContour>,
     /// `[stages.locate] method = "centroid"`: contours from the raw frames.
     centroid: Option<Centroid>,
+    /// `[stages.locate] method = "fit"`: contours (fitted contacts) from the raw frames.
+    fit: Option<Fit>,
     /// `[stages.locate] method = "raw_contour"`: windows (relative changes) from the raw frames.
     raw_change: Option<RawChange>,
     track: Option<Track>,
@@ -159,7 +162,7 @@ impl SensorChain {
                 taps[t as usize].push(i);
             }
         }
-        let contour = runs(Tap::Contour) && method != LocateMethod::Centroid;
+        let contour = runs(Tap::Contour) && !matches!(method, LocateMethod::Centroid | LocateMethod::Fit);
         let tare = scene.loaded.tare.as_ref();
         let scene_err = |reason: String| Error::Scene { path: scene.origin.clone(), reason };
         if let Some(t) = tare.filter(|t| t.taxels != n) {
@@ -239,6 +242,14 @@ impl SensorChain {
                     })
                 })
                 .transpose()?,
+            fit: (runs(Tap::Contour) && method == LocateMethod::Fit)
+                .then(|| {
+                    Fit::try_new(&st.locate, &plan.layout).and_then(|c| match tare {
+                        Some(t) => c.with_tare(t),
+                        None => Ok(c),
+                    })
+                })
+                .transpose()?,
             track: runs(Tap::Track).then(|| Track::try_new(&st.track)).transpose()?,
             force,
             change_force,
@@ -311,6 +322,9 @@ impl SensorChain {
             + if self.window.is_some() { spatial } else { Delay::ZERO };
         let located = match (&self.centroid, &self.raw_change) {
             (Some(c), _) => c.delay() + d(self.track.as_ref().map(Stage::delay)),
+            (None, _) if self.fit.is_some() => {
+                d(self.fit.as_ref().map(Stage::delay)) + d(self.track.as_ref().map(Stage::delay))
+            }
             (None, Some(r)) => r.delay() + spatial,
             (None, None) => Delay::ZERO,
         };
@@ -370,6 +384,28 @@ impl SensorChain {
             Tap::Window if self.raw_change.is_some() => {
                 format!("raw change |x − x₀|/x₀ ({})", describe_detector(&st.locate))
             }
+            Tap::Contour if self.fit.is_some() => {
+                let l = &st.locate;
+                let speed = if l.max_speed_mm_s > 0.0 {
+                    format!("moves at most {} mm/s", l.max_speed_mm_s)
+                } else {
+                    "no speed bound".to_string()
+                };
+                format!(
+                    "model fit (preset {}): robust Levenberg–Marquardt, ≤ {} iterations, on the 3-D electrode cores when the \
+                     layout is the BioTac SP; spread, amplitude, far lobe; gains learned at rate {}; model error {} of the \
+                     largest change; electrodes at the rails [{}, {}] left out; reports residual and σ (mm) per point; \
+                     position memory {} frames, {speed} ({})",
+                    l.preset.name(),
+                    l.fit_iterations,
+                    l.fit_gain_rate,
+                    l.fit_model_error,
+                    l.fit_rails[0],
+                    l.fit_rails[1],
+                    l.smooth_frames,
+                    describe_detector(l)
+                )
+            }
             Tap::Contour if self.centroid.is_some() => {
                 let l = &st.locate;
                 let speed = if l.max_speed_mm_s > 0.0 {
@@ -378,7 +414,8 @@ impl SensorChain {
                     "no speed bound".to_string()
                 };
                 format!(
-                    "taxel centroid, weights r^{}{}, position memory {} frames, {speed} ({})",
+                    "taxel centroid (preset {}), weights r^{}{}, position memory {} frames, {speed} ({})",
+                    l.preset.name(),
                     l.power,
                     l.top_k.map_or(" of all taxels".to_string(), |k| format!(" of the top {k}")),
                     l.smooth_frames,
@@ -475,6 +512,7 @@ impl SensorChain {
             self.centroid.as_ref().map(Centroid::detector),
             self.raw_change.as_ref().map(RawChange::detector),
             self.change_force.as_ref().map(ChangeForce::detector),
+            self.fit.as_ref().map(Fit::detector),
         ];
         if let Some(m) = detectors.into_iter().flatten().find_map(|d| d.tare_mismatch()) {
             tracing::warn!(
@@ -544,18 +582,24 @@ impl SensorChain {
         // the raw frames move into the last stage that reads them (the contact-location front
         // ends, then the normalisation), and are copied for those before it
         if let Some(d) = &mut self.dos {
-            let shared = self.centroid.is_some() || self.raw_change.is_some() || self.normalise.is_some();
+            let shared =
+                self.centroid.is_some() || self.fit.is_some() || self.raw_change.is_some() || self.normalise.is_some();
             feed_from(d, &mut self.raw, shared, &mut self.decisions, finish)?;
             sinks.write_all(&self.taps[Tap::Dos as usize], &self.decisions)?;
             self.decisions.clear();
         }
         if let Some(f) = &mut self.change_force {
-            let shared = self.centroid.is_some() || self.raw_change.is_some() || self.normalise.is_some();
+            let shared =
+                self.centroid.is_some() || self.fit.is_some() || self.raw_change.is_some() || self.normalise.is_some();
             feed_from(f, &mut self.raw, shared, &mut self.forces, finish)?;
             sinks.write_all(&self.taps[Tap::Force as usize], &self.forces)?;
             self.forces.clear();
         }
         if let Some(c) = &mut self.centroid {
+            let shared = self.fit.is_some() || self.raw_change.is_some() || self.normalise.is_some();
+            feed_from(c, &mut self.raw, shared, &mut self.contours, finish)?;
+        }
+        if let Some(c) = &mut self.fit {
             let shared = self.raw_change.is_some() || self.normalise.is_some();
             feed_from(c, &mut self.raw, shared, &mut self.contours, finish)?;
         }

@@ -305,7 +305,7 @@ fn value_or_nan(a: &Float64Array, i: usize) -> f64 {
     }
 }
 
-/// Every track point of a `track/2` file.
+/// Every track point of a `track/2` or `track/3` file.
 fn read_tracks(path: &Path) -> Result<Vec<TrackRow>, Error> {
     let mut out = Vec::new();
     for b in parquet_batches(path)? {

@@ -682,12 +682,14 @@ impl Tap {
         std::iter::successors(Some(self), |t| t.parent())
     }
 
-    /// The parent under a contact-location method (`[stages.locate] method`): `centroid`
-    /// makes contours straight from the source frames, `raw_contour` makes the window (the
+    /// The parent under a contact-location method (`[stages.locate] method`): `centroid` and
+    /// `fit` make contours straight from the source frames, `raw_contour` makes the window (the
     /// per-taxel relative changes) from them; `events` is [`Tap::parent`].
     pub fn parent_in(self, method: LocateMethod) -> Option<Tap> {
         match (method, self) {
-            (LocateMethod::Centroid, Tap::Contour) | (LocateMethod::RawContour, Tap::Window) => Some(Tap::Source),
+            (LocateMethod::Centroid | LocateMethod::Fit, Tap::Contour) | (LocateMethod::RawContour, Tap::Window) => {
+                Some(Tap::Source)
+            }
             _ => self.parent(),
         }
     }

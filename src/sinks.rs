@@ -41,7 +41,7 @@ pub enum OutputSink {
     Surfaces(Box<dyn RecordSink<Surface>>),
     /// Maximal contours, `contour/2`.
     Contours(Box<dyn RecordSink<ContourFrame>>),
-    /// Track points, `track/2`.
+    /// Track points, `track/3`.
     Tracks(Box<dyn RecordSink<TrackPoint>>),
     /// Force estimates, `force/2`.
     Forces(Box<dyn RecordSink<ForceEstimate>>),

@@ -156,7 +156,7 @@ fn every_schema_renders_a_png_of_the_documented_size() {
         ("window", "window/2", (1320, 340), 0.3),
         ("surface", "surface/2", (4 * 380 + 120, 40 + 400), 0.3),
         ("contour", "contour/2", (1400, 620), 0.03),
-        ("track", "track/2", (640 + 120, 680), 0.03),
+        ("track", "track/3", (640 + 120, 680), 0.03),
     ];
     for (name, schema, size, ink) in cases {
         let png = d.join(format!("{name}.png"));

@@ -221,7 +221,7 @@ fn tracks_round_trip_through_an_archive_rolled_by_time() {
     for (i, f) in files.iter().enumerate() {
         assert_eq!(f, &dir.path().join(format!("tracks-{i:06}.parquet")));
         let back = read(f);
-        assert_eq!(back.kv["gradtac.schema"], "track/2");
+        assert_eq!(back.kv["gradtac.schema"], "track/3");
         let times: Vec<i64> = back
             .batches
             .iter()

@@ -699,7 +699,7 @@ fn tracks_round_trip_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
     let input = some_tracks();
     let r = read(&write(&dir.path().join("t.parquet"), (), &input, 16));
-    assert_eq!(schema_id(&r), "track/2");
+    assert_eq!(schema_id(&r), "track/3");
     assert_eq!(track_keys(&tracks_of(&r)), track_keys(&input));
     assert_eq!(unit(&r, "velocity_x_mm_s").as_deref(), Some("mm/s"));
     // no contact: null, never NaN, in every float column (avg() in an SQL engine is a number)
@@ -996,7 +996,7 @@ fn pyarrow_reads_every_schema() {
 
     // track/1
     let t = &v[4];
-    assert_eq!(t["schema"], "track/2");
+    assert_eq!(t["schema"], "track/3");
     let rows: Vec<Value> = tracks
         .iter()
         .map(|p| {
@@ -1006,7 +1006,8 @@ fn pyarrow_reads_every_schema() {
                    "track": p.track, "x_mm": hn(p.x_mm), "y_mm": hn(p.y_mm), "area_mm2": hn(p.area_mm2),
                    "orientation_rad": hn(p.orientation_rad), "peak": hn(p.peak),
                    "velocity_x_mm_s": p.velocity_mm_s.map(|v| hn(v[0])), "velocity_y_mm_s": p.velocity_mm_s.map(|v| hn(v[1])),
-                   "gated": p.gated})
+                   "gated": p.gated, "fit_amplitude": null, "fit_spread_mm": null, "fit_residual": null,
+                   "fit_sigma_mm": null})
         })
         .collect();
     assert_eq!(t["rows"], Value::Array(rows));

@@ -11,14 +11,17 @@
 //!   (Savitzky–Golay → events τ = 0.001 → 10-frame count window → natural neighbour 16×16 →
 //!   contour (min area 60 mm²) → track) or `events_noise` (the same with the events method's
 //!   default noise-adaptive τ = `event_tau_sigmas` σ, calibrated over `calibrate_frames`).
+//!   `fit` is the model fit (`[stages.locate] method = "fit"` with the `accurate` preset's
+//!   settings and the method forced to `fit`) → track.
 //! - After the criterion groups, per-frame latency percentiles (p50, p99) of the default chain
-//!   pushed one frame at a time, printed (not asserted).
+//!   and of the fit pushed one frame at a time, printed (not asserted).
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use gradtac_stages::centroid::Centroid;
 use gradtac_stages::contour::{Contour, ContourConfig};
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
+use gradtac_stages::fit::Fit;
 use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
-use gradtac_stages::locate::LocateConfig;
+use gradtac_stages::locate::{LocateConfig, LocateMethod, Preset};
 use gradtac_stages::savgol::{SavGol, SavGolConfig};
 use gradtac_stages::sim_family::{Member, PathKind};
 use gradtac_stages::track::{Track, TrackConfig};
@@ -63,6 +66,13 @@ fn centroid_chain(
     Centroid::try_new(&LocateConfig::default(), l).unwrap().then(Track::try_new(&TrackConfig::default()).unwrap())
 }
 
+fn fit_chain(
+    l: &Layout,
+) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint, Error = gradtac_stream::Error> {
+    let cfg = LocateConfig { method: LocateMethod::Fit, ..LocateConfig::preset(Preset::Accurate) };
+    Fit::try_new(&cfg, l).unwrap().then(Track::try_new(&TrackConfig::default()).unwrap())
+}
+
 fn events_chain(
     l: &Layout,
     threshold: Threshold,
@@ -93,6 +103,9 @@ fn bench(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::new("centroid", name), frames, |b, f| {
             b.iter(|| black_box(centroid_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
         });
+        g.bench_with_input(BenchmarkId::new("fit", name), frames, |b, f| {
+            b.iter(|| black_box(fit_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
+        });
         g.bench_with_input(BenchmarkId::new("events", name), frames, |b, f| {
             b.iter(|| black_box(events_chain(&l, Threshold::Uniform(0.001)).run_all(f.iter().cloned()).unwrap().len()))
         });
@@ -103,28 +116,37 @@ fn bench(c: &mut Criterion) {
         });
     }
     g.finish();
-    // per-frame latency of the default chain, one frame at a time (printed, not asserted)
+    // per-frame latency of the default chain and of the fit, one frame at a time (printed, not
+    // asserted)
     for (name, frames) in &recs {
-        let mut lat = Vec::new();
-        let mut out = Vec::new();
-        for _ in 0..20 {
-            let mut ch = centroid_chain(&l);
-            for f in frames.iter().cloned() {
-                let t0 = Instant::now();
-                ch.push(f, &mut out).unwrap();
-                lat.push(t0.elapsed().as_nanos() as f64 * 1e-3);
-                out.clear();
-            }
-        }
-        lat.sort_by(f64::total_cmp);
-        let q = |p: f64| lat[((lat.len() - 1) as f64 * p) as usize];
-        println!(
-            "locate/centroid/{name}: per-frame latency p50 {:.2} µs, p99 {:.2} µs, max {:.1} µs",
-            q(0.5),
-            q(0.99),
-            q(1.0)
-        );
+        latency("centroid", name, frames, || centroid_chain(&l));
+        latency("fit", name, frames, || fit_chain(&l));
     }
+}
+
+fn latency<S: Stage<In = TaxelFrame>>(chain: &str, name: &str, frames: &[TaxelFrame], make: impl Fn() -> S)
+where
+    S::Error: std::fmt::Debug,
+{
+    let mut lat = Vec::new();
+    let mut out = Vec::new();
+    for _ in 0..20 {
+        let mut ch = make();
+        for f in frames.iter().cloned() {
+            let t0 = Instant::now();
+            ch.push(f, &mut out).unwrap();
+            lat.push(t0.elapsed().as_nanos() as f64 * 1e-3);
+            out.clear();
+        }
+    }
+    lat.sort_by(f64::total_cmp);
+    let q = |p: f64| lat[((lat.len() - 1) as f64 * p) as usize];
+    println!(
+        "locate/{chain}/{name}: per-frame latency p50 {:.2} µs, p99 {:.2} µs, max {:.1} µs",
+        q(0.5),
+        q(0.99),
+        q(1.0)
+    );
 }
 
 criterion_group!(benches, bench);

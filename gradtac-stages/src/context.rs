@@ -34,6 +34,7 @@
 //! | `surface` | [`Interpolate`] (alias [`SurfaceStage`](crate::interpolate::SurfaceStage)) | [`InterpolateConfig`] | [`Surface`](crate::interpolate::Surface) | `surface` |
 //! | `contour` | [`Contour`] | [`ContourConfig`] | [`ContourFrame`](crate::contour::ContourFrame) | `contour` |
 //! | `contour` with `[stages.locate] method = "centroid"` | [`Centroid`] | [`LocateConfig`] | [`ContourFrame`](crate::contour::ContourFrame) | `contour` |
+//! | `contour` with `method = "fit"` | [`Fit`](crate::fit::Fit) | [`LocateConfig`] | [`ContourFrame`](crate::contour::ContourFrame) | `contour` |
 //! | `window` with `method = "raw_contour"` | [`RawChange`] | [`LocateConfig`] | [`WindowAggregate`](crate::window::WindowAggregate) | `window` |
 //! | `track` | [`Track`] | [`TrackConfig`] | [`TrackPoint`](crate::track::TrackPoint) | `track` |
 //! | `force` | [`Force`] | [`ForceConfig`] | [`ForceEstimate`](crate::force::ForceEstimate) | `force` |
@@ -159,6 +160,13 @@ impl FromConfig for Centroid {
     type Config = LocateConfig;
     fn from_config(config: &LocateConfig, ctx: &StageContext) -> Result<Self> {
         Centroid::try_new(config, ctx.layout())
+    }
+}
+
+impl FromConfig for crate::fit::Fit {
+    type Config = LocateConfig;
+    fn from_config(config: &LocateConfig, ctx: &StageContext) -> Result<Self> {
+        crate::fit::Fit::try_new(config, ctx.layout())
     }
 }
 

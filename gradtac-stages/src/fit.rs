@@ -21,6 +21,9 @@
 //! - `w` the spread (mm, 0.8–8), `A` the amplitude (signed, input units at `ρ = 0` for a unit
 //!   gain), `a` the far-lobe weight (−0.7–1.5: `a > 0` a Mexican hat whose far ring moves the
 //!   other way — fluid pushed away from the contact —, `a < 0` a heavier tail than a Gaussian);
+//! - by default (`fit_signed = false`) the fit is on the magnitudes `|Δᵢ|` (an electrode whose
+//!   value rises under pressure while most fall then fits like the rest; the far lobe is fitted
+//!   as a magnitude); `fit_signed = true` fits the signed changes;
 //! - `gᵢ` each electrode's signed gain, **learned online**: it starts at 1, and after every
 //!   converged, single-region fit each electrode the model says moved by more than 10 σ of its
 //!   noise moves its gain toward the ratio measured there by `fit_gain_rate`; the gains are then
@@ -116,6 +119,8 @@ pub struct FitSummary {
     pub excluded: u32,
     /// Another contact region the model does not explain.
     pub second_region: bool,
+    /// The solver stopped at a minimum (not at `fit_iterations`).
+    pub converged: bool,
 }
 
 /// The fit's geometry: electrode cores, depths and the skin (see the [module docs](self)).
@@ -493,11 +498,13 @@ impl Fit {
         let cold = |p: [f64; 2], w: f64, a: f64| [p[0], p[1], w.ln(), a, 0.0];
         let iters = cfg.fit_iterations;
         let strong_at = self.positions[k];
-        // the cost of "no contact" (the model 0): a fit worse than 1 % of it is retried cold
+        // the cost of "no contact" (the model 0): a warm fit that explains less than 4/5 of it,
+        // or that sits over 4 mm (about an electrode spacing) from the strongest electrode, is
+        // retried cold (a kernel unlike the model leaves ~1–10 % of it in a good fit)
         let null: f64 = (0..n).map(|i| huber(self.d[i] * self.inv_s[i])).sum();
         let mut best = self.warm.map(|w| prob.solve(w, iters));
         let poor = |b: &Option<Solution>| {
-            b.is_none_or(|b| b.cost > 0.01 * null || (b.th[0] - strong_at[0]).hypot(b.th[1] - strong_at[1]) > 2.0)
+            b.is_none_or(|b| b.cost > 0.2 * null || (b.th[0] - strong_at[0]).hypot(b.th[1] - strong_at[1]) > 4.0)
         };
         if poor(&best) {
             // a new contact or a poor fit: from the Δ²-weighted centroid at three spreads, from
@@ -569,6 +576,7 @@ impl Fit {
             iterations: best.iterations,
             excluded,
             second_region,
+            converged: best.converged,
         };
         // learn the gains from a clean fit
         let rate = cfg.fit_gain_rate;
@@ -580,7 +588,8 @@ impl Fit {
                 }
                 let ak = th[3] * self.kk[i];
                 if self.kk[i] > 0.3 && ak.abs() > 10.0 * sigma[i] {
-                    let ratio = (self.d[i] / ak).clamp(-3.0, 3.0);
+                    let lo = if cfg.fit_signed { -3.0 } else { 0.0 };
+                    let ratio = (self.d[i] / ak).clamp(lo, 3.0);
                     self.gain[i] += rate * (ratio - self.gain[i]);
                     changed = true;
                 }
@@ -611,6 +620,9 @@ impl Stage for Fit {
         } else {
             let mut d = std::mem::take(&mut self.d);
             self.det.signed_changes(&mut d);
+            if !self.det.config().fit_signed {
+                d.iter_mut().for_each(|v| *v = v.abs());
+            }
             self.d = d;
             match self.fit(&f.values) {
                 None => ContourOutcome::NoContact(NoContact::NoData),
@@ -694,13 +706,18 @@ mod tests {
         frames(n, |k| (0..24).map(|i| base(i) + if k >= 30 { contact[i] } else { 0.0 }).collect())
     }
 
+    /// The signed fit (the model's own terms, far lobe with its sign).
+    fn signed() -> LocateConfig {
+        LocateConfig { fit_signed: true, ..LocateConfig::default() }
+    }
+
     fn last(out: &[ContourFrame]) -> &MaxContour {
         out.last().unwrap().outcome.contact().expect("a contact")
     }
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
-        /// A contact drawn from the fit's own model (unit gains, no noise; anywhere in the pad
+        /// A contact drawn from the fit's own model (signed fit, unit gains, no noise; anywhere in the pad
         /// region, spread 2–5 mm, amplitude ±40–400 counts, far lobe −0.3–0.3) is recovered to
         /// within 0.05 mm. (Narrower contacts between electrodes with a deep far lobe change the
         /// electrodes by a few counts, mostly through the lobe: not resolvable on a sensor.)
@@ -713,7 +730,7 @@ mod tests {
             let (a, b, c) = (region[0], region[region.len() / 3], region[2 * region.len() / 3]);
             let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
             let p = [a[0] + u * (b[0] - a[0]) + v * (c[0] - a[0]), a[1] + u * (b[1] - a[1]) + v * (c[1] - a[1])];
-            let mut fit = Fit::try_new(&LocateConfig::default(), &layout).unwrap();
+            let mut fit = Fit::try_new(&signed(), &layout).unwrap();
             let amp = if sign { amp } else { -amp };
             let contact = fit.geometry().model([p[0], p[1], w, amp, lobe], &[1.0; 24]);
             let out = fit.run_all(press(contact, 80)).unwrap();
@@ -761,7 +778,7 @@ mod tests {
     fn a_saturated_electrode_is_left_out_and_counted() {
         let layout = Layout::biotac_sp();
         let p = layout.positions()[23];
-        let mut fit = Fit::try_new(&LocateConfig::default(), &layout).unwrap();
+        let mut fit = Fit::try_new(&signed(), &layout).unwrap();
         let mut contact = fit.geometry().model([p[0], p[1], 2.5, -300.0, 0.2], &[1.0; 24]);
         // electrode 24 sits under the contact and hits the low rail
         contact[23] = -base(23);
@@ -808,7 +825,7 @@ mod tests {
         let edge = [x_tip + 1.0, 0.0];
         assert!(edge[0] < e.x_max);
         let run = |p: [f64; 2]| {
-            let mut fit = Fit::try_new(&LocateConfig::default(), &layout).unwrap();
+            let mut fit = Fit::try_new(&signed(), &layout).unwrap();
             let contact = fit.geometry().model([p[0], p[1], 2.5, -300.0, 0.2], &[1.0; 24]);
             // a little deterministic noise so the covariance has a scale
             let input = frames(80, |k| {
@@ -845,7 +862,7 @@ mod tests {
     #[ignore = "known limitation (docs/tradeoff.md): the robust fit explains a flipped electrode next to the contact by a shifted contact, so the gate (cost < 5 % of no-contact, ≤ 3 outliers) rarely opens and the gain moves only ≈ 0.04"]
     fn gains_learn_a_flipped_electrode() {
         let layout = Layout::biotac_sp();
-        let mut fit = Fit::try_new(&LocateConfig { fit_gain_rate: 0.05, ..Default::default() }, &layout).unwrap();
+        let mut fit = Fit::try_new(&LocateConfig { fit_gain_rate: 0.05, ..signed() }, &layout).unwrap();
         let mut g = [1.0; 24];
         g[21] = -1.0; // electrode 22 reads the other way
         let mut pts = Vec::new();
@@ -870,7 +887,7 @@ mod tests {
         let out = fit.run_all(input.clone()).unwrap();
         assert!(out.iter().any(|o| o.outcome.contact().is_some()));
         // run again without the reset run_all does at its end: push frame by frame
-        let mut fit2 = Fit::try_new(&LocateConfig { fit_gain_rate: 0.05, ..Default::default() }, &layout).unwrap();
+        let mut fit2 = Fit::try_new(&LocateConfig { fit_gain_rate: 0.05, ..signed() }, &layout).unwrap();
         let mut buf = Vec::new();
         for f in input {
             fit2.push(f, &mut buf).unwrap();

@@ -152,6 +152,10 @@ pub struct LocateConfig {
     /// saturated and left out of the fit (and counted in the point's `excluded`). Default
     /// `[0, 4095]` (12 bit); `[-inf, inf]` turns it off.
     pub fit_rails: [f64; 2],
+    /// `fit`: fit the signed changes (`true`) or their magnitudes (`false`, the default): with
+    /// magnitudes an electrode whose value rises under pressure while most fall (the family
+    /// draws up to 30 % of them) fits like the rest, at the price of the far lobe's sign.
+    pub fit_signed: bool,
     /// `centroid` / `raw_contour` (and a changes-based force model): a stored untouched
     /// baseline (`gradtac calibrate baseline`, [`Tare`](crate::tare::Tare)), relative to the
     /// scene. With it the detector skips its start-up calibration — a hand that starts in
@@ -183,6 +187,7 @@ struct LocateToml {
     fit_gain_rate: Option<f64>,
     fit_model_error: Option<f64>,
     fit_rails: Option<[f64; 2]>,
+    fit_signed: Option<bool>,
     baseline: Option<std::path::PathBuf>,
 }
 
@@ -206,7 +211,8 @@ impl From<LocateToml> for LocateConfig {
             fit_iterations,
             fit_gain_rate,
             fit_model_error,
-            fit_rails
+            fit_rails,
+            fit_signed
         );
         if t.top_k.is_some() {
             c.top_k = t.top_k;
@@ -255,6 +261,7 @@ impl LocateConfig {
             fit_gain_rate: 0.02,
             fit_model_error: 0.05,
             fit_rails: [0.0, 4095.0],
+            fit_signed: false,
             baseline: None,
         }
     }
@@ -654,6 +661,26 @@ mod tests {
     }
 
     #[test]
+    fn a_preset_fills_the_table_and_explicit_keys_win() {
+        let c: LocateConfig = toml::from_str("").unwrap();
+        assert_eq!(c, LocateConfig::default());
+        assert_eq!(c.preset, Preset::Fast);
+        let a: LocateConfig = toml::from_str("preset = \"accurate\"").unwrap();
+        assert_eq!(a, LocateConfig::preset(Preset::Accurate));
+        let o: LocateConfig =
+            toml::from_str("preset = \"accurate\"\nwindow_frames = 3\nmethod = \"centroid\"").unwrap();
+        assert_eq!(
+            o,
+            LocateConfig { window_frames: 3, method: LocateMethod::Centroid, ..LocateConfig::preset(Preset::Accurate) }
+        );
+        assert!(toml::from_str::<LocateConfig>("preset = \"slow\"").is_err());
+        assert!(toml::from_str::<LocateConfig>("windw_frames = 3").is_err());
+        // what explain shows reads back to the same settings
+        let back: LocateConfig = toml::from_str(&toml::to_string(&o).unwrap()).unwrap();
+        assert_eq!(back, o);
+    }
+
+    #[test]
     fn bad_input_is_named() {
         let mut d = ChangeDetector::try_new(2, &LocateConfig::default()).unwrap();
         assert!(matches!(d.push(&frame(0, vec![1.0]), "t"), Err(Error::TaxelCount { .. })));
@@ -670,6 +697,10 @@ mod tests {
             LocateConfig { follow_s: f64::NAN, ..Default::default() },
             LocateConfig { max_speed_mm_s: -1.0, ..Default::default() },
             LocateConfig { event_tau_sigmas: f64::INFINITY, ..Default::default() },
+            LocateConfig { fit_iterations: 0, ..Default::default() },
+            LocateConfig { fit_gain_rate: 2.0, ..Default::default() },
+            LocateConfig { fit_model_error: f64::NAN, ..Default::default() },
+            LocateConfig { fit_rails: [4095.0, 0.0], ..Default::default() },
         ] {
             assert!(ChangeDetector::try_new(2, &bad).is_err(), "{bad:?}");
         }

@@ -20,13 +20,13 @@
 //! | term | formula | range drawn per recording |
 //! |---|---|---|
 //! | 3-D distance | `dᵢ = ‖eᵢ − skin(c)‖`; depth-corrected `ρᵢ² = max(dᵢ² − hᵢ², 0)` with `hᵢ = ‖eᵢ − sᵢ‖` (≈ 3 mm core-to-skin) | — |
-//! | kernel shape | Gaussian `exp(−ρ²/2w²)`; difference of Gaussians `(1+a)·exp(−ρ²/2w²) − a·exp(−ρ²/2(mw)²)` (fluid pushed away raises far electrodes); exponential `exp(−ρ/w)` | one of the three, equally likely; `a ∈ [0.2, 0.5]`, `m ∈ [2, 3]` |
+//! | kernel shape | Gaussian `exp(−ρ²/2w²)`; difference of Gaussians `(1+a)·exp(−ρ²/2w²) − a·exp(−ρ²/2(mw)²)` (fluid pushed away raises far electrodes); exponential `exp(−ρ/w)`; held-out physics only: Mexican hat `(1 − c·ρ²/2w²)·exp(−ρ²/2w²)` | one of the three (four for [`PhysicsSet::HeldOut`]), equally likely; `a ∈ [0.2, 0.5]`, `m ∈ [2, 3]`, `c ∈ [0.3, 0.7]` |
 //! | kernel width | `w = clamp(1 + j·D/2, 1.5, 5)` mm, growing with indenter diameter `D` | `D ∈ [1, 8]` mm, `j ∈ [0.8, 1.25]` |
 //! | force | trapezoid: press 0.2 s, hold, lift 0.2 s | `F ∈ [0.5, 10]` N |
 //! | amplitude | `A` counts per N at `ρ = 0` | `A ∈ [30, 80]` |
 //! | per-electrode gain | `gᵢ` | `gᵢ ∈ [0.5, 1.5]` |
 //! | sign | `σᵢ = −1` (value falls under pressure), `+1` with probability `p` (electrode-dependent convention; the difference-of-Gaussians lobe adds a position-dependent sign) | `p ∈ [0, 0.3]` |
-//! | fluid lag | first order, `ũ[k] = ũ[k−1] + (1 − e^{−Δt/τ})(u[k] − ũ[k−1])` on `uᵢ = σᵢ gᵢ A F K(ρᵢ)` | `τ ∈ [10, 80]` ms |
+//! | fluid lag | first order, `ũ[k] = ũ[k−1] + (1 − e^{−Δt/τ})(u[k] − ũ[k−1])` on `uᵢ = σᵢ gᵢ A F K(ρᵢ)` | `τ ∈ [10, 80]` ms (`[10, 30]` for [`PhysicsSet::Tuning`]) |
 //! | soft saturation | `Δ = S · tanh(ũ / S)` (knee `S` counts) | `S ∈ [300, 900]` counts |
 //! | baseline | `bᵢ` | `bᵢ ∈ [1500, 3800]` counts |
 //! | drift | linear `δᵢ t` plus a random walk with steps `N(0, q² Δt)` | `δᵢ ∈ [−2, 2]` counts/s, `q ∈ [0.2, 2]` counts/√s |
@@ -156,6 +156,37 @@ pub enum KernelShape {
     },
     /// `exp(−ρ/w)`.
     Exponential,
+    /// `(1 − c·ρ²/2w²)·exp(−ρ²/2w²)`: a Mexican hat whose far ring (beyond `ρ = w·√(2/c)`)
+    /// moves the other way — the raised ring of fluid pushed away from the contact. Drawn only
+    /// for held-out physics ([`PhysicsSet::HeldOut`]), never for tuning.
+    MexicanHat {
+        /// Ring strength `c`.
+        ring: f64,
+    },
+}
+
+/// Which physics a member draws from: every set shares every range of the [module docs](self)
+/// but the kernel shape and the fluid lag.
+///
+/// | set | kernel shapes | fluid lag τ |
+/// |---|---|---|
+/// | `Standard` ([`Physics::draw`]) | Gaussian, difference of Gaussians, exponential | 10–80 ms |
+/// | `Tuning` | Gaussian, difference of Gaussians, exponential | 10–30 ms |
+/// | `HeldOut` | the three, and the Mexican hat (one in four) | 10–80 ms |
+///
+/// Choices made on `Tuning` members never see a Mexican hat nor a lag over 30 ms (the issue's
+/// independent model has 40 ms); `HeldOut` members include both, so a score on them measures
+/// physics the choice was not made on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum PhysicsSet {
+    /// The original family (unchanged draws).
+    #[default]
+    Standard,
+    /// For choices: no Mexican hat, lag 10–30 ms.
+    Tuning,
+    /// For scores: every shape (Mexican hat included), lag 10–80 ms.
+    HeldOut,
 }
 
 impl KernelShape {
@@ -168,6 +199,10 @@ impl KernelShape {
                     - lobe * (-rho * rho / (2.0 * (ratio * w).powi(2))).exp()
             }
             KernelShape::Exponential => (-rho / w).exp(),
+            KernelShape::MexicanHat { ring } => {
+                let q = rho * rho / (2.0 * w * w);
+                (1.0 - ring * q) * (-q).exp()
+            }
         }
     }
 
@@ -177,6 +212,7 @@ impl KernelShape {
             KernelShape::Gaussian => "gaussian",
             KernelShape::DifferenceOfGaussians { .. } => "dog",
             KernelShape::Exponential => "exponential",
+            KernelShape::MexicanHat { .. } => "mexican_hat",
         }
     }
 }
@@ -281,6 +317,16 @@ impl Member {
         self.physics().simulate(self.seed)
     }
 
+    /// The member's physics drawn from `set` ([`Physics::draw_in`]).
+    pub fn physics_in(&self, set: PhysicsSet) -> Physics {
+        Physics::draw_in(self.seed, self.kind, set)
+    }
+
+    /// Simulate the member with physics from `set`.
+    pub fn simulate_in(&self, set: PhysicsSet) -> FamilyRecording {
+        self.physics_in(set).simulate(self.seed)
+    }
+
     /// The members `seeds × PathKind::ALL`.
     pub fn grid(seeds: impl IntoIterator<Item = u64>) -> Vec<Member> {
         seeds.into_iter().flat_map(|seed| PathKind::ALL.map(|kind| Member { seed, kind })).collect()
@@ -365,14 +411,22 @@ pub(crate) fn sub_seed(seed: u64, tag: u64) -> u64 {
 pub const MOVE_START_S: f64 = 0.9;
 
 impl Physics {
-    /// Draw a member's physics from the ranges of the [module docs](self).
+    /// Draw a member's physics from the ranges of the [module docs](self)
+    /// ([`PhysicsSet::Standard`]).
     pub fn draw(seed: u64, kind: PathKind) -> Physics {
+        Physics::draw_in(seed, kind, PhysicsSet::Standard)
+    }
+
+    /// Draw a member's physics from `set` (see [`PhysicsSet`]).
+    pub fn draw_in(seed: u64, kind: PathKind, set: PhysicsSet) -> Physics {
         let mut rng = StdRng::seed_from_u64(sub_seed(seed, 1 + kind as u64));
         let mut u = |lo: f64, hi: f64| rng.random_range(lo..hi);
-        let kernel = match (u(0.0, 3.0)) as u32 {
+        let shapes = if set == PhysicsSet::HeldOut { 4.0 } else { 3.0 };
+        let kernel = match (u(0.0, shapes)) as u32 {
             0 => KernelShape::Gaussian,
             1 => KernelShape::DifferenceOfGaussians { lobe: u(0.2, 0.5), ratio: u(2.0, 3.0) },
-            _ => KernelShape::Exponential,
+            2 => KernelShape::Exponential,
+            _ => KernelShape::MexicanHat { ring: u(0.3, 0.7) },
         };
         let diameter_mm = u(1.0, 8.0);
         let width_mm = (1.0 + u(0.8, 1.25) * diameter_mm / 2.0).clamp(1.5, 5.0);
@@ -380,7 +434,7 @@ impl Physics {
         let amplitude = u(30.0, 80.0);
         let p_flip = u(0.0, 0.3);
         let gain: Vec<f64> = (0..24).map(|_| u(0.5, 1.5) * if u(0.0, 1.0) < p_flip { 1.0 } else { -1.0 }).collect();
-        let lag_s = u(0.010, 0.080);
+        let lag_s = if set == PhysicsSet::Tuning { u(0.010, 0.030) } else { u(0.010, 0.080) };
         let knee_counts = u(300.0, 900.0);
         let baseline: Vec<f64> = (0..24).map(|_| u(1500.0, 3800.0)).collect();
         let drift_slope: Vec<f64> = (0..24).map(|_| u(-2.0, 2.0)).collect();
@@ -576,6 +630,27 @@ mod tests {
                 assert!((0..=10).all(|i| inside_convex(&region, p.path.at(i as f64 / 10.0))), "{seed} {kind:?}");
             }
         }
+    }
+
+    #[test]
+    fn tuning_physics_never_draws_the_held_out_kernel_or_lag() {
+        let (mut hats, mut slow) = (0, 0);
+        for seed in 0..40 {
+            for kind in PathKind::ALL {
+                let t = Physics::draw_in(seed, kind, PhysicsSet::Tuning);
+                assert!(!matches!(t.kernel, KernelShape::MexicanHat { .. }) && t.lag_s < 0.030, "{seed} {kind:?}");
+                let h = Physics::draw_in(seed, kind, PhysicsSet::HeldOut);
+                hats += usize::from(matches!(h.kernel, KernelShape::MexicanHat { .. }));
+                slow += usize::from(h.lag_s > 0.030);
+                // the standard set is the original draw
+                assert_eq!(Physics::draw(seed, kind), Physics::draw_in(seed, kind, PhysicsSet::Standard));
+            }
+        }
+        assert!(hats > 20 && slow > 80, "{hats} Mexican hats, {slow} slow lags of 160");
+        // the hat's far ring moves the other way
+        let k = KernelShape::MexicanHat { ring: 0.5 };
+        assert_eq!(k.eval(0.0, 2.0), 1.0);
+        assert!(k.eval(6.0, 2.0) < 0.0);
     }
 
     #[test]

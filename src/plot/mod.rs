@@ -73,7 +73,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// The schemas [`plot_parquet`] knows.
-pub const KNOWN: [&str; 21] = [
+pub const KNOWN: [&str; 22] = [
     "frame/1",
     "frame/2",
     "event/1",
@@ -86,6 +86,7 @@ pub const KNOWN: [&str; 21] = [
     "contour/2",
     "track/1",
     "track/2",
+    "track/3",
     "slip/1",
     "slip/2",
     "force/1",

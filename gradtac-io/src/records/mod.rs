@@ -3,7 +3,7 @@
 //! Every type a sink can write implements [`ArrowRecord`] in its own file under
 //! `src/records/`: frames ([`frame`], `frame/2`), events ([`events`], `event/2`), window
 //! aggregates ([`window`], `window/2`), surfaces ([`surface`], `surface/2`), contours
-//! ([`contour`], `contour/2`), tracks ([`track`], `track/2`), slip events ([`slip`],
+//! ([`contour`], `contour/2`), tracks ([`track`], `track/3`), slip events ([`slip`],
 //! `slip/2`), forces ([`force`], `force/2`), servo commands ([`servo`], `servo/2`) and
 //! slip-direction decisions ([`dos`], `dos/3`). The trait gives
 //! - a schema id stored in files under the key `gradtac.schema` (`frame/2`: name and

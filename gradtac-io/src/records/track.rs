@@ -1,4 +1,4 @@
-//! [`TrackPoint`] as Arrow: schema `track/2`, one row per track point.
+//! [`TrackPoint`] as Arrow: schema `track/3`, one row per track point.
 //!
 //! | column | Arrow type | meaning |
 //! |---|---|---|
@@ -15,10 +15,15 @@
 //! | `peak` | `Float64`, nullable | surface peak (surface units); null without contact |
 //! | `velocity_x_mm_s`, `velocity_y_mm_s` | `Float64`, nullable | [`TrackPoint::velocity_mm_s`] `[x, y]` (mm/s); null on a track's first point and without contact |
 //! | `gated` | `Boolean`, not null | the point repeats the last accepted one because the contour jumped |
+//! | `fit_amplitude` | `Float64`, nullable | [`TrackPoint::fit`]: the model fit's amplitude `\|A\|` (input units); null unless `[stages.locate] method = "fit"` and in contact |
+//! | `fit_spread_mm` | `Float64`, nullable | the fit's spread `w` (mm) |
+//! | `fit_residual` | `Float64`, nullable | the fit's relative residual `‖Δ − model‖/‖Δ‖` |
+//! | `fit_sigma_mm` | `Float64`, nullable | the fit's position uncertainty: 1-σ ellipse's major semi-axis (mm) |
 //!
 //! Columns map one to one onto [`TrackPoint`]'s fields, named after them (a two-vector
 //! field `velocity_mm_s` as `velocity_x_mm_s`, `velocity_y_mm_s`); an absent value (`None`,
-//! or NaN in a float field) is null, never NaN. `track/1` (0.1) had `Int64` `time_ns` /
+//! or NaN in a float field) is null, never NaN; the `fit_*` columns are [`TrackPoint::fit`]'s
+//! fields. `track/2` had no `fit_*` columns (readers by name read both). `track/1` (0.1) had `Int64` `time_ns` /
 //! `start_ns`, NaN for absent floats and `vx_mm_s` / `vy_mm_s`. The shape is `()`.
 
 use super::columns::{append_present, schema_with_id, unit_field, with_lead, LeadBuilder};
@@ -42,7 +47,7 @@ pub fn contact_state_name(s: ContactState) -> &'static str {
 impl ArrowRecord for TrackPoint {
     type Shape = ();
     type Builder = TrackBuilder;
-    const SCHEMA_ID: &'static str = "track/2";
+    const SCHEMA_ID: &'static str = "track/3";
 
     fn schema(_: &(), time: TimeBase) -> SchemaRef {
         let f = |name: &str, unit: &str| unit_field(name, DataType::Float64, true, unit);
@@ -62,6 +67,10 @@ impl ArrowRecord for TrackPoint {
                     unit_field("velocity_x_mm_s", DataType::Float64, true, "mm/s"),
                     unit_field("velocity_y_mm_s", DataType::Float64, true, "mm/s"),
                     Field::new("gated", DataType::Boolean, false),
+                    Field::new("fit_amplitude", DataType::Float64, true),
+                    f("fit_spread_mm", "mm"),
+                    Field::new("fit_residual", DataType::Float64, true),
+                    f("fit_sigma_mm", "mm"),
                 ],
             ),
             Self::SCHEMA_ID,
@@ -86,11 +95,15 @@ impl ArrowRecord for TrackPoint {
             vx: floats(),
             vy: floats(),
             gated: BooleanBuilder::with_capacity(capacity),
+            fit_amplitude: floats(),
+            fit_spread: floats(),
+            fit_residual: floats(),
+            fit_sigma: floats(),
         }
     }
 }
 
-/// Builds `track/2` batches (see the [module documentation](self)).
+/// Builds `track/3` batches (see the [module documentation](self)).
 pub struct TrackBuilder {
     schema: SchemaRef,
     /// `sensor`, `time`, `start`, `seq`.
@@ -106,6 +119,10 @@ pub struct TrackBuilder {
     vx: Float64Builder,
     vy: Float64Builder,
     gated: BooleanBuilder,
+    fit_amplitude: Float64Builder,
+    fit_spread: Float64Builder,
+    fit_residual: Float64Builder,
+    fit_sigma: Float64Builder,
 }
 
 impl std::fmt::Debug for TrackBuilder {
@@ -119,7 +136,7 @@ impl RecordBuilder<TrackPoint> for TrackBuilder {
         self.schema.clone()
     }
 
-    /// Never rejects: every track point fits `track/2`.
+    /// Never rejects: every track point fits `track/3`.
     fn append(&mut self, p: &TrackPoint) -> Result<()> {
         self.lead.append(&p.sensor, [p.time, p.start], p.seq);
         self.state.append_value(contact_state_name(p.state));
@@ -133,6 +150,11 @@ impl RecordBuilder<TrackPoint> for TrackBuilder {
         self.vx.append_option(p.velocity_mm_s.map(|v| v[0]).filter(|v| !v.is_nan()));
         self.vy.append_option(p.velocity_mm_s.map(|v| v[1]).filter(|v| !v.is_nan()));
         self.gated.append_value(p.gated);
+        let fit = |f: fn(&gradtac_stages::fit::FitSummary) -> f64| p.fit.as_ref().map(f).filter(|v| !v.is_nan());
+        self.fit_amplitude.append_option(fit(|s| s.amplitude));
+        self.fit_spread.append_option(fit(|s| s.spread_mm));
+        self.fit_residual.append_option(fit(|s| s.residual));
+        self.fit_sigma.append_option(fit(|s| s.sigma_mm));
         Ok(())
     }
 
@@ -153,6 +175,10 @@ impl RecordBuilder<TrackPoint> for TrackBuilder {
             Arc::new(self.vx.finish()),
             Arc::new(self.vy.finish()),
             Arc::new(self.gated.finish()),
+            Arc::new(self.fit_amplitude.finish()),
+            Arc::new(self.fit_spread.finish()),
+            Arc::new(self.fit_residual.finish()),
+            Arc::new(self.fit_sigma.finish()),
         ]);
         RecordBatch::try_new(self.schema.clone(), columns).map_err(|e| arrow_error(TrackPoint::SCHEMA_ID, e))
     }
