@@ -194,6 +194,17 @@ impl SensorChain {
                             Some(Force::try_new(&ForceConfig { model: curve.clone(), min_area_mm2: *min_area_mm2 })?),
                             None,
                         ),
+                        CalibratedForce::Amplitude { curve } => {
+                            if method != LocateMethod::Fit {
+                                return Err(scene_err(format!(
+                                    "[stages.force] model {}: an amplitude model reads the contact fit; set \
+                                     [stages.locate] method = \"fit\"",
+                                    p.display()
+                                )));
+                            }
+                            let cfg = ForceConfig { model: curve.clone(), min_area_mm2: *min_area_mm2 };
+                            (Some(Force::try_new(&cfg)?.on_fit_amplitude()), None)
+                        }
                         _ => {
                             let mut f = ChangeForce::try_new(file, &st.locate)?;
                             if let Some(t) = tare {
@@ -463,7 +474,8 @@ impl SensorChain {
             Tap::Force if self.change_force.is_some() => {
                 let f = self.change_force.as_ref().expect("checked");
                 format!(
-                    "ridge on the {} signed changes (model file), no force without contact ({})",
+                    "ridge on the {} signed changes (model file), no force without contact, every baseline follows \
+                     drift while untouched ({})",
                     f.detector().change().len(),
                     describe_detector(&st.locate)
                 )

@@ -139,7 +139,8 @@ enum CalibrateWhat {
         /// The sensor (default: the scene's only one).
         #[arg(long)]
         sensor: Option<String>,
-        /// The method: ridge (on the baseline-relative changes) or area (contour area).
+        /// The method: ridge (on the baseline-relative changes), area (contour area of the
+        /// scene's contact location) or amplitude (the contact fit's, with method = "fit").
         #[arg(long, default_value = gradtac::stages::force_model::DEFAULT_METHOD.name())]
         method: String,
         /// Where to write the model (JSON).
@@ -256,7 +257,10 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             }) => {
                 use gradtac::calibrate::{ForceCalibration, GaugeSource};
                 let method = gradtac::stages::force_model::CalibrationMethod::parse(&method).ok_or_else(|| {
-                    gradtac::Error::Scene { path: scene.clone(), reason: format!("--method {method:?}: ridge or area") }
+                    gradtac::Error::Scene {
+                        path: scene.clone(),
+                        reason: format!("--method {method:?}: ridge, area or amplitude"),
+                    }
                 })?;
                 let loaded = Scene::load(&scene)?;
                 let index = gradtac::calibrate::calibration_sensor(&loaded, sensor.as_deref())?;

@@ -224,3 +224,34 @@ fn a_stage_table_the_plan_does_not_run_is_named_with_its_line() {
         "{stderr}"
     );
 }
+
+#[test]
+fn area_and_amplitude_models_run_through_their_location_chain() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = ForceSession::presses(705, 4).simulate();
+    write_csv(&dir.path().join("r.csv"), &rec);
+    for (method, locate) in [("area", ""), ("amplitude", "[stages.locate]\nmethod = \"fit\"\n")] {
+        let cal = scene(dir.path(), &format!("cal_{method}.toml"), "r.csv", locate, "source");
+        let model = dir.path().join(format!("{method}.json"));
+        let text = ok(gradtac()
+            .args(["calibrate", "force"])
+            .arg(&cal)
+            .args(["--force-column", "force_n", "--method", method, "--out"])
+            .arg(&model)
+            .output()
+            .unwrap());
+        assert!(text.contains(&format!("calibrated {method} force")), "{text}");
+        let extra = format!("{locate}[stages.force]\nmodel = \"{method}.json\"\n");
+        let run = scene(dir.path(), &format!("run_{method}.toml"), "r.csv", &extra, "force");
+        let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
+        assert!(explain.contains("contour area → N"), "{explain}");
+        ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
+        let f = forces(&dir.path().join(format!("run_{method}.toml.parquet")));
+        assert!(f.iter().filter(|x| x.is_some()).count() > 200, "{method}: too few forces");
+    }
+    // an amplitude model without the fit is refused, naming the file
+    let bad = scene(dir.path(), "bad.toml", "r.csv", "[stages.force]\nmodel = \"amplitude.json\"\n", "force");
+    let out = gradtac().arg("explain").arg(&bad).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("amplitude.json") && err.contains("method = \"fit\""), "{err}");
+}

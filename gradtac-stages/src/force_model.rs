@@ -6,6 +6,7 @@
 //! |---|---|---|
 //! | `ridge` | the change detector's signed baseline-relative changes `Δᵢ = x̄ᵢ − x₀ᵢ` (counts) of every taxel | `F = b + Σ wᵢ Δᵢ`, ridge on standardised changes (the cheapest baseline) |
 //! | `area` | the contact location's contour area (mm²; the paper's feature) | a monotone curve ([`ForceModel`]) |
+//! | `amplitude` | the contact fit's amplitude (`[stages.locate] method = "fit"`) | a monotone curve ([`ForceModel`]) |
 //!
 //! Which is best, measured on held-out places of held-out members of the forward-model family
 //! ([`sim_force`](crate::sim_force)), is in `docs/force.md` (`examples/force_eval.rs`); the
@@ -18,6 +19,10 @@
 //! [`ChangeDetector`](crate::locate::ChangeDetector) with the scene's `[stages.locate]`
 //! detector settings (and its stored baseline, [`ChangeForce::with_tare`]), so it needs no
 //! other stage: a bare scene with a `force` output runs source → force.
+//! Its detector lets every taxel's baseline follow drift in frames without a contact
+//! ([`ChangeDetector::follow_all_when_untouched`](crate::locate::ChangeDetector::follow_all_when_untouched)),
+//! so a drifting, untouched sensor does not read as pressed; the price is that a slow press is
+//! partly absorbed while it is still below the contact threshold.
 //!
 //! # Units, delay
 //! Newtons; counts in, like the detector. Delay `(window_frames − 1)/2` frames (the mean of the
@@ -406,8 +411,12 @@ pub fn calibrate(
         }
         CalibrationMethod::Area | CalibrationMethod::Amplitude => {
             let x = |s: &GaugeSample| if method == CalibrationMethod::Area { s.area_mm2 } else { s.amplitude };
-            let pairs: Vec<ForceSample> =
-                used.iter().filter_map(|s| x(s).map(|a| ForceSample { area_mm2: a, force_n: s.force_n })).collect();
+            // a power law is 0 at x ≤ 0 (a single-taxel centroid has no area): fitted on x > 0
+            let pairs: Vec<ForceSample> = used
+                .iter()
+                .filter_map(|s| x(s).map(|a| ForceSample { area_mm2: a, force_n: s.force_n }))
+                .filter(|p| curve != ForceMethod::PowerLaw || p.area_mm2 > 0.0)
+                .collect();
             let c = ForceModel::fit(curve, &pairs)?;
             if method == CalibrationMethod::Area {
                 CalibratedForce::Area { curve: c }
