@@ -509,13 +509,12 @@ fn gauge_at(g: &[(i64, f64)], t: i64, max_gap: i64) -> Option<f64> {
     Some(f0 + (f1 - f0) * (t - t0) as f64 / (t1 - t0) as f64)
 }
 
+/// Raw frames in, contours out (one scene's contact location, boxed).
+type ContourFront = Box<dyn FnMut(TaxelFrame, &mut Vec<ContourFrame>) -> Result<(), Error>>;
+
 /// Contact location as a scene builds it (`[stages.locate] method`), raw frames to contours,
 /// for the area method's calibration.
-fn contour_front(
-    scene: &crate::Scene,
-    layout: &Layout,
-    rate_hz: Option<f64>,
-) -> Result<Box<dyn FnMut(TaxelFrame, &mut Vec<ContourFrame>) -> Result<(), Error>>, Error> {
+fn contour_front(scene: &crate::Scene, layout: &Layout, rate_hz: Option<f64>) -> Result<ContourFront, Error> {
     use gradtac_stages::locate::LocateMethod;
     use gradtac_stream::{Stage, StageExt};
     let st = &scene.stages;
@@ -523,7 +522,7 @@ fn contour_front(
     let fused =
         || gradtac_stages::peak::SurfaceContour::try_new(&st.surface, &crate::chain::effective_contour(st), layout);
     let tare = scene.loaded.tare.clone();
-    fn boxed<S>(mut s: S) -> Box<dyn FnMut(TaxelFrame, &mut Vec<ContourFrame>) -> Result<(), Error>>
+    fn boxed<S>(mut s: S) -> ContourFront
     where
         S: Stage<In = TaxelFrame, Out = ContourFrame> + 'static,
         S::Error: Into<Error>,

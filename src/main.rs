@@ -15,6 +15,8 @@ struct Cli {
     command: Command,
 }
 
+// parsed once per process: the variants' sizes do not matter
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Run a scene: read its sources, run the stages its outputs need, write the outputs.

@@ -30,10 +30,13 @@ impl fmt::Display for Unused {
 
 type Spanned<T> = toml::Spanned<T>;
 
+/// A `[stages.<name>]` table: its keys with their spans.
+type StageTable = Spanned<BTreeMap<String, Spanned<toml::Value>>>;
+
 #[derive(Deserialize)]
 struct Top {
     #[serde(default)]
-    stages: Option<BTreeMap<String, Spanned<BTreeMap<String, Spanned<toml::Value>>>>>,
+    stages: Option<BTreeMap<String, StageTable>>,
 }
 
 fn line_of(text: &str, at: usize) -> usize {

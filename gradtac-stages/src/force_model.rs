@@ -224,7 +224,7 @@ impl ForceFile {
             }
         }
         let c = &self.calibration;
-        if !(c.force_range_n.iter().all(|f| f.is_finite()) && !c.in_sample_mape_pct.is_nan()) {
+        if !c.force_range_n.iter().all(|f| f.is_finite()) || c.in_sample_mape_pct.is_nan() {
             return Err(invalid("calibration figures are not finite".into()));
         }
         Ok(())
@@ -326,7 +326,7 @@ fn cholesky_solve(a: &mut [f64], b: &mut [f64], k: usize) -> Option<Vec<f64>> {
         for p in 0..j {
             d -= a[j * k + p] * a[j * k + p];
         }
-        if !(d > 0.0) {
+        if d.is_nan() || d <= 0.0 {
             return None;
         }
         let d = d.sqrt();
