@@ -26,11 +26,12 @@
 //!   over all way-points of all test recordings maps the track onto the truth; mean and worst
 //!   kind of the remaining error (a way-point without a contact counts as the distance from the
 //!   pad centre). Reported as a fraction of the 26.6 mm width and, as the protocol, of
-//!   the **14.5 mm core width** (the x extent of the electrodes' COMSOL core positions).
+//!   the **14.5 mm core width** (the y extent, across the finger, of the electrodes' COMSOL
+//!   core positions).
 //! - **Held-out physics**: the worst kind over the held-out members whose physics no choice saw
 //!   (a Mexican-hat kernel or a lag over 30 ms).
 //! - **µs/frame**: the method's whole chain from raw counts to track points per frame, median
-//!   over the test recordings (one run each; release build).
+//!   over the test recordings (the faster of two runs each; release build).
 //!
 //! - **Front**: the settings no faster setting beats on held-out worst kind (★); **presets**: the
 //!   setting with the lowest *tuning* worst kind at ≤ 5 µs/frame (`fast`, ≥ 200 k frames/s per
@@ -382,8 +383,9 @@ fn main() {
     let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };
     let layout = Layout::biotac_sp();
     let width = layout.extent().width();
-    let core_width = CORE_MM.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max)
-        - CORE_MM.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min);
+    // the "14.5 mm width across the core": the y extent of the core positions
+    let core_width = CORE_MM.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max)
+        - CORE_MM.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
     // τ < 0: noise-adaptive, τᵢ = |τ| σᵢ of each taxel's measured noise
     let taus: &[f64] = &[0.002, -4.0];
 
@@ -486,7 +488,11 @@ fn main() {
                 .enumerate()
                 .map(|(i, r)| {
                     let b = tau.map(|t| &front[&(is_test, i, t)]);
-                    let (pts, u) = run(s, &layout, r, b);
+                    let (pts, mut u) = run(s, &layout, r, b);
+                    if is_test {
+                        // the faster of two runs: a loaded machine's pauses are not the method's
+                        u = u.min(run(s, &layout, r, b).1);
+                    }
                     us.push(u + tau.map_or(0.0, |t| median(front_us[&t].clone())));
                     score(r, &pts)
                 })
@@ -581,8 +587,12 @@ fn main() {
     println!();
     println!("| method | setting | held-out worst kind | held-out mean | held-out physics worst kind | paper worst kind ÷ 14.5 mm | µs/frame |");
     println!("|---|---|---|---|---|---|---|");
-    let mut methods: Vec<&str> = rows.iter().map(|r| r.s.method()).collect();
-    methods.dedup();
+    let mut methods: Vec<&str> = Vec::new();
+    for r in &rows {
+        if !methods.contains(&r.s.method()) {
+            methods.push(r.s.method());
+        }
+    }
     let mut centroid_best = None;
     for m in methods {
         if let Some(r) = rows
@@ -647,7 +657,7 @@ fn main() {
     }
     println!();
     println!(
-        "Sensor width {width:.1} mm (BioTac SP layout x extent); core width {core_width:.1} mm (x extent of the electrodes' COMSOL core positions). Front end of the event contours (Savitzky–Golay + events, included in their µs/frame): {}.",
+        "Sensor width {width:.1} mm (BioTac SP layout x extent); core width {core_width:.1} mm (y extent, across the finger, of the electrodes' COMSOL core positions). Front end of the event contours (Savitzky–Golay + events, included in their µs/frame): {}.",
         taus.iter()
             .map(|t| {
                 let label = if *t < 0.0 { format!("{} σ", -t) } else { t.to_string() };

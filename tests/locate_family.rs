@@ -187,3 +187,64 @@ fn explain_prints_the_effective_locate_values_and_ambiguous_thresholds_are_refus
     let given = "[stages.locate]\nmethod = \"events\"\nevent_tau_sigmas = 0\n[stages.events]\nthreshold = 0.002\n";
     assert!(explain(given).unwrap().contains("τ = 0.002"));
 }
+
+#[test]
+fn explain_shows_the_fit_and_the_preset_values() {
+    use gradtac::{Plan, Scene};
+    use std::path::Path;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let sensor =
+        "[[sensor]]\nname = \"ff\"\nsource = { csv = \"x.csv\", columns = \"ff_e{1..24}\", rate_hz = 100.0 }\n";
+    let output = "[[output]]\ntap = \"track\"\npath = \"t.parquet\"\n";
+    let explain = |stages: &str| {
+        let scene = Scene::from_toml(&format!("{sensor}{stages}\n{output}"), dir, Path::new("s.toml"))?;
+        let plan = Plan::new(&scene)?;
+        Ok::<String, gradtac::Error>(plan.explain(&scene))
+    };
+    let fit = explain("[stages.locate]\nmethod = \"fit\"\nfit_iterations = 7\n").unwrap();
+    assert!(fit.contains("model fit (preset fast)") && fit.contains("≤ 7 iterations"), "{fit}");
+    assert!(!fit.contains("\n  surface"), "the fit needs no surface:\n{fit}");
+    let accurate = explain("[stages.locate]\npreset = \"accurate\"\n").unwrap();
+    assert!(accurate.contains("preset accurate"), "{accurate}");
+    assert!(explain("[stages.locate]\npreset = \"fastest\"\n").is_err());
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_rails = [5, 1]\n").is_err());
+}
+
+#[test]
+fn a_fit_scene_writes_the_fit_columns() {
+    use arrow_array::{Array, Float64Array};
+    use gradtac::run::{run_blocking, RunOptions};
+    use gradtac::{Plan, Scene};
+    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+    use std::path::Path;
+    let dir = tempfile::tempdir().unwrap();
+    let rec = Member { seed: 505, kind: PathKind::Circle }.simulate();
+    let mut csv = (1..=24).map(|i| format!("ff_e{i}")).collect::<Vec<_>>().join(",") + "\n";
+    for f in &rec.frames {
+        csv += &(f.values.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(",") + "\n");
+    }
+    std::fs::write(dir.path().join("x.csv"), csv).unwrap();
+    let text = "[[sensor]]\nname = \"ff\"\nsource = { csv = \"x.csv\", columns = \"ff_e{1..24}\", rate_hz = 100.0 }\n\
+                [stages.locate]\nmethod = \"fit\"\n[[output]]\ntap = \"track\"\npath = \"t.parquet\"\n";
+    let scene = Scene::from_toml(text, dir.path(), Path::new("s.toml")).unwrap();
+    let plan = Plan::new(&scene).unwrap();
+    run_blocking(&scene, &plan, &RunOptions::default()).unwrap();
+    let file = std::fs::File::open(dir.path().join("t.parquet")).unwrap();
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap();
+    let (mut contact, mut sigmas) = (0, Vec::new());
+    for b in reader {
+        let b = b.unwrap();
+        let x = b.column_by_name("x_mm").unwrap().as_any().downcast_ref::<Float64Array>().unwrap().clone();
+        let s = b.column_by_name("fit_sigma_mm").unwrap().as_any().downcast_ref::<Float64Array>().unwrap().clone();
+        for i in 0..b.num_rows() {
+            // a contact has the fit's columns; no contact has none
+            assert_eq!(x.is_null(i), s.is_null(i), "row {i}");
+            if !x.is_null(i) {
+                contact += 1;
+                sigmas.push(s.value(i));
+            }
+        }
+    }
+    assert!(contact > 50, "{contact} contact rows");
+    assert!(sigmas.iter().all(|s| s.is_finite() && *s >= 0.0), "{sigmas:?}");
+}

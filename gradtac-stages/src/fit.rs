@@ -44,8 +44,9 @@
 //! residual variance per degree of freedom), the iterations, the electrodes left out, and two
 //! flags:
 //! - **second region**: two or more electrodes farther than `2w + 2 mm` from the fit change in
-//!   the pressing direction by more than 4 `sᵢ` beyond the model — another contact the single
-//!   model does not explain. The fit keeps the stronger region (the robust loss and the two
+//!   the pressing direction beyond the model by more than 6 σᵢ and a fifth of the frame's
+//!   largest change (or one by more than two fifths) — another contact the single model does
+//!   not explain. The fit keeps the stronger region (the robust loss and the two
 //!   starts make it lock onto one region instead of averaging them, as a centroid does).
 //! - **at the edge** (`MaxContour::clipped`): the position hit the layout's extent (taxels'
 //!   bounding box + 2 mm); the point is that bound, and `sigma_mm` is large there.
@@ -78,6 +79,10 @@
 //! | `fit_gain_rate` | fixed gains: sign-flipped electrodes stay outliers | adapts faster, follows noise |
 //! | `fit_model_error` | trusts the kernel: strongest electrodes dominate | spreads trust; less precise |
 //! | `window_frames` | immediate, noisier | smoother, more delay |
+
+// small dense linear algebra (5×5 normal equations, Cholesky) and per-electrode arrays read
+// most clearly indexed
+#![allow(clippy::needless_range_loop)]
 
 use crate::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
 use crate::locate::{ChangeDetector, LocateConfig};
@@ -230,7 +235,7 @@ fn cholesky_solve(h: &[[f64; NP]; NP], g: &[f64; NP]) -> Option<[f64; NP]> {
                 s -= l[i][k] * l[j][k];
             }
             if i == j {
-                if !(s > 0.0) {
+                if s <= 0.0 || s.is_nan() {
                     return None;
                 }
                 l[i][i] = s.sqrt();
@@ -463,12 +468,10 @@ impl Fit {
                 dmax = dmax.max(self.d[i].abs());
             }
         }
-        if n - excluded as usize >= MIN_USED {
-            // fall through
-        } else {
+        if n - (excluded as usize) < MIN_USED {
             return None;
         }
-        if !(dmax > 0.0) {
+        if dmax <= 0.0 || dmax.is_nan() {
             return None;
         }
         let eps = cfg.fit_model_error * dmax;
@@ -541,10 +544,11 @@ impl Fit {
             used += 1;
             let pressing = (self.gain[i] * th[3]).signum();
             let dist = (self.positions[i][0] - th[0]).hypot(self.positions[i][1] - th[1]);
-            let z = r * pressing * self.inv_s[i];
-            if z > 4.0 && dist > 2.0 * w_mm + 2.0 {
+            // unexplained change in the pressing direction, far from the fit: another contact
+            let un = r * pressing;
+            if un > (6.0 * sigma[i]).max(0.2 * dmax) && dist > 2.0 * w_mm + 2.0 {
                 far += 1;
-                far_strong += usize::from(z > 8.0);
+                far_strong += usize::from(un > 0.4 * dmax);
             }
             outliers += usize::from(r.abs() * self.inv_s[i] > HUBER);
         }
