@@ -21,6 +21,7 @@
 
 use crate::Error;
 use gradtac_io::{ColumnSelector, CsvFrames, CsvSourceConfig};
+use gradtac_stages::contour::ContourFrame;
 use gradtac_stages::dos::{
     cross_validate, mirror_augmented, CrossValidation, DosClass, DosFeatureConfig, DosFeatureExtractor, DosModel,
     Feature, LabelledSpan,
@@ -422,4 +423,332 @@ pub fn held_out_report(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> 
     let recs = read_recordings(dir, opts)?;
     let tables = design_tables(&recs, &opts.features, layout, usize::MAX)?;
     held_out(&tables, &design_candidates(&opts.features), opts.student_t_dof)
+}
+
+// ---------------------------------------------------------------------------------------------
+// `gradtac calibrate force` and `gradtac calibrate baseline`
+// ---------------------------------------------------------------------------------------------
+
+/// Most frames a force or baseline calibration reads (a bound on its memory: ≈ 200 bytes per
+/// frame for a 24-taxel sensor); later frames are not read.
+pub const MAX_CALIBRATION_FRAMES: u64 = 2_000_000;
+
+/// Where the gauge's newtons come from.
+#[derive(Clone, Debug)]
+pub enum GaugeSource {
+    /// A column of the sensor's own CSV recording (same rows, same times).
+    SameCsv {
+        /// The column's name.
+        column: String,
+    },
+    /// A CSV of its own, matched to the frames by time.
+    File {
+        /// The file.
+        path: PathBuf,
+        /// The force column.
+        column: String,
+        /// The time column (on the recording's clock).
+        time_column: String,
+        /// Its unit.
+        time_unit: gradtac_io::TimeUnit,
+    },
+}
+
+/// Options of `gradtac calibrate force`.
+#[derive(Clone, Debug)]
+pub struct ForceCalibration {
+    /// The sensor (default: the scene's only sensor).
+    pub sensor: Option<String>,
+    /// The gauge.
+    pub gauge: GaugeSource,
+    /// The method (default [`force_model::DEFAULT_METHOD`](gradtac_stages::force_model::DEFAULT_METHOD)).
+    pub method: gradtac_stages::force_model::CalibrationMethod,
+}
+
+/// The one sensor a calibration reads: `name`, or the scene's only sensor.
+pub fn calibration_sensor(scene: &crate::Scene, name: Option<&str>) -> Result<usize, Error> {
+    let bad = |reason: String| Error::Scene { path: scene.origin.clone(), reason };
+    match name {
+        Some(n) => scene.sensors.iter().position(|s| s.name == n).ok_or_else(|| bad(format!("no sensor {n:?}"))),
+        None if scene.sensors.len() == 1 => Ok(0),
+        None => {
+            Err(bad(format!("the scene has {} sensors; name the one to calibrate with --sensor", scene.sensors.len())))
+        }
+    }
+}
+
+/// A gauge's readings `(time ns, N)`, in time order.
+pub fn read_gauge(scene: &crate::Scene, sensor: usize, gauge: &GaugeSource) -> Result<Vec<(i64, f64)>, Error> {
+    let spec = &scene.sensors[sensor];
+    let cfg = match gauge {
+        GaugeSource::SameCsv { column } => match &spec.source {
+            crate::scene::SourceSpec::Csv(c) => CsvSourceConfig {
+                path: scene.resolve(&c.path),
+                columns: ColumnSelector::Names(vec![column.clone()]),
+                ..c.clone()
+            },
+            other => {
+                return Err(Error::Scene {
+                    path: scene.origin.clone(),
+                    reason: format!(
+                        "sensor {:?} reads a {} source: give the gauge's CSV with --force-file (matched by time)",
+                        spec.name,
+                        other.kind()
+                    ),
+                })
+            }
+        },
+        GaugeSource::File { path, column, time_column, time_unit } => {
+            CsvSourceConfig::new(path, ColumnSelector::Names(vec![column.clone()]))
+                .with_time_column(time_column.clone(), *time_unit)
+        }
+    };
+    let frames = CsvFrames::open(&cfg, SensorId::new("gauge"))?;
+    let mut out = Vec::new();
+    for (row, f) in frames.enumerate() {
+        let f = f?;
+        if out.len() as u64 >= MAX_CALIBRATION_FRAMES {
+            break;
+        }
+        let v = f.values[0];
+        if !v.is_finite() {
+            return Err(Error::Scene {
+                path: cfg.path.clone(),
+                reason: format!("gauge reading {} (data row {}) is not a finite number", v, row + 1),
+            });
+        }
+        out.push((f.time.0, v));
+    }
+    if out.is_empty() {
+        return Err(Error::Scene { path: cfg.path.clone(), reason: "no gauge readings".into() });
+    }
+    Ok(out)
+}
+
+/// The gauge at time `t` (ns): linear between readings; `None` outside them or across a gap
+/// of more than 5 × the median reading interval.
+fn gauge_at(g: &[(i64, f64)], t: i64, max_gap: i64) -> Option<f64> {
+    let j = g.partition_point(|r| r.0 <= t);
+    if j == 0 {
+        return None;
+    }
+    let (t0, f0) = g[j - 1];
+    if t0 == t {
+        return Some(f0);
+    }
+    let &(t1, f1) = g.get(j)?;
+    if t1 - t0 > max_gap {
+        return None;
+    }
+    Some(f0 + (f1 - f0) * (t - t0) as f64 / (t1 - t0) as f64)
+}
+
+/// Raw frames in, contours out (one scene's contact location, boxed).
+type ContourFront = Box<dyn FnMut(TaxelFrame, &mut Vec<ContourFrame>) -> Result<(), Error>>;
+
+/// Contact location as a scene builds it (`[stages.locate] method`), raw frames to contours,
+/// for the area method's calibration.
+fn contour_front(scene: &crate::Scene, layout: &Layout, rate_hz: Option<f64>) -> Result<ContourFront, Error> {
+    use gradtac_stages::locate::LocateMethod;
+    use gradtac_stream::{Stage, StageExt};
+    let st = &scene.stages;
+    let n = layout.len();
+    let fused =
+        || gradtac_stages::peak::SurfaceContour::try_new(&st.surface, &crate::chain::effective_contour(st), layout);
+    let tare = scene.loaded.tare.clone();
+    fn boxed<S>(mut s: S) -> ContourFront
+    where
+        S: Stage<In = TaxelFrame, Out = ContourFrame> + 'static,
+        S::Error: Into<Error>,
+    {
+        Box::new(move |f, out| s.push(f, out).map_err(Into::into))
+    }
+    Ok(match st.locate.method {
+        LocateMethod::Centroid => {
+            let mut c = gradtac_stages::centroid::Centroid::try_new(&st.locate, layout)?;
+            if let Some(t) = &tare {
+                c = c.with_tare(t)?;
+            }
+            boxed(c)
+        }
+        LocateMethod::RawContour => {
+            let mut r = gradtac_stages::raw_contour::RawChange::try_new(n, &st.locate)?;
+            if let Some(t) = &tare {
+                r = r.with_tare(t)?;
+            }
+            boxed(r.then(fused()?))
+        }
+        LocateMethod::Fit => {
+            let mut f = gradtac_stages::fit::Fit::try_new(&st.locate, layout)?;
+            if let Some(t) = &tare {
+                f = f.with_tare(t)?;
+            }
+            boxed(f)
+        }
+        LocateMethod::Events => {
+            let sg = match rate_hz {
+                Some(r) => gradtac_stages::savgol::SavGol::try_with_rate(n, st.savgol.clone(), r)?,
+                None => gradtac_stages::savgol::SavGol::try_new(n, st.savgol.clone())?,
+            };
+            boxed(
+                gradtac_stages::normalise::Normalise::try_new(n, &st.normalise)?
+                    .then(sg)
+                    .then(gradtac_stages::events::Events::try_new(n, crate::chain::effective_events(st))?)
+                    .then(gradtac_stages::window::Window::try_new(&st.window)?)
+                    .then(fused()?),
+            )
+        }
+    })
+}
+
+/// What a force calibration did.
+#[derive(Clone, Debug)]
+pub struct ForceCalibrationReport {
+    /// Frames read.
+    pub frames: u64,
+    /// Frames with a gauge reading at their time.
+    pub with_gauge: u64,
+    /// Frames the gauge calls untouched (below 0.05 N) and, of those, how many the fitted
+    /// model puts above 0.5 N (in sample).
+    pub untouched: (u64, u64),
+}
+
+/// Calibrate a force model from a scene's one sensor and a gauge (`gradtac calibrate force`):
+/// the scene's detector settings (and stored baseline) or contact location, each frame's
+/// features matched with the gauge at the centre of the frames it averages.
+pub fn calibrate_force(
+    scene: &crate::Scene,
+    opts: &ForceCalibration,
+) -> Result<(gradtac_stages::force_model::ForceFile, ForceCalibrationReport), Error> {
+    use gradtac_stages::force_model::{self, CalibrationMethod, GaugeSample};
+    let index = calibration_sensor(scene, opts.sensor.as_deref())?;
+    let spec = &scene.sensors[index];
+    let layout = scene.layout(spec)?;
+    let gauge = read_gauge(scene, index, &opts.gauge)?;
+    let mut dts: Vec<i64> = gauge.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    dts.sort_unstable();
+    let max_gap = dts.get(dts.len() / 2).copied().unwrap_or(0).saturating_mul(5).max(1);
+    let mut samples: Vec<GaugeSample> = Vec::new();
+    let frames;
+    let centre = |s: gradtac_stream::Timestamp, e: gradtac_stream::Timestamp| s.0 + (e.0 - s.0) / 2;
+    match opts.method {
+        CalibrationMethod::Ridge => {
+            let mut det = gradtac_stages::locate::ChangeDetector::try_new(layout.len(), &scene.stages.locate)?
+                .follow_all_when_untouched();
+            if let Some(t) = &scene.loaded.tare {
+                det = det.with_tare(t)?;
+            }
+            frames = crate::run::for_each_frame(scene, &spec.name, MAX_CALIBRATION_FRAMES, |f| {
+                let ch = det.push(&f, "calibrate force")?;
+                if let Some(force_n) = gauge_at(&gauge, centre(ch.start, ch.end), max_gap) {
+                    samples.push(GaugeSample {
+                        change: det.change().to_vec(),
+                        contact: ch.contact,
+                        area_mm2: None,
+                        amplitude: None,
+                        force_n,
+                    });
+                }
+                Ok(true)
+            })?;
+        }
+        CalibrationMethod::Area | CalibrationMethod::Amplitude => {
+            if opts.method == CalibrationMethod::Amplitude
+                && scene.stages.locate.method != gradtac_stages::locate::LocateMethod::Fit
+            {
+                return Err(Error::Scene {
+                    path: scene.origin.clone(),
+                    reason: "--method amplitude reads the contact fit: set [stages.locate] method = \"fit\"".into(),
+                });
+            }
+            let mut front = contour_front(scene, &layout, spec.source.rate_hz())?;
+            let mut out = Vec::new();
+            let push = |out: &mut Vec<ContourFrame>, samples: &mut Vec<GaugeSample>| {
+                for c in out.drain(..) {
+                    if let Some(force_n) = gauge_at(&gauge, centre(c.start, c.end), max_gap) {
+                        let (area, amplitude) = match &c.outcome {
+                            gradtac_stages::contour::ContourOutcome::Contact(m) => {
+                                (Some(m.area_mm2), m.fit.as_ref().map(|f| f.amplitude))
+                            }
+                            _ => (None, None),
+                        };
+                        samples.push(GaugeSample {
+                            change: Vec::new(),
+                            contact: area.is_some(),
+                            area_mm2: area,
+                            amplitude,
+                            force_n,
+                        });
+                    }
+                }
+            };
+            frames = crate::run::for_each_frame(scene, &spec.name, MAX_CALIBRATION_FRAMES, |f| {
+                front(f, &mut out)?;
+                push(&mut out, &mut samples);
+                Ok(true)
+            })?;
+        }
+    }
+    let file = force_model::calibrate(
+        &samples,
+        opts.method,
+        force_model::DEFAULT_RIDGE_LAMBDA,
+        force_model::DEFAULT_AREA_CURVE,
+        &layout,
+    )
+    .map_err(|e| Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {e}", spec.name) })?;
+    let predict = |s: &GaugeSample| file.model.predict_sample(s);
+    let quiet: Vec<&GaugeSample> = samples.iter().filter(|s| s.force_n < force_model::MIN_CALIBRATION_N).collect();
+    let over = quiet.iter().filter(|s| predict(s).is_some_and(|p| p > 0.5)).count() as u64;
+    let report =
+        ForceCalibrationReport { frames, with_gauge: samples.len() as u64, untouched: (quiet.len() as u64, over) };
+    Ok((file, report))
+}
+
+/// Measure a stored untouched baseline (`gradtac calibrate baseline`) from the frames of the
+/// scene's one sensor between `from_s` and `to_s` seconds after its first frame (`to_s`
+/// `None`: to the end), refusing a stretch with a contact in it.
+pub fn calibrate_baseline(
+    scene: &crate::Scene,
+    sensor: Option<&str>,
+    from_s: f64,
+    to_s: Option<f64>,
+) -> Result<gradtac_stages::tare::Tare, Error> {
+    let index = calibration_sensor(scene, sensor)?;
+    let spec = &scene.sensors[index];
+    let layout = scene.layout(spec)?;
+    let bad = |reason: String| Error::Scene { path: scene.origin.clone(), reason };
+    if !(from_s.is_finite() && from_s >= 0.0 && to_s.is_none_or(|t| t.is_finite() && t > from_s)) {
+        return Err(bad(format!("--from {from_s} --to {to_s:?}: want 0 ≤ from < to")));
+    }
+    let (mut first, mut values, mut times) = (None, Vec::new(), Vec::new());
+    crate::run::for_each_frame(scene, &spec.name, MAX_CALIBRATION_FRAMES, |f| {
+        let t0 = *first.get_or_insert(f.time.0);
+        let s = (f.time.0 - t0) as f64 * 1e-9;
+        if to_s.is_some_and(|to| s > to) {
+            return Ok(false);
+        }
+        if s >= from_s {
+            if f.values.len() != layout.len() {
+                return Err(bad(format!(
+                    "frame {} has {} taxels, the layout {} has {}",
+                    f.seq,
+                    f.values.len(),
+                    layout.name(),
+                    layout.len()
+                )));
+            }
+            times.push(f.time.0);
+            values.push(f.values);
+        }
+        Ok(true)
+    })?;
+    gradtac_stages::tare::Tare::measure(&values, &times, layout.name(), &spec.name, &scene.stages.locate)
+        .map_err(|e| bad(format!("sensor {:?}: {e}", spec.name)))
+}
+
+/// Write any model as pretty JSON (after [`guard::check_output_file`](crate::guard::check_output_file)).
+pub fn write_json<T: serde::Serialize>(value: &T, path: &Path) -> Result<(), Error> {
+    let json = serde_json::to_string_pretty(value).expect("models serialise");
+    std::fs::write(path, json).map_err(|source| Error::Io { path: path.to_path_buf(), source })
 }

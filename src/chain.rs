@@ -1,7 +1,7 @@
 //! One sensor's stages, built only where its outputs need them (the tap tree of [`Tap::parent`]).
 
 use crate::plan::{SensorPlan, Tap};
-use crate::scene::{Scene, StageSettings};
+use crate::scene::{ForceModelSpec, ForceSettings, Scene, StageSettings};
 use crate::sinks::RecordWriter;
 use crate::Error;
 use gradtac_stages::centroid::Centroid;
@@ -9,7 +9,8 @@ use gradtac_stages::contour::{Contour, ContourConfig, ContourFrame, Levels};
 use gradtac_stages::dos::{DosClassifier, DosDecision};
 use gradtac_stages::events::{Events, Threshold};
 use gradtac_stages::fit::Fit;
-use gradtac_stages::force::{Force, ForceEstimate, ForceModel};
+use gradtac_stages::force::{Force, ForceConfig, ForceEstimate, ForceModel};
+use gradtac_stages::force_model::{CalibratedForce, ChangeForce};
 use gradtac_stages::interpolate::{Interpolate, Surface};
 use gradtac_stages::locate::LocateMethod;
 use gradtac_stages::normalise::{Bounds, Normalise};
@@ -45,6 +46,11 @@ pub struct SensorChain {
     raw_change: Option<RawChange>,
     track: Option<Track>,
     force: Option<Force>,
+    /// A force model on the changes (`[stages.force] model = "….json"` of `ridge`): raw frames
+    /// in.
+    change_force: Option<ChangeForce>,
+    /// Whether the stored baseline's mismatch was reported.
+    tare_warned: bool,
     servo: Option<Servo>,
     dos: Option<DosClassifier>,
     raw: Vec<TaxelFrame>,
@@ -109,9 +115,13 @@ where
 
 /// The change detector's effective settings, for `explain`.
 fn describe_detector(l: &gradtac_stages::locate::LocateConfig) -> String {
+    let base = match &l.baseline {
+        Some(p) => format!("stored baseline {} (contact from the first frame)", p.display()),
+        None => format!("calibrate {} frames", l.calibrate_frames),
+    };
     format!(
-        "calibrate {} frames, mean of {} frames, floor {} σ, contact {} σ, baseline follows drift τ = {} s",
-        l.calibrate_frames, l.window_frames, l.floor_sigmas, l.contact_sigmas, l.follow_s
+        "{base}, mean of {} frames, floor {} σ, contact {} σ, baseline follows drift τ = {} s",
+        l.window_frames, l.floor_sigmas, l.contact_sigmas, l.follow_s
     )
 }
 
@@ -153,6 +163,58 @@ impl SensorChain {
             }
         }
         let contour = runs(Tap::Contour) && !matches!(method, LocateMethod::Centroid | LocateMethod::Fit);
+        let tare = scene.loaded.tare.as_ref();
+        let scene_err = |reason: String| Error::Scene { path: scene.origin.clone(), reason };
+        if let Some(t) = tare.filter(|t| t.taxels != n) {
+            return Err(scene_err(format!(
+                "[stages.locate] baseline {}: measured on {} taxels, the sensor's layout {} has {n}",
+                st.locate.baseline.as_deref().unwrap_or(std::path::Path::new("")).display(),
+                t.taxels,
+                plan.layout.name()
+            )));
+        }
+        let (force, change_force) =
+            match (runs(Tap::Force), &st.force) {
+                (false, _) => (None, None),
+                (true, None) => return Err(scene_err(
+                    "the force tap needs a calibrated model: [stages.force] model = \"force.json\" (write one with \
+                     gradtac calibrate force SCENE --force-column NAME --out force.json) or an inline area curve \
+                     model = { method = …, … }"
+                        .into(),
+                )),
+                (true, Some(ForceSettings { model: ForceModelSpec::Inline(m), min_area_mm2 })) => {
+                    (Some(Force::try_new(&ForceConfig { model: m.clone(), min_area_mm2: *min_area_mm2 })?), None)
+                }
+                (true, Some(ForceSettings { model: ForceModelSpec::File(p), min_area_mm2 })) => {
+                    let file = scene.loaded.force.as_ref().expect("read by Scene::load");
+                    file.check_layout(&plan.layout)
+                        .map_err(|e| scene_err(format!("[stages.force] model {}: {e}", p.display())))?;
+                    match &file.model {
+                        CalibratedForce::Area { curve } => (
+                            Some(Force::try_new(&ForceConfig { model: curve.clone(), min_area_mm2: *min_area_mm2 })?),
+                            None,
+                        ),
+                        CalibratedForce::Amplitude { curve } => {
+                            if method != LocateMethod::Fit {
+                                return Err(scene_err(format!(
+                                    "[stages.force] model {}: an amplitude model reads the contact fit; set \
+                                     [stages.locate] method = \"fit\"",
+                                    p.display()
+                                )));
+                            }
+                            let cfg = ForceConfig { model: curve.clone(), min_area_mm2: *min_area_mm2 };
+                            (Some(Force::try_new(&cfg)?.on_fit_amplitude()), None)
+                        }
+                        _ => {
+                            let mut f = ChangeForce::try_new(file, &st.locate)?;
+                            if let Some(t) = tare {
+                                f = f.with_tare(t)?;
+                            }
+                            (None, Some(f))
+                        }
+                    }
+                }
+            };
         let fuse = contour && taps[Tap::Surface as usize].is_empty();
         Ok(SensorChain {
             sensor: SensorId::new(&plan.name),
@@ -169,7 +231,12 @@ impl SensorChain {
                 .then(|| Window::try_new(&st.window))
                 .transpose()?,
             raw_change: (runs(Tap::Window) && method == LocateMethod::RawContour)
-                .then(|| RawChange::try_new(n, &st.locate))
+                .then(|| {
+                    RawChange::try_new(n, &st.locate).and_then(|r| match tare {
+                        Some(t) => r.with_tare(t),
+                        None => Ok(r),
+                    })
+                })
                 .transpose()?,
             surface: (runs(Tap::Surface) && !fuse)
                 .then(|| Interpolate::try_new(&st.surface, &plan.layout))
@@ -179,24 +246,25 @@ impl SensorChain {
                 .then(|| SurfaceContour::try_new(&st.surface, &effective_contour(st), &plan.layout))
                 .transpose()?,
             centroid: (runs(Tap::Contour) && method == LocateMethod::Centroid)
-                .then(|| Centroid::try_new(&st.locate, &plan.layout))
+                .then(|| {
+                    Centroid::try_new(&st.locate, &plan.layout).and_then(|c| match tare {
+                        Some(t) => c.with_tare(t),
+                        None => Ok(c),
+                    })
+                })
                 .transpose()?,
             fit: (runs(Tap::Contour) && method == LocateMethod::Fit)
-                .then(|| Fit::try_new(&st.locate, &plan.layout))
+                .then(|| {
+                    Fit::try_new(&st.locate, &plan.layout).and_then(|c| match tare {
+                        Some(t) => c.with_tare(t),
+                        None => Ok(c),
+                    })
+                })
                 .transpose()?,
             track: runs(Tap::Track).then(|| Track::try_new(&st.track)).transpose()?,
-            force: match (runs(Tap::Force), &st.force) {
-                (false, _) => None,
-                (true, Some(cfg)) => Some(Force::try_new(cfg)?),
-                (true, None) => {
-                    return Err(Error::Scene {
-                        path: scene.origin.clone(),
-                        reason: "the force tap needs a calibrated model: [stages.force] model = { method = …, … } \
-                                 (fit one from labelled data with ForceModel::fit, see the force stage docs)"
-                            .into(),
-                    })
-                }
-            },
+            force,
+            change_force,
+            tare_warned: false,
             servo: runs(Tap::Servo).then(|| Servo::try_new(&st.servo, &plan.layout)).transpose()?,
             dos: match (runs(Tap::Dos), &st.dos) {
                 (false, _) => None,
@@ -403,8 +471,22 @@ impl SensorChain {
                 };
                 format!("{gate}, release after {} frames, velocity α {}", t.release_frames, t.velocity_alpha)
             }
+            Tap::Force if self.change_force.is_some() => {
+                let f = self.change_force.as_ref().expect("checked");
+                format!(
+                    "ridge on the {} signed changes (model file), no force without contact, every baseline follows \
+                     drift while untouched ({})",
+                    f.detector().change().len(),
+                    describe_detector(&st.locate)
+                )
+            }
             Tap::Force => st.force.as_ref().map_or("no model".into(), |f| {
-                let m = match &f.model {
+                let curve = match &f.model {
+                    ForceModelSpec::Inline(m) => Some(m),
+                    ForceModelSpec::File(_) => None,
+                };
+                let Some(model) = self.force.as_ref().map(|f| f.model()).or(curve) else { return String::new() };
+                let m = match model {
                     ForceModel::Linear { .. } => "linear",
                     ForceModel::PowerLaw { .. } => "power law",
                     ForceModel::Exponential { .. } => "exponential",
@@ -430,6 +512,31 @@ impl SensorChain {
                 ),
                 _ => String::new(),
             },
+        }
+    }
+
+    /// Warn once when a stored baseline stopped fitting the sensor.
+    fn warn_tare_mismatch(&mut self) {
+        if self.tare_warned {
+            return;
+        }
+        let detectors = [
+            self.centroid.as_ref().map(Centroid::detector),
+            self.raw_change.as_ref().map(RawChange::detector),
+            self.change_force.as_ref().map(ChangeForce::detector),
+            self.fit.as_ref().map(Fit::detector),
+        ];
+        if let Some(m) = detectors.into_iter().flatten().find_map(|d| d.tare_mismatch()) {
+            tracing::warn!(
+                sensor = %self.sensor,
+                frame = m.seq,
+                median_sigmas = m.median_sigmas,
+                "the stored baseline ([stages.locate] baseline) no longer fits the sensor: most taxels sit {:.0} σ \
+                 from it (another sensor, or a temperature shift?); contacts are measured against it all the \
+                 same — measure a new one with gradtac calibrate baseline",
+                m.median_sigmas
+            );
+            self.tare_warned = true;
         }
     }
 
@@ -499,6 +606,13 @@ impl SensorChain {
             sinks.write_all(&self.taps[Tap::Dos as usize], &self.decisions)?;
             self.decisions.clear();
         }
+        if let Some(f) = &mut self.change_force {
+            let shared =
+                self.centroid.is_some() || self.fit.is_some() || self.raw_change.is_some() || self.normalise.is_some();
+            feed_from(f, &mut self.raw, shared, &mut self.forces, finish)?;
+            sinks.write_all(&self.taps[Tap::Force as usize], &self.forces)?;
+            self.forces.clear();
+        }
         if let Some(c) = &mut self.centroid {
             let shared = self.fit.is_some() || self.raw_change.is_some() || self.normalise.is_some();
             feed_from(c, &mut self.raw, shared, &mut self.contours, finish)?;
@@ -510,6 +624,7 @@ impl SensorChain {
         if let Some(r) = &mut self.raw_change {
             feed_from(r, &mut self.raw, self.normalise.is_some(), &mut self.windows, finish)?;
         }
+        self.warn_tare_mismatch();
         self.process_events(finish, sinks)?;
         sinks.write_all(&self.taps[Tap::Window as usize], &self.windows)?;
         if let Some(st) = &mut self.fused {

@@ -26,6 +26,9 @@ impl Plan {
                 other => Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {other}", p.name) },
             })?;
         }
+        for u in crate::unused::unused_settings(scene, &plan) {
+            tracing::warn!("{}:{}: {} is set but not used: {}", scene.origin.display(), u.line, u.key, u.why);
+        }
         Ok(plan)
     }
 
@@ -63,15 +66,20 @@ impl Plan {
                     let next: Vec<&str> = p
                         .stages()
                         .filter(|t| {
-                            t.parent_in(scene.stages.locate.method) == Some(tap)
+                            (t.parent_in(scene.stages.locate.method) == Some(tap)
+                                && !(*t == Tap::Force && scene.force_reads_frames()))
                                 // the slip stage's pattern evidence reads the raw frames
                                 || (*t, tap) == (Tap::Slip, Tap::Source) && slip_reads_frames
+                                || (*t, tap) == (Tap::Force, Tap::Source) && scene.force_reads_frames()
                         })
                         .map(Tap::name)
                         .collect();
                     format!("feeds {}", next.join(", "))
                 };
                 let _ = writeln!(s, "  {:<10} {:<52} {}", tap.name(), chain.describe(tap, &scene.stages), why);
+            }
+            if let (Some(t), Some(path)) = (&scene.loaded.tare, &scene.stages.locate.baseline) {
+                let _ = writeln!(s, "  {:<10} {}", "baseline", describe_tare(scene, p, t, path));
             }
             let mut delay = chain.delay();
             let mut what = "";
@@ -101,6 +109,13 @@ impl Plan {
                 chain.startup_frames()
             );
         }
+        let unused = crate::unused::unused_settings(scene, self);
+        if !unused.is_empty() {
+            let _ = writeln!(s, "settings not used by this plan:");
+            for u in unused {
+                let _ = writeln!(s, "  {}:{}: {} — {}", scene.origin.display(), u.line, u.key, u.why);
+            }
+        }
         let _ = writeln!(s, "outputs:");
         for (i, o) in scene.outputs.iter().enumerate() {
             let who = o.sensors.as_ref().map_or("all sensors".to_string(), |v| v.join(", "));
@@ -108,4 +123,60 @@ impl Plan {
         }
         s
     }
+}
+
+/// The stored baseline, and whether it fits the start of the sensor's recording (file sources
+/// only: a live bus is not read by `explain`).
+fn describe_tare(
+    scene: &Scene,
+    p: &crate::plan::SensorPlan,
+    t: &gradtac_stages::tare::Tare,
+    path: &std::path::Path,
+) -> String {
+    let mean_noise = t.noise.iter().sum::<f64>() / t.noise.len().max(1) as f64;
+    let mut line = format!(
+        "stored {} (sensor {}, layout {}, {} untouched frames, mean noise {:.2})",
+        path.display(),
+        t.sensor,
+        t.layout,
+        t.frames,
+        mean_noise
+    );
+    if t.taxels != p.layout.len() {
+        let _ = write!(line, "; DOES NOT FIT: {} taxels, the sensor has {}", t.taxels, p.layout.len());
+        return line;
+    }
+    if matches!(scene.sensors[p.index].source, crate::scene::SourceSpec::Bus { .. }) {
+        return line;
+    }
+    let mut sum = vec![0.0; t.taxels];
+    let mut k = 0usize;
+    let read = crate::run::for_each_frame(scene, &p.name, 10, |f| {
+        if f.values.len() == sum.len() {
+            sum.iter_mut().zip(&f.values).for_each(|(s, v)| *s += v);
+            k += 1;
+        }
+        Ok(true)
+    });
+    match read {
+        Ok(_) if k > 0 => {
+            let mean: Vec<f64> = sum.iter().map(|s| s / k as f64).collect();
+            let z = t.median_sigmas(&mean).unwrap_or(f64::NAN);
+            let contact = scene.stages.locate.contact_sigmas;
+            if z > contact {
+                let _ = write!(
+                    line,
+                    "; DOES NOT FIT the recording's first frames: the median taxel is {z:.0} σ from it (> {contact} σ: \
+                     another sensor, or a temperature shift?)"
+                );
+            } else {
+                let _ = write!(line, "; fits the recording's first frames (median taxel {z:.1} σ from it)");
+            }
+        }
+        Ok(_) => {}
+        Err(e) => {
+            let _ = write!(line, "; the recording could not be read to check it: {e}");
+        }
+    }
+    line
 }

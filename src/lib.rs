@@ -105,6 +105,7 @@ mod recorded;
 pub mod run;
 pub mod scene;
 pub mod sinks;
+pub mod unused;
 #[cfg(feature = "view")]
 pub mod view;
 

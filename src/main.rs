@@ -15,6 +15,8 @@ struct Cli {
     command: Command,
 }
 
+// parsed once per process: the variants' sizes do not matter
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Run a scene: read its sources, run the stages its outputs need, write the outputs.
@@ -73,44 +75,17 @@ enum Command {
         /// The scene file (TOML).
         scene: PathBuf,
     },
-    /// Fit the one-fingertip slip-direction model from labelled recordings
-    /// (`DIR/<class>/<name>.csv`, classes n e s w cw aw t) and write it as JSON for a scene's
-    /// `[stages.dos] model = "…"`.
+    /// Fit a model from recordings: `calibrate force SCENE --force-column NAME --out force.json`
+    /// (force from a gauge), `calibrate baseline SCENE --out tare.json` (a stored untouched
+    /// baseline), or the one-fingertip slip-direction model from labelled recordings
+    /// (`calibrate DIR -o m.json`, also `calibrate dos DIR -o m.json`; `DIR/<class>/<name>.csv`,
+    /// classes n e s w cw aw t) as JSON for a scene's `[stages.dos] model = "…"`.
+    #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
     Calibrate {
-        /// Directory of labelled recordings (e.g. BioTacSP-DoS).
-        data: PathBuf,
-        /// Where to write the model.
-        #[arg(long, short)]
-        out: PathBuf,
-        /// Taxel columns of the recordings.
-        #[arg(long, default_value = "ff_e{1..24}")]
-        columns: String,
-        /// Sample rate of the recordings (Hz).
-        #[arg(long, default_value_t = 100.0)]
-        rate_hz: f64,
-        /// Feature settings: a TOML file with the fields of the model's `config` (e.g.
-        /// `drift_lags = [30, 60, 120]`, `features = ["drift_level", …]`); default: the
-        /// built-in settings.
-        #[arg(long)]
-        settings: Option<PathBuf>,
-        /// Variance shrinkage λ in [0, 1] toward the pooled within-class variances.
-        #[arg(long, default_value_t = gradtac::stages::dos::DosModel::DEFAULT_SHRINKAGE)]
-        shrinkage: f64,
-        /// Gaussian class densities instead of Student t.
-        #[arg(long, conflicts_with = "student_t")]
-        gaussian: bool,
-        /// Degrees of freedom ν of the Student-t class densities.
-        #[arg(long, default_value_t = gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF)]
-        student_t: f64,
-        /// Before fitting, print a leave-one-object-out cross-validation of these settings
-        /// (objects: the leading letters of the file names, `bottle12.csv` → `bottle`), and the
-        /// held-out figures of the design choice: nested leave-one-object-out and, with both
-        /// BioTacSP-DoS object sets present, basic → solids and solids → basic.
-        #[arg(long)]
-        cross_validate: bool,
-        /// Fit on the recordings only, without their mirror images across y = 0.
-        #[arg(long)]
-        no_mirror: bool,
+        #[command(subcommand)]
+        what: Option<CalibrateWhat>,
+        #[command(flatten)]
+        dos: DosArgs,
     },
     #[cfg(feature = "plot")]
     /// Render a gradtac Parquet output (any schema, any version: frame, event, window,
@@ -190,6 +165,99 @@ impl ViewArgs {
 #[cfg(feature = "view")]
 fn reads_live_bus(scene: &Scene) -> bool {
     scene.buses.iter().any(|b| !matches!(b.source, gradtac::scene::BusSource::Candump(_)))
+}
+
+/// `gradtac calibrate [dos] DIR -o m.json`: the slip-direction model.
+#[derive(clap::Args)]
+struct DosArgs {
+    /// Directory of labelled recordings (e.g. BioTacSP-DoS).
+    data: Option<PathBuf>,
+    /// Where to write the model.
+    #[arg(long, short)]
+    out: Option<PathBuf>,
+    /// Taxel columns of the recordings.
+    #[arg(long, default_value = "ff_e{1..24}")]
+    columns: String,
+    /// Sample rate of the recordings (Hz).
+    #[arg(long, default_value_t = 100.0)]
+    rate_hz: f64,
+    /// Feature settings: a TOML file with the fields of the model's `config` (e.g.
+    /// `drift_lags = [30, 60, 120]`, `features = ["drift_level", …]`); default: the
+    /// built-in settings.
+    #[arg(long)]
+    settings: Option<PathBuf>,
+    /// Variance shrinkage λ in [0, 1] toward the pooled within-class variances.
+    #[arg(long, default_value_t = gradtac::stages::dos::DosModel::DEFAULT_SHRINKAGE)]
+    shrinkage: f64,
+    /// Gaussian class densities instead of Student t.
+    #[arg(long, conflicts_with = "student_t")]
+    gaussian: bool,
+    /// Degrees of freedom ν of the Student-t class densities.
+    #[arg(long, default_value_t = gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF)]
+    student_t: f64,
+    /// Before fitting, print a leave-one-object-out cross-validation of these settings
+    /// (objects: the leading letters of the file names, `bottle12.csv` → `bottle`), and the
+    /// held-out figures of the design choice: nested leave-one-object-out and, with both
+    /// BioTacSP-DoS object sets present, basic → solids and solids → basic.
+    #[arg(long)]
+    cross_validate: bool,
+    /// Fit on the recordings only, without their mirror images across y = 0.
+    #[arg(long)]
+    no_mirror: bool,
+}
+
+/// What `gradtac calibrate` fits.
+#[derive(Subcommand)]
+enum CalibrateWhat {
+    /// Force from a gauge: the scene's one sensor names the recording (any source); the
+    /// gauge's newtons are a column of the same CSV (`--force-column`) or of a CSV of their
+    /// own (`--force-file`, matched by time). Writes a model for `[stages.force] model = "…"`.
+    Force {
+        /// The scene whose sensor names the recording.
+        scene: PathBuf,
+        /// The column of measured newtons.
+        #[arg(long, value_name = "NAME")]
+        force_column: String,
+        /// A CSV holding the force column and a time column, for sources other than CSV.
+        #[arg(long, value_name = "CSV")]
+        force_file: Option<PathBuf>,
+        /// The time column of --force-file (the recording's clock).
+        #[arg(long, default_value = "time", value_name = "NAME", requires = "force_file")]
+        force_time_column: String,
+        /// Unit of --force-time-column: s, ms, us or ns.
+        #[arg(long, default_value = "s", value_name = "UNIT", requires = "force_file")]
+        force_time_unit: String,
+        /// The sensor (default: the scene's only one).
+        #[arg(long)]
+        sensor: Option<String>,
+        /// The method: ridge (on the baseline-relative changes), area (contour area of the
+        /// scene's contact location) or amplitude (the contact fit's, with method = "fit").
+        #[arg(long, default_value = gradtac::stages::force_model::DEFAULT_METHOD.name())]
+        method: String,
+        /// Where to write the model (JSON).
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+    /// A stored untouched baseline from a stretch of the scene's one sensor without contact,
+    /// for `[stages.locate] baseline = "…"` (contact from a recording's first frame).
+    Baseline {
+        /// The scene whose sensor names the recording.
+        scene: PathBuf,
+        /// The sensor (default: the scene's only one).
+        #[arg(long)]
+        sensor: Option<String>,
+        /// Start of the untouched stretch (s after the first frame).
+        #[arg(long, default_value_t = 0.0)]
+        from: f64,
+        /// End of the untouched stretch (s after the first frame; default: the end).
+        #[arg(long)]
+        to: Option<f64>,
+        /// Where to write the baseline (JSON).
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+    /// The slip-direction model (the same as `gradtac calibrate DIR -o m.json`).
+    Dos(DosArgs),
 }
 
 fn main() -> ExitCode {
@@ -329,53 +397,91 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             finish_view(Some(view), false)?;
             Ok(ExitCode::SUCCESS)
         }
-        Command::Calibrate {
-            data,
-            out,
-            columns,
-            rate_hz,
-            settings,
-            shrinkage,
-            gaussian,
-            student_t,
-            cross_validate,
-            no_mirror,
-        } => {
-            let mut opts = gradtac::calibrate::CalibrateOptions {
-                columns: columns.parse().map_err(gradtac::Error::Io2)?,
-                rate_hz,
-                shrinkage,
-                student_t_dof: (!gaussian).then_some(student_t),
-                mirror: !no_mirror,
-                ..Default::default()
-            };
-            let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];
-            reads.extend(settings.as_deref().map(|s| ("the settings file", s)));
-            gradtac::guard::check_output_file(&out, &reads)?;
-            if let Some(path) = settings {
-                opts = opts.with_settings_file(&path)?;
+        Command::Calibrate { what, dos } => match what {
+            None | Some(CalibrateWhat::Dos(_)) => {
+                let dos = match what {
+                    Some(CalibrateWhat::Dos(d)) => d,
+                    _ => dos,
+                };
+                calibrate_dos(dos)
             }
-            let layout = gradtac::stream::Layout::biotac_sp();
-            let spans = gradtac::calibrate::labelled_spans(&data, &layout, &opts)?;
-            if cross_validate {
-                say!("these settings, fixed (in-sample if they were chosen on these recordings):\n\n");
-                say!("{}", gradtac::calibrate::cross_validate_spans(&spans, &opts)?);
-                say!("\nheld out — the design choice made inside every fold:\n\n");
-                say!("{}", gradtac::calibrate::held_out_report(&data, &layout, &opts)?);
-                sayln!();
+            Some(CalibrateWhat::Force {
+                scene,
+                force_column,
+                force_file,
+                force_time_column,
+                force_time_unit,
+                sensor,
+                method,
+                out,
+            }) => {
+                use gradtac::calibrate::{ForceCalibration, GaugeSource};
+                let method = gradtac::stages::force_model::CalibrationMethod::parse(&method).ok_or_else(|| {
+                    gradtac::Error::Scene {
+                        path: scene.clone(),
+                        reason: format!("--method {method:?}: ridge, area or amplitude"),
+                    }
+                })?;
+                let loaded = Scene::load(&scene)?;
+                let index = gradtac::calibrate::calibration_sensor(&loaded, sensor.as_deref())?;
+                let recording = loaded.resolve(loaded.sensors[index].source.path());
+                let mut reads: Vec<(&str, &std::path::Path)> =
+                    vec![("the scene", &scene), ("the recording", &recording)];
+                reads.extend(force_file.as_deref().map(|f| ("the force file", f)));
+                gradtac::guard::check_output_file(&out, &reads)?;
+                let gauge = match force_file {
+                    None => GaugeSource::SameCsv { column: force_column },
+                    Some(path) => GaugeSource::File {
+                        path,
+                        column: force_column,
+                        time_column: force_time_column,
+                        time_unit: toml::Value::String(force_time_unit.clone()).try_into().map_err(|_| {
+                            gradtac::Error::Scene {
+                                path: scene.clone(),
+                                reason: format!("--force-time-unit {force_time_unit:?}: s, ms, us or ns"),
+                            }
+                        })?,
+                    },
+                };
+                let opts = ForceCalibration { sensor: Some(loaded.sensors[index].name.clone()), gauge, method };
+                let (file, report) = gradtac::calibrate::calibrate_force(&loaded, &opts)?;
+                gradtac::calibrate::write_json(&file, &out)?;
+                let c = &file.calibration;
+                sayln!(
+                    "calibrated {} force on {} frames in contact ({} read, {} with a gauge reading; {:.2}–{:.2} N): \
+                     in-sample MAPE above 0.5 N {:.1} %; untouched frames above 0.5 N: {} of {} -> {}",
+                    file.model.method().name(),
+                    c.samples,
+                    report.frames,
+                    report.with_gauge,
+                    c.force_range_n[0],
+                    c.force_range_n[1],
+                    c.in_sample_mape_pct,
+                    report.untouched.1,
+                    report.untouched.0,
+                    out.display()
+                );
+                Ok(ExitCode::SUCCESS)
             }
-            let model = gradtac::calibrate::calibrate_spans(&spans, &opts)?;
-            gradtac::calibrate::write_model(&model, &out)?;
-            sayln!(
-                "calibrated on {} recordings: {} classes, {} features, {} parameters -> {}",
-                spans.len(),
-                model.classes.len(),
-                model.config.features.len(),
-                model.parameter_count(),
-                out.display()
-            );
-            Ok(ExitCode::SUCCESS)
-        }
+            Some(CalibrateWhat::Baseline { scene, sensor, from, to, out }) => {
+                let loaded = Scene::load(&scene)?;
+                let index = gradtac::calibrate::calibration_sensor(&loaded, sensor.as_deref())?;
+                let recording = loaded.resolve(loaded.sensors[index].source.path());
+                gradtac::guard::check_output_file(&out, &[("the scene", &scene), ("the recording", &recording)])?;
+                let tare = gradtac::calibrate::calibrate_baseline(&loaded, sensor.as_deref(), from, to)?;
+                gradtac::calibrate::write_json(&tare, &out)?;
+                let mean_noise = tare.noise.iter().sum::<f64>() / tare.noise.len() as f64;
+                sayln!(
+                    "baseline of sensor {} from {} untouched frames ({} taxels, mean noise {:.2}) -> {}",
+                    tare.sensor,
+                    tare.frames,
+                    tare.taxels,
+                    mean_noise,
+                    out.display()
+                );
+                Ok(ExitCode::SUCCESS)
+            }
+        },
         #[cfg(feature = "plot")]
         Command::Plot { input, out, sensors, from, to } => {
             let out = out.unwrap_or_else(|| default_png(&input));
@@ -435,6 +541,54 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// `gradtac calibrate [dos] DIR -o m.json`.
+fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
+    let DosArgs { data, out, columns, rate_hz, settings, shrinkage, gaussian, student_t, cross_validate, no_mirror } =
+        args;
+    let (Some(data), Some(out)) = (data, out) else {
+        return Err(gradtac::Error::Scene {
+            path: PathBuf::from("gradtac calibrate"),
+            reason: "give the labelled recordings' directory and --out (gradtac calibrate DIR -o model.json), \
+                     or a subcommand: force, baseline, dos"
+                .into(),
+        });
+    };
+    let mut opts = gradtac::calibrate::CalibrateOptions {
+        columns: columns.parse().map_err(gradtac::Error::Io2)?,
+        rate_hz,
+        shrinkage,
+        student_t_dof: (!gaussian).then_some(student_t),
+        mirror: !no_mirror,
+        ..Default::default()
+    };
+    let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];
+    reads.extend(settings.as_deref().map(|s| ("the settings file", s)));
+    gradtac::guard::check_output_file(&out, &reads)?;
+    if let Some(path) = settings {
+        opts = opts.with_settings_file(&path)?;
+    }
+    let layout = gradtac::stream::Layout::biotac_sp();
+    let spans = gradtac::calibrate::labelled_spans(&data, &layout, &opts)?;
+    if cross_validate {
+        say!("these settings, fixed (in-sample if they were chosen on these recordings):\n\n");
+        say!("{}", gradtac::calibrate::cross_validate_spans(&spans, &opts)?);
+        say!("\nheld out — the design choice made inside every fold:\n\n");
+        say!("{}", gradtac::calibrate::held_out_report(&data, &layout, &opts)?);
+        sayln!();
+    }
+    let model = gradtac::calibrate::calibrate_spans(&spans, &opts)?;
+    gradtac::calibrate::write_model(&model, &out)?;
+    sayln!(
+        "calibrated on {} recordings: {} classes, {} features, {} parameters -> {}",
+        spans.len(),
+        model.classes.len(),
+        model.config.features.len(),
+        model.parameter_count(),
+        out.display()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 #[cfg(feature = "plot")]

@@ -121,6 +121,8 @@ impl Plan {
                 .filter_map(|&i| Tap::parse(&scene.outputs[i].tap))
                 .flat_map(|t| match t {
                     Tap::Slip if !slip_tracks => vec![Tap::Source, Tap::Slip],
+                    // a force model on the changes reads the raw frames, not contours
+                    Tap::Force if scene.force_reads_frames() => vec![Tap::Source, Tap::Force],
                     t => t.with_ancestors_in(scene.stages.locate.method).collect(),
                 })
                 .collect();

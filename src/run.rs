@@ -677,3 +677,53 @@ pub fn run_blocking_in(
         .map_err(|source| Error::Io { path: PathBuf::from("<tokio runtime>"), source })?;
     rt.block_on(run_in(scene, plan, opts, memory))
 }
+
+/// Read the frames of one sensor of `scene` (any source kind: files, a bus, a bag) in time
+/// order and hand each to `each`, which returns `false` to stop; stops after `max_frames`.
+/// Returns the number of frames handed over. Used by `gradtac calibrate` and `explain`.
+pub fn for_each_frame(
+    scene: &Scene,
+    sensor: &str,
+    max_frames: u64,
+    mut each: impl FnMut(TaxelFrame) -> Result<bool, Error>,
+) -> Result<u64, Error> {
+    let index = scene.sensors.iter().position(|s| s.name == sensor).ok_or_else(|| Error::Scene {
+        path: scene.origin.clone(),
+        reason: format!("no sensor {sensor:?} in the scene"),
+    })?;
+    let layout = scene.layout(&scene.sensors[index])?;
+    let plan = Plan {
+        sensors: vec![SensorPlan {
+            index,
+            name: sensor.to_string(),
+            layout,
+            needed: vec![Tap::Source],
+            outputs: Vec::new(),
+        }],
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .map_err(|source| Error::Io { path: PathBuf::from("<tokio runtime>"), source })?;
+    rt.block_on(async {
+        let OpenSources { streams, .. } = open_sources(scene, &plan)?;
+        let mut merged = merge_streams(streams, 256);
+        let id = SensorId::new(sensor);
+        let mut n = 0u64;
+        while n < max_frames {
+            match merged.next().await {
+                Some(Ok(f)) if f.sensor == id => {
+                    n += 1;
+                    if !each(f)? {
+                        break;
+                    }
+                }
+                Some(Ok(_)) => {}
+                Some(Err(e)) => return Err(Error::from_pipeline(e)),
+                None => break,
+            }
+        }
+        Ok(n)
+    })
+}

@@ -31,13 +31,15 @@ use gradtac_io::rosbag::BagSourceConfig;
 use gradtac_io::CsvSourceConfig;
 use gradtac_stages::contour::ContourConfig;
 use gradtac_stages::events::EventsConfig;
-use gradtac_stages::force::ForceConfig;
+use gradtac_stages::force::ForceModel;
+use gradtac_stages::force_model::ForceFile;
 use gradtac_stages::interpolate::InterpolateConfig;
 use gradtac_stages::locate::{LocateConfig, LocateMethod};
 use gradtac_stages::normalise::NormaliseConfig;
 use gradtac_stages::savgol::SavGolConfig;
 use gradtac_stages::servo::ServoConfig;
 use gradtac_stages::slip::SlipConfig;
+use gradtac_stages::tare::Tare;
 use gradtac_stages::track::TrackConfig;
 use gradtac_stages::window::WindowConfig;
 use gradtac_stream::Layout;
@@ -71,6 +73,82 @@ pub struct Scene {
     /// named by planner errors and protected from being written over (see [`crate::guard`]).
     #[serde(skip)]
     pub origin: PathBuf,
+    /// Model files the scene names, read and validated when it is loaded
+    /// (`[stages.force] model = "force.json"`, `[stages.locate] baseline = "tare.json"`).
+    #[serde(skip)]
+    pub loaded: LoadedFiles,
+}
+
+/// The files a scene's settings name, read and validated with the scene.
+#[derive(Clone, Debug, Default)]
+pub struct LoadedFiles {
+    /// `[stages.force] model = "….json"` (`gradtac calibrate force`).
+    pub force: Option<ForceFile>,
+    /// `[stages.locate] baseline = "….json"` (`gradtac calibrate baseline`).
+    pub tare: Option<Tare>,
+}
+
+/// `[stages.force]`: the calibrated force model.
+///
+/// ```toml
+/// [stages.force]
+/// model = "force.json"      # written by `gradtac calibrate force`
+/// # or a curve over the contour area given inline:
+/// # model = { method = "power_law", scale = 0.05, exponent = 1.4 }
+/// min_area_mm2 = 0.0        # inline curves: smaller contours give no force
+/// ```
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceSettings {
+    /// The model: a file (relative to the scene) or an inline area curve.
+    pub model: ForceModelSpec,
+    /// Contours smaller than this (mm²) give no force (area models). Default 0.
+    #[serde(default)]
+    pub min_area_mm2: f64,
+}
+
+/// Where a force model comes from.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum ForceModelSpec {
+    /// A model file written by `gradtac calibrate force`.
+    File(PathBuf),
+    /// An area curve given inline ([`ForceModel`]).
+    Inline(ForceModel),
+}
+
+impl<'de> Deserialize<'de> for ForceModelSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        match toml::Value::deserialize(d)? {
+            toml::Value::String(p) => Ok(ForceModelSpec::File(PathBuf::from(p))),
+            v @ toml::Value::Table(_) => {
+                ForceModel::deserialize(v).map(ForceModelSpec::Inline).map_err(D::Error::custom)
+            }
+            _ => Err(D::Error::custom(
+                "model is a file (model = \"force.json\", from gradtac calibrate force) or an inline curve \
+                 (model = { method = \"power_law\", … })",
+            )),
+        }
+    }
+}
+
+/// Read a force model file (bounded size), validated; errors name the file.
+pub fn read_force_file(path: &Path) -> Result<ForceFile, Error> {
+    let text = crate::guard::read_text_capped(path, crate::guard::MAX_MODEL_BYTES)?;
+    let bad = |reason: String| Error::Scene { path: path.to_path_buf(), reason };
+    let file: ForceFile = serde_json::from_str(&text).map_err(|e| bad(format!("not a gradtac force model: {e}")))?;
+    file.validate().map_err(|e| bad(e.to_string()))?;
+    Ok(file)
+}
+
+/// Read a tare (stored baseline) file (bounded size), validated; errors name the file.
+pub fn read_tare_file(path: &Path) -> Result<Tare, Error> {
+    let text = crate::guard::read_text_capped(path, crate::guard::MAX_MODEL_BYTES)?;
+    let bad = |reason: String| Error::Scene { path: path.to_path_buf(), reason };
+    let tare: Tare = serde_json::from_str(&text).map_err(|e| bad(format!("not a gradtac baseline (tare): {e}")))?;
+    tare.validate().map_err(|e| bad(e.to_string()))?;
+    Ok(tare)
 }
 
 /// One sensor of a scene.
@@ -396,9 +474,9 @@ pub struct StageSettings {
     /// Contact tracks ([`TrackConfig`]).
     #[serde(default)]
     pub track: TrackConfig,
-    /// Force from contour area ([`ForceConfig`]: a calibrated model; required by the force tap).
+    /// A calibrated force model ([`ForceSettings`]; required by the force tap).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub force: Option<ForceConfig>,
+    pub force: Option<ForceSettings>,
     /// Edge-following servo commands ([`ServoConfig`]).
     #[serde(default)]
     pub servo: ServoConfig,
@@ -469,6 +547,7 @@ impl Scene {
         scene.text = text.to_string();
         scene.origin = origin.to_path_buf();
         scene.validate(origin)?;
+        scene.load_files()?;
         Ok(scene)
     }
 
@@ -477,6 +556,23 @@ impl Scene {
         let text = crate::guard::read_text_capped(path, crate::guard::MAX_SCENE_BYTES)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Self::from_toml(&text, base, path)
+    }
+
+    /// Read the model files the settings name ([`LoadedFiles`]).
+    fn load_files(&mut self) -> Result<(), Error> {
+        if let Some(ForceSettings { model: ForceModelSpec::File(p), .. }) = &self.stages.force {
+            self.loaded.force = Some(read_force_file(&self.resolve(p))?);
+        }
+        if let Some(p) = &self.stages.locate.baseline {
+            self.loaded.tare = Some(read_tare_file(&self.resolve(p))?);
+        }
+        Ok(())
+    }
+
+    /// Whether the force tap reads raw frames (a changes-based model file) rather than
+    /// contours.
+    pub fn force_reads_frames(&self) -> bool {
+        self.loaded.force.as_ref().is_some_and(|f| f.model.reads_changes())
     }
 
     /// A path from the scene, resolved against its directory.

@@ -83,6 +83,13 @@ impl Centroid {
         &self.det
     }
 
+    /// Measure against a stored untouched baseline ([`ChangeDetector::with_tare`]): contact
+    /// from the first frame.
+    pub fn with_tare(mut self, tare: &crate::tare::Tare) -> Result<Self> {
+        self.det = self.det.with_tare(tare)?;
+        Ok(self)
+    }
+
     /// The centroid of weights `w` over `positions` (`None` when every weight is 0).
     pub fn weighted(positions: &[[f64; 2]], w: &[f64]) -> Option<MaxContour> {
         let sw: f64 = w.iter().sum();

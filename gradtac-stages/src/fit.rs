@@ -434,6 +434,13 @@ impl Fit {
         &self.det
     }
 
+    /// Measure against a stored untouched baseline
+    /// ([`ChangeDetector::with_tare`](crate::locate::ChangeDetector::with_tare)).
+    pub fn with_tare(mut self, tare: &crate::tare::Tare) -> Result<Self> {
+        self.det = self.det.with_tare(tare)?;
+        Ok(self)
+    }
+
     /// The geometry the fit uses.
     pub fn geometry(&self) -> &Geometry {
         &self.geo

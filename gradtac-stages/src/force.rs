@@ -381,6 +381,8 @@ impl HasSensor for ForceEstimate {
 #[must_use = "a stage does nothing until inputs are pushed"]
 pub struct Force {
     cfg: ForceConfig,
+    /// The curve reads the contact fit's amplitude instead of the area ([`Force::on_fit_amplitude`]).
+    amplitude: bool,
 }
 
 impl Force {
@@ -390,7 +392,15 @@ impl Force {
         if !(cfg.min_area_mm2.is_finite() && cfg.min_area_mm2 >= 0.0) {
             return Err(invalid(format!("`min_area_mm2` = {} must be finite and ≥ 0", cfg.min_area_mm2)));
         }
-        Ok(Force { cfg: cfg.clone() })
+        Ok(Force { cfg: cfg.clone(), amplitude: false })
+    }
+
+    /// Read the contact fit's amplitude ([`FitSummary`](crate::fit::FitSummary)) instead of the
+    /// contour area (a model calibrated with `gradtac calibrate force --method amplitude`); a
+    /// contour without a fit gives no force.
+    pub fn on_fit_amplitude(mut self) -> Self {
+        self.amplitude = true;
+        self
     }
 
     /// The model.
@@ -406,6 +416,9 @@ impl Stage for Force {
 
     fn push(&mut self, f: ContourFrame, out: &mut Vec<ForceEstimate>) -> Result<()> {
         let (area_mm2, force_n) = match &f.outcome {
+            ContourOutcome::Contact(c) if self.amplitude => {
+                (c.area_mm2, c.fit.as_ref().map(|f| self.cfg.model.predict(f.amplitude)))
+            }
             ContourOutcome::Contact(c) if c.area_mm2 >= self.cfg.min_area_mm2 => {
                 (c.area_mm2, Some(self.cfg.model.predict(c.area_mm2)))
             }

@@ -157,6 +157,15 @@ pub struct LocateConfig {
     /// magnitudes an electrode whose value rises under pressure while most fall (the family
     /// draws up to 30 % of them) fits like the rest, at the price of the far lobe's sign.
     pub fit_signed: bool,
+    /// `centroid` / `raw_contour` (and a changes-based force model): a stored untouched
+    /// baseline (`gradtac calibrate baseline`, [`Tare`](crate::tare::Tare)), relative to the
+    /// scene. With it the detector skips its start-up calibration — a hand that starts in
+    /// contact reports contact from its first frame — and still follows drift; it warns when
+    /// the tare no longer fits the sensor ([`ChangeDetector::tare_mismatch`]). The stages take
+    /// the loaded tare through `with_tare`; the path itself is read by the scene's loader.
+    /// Default none: the first `calibrate_frames` frames are the baseline.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub baseline: Option<std::path::PathBuf>,
 }
 
 /// `[stages.locate]` as written in a scene: every key optional, applied over the preset.
@@ -180,6 +189,7 @@ struct LocateToml {
     fit_model_error: Option<f64>,
     fit_rails: Option<[f64; 2]>,
     fit_signed: Option<bool>,
+    baseline: Option<std::path::PathBuf>,
 }
 
 impl From<LocateToml> for LocateConfig {
@@ -207,6 +217,9 @@ impl From<LocateToml> for LocateConfig {
         );
         if t.top_k.is_some() {
             c.top_k = t.top_k;
+        }
+        if t.baseline.is_some() {
+            c.baseline = t.baseline;
         }
         c
     }
@@ -266,6 +279,7 @@ impl LocateConfig {
             fit_model_error: 0.3,
             fit_rails: [0.0, 4095.0],
             fit_signed: false,
+            baseline: None,
         }
     }
 
@@ -373,6 +387,18 @@ pub struct ChangeDetector {
     rel: Vec<f64>,
     last_time: Option<Timestamp>,
     sensor: Option<SensorId>,
+    /// Signed change `x̄ − x₀` per taxel of the last frame.
+    delta: Vec<f64>,
+    /// The stored untouched baseline, when one is used.
+    tare: Option<crate::tare::Tare>,
+    /// Every taxel's baseline follows drift in frames without a contact (not only those below
+    /// their floor): [`follow_all_when_untouched`](Self::follow_all_when_untouched).
+    follow_all: bool,
+    /// Since when most taxels sat beyond the contact threshold (a shift), and since when
+    /// nearly all did with mixed signs (another sensor's offsets).
+    off_since: Option<Timestamp>,
+    mixed_since: Option<Timestamp>,
+    mismatch: Option<crate::tare::TareMismatch>,
 }
 
 impl ChangeDetector {
@@ -393,7 +419,62 @@ impl ChangeDetector {
             rel: vec![0.0; taxels],
             last_time: None,
             sensor: None,
+            delta: vec![0.0; taxels],
+            tare: None,
+            follow_all: false,
+            off_since: None,
+            mixed_since: None,
+            mismatch: None,
         })
+    }
+
+    /// Start from a stored untouched baseline instead of calibrating on the first frames
+    /// (its taxel count must match): contact is reported from the first frame. The baseline
+    /// still follows drift. See [`tare_mismatch`](Self::tare_mismatch).
+    pub fn with_tare(mut self, tare: &crate::tare::Tare) -> Result<Self> {
+        tare.validate()?;
+        if tare.taxels != self.n {
+            return Err(Error::InvalidConfig {
+                stage: STAGE,
+                reason: format!("the baseline holds {} taxels, the sensor has {}", tare.taxels, self.n),
+            });
+        }
+        self.baseline = tare.baseline.clone();
+        self.sigma = tare.noise.clone();
+        self.tare = Some(tare.clone());
+        Ok(self)
+    }
+
+    /// In frames without a contact let every taxel's baseline follow drift, not only those
+    /// below their noise floor. Without it a taxel drifting faster than `floor_sigmas · σ /
+    /// follow_s` leaves its floor for good and, `contact_sigmas` later, reads as a contact on
+    /// an untouched sensor; the force stage turns this on (untouched frames must report no
+    /// force); the location methods keep the documented rule.
+    pub fn follow_all_when_untouched(mut self) -> Self {
+        self.follow_all = true;
+        self
+    }
+
+    /// The stored baseline in use, if any.
+    pub fn tare(&self) -> Option<&crate::tare::Tare> {
+        self.tare.as_ref()
+    }
+
+    /// Set once the stored baseline stopped fitting the sensor
+    /// ([`TareMismatch`](crate::tare::TareMismatch) has the rule): nine in ten taxels beyond
+    /// `contact_sigmas` with mixed signs for half a second (another sensor's offsets: a press
+    /// moves the taxels it reaches one way), or three in four beyond it for five seconds in a
+    /// row (a shift the drift-following baseline cannot absorb — a temperature change; a
+    /// press held that long over most of the pad would read the same). Contact is still
+    /// reported as measured against the tare; the caller warns.
+    pub fn tare_mismatch(&self) -> Option<&crate::tare::TareMismatch> {
+        self.mismatch.as_ref()
+    }
+
+    /// Signed change `x̄ − x₀` per taxel (input units) of the last frame (all 0 while
+    /// calibrating; kept without a contact, unlike [`relative`](Self::relative)).
+    pub fn change(&self) -> &[f64] {
+        &self.delta
     }
 
     /// The configuration.
@@ -434,6 +515,13 @@ impl ChangeDetector {
         self.calib.clear();
         self.baseline.clear();
         self.sigma.clear();
+        if let Some(t) = &self.tare {
+            self.baseline = t.baseline.clone();
+            self.sigma = t.noise.clone();
+        }
+        self.delta.iter_mut().for_each(|d| *d = 0.0);
+        self.off_since = None;
+        self.mixed_since = None;
         self.ring.clear();
         self.sum.iter_mut().for_each(|s| *s = 0.0);
         self.rel.iter_mut().for_each(|r| *r = 0.0);
@@ -499,12 +587,17 @@ impl ChangeDetector {
         let scale = 1.0;
         let beta = if self.cfg.follow_s > 0.0 { 1.0 - (-dt / self.cfg.follow_s).exp() } else { 0.0 };
         let mut contact = false;
+        let (mut beyond, mut up) = (0usize, 0usize);
         for i in 0..self.n {
             let mean = self.sum[i] / k;
+            self.delta[i] = mean - self.baseline[i];
             let d = (mean - self.baseline[i]).abs();
             let s = self.sigma[i] * scale;
             let floor = self.cfg.floor_sigmas * s;
-            contact |= d > self.cfg.contact_sigmas * s;
+            let over = d > self.cfg.contact_sigmas * s;
+            contact |= over;
+            beyond += usize::from(over);
+            up += usize::from(over && self.delta[i] > 0.0);
             if d > floor {
                 self.rel[i] = (d - floor) / self.baseline[i].abs().max(self.sigma[i]);
             } else {
@@ -520,6 +613,32 @@ impl ChangeDetector {
         }
         if !contact {
             self.rel.iter_mut().for_each(|r| *r = 0.0);
+            if self.follow_all {
+                for i in 0..self.n {
+                    let mean = self.sum[i] / k;
+                    if (mean - self.baseline[i]).abs() > self.cfg.floor_sigmas * self.sigma[i] * scale {
+                        self.baseline[i] += beta * (mean - self.baseline[i]);
+                    }
+                }
+            }
+        }
+        if self.tare.is_some() && self.mismatch.is_none() {
+            let shifted = 4 * beyond > 3 * self.n;
+            let mixed = 10 * beyond >= 9 * self.n && 5 * up.max(beyond - up) < 4 * beyond;
+            let since = |s: &mut Option<Timestamp>, on: bool| {
+                if !on {
+                    *s = None;
+                    return 0.0;
+                }
+                (f.time.0 - s.get_or_insert(f.time).0) as f64 * 1e-9
+            };
+            let shift_s = since(&mut self.off_since, shifted);
+            let mixed_s = since(&mut self.mixed_since, mixed);
+            if shift_s >= crate::tare::TareMismatch::SHIFT_S || mixed_s >= crate::tare::TareMismatch::MIXED_S {
+                let mut z: Vec<f64> = (0..self.n).map(|i| (self.delta[i] / self.sigma[i]).abs()).collect();
+                z.sort_by(f64::total_cmp);
+                self.mismatch = Some(crate::tare::TareMismatch { seq: f.seq, median_sigmas: z[self.n / 2] });
+            }
         }
         Ok(Changes { start, end: f.time, seq: f.seq, contact, calibrating: false })
     }

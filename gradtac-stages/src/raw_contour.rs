@@ -47,6 +47,12 @@ impl RawChange {
     pub fn detector(&self) -> &ChangeDetector {
         &self.det
     }
+
+    /// Measure against a stored untouched baseline ([`ChangeDetector::with_tare`]).
+    pub fn with_tare(mut self, tare: &crate::tare::Tare) -> Result<Self> {
+        self.det = self.det.with_tare(tare)?;
+        Ok(self)
+    }
 }
 
 impl Stage for RawChange {

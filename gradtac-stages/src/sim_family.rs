@@ -385,7 +385,7 @@ fn convex_hull(pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
     h
 }
 
-fn inside_convex(h: &[[f64; 2]], q: [f64; 2]) -> bool {
+pub(crate) fn inside_convex(h: &[[f64; 2]], q: [f64; 2]) -> bool {
     (0..h.len()).all(|i| {
         let (a, b) = (h[i], h[(i + 1) % h.len()]);
         (b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0]) >= 0.0
@@ -403,7 +403,7 @@ pub fn pad_region() -> Vec<[f64; 2]> {
 }
 
 /// FNV-style mixing of a seed and a stream tag.
-fn sub_seed(seed: u64, tag: u64) -> u64 {
+pub(crate) fn sub_seed(seed: u64, tag: u64) -> u64 {
     (seed ^ tag.wrapping_mul(0x9e37_79b9_7f4a_7c15)).wrapping_mul(0xbf58_476d_1ce4_e5b9) ^ 0x94d0_49bb_1331_11eb
 }
 

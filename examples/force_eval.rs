@@ -1,0 +1,321 @@
+//! Force calibrated from a gauge, scored where it was not calibrated: the methods of
+//! `gradtac calibrate force` on held-out members of the forward-model family with a force
+//! response that is not linear and spreads with force ([`gradtac::stages::sim_force`]).
+//!
+//! - **Members**: a member is a seed; its sensor is the family's physics for that seed
+//!   (kernel shape and width, gains and signs, fluid lag, knee, baselines, drift, noise,
+//!   12-bit ADC) with a force response drawn from it (`γ ∈ [0.55, 0.9]`, spread exponent
+//!   `s ∈ [0.1, 0.33]`, gauge noise 5–30 mN). **Tuning** seeds `TUNE`; **held out** seeds
+//!   `TEST`: every choice (the ridge penalty, each area method's curve, the default method) is
+//!   made on the tuning members by their worst member's MAPE; the held-out rows are scored once.
+//! - **Protocol per member**: one session of 10 presses at 10 places drawn on the pad (peaks
+//!   1.5–10 N; 2 s rise, 0.5 s hold, 1.5 s fall). Calibrated on the gauge during the first 5
+//!   presses (5 places), scored on the last 5 (5 other places). Each estimate is compared with
+//!   the true force at the centre of the frames it averages (the stage's declared delay).
+//! - **MAPE**: mean over scored frames with a true force above 0.5 N of `|F̂ − F|/F`; a frame
+//!   with no force reported counts as 100 %. **Worst**: the largest member MAPE. **Untouched**:
+//!   frames with no force in the last 0.5 s that report more than 0.5 N (share, all members).
+//!
+//! Methods: `ridge` (the cheapest baseline: ridge on the 24 signed baseline-relative changes
+//! of the default change detector), `area` of the default chain (the centroid's 2-σ weight
+//! ellipse), of `raw_contour` and of the paper's `events` chain (maximal event contour), each
+//! through a monotone curve.
+//!
+//! Run: `cargo run --release --example force_eval [-- --quick]`.
+
+use gradtac::chain::{effective_contour, effective_events};
+use gradtac::scene::StageSettings;
+use gradtac::stages::centroid::Centroid;
+use gradtac::stages::contour::{ContourFrame, ContourOutcome};
+use gradtac::stages::events::Events;
+use gradtac::stages::fit::Fit;
+use gradtac::stages::force::ForceMethod;
+use gradtac::stages::force_model::{calibrate, CalibrationMethod, GaugeSample};
+use gradtac::stages::locate::{ChangeDetector, LocateConfig, LocateMethod};
+use gradtac::stages::normalise::Normalise;
+use gradtac::stages::peak::SurfaceContour;
+use gradtac::stages::raw_contour::RawChange;
+use gradtac::stages::savgol::SavGol;
+use gradtac::stages::sim_force::{ForceRecording, ForceSession, Segment};
+use gradtac::stages::window::Window;
+use gradtac::stream::{Layout, StageExt};
+use std::time::Instant;
+
+const TUNE: std::ops::Range<u64> = 0..8;
+const TEST: std::ops::Range<u64> = 100..116;
+const PRESSES: usize = 10;
+
+/// The frames' features under one location method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Source {
+    /// The default change detector's changes (ridge).
+    Changes,
+    /// Contour area under a locate method.
+    Area(LocateMethod),
+    /// The contact fit's amplitude.
+    Amplitude,
+    /// The sum of the changes' magnitudes.
+    Total,
+}
+
+impl Source {
+    fn name(self) -> String {
+        match self {
+            Source::Changes => "ridge on the 24 changes (baseline)".into(),
+            Source::Area(m) => format!("contour area, {} chain", m.name()),
+            Source::Amplitude => "the contact fit's amplitude (fit chain)".into(),
+            Source::Total => "total change Σ|Δᵢ| through a curve".into(),
+        }
+    }
+}
+
+/// One frame's features with the centre time of what it averages (s).
+struct Row {
+    t: f64,
+    sample: GaugeSample,
+}
+
+/// Features of every output of the method's chain, and µs per frame.
+fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
+    let layout = Layout::biotac_sp();
+    let frames = rec.frames.clone();
+    let n = frames.len() as f64;
+    let t0 = Instant::now();
+    let rows: Vec<Row> = match source {
+        Source::Changes | Source::Total => {
+            // what the force stage runs: its own detector, following drift whenever untouched
+            let mut det = ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().follow_all_when_untouched();
+            frames
+                .into_iter()
+                .map(|f| {
+                    let ch = det.push(&f, "force").unwrap();
+                    Row {
+                        t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
+                        sample: GaugeSample {
+                            change: det.change().to_vec(),
+                            contact: ch.contact,
+                            area_mm2: None,
+                            amplitude: Some(det.change().iter().map(|d| d.abs()).sum()),
+                            force_n: 0.0,
+                        },
+                    }
+                })
+                .collect()
+        }
+        Source::Area(_) | Source::Amplitude => {
+            let method = match source {
+                Source::Area(m) => m,
+                _ => LocateMethod::Fit,
+            };
+            let st = StageSettings { locate: LocateConfig { method, ..Default::default() }, ..Default::default() };
+            let contours: Vec<ContourFrame> = match method {
+                LocateMethod::Centroid => Centroid::try_new(&st.locate, &layout).unwrap().run_all(frames).unwrap(),
+                LocateMethod::Fit => Fit::try_new(&st.locate, &layout).unwrap().run_all(frames).unwrap(),
+                LocateMethod::RawContour => RawChange::try_new(24, &st.locate)
+                    .unwrap()
+                    .then(SurfaceContour::try_new(&st.surface, &effective_contour(&st), &layout).unwrap())
+                    .run_all(frames)
+                    .unwrap(),
+                LocateMethod::Events => Normalise::try_new(24, &st.normalise)
+                    .unwrap()
+                    .then(SavGol::try_with_rate(24, st.savgol.clone(), 100.0).unwrap())
+                    .then(Events::try_new(24, effective_events(&st)).unwrap())
+                    .then(Window::try_new(&st.window).unwrap())
+                    .then(SurfaceContour::try_new(&st.surface, &effective_contour(&st), &layout).unwrap())
+                    .run_all(frames)
+                    .unwrap(),
+            };
+            contours
+                .into_iter()
+                .map(|cf| {
+                    let (area, amplitude) = match &cf.outcome {
+                        ContourOutcome::Contact(c) => (Some(c.area_mm2), c.fit.as_ref().map(|f| f.amplitude)),
+                        ContourOutcome::NoContact(_) => (None, None),
+                    };
+                    Row {
+                        t: 0.5 * (cf.start.as_secs_f64() + cf.end.as_secs_f64()),
+                        sample: GaugeSample {
+                            change: Vec::new(),
+                            contact: area.is_some(),
+                            area_mm2: area,
+                            amplitude,
+                            force_n: 0.0,
+                        },
+                    }
+                })
+                .collect()
+        }
+    };
+    (rows, t0.elapsed().as_secs_f64() * 1e6 / n)
+}
+
+/// Force at time `t` (s) from a per-frame series at 100 Hz (linear interpolation).
+fn at(series: &[f64], t: f64) -> f64 {
+    let x = t * 100.0;
+    if x <= 0.0 {
+        return series[0];
+    }
+    let k = x.floor() as usize;
+    if k + 1 >= series.len() {
+        return *series.last().unwrap();
+    }
+    let u = x - k as f64;
+    series[k] * (1.0 - u) + series[k + 1] * u
+}
+
+/// End (s) of the calibration half: after the rest that follows press `PRESSES / 2`.
+fn split_s(s: &ForceSession) -> f64 {
+    let mut t = 0.0;
+    let mut presses = 0;
+    for seg in &s.segments {
+        t += match *seg {
+            Segment::Rest(d) => d,
+            Segment::Press { rise_s, hold_s, fall_s, .. } => {
+                presses += 1;
+                rise_s + hold_s + fall_s
+            }
+        };
+        if presses == PRESSES / 2 && matches!(seg, Segment::Rest(_)) {
+            return t;
+        }
+    }
+    t
+}
+
+/// A member's simulated session with its split.
+struct Member {
+    session: ForceSession,
+    rec: ForceRecording,
+}
+
+/// Score of one method setting on one member: (MAPE %, untouched frames, of which > 0.5 N).
+fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve: ForceMethod) -> (f64, u64, u64) {
+    let split = split_s(&m.session);
+    let layout = Layout::biotac_sp();
+    let train: Vec<GaugeSample> = rows
+        .iter()
+        .filter(|r| r.t < split)
+        .map(|r| GaugeSample { force_n: at(&m.rec.gauge, r.t), ..r.sample.clone() })
+        .collect();
+    let Ok(file) = calibrate(&train, method, lambda, curve, &layout) else { return (100.0, 0, 0) };
+    let predict = |s: &GaugeSample| file.model.predict_sample(s);
+    let (mut sum, mut n, mut untouched, mut over) = (0.0, 0usize, 0u64, 0u64);
+    for r in rows {
+        let f = at(&m.rec.force, r.t);
+        let p = predict(&r.sample);
+        let quiet = (0..=50).all(|k| at(&m.rec.force, r.t - k as f64 * 0.01) == 0.0);
+        if quiet {
+            untouched += 1;
+            over += u64::from(p.is_some_and(|p| p > 0.5));
+        }
+        if r.t >= split && f > 0.5 {
+            sum += p.map_or(1.0, |p| (p - f).abs() / f);
+            n += 1;
+        }
+    }
+    if std::env::var_os("FORCE_EVAL_DEBUG").is_some() {
+        eprintln!(
+            "seed {} {:?}: in-sample {:.1} % on {} samples, held-out {:.1} % on {n}; untouched {over}/{untouched}; {:?}",
+            m.session.seed,
+            method,
+            file.calibration.in_sample_mape_pct,
+            file.calibration.samples,
+            100.0 * sum / n.max(1) as f64,
+            m.session.response
+        );
+    }
+    (100.0 * sum / n.max(1) as f64, untouched, over)
+}
+
+struct Cell {
+    worst: f64,
+    mean: f64,
+    untouched: f64,
+}
+
+fn evaluate(
+    members: &[Member],
+    feats: &[Vec<Row>],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+) -> Cell {
+    let (mut worst, mut sum, mut u, mut o) = (0.0f64, 0.0, 0, 0);
+    for (m, rows) in members.iter().zip(feats) {
+        let (mape, un, ov) = score(m, rows, method, lambda, curve);
+        worst = worst.max(mape);
+        sum += mape;
+        u += un;
+        o += ov;
+    }
+    Cell { worst, mean: sum / members.len() as f64, untouched: 100.0 * o as f64 / u.max(1) as f64 }
+}
+
+fn main() {
+    let quick = std::env::args().any(|a| a == "--quick");
+    let (tune, test) = if quick { (0..3, 100..104) } else { (TUNE, TEST) };
+    let members = |seeds: std::ops::Range<u64>| -> Vec<Member> {
+        seeds
+            .map(|seed| {
+                let session = ForceSession::presses(seed, PRESSES);
+                let rec = session.simulate();
+                Member { session, rec }
+            })
+            .collect()
+    };
+    let (tune, test) = (members(tune), members(test));
+    let sources = [
+        Source::Total,
+        Source::Amplitude,
+        Source::Changes,
+        Source::Area(LocateMethod::Centroid),
+        Source::Area(LocateMethod::RawContour),
+        Source::Area(LocateMethod::Events),
+    ];
+    let lambdas = [0.0, 1e-4, 1e-3, 1e-2, 1e-1, 1.0];
+    let curves = [ForceMethod::Linear, ForceMethod::PowerLaw, ForceMethod::Exponential, ForceMethod::Isotonic];
+    println!("| method | setting (chosen on tuning) | tuning worst | held-out worst MAPE | held-out mean | untouched > 0.5 N | µs/frame |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut best: Option<(f64, String)> = None;
+    for source in sources {
+        let ft: Vec<Vec<Row>> = tune.iter().map(|m| features(&m.rec, source).0).collect();
+        let timed: Vec<(Vec<Row>, f64)> = test.iter().map(|m| features(&m.rec, source)).collect();
+        let mut us: Vec<f64> = timed.iter().map(|t| t.1).collect();
+        us.sort_by(f64::total_cmp);
+        let fs: Vec<Vec<Row>> = timed.into_iter().map(|t| t.0).collect();
+        let settings: Vec<(CalibrationMethod, f64, ForceMethod, String)> = match source {
+            Source::Changes => lambdas
+                .iter()
+                .map(|&l| (CalibrationMethod::Ridge, l, ForceMethod::Linear, format!("λ = {l}")))
+                .collect(),
+            Source::Area(_) => {
+                curves.iter().map(|&c| (CalibrationMethod::Area, 0.0, c, format!("{c:?} curve"))).collect()
+            }
+            Source::Amplitude | Source::Total => {
+                curves.iter().map(|&c| (CalibrationMethod::Amplitude, 0.0, c, format!("{c:?} curve"))).collect()
+            }
+        };
+        let chosen = settings
+            .iter()
+            .map(|s| (evaluate(&tune, &ft, s.0, s.1, s.2), s))
+            .min_by(|a, b| a.0.worst.total_cmp(&b.0.worst))
+            .unwrap();
+        let held = evaluate(&test, &fs, chosen.1 .0, chosen.1 .1, chosen.1 .2);
+        println!(
+            "| {} | {} | {:.1} % | {:.1} % | {:.1} % | {:.2} % | {:.2} |",
+            source.name(),
+            chosen.1 .3,
+            chosen.0.worst,
+            held.worst,
+            held.mean,
+            held.untouched,
+            us[us.len() / 2]
+        );
+        if best.as_ref().is_none_or(|b| chosen.0.worst < b.0) {
+            best = Some((chosen.0.worst, source.name()));
+        }
+    }
+    if let Some((w, name)) = best {
+        println!("\nbest on the tuning members (worst member {w:.1} %): {name}");
+    }
+}

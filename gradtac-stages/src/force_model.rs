@@ -1,0 +1,581 @@
+//! Force models a user calibrates from a gauge (`gradtac calibrate force`), stored as a
+//! versioned JSON file a scene names (`[stages.force] model = "force.json"`).
+//!
+//! # Methods
+//! | method | input | model |
+//! |---|---|---|
+//! | `ridge` | the change detector's signed baseline-relative changes `Δᵢ = x̄ᵢ − x₀ᵢ` (counts) of every taxel | `F = b + Σ wᵢ Δᵢ`, ridge on standardised changes (the cheapest baseline) |
+//! | `area` | the contact location's contour area (mm²; the paper's feature) | a monotone curve ([`ForceModel`]) |
+//! | `amplitude` | the contact fit's amplitude (`[stages.locate] method = "fit"`) | a monotone curve ([`ForceModel`]) |
+//!
+//! Which is best, measured on held-out places of held-out members of the forward-model family
+//! ([`sim_force`](crate::sim_force)), is in `docs/force.md` (`examples/force_eval.rs`); the
+//! best is what `gradtac calibrate force` fits by default ([`DEFAULT_METHOD`]).
+//!
+//! # The stage
+//! [`ChangeForce`] runs a model on changes: raw frames in, one
+//! [`ForceEstimate`] per frame out — no force (`None`) while the detector sees no contact (so
+//! untouched frames report none) or is still calibrating. It owns a
+//! [`ChangeDetector`](crate::locate::ChangeDetector) with the scene's `[stages.locate]`
+//! detector settings (and its stored baseline, [`ChangeForce::with_tare`]), so it needs no
+//! other stage: a bare scene with a `force` output runs source → force.
+//! Its detector lets every taxel's baseline follow drift in frames without a contact
+//! ([`ChangeDetector::follow_all_when_untouched`](crate::locate::ChangeDetector::follow_all_when_untouched)),
+//! so a drifting, untouched sensor does not read as pressed; the price is that a slow press is
+//! partly absorbed while it is still below the contact threshold.
+//!
+//! # Units, delay
+//! Newtons; counts in, like the detector. Delay `(window_frames − 1)/2` frames (the mean of the
+//! last `window_frames` frames is compared with the baseline; the estimate describes the
+//! window's centre). Cost: O(taxels) per frame.
+//!
+//! # File
+//! [`ForceFile`] is validated on read ([`ForceFile::validate`]): format tag and version,
+//! taxel count within bounds and equal to the weights', finite numbers, a valid curve with at
+//! most [`MAX_KNOTS`] knots.
+
+use crate::force::{ForceEstimate, ForceMethod, ForceModel, ForceSample};
+use crate::locate::{ChangeDetector, LocateConfig};
+use crate::{Error, Result};
+use gradtac_stream::{Delay, Stage, TaxelFrame};
+use serde::{Deserialize, Serialize};
+
+const STAGE: &str = "force";
+
+/// The `format` tag of a force model file.
+pub const FORCE_FORMAT: &str = "gradtac-force";
+/// The version this build writes and reads.
+pub const FORCE_VERSION: u32 = 1;
+/// Most taxels a model may hold.
+pub const MAX_TAXELS: usize = 65_536;
+/// Most knots of an isotonic curve in a file.
+pub const MAX_KNOTS: usize = 100_000;
+
+/// How a model is calibrated (see the [module docs](self)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CalibrationMethod {
+    /// Ridge on the signed changes.
+    Ridge,
+    /// A curve over the contour area.
+    Area,
+    /// A curve over the contact fit's amplitude (`[stages.locate] method = "fit"`).
+    Amplitude,
+}
+
+impl CalibrationMethod {
+    /// The name on the command line and in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            CalibrationMethod::Ridge => "ridge",
+            CalibrationMethod::Area => "area",
+            CalibrationMethod::Amplitude => "amplitude",
+        }
+    }
+
+    /// Parse a name.
+    pub fn parse(s: &str) -> Option<CalibrationMethod> {
+        [CalibrationMethod::Ridge, CalibrationMethod::Area, CalibrationMethod::Amplitude]
+            .into_iter()
+            .find(|m| m.name() == s)
+    }
+}
+
+/// What `gradtac calibrate force` fits without `--method` (the best held-out row of
+/// `docs/force.md`).
+pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Ridge;
+/// The ridge penalty (relative to the standardised features' scale) chosen on the tuning
+/// members (`examples/force_eval.rs`).
+pub const DEFAULT_RIDGE_LAMBDA: f64 = 0.1;
+/// The area curve chosen on the tuning members for the default (centroid) chain.
+pub const DEFAULT_AREA_CURVE: ForceMethod = ForceMethod::PowerLaw;
+
+/// A calibrated model (tagged by `method`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "method", rename_all = "snake_case", deny_unknown_fields)]
+pub enum CalibratedForce {
+    /// `F = intercept_n + Σ weights[i] · Δᵢ` (Δ in counts).
+    Ridge {
+        /// Force at no change (N).
+        intercept_n: f64,
+        /// N per count, per taxel.
+        weights: Vec<f64>,
+        /// The penalty it was fitted with.
+        lambda: f64,
+    },
+    /// A curve over the contour area (mm²) of the scene's contact location.
+    Area {
+        /// The curve.
+        curve: ForceModel,
+    },
+    /// A curve over the contact fit's amplitude (input units; the curve's `area_mm2` axis
+    /// holds amplitudes) — needs `[stages.locate] method = "fit"`.
+    Amplitude {
+        /// The curve.
+        curve: ForceModel,
+    },
+}
+
+impl CalibratedForce {
+    /// Its method.
+    pub fn method(&self) -> CalibrationMethod {
+        match self {
+            CalibratedForce::Ridge { .. } => CalibrationMethod::Ridge,
+            CalibratedForce::Area { .. } => CalibrationMethod::Area,
+            CalibratedForce::Amplitude { .. } => CalibrationMethod::Amplitude,
+        }
+    }
+
+    /// The prediction for one calibration sample (N; `None` without a contact or the
+    /// model's feature).
+    pub fn predict_sample(&self, s: &GaugeSample) -> Option<f64> {
+        if !s.contact {
+            return None;
+        }
+        match self {
+            CalibratedForce::Area { curve } => s.area_mm2.map(|a| curve.predict(a)),
+            CalibratedForce::Amplitude { curve } => s.amplitude.map(|a| curve.predict(a)),
+            m => m.predict_changes(&s.change),
+        }
+    }
+
+    /// Whether it reads the changes (raw frames) rather than contours.
+    pub fn reads_changes(&self) -> bool {
+        matches!(self, CalibratedForce::Ridge { .. })
+    }
+
+    /// The ridge prediction for changes `delta` (N, ≥ 0); `None` for a curve model.
+    pub fn predict_changes(&self, delta: &[f64]) -> Option<f64> {
+        match self {
+            CalibratedForce::Ridge { intercept_n, weights, .. } => {
+                let f = intercept_n + weights.iter().zip(delta).map(|(w, d)| w * d).sum::<f64>();
+                Some(if f.is_nan() { f } else { f.max(0.0) })
+            }
+            CalibratedForce::Area { .. } | CalibratedForce::Amplitude { .. } => None,
+        }
+    }
+}
+
+/// How the model was calibrated (informational; shown by `explain`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationInfo {
+    /// Frames with a contact and a gauge reading used.
+    pub samples: u64,
+    /// Smallest and largest gauge force used (N).
+    pub force_range_n: [f64; 2],
+    /// In-sample MAPE (%) above 0.5 N.
+    pub in_sample_mape_pct: f64,
+}
+
+/// A force model file (see the [module docs](self)).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceFile {
+    /// Always [`FORCE_FORMAT`].
+    pub format: String,
+    /// [`FORCE_VERSION`].
+    pub version: u32,
+    /// The layout's name.
+    pub layout: String,
+    /// Number of taxels.
+    pub taxels: usize,
+    /// The model.
+    pub model: CalibratedForce,
+    /// How it was calibrated.
+    pub calibration: CalibrationInfo,
+}
+
+fn invalid(reason: String) -> Error {
+    Error::InvalidConfig { stage: STAGE, reason }
+}
+
+impl ForceFile {
+    /// Check a (read) file: format, version, bounds, finite numbers, the curve's validity.
+    pub fn validate(&self) -> Result<()> {
+        if self.format != FORCE_FORMAT {
+            return Err(invalid(format!("format {:?} is not {FORCE_FORMAT:?}", self.format)));
+        }
+        if self.version != FORCE_VERSION {
+            return Err(invalid(format!(
+                "version {} (this build reads version {FORCE_VERSION}; calibrate again with gradtac calibrate force)",
+                self.version
+            )));
+        }
+        if self.taxels == 0 || self.taxels > MAX_TAXELS {
+            return Err(invalid(format!("{} taxels (want 1..={MAX_TAXELS})", self.taxels)));
+        }
+        match &self.model {
+            CalibratedForce::Ridge { intercept_n, weights, lambda } => {
+                if weights.len() != self.taxels {
+                    return Err(invalid(format!("{} taxels but {} weights", self.taxels, weights.len())));
+                }
+                if !(intercept_n.is_finite() && lambda.is_finite() && weights.iter().all(|w| w.is_finite())) {
+                    return Err(invalid("a ridge parameter is not finite".into()));
+                }
+            }
+            CalibratedForce::Area { curve } | CalibratedForce::Amplitude { curve } => {
+                if let ForceModel::Isotonic { area_mm2, .. } = curve {
+                    if area_mm2.len() > MAX_KNOTS {
+                        return Err(invalid(format!("{} knots (at most {MAX_KNOTS})", area_mm2.len())));
+                    }
+                }
+                curve.validate()?;
+            }
+        }
+        let c = &self.calibration;
+        if !c.force_range_n.iter().all(|f| f.is_finite()) || c.in_sample_mape_pct.is_nan() {
+            return Err(invalid("calibration figures are not finite".into()));
+        }
+        Ok(())
+    }
+
+    /// Check the file against a sensor's layout (name and taxel count).
+    pub fn check_layout(&self, layout: &gradtac_stream::Layout) -> Result<()> {
+        if self.taxels != layout.len() {
+            return Err(invalid(format!(
+                "the model was calibrated on {} taxels ({}), the sensor's layout {} has {}",
+                self.taxels,
+                self.layout,
+                layout.name(),
+                layout.len()
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Ridge regression of `y` on features, accumulated one sample at a time (sums and the
+/// cross-product matrix), solved on standardised features.
+#[derive(Clone, Debug)]
+pub struct RidgeAccumulator {
+    n: usize,
+    count: f64,
+    sx: Vec<f64>,
+    sxx: Vec<f64>,
+    sy: f64,
+    sxy: Vec<f64>,
+}
+
+impl RidgeAccumulator {
+    /// For `n` features.
+    pub fn new(n: usize) -> Self {
+        RidgeAccumulator { n, count: 0.0, sx: vec![0.0; n], sxx: vec![0.0; n * n], sy: 0.0, sxy: vec![0.0; n] }
+    }
+
+    /// Samples so far.
+    pub fn count(&self) -> u64 {
+        self.count as u64
+    }
+
+    /// Add one sample (non-finite samples are skipped).
+    pub fn push(&mut self, x: &[f64], y: f64) {
+        if x.len() != self.n || !y.is_finite() || x.iter().any(|v| !v.is_finite()) {
+            return;
+        }
+        self.count += 1.0;
+        self.sy += y;
+        for i in 0..self.n {
+            self.sx[i] += x[i];
+            self.sxy[i] += x[i] * y;
+            for j in 0..=i {
+                self.sxx[i * self.n + j] += x[i] * x[j];
+            }
+        }
+    }
+
+    /// Solve with penalty `lambda` (relative: `λ · count` on the standardised features):
+    /// `(intercept, weights)`. `None` with fewer than two samples.
+    pub fn solve(&self, lambda: f64) -> Option<(f64, Vec<f64>)> {
+        let (n, m) = (self.n, self.count);
+        if m < 2.0 || !(lambda.is_finite() && lambda >= 0.0) {
+            return None;
+        }
+        let mean: Vec<f64> = self.sx.iter().map(|s| s / m).collect();
+        let my = self.sy / m;
+        let cov = |i: usize, j: usize| {
+            let (a, b) = if j <= i { (i, j) } else { (j, i) };
+            self.sxx[a * n + b] - m * mean[a] * mean[b]
+        };
+        let sd: Vec<f64> = (0..n).map(|i| (cov(i, i).max(0.0) / m).sqrt()).collect();
+        let live: Vec<usize> = (0..n).filter(|&i| sd[i] > 1e-12 * (1.0 + mean[i].abs())).collect();
+        let k = live.len();
+        let mut a = vec![0.0; k * k];
+        let mut b = vec![0.0; k];
+        for (p, &i) in live.iter().enumerate() {
+            for (q, &j) in live.iter().enumerate() {
+                a[p * k + q] = cov(i, j) / (sd[i] * sd[j]);
+            }
+            a[p * k + p] += lambda * m + 1e-12 * m;
+            b[p] = (self.sxy[i] - m * mean[i] * my) / sd[i];
+        }
+        let beta = cholesky_solve(&mut a, &mut b, k)?;
+        let mut w = vec![0.0; n];
+        for (p, &i) in live.iter().enumerate() {
+            w[i] = beta[p] / sd[i];
+        }
+        let intercept = my - w.iter().zip(&mean).map(|(w, m)| w * m).sum::<f64>();
+        Some((intercept, w))
+    }
+}
+
+/// Solve `A x = b` for symmetric positive definite `A` (k × k, row-major; overwritten).
+fn cholesky_solve(a: &mut [f64], b: &mut [f64], k: usize) -> Option<Vec<f64>> {
+    for j in 0..k {
+        let mut d = a[j * k + j];
+        for p in 0..j {
+            d -= a[j * k + p] * a[j * k + p];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let d = d.sqrt();
+        a[j * k + j] = d;
+        for i in j + 1..k {
+            let mut s = a[i * k + j];
+            for p in 0..j {
+                s -= a[i * k + p] * a[j * k + p];
+            }
+            a[i * k + j] = s / d;
+        }
+    }
+    let mut y = vec![0.0; k];
+    for i in 0..k {
+        let mut s = b[i];
+        for p in 0..i {
+            s -= a[i * k + p] * y[p];
+        }
+        y[i] = s / a[i * k + i];
+    }
+    for i in (0..k).rev() {
+        let mut s = y[i];
+        for p in i + 1..k {
+            s -= a[p * k + i] * y[p];
+        }
+        y[i] = s / a[i * k + i];
+    }
+    Some(y)
+}
+
+/// One calibration frame: the detector's changes and contact, the contour area (when the
+/// contact location made one), and the gauge's force at the window's centre.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GaugeSample {
+    /// Signed changes (counts).
+    pub change: Vec<f64>,
+    /// The detector's contact decision.
+    pub contact: bool,
+    /// Contour area (mm²), when there is a contour.
+    pub area_mm2: Option<f64>,
+    /// The contact fit's amplitude, when the location is a fit.
+    pub amplitude: Option<f64>,
+    /// Measured force (N).
+    pub force_n: f64,
+}
+
+/// Smallest gauge force a calibration sample needs (N): lighter frames are not used.
+pub const MIN_CALIBRATION_N: f64 = 0.05;
+
+/// Fit `method` on gauge samples (contact frames with at least [`MIN_CALIBRATION_N`]):
+/// ridge with `lambda`, the area curve with `curve`. The error says why a fit is impossible.
+pub fn calibrate(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+) -> Result<ForceFile> {
+    let used: Vec<&GaugeSample> =
+        samples.iter().filter(|s| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()).collect();
+    if used.len() < 10 {
+        return Err(invalid(format!(
+            "{} frames in contact with a gauge force ≥ {MIN_CALIBRATION_N} N (of {}); at least 10 are needed — \
+             press the sensor while the gauge records",
+            used.len(),
+            samples.len()
+        )));
+    }
+    let n = layout.len();
+    let model = match method {
+        CalibrationMethod::Ridge => {
+            let mut acc = RidgeAccumulator::new(n);
+            for s in &used {
+                if s.change.len() != n {
+                    return Err(invalid(format!("a sample of {} taxels, the layout has {n}", s.change.len())));
+                }
+                acc.push(&s.change, s.force_n);
+            }
+            let (intercept_n, weights) =
+                acc.solve(lambda).ok_or_else(|| invalid("the ridge system is singular".into()))?;
+            CalibratedForce::Ridge { intercept_n, weights, lambda }
+        }
+        CalibrationMethod::Area | CalibrationMethod::Amplitude => {
+            let x = |s: &GaugeSample| if method == CalibrationMethod::Area { s.area_mm2 } else { s.amplitude };
+            // a power law is 0 at x ≤ 0 (a single-taxel centroid has no area): fitted on x > 0
+            let pairs: Vec<ForceSample> = used
+                .iter()
+                .filter_map(|s| x(s).map(|a| ForceSample { area_mm2: a, force_n: s.force_n }))
+                .filter(|p| curve != ForceMethod::PowerLaw || p.area_mm2 > 0.0)
+                .collect();
+            let c = ForceModel::fit(curve, &pairs)?;
+            if method == CalibrationMethod::Area {
+                CalibratedForce::Area { curve: c }
+            } else {
+                CalibratedForce::Amplitude { curve: c }
+            }
+        }
+    };
+    let predict = |s: &GaugeSample| model.predict_sample(s);
+    let scored: Vec<f64> = used
+        .iter()
+        .filter(|s| s.force_n > 0.5)
+        .map(|s| predict(s).map_or(1.0, |p| (p - s.force_n).abs() / s.force_n))
+        .collect();
+    let lo = used.iter().map(|s| s.force_n).fold(f64::INFINITY, f64::min);
+    let hi = used.iter().map(|s| s.force_n).fold(f64::NEG_INFINITY, f64::max);
+    let file = ForceFile {
+        format: FORCE_FORMAT.into(),
+        version: FORCE_VERSION,
+        layout: layout.name().to_string(),
+        taxels: n,
+        model,
+        calibration: CalibrationInfo {
+            samples: used.len() as u64,
+            force_range_n: [lo, hi],
+            in_sample_mape_pct: 100.0 * scored.iter().sum::<f64>() / scored.len().max(1) as f64,
+        },
+    };
+    file.validate()?;
+    Ok(file)
+}
+
+/// Force from the changes (see the [module docs](self)): raw frames in, one
+/// [`ForceEstimate`] per frame (`area_mm2` is NaN: this model reads no contour).
+#[derive(Clone, Debug)]
+#[must_use = "a stage does nothing until inputs are pushed"]
+pub struct ChangeForce {
+    det: ChangeDetector,
+    model: CalibratedForce,
+}
+
+impl ChangeForce {
+    /// The stage for a validated file whose model reads changes, with the detector settings
+    /// of `locate` (validated).
+    pub fn try_new(file: &ForceFile, locate: &LocateConfig) -> Result<Self> {
+        file.validate()?;
+        if !file.model.reads_changes() {
+            return Err(invalid(format!(
+                "the {} model reads contours, not raw frames (use the contour force stage)",
+                file.model.method().name()
+            )));
+        }
+        let det = ChangeDetector::try_new(file.taxels, locate)?.follow_all_when_untouched();
+        Ok(ChangeForce { det, model: file.model.clone() })
+    }
+
+    /// Measure against a stored untouched baseline.
+    pub fn with_tare(mut self, tare: &crate::tare::Tare) -> Result<Self> {
+        self.det = self.det.with_tare(tare)?;
+        Ok(self)
+    }
+
+    /// The change detector.
+    pub fn detector(&self) -> &ChangeDetector {
+        &self.det
+    }
+}
+
+impl Stage for ChangeForce {
+    type In = TaxelFrame;
+    type Out = ForceEstimate;
+    type Error = Error;
+
+    fn push(&mut self, f: TaxelFrame, out: &mut Vec<ForceEstimate>) -> Result<()> {
+        let ch = self.det.push(&f, STAGE)?;
+        let force_n = if ch.contact { self.model.predict_changes(self.det.change()) } else { None };
+        out.push(ForceEstimate { sensor: f.sensor, time: f.time, seq: f.seq, area_mm2: f64::NAN, force_n });
+        Ok(())
+    }
+
+    fn reset(&mut self) {
+        self.det.reset();
+    }
+
+    fn delay(&self) -> Delay {
+        Delay::frames(u64::from((self.det.config().window_frames - 1) / 2))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gradtac_stream::{Layout, StageExt, Timestamp};
+
+    #[test]
+    fn ridge_recovers_a_linear_law_and_the_penalty_shrinks() {
+        let mut acc = RidgeAccumulator::new(3);
+        for k in 0..200 {
+            let x = [k as f64 % 7.0, (k * k) as f64 % 11.0, 5.0];
+            acc.push(&x, 1.0 + 0.5 * x[0] - 0.25 * x[1]);
+        }
+        let (b, w) = acc.solve(0.0).unwrap();
+        assert!((b - 1.0).abs() < 1e-6 && (w[0] - 0.5).abs() < 1e-8 && (w[1] + 0.25).abs() < 1e-8, "{b} {w:?}");
+        assert_eq!(w[2], 0.0); // constant feature: no weight
+        let (_, ws) = acc.solve(10.0).unwrap();
+        assert!(ws[0].abs() < 0.5 * w[0].abs());
+        assert!(RidgeAccumulator::new(2).solve(0.0).is_none());
+    }
+
+    fn file() -> ForceFile {
+        ForceFile {
+            format: FORCE_FORMAT.into(),
+            version: FORCE_VERSION,
+            layout: "biotac-sp".into(),
+            taxels: 2,
+            model: CalibratedForce::Ridge { intercept_n: 0.0, weights: vec![-0.01, 0.0], lambda: 0.0 },
+            calibration: CalibrationInfo { samples: 10, force_range_n: [0.1, 5.0], in_sample_mape_pct: 3.0 },
+        }
+    }
+
+    #[test]
+    fn files_are_validated() {
+        file().validate().unwrap();
+        let json = serde_json::to_string(&file()).unwrap();
+        assert_eq!(serde_json::from_str::<ForceFile>(&json).unwrap(), file());
+        for bad in [
+            ForceFile { version: 9, ..file() },
+            ForceFile { format: "f".into(), ..file() },
+            ForceFile { taxels: 3, ..file() },
+            ForceFile { taxels: 0, ..file() },
+            ForceFile {
+                model: CalibratedForce::Ridge { intercept_n: f64::NAN, weights: vec![0.0, 0.0], lambda: 0.0 },
+                ..file()
+            },
+            ForceFile {
+                model: CalibratedForce::Area {
+                    curve: ForceModel::Isotonic { area_mm2: vec![2.0, 1.0], force_n: vec![0.0, 1.0] },
+                },
+                ..file()
+            },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+        assert!(file().check_layout(&Layout::biotac_sp()).unwrap_err().to_string().contains("24"));
+    }
+
+    #[test]
+    fn the_stage_reports_no_force_without_contact() {
+        let cfg = LocateConfig { window_frames: 1, ..Default::default() };
+        let mut s = ChangeForce::try_new(&file(), &cfg).unwrap();
+        let frame = |k: u64, v: f64| {
+            let e = if k % 2 == 0 { 1.0 } else { -1.0 };
+            TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v + e, 500.0 - e])
+        };
+        let mut frames: Vec<TaxelFrame> = (0..40).map(|k| frame(k, 1000.0)).collect();
+        frames.extend((40..45).map(|k| frame(k, 700.0)));
+        let out = s.run_all(frames).unwrap();
+        assert!(out[..40].iter().all(|e| e.force_n.is_none()));
+        // Δ ≈ −300 counts × −0.01 N/count = 3 N
+        assert!(out[40..].iter().all(|e| (e.force_n.unwrap() - 3.0).abs() < 0.05), "{:?}", &out[40..]);
+    }
+}

@@ -1,0 +1,257 @@
+//! `gradtac calibrate force`, `gradtac calibrate baseline` and the scenes that use their files,
+//! end to end on a simulated gauge session (a member of the force family, seed 700, that no
+//! choice was made on); and the warning for stage tables a plan will not run.
+
+use arrow_array::cast::AsArray;
+use arrow_array::types::Float64Type;
+use gradtac::stages::sim_force::{ForceRecording, ForceSession};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn gradtac() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_gradtac"))
+}
+
+/// The session as a CSV: 24 taxel columns, the gauge's newtons and a time column (s).
+fn write_csv(path: &Path, rec: &ForceRecording) {
+    let mut s = String::from("t");
+    for i in 1..=24 {
+        s.push_str(&format!(",ff_e{i}"));
+    }
+    s.push_str(",force_n\n");
+    for (f, g) in rec.frames.iter().zip(&rec.gauge) {
+        s.push_str(&format!("{}", f.time.as_secs_f64()));
+        for v in &f.values {
+            s.push_str(&format!(",{v}"));
+        }
+        s.push_str(&format!(",{g}\n"));
+    }
+    fs::write(path, s).unwrap();
+}
+
+fn scene(dir: &Path, name: &str, csv: &str, extra: &str, tap: &str) -> PathBuf {
+    let p = dir.join(name);
+    fs::write(
+        &p,
+        format!(
+            "[[sensor]]\nname = \"ff\"\nsource = {{ csv = \"{csv}\", columns = \"ff_e{{1..24}}\", time_column = \"t\" }}\n\
+             [[output]]\ntap = \"{tap}\"\npath = \"{name}.parquet\"\n{extra}"
+        ),
+    )
+    .unwrap();
+    p
+}
+
+fn forces(path: &Path) -> Vec<Option<f64>> {
+    let reader = ParquetRecordBatchReaderBuilder::try_new(fs::File::open(path).unwrap()).unwrap().build().unwrap();
+    let mut out = Vec::new();
+    for b in reader {
+        let b = b.unwrap();
+        let c = b.column_by_name("force_n").unwrap().as_primitive::<Float64Type>().clone();
+        out.extend(c.iter());
+    }
+    out
+}
+
+fn ok(out: std::process::Output) -> String {
+    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{text}");
+    text
+}
+
+#[test]
+fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = ForceSession::presses(700, 6).simulate();
+    write_csv(&dir.path().join("cal.csv"), &rec);
+    let cal = scene(dir.path(), "cal.toml", "cal.csv", "", "source");
+    let model = dir.path().join("force.json");
+    let text = ok(gradtac()
+        .args(["calibrate", "force"])
+        .arg(&cal)
+        .args(["--force-column", "force_n", "--out"])
+        .arg(&model)
+        .output()
+        .unwrap());
+    assert!(text.contains("calibrated ridge force on"), "{text}");
+    // a second session of the same sensor (other noise), through the bare default chain
+    let test = ForceSession { noise_stream: 9, ..ForceSession::presses(700, 6) }.simulate();
+    write_csv(&dir.path().join("test.csv"), &test);
+    let run = scene(dir.path(), "run.toml", "test.csv", "[stages.force]\nmodel = \"force.json\"\n", "force");
+    let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
+    assert!(explain.contains("ridge on the 24 signed changes"), "{explain}");
+    assert!(!explain.contains("centroid"), "the force alone needs no contact location: {explain}");
+    ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
+    let f = forces(&dir.path().join("run.toml.parquet"));
+    assert_eq!(f.len(), test.frames.len());
+    let (mut quiet, mut over, mut errs) = (0, 0, Vec::new());
+    for (k, est) in f.iter().enumerate() {
+        // the estimate describes the centre of its 9 frames
+        let truth = test.force[k.saturating_sub(4)];
+        if (k.saturating_sub(50)..=k).all(|j| test.force[j] == 0.0) {
+            quiet += 1;
+            over += usize::from(est.is_some_and(|e| e > 0.5));
+        }
+        if truth > 0.5 {
+            errs.push(est.map_or(1.0, |e| (e - truth).abs() / truth));
+        }
+    }
+    // before the first press (1 s at rest, after the detector's 20 calibration frames) no
+    // frame reports a force, nor between presses (measured: 0 of 162)
+    assert!(f[..100].iter().all(Option::is_none), "a force before the first press");
+    assert!(over as f64 <= 0.02 * quiet as f64, "{over} of {quiet} untouched frames above 0.5 N");
+    // the same sensor's next session at the same places (the held-out places are
+    // examples/force_eval.rs's business)
+    let mape = 100.0 * errs.iter().sum::<f64>() / errs.len() as f64;
+    eprintln!("MAPE {mape:.1} % above 0.5 N");
+    // docs/force.md: the calibrated models do not reach the 10 % the issue asks (here 57–79 %
+    // depending on λ); this only checks that the estimates beat reporting nothing (100 %)
+    assert!(mape < 95.0, "MAPE {mape:.1} % on the same sensor's next session");
+    let pressed = (0..f.len()).filter(|&k| test.force[k.saturating_sub(4)] > 2.0);
+    let (n, with) = pressed.fold((0, 0), |(n, w), k| (n + 1, w + usize::from(f[k].is_some())));
+    // the force detector lets untouched taxels follow drift, which also absorbs part of a slow
+    // 2 s ramp before it crosses the contact threshold (docs/force.md): measured 632 of 1640
+    eprintln!("a force in {with} of {n} frames pressed above 2 N");
+    assert!(with as f64 > 0.3 * n as f64, "a force in {with} of {n} frames pressed above 2 N");
+}
+
+#[test]
+fn a_gauge_file_matched_by_time_and_clear_refusals() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = ForceSession::presses(701, 4).simulate();
+    write_csv(&dir.path().join("cal.csv"), &rec);
+    // the gauge on its own clock rows (every other frame), in ms
+    let mut g = String::from("time_ms,newtons\n");
+    for (k, (f, v)) in rec.frames.iter().zip(&rec.gauge).enumerate().filter(|(k, _)| k % 2 == 0) {
+        let _ = k;
+        g.push_str(&format!("{},{v}\n", f.time.0 as f64 * 1e-6));
+    }
+    fs::write(dir.path().join("gauge.csv"), g).unwrap();
+    let cal = scene(dir.path(), "cal.toml", "cal.csv", "", "source");
+    let model = dir.path().join("f.json");
+    let run = |extra: &[&str]| {
+        gradtac().args(["calibrate", "force"]).arg(&cal).args(extra).arg("--out").arg(&model).output().unwrap()
+    };
+    let text = ok(run(&[
+        "--force-column",
+        "newtons",
+        "--force-file",
+        dir.path().join("gauge.csv").to_str().unwrap(),
+        "--force-time-column",
+        "time_ms",
+        "--force-time-unit",
+        "ms",
+    ]));
+    assert!(text.contains("calibrated ridge force"), "{text}");
+    let file = gradtac::scene::read_force_file(&model).unwrap();
+    assert_eq!(file.taxels, 24);
+    // a missing column, and an output that is the recording, are refused
+    let out = run(&["--force-column", "nope"]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("nope"));
+    let out = gradtac()
+        .args(["calibrate", "force"])
+        .arg(&cal)
+        .args(["--force-column", "force_n", "--out"])
+        .arg(dir.path().join("cal.csv"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("refusing"));
+    // a model file that is not valid names itself
+    fs::write(&model, "{\"format\":\"gradtac-force\",\"version\":7}").unwrap();
+    let bad = scene(dir.path(), "bad.toml", "cal.csv", "[stages.force]\nmodel = \"f.json\"\n", "force");
+    let out = gradtac().arg("explain").arg(&bad).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("f.json"), "{err}");
+    // the slip-direction form still answers (with what it needs)
+    let out = gradtac().arg("calibrate").output().unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("force, baseline, dos"));
+}
+
+#[test]
+fn calibrate_baseline_and_explain_says_whether_it_fits() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = ForceSession::presses(702, 2).simulate();
+    write_csv(&dir.path().join("r.csv"), &rec);
+    let s = scene(dir.path(), "s.toml", "r.csv", "", "source");
+    let tare = dir.path().join("tare.json");
+    let text = ok(gradtac()
+        .args(["calibrate", "baseline"])
+        .arg(&s)
+        .args(["--to", "0.9", "--out"])
+        .arg(&tare)
+        .output()
+        .unwrap());
+    assert!(text.contains("baseline of sensor ff from 91 untouched frames"), "{text}");
+    // a stretch with a press in it is refused
+    let out = gradtac()
+        .args(["calibrate", "baseline"])
+        .arg(&s)
+        .args(["--out"])
+        .arg(dir.path().join("t2.json"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not untouched"));
+    let with = scene(dir.path(), "w.toml", "r.csv", "[stages.locate]\nbaseline = \"tare.json\"\n", "track");
+    let explain = ok(gradtac().arg("explain").arg(&with).output().unwrap());
+    assert!(explain.contains("stored tare.json") && explain.contains("fits the recording's first frames"), "{explain}");
+    // another sensor's recording does not fit it
+    let other = ForceSession::presses(703, 1).simulate();
+    write_csv(&dir.path().join("o.csv"), &other);
+    let o = scene(dir.path(), "o.toml", "o.csv", "[stages.locate]\nbaseline = \"tare.json\"\n", "track");
+    let explain = ok(gradtac().arg("explain").arg(&o).output().unwrap());
+    assert!(explain.contains("DOES NOT FIT"), "{explain}");
+    let out = ok(gradtac().args(["run", "-q"]).arg(&o).env("GRADTAC_LOG", "warn").output().unwrap());
+    assert!(out.contains("no longer fits the sensor"), "{out}");
+}
+
+#[test]
+fn a_stage_table_the_plan_does_not_run_is_named_with_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = ForceSession::presses(704, 1).simulate();
+    write_csv(&dir.path().join("r.csv"), &rec);
+    let s = scene(dir.path(), "s.toml", "r.csv", "\n[stages.surface]\ngrid = { nx = 16 }\n", "track");
+    let out = gradtac().arg("explain").arg(&s).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stdout.contains("settings not used by this plan") && stdout.contains("s.toml:8: [stages.surface]"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.contains("s.toml:8: [stages.surface] is set but not used") && stderr.contains("centroid"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn area_and_amplitude_models_run_through_their_location_chain() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = ForceSession::presses(705, 4).simulate();
+    write_csv(&dir.path().join("r.csv"), &rec);
+    for (method, locate) in [("area", ""), ("amplitude", "[stages.locate]\nmethod = \"fit\"\n")] {
+        let cal = scene(dir.path(), &format!("cal_{method}.toml"), "r.csv", locate, "source");
+        let model = dir.path().join(format!("{method}.json"));
+        let text = ok(gradtac()
+            .args(["calibrate", "force"])
+            .arg(&cal)
+            .args(["--force-column", "force_n", "--method", method, "--out"])
+            .arg(&model)
+            .output()
+            .unwrap());
+        assert!(text.contains(&format!("calibrated {method} force")), "{text}");
+        let extra = format!("{locate}[stages.force]\nmodel = \"{method}.json\"\n");
+        let run = scene(dir.path(), &format!("run_{method}.toml"), "r.csv", &extra, "force");
+        let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
+        assert!(explain.contains("contour area → N"), "{explain}");
+        ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
+        let f = forces(&dir.path().join(format!("run_{method}.toml.parquet")));
+        assert!(f.iter().filter(|x| x.is_some()).count() > 200, "{method}: too few forces");
+    }
+    // an amplitude model without the fit is refused, naming the file
+    let bad = scene(dir.path(), "bad.toml", "r.csv", "[stages.force]\nmodel = \"amplitude.json\"\n", "force");
+    let out = gradtac().arg("explain").arg(&bad).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("amplitude.json") && err.contains("method = \"fit\""), "{err}");
+}
