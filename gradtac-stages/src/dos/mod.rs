@@ -264,13 +264,18 @@ mod cross_validation;
 mod extractor;
 mod features;
 mod model;
+mod net;
 mod stage;
+/// Training of the learned model (cargo feature `train`; a robot's build leaves it out).
+#[cfg(feature = "train")]
+pub mod train;
 
 pub use classes::*;
 pub use cross_validation::*;
 pub use extractor::*;
 pub use features::*;
 pub use model::*;
+pub use net::*;
 pub use stage::*;
 
 const STAGE: &str = "dos";
@@ -281,3 +286,7 @@ fn invalid(reason: impl Into<String>) -> Error {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+use tests::support as tests_support;
+#[cfg(test)]
+mod net_tests;
