@@ -161,8 +161,8 @@ mod training {
     fn the_layout_mirror_is_an_involution_and_matches_the_class_mirror() {
         let layout = Layout::biotac_sp();
         let p = mirror_permutation(&layout).unwrap();
-        for i in 0..10 {
-            assert_eq!(p[i], i + 10);
+        for (i, &pi) in p.iter().enumerate().take(10) {
+            assert_eq!(pi, i + 10);
         }
         assert_eq!((p[20], p[21], p[22], p[23]), (20, 22, 21, 23));
         // mirrored e recording looks like a w recording
