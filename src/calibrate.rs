@@ -394,7 +394,7 @@ pub fn held_out_report(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> 
 // The learned model (gradtac_stages::dos::DosNet): candidates, held-out figures, training
 // ---------------------------------------------------------------------------------------------
 
-pub use gradtac_stages::dos::train::{Augment, NetHeldOut, TrainConfig, TrainRecording};
+pub use gradtac_stages::dos::train::{Augment, NetHeldOut, Representations, TrainConfig, TrainRecording, Versions};
 use gradtac_stages::dos::{train, DosNet};
 
 /// The learned model's candidates, simplest first: weight decay `l2` ∈ {0.01, 0.1} × augmentation
@@ -448,8 +448,8 @@ pub fn net_representations(
     recs: &[TrainRecording],
     layout: &Layout,
     candidates: &[TrainConfig],
-) -> Result<Vec<std::sync::Arc<Vec<Vec<(DosClass, Vec<f64>)>>>>, Error> {
-    let mut done: Vec<(TrainConfig, std::sync::Arc<Vec<Vec<(DosClass, Vec<f64>)>>>)> = Vec::new();
+) -> Result<Vec<std::sync::Arc<Representations>>, Error> {
+    let mut done: Vec<(TrainConfig, std::sync::Arc<Representations>)> = Vec::new();
     let mut out = Vec::new();
     for c in candidates {
         let key = TrainConfig { l2: 0.0, epochs: 1, learning_rate: 0.01, net: c.net.clone(), ..c.clone() };
@@ -469,7 +469,7 @@ pub fn net_representations(
 pub fn net_held_out(recs: &[Recording], layout: &Layout, candidates: &[TrainConfig]) -> Result<NetReport, Error> {
     let tr = train_recordings(recs);
     let reps = net_representations(&tr, layout, candidates)?;
-    let views: Vec<&[Vec<(DosClass, Vec<f64>)>]> = reps.iter().map(|r| r.as_slice()).collect();
+    let views: Vec<&[Versions]> = reps.iter().map(|r| r.as_slice()).collect();
     let taxels = layout.len();
     let nested = train::nested(&tr, &views, taxels, candidates)?;
     let of = |set: &str| -> Vec<usize> { (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect() };

@@ -32,6 +32,9 @@ fn indices(recs: &[Recording], set: &str) -> Vec<usize> {
     (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect()
 }
 
+/// (correct, decided) at each mark and at the end; the cost of every frame (µs).
+type Streamed = (Vec<(usize, usize)>, Vec<f64>);
+
 /// Stream every test recording through `net`'s extractor; tally the decisions at `marks`
 /// frames since contact and at the end; the per-frame cost (push + representation + decision,
 /// µs) of every frame.
@@ -41,7 +44,7 @@ fn stream(
     test: &[usize],
     layout: &Layout,
     marks: &[usize],
-) -> Result<(Vec<(usize, usize)>, Vec<f64>), Box<dyn Error>> {
+) -> Result<Streamed, Box<dyn Error>> {
     let mut tally = vec![(0, 0); marks.len() + 1];
     let mut cost = Vec::new();
     let mut x = net.extractor(layout)?;
@@ -313,7 +316,7 @@ pub fn run(dir: &std::path::Path, layout: &Layout, no_floors: bool) -> Result<()
     // what the procedure would ship: the choice on all recordings, trained on all of them
     let all: Vec<usize> = (0..recs.len()).collect();
     let reps = gradtac::calibrate::net_representations(&tr, layout, &cands)?;
-    let views: Vec<&[Vec<(DosClass, Vec<f64>)>]> = reps.iter().map(|r| r.as_slice()).collect();
+    let views: Vec<&[gradtac::calibrate::Versions]> = reps.iter().map(|r| r.as_slice()).collect();
     let (k, acc) = gradtac::stages::dos::train::choose(&tr, &views, &all, layout.len(), &cands)?;
     let t = Instant::now();
     let net = train_net(&recs, layout, &cands[k])?;
