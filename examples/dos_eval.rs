@@ -23,6 +23,10 @@
 //! **Footnotes**: leave-one-object-out tables of the configured features (feature sets ×
 //! centroid methods, λ × class density, ν, event threshold, drift lags, span), whose choices
 //! were made by looking at that same evaluation — in-sample, not estimates for new objects.
+//! **The learned model** (`dos_eval_parts/learned.rs`, `--learned-only` runs just it): the
+//! same held-out figures for [`DosNet`](gradtac::stages::dos::DosNet) chosen among its
+//! candidates inside every fold, the published protocol, early answers and its streaming cost.
+//!
 //! `--model-out` writes the model calibrated on all recordings as JSON (the file a scene
 //! loads). Exits 0 with "skipped: data not present" when the directory is absent.
 //!
@@ -43,6 +47,8 @@ use std::time::Instant;
 
 #[path = "dos_eval_parts/headline.rs"]
 mod headline;
+#[path = "dos_eval_parts/learned.rs"]
+mod learned;
 
 /// One labelled recording's frames.
 struct Raw {
@@ -201,6 +207,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut cfg = DosFeatureConfig::default();
     let mut model_out: Option<PathBuf> = None;
     let mut no_floors = false;
+    let mut learned_only = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -218,10 +225,11 @@ fn main() -> Result<(), Box<dyn Error>> {
             "--track-window" => cfg.track_window_frames = args.next().ok_or("--track-window needs frames")?.parse()?,
             "--model-out" => model_out = Some(args.next().ok_or("--model-out needs a file")?.into()),
             "--no-floors" => no_floors = true,
+            "--learned-only" => learned_only = true,
             "-h" | "--help" => {
                 println!(
                     "usage: dos_eval [DATA_DIR] [--features a,b,c] [--centroid surface|contour|taxels] [--min-area MM2] \
-                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors]"
+                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors] [--learned-only]"
                 );
                 return Ok(());
             }
@@ -234,6 +242,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     }
     cfg.validate()?;
     let layout = Layout::biotac_sp();
+    if learned_only {
+        return learned::run(&dir, &layout, no_floors);
+    }
     let t0 = Instant::now();
     let raw = read_all(&dir)?;
     let t_read = t0.elapsed();
@@ -266,6 +277,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     );
 
     headline::run(&dir, &layout, no_floors)?;
+    learned::run(&dir, &layout, no_floors)?;
     println!(
         "\n## Footnotes: leave-one-object-out tables whose choices were made on that same evaluation \
          (configured features, no mirror augmentation)\n"

@@ -752,3 +752,112 @@ pub fn write_json<T: serde::Serialize>(value: &T, path: &Path) -> Result<(), Err
     let json = serde_json::to_string_pretty(value).expect("models serialise");
     std::fs::write(path, json).map_err(|source| Error::Io { path: path.to_path_buf(), source })
 }
+
+// ---------------------------------------------------------------------------------------------
+// The learned model (gradtac_stages::dos::DosNet): candidates, held-out figures, training
+// ---------------------------------------------------------------------------------------------
+
+pub use gradtac_stages::dos::train::{Augment, NetHeldOut, Representations, TrainConfig, TrainRecording, Versions};
+use gradtac_stages::dos::{train, DosNet};
+
+/// The learned model's candidates, simplest first: weight decay `l2` ∈ {0.01, 0.1} × augmentation
+/// (mirror images only / mirror images and two random copies of each recording with the default
+/// [`Augment`] strengths); 16 hidden units, lags 0.3 and 0.6 s, 300 Adam steps. Chosen by
+/// leave-one-object-out inside the training objects ([`net_held_out`]).
+pub fn net_candidates() -> Vec<TrainConfig> {
+    let mut out = Vec::new();
+    for augment in [Augment::mirror_only(), Augment { copies: 2, ..Augment::default() }] {
+        for l2 in [1e-2, 1e-1] {
+            out.push(TrainConfig { l2, augment: augment.clone(), ..TrainConfig::default() });
+        }
+    }
+    out
+}
+
+/// One line describing a candidate.
+pub fn describe_net(c: &TrainConfig) -> String {
+    format!(
+        "{} hidden, lags {:?}, l2 {}, {} steps, mirror {}, {} random copies",
+        c.net.hidden,
+        c.net.lags,
+        c.l2,
+        c.epochs,
+        if c.augment.mirror { "on" } else { "off" },
+        c.augment.copies
+    )
+}
+
+/// Recordings as the trainer takes them (grouped by object).
+pub fn train_recordings(recs: &[Recording]) -> Vec<TrainRecording> {
+    recs.iter().map(|r| TrainRecording { class: r.class, group: r.object.clone(), frames: r.frames.clone() }).collect()
+}
+
+/// Held-out figures of the learned model's choice among `candidates`: nested
+/// leave-one-object-out and, with both object sets, basic → solids and solids → basic (choice
+/// by leave-one-object-out inside the training set), per recording.
+#[derive(Clone, Debug)]
+pub struct NetReport {
+    /// Nested leave-one-object-out.
+    pub nested: NetHeldOut,
+    /// Trained on basic, tested on solids.
+    pub basic_to_solids: Option<NetHeldOut>,
+    /// Trained on solids, tested on basic.
+    pub solids_to_basic: Option<NetHeldOut>,
+}
+
+/// Every candidate's training representations (candidates with the same representation and
+/// augmentation share them).
+pub fn net_representations(
+    recs: &[TrainRecording],
+    layout: &Layout,
+    candidates: &[TrainConfig],
+) -> Result<Vec<std::sync::Arc<Representations>>, Error> {
+    let mut done: Vec<(TrainConfig, std::sync::Arc<Representations>)> = Vec::new();
+    let mut out = Vec::new();
+    for c in candidates {
+        let key = TrainConfig { l2: 0.0, epochs: 1, learning_rate: 0.01, net: c.net.clone(), ..c.clone() };
+        let key = TrainConfig { net: gradtac_stages::dos::NetConfig { hidden: 1, ..key.net.clone() }, ..key };
+        if let Some((_, r)) = done.iter().find(|(k, _)| *k == key) {
+            out.push(r.clone());
+            continue;
+        }
+        let r = std::sync::Arc::new(train::represent_recordings(recs, layout, c)?);
+        done.push((key, r.clone()));
+        out.push(r);
+    }
+    Ok(out)
+}
+
+/// [`NetReport`] of choosing among `candidates` on `recs`.
+pub fn net_held_out(recs: &[Recording], layout: &Layout, candidates: &[TrainConfig]) -> Result<NetReport, Error> {
+    let tr = train_recordings(recs);
+    let reps = net_representations(&tr, layout, candidates)?;
+    let views: Vec<&[Versions]> = reps.iter().map(|r| r.as_slice()).collect();
+    let taxels = layout.len();
+    let nested = train::nested(&tr, &views, taxels, candidates)?;
+    let of = |set: &str| -> Vec<usize> { (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect() };
+    let (basic, solids) = (of("basic"), of("solids"));
+    let objects =
+        |ix: &[usize]| ix.iter().map(|&i| recs[i].object.as_str()).collect::<std::collections::BTreeSet<_>>().len();
+    let split = |a: &[usize], b: &[usize], name: &str| -> Result<Option<NetHeldOut>, Error> {
+        if objects(a) < 2 || b.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(train::train_test(&tr, &views, a, b, name, taxels, candidates)?))
+    };
+    Ok(NetReport {
+        nested,
+        basic_to_solids: split(&basic, &solids, "basic → solids")?,
+        solids_to_basic: split(&solids, &basic, "solids → basic")?,
+    })
+}
+
+/// Train the learned model with `cfg` on every recording (and the augmentation `cfg` asks for).
+pub fn train_net(recs: &[Recording], layout: &Layout, cfg: &TrainConfig) -> Result<DosNet, Error> {
+    let tr = train_recordings(recs);
+    let reps = train::represent_recordings(&tr, layout, cfg)?;
+    let all: Vec<usize> = (0..tr.len()).collect();
+    let (_, _, mut net) = train::fit_and_score(&reps, &all, &[], layout.len(), cfg)?;
+    net.recordings = tr.len();
+    Ok(net)
+}

@@ -753,3 +753,51 @@ fn dos_scene_decides_on_a_sliding_window() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("early = true needs hop_frames"));
 }
+
+#[test]
+fn calibrate_also_trains_the_learned_model_and_guards_its_output() {
+    use gradtac::stages::dos::DosNet;
+    let dir = tempfile::tempdir().unwrap();
+    let train = dir.path().join("train");
+    simulated_labelled(&train, 0..2);
+    let (model, net) = (dir.path().join("model.json"), dir.path().join("net.json"));
+    let out = gradtac()
+        .arg("calibrate")
+        .arg(&train)
+        .arg("--out")
+        .arg(&model)
+        .arg("--learned-out")
+        .arg(&net)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("learned model") && text.contains("trained on 8 recordings"), "{text}");
+    let learned: DosNet = serde_json::from_str(&fs::read_to_string(&net).unwrap()).unwrap();
+    assert_eq!(learned.taxels, 24);
+    assert_eq!(learned.classes.len(), 4);
+    // the learned model decides a recording streamed through its own extractor
+    let layout = gradtac::stream::Layout::biotac_sp();
+    let mut x = learned.extractor(&layout).unwrap();
+    let csv = fs::read_to_string(train.join("n").join("sim0.csv")).unwrap();
+    for line in csv.lines().skip(1) {
+        let v: Vec<f64> = line.split(',').map(|s| s.parse().unwrap()).collect();
+        x.push(&v).unwrap();
+    }
+    let d = learned.classify(&x.input()).unwrap();
+    assert!((d.posterior.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+    // the learned model's file may not replace the other output
+    let before = fs::read(&model).unwrap();
+    let out = gradtac()
+        .arg("calibrate")
+        .arg(&train)
+        .arg("--out")
+        .arg(&model)
+        .arg("--learned-out")
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("refusing"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(fs::read(&model).unwrap(), before, "the refused run wrote nothing");
+}

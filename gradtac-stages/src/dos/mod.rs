@@ -161,6 +161,46 @@
 //! `drift_signed_y` and `drift_anisotropy`, and 7 of the 48 rotation recordings have the side
 //! asymmetry reversed — the main remaining error.
 //!
+//! # The learned model ([`DosNet`]) — measured, not the default
+//! [`DosNet`] (module `net`) classifies a per-taxel, multi-time-scale representation of the span
+//! ([`NetExtractor`]: for each taxel the drift weight and signed weight at 0.3 and 0.6 s, the
+//! net change since contact against the taxel's noise, plus the seven drift moments: 127 inputs,
+//! exactly invariant to a gain and an offset per taxel) with one hidden layer of 16 `tanh` units
+//! (2 421 parameters). It streams: the representation is kept as running sums, and a decision
+//! every frame costs a median 2.9 µs, p99 3.4 µs (`dos_eval`, 46 165 frames, release build,
+//! a loaded 2-core machine). The trainer ([`train`], cargo feature `train`, no extra crate)
+//! adds every recording's mirror image (taxel permutation of the layout's reflection,
+//! `e ↔ w`, `cw ↔ aw`) and random copies with white noise, speed and time warp, taxel dropout,
+//! small layout rotations, vibration added or removed and prefix crops, and fits by full-batch
+//! Adam: 1.8 s for all 167 recordings.
+//!
+//! Held out (`dos_eval`, `--learned-only` for just this part; per recording): the candidates
+//! are weight decay {0.01, 0.1} × augmentation {mirror only, mirror + 2 random copies}, chosen by
+//! leave-one-object-out inside the training objects of every fold, exactly as the Student-t
+//! design's (whose row, above, is the baseline):
+//!
+//! | method | nested leave-one-object-out | basic → solids | solids → basic |
+//! |---|---|---|---|
+//! | Student-t design (the default, above) | **80.2 %** | **85.7 %** | 66.7 % |
+//! | learned, 4 candidates chosen per fold | 76.0 % | 75.0 % | **68.5 %** |
+//! | (comparison) both, log posteriors summed with equal (untuned) weights | 80.2 % | 85.7 % | **70.3 %** |
+//!
+//! Published protocol (basic only, per 5-frame window of solids): with the causal history
+//! 64.7 % (the Student-t design 63.3 %); from the window alone the learned model is at chance
+//! (14.2 %: the basic-chosen weight decay 0.1 flattens a model of 50 ms windows to one class),
+//! the Student-t one 29.1 %; the ConvLSTM 82.56 %. Early answers (streaming, everything since
+//! contact), basic → solids: 0.5 s 25.0 %, **1 s 73.2 %**, 2 s 78.6 %, whole 75.0 %;
+//! solids → basic: 0.5 s 39.6 %, **1 s 61.3 %**, 2 s 67.6 %, whole 69.4 %.
+//!
+//! It does not beat the Student-t design on objects it has not seen (it wins only solids →
+//! basic, by two recordings, and at 1 s basic → solids), so the defaults stay the Student-t
+//! model. The two err differently: the fixed ensemble (no weight chosen) keeps the Student-t
+//! figures where it is strong and adds four recordings solids → basic — measured in
+//! `dos_eval`, not yet what the `dos` stage runs. Exploratory looks before the grid was fixed (plain leave-one-object-out over all six
+//! objects, one configuration each, so in-sample for these choices): 16 hidden with weight
+//! decay 0.001 / 0.01 and six copies 70.7 / 76.6 %, 8 hidden with 0.03 77.2 %, mirror only
+//! 74–77 %; the grid above was fixed after them and the held-out figures were printed once.
+//!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
 //! per-class variances shrunk toward them, `σ²_{c,j} = λ·σ²_j + (1 − λ)·s²_{c,j}` with
@@ -264,13 +304,18 @@ mod cross_validation;
 mod extractor;
 mod features;
 mod model;
+mod net;
 mod stage;
+/// Training of the learned model (cargo feature `train`; a robot's build leaves it out).
+#[cfg(feature = "train")]
+pub mod train;
 
 pub use classes::*;
 pub use cross_validation::*;
 pub use extractor::*;
 pub use features::*;
 pub use model::*;
+pub use net::*;
 pub use stage::*;
 
 const STAGE: &str = "dos";
@@ -281,3 +326,7 @@ fn invalid(reason: impl Into<String>) -> Error {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+use tests::support as tests_support;
+#[cfg(test)]
+mod net_tests;

@@ -561,3 +561,23 @@ fn class_names_and_directions() {
     assert_eq!(wrap_half_pi(3.0), 3.0 - std::f64::consts::PI);
     assert_eq!(wrap_half_pi(-0.25), -0.25);
 }
+
+/// Frames of [`recording`] / [`synthetic`] as plain value rows, for the learned model's tests.
+pub(super) mod support {
+    use super::*;
+    /// [`recording`]'s values.
+    pub fn recording_values(
+        frames: usize,
+        c0: [f64; 2],
+        shift: [f64; 2],
+        phi0: f64,
+        turn: f64,
+        seed: u64,
+    ) -> Vec<Vec<f64>> {
+        recording(frames, c0, shift, phi0, turn, seed).into_iter().map(|f| f.values).collect()
+    }
+    /// [`synthetic`]'s values.
+    pub fn synthetic_values(class: DosClass, c0: [f64; 2], phi0: f64, seed: u64) -> Vec<Vec<f64>> {
+        synthetic(class, c0, phi0, seed).into_iter().map(|f| f.values).collect()
+    }
+}
