@@ -335,11 +335,11 @@ impl Sealed for ContourFrame {
 }
 impl Viewable for ContourFrame {}
 
-/// The position uncertainty σ (mm) of a track point, when the locating method gives one.
-/// The track points of this version carry none (the `sigma`-like nullable columns of a
-/// later `track` schema are read by the replay).
-fn track_sigma(_p: &TrackPoint) -> Option<f64> {
-    None
+/// The position uncertainty σ (mm) of a track point, when the locating method gives one
+/// (`[stages.locate] method = "fit"`: the fit's 1-σ major axis; the replay reads the same
+/// value from the `track` file's `fit_sigma_mm` column).
+fn track_sigma(p: &TrackPoint) -> Option<f64> {
+    p.fit.as_ref().map(|f| f.sigma_mm).filter(|s| s.is_finite())
 }
 
 impl Sealed for TrackPoint {

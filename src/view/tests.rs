@@ -52,6 +52,7 @@ fn point(sensor: &str, k: i64, contact: bool) -> TrackPoint {
         peak: 1.0,
         velocity_mm_s: None,
         gated: false,
+        fit: None,
     }
 }
 
