@@ -1,5 +1,6 @@
 """Rust errors as Python exceptions with the message (file, line, key); the readers."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,8 @@ def test_a_misspelt_scene_key_names_the_line_and_key(tmp_path: Path):
     with pytest.raises(gradtac.GradtacError) as e:
         gradtac.load_scene(tmp_path / "scene.toml")
     msg = str(e.value)
-    assert "scene.toml" in msg and "windw" in msg and "line" in msg, msg
+    # one error shape everywhere: `file:line: …` naming the key
+    assert re.search(r"scene\.toml:\d+: ", msg) and "windw" in msg, msg
 
 
 def test_a_missing_recording_is_file_not_found_naming_it(tmp_path: Path):
