@@ -31,7 +31,6 @@
 //! offsets in its errors; the container itself is small enough to read from the spec.
 
 use super::inflate::{inflate_into, InflateBudget};
-use crate::error::BagSite;
 use crate::{Error, Result};
 use std::collections::HashMap;
 use std::fs::File;
@@ -339,11 +338,7 @@ impl BagReader {
     }
 
     fn err(&self, offset: u64, reason: impl Into<String>) -> Error {
-        Error::Bag {
-            path: self.path.clone(),
-            site: Box::new(BagSite { offset: Some(offset), ..BagSite::default() }),
-            reason: reason.into(),
-        }
+        super::container_io::error_at(&self.path, offset, reason)
     }
 
     fn io(&self, source: std::io::Error) -> Error {
@@ -351,17 +346,7 @@ impl BagReader {
     }
 
     fn read_up_to(&mut self, buf: &mut [u8]) -> Result<usize> {
-        let mut n = 0;
-        while n < buf.len() {
-            match self.file.read(&mut buf[n..]) {
-                Ok(0) => break,
-                Ok(k) => n += k,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(self.io(e)),
-            }
-        }
-        self.pos += n as u64;
-        Ok(n)
+        super::container_io::read_up_to(&mut self.file, &self.path, &mut self.pos, buf)
     }
 
     /// Read exactly `n` bytes (already checked against the file's length).

@@ -22,11 +22,10 @@
 //! reserving 3 GB), its errors name no offset, and its lz4 support builds C.
 
 use super::inflate::{inflate_into, InflateBudget};
-use crate::error::BagSite;
 use crate::{Error, Result};
 use std::collections::HashMap;
 use std::fs::File;
-use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::io::{BufReader, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -218,11 +217,7 @@ impl McapReader {
     }
 
     fn err(&self, offset: u64, reason: impl Into<String>) -> Error {
-        Error::Bag {
-            path: self.path.clone(),
-            site: Box::new(BagSite { offset: Some(offset), ..BagSite::default() }),
-            reason: reason.into(),
-        }
+        super::container_io::error_at(&self.path, offset, reason)
     }
 
     fn io(&self, source: std::io::Error) -> Error {
@@ -230,17 +225,7 @@ impl McapReader {
     }
 
     fn read_up_to(&mut self, buf: &mut [u8]) -> Result<usize> {
-        let mut n = 0;
-        while n < buf.len() {
-            match self.file.read(&mut buf[n..]) {
-                Ok(0) => break,
-                Ok(k) => n += k,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(self.io(e)),
-            }
-        }
-        self.pos += n as u64;
-        Ok(n)
+        super::container_io::read_up_to(&mut self.file, &self.path, &mut self.pos, buf)
     }
 
     /// The next message of any channel, or `None` after the data section.

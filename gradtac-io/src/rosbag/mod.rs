@@ -28,6 +28,7 @@
 //! ```
 
 pub mod bag;
+mod container_io;
 pub mod decode;
 pub mod extract;
 pub mod inflate;
