@@ -186,16 +186,11 @@ enum Held {
 impl BagReader {
     /// Open a bag and check its magic line.
     pub fn open(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref().to_path_buf();
-        let f = File::open(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-        let meta = f.metadata().map_err(|source| Error::Io { path: path.clone(), source })?;
-        if !meta.is_file() {
-            return Err(Error::Bag { path, site: Box::default(), reason: "not a regular file".into() });
-        }
+        let (path, file, len) = super::container_io::open_regular(path)?;
         let mut r = BagReader {
             path,
-            file: BufReader::with_capacity(1 << 16, f),
-            len: meta.len(),
+            file,
+            len,
             pos: 0,
             chunk: Vec::new(),
             chunk_pos: 0,
@@ -204,7 +199,7 @@ impl BagReader {
             connections: HashMap::new(),
             counts: HashMap::new(),
             chunks: 0,
-            budget: InflateBudget::for_file(meta.len()),
+            budget: InflateBudget::for_file(len),
             chunk_conns: HashMap::new(),
             topics: None,
             skipped: 0,

@@ -3,8 +3,21 @@
 
 use crate::error::BagSite;
 use crate::{Error, Result};
-use std::io::Read;
-use std::path::Path;
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::path::{Path, PathBuf};
+
+/// Open a container file for reading: the path, a 64 KiB buffered reader and the file's
+/// length. Anything but a regular file (a directory, a FIFO, a device) is refused.
+pub(crate) fn open_regular(path: impl AsRef<Path>) -> Result<(PathBuf, BufReader<File>, u64)> {
+    let path = path.as_ref().to_path_buf();
+    let f = File::open(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+    let meta = f.metadata().map_err(|source| Error::Io { path: path.clone(), source })?;
+    if !meta.is_file() {
+        return Err(Error::Bag { path, site: Box::default(), reason: "not a regular file".into() });
+    }
+    Ok((path, BufReader::with_capacity(1 << 16, f), meta.len()))
+}
 
 /// A container error at byte `offset` of `path`.
 pub(crate) fn error_at(path: &Path, offset: u64, reason: impl Into<String>) -> Error {

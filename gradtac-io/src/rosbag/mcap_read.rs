@@ -171,16 +171,11 @@ pub struct McapReader {
 impl McapReader {
     /// Open an MCAP file and check its magic.
     pub fn open(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref().to_path_buf();
-        let f = File::open(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-        let meta = f.metadata().map_err(|source| Error::Io { path: path.clone(), source })?;
-        if !meta.is_file() {
-            return Err(Error::Bag { path, site: Box::default(), reason: "not a regular file".into() });
-        }
+        let (path, file, len) = super::container_io::open_regular(path)?;
         let mut r = McapReader {
             path,
-            file: BufReader::with_capacity(1 << 16, f),
-            len: meta.len(),
+            file,
+            len,
             pos: 0,
             record: Vec::new(),
             chunk: Vec::new(),
@@ -188,7 +183,7 @@ impl McapReader {
             chunk_offset: 0,
             schemas: HashMap::new(),
             channels: HashMap::new(),
-            budget: InflateBudget::for_file(meta.len()),
+            budget: InflateBudget::for_file(len),
             records: 0,
             done: false,
             cur: None,
