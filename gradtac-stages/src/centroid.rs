@@ -51,7 +51,7 @@
 //! | `max_speed_mm_s` | quiet track, lags a fast real move (0 = no bound) | follows any slide of the weights, jumps |
 
 use crate::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
-use crate::locate::{ChangeDetector, LocateConfig};
+use crate::locate::{ChangeDetector, LocateConfig, PositionMemory};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Layout, Stage, TaxelFrame};
 
@@ -63,8 +63,8 @@ pub struct Centroid {
     det: ChangeDetector,
     positions: Vec<[f64; 2]>,
     order: Vec<usize>,
-    /// Last reported position, its decayed weight mass (`smooth_frames`) and time.
-    memory: Option<([f64; 2], f64, gradtac_stream::Timestamp)>,
+    /// The reported position's memory (`smooth_frames`, `max_speed_mm_s`).
+    memory: PositionMemory,
 }
 
 impl Centroid {
@@ -74,7 +74,7 @@ impl Centroid {
             det: ChangeDetector::try_new(layout.len(), cfg)?,
             positions: layout.positions().to_vec(),
             order: Vec::with_capacity(layout.len()),
-            memory: None,
+            memory: PositionMemory::default(),
         })
     }
 
@@ -162,30 +162,7 @@ impl Stage for Centroid {
             match Centroid::weighted(&self.positions, &w) {
                 Some(mut c) => {
                     let s: f64 = w.iter().sum();
-                    let lambda = 1.0 - 1.0 / f64::from(cfg.smooth_frames);
-                    let (p, m) = match self.memory {
-                        Some((prev, m, t)) => {
-                            let m2 = lambda * m + s;
-                            let a = lambda * m / m2;
-                            let mut p = [
-                                a * prev[0] + (1.0 - a) * c.centroid_mm[0],
-                                a * prev[1] + (1.0 - a) * c.centroid_mm[1],
-                            ];
-                            // the physical speed bound: at most max_speed·dt from the last output
-                            if cfg.max_speed_mm_s > 0.0 {
-                                let most = cfg.max_speed_mm_s * (ch.end - t).max(0) as f64 * 1e-9;
-                                let d = (p[0] - prev[0]).hypot(p[1] - prev[1]);
-                                if d > most {
-                                    let k = most / d;
-                                    p = [prev[0] + k * (p[0] - prev[0]), prev[1] + k * (p[1] - prev[1])];
-                                }
-                            }
-                            (p, m2)
-                        }
-                        None => (c.centroid_mm, s),
-                    };
-                    self.memory = Some((p, m, ch.end));
-                    c.centroid_mm = p;
+                    c.centroid_mm = self.memory.update(cfg, c.centroid_mm, s, ch.end);
                     // report the peak as a relative change, not a weight
                     c.peak = rel.iter().copied().fold(0.0, f64::max);
                     ContourOutcome::Contact(c)
@@ -194,7 +171,7 @@ impl Stage for Centroid {
             }
         };
         if outcome.contact().is_none() {
-            self.memory = None;
+            self.memory.clear();
         }
         out.push(ContourFrame { sensor: f.sensor, start: ch.start, end: ch.end, seq: ch.seq, outcome });
         Ok(())
@@ -202,7 +179,7 @@ impl Stage for Centroid {
 
     fn reset(&mut self) {
         self.det.reset();
-        self.memory = None;
+        self.memory.clear();
     }
 
     fn delay(&self) -> Delay {

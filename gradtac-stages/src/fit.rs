@@ -85,10 +85,10 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
-use crate::locate::{ChangeDetector, LocateConfig};
+use crate::locate::{ChangeDetector, LocateConfig, PositionMemory};
 use crate::sim_family::{CORE_MM, SKIN_L_MM, SKIN_MM, SKIN_R_MM};
 use crate::{Error, Result};
-use gradtac_stream::{Delay, Layout, Stage, TaxelFrame, Timestamp};
+use gradtac_stream::{Delay, Layout, Stage, TaxelFrame};
 use serde::{Deserialize, Serialize};
 
 const STAGE: &str = "fit";
@@ -409,7 +409,7 @@ pub struct Fit {
     /// The last raw solution within the current contact (warm start).
     warm: Option<[f64; NP]>,
     /// Last reported position, its decayed weight mass and time.
-    memory: Option<([f64; 2], f64, Timestamp)>,
+    memory: PositionMemory,
 }
 
 impl Fit {
@@ -425,7 +425,7 @@ impl Fit {
             inv_s: vec![0.0; n],
             kk: vec![0.0; n],
             warm: None,
-            memory: None,
+            memory: PositionMemory::default(),
         })
     }
 
@@ -633,26 +633,7 @@ impl Stage for Fit {
                 Some((p, summary, at_edge)) => {
                     let cfg = self.det.config();
                     let mass = 1.0 / summary.sigma_mm.max(1e-3).powi(2);
-                    let lambda = 1.0 - 1.0 / f64::from(cfg.smooth_frames);
-                    let (q, m) = match self.memory {
-                        Some((prev, m, t)) if mass.is_finite() => {
-                            let m2 = lambda * m + mass;
-                            let a = lambda * m / m2;
-                            let mut q = [a * prev[0] + (1.0 - a) * p[0], a * prev[1] + (1.0 - a) * p[1]];
-                            if cfg.max_speed_mm_s > 0.0 {
-                                let most = cfg.max_speed_mm_s * (ch.end - t).max(0) as f64 * 1e-9;
-                                let dist = (q[0] - prev[0]).hypot(q[1] - prev[1]);
-                                if dist > most {
-                                    let k = most / dist;
-                                    q = [prev[0] + k * (q[0] - prev[0]), prev[1] + k * (q[1] - prev[1])];
-                                }
-                            }
-                            (q, m2)
-                        }
-                        Some((prev, m, _)) => (prev, m),
-                        None => (p, if mass.is_finite() { mass } else { 0.0 }),
-                    };
-                    self.memory = Some((q, m, ch.end));
+                    let q = self.memory.update(cfg, p, mass, ch.end);
                     let peak = self.det.relative().iter().copied().fold(0.0, f64::max);
                     ContourOutcome::Contact(MaxContour {
                         level: 0.0,
@@ -671,7 +652,7 @@ impl Stage for Fit {
             }
         };
         if outcome.contact().is_none() {
-            self.memory = None;
+            self.memory.clear();
             self.warm = None;
         }
         out.push(ContourFrame { sensor: f.sensor, start: ch.start, end: ch.end, seq: ch.seq, outcome });
@@ -680,7 +661,7 @@ impl Stage for Fit {
 
     fn reset(&mut self) {
         self.det.reset();
-        self.memory = None;
+        self.memory.clear();
         self.warm = None;
         self.gain.iter_mut().for_each(|g| *g = 1.0);
     }
@@ -694,7 +675,7 @@ impl Stage for Fit {
 mod tests {
     use super::*;
     use crate::centroid::Centroid;
-    use gradtac_stream::StageExt;
+    use gradtac_stream::{StageExt, Timestamp};
     use proptest::prelude::*;
 
     fn frames(n: u64, f: impl Fn(u64) -> Vec<f64>) -> Vec<TaxelFrame> {

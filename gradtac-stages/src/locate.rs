@@ -372,6 +372,50 @@ pub struct Changes {
     pub calibrating: bool,
 }
 
+/// The reported position's memory, shared by the centroid and the fit: each frame's position
+/// `p` of strength `mass` is blended into the last reported one with weight decaying by
+/// `1 − 1/smooth_frames` per frame, then held to at most `max_speed_mm_s · Δt` from it
+/// (when the bound is on). A frame whose mass is not finite keeps the last position.
+/// [`clear`](Self::clear) it when a contact ends.
+#[derive(Clone, Debug, Default)]
+pub struct PositionMemory {
+    /// Last reported position, its decayed mass and the end of its frame span.
+    last: Option<([f64; 2], f64, Timestamp)>,
+}
+
+impl PositionMemory {
+    /// The position to report for a frame ending at `end`, remembered for the next.
+    pub fn update(&mut self, cfg: &LocateConfig, p: [f64; 2], mass: f64, end: Timestamp) -> [f64; 2] {
+        let lambda = 1.0 - 1.0 / f64::from(cfg.smooth_frames);
+        let (q, m) = match self.last {
+            Some((prev, m, t)) if mass.is_finite() => {
+                let m2 = lambda * m + mass;
+                let a = lambda * m / m2;
+                let mut q = [a * prev[0] + (1.0 - a) * p[0], a * prev[1] + (1.0 - a) * p[1]];
+                // the physical speed bound: at most max_speed·dt from the last output
+                if cfg.max_speed_mm_s > 0.0 {
+                    let most = cfg.max_speed_mm_s * (end - t).max(0) as f64 * 1e-9;
+                    let dist = (q[0] - prev[0]).hypot(q[1] - prev[1]);
+                    if dist > most {
+                        let k = most / dist;
+                        q = [prev[0] + k * (q[0] - prev[0]), prev[1] + k * (q[1] - prev[1])];
+                    }
+                }
+                (q, m2)
+            }
+            Some((prev, m, _)) => (prev, m),
+            None => (p, if mass.is_finite() { mass } else { 0.0 }),
+        };
+        self.last = Some((q, m, end));
+        q
+    }
+
+    /// Forget the position (a contact ended, or a discontinuity).
+    pub fn clear(&mut self) {
+        self.last = None;
+    }
+}
+
 /// The shared baseline / noise / change machinery (see the [module docs](self)): a plain
 /// state machine, one frame in, one [`Changes`] out, the relative changes in
 /// [`ChangeDetector::relative`].
