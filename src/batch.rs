@@ -269,7 +269,7 @@ pub fn run_recording(scene: &Scene, recording: &Path, out: &Path) -> Result<Reco
         }
     }
     let plan = Plan::new(&s)?;
-    let report = run_blocking(&s, &plan, &RunOptions { progress: false, threads: 1, ..Default::default() })?;
+    let report = run_blocking(&s, &plan, &RunOptions { threads: 1, ..Default::default() })?;
     if report.interrupted {
         // a recording cut short is a failed one: its files go back to temporary names, so
         // the archive's final names only ever hold whole recordings

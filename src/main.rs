@@ -336,14 +336,14 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 gradtac::guard::check_side_output(&scene, rrd)?;
             }
             let plan = Plan::new(&scene)?;
-            #[allow(unused_mut)]
-            let mut options = run::RunOptions { progress: !quiet, threads, ..Default::default() };
             #[cfg(feature = "view")]
             let view = view.open(reads_live_bus(&scene))?;
-            #[cfg(feature = "view")]
-            {
-                options.view = view.as_ref().map(gradtac::view::View::handle);
-            }
+            let options = run::RunOptions {
+                progress: !quiet,
+                threads,
+                #[cfg(feature = "view")]
+                view: view.as_ref().map(gradtac::view::View::handle),
+            };
             let report = run::run_blocking(&scene, &plan, &options);
             #[cfg(feature = "view")]
             {

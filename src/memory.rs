@@ -310,12 +310,7 @@ impl<T: ArrowRecord + Send + 'static> RecordSink<T> for MemorySink<T> {
 /// Run a scene into `out` on the calling thread (a tokio runtime of its own reads the
 /// sources, as [`run::run_blocking`](crate::run::run_blocking)); writes nothing.
 pub fn run(scene: &Scene, plan: &Plan, out: &MemoryOutputs) -> Result<RunReport, Error> {
-    crate::run::run_blocking_in(
-        scene,
-        plan,
-        &RunOptions { progress: false, threads: 0, ..Default::default() },
-        Some(out),
-    )
+    crate::run::run_blocking_in(scene, plan, &RunOptions { threads: 0, ..Default::default() }, Some(out))
 }
 
 /// A streaming single-sensor chain in memory: frames in, one [`RecordBatch`] of the tapped

@@ -102,7 +102,7 @@ fn memory_batches_equal_the_files_of_a_run_and_nothing_is_written() {
     assert!(report.outputs.iter().all(|(files, _)| files.is_empty()));
     assert!(!dir.path().join("out").exists(), "an in-memory run writes nothing");
 
-    let files = run_blocking(&scene, &plan, &RunOptions { progress: false, threads: 2, ..Default::default() }).unwrap();
+    let files = run_blocking(&scene, &plan, &RunOptions { threads: 2, ..Default::default() }).unwrap();
     for (i, (paths, rows)) in files.outputs.iter().enumerate() {
         let mine: Vec<RecordBatch> = got.iter().filter(|(o, _)| *o == i).map(|(_, b)| b.clone()).collect();
         assert!(mine.iter().all(|b| b.schema() == schemas[i]));

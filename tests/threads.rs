@@ -47,7 +47,7 @@ fn run_in(scene_text: &str, data: &[(&str, &[u8])], threads: usize) -> (BTreeMap
     fs::write(&sc, scene_text).unwrap();
     let scene = Scene::load(&sc).unwrap();
     let plan = Plan::new(&scene).unwrap();
-    let report = run_blocking(&scene, &plan, &RunOptions { progress: false, threads, ..Default::default() }).unwrap();
+    let report = run_blocking(&scene, &plan, &RunOptions { threads, ..Default::default() }).unwrap();
     let frames = report.frames.iter().map(|(_, n)| n).sum();
     (files(&dir.path().join("out")), frames)
 }
@@ -224,9 +224,7 @@ path = "out/n.parquet"
         fs::write(dir.path().join("scene.toml"), scene).unwrap();
         let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
         let plan = Plan::new(&scene).unwrap();
-        let err = run_blocking(&scene, &plan, &RunOptions { progress: false, threads, ..Default::default() })
-            .unwrap_err()
-            .to_string();
+        let err = run_blocking(&scene, &plan, &RunOptions { threads, ..Default::default() }).unwrap_err().to_string();
         assert!(err.contains("d.csv") && err.contains("202"), "{threads} threads: {err}");
         assert!(!dir.path().join("out/n.parquet").exists(), "{threads} threads");
         assert!(dir.path().join("out/n.parquet.partial").exists(), "{threads} threads");
