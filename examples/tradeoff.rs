@@ -44,7 +44,7 @@ use gradtac::stages::contour::{Contour, ContourConfig, ContourFrame, ContourOutc
 use gradtac::stages::events::{Events, EventsConfig, Threshold};
 use gradtac::stages::fit::Fit;
 use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
-use gradtac::stages::locate::{ChangeDetector, LocateConfig, LocateMethod, Preset};
+use gradtac::stages::locate::{CentroidWeights, ChangeDetector, LocateConfig, LocateMethod, Preset};
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim_family::{FamilyRecording, KernelShape, Member, PathKind, PhysicsSet, Similarity, CORE_MM};
@@ -58,7 +58,7 @@ use std::time::Instant;
 /// One setting of one method.
 #[derive(Clone, Debug)]
 enum Setting {
-    Centroid { window: u32, power: f64, contact: f64, smooth: u32, speed: f64 },
+    Centroid { window: u32, power: f64, floor: f64, counts: bool, contact: f64, smooth: u32, speed: f64 },
     Delta2 { window: u32 },
     Fit { window: u32, iterations: u32, gain_rate: f64, model_error: f64, signed: bool, smooth: u32, speed: f64 },
     Raw { grid: usize, window: u32, min_area: f64 },
@@ -80,9 +80,11 @@ impl Setting {
     fn describe(&self) -> String {
         let speed = |s: f64| if s > 0.0 { format!("≤ {s} mm/s") } else { "no speed bound".into() };
         match self {
-            Setting::Centroid { window, power, contact, smooth, speed: v } => {
-                format!("window {window}, p = {power}, floor 2 σ, contact {contact} σ, smooth {smooth}, {}", speed(*v))
-            }
+            Setting::Centroid { window, power, floor, counts, contact, smooth, speed: v } => format!(
+                "window {window}, {} p = {power}, floor {floor} σ, contact {contact} σ, smooth {smooth}, {}",
+                if *counts { "counts" } else { "relative" },
+                speed(*v)
+            ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
             Setting::Fit { window, iterations, gain_rate, model_error, signed, smooth, speed: v } => format!(
                 "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact 10 σ, smooth {smooth}, {}",
@@ -100,10 +102,12 @@ impl Setting {
     fn locate(&self) -> Option<LocateConfig> {
         let base = LocateConfig { floor_sigmas: 2.0, ..LocateConfig::default() };
         match *self {
-            Setting::Centroid { window, power, contact, smooth, speed } => Some(LocateConfig {
+            Setting::Centroid { window, power, floor, counts, contact, smooth, speed } => Some(LocateConfig {
                 method: LocateMethod::Centroid,
                 window_frames: window,
                 power,
+                floor_sigmas: floor,
+                weights: if counts { CentroidWeights::Counts } else { CentroidWeights::Relative },
                 contact_sigmas: contact,
                 smooth_frames: smooth,
                 max_speed_mm_s: speed,
@@ -391,11 +395,14 @@ fn main() {
 
     let mut settings = Vec::new();
     for window in [1u32, 5, 9] {
-        for power in [1.0, 2.0] {
+        // floor 0 and weights in counts only with p = 2 (counts, floor 0: the Δ² baseline's weights)
+        for (power, floor, counts) in
+            [(1.0, 2.0, false), (2.0, 2.0, false), (2.0, 0.0, false), (2.0, 2.0, true), (2.0, 0.0, true)]
+        {
             for contact in [6.0, 10.0] {
                 for smooth in [1, 3] {
                     for speed in [0.0, 30.0] {
-                        settings.push(Setting::Centroid { window, power, contact, smooth, speed });
+                        settings.push(Setting::Centroid { window, power, floor, counts, contact, smooth, speed });
                     }
                 }
             }
@@ -617,8 +624,9 @@ fn main() {
     }
     let ld = LocateConfig::preset(Preset::Fast);
     let lib_centroid = rows.iter().find(|r| {
-        matches!(r.s, Setting::Centroid { window, power, contact, smooth, speed }
-            if window == ld.window_frames && power == ld.power && contact == ld.contact_sigmas
+        matches!(r.s, Setting::Centroid { window, power, floor, counts, contact, smooth, speed }
+            if window == ld.window_frames && power == ld.power && floor == ld.floor_sigmas
+                && counts == (ld.weights == CentroidWeights::Counts) && contact == ld.contact_sigmas
                 && smooth == ld.smooth_frames && speed == ld.max_speed_mm_s)
     });
     if let Some(r) = lib_centroid {

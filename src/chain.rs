@@ -425,8 +425,9 @@ impl SensorChain {
                     "no speed bound".to_string()
                 };
                 format!(
-                    "taxel centroid (preset {}), weights r^{}{}, position memory {} frames, {speed} ({})",
+                    "taxel centroid (preset {}), weights ({} change)^{}{}, position memory {} frames, {speed} ({})",
                     l.preset.name(),
+                    l.weights.name(),
                     l.power,
                     l.top_k.map_or(" of all taxels".to_string(), |k| format!(" of the top {k}")),
                     l.smooth_frames,

@@ -46,7 +46,7 @@ fn line_of(text: &str, at: usize) -> usize {
 /// Locate keys read by each method (`centroid` / `raw_contour` share the change detector).
 fn locate_key_used(key: &str, method: LocateMethod, detector_elsewhere: bool) -> bool {
     let detector = ["calibrate_frames", "window_frames", "floor_sigmas", "contact_sigmas", "follow_s", "baseline"];
-    let centroid_only = ["power", "top_k", "smooth_frames", "max_speed_mm_s"];
+    let centroid_only = ["power", "weights", "top_k", "smooth_frames", "max_speed_mm_s"];
     match key {
         "method" => true,
         "event_tau_sigmas" => method == LocateMethod::Events,

@@ -51,7 +51,7 @@
 //! | `max_speed_mm_s` | quiet track, lags a fast real move (0 = no bound) | follows any slide of the weights, jumps |
 
 use crate::contour::{ContourFrame, ContourOutcome, MaxContour, NoContact};
-use crate::locate::{ChangeDetector, LocateConfig, PositionMemory};
+use crate::locate::{CentroidWeights, ChangeDetector, LocateConfig, PositionMemory};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Layout, Stage, TaxelFrame};
 
@@ -150,7 +150,11 @@ impl Stage for Centroid {
             let cfg = self.det.config();
             let rel = self.det.relative();
             let p = cfg.power;
-            let mut w: Vec<f64> = rel.iter().map(|&r| if p == 2.0 { r * r } else { r.powf(p) }).collect();
+            let base = match cfg.weights {
+                CentroidWeights::Relative => rel,
+                CentroidWeights::Counts => self.det.excess(),
+            };
+            let mut w: Vec<f64> = base.iter().map(|&r| if p == 2.0 { r * r } else { r.powf(p) }).collect();
             if let Some(k) = cfg.top_k.filter(|&k| k < w.len()) {
                 self.order.clear();
                 self.order.extend(0..w.len());
@@ -254,6 +258,38 @@ mod tests {
         assert!((p.centroid_mm[1] - (a[1] + b[1]) / 2.0).abs() < 1e-6, "{:?}", p.centroid_mm);
         // the 2-σ ellipse of two points is degenerate (a line): zero area, fully eccentric
         assert!(p.area_mm2 < 1e-6 && (p.eccentricity - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn counts_weigh_the_change_as_the_adc_sees_it_relative_weighs_it_against_the_level() {
+        let layout = Layout::biotac_sp();
+        // electrodes 22 and 23 rest at 1000 and 3000 counts; both rise by the same 100 counts
+        let base = |i: usize| match i {
+            21 => 1000.0,
+            22 => 3000.0,
+            _ => 2000.0,
+        };
+        let input = || {
+            frames(50, |k| {
+                (0..24)
+                    .map(|i| base(i) + noise(k, i) + if k >= 25 && (i == 21 || i == 22) { 100.0 } else { 0.0 })
+                    .collect()
+            })
+        };
+        let (a, b) = (layout.positions()[21], layout.positions()[22]);
+        let at = |weights: CentroidWeights| {
+            let cfg =
+                LocateConfig { weights, window_frames: 2, smooth_frames: 1, max_speed_mm_s: 0.0, ..Default::default() };
+            let out = Centroid::try_new(&cfg, &layout).unwrap().run_all(input()).unwrap();
+            out[49].outcome.contact().expect("contact").centroid_mm
+        };
+        // counts: equal weights, the midpoint (the floor, 2 σ of the ±1 noise, is the same for both)
+        let p = at(CentroidWeights::Counts);
+        assert!((p[0] - (a[0] + b[0]) / 2.0).abs() < 1e-6 && (p[1] - (a[1] + b[1]) / 2.0).abs() < 1e-6, "{p:?}");
+        // relative: weights (c/1000)² : (c/3000)² = 9 : 1, nine tenths of the way to electrode 22
+        let p = at(CentroidWeights::Relative);
+        let want = [(9.0 * a[0] + b[0]) / 10.0, (9.0 * a[1] + b[1]) / 10.0];
+        assert!((p[0] - want[0]).abs() < 1e-6 && (p[1] - want[1]).abs() < 1e-6, "{p:?} vs {want:?}");
     }
 
     #[test]

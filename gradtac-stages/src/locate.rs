@@ -67,6 +67,32 @@ impl LocateMethod {
     }
 }
 
+/// What the `centroid` weighs: each taxel's change above its noise floor, `c = |Δ| − floor`
+/// (counts, 0 below the floor), either relative to the taxel's baseline level or as it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CentroidWeights {
+    /// `(c / max(|baseline|, σ))^power`: every taxel's change as a fraction of its own level,
+    /// so a taxel with a low resting level weighs more for the same change in counts.
+    Relative,
+    /// `c^power` in counts: the change as the ADC sees it (with `power` 2, `floor_sigmas` 0:
+    /// the Δ²-weighted centroid of `docs/tradeoff.md`). The default: on the forward-model
+    /// family's tuning members it lowers the worst-kind error from 0.060 to 0.053 of the width
+    /// at the same detector settings, and the real recordings' track is as quiet.
+    #[default]
+    Counts,
+}
+
+impl CentroidWeights {
+    /// The name in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            CentroidWeights::Relative => "relative",
+            CentroidWeights::Counts => "counts",
+        }
+    }
+}
+
 /// A point of the speed-for-accuracy front (`[stages.locate] preset`, `docs/tradeoff.md`): the
 /// method and settings a preset stands for; keys a scene sets explicitly override them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -99,11 +125,11 @@ impl Preset {
 pub struct LocateConfig {
     /// The point of the speed-for-accuracy front the other values started from. Default `fast`.
     pub preset: Preset,
-    /// The method. Default `centroid` (`docs/tradeoff.md`: within 0.005 of the width of the best
-    /// held-out worst-kind error, at 1/20–1/600 of the cost of the contour methods).
+    /// The method. Default `centroid` (`docs/tradeoff.md`: the `fast` preset; `fit` is the
+    /// `accurate` one).
     ///
     /// The defaults of the detector settings (`window_frames` 9, `floor_sigmas` 2,
-    /// `contact_sigmas` 10, `smooth_frames` 3, `power` 2) are the setting that keeps the track
+    /// `contact_sigmas` 10, `smooth_frames` 3, `power` 2, `weights` counts) are the setting that keeps the track
     /// plausible on real BioTacSP-DoS recordings (per-frame jumps: p99 0.44 mm, largest
     /// 1.4 mm) at a held-out simulated error within 0.01 of the width of the best found.
     pub method: LocateMethod,
@@ -120,8 +146,13 @@ pub struct LocateConfig {
     /// Time constant (s, ≥ 0; 0 = never follow) with which the baseline of taxels below their
     /// floor follows slow drift. Default 2.
     pub follow_s: f64,
-    /// `centroid`: weights are the relative change to this power (> 0). Default 2.
+    /// `centroid`: weights are the change ([`weights`](Self::weights)) to this power (> 0, ≤ 16).
+    /// Default 2.
     pub power: f64,
+    /// `centroid`: what the weights measure, `counts` (the change in input units) or
+    /// `relative` (to each taxel's resting level, the default before 2026-11-27). Default
+    /// `counts`.
+    pub weights: CentroidWeights,
     /// `centroid`: only the `top_k` largest weights count (≥ 1); `None` = all. Default none.
     pub top_k: Option<usize>,
     /// `centroid`: confidence-weighted position memory (frames, 1–1000; 1 = none): each
@@ -180,6 +211,7 @@ struct LocateToml {
     contact_sigmas: Option<f64>,
     follow_s: Option<f64>,
     power: Option<f64>,
+    weights: Option<CentroidWeights>,
     top_k: Option<usize>,
     smooth_frames: Option<u32>,
     max_speed_mm_s: Option<f64>,
@@ -206,6 +238,7 @@ impl From<LocateToml> for LocateConfig {
             contact_sigmas,
             follow_s,
             power,
+            weights,
             smooth_frames,
             max_speed_mm_s,
             event_tau_sigmas,
@@ -270,6 +303,7 @@ impl LocateConfig {
             contact_sigmas: 10.0,
             follow_s: 2.0,
             power: 2.0,
+            weights: CentroidWeights::Counts,
             top_k: None,
             smooth_frames: 3,
             max_speed_mm_s: 30.0,
@@ -429,6 +463,8 @@ pub struct ChangeDetector {
     ring: VecDeque<(Timestamp, Vec<f64>)>,
     sum: Vec<f64>,
     rel: Vec<f64>,
+    /// `|Δ| − floor` in input units (0 where `rel` is 0).
+    exc: Vec<f64>,
     last_time: Option<Timestamp>,
     sensor: Option<SensorId>,
     /// Signed change `x̄ − x₀` per taxel of the last frame.
@@ -461,6 +497,7 @@ impl ChangeDetector {
             ring: VecDeque::new(),
             sum: vec![0.0; taxels],
             rel: vec![0.0; taxels],
+            exc: vec![0.0; taxels],
             last_time: None,
             sensor: None,
             delta: vec![0.0; taxels],
@@ -542,6 +579,13 @@ impl ChangeDetector {
         &self.rel
     }
 
+    /// Each taxel's change above its noise floor in input units, `|x̄ − x₀| − floor` (0 at or
+    /// below the floor and while calibrating or untouched) after the last
+    /// [`push`](Self::push).
+    pub fn excess(&self) -> &[f64] {
+        &self.exc
+    }
+
     /// The signed change `x̄ − x₀` of every taxel (input units: the mean of the last `window`
     /// frames less the baseline) after the last [`push`](Self::push), written into `out`
     /// (cleared first; left empty while calibrating).
@@ -569,6 +613,7 @@ impl ChangeDetector {
         self.ring.clear();
         self.sum.iter_mut().for_each(|s| *s = 0.0);
         self.rel.iter_mut().for_each(|r| *r = 0.0);
+        self.exc.iter_mut().for_each(|r| *r = 0.0);
         self.last_time = None;
         self.sensor = None;
     }
@@ -623,6 +668,7 @@ impl ChangeDetector {
                 self.finish_calibration();
             }
             self.rel.iter_mut().for_each(|r| *r = 0.0);
+            self.exc.iter_mut().for_each(|r| *r = 0.0);
             return Ok(Changes { start, end: f.time, seq: f.seq, contact: false, calibrating: true });
         }
         let k = self.ring.len() as f64;
@@ -644,8 +690,10 @@ impl ChangeDetector {
             up += usize::from(over && self.delta[i] > 0.0);
             if d > floor {
                 self.rel[i] = (d - floor) / self.baseline[i].abs().max(self.sigma[i]);
+                self.exc[i] = d - floor;
             } else {
                 self.rel[i] = 0.0;
+                self.exc[i] = 0.0;
                 self.baseline[i] += beta * (mean - self.baseline[i]);
             }
         }
@@ -657,6 +705,7 @@ impl ChangeDetector {
         }
         if !contact {
             self.rel.iter_mut().for_each(|r| *r = 0.0);
+            self.exc.iter_mut().for_each(|r| *r = 0.0);
             if self.follow_all {
                 for i in 0..self.n {
                     let mean = self.sum[i] / k;
