@@ -1,13 +1,14 @@
 //! Taxel centroid: contact location as the weighted mean of the taxel positions, weighted by a
-//! power of each taxel's baseline-relative change (the cheap reference method; see
+//! power of each taxel's change from its baseline (the cheap reference method; see
 //! [`locate`](crate::locate) for the calibrated change detector it uses).
 //!
 //! # What it does
 //! Raw frames in, one [`ContourFrame`] out per frame (so `track`, `force`, `servo` and `slip`
 //! consume it like a maximal contour):
-//! - weights `wᵢ = rᵢ^p`, with `rᵢ = (|x̄ᵢ − x₀ᵢ| − floor)/|x₀ᵢ|` the relative change above the
-//!   taxel's noise floor ([`ChangeDetector`]), `p` = `power`; with `top_k` only the `k`
-//!   largest weights count;
+//! - weights `wᵢ = cᵢ^p`, with `cᵢ = |x̄ᵢ − x₀ᵢ| − floor` the change above the taxel's noise
+//!   floor in input units (`weights = "counts"`, the default) or `rᵢ = cᵢ/|x₀ᵢ|` relative to its
+//!   resting level (`weights = "relative"`) ([`ChangeDetector`]), `p` = `power`; with `top_k`
+//!   only the `k` largest weights count;
 //! - location `Σ wᵢ pᵢ / Σ wᵢ` (mm), optionally smoothed with a memory of `smooth_frames` in
 //!   which each frame counts with its total weight `Σ wᵢ`; a frame without a contact (or with every weight 0) is
 //!   `NoContact(BelowMinPeak)`; the calibration frames are `NoContact(NoData)`;
@@ -28,7 +29,8 @@
 //!   largest `rᵢ`, `peak_mm` its taxel, `level` = 0, no polygon.
 //!
 //! # Units
-//! Positions mm (the layout's plane), relative changes dimensionless, times ns.
+//! Positions mm (the layout's plane), changes in input units (counts) or dimensionless
+//! (relative), times ns.
 //!
 //! # Delay
 //! `(window_frames − 1)/2` frames (the span `start..end` of each output covers the averaged
@@ -43,6 +45,7 @@
 //! # Trade-offs
 //! | option | lower | higher |
 //! |---|---|---|
+//! | `weights` | `relative`: a taxel with a low resting level weighs more for the same change | `counts`: the change as the ADC sees it (the default; 0.053 vs 0.060 of the width, worst kind, on the family's tuning members, `docs/tradeoff.md`) |
 //! | `power` | spreads toward the taxels' mean (pulled to the pad centre) | snaps to the strongest taxel (quantised to taxel positions) |
 //! | `top_k` | robust to far, sign-flipped lobes; quantised | uses every taxel that moved |
 //! | `window_frames` | immediate, noisier | smoother, more delay |
