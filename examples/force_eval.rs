@@ -56,6 +56,8 @@ enum Source {
     /// Ridge on the changes of the previous force detector (drift followed only between
     /// contacts, at `follow_s`).
     ChangesPrevious,
+    /// `total` on the changes of the previous force detector.
+    TotalPrevious,
     /// Contour area under a locate method.
     Area(LocateMethod),
     /// The contact fit's amplitude.
@@ -69,6 +71,7 @@ impl Source {
         match self {
             Source::Changes => "ridge on the 24 changes (the baseline)".into(),
             Source::ChangesPrevious => "ridge on the 24 changes, previous detector (last session's default)".into(),
+            Source::TotalPrevious => "total, previous detector".into(),
             Source::Area(m) => format!("contour area, {} chain", m.name()),
             Source::Amplitude => "the contact fit's amplitude (fit chain)".into(),
             Source::Total => "power law in the total change, `total`".into(),
@@ -89,9 +92,9 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
     let n = frames.len() as f64;
     let t0 = Instant::now();
     let rows: Vec<Row> = match source {
-        Source::Changes | Source::Total | Source::ChangesPrevious => {
+        Source::Changes | Source::Total | Source::ChangesPrevious | Source::TotalPrevious => {
             // what the force stage runs: its own detector with the drift model
-            let mut det = if source == Source::ChangesPrevious {
+            let mut det = if matches!(source, Source::ChangesPrevious | Source::TotalPrevious) {
                 ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().follow_all_when_untouched()
             } else {
                 force_detector(24, &LocateConfig::default()).unwrap()
@@ -280,6 +283,7 @@ fn main() {
         Source::Amplitude,
         Source::Changes,
         Source::ChangesPrevious,
+        Source::TotalPrevious,
         Source::Area(LocateMethod::Centroid),
         Source::Area(LocateMethod::RawContour),
         Source::Area(LocateMethod::Events),
@@ -304,7 +308,9 @@ fn main() {
             Source::Area(_) => {
                 curves.iter().map(|&c| (CalibrationMethod::Area, 0.0, c, format!("{c:?} curve"))).collect()
             }
-            Source::Total => vec![(CalibrationMethod::Total, 0.0, ForceMethod::Linear, "S₁^p S₂^q".into())],
+            Source::Total | Source::TotalPrevious => {
+                vec![(CalibrationMethod::Total, 0.0, ForceMethod::Linear, "S₁^p S₂^q".into())]
+            }
             Source::Amplitude => {
                 curves.iter().map(|&c| (CalibrationMethod::Amplitude, 0.0, c, format!("{c:?} curve"))).collect()
             }
@@ -326,7 +332,9 @@ fn main() {
             us[us.len() / 2]
         );
         // the previous detector is a reference row, not something the force stage can run
-        if source != Source::ChangesPrevious && best.as_ref().is_none_or(|b| chosen.0.worst < b.0) {
+        if !matches!(source, Source::ChangesPrevious | Source::TotalPrevious)
+            && best.as_ref().is_none_or(|b| chosen.0.worst < b.0)
+        {
             best = Some((chosen.0.worst, source.name()));
         }
         if source == Source::Total {
