@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# The force table of docs/force.md on fewer members (--quick: 3 tuning, 4 held-out), so CI
-# checks the example runs end to end (≈ 10 s after the release build the other checks made).
+# The force table of docs/force.md on fewer members (--quick: 3 tuning, 4 held-out): CI checks
+# the example runs end to end and that the default method (`total`) keeps its held-out floors
+# (worst member ≤ 90 %, mean ≤ 40 %, untouched frames above 0.5 N ≤ 6 %; measured 79.2 %,
+# 32.5 %, 4.4 %). ≈ 10 s after the release build the other checks made.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 echo "== force calibration, held-out places of held-out members (quick)"

@@ -474,11 +474,23 @@ impl SensorChain {
             }
             Tap::Force if self.change_force.is_some() => {
                 let f = self.change_force.as_ref().expect("checked");
+                let what = match f.model().method() {
+                    gradtac_stages::force_model::CalibrationMethod::Total => "a power law in the total change of the",
+                    _ => "ridge on the",
+                };
+                let d = f.detector().drift_model().copied().unwrap_or_default();
                 format!(
-                    "ridge on the {} signed changes (model file), no force without contact, every baseline follows \
-                     drift while untouched ({})",
+                    "{what} {} signed changes (model file), no force without contact, every baseline follows \
+                     drift while untouched ({}; drift model: settle {} s when steady {} σ over {} s, slope memory {} s \
+                     prior {} s³, release below {} of the contact's peak total change)",
                     f.detector().change().len(),
-                    describe_detector(&st.locate)
+                    describe_detector(&st.locate),
+                    d.settle_s,
+                    d.steady_sigmas,
+                    d.steady_s,
+                    d.slope_memory_s,
+                    d.slope_prior_s3,
+                    d.release_fraction
                 )
             }
             Tap::Force => st.force.as_ref().map_or("no model".into(), |f| {

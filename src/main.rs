@@ -236,8 +236,9 @@ enum CalibrateWhat {
         /// The sensor (default: the scene's only one).
         #[arg(long)]
         sensor: Option<String>,
-        /// The method: ridge (on the baseline-relative changes), area (contour area of the
-        /// scene's contact location) or amplitude (the contact fit's, with method = "fit").
+        /// The method: total (a power law in the total baseline-relative change), ridge (on the
+        /// 24 changes), area (contour area of the scene's contact location) or amplitude (the
+        /// contact fit's, with method = "fit").
         #[arg(long, default_value = gradtac::stages::force_model::DEFAULT_METHOD.name())]
         method: String,
         /// Where to write the model (JSON).
@@ -425,7 +426,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 let method = gradtac::stages::force_model::CalibrationMethod::parse(&method).ok_or_else(|| {
                     gradtac::Error::Scene {
                         path: scene.clone(),
-                        reason: format!("--method {method:?}: ridge, area or amplitude"),
+                        reason: format!("--method {method:?}: total, ridge, area or amplitude"),
                     }
                 })?;
                 let loaded = Scene::load(&scene)?;

@@ -9,8 +9,8 @@
 use gradtac::stages::centroid::Centroid;
 use gradtac::stages::contour::ContourOutcome;
 use gradtac::stages::force::ForceEstimate;
-use gradtac::stages::force_model::{calibrate, CalibrationMethod, ChangeForce, GaugeSample};
-use gradtac::stages::locate::{ChangeDetector, LocateConfig};
+use gradtac::stages::force_model::{calibrate, force_detector, CalibrationMethod, ChangeForce, GaugeSample};
+use gradtac::stages::locate::LocateConfig;
 use gradtac::stages::sim_force::{ForceSession, Segment};
 use gradtac::stages::tare::Tare;
 use gradtac::stages::track::{ContactState, Track, TrackConfig};
@@ -47,7 +47,7 @@ fn member(seed: u64, rest_after_s: f64) -> (Vec<TaxelFrame>, ForceSession, Vec<T
 fn ridge_of(seed: u64) -> gradtac::stages::force_model::ForceFile {
     let session = ForceSession { noise_stream: 3, ..ForceSession::presses(seed, 4) };
     let rec = session.simulate();
-    let mut det = ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().follow_all_when_untouched();
+    let mut det = force_detector(24, &LocateConfig::default()).unwrap();
     let samples: Vec<GaugeSample> = rec
         .frames
         .iter()

@@ -4,6 +4,7 @@
 //! # Methods
 //! | method | input | model |
 //! |---|---|---|
+//! | `total` | the total change `S₁ = Σ|Δᵢ|` and its root-sum-square `S₂ = √ΣΔᵢ²` (counts) | `F = e^c · S₁^p · S₂^q`: least squares on `ln F` (3 numbers, blind to which taxels moved and to their signs) |
 //! | `ridge` | the change detector's signed baseline-relative changes `Δᵢ = x̄ᵢ − x₀ᵢ` (counts) of every taxel | `F = b + Σ wᵢ Δᵢ`, ridge on standardised changes (the cheapest baseline) |
 //! | `area` | the contact location's contour area (mm²; the paper's feature) | a monotone curve ([`ForceModel`]) |
 //! | `amplitude` | the contact fit's amplitude (`[stages.locate] method = "fit"`) | a monotone curve ([`ForceModel`]) |
@@ -19,10 +20,12 @@
 //! [`ChangeDetector`](crate::locate::ChangeDetector) with the scene's `[stages.locate]`
 //! detector settings (and its stored baseline, [`ChangeForce::with_tare`]), so it needs no
 //! other stage: a bare scene with a `force` output runs source → force.
-//! Its detector lets every taxel's baseline follow drift in frames without a contact
-//! ([`ChangeDetector::follow_all_when_untouched`](crate::locate::ChangeDetector::follow_all_when_untouched)),
-//! so a drifting, untouched sensor does not read as pressed; the price is that a slow press is
-//! partly absorbed while it is still below the contact threshold.
+//! Its detector ([`force_detector`]) lets every taxel's baseline follow drift in frames without
+//! a contact, settles fast in steady untouched frames, carries each taxel's drift slope through
+//! contacts and releases a steady contact that fell below half its peak
+//! ([`DriftModel`](crate::locate::DriftModel)), so a drifting, untouched sensor does not read
+//! as pressed; the price is that a slow press is partly absorbed while it is still below the
+//! contact threshold.
 //!
 //! # Units, delay
 //! Newtons; counts in, like the detector. Delay `(window_frames − 1)/2` frames (the mean of the
@@ -35,7 +38,7 @@
 //! most [`MAX_KNOTS`] knots.
 
 use crate::force::{ForceEstimate, ForceMethod, ForceModel, ForceSample};
-use crate::locate::{ChangeDetector, LocateConfig};
+use crate::locate::{ChangeDetector, DriftModel, LocateConfig};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Stage, TaxelFrame};
 use serde::{Deserialize, Serialize};
@@ -55,6 +58,8 @@ pub const MAX_KNOTS: usize = 100_000;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CalibrationMethod {
+    /// A power law in the total change.
+    Total,
     /// Ridge on the signed changes.
     Ridge,
     /// A curve over the contour area.
@@ -67,23 +72,31 @@ impl CalibrationMethod {
     /// The name on the command line and in files.
     pub fn name(self) -> &'static str {
         match self {
+            CalibrationMethod::Total => "total",
             CalibrationMethod::Ridge => "ridge",
             CalibrationMethod::Area => "area",
             CalibrationMethod::Amplitude => "amplitude",
         }
     }
 
+    /// Every method.
+    pub const ALL: [CalibrationMethod; 4] =
+        [CalibrationMethod::Total, CalibrationMethod::Ridge, CalibrationMethod::Area, CalibrationMethod::Amplitude];
+
+    /// Whether it reads the change detector's changes (raw frames) rather than contours.
+    pub fn reads_changes(self) -> bool {
+        matches!(self, CalibrationMethod::Total | CalibrationMethod::Ridge)
+    }
+
     /// Parse a name.
     pub fn parse(s: &str) -> Option<CalibrationMethod> {
-        [CalibrationMethod::Ridge, CalibrationMethod::Area, CalibrationMethod::Amplitude]
-            .into_iter()
-            .find(|m| m.name() == s)
+        CalibrationMethod::ALL.into_iter().find(|m| m.name() == s)
     }
 }
 
 /// What `gradtac calibrate force` fits without `--method` (the best held-out row of
 /// `docs/force.md`).
-pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Ridge;
+pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Total;
 /// The ridge penalty (relative to the standardised features' scale) chosen on the tuning
 /// members (`examples/force_eval.rs`).
 pub const DEFAULT_RIDGE_LAMBDA: f64 = 0.1;
@@ -94,6 +107,16 @@ pub const DEFAULT_AREA_CURVE: ForceMethod = ForceMethod::PowerLaw;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "method", rename_all = "snake_case", deny_unknown_fields)]
 pub enum CalibratedForce {
+    /// `F = exp(log_scale + sum_exponent · ln S₁ + norm_exponent · ln S₂)` with `S₁ = Σ|Δᵢ|`,
+    /// `S₂ = √ΣΔᵢ²` (counts); 0 N when nothing changed.
+    Total {
+        /// `c`: ln of the force at `S₁ = S₂ = 1` count.
+        log_scale: f64,
+        /// `p`, the exponent of `S₁`.
+        sum_exponent: f64,
+        /// `q`, the exponent of `S₂`.
+        norm_exponent: f64,
+    },
     /// `F = intercept_n + Σ weights[i] · Δᵢ` (Δ in counts).
     Ridge {
         /// Force at no change (N).
@@ -120,6 +143,7 @@ impl CalibratedForce {
     /// Its method.
     pub fn method(&self) -> CalibrationMethod {
         match self {
+            CalibratedForce::Total { .. } => CalibrationMethod::Total,
             CalibratedForce::Ridge { .. } => CalibrationMethod::Ridge,
             CalibratedForce::Area { .. } => CalibrationMethod::Area,
             CalibratedForce::Amplitude { .. } => CalibrationMethod::Amplitude,
@@ -141,12 +165,23 @@ impl CalibratedForce {
 
     /// Whether it reads the changes (raw frames) rather than contours.
     pub fn reads_changes(&self) -> bool {
-        matches!(self, CalibratedForce::Ridge { .. })
+        self.method().reads_changes()
     }
 
-    /// The ridge prediction for changes `delta` (N, ≥ 0); `None` for a curve model.
+    /// The prediction for changes `delta` (N, ≥ 0; NaN in, NaN out); `None` for a curve model.
     pub fn predict_changes(&self, delta: &[f64]) -> Option<f64> {
         match self {
+            CalibratedForce::Total { log_scale, sum_exponent, norm_exponent } => {
+                let (s1, s2) = total_change(delta);
+                if s1.is_nan() {
+                    return Some(f64::NAN);
+                }
+                if s1 <= 0.0 {
+                    return Some(0.0);
+                }
+                let f = (log_scale + sum_exponent * s1.ln() + norm_exponent * s2.ln()).exp();
+                Some(if f.is_nan() { f } else { f.max(0.0) })
+            }
             CalibratedForce::Ridge { intercept_n, weights, .. } => {
                 let f = intercept_n + weights.iter().zip(delta).map(|(w, d)| w * d).sum::<f64>();
                 Some(if f.is_nan() { f } else { f.max(0.0) })
@@ -154,6 +189,19 @@ impl CalibratedForce {
             CalibratedForce::Area { .. } | CalibratedForce::Amplitude { .. } => None,
         }
     }
+}
+
+/// The total change of `delta`: `(Σ|Δᵢ|, √ΣΔᵢ²)` — the `total` method's features.
+pub fn total_change(delta: &[f64]) -> (f64, f64) {
+    let s1 = delta.iter().map(|d| d.abs()).sum::<f64>();
+    let s2 = delta.iter().map(|d| d * d).sum::<f64>().sqrt();
+    (s1, s2)
+}
+
+/// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
+/// settings `locate` with the force stage's [`DriftModel`] (its defaults).
+pub fn force_detector(taxels: usize, locate: &LocateConfig) -> Result<ChangeDetector> {
+    ChangeDetector::try_new(taxels, locate)?.with_drift_model(DriftModel::default())
 }
 
 /// How the model was calibrated (informational; shown by `explain`).
@@ -206,6 +254,11 @@ impl ForceFile {
             return Err(invalid(format!("{} taxels (want 1..={MAX_TAXELS})", self.taxels)));
         }
         match &self.model {
+            CalibratedForce::Total { log_scale, sum_exponent, norm_exponent } => {
+                if ![log_scale, sum_exponent, norm_exponent].iter().all(|x| x.is_finite()) {
+                    return Err(invalid("a total-change parameter is not finite".into()));
+                }
+            }
             CalibratedForce::Ridge { intercept_n, weights, lambda } => {
                 if weights.len() != self.taxels {
                     return Err(invalid(format!("{} taxels but {} weights", self.taxels, weights.len())));
@@ -396,13 +449,32 @@ pub fn calibrate(
         )));
     }
     let n = layout.len();
+    if method.reads_changes() {
+        if let Some(s) = used.iter().find(|s| s.change.len() != n) {
+            return Err(invalid(format!("a sample of {} taxels, the layout has {n}", s.change.len())));
+        }
+    }
     let model = match method {
+        CalibrationMethod::Total => {
+            let mut acc = RidgeAccumulator::new(2);
+            for s in &used {
+                let (s1, s2) = total_change(&s.change);
+                if s1 > 0.0 {
+                    acc.push(&[s1.ln(), s2.ln()], s.force_n.ln());
+                }
+            }
+            if acc.count() < 10 {
+                return Err(invalid(format!(
+                    "{} frames in contact moved the taxels; at least 10 are needed",
+                    acc.count()
+                )));
+            }
+            let (c, w) = acc.solve(0.0).ok_or_else(|| invalid("the total-change fit is singular".into()))?;
+            CalibratedForce::Total { log_scale: c, sum_exponent: w[0], norm_exponent: w[1] }
+        }
         CalibrationMethod::Ridge => {
             let mut acc = RidgeAccumulator::new(n);
             for s in &used {
-                if s.change.len() != n {
-                    return Err(invalid(format!("a sample of {} taxels, the layout has {n}", s.change.len())));
-                }
                 acc.push(&s.change, s.force_n);
             }
             let (intercept_n, weights) =
@@ -469,7 +541,7 @@ impl ChangeForce {
                 file.model.method().name()
             )));
         }
-        let det = ChangeDetector::try_new(file.taxels, locate)?.follow_all_when_untouched();
+        let det = force_detector(file.taxels, locate)?;
         Ok(ChangeForce { det, model: file.model.clone() })
     }
 
@@ -477,6 +549,11 @@ impl ChangeForce {
     pub fn with_tare(mut self, tare: &crate::tare::Tare) -> Result<Self> {
         self.det = self.det.with_tare(tare)?;
         Ok(self)
+    }
+
+    /// The model.
+    pub fn model(&self) -> &CalibratedForce {
+        &self.model
     }
 
     /// The change detector.
@@ -535,6 +612,70 @@ mod tests {
             model: CalibratedForce::Ridge { intercept_n: 0.0, weights: vec![-0.01, 0.0], lambda: 0.0 },
             calibration: CalibrationInfo { samples: 10, force_range_n: [0.1, 5.0], in_sample_mape_pct: 3.0 },
         }
+    }
+
+    /// Samples whose gauge force is an exact power law of the total change.
+    fn power_law_samples() -> Vec<GaugeSample> {
+        (0..60)
+            .map(|k| {
+                let a = 1.0 + k as f64;
+                // patterns of changing shape (so S₁ and S₂ are not proportional), mixed signs
+                let change: Vec<f64> = (0..24)
+                    .map(|i| if i < 3 + k % 5 { -a * (1.0 + i as f64) } else { 0.1 * a * (i % 3) as f64 })
+                    .collect();
+                let (s1, s2) = total_change(&change);
+                let force_n = (-3.0 + 0.8 * s1.ln() + 0.3 * s2.ln()).exp();
+                GaugeSample { change, contact: true, area_mm2: None, amplitude: None, force_n }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn total_recovers_a_power_law_exactly() {
+        let s = power_law_samples();
+        let file = calibrate(&s, CalibrationMethod::Total, 0.0, ForceMethod::Linear, &Layout::biotac_sp()).unwrap();
+        let CalibratedForce::Total { log_scale, sum_exponent, norm_exponent } = file.model else { panic!() };
+        assert!((log_scale + 3.0).abs() < 1e-9, "{log_scale}");
+        assert!((sum_exponent - 0.8).abs() < 1e-9 && (norm_exponent - 0.3).abs() < 1e-9);
+        assert!(file.calibration.in_sample_mape_pct < 1e-6, "{:?}", file.calibration);
+        // no change, no force; a NaN change is passed on as NaN (the detector refuses NaN input)
+        assert_eq!(file.model.predict_changes(&[0.0; 24]), Some(0.0));
+        assert!(file.model.predict_changes(&[f64::NAN; 24]).unwrap().is_nan());
+        // the file round-trips and a non-finite parameter is refused
+        let json = serde_json::to_string(&file).unwrap();
+        assert!(json.contains(r#""method":"total""#), "{json}");
+        assert_eq!(serde_json::from_str::<ForceFile>(&json).unwrap(), file);
+        let bad = ForceFile {
+            model: CalibratedForce::Total { log_scale: f64::INFINITY, sum_exponent: 1.0, norm_exponent: 0.0 },
+            ..file
+        };
+        assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn total_refuses_too_few_moving_frames() {
+        let mut s = power_law_samples();
+        s.iter_mut().for_each(|x| x.change = vec![0.0; 24]);
+        let e = calibrate(&s, CalibrationMethod::Total, 0.0, ForceMethod::Linear, &Layout::biotac_sp()).unwrap_err();
+        assert!(e.to_string().contains("moved"), "{e}");
+        assert_eq!(CalibrationMethod::parse("total"), Some(CalibrationMethod::Total));
+        assert_eq!(DEFAULT_METHOD, CalibrationMethod::Total);
+    }
+
+    #[test]
+    fn the_total_stage_reports_no_force_on_constant_input_and_refuses_nan() {
+        let file =
+            calibrate(&power_law_samples(), CalibrationMethod::Total, 0.0, ForceMethod::Linear, &Layout::biotac_sp())
+                .unwrap();
+        let mut s = ChangeForce::try_new(&file, &LocateConfig::default()).unwrap();
+        let frame = |k: u64, v: f64| TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v; 24]);
+        let out = s.run_all((0..300).map(|k| frame(k, 2000.0))).unwrap();
+        assert!(out.iter().all(|e| e.force_n.is_none()));
+        let mut bad = frame(300, 2000.0);
+        bad.values[7] = f64::NAN;
+        let mut sink = Vec::new();
+        let e = s.push(bad, &mut sink).unwrap_err();
+        assert!(e.to_string().contains("300") || e.to_string().contains("7"), "{e}");
     }
 
     #[test]

@@ -450,6 +450,180 @@ impl PositionMemory {
     }
 }
 
+/// How the force stage's change detector follows drift
+/// ([`ChangeDetector::with_drift_model`]). A taxel's untouched value drifts (slope and random
+/// walk) by more over one press than a light press moves it, so following only between
+/// contacts at `follow_s` leaves a stale baseline that grows press after press; and a stale
+/// baseline beyond `contact_sigmas` reads as a contact that never ends. The model adds three
+/// rules, each in the detector's units (σ of one frame, seconds):
+///
+/// | rule | what | default |
+/// |---|---|---|
+/// | settle | a frame without contact whose window mean moved less than `steady_sigmas` σ on every taxel over the last `steady_s` is *steady*; its baseline follows with time constant `settle_s` (instead of `follow_s`) | 0.3 s, 2 σ, 0.2 s |
+/// | slope | steady untouched frames are anchors of a per-taxel line (time-weighted least squares with memory `slope_memory_s`, slope shrunk toward 0 by `slope_prior_s3`, s³); every frame moves the baseline along its slope, also during a contact | 20 s, 5 s³ |
+/// | release | a steady contact frame whose total change `Σ|Δᵢ|` is below `release_fraction` of the contact's peak is no contact (a stale baseline, not a press), and its baseline follows | 0.5 |
+///
+/// The defaults were chosen on the tuning members of `examples/force_eval.rs` (see
+/// `docs/force.md`). Trade-off: a press held perfectly still below `contact_sigmas` is absorbed
+/// at `settle_s` (it never was a contact); a contact held still after falling to less than
+/// half its peak total change ends.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriftModel {
+    /// Steadiness look-back (s), in (0, 60].
+    pub steady_s: f64,
+    /// Steadiness bound (σ of one frame), > 0.
+    pub steady_sigmas: f64,
+    /// Following time constant in steady untouched frames (s), > 0.
+    pub settle_s: f64,
+    /// Memory of the slope estimate (s), > 0.
+    pub slope_memory_s: f64,
+    /// Shrinkage of the slope toward 0 (s³), ≥ 0.
+    pub slope_prior_s3: f64,
+    /// Release fraction of the contact's peak total change, in [0, 1) (0: off).
+    pub release_fraction: f64,
+}
+
+impl Default for DriftModel {
+    fn default() -> Self {
+        DriftModel {
+            steady_s: 0.3,
+            steady_sigmas: 2.0,
+            settle_s: 0.2,
+            slope_memory_s: 20.0,
+            slope_prior_s3: 5.0,
+            release_fraction: 0.5,
+        }
+    }
+}
+
+impl DriftModel {
+    /// Check the ranges of the field docs.
+    pub fn validate(&self) -> Result<()> {
+        let pos = |x: f64| x.is_finite() && x > 0.0;
+        let ok = pos(self.steady_s)
+            && self.steady_s <= 60.0
+            && pos(self.steady_sigmas)
+            && pos(self.settle_s)
+            && pos(self.slope_memory_s)
+            && self.slope_prior_s3.is_finite()
+            && self.slope_prior_s3 >= 0.0
+            && (0.0..1.0).contains(&self.release_fraction);
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::InvalidConfig { stage: STAGE, reason: format!("invalid drift model {self:?}") })
+        }
+    }
+}
+
+/// Most window means the steadiness look-back keeps (a very fast source compares with a
+/// younger frame instead of allocating without bound).
+const MAX_STEADY_HISTORY: usize = 4096;
+
+/// The drift model's state.
+#[derive(Clone, Debug)]
+struct DriftState {
+    model: DriftModel,
+    /// Window means of recent frames, oldest first (time, means).
+    history: VecDeque<(Timestamp, Vec<f64>)>,
+    /// Time-weighted, exponentially forgotten anchor sums: weight, Σt, Σt², and per taxel Σx, Σtx
+    /// (t relative to `t0`).
+    w: f64,
+    st: f64,
+    stt: f64,
+    sx: Vec<f64>,
+    stx: Vec<f64>,
+    t0: Option<Timestamp>,
+    slope: Vec<f64>,
+    in_contact: bool,
+    peak: f64,
+}
+
+impl DriftState {
+    fn new(model: DriftModel, n: usize) -> Self {
+        DriftState {
+            model,
+            history: VecDeque::new(),
+            w: 0.0,
+            st: 0.0,
+            stt: 0.0,
+            sx: vec![0.0; n],
+            stx: vec![0.0; n],
+            t0: None,
+            slope: vec![0.0; n],
+            in_contact: false,
+            peak: 0.0,
+        }
+    }
+
+    /// After a frame's changes: steadiness, release, following and the slope's anchors.
+    /// Returns the frame's contact decision.
+    #[allow(clippy::too_many_arguments)]
+    fn after(
+        &mut self,
+        time: Timestamp,
+        dt: f64,
+        k: f64,
+        sum: &[f64],
+        baseline: &mut [f64],
+        delta: &[f64],
+        sigma: &[f64],
+        mut contact: bool,
+        beta: f64,
+    ) -> bool {
+        let m = &self.model;
+        let mean: Vec<f64> = sum.iter().map(|s| s / k).collect();
+        let horizon = time.0 - (m.steady_s * 1e9).round() as i64;
+        while self.history.len() >= 2 && self.history[1].0 .0 <= horizon {
+            self.history.pop_front();
+        }
+        let steady = self.history.front().is_some_and(|(t, old)| {
+            t.0 <= horizon && old.iter().zip(&mean).zip(sigma).all(|((o, x), s)| (x - o).abs() < m.steady_sigmas * s)
+        });
+        if self.history.len() >= MAX_STEADY_HISTORY {
+            self.history.pop_front();
+        }
+        self.history.push_back((time, mean.clone()));
+        let total: f64 = delta.iter().map(|d| d.abs()).sum();
+        if contact {
+            if !self.in_contact {
+                self.in_contact = true;
+                self.peak = 0.0;
+            }
+            self.peak = self.peak.max(total);
+            if steady && total < m.release_fraction * self.peak {
+                contact = false;
+            }
+        }
+        if contact {
+            return true;
+        }
+        self.in_contact = false;
+        let b = if steady { 1.0 - (-dt / m.settle_s).exp() } else { beta };
+        for (base, x) in baseline.iter_mut().zip(&mean) {
+            *base += b * (x - *base);
+        }
+        if steady {
+            let t0 = *self.t0.get_or_insert(time);
+            let t = (time.0 - t0.0) as f64 * 1e-9;
+            let a = (-dt / m.slope_memory_s).exp();
+            self.w = a * self.w + dt;
+            self.st = a * self.st + dt * t;
+            self.stt = a * self.stt + dt * t * t;
+            let tb = self.st / self.w;
+            let var = self.stt - self.w * tb * tb;
+            for (((sx, stx), slope), x) in self.sx.iter_mut().zip(&mut self.stx).zip(&mut self.slope).zip(&mean) {
+                *sx = a * *sx + dt * x;
+                *stx = a * *stx + dt * t * x;
+                let s = (*stx - tb * *sx) / (var.max(0.0) + m.slope_prior_s3);
+                *slope = if s.is_finite() { s } else { 0.0 };
+            }
+        }
+        false
+    }
+}
+
 /// The shared baseline / noise / change machinery (see the [module docs](self)): a plain
 /// state machine, one frame in, one [`Changes`] out, the relative changes in
 /// [`ChangeDetector::relative`].
@@ -474,6 +648,8 @@ pub struct ChangeDetector {
     /// Every taxel's baseline follows drift in frames without a contact (not only those below
     /// their floor): [`follow_all_when_untouched`](Self::follow_all_when_untouched).
     follow_all: bool,
+    /// The drift model of the force stage, when on ([`with_drift_model`](Self::with_drift_model)).
+    drift: Option<DriftState>,
     /// Since when most taxels sat beyond the contact threshold (a shift), and since when
     /// nearly all did with mixed signs (another sensor's offsets).
     off_since: Option<Timestamp>,
@@ -503,6 +679,7 @@ impl ChangeDetector {
             delta: vec![0.0; taxels],
             tare: None,
             follow_all: false,
+            drift: None,
             off_since: None,
             mixed_since: None,
             mismatch: None,
@@ -534,6 +711,28 @@ impl ChangeDetector {
     pub fn follow_all_when_untouched(mut self) -> Self {
         self.follow_all = true;
         self
+    }
+
+    /// Follow drift with `model` (validated; see [`DriftModel`]): implies
+    /// [`follow_all_when_untouched`](Self::follow_all_when_untouched), and adds settling in
+    /// steady untouched frames, a per-taxel drift slope carried through contacts, and the
+    /// release of a steady contact that has fallen to a small part of its peak.
+    pub fn with_drift_model(mut self, model: DriftModel) -> Result<Self> {
+        model.validate()?;
+        self.follow_all = true;
+        self.drift = Some(DriftState::new(model, self.n));
+        Ok(self)
+    }
+
+    /// The drift model, when on.
+    pub fn drift_model(&self) -> Option<&DriftModel> {
+        self.drift.as_ref().map(|d| &d.model)
+    }
+
+    /// Per-taxel drift slope (input units per second) the drift model carries through
+    /// contacts; empty without a drift model.
+    pub fn drift_slope(&self) -> &[f64] {
+        self.drift.as_ref().map_or(&[], |d| &d.slope)
     }
 
     /// The stored baseline in use, if any.
@@ -610,6 +809,9 @@ impl ChangeDetector {
         self.delta.iter_mut().for_each(|d| *d = 0.0);
         self.off_since = None;
         self.mixed_since = None;
+        if let Some(d) = &mut self.drift {
+            *d = DriftState::new(d.model, self.n);
+        }
         self.ring.clear();
         self.sum.iter_mut().for_each(|s| *s = 0.0);
         self.rel.iter_mut().for_each(|r| *r = 0.0);
@@ -676,6 +878,11 @@ impl ChangeDetector {
         // window lowers it by less than √window (BioTacSP-DoS: far less)
         let scale = 1.0;
         let beta = if self.cfg.follow_s > 0.0 { 1.0 - (-dt / self.cfg.follow_s).exp() } else { 0.0 };
+        if let Some(d) = &self.drift {
+            for (b, s) in self.baseline.iter_mut().zip(&d.slope) {
+                *b += s * dt;
+            }
+        }
         let mut contact = false;
         let (mut beyond, mut up) = (0usize, 0usize);
         for i in 0..self.n {
@@ -703,7 +910,12 @@ impl ChangeDetector {
                 self.sum[i] = self.ring.iter().map(|r| r.1[i]).sum();
             }
         }
-        if !contact {
+        if let Some(d) = &mut self.drift {
+            contact = d.after(f.time, dt, k, &self.sum, &mut self.baseline, &self.delta, &self.sigma, contact, beta);
+            if !contact {
+                self.rel.iter_mut().for_each(|r| *r = 0.0);
+            }
+        } else if !contact {
             self.rel.iter_mut().for_each(|r| *r = 0.0);
             self.exc.iter_mut().for_each(|r| *r = 0.0);
             if self.follow_all {
@@ -743,6 +955,44 @@ mod tests {
 
     fn frame(k: u64, v: Vec<f64>) -> TaxelFrame {
         TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, v)
+    }
+
+    #[test]
+    fn the_drift_model_carries_a_slope_through_a_press_and_settles_after_it() {
+        let cfg = LocateConfig::default();
+        let mut plain = ChangeDetector::try_new(2, &cfg).unwrap().follow_all_when_untouched();
+        let mut drift = ChangeDetector::try_new(2, &cfg).unwrap().with_drift_model(DriftModel::default()).unwrap();
+        assert!(ChangeDetector::try_new(2, &cfg)
+            .unwrap()
+            .with_drift_model(DriftModel { release_fraction: 1.0, ..Default::default() })
+            .is_err());
+        // taxel 0 drifts at 2 counts/s (alternating ±1 noise); 30 s untouched, then a 4 s press
+        // of 200 counts on taxel 1, then rest
+        let value = |k: u64| {
+            let t = k as f64 / 100.0;
+            let e = if k % 2 == 0 { 1.0 } else { -1.0 };
+            let press = if (3000..3400).contains(&k) { 200.0 } else { 0.0 };
+            vec![1000.0 + 2.0 * t + e, 2000.0 - press - e]
+        };
+        let (mut stale_plain, mut stale_drift) = (0.0f64, 0.0f64);
+        for k in 0..3600u64 {
+            let f = frame(k, value(k));
+            let a = plain.push(&f, "t").unwrap();
+            let b = drift.push(&f, "t").unwrap();
+            if (3000 + 20..3400).contains(&k) {
+                assert!(a.contact && b.contact, "frame {k}");
+                // at the press's end: how far taxel 0's baseline lags its drift
+                stale_plain = plain.change()[0];
+                stale_drift = drift.change()[0];
+            }
+            if k >= 3500 {
+                assert!(!b.contact, "frame {k}: the drift model's contact did not end");
+            }
+        }
+        assert!((drift.drift_slope()[0] - 2.0).abs() < 0.3, "{:?}", drift.drift_slope());
+        assert!(stale_drift.abs() < 2.0 && stale_plain > 6.0, "{stale_drift} vs {stale_plain}");
+        drift.reset();
+        assert_eq!(drift.drift_slope(), &[0.0, 0.0]);
     }
 
     #[test]
