@@ -60,9 +60,23 @@ use std::time::Instant;
 enum Setting {
     Centroid { window: u32, power: f64, floor: f64, counts: bool, contact: f64, smooth: u32, speed: f64 },
     Delta2 { window: u32 },
-    Fit { window: u32, iterations: u32, gain_rate: f64, model_error: f64, signed: bool, smooth: u32, speed: f64 },
+    Fit(FitSetting),
     Raw { grid: usize, window: u32, min_area: f64 },
     Events { grid: usize, window: u64, tau: f64, min_area: f64 },
+}
+
+/// One setting of the model fit.
+#[derive(Clone, Debug)]
+struct FitSetting {
+    window: u32,
+    iterations: u32,
+    gain_rate: f64,
+    model_error: f64,
+    signed: bool,
+    smooth: u32,
+    speed: f64,
+    contact: f64,
+    lead: f64,
 }
 
 impl Setting {
@@ -70,7 +84,7 @@ impl Setting {
         match self {
             Setting::Centroid { .. } => "centroid",
             Setting::Delta2 { .. } => "Δ²-weighted centroid",
-            Setting::Fit { .. } => "fit",
+            Setting::Fit(_) => "fit",
             Setting::Raw { .. } => "raw contour",
             Setting::Events { tau, .. } if *tau < 0.0 => "event contour, τ from noise",
             Setting::Events { .. } => "event contour",
@@ -86,9 +100,10 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit { window, iterations, gain_rate, model_error, signed, smooth, speed: v } => format!(
-                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact 10 σ, smooth {smooth}, {}",
+            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead }) => format!(
+                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact {contact} σ, lead {} ms, smooth {smooth}, {}",
                 if *signed { "signed" } else { "magnitudes" },
+                lead * 1e3,
                 speed(*v)
             ),
             Setting::Raw { grid, window, min_area } => format!("{grid}×{grid}, window {window}, min area {min_area} mm²"),
@@ -114,14 +129,25 @@ impl Setting {
                 top_k: None,
                 ..base
             }),
-            Setting::Fit { window, iterations, gain_rate, model_error, signed, smooth, speed } => Some(LocateConfig {
+            Setting::Fit(FitSetting {
+                window,
+                iterations,
+                gain_rate,
+                model_error,
+                signed,
+                smooth,
+                speed,
+                contact,
+                lead,
+            }) => Some(LocateConfig {
                 fit_signed: signed,
                 method: LocateMethod::Fit,
                 window_frames: window,
                 fit_iterations: iterations,
                 fit_gain_rate: gain_rate,
                 fit_model_error: model_error,
-                contact_sigmas: 10.0,
+                fit_lead_s: lead,
+                contact_sigmas: contact,
                 smooth_frames: smooth,
                 max_speed_mm_s: speed,
                 ..base
@@ -192,9 +218,7 @@ fn run(
         Setting::Centroid { .. } => {
             Centroid::try_new(&s.locate().unwrap(), layout).unwrap().then(track()).run_all(frames).unwrap()
         }
-        Setting::Fit { .. } => {
-            Fit::try_new(&s.locate().unwrap(), layout).unwrap().then(track()).run_all(frames).unwrap()
-        }
+        Setting::Fit(_) => Fit::try_new(&s.locate().unwrap(), layout).unwrap().then(track()).run_all(frames).unwrap(),
         Setting::Delta2 { window } => {
             let cfg = LocateConfig { window_frames: *window, ..Default::default() };
             Delta2 {
@@ -411,33 +435,42 @@ fn main() {
     for window in [1u32, 5, 9] {
         settings.push(Setting::Delta2 { window });
     }
+    // the fit: the former grid (contact 10 σ, fixed gains, no lead) ...
+    let fit = |window, iterations, gain_rate, model_error, signed, contact, lead| {
+        Setting::Fit(FitSetting {
+            window,
+            iterations,
+            gain_rate,
+            model_error,
+            signed,
+            smooth: 1,
+            speed: 30.0,
+            contact,
+            lead,
+        })
+    };
     for window in [1u32, 5] {
         for iterations in [3u32, 10] {
             for model_error in [0.15, 0.3] {
                 for signed in [false, true] {
-                    settings.push(Setting::Fit {
-                        window,
-                        iterations,
-                        gain_rate: 0.0,
-                        model_error,
-                        signed,
-                        smooth: 1,
-                        speed: 30.0,
-                    });
+                    settings.push(fit(window, iterations, 0.0, model_error, signed, 10.0, 0.0));
                 }
             }
         }
     }
-    // online gains, at the others' most accurate tuning setting family
-    settings.push(Setting::Fit {
-        window: 1,
-        iterations: 10,
-        gain_rate: 0.02,
-        model_error: 0.15,
-        signed: false,
-        smooth: 1,
-        speed: 30.0,
-    });
+    // ... and the contact threshold, online gains and the lag lead (fit_lead_s), at 3 iterations
+    for window in [1u32, 5] {
+        for contact in [6.0, 10.0] {
+            for gain_rate in [0.0, 0.05, 0.1] {
+                for lead in [0.0, 0.01, 0.02] {
+                    if contact == 10.0 && gain_rate == 0.0 && lead == 0.0 {
+                        continue; // in the former grid
+                    }
+                    settings.push(fit(window, 3, gain_rate, 0.3, false, contact, lead));
+                }
+            }
+        }
+    }
     for grid in [16usize, 32] {
         for window in [5u32, 9] {
             settings.push(Setting::Raw { grid, window, min_area: 60.0 });

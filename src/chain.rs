@@ -406,13 +406,15 @@ impl SensorChain {
                     "model fit (preset {}): robust Levenberg–Marquardt, ≤ {} iterations, on the 3-D electrode cores when the \
                      layout is the BioTac SP; spread, amplitude, far lobe; gains learned at rate {}; model error {} of the \
                      largest change; electrodes at the rails [{}, {}] left out; reports residual and σ (mm) per point; \
-                     position memory {} frames, {speed} ({})",
+                     lag lead {} s along the velocity of the last {} positions; position memory {} frames, {speed} ({})",
                     l.preset.name(),
                     l.fit_iterations,
                     l.fit_gain_rate,
                     l.fit_model_error,
                     l.fit_rails[0],
                     l.fit_rails[1],
+                    l.fit_lead_s,
+                    l.fit_velocity_frames,
                     l.smooth_frames,
                     describe_detector(l)
                 )

@@ -62,11 +62,28 @@
 //! `4π w²` (the 2-σ disc of the fitted spread), `peak` the largest relative change above the
 //! noise floor (as the centroid's), `peak_mm` the fitted position; orientation and eccentricity 0.
 //!
+//! # Lag (`fit_lead_s`)
+//! A skin whose electrodes follow the pressure through a first-order fluid lag of time
+//! constant `τ` reports a contact moving at `v` about `v·τ` behind where it is (the model is
+//! instantaneous). With `fit_lead_s = τ̂` the fitted position is moved ahead by `τ̂ · v̂`, `v̂`
+//! the least-squares velocity of the contact's last `fit_velocity_frames` fitted positions,
+//! its speed capped at `max_speed_mm_s`, the result kept inside the layout's extent; a new
+//! contact starts without lead. For a discrete first-order lag at frame period `Δt` the
+//! steady delay is `Δt·e^{−Δt/τ}/(1 − e^{−Δt/τ}) ≈ τ − Δt/2`, which a lead of that size removes
+//! exactly on a straight track (test `lead_undoes_a_first_order_lag_of_a_moving_contact`).
+//! `τ̂` is a fixed setting, not estimated online: at a constant velocity a lagged field is, to
+//! first order in `v·τ / w`, the same field shifted, so neither the position track nor the
+//! electrodes' pattern says what `τ` is without knowing how the contact really moved
+//! (`docs/tradeoff.md`). Default 0 (no lead); the `accurate` preset keeps 0 — the tuning
+//! members' lags (10–30 ms) do not pay for it.
+//!
 //! # Units
-//! Positions and spread mm, amplitude input units (raw counts), times ns.
+//! Positions and spread mm, amplitude input units (raw counts), times ns; `fit_lead_s` s.
 //!
 //! # Delay
-//! `(window_frames − 1)/2` frames plus the position memory's lag. Start-up: `calibrate_frames`.
+//! `(window_frames − 1)/2` frames plus the position memory's lag, less the lead `fit_lead_s`
+//! for a moving contact (the lead is a prediction along the velocity, not a delay).
+//! Start-up: `calibrate_frames`.
 //!
 //! # Cost
 //! O(electrodes × iterations): ≈ 1–3 µs per BioTac SP frame in contact (release,
@@ -79,6 +96,13 @@
 //! | `fit_gain_rate` | fixed gains: sign-flipped electrodes stay outliers | adapts faster, follows noise |
 //! | `fit_model_error` | trusts the kernel: strongest electrodes dominate | spreads trust; less precise |
 //! | `window_frames` | immediate, noisier | smoother, more delay |
+//! | `fit_lead_s` | a moving contact reported `v·τ` behind (fluid lag) | ahead of it when `τ` is shorter; velocity noise × lead added |
+//! | `fit_velocity_frames` | velocity follows turns, noisier | steadier, lags on circles and turns |
+//!
+//! The error terms, measured (`docs/tradeoff.md`, the `accurate` settings on the family's
+//! members with one physics term at a time): per-electrode gain magnitudes (0.5–1.5) cost the
+//! most (≈ 0.027 of the width alone), then the fluid lag on held-out members (≈ 0.014 with
+//! lags to 80 ms, 0.005 at 10–30 ms), the kernel shape (≈ 0.01), drift and noise.
 
 // small dense linear algebra (5×5 normal equations, Cholesky) and per-electrode arrays read
 // most clearly indexed
@@ -410,6 +434,8 @@ pub struct Fit {
     warm: Option<[f64; NP]>,
     /// Last reported position, its decayed weight mass and time.
     memory: PositionMemory,
+    /// Lag compensation: the contact's recent positions and the lead.
+    lead: Lead,
 }
 
 impl Fit {
@@ -426,6 +452,7 @@ impl Fit {
             kk: vec![0.0; n],
             warm: None,
             memory: PositionMemory::default(),
+            lead: Lead::new(cfg.fit_velocity_frames as usize),
         })
     }
 
@@ -632,6 +659,9 @@ impl Stage for Fit {
                 None => ContourOutcome::NoContact(NoContact::NoData),
                 Some((p, summary, at_edge)) => {
                     let cfg = self.det.config();
+                    let p = self.lead.push(ch.end, p, cfg.fit_lead_s, cfg.max_speed_mm_s);
+                    let b = self.geo.bounds;
+                    let p = [p[0].clamp(b[0], b[1]), p[1].clamp(b[2], b[3])];
                     let mass = 1.0 / summary.sigma_mm.max(1e-3).powi(2);
                     let q = self.memory.update(cfg, p, mass, ch.end);
                     let peak = self.det.relative().iter().copied().fold(0.0, f64::max);
@@ -653,6 +683,7 @@ impl Stage for Fit {
         };
         if outcome.contact().is_none() {
             self.memory.clear();
+            self.lead.clear();
             self.warm = None;
         }
         out.push(ContourFrame { sensor: f.sensor, start: ch.start, end: ch.end, seq: ch.seq, outcome });
@@ -662,12 +693,85 @@ impl Stage for Fit {
     fn reset(&mut self) {
         self.det.reset();
         self.memory.clear();
+        self.lead.clear();
         self.warm = None;
         self.gain.iter_mut().for_each(|g| *g = 1.0);
     }
 
     fn delay(&self) -> Delay {
         Delay::frames((self.det.config().window_frames as u64 - 1) / 2)
+    }
+}
+
+/// Lag compensation (`fit_lead_s`, see the [module docs](self), *Lag*): the last `n` fitted
+/// positions of the current contact and their times; a new position is moved ahead along
+/// their least-squares velocity.
+#[derive(Clone, Debug)]
+pub struct Lead {
+    n: usize,
+    /// `(seconds since the contact's first point, position)`, oldest first.
+    hist: std::collections::VecDeque<(f64, [f64; 2])>,
+    t0: Option<gradtac_stream::Timestamp>,
+}
+
+impl Lead {
+    /// A lead over the last `n` (≥ 2) positions.
+    pub fn new(n: usize) -> Lead {
+        Lead { n: n.max(2), hist: std::collections::VecDeque::with_capacity(n.max(2)), t0: None }
+    }
+
+    /// The least-squares velocity (mm/s) of the remembered positions; zero with fewer than two.
+    pub fn velocity(&self) -> [f64; 2] {
+        let m = self.hist.len();
+        if m < 2 {
+            return [0.0, 0.0];
+        }
+        let tm = self.hist.iter().map(|h| h.0).sum::<f64>() / m as f64;
+        let xm = self.hist.iter().map(|h| h.1[0]).sum::<f64>() / m as f64;
+        let ym = self.hist.iter().map(|h| h.1[1]).sum::<f64>() / m as f64;
+        let (mut stt, mut stx, mut sty) = (0.0, 0.0, 0.0);
+        for &(t, p) in &self.hist {
+            stt += (t - tm) * (t - tm);
+            stx += (t - tm) * (p[0] - xm);
+            sty += (t - tm) * (p[1] - ym);
+        }
+        if stt > 0.0 && (stx / stt).is_finite() && (sty / stt).is_finite() {
+            [stx / stt, sty / stt]
+        } else {
+            [0.0, 0.0]
+        }
+    }
+
+    /// Remember `p` at `end` and return it moved ahead by `lead_s · v̂`, the speed `|v̂|` at
+    /// most `max_speed` (mm/s; 0 = unbounded). Unchanged at `lead_s = 0`, or for a non-finite
+    /// `p`, which is not remembered.
+    pub fn push(&mut self, end: gradtac_stream::Timestamp, p: [f64; 2], lead_s: f64, max_speed: f64) -> [f64; 2] {
+        if lead_s <= 0.0 || !(p[0].is_finite() && p[1].is_finite()) {
+            return p;
+        }
+        let t0 = *self.t0.get_or_insert(end);
+        let t = (end - t0) as f64 * 1e-9;
+        if self.hist.back().is_some_and(|h| t <= h.0) {
+            // time went backwards or stood still: a new contact
+            self.clear();
+            return self.push(end, p, lead_s, max_speed);
+        }
+        if self.hist.len() == self.n {
+            self.hist.pop_front();
+        }
+        self.hist.push_back((t, p));
+        let mut v = self.velocity();
+        let speed = v[0].hypot(v[1]);
+        if max_speed > 0.0 && speed > max_speed {
+            v = [v[0] * max_speed / speed, v[1] * max_speed / speed];
+        }
+        [p[0] + lead_s * v[0], p[1] + lead_s * v[1]]
+    }
+
+    /// Forget the contact.
+    pub fn clear(&mut self) {
+        self.hist.clear();
+        self.t0 = None;
     }
 }
 
@@ -881,5 +985,96 @@ mod tests {
         let m = buf.iter().rev().find_map(|o| o.outcome.contact()).unwrap();
         let p = pts[7];
         assert!((m.centroid_mm[0] - p[0]).hypot(m.centroid_mm[1] - p[1]) < 0.1, "{:?} vs {p:?}", m.centroid_mm);
+    }
+
+    /// A position track behind a constant-velocity contact by a discrete first-order lag
+    /// (`p̃[k] = p̃[k−1] + α(c[k] − p̃[k−1])`, `α = 1 − e^{−Δt/τ}`): its steady delay is
+    /// `Δt(1 − α)/α ≈ τ − Δt/2`; the lead by exactly that recovers the contact to 1e-9 mm once
+    /// the lag's transient and the velocity window have passed, and leaves it `v·(τ − Δt/2)`
+    /// behind without lead.
+    #[test]
+    fn lead_undoes_a_first_order_lag_of_a_moving_contact() {
+        let (dt, tau, v): (f64, f64, [f64; 2]) = (0.01, 0.04, [12.0, -5.0]);
+        let alpha = 1.0 - (-dt / tau).exp();
+        let lead_s = dt * (1.0 - alpha) / alpha;
+        let mut lead = Lead::new(8);
+        let mut lagged = [1.0, 2.0];
+        for k in 0..200u64 {
+            let t = k as f64 * dt;
+            let c = [1.0 + v[0] * t, 2.0 + v[1] * t];
+            lagged = [lagged[0] + alpha * (c[0] - lagged[0]), lagged[1] + alpha * (c[1] - lagged[1])];
+            let q = lead.push(Timestamp::at_rate(k, 100.0), lagged, lead_s, 0.0);
+            if k > 150 {
+                assert!((q[0] - c[0]).hypot(q[1] - c[1]) < 1e-9, "frame {k}: {q:?} vs {c:?}");
+                let behind = (lagged[0] - c[0]).hypot(lagged[1] - c[1]);
+                assert!((behind - v[0].hypot(v[1]) * lead_s).abs() < 1e-9, "{behind}");
+            }
+        }
+        // the velocity is the least-squares slope of the last 8 positions
+        let w = lead.velocity();
+        assert!((w[0] - v[0]).abs() < 1e-9 && (w[1] - v[1]).abs() < 1e-9, "{w:?}");
+    }
+
+    /// The lead's speed is capped (the physical bound), `lead_s = 0` and non-finite positions
+    /// pass through untouched, a clear or time going backwards starts a new contact.
+    #[test]
+    fn lead_edges() {
+        let mut lead = Lead::new(4);
+        assert_eq!(lead.push(Timestamp::at_rate(0, 100.0), [1.0, 1.0], 0.0, 30.0), [1.0, 1.0]);
+        assert_eq!(lead.velocity(), [0.0, 0.0]);
+        // 1 mm per frame = 100 mm/s, capped at 30 mm/s: at most 0.3 mm ahead with a 10 ms lead
+        let mut q = [0.0; 2];
+        for k in 0..6u64 {
+            q = lead.push(Timestamp::at_rate(k, 100.0), [k as f64, 0.0], 0.01, 30.0);
+        }
+        assert!((q[0] - 5.3).abs() < 1e-9 && q[1] == 0.0, "{q:?}");
+        let nan = lead.push(Timestamp::at_rate(6, 100.0), [f64::NAN, 0.0], 0.01, 30.0);
+        assert!(nan[0].is_nan());
+        assert!((lead.velocity()[0] - 100.0).abs() < 1e-9, "a NaN is not remembered");
+        // time going backwards: a new contact, no velocity yet
+        assert_eq!(lead.push(Timestamp::at_rate(2, 100.0), [7.0, 7.0], 0.01, 30.0), [7.0, 7.0]);
+        lead.clear();
+        assert_eq!(lead.push(Timestamp::at_rate(9, 100.0), [3.0, 3.0], 0.01, 0.0), [3.0, 3.0]);
+        assert!(LocateConfig { fit_lead_s: 1.5, ..LocateConfig::default() }.validate().is_err());
+        assert!(LocateConfig { fit_velocity_frames: 1, ..LocateConfig::default() }.validate().is_err());
+    }
+
+    /// The fit with its lead on electrodes behind a first-order fluid lag (the fit's own model,
+    /// no noise, 15 mm/s, τ = 40 ms: 0.6 mm behind): the lead by `τ − Δt/2` brings the moving
+    /// contact within a fifth of the lagged fit's error.
+    #[test]
+    fn lead_brings_a_lagged_moving_contact_back() {
+        let layout = Layout::biotac_sp();
+        let geo = Geometry::for_layout(&layout);
+        let (dt, tau): (f64, f64) = (0.01, 0.04);
+        let alpha = 1.0 - (-dt / tau).exp();
+        let start = [-4.0, 0.5];
+        let at = |k: u64| if k < 40 { start } else { [start[0] + 0.15 * (k - 40) as f64, start[1]] };
+        let mut lagged = [0.0; 24];
+        let input: Vec<TaxelFrame> = (0..100u64)
+            .map(|k| {
+                let c = at(k);
+                let m = if k >= 25 { geo.model([c[0], c[1], 3.0, -300.0, 0.0], &[1.0; 24]) } else { vec![0.0; 24] };
+                (0..24).for_each(|i| lagged[i] += alpha * (m[i] - lagged[i]));
+                let v = (0..24).map(|i| base(i) + lagged[i]).collect();
+                TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, v)
+            })
+            .collect();
+        let err = |lead_s: f64| {
+            let cfg = LocateConfig { window_frames: 1, smooth_frames: 1, fit_lead_s: lead_s, ..signed() };
+            let out = Fit::try_new(&cfg, &layout).unwrap().run_all(input.clone()).unwrap();
+            // frames 70..100: moving for 0.3 s, lag and velocity window settled
+            let e: Vec<f64> = (70..100u64)
+                .map(|k| {
+                    let m = out[k as usize].outcome.contact().expect("in contact");
+                    let c = at(k);
+                    (m.centroid_mm[0] - c[0]).hypot(m.centroid_mm[1] - c[1])
+                })
+                .collect();
+            e.iter().sum::<f64>() / e.len() as f64
+        };
+        let (without, with) = (err(0.0), err(dt * (1.0 - alpha) / alpha));
+        assert!(without > 0.45, "a lagged fit is behind: {without} mm");
+        assert!(with < 0.2 * without, "with the lead {with} mm, without {without} mm");
     }
 }

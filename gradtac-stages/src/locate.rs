@@ -173,8 +173,9 @@ pub struct LocateConfig {
     /// `fit`: most Levenberg–Marquardt iterations per frame (1–100). Default 3.
     pub fit_iterations: u32,
     /// `fit`: rate (0–1; 0 = fixed unit gains) at which each electrode's signed gain follows
-    /// what the converged fits measure at it during contact. Default 0 (online gains lowered
-    /// the tuning error at 10 iterations but not within the `accurate` speed bound).
+    /// what the converged fits measure at it during contact. Default 0; the `accurate` preset
+    /// uses 0.1 (chosen on the tuning members: per-electrode gains are the largest single error
+    /// term of the fit, `docs/tradeoff.md`).
     pub fit_gain_rate: f64,
     /// `fit`: model error as a fraction of the frame's largest change, added in quadrature to
     /// each electrode's measured noise (≥ 0, ≤ 1): how much the response may differ from the
@@ -188,6 +189,15 @@ pub struct LocateConfig {
     /// magnitudes an electrode whose value rises under pressure while most fall (the family
     /// draws up to 30 % of them) fits like the rest, at the price of the far lobe's sign.
     pub fit_signed: bool,
+    /// `fit`: lag compensation (s, 0–1; 0 = none): the fitted position is moved ahead along the
+    /// contact's velocity by this time, `p + fit_lead_s · v̂`, undoing the `v·τ` a first-order
+    /// fluid lag of time constant `τ ≈ fit_lead_s` puts behind a moving contact
+    /// ([`fit`](crate::fit) docs, *Lag*). Default 0; the `accurate` preset's value is chosen on
+    /// the tuning members (`docs/tradeoff.md`).
+    pub fit_lead_s: f64,
+    /// `fit`: frames (2–100) of the current contact over which the velocity `v̂` is the
+    /// least-squares slope of the fitted positions. Default 8.
+    pub fit_velocity_frames: u32,
     /// `centroid` / `raw_contour` (and a changes-based force model): a stored untouched
     /// baseline (`gradtac calibrate baseline`, [`Tare`](crate::tare::Tare)), relative to the
     /// scene. With it the detector skips its start-up calibration — a hand that starts in
@@ -221,6 +231,8 @@ struct LocateToml {
     fit_model_error: Option<f64>,
     fit_rails: Option<[f64; 2]>,
     fit_signed: Option<bool>,
+    fit_lead_s: Option<f64>,
+    fit_velocity_frames: Option<u32>,
     baseline: Option<std::path::PathBuf>,
 }
 
@@ -246,7 +258,9 @@ impl From<LocateToml> for LocateConfig {
             fit_gain_rate,
             fit_model_error,
             fit_rails,
-            fit_signed
+            fit_signed,
+            fit_lead_s,
+            fit_velocity_frames
         );
         if t.top_k.is_some() {
             c.top_k = t.top_k;
@@ -276,7 +290,8 @@ impl LocateConfig {
             // (6.3 µs on a quieter one) and never checked against the real-data floors: the
             // centroid stays (docs/tradeoff.md)
             Preset::Fast => base,
-            // the model fit chosen on the tuning members at ≤ 50 µs/frame
+            // the model fit chosen on the tuning members at ≤ 50 µs/frame (2026-11-27, issue #22
+            // round 2: online gains at rate 0.1 chosen; no lag lead — tuning lags are 10–30 ms)
             Preset::Accurate => LocateConfig {
                 preset: p,
                 method: LocateMethod::Fit,
@@ -284,7 +299,8 @@ impl LocateConfig {
                 smooth_frames: 1,
                 max_speed_mm_s: 30.0,
                 fit_iterations: 3,
-                fit_gain_rate: 0.0,
+                fit_gain_rate: 0.1,
+                fit_lead_s: 0.0,
                 fit_model_error: 0.3,
                 fit_signed: false,
                 ..base
@@ -313,6 +329,8 @@ impl LocateConfig {
             fit_model_error: 0.3,
             fit_rails: [0.0, 4095.0],
             fit_signed: false,
+            fit_lead_s: 0.0,
+            fit_velocity_frames: 8,
             baseline: None,
         }
     }
@@ -361,6 +379,12 @@ impl LocateConfig {
         }
         if !(self.fit_model_error.is_finite() && (0.0..=1.0).contains(&self.fit_model_error)) {
             return bad(format!("`fit_model_error` = {} must be in [0, 1]", self.fit_model_error));
+        }
+        if !(self.fit_lead_s.is_finite() && (0.0..=1.0).contains(&self.fit_lead_s)) {
+            return bad(format!("`fit_lead_s` = {} must be in [0, 1] s", self.fit_lead_s));
+        }
+        if !(2..=100).contains(&self.fit_velocity_frames) {
+            return bad(format!("`fit_velocity_frames` = {} must be in 2..=100", self.fit_velocity_frames));
         }
         let [lo, hi] = self.fit_rails;
         if lo.is_nan() || hi.is_nan() || lo >= hi {
@@ -1061,6 +1085,10 @@ mod tests {
             LocateConfig { fit_gain_rate: 2.0, ..Default::default() },
             LocateConfig { fit_model_error: f64::NAN, ..Default::default() },
             LocateConfig { fit_rails: [4095.0, 0.0], ..Default::default() },
+            LocateConfig { fit_lead_s: -0.01, ..Default::default() },
+            LocateConfig { fit_lead_s: f64::INFINITY, ..Default::default() },
+            LocateConfig { fit_velocity_frames: 1, ..Default::default() },
+            LocateConfig { fit_velocity_frames: 101, ..Default::default() },
         ] {
             assert!(ChangeDetector::try_new(2, &bad).is_err(), "{bad:?}");
         }
