@@ -1,16 +1,19 @@
 //! Two-finger slip on grasps drawn from the widened family of forward models
 //! (`gradtac_stages::sim_grasp`, `GraspFamily::widened`): the default chain of a bare scene
 //! (raw frames → slip_pattern → slip) scored on held-out members — whole, by start shape
-//! (step / linear / smooth) and by widened property — against the onset estimate before the
-//! widened family and the track-velocity baseline (taxel centroid → track → slip), with the
+//! (step / linear / smooth) and by widened property — against the previous default onset
+//! estimate (`hinge`, `linear_smooth`, `mean`, lead 0.045 s) and the track-velocity baseline (taxel centroid → track → slip), with the
 //! demo's recording (`gradtac demo`) through the same inputs and a held-out variant of the
-//! family never used for a choice.
+//! family never used for a choice. It also times every push that decided a slip (the
+//! change-point fits run there): p50 / p99 over the held-out members, default and previous.
 //!
 //! ```text
 //! cargo run --release --example slip_eval                # the tables of the slip docs (≈ 10 s)
 //! cargo run --release --example slip_eval -- trade       # also the decision latency trade
 //! cargo run --release --example slip_eval -- tune onset  # the onset search on the tuning seeds
 //! cargo run --release --example slip_eval -- onsetdiag   # each tuning slip's signed error and properties
+//! cargo run --release --example slip_eval -- onsetdump   # each tuning slip's position histories at its decision
+//!                                                        # (input of scripts/onset_probe.rs)
 //! cargo run --release --example slip_eval -- tune        # the (earlier) evidence search
 //! cargo run --release --example slip_eval -- tune rule   # then window_s × min_duration_s × dominance
 //! DIAG_SEEDS=400 cargo run --release --example slip_eval -- diag  # the tuning members' misses
@@ -297,6 +300,55 @@ fn main() {
         }
         return;
     }
+    if std::env::args().any(|a| a == "onsetdump") {
+        // every tuning slip's position histories at its first slip decision (default settings,
+        // no lead), with the truth: the data the onset estimator is designed on
+        // (tuning members only: the held-out ones are never looked at for a choice)
+        let set = tuning;
+        let cfg = SlipConfig { onset_lead_s: 0.0, ..Default::default() };
+        for c in set.iter().filter(|c| c.truth.class.is_slip()) {
+            let r = run(c, &cfg);
+            let input = slip_inputs(&c.rec.frames, &c.tracks, &cfg).expect("valid");
+            let mut s = Slip::try_new(&cfg).expect("valid");
+            let mut out = Vec::new();
+            for i in input {
+                s.push_input(i, &mut out).expect("ok");
+                if let Some(e) = out.iter().find(|e| e.class.is_slip() && e.time.as_secs_f64() >= c.truth.onset_s) {
+                    let t = &c.truth;
+                    let g = &c.rec.grasp;
+                    println!(
+                        "G {} {} {} {} {:.4} {:.3} {:.3} {:.4} {:.3} {:.5} {:.5} {:.5} {:.5} {:.5} {:.4} {:.4} {}",
+                        c.member.seed,
+                        t.class.name(),
+                        u8::from(r.right()),
+                        t.start.name(),
+                        t.ramp_s,
+                        t.grip_start,
+                        t.load_rise,
+                        t.finger_lag_s,
+                        t.speed_mm_s,
+                        t.onset_s,
+                        g.fingers[0].onset_s,
+                        g.fingers[1].onset_s,
+                        e.time.as_secs_f64(),
+                        e.onset.as_secs_f64(),
+                        g.fingers[0].physics.lag_s,
+                        g.fingers[1].physics.lag_s,
+                        e.class.name(),
+                    );
+                    for (k, h) in s.position_histories().iter().enumerate() {
+                        if let Some((m, h)) = h {
+                            let pts: Vec<String> =
+                                h.iter().map(|p| format!("{:.4}:{:.4}", p.0 as f64 * 1e-9, p.1)).collect();
+                            println!("H {k} {m:.3} {}", pts.join(" "));
+                        }
+                    }
+                    break;
+                }
+            }
+        }
+        return;
+    }
     if tune && std::env::args().any(|a| a == "onset") {
         tune_onset(&tuning, &demo);
         return;
@@ -407,9 +459,14 @@ fn main() {
     println!("demo recording (`gradtac demo`), default: {:?} onset error {:+.3} s", d.0, d.1);
     let d = demo_onset(&demo, &before);
     println!(
-        "demo recording, previous onset estimate (hinge, mean, lead 0.03 s): {:?} onset error {:+.3} s\n",
+        "demo recording, previous onset estimate (hinge, linear_smooth, mean, lead 0.045 s): {:?} onset error {:+.3} s\n",
         d.0, d.1
     );
+    for (label, cfg) in [("default", &def), ("previous onset estimate", &before)] {
+        let (p50, p99, n) = decide_cost(&held, cfg);
+        println!("slip-deciding pushes, {label}: p50 {p50:.1} µs, p99 {p99:.1} µs ({n} decisions, held-out members)");
+    }
+    println!();
     let base = SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..Default::default() };
     let configs = [
         ("displacement (default)", &def),
@@ -509,16 +566,39 @@ const HELD_OUT: std::ops::Range<u64> = 1000..1100;
 /// Held-out variant members ([`GraspFamily::held_out_variant`]).
 const VARIANT: std::ops::Range<u64> = 2000..2040;
 
-/// The onset estimate before the widened family: a still-then-moving hinge, the fingers' mean,
-/// lead 0.03 s (everything else default).
+/// The previous default onset estimate (the last session's, chosen on the same tuning members):
+/// a still-then-moving hinge with linear and smooth starts, the fingers' mean, lead 0.045 s
+/// (everything else default).
 fn previous_onset() -> SlipConfig {
     SlipConfig {
         onset_model: OnsetModel::Hinge,
         onset_fingers: OnsetFingers::Mean,
-        onset_starts: OnsetStarts::Linear,
-        onset_lead_s: 0.03,
+        onset_starts: OnsetStarts::LinearSmooth,
+        onset_lead_s: 0.045,
         ..Default::default()
     }
+}
+
+/// The wall time (µs) of every push that decided a slip (the change-point fits run there), over
+/// `cases`: `(p50, p99, count)`. One thread; on a loaded machine the tail is the machine's.
+fn decide_cost(cases: &[Case], cfg: &SlipConfig) -> (f64, f64, usize) {
+    let mut us = Vec::new();
+    for c in cases {
+        let input = slip_inputs(&c.rec.frames, &c.tracks, cfg).expect("valid");
+        let mut s = Slip::try_new(cfg).expect("valid");
+        let mut out = Vec::new();
+        for i in input {
+            let n = out.len();
+            let t = std::time::Instant::now();
+            s.push_input(i, &mut out).expect("ok");
+            let dt = t.elapsed();
+            if out.len() > n && out[n].class.is_slip() {
+                us.push(dt.as_secs_f64() * 1e6);
+            }
+        }
+    }
+    let n = us.len();
+    (pct(&mut us, 0.5), pct(&mut us, 0.99), n)
 }
 
 /// The onset estimate's search on the tuning members only: model × finger combination, each
@@ -530,8 +610,10 @@ fn tune_onset(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<Vec
     let mut rows = Vec::new();
     for (onset_model, onset_fingers, onset_starts) in [OnsetModel::Hinge, OnsetModel::RampHinge]
         .into_iter()
-        .flat_map(|m| [OnsetFingers::Mean, OnsetFingers::Earliest].map(|f| (m, f)))
-        .flat_map(|(m, f)| [OnsetStarts::Linear, OnsetStarts::LinearSmooth].map(|s| (m, f, s)))
+        .flat_map(|m| [OnsetFingers::Mean, OnsetFingers::Earliest, OnsetFingers::Weighted].map(|f| (m, f)))
+        .flat_map(|(m, f)| {
+            [OnsetStarts::Linear, OnsetStarts::LinearSmooth, OnsetStarts::LinearCubic].map(|s| (m, f, s))
+        })
     {
         {
             let cfg = SlipConfig { onset_model, onset_fingers, onset_starts, onset_lead_s: 0.0, ..Default::default() };

@@ -12,9 +12,11 @@
 //!    tests and printed the same contact errors (the locator default was already the
 //!    centroid) and a slip onset error of −0.040 s; the track-based displacement rule then
 //!    printed −0.075 s; the pattern evidence printed −0.020 s, and the onset fit chosen for
-//!    the widened grasp family (smooth starts tried, lead 0.045 s) prints −0.035 s (over 500
-//!    held-out grasps of the widened model family the median onset error is 52 ms, mean
-//!    signed −9 ms, against 151 ms for the track-velocity rule — `gradtac_stages::slip`).
+//!    the widened grasp family (smooth starts tried, lead 0.045 s) printed −0.035 s; the
+//!    current onset fit (cubic starts, a drift before the onset, the fingers weighted by
+//!    their fits' clarity, lead 0.03 s) prints −0.020 s (over 500 held-out grasps of the
+//!    widened model family the median onset error is 49 ms, mean signed −3 ms, against 151 ms
+//!    for the track-velocity rule — `gradtac_stages::slip`).
 //! 3. The demo reads the tracks and slip events back and compares them with the truth:
 //!    contact localisation error (mm and fraction of sensor width) and slip class and onset.
 

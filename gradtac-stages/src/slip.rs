@@ -44,17 +44,21 @@
 //! 4. **Persistence.** A candidate different from the current state must persist for
 //!    `min_duration_s` before the state changes. The event carries `time` (the decision),
 //!    `first_seen` and `onset`: for a slip, the **change point** of the moving fingers'
-//!    position histories — still until `t₀`, then moving with a speed that rises over `r`
-//!    (`u = a + b·z(t − t₀)`, `z` the distance of a unit-speed start; `onset_starts`: by
-//!    default `linear_smooth`, a sudden start, linear rises over 0.1, 0.2, 0.3 s and smooth
-//!    `3x² − 2x³` rises over 0.2, 0.3, 0.4 s; `linear` the first four), `(t₀, start)` with the
-//!    least squared error over the last `history_s`; `onset_model = "ramp_hinge"` adds a free
-//!    drift `g·t` before and after (a grip still ramping). The fingers that moved at least half
-//!    of `distance_mm` give one `t₀` each, combined by `onset_fingers` (`mean`, or `earliest`
-//!    for slips that start on one finger), minus `onset_lead_s` (the fit's bias measured on
-//!    tuning members: upstream delay against the fit's lateness on soft starts), never later
-//!    than `first_seen`; for a return to stable `first_seen`. So `onset` estimates the first
-//!    frame of motion, not the decision.
+//!    position histories — drifting at a constant rate until `t₀` (a grip still ramping;
+//!    `onset_model = "hinge"`: still), then moving with a speed that rises over `r`
+//!    (`u = a + g·t + b·z(t − t₀)`, `z` the distance of a unit-speed start; `onset_starts`: by
+//!    default `linear_cubic`, a sudden start, linear rises over 0.1, 0.2, 0.3 s and
+//!    accelerating (`x²`, the distance growing as the cube of the time) rises over 0.2, 0.3,
+//!    0.4 s; `linear_smooth` has smooth `3x² − 2x³` rises instead of the cubic ones, `linear`
+//!    only the first four), `(t₀, start)` with the least squared error over the last
+//!    `history_s`. The fingers that moved at least half of `distance_mm` give one `t₀` each,
+//!    combined by `onset_fingers` (default `weighted`: each finger's `t₀` weighted by
+//!    `(C − E)/E`, `C` its history's spread, `E` the fit's squared error — a finger whose
+//!    point barely moves or wanders counts less; `mean`; `earliest`), minus `onset_lead_s`
+//!    (the fit's bias measured on tuning members: upstream delay against the fit's lateness on
+//!    soft starts), never later than `first_seen`; for a return to stable `first_seen`. So
+//!    `onset` estimates the first frame of motion, not the decision; it is computed at the
+//!    decision from the history up to it (the event is not delayed by it).
 //!
 //! The previous rule, `method = "velocity"` (the cheap baseline of the tables below): a
 //! least-squares velocity over `velocity_window_s` of the current track (≥ `min_points`
@@ -65,7 +69,8 @@
 //!
 //! # Measured: the widened grasp family — onset by start shape
 //! Protocol (`cargo run --release --example slip_eval`; `-- tune onset` for the search, `--
-//! onsetdiag` for every tuning member's signed error and properties): two-finger grasps from
+//! onsetdiag` for every tuning member's signed error and properties, `-- onsetdump` for every
+//! tuning slip's position histories at its decision with the truth): two-finger grasps from
 //! [`crate::sim_grasp`]'s **widened** family — every member draws a step, linear (0.05–0.3 s)
 //! or smooth (`3x² − 2x³`, 0.1–0.4 s) start, and with probability ½ each a grip still ramping
 //! at the onset (0.4–1.6 × `F` at the end of the press to `F`, 0–0.3 s after the onset), a
@@ -74,67 +79,86 @@
 //!
 //! **Tuning** (seeds 0..120 × 5 classes, Gaussian / difference-of-Gaussians kernels on both
 //! fingers: 280 grasps, 218 slips right). Searched: `onset_model` ∈ {hinge, ramp_hinge} ×
-//! `onset_fingers` ∈ {mean, earliest} × `onset_starts` ∈ {linear, linear_smooth}, each with
-//! `onset_lead_s` = its mean signed error on the tuning members without a lead (to 5 ms);
-//! ranked by the worst start shape's median |error|, then the worst |mean signed error|. The
-//! decisions (class, false alarms) do not depend on these settings. Chosen (first row):
-//! `hinge`, `mean`, `linear_smooth`, lead 0.045 s — worst shape 57 ms median, 47 ms |mean|
-//! (step 57 / −46, linear 47 / −5, smooth 57 / +47 ms). The other rows, same order:
-//! hinge linear earliest (lead −0.005) 65 / 49; hinge linear mean (lead 0.065, the previous
-//! estimate's shape) 67 / 55; ramp_hinge linear_smooth mean 68 / 52; hinge linear_smooth
-//! earliest 71 / 45; ramp_hinge linear earliest 75 / 61; ramp_hinge linear mean 75 / 57;
-//! ramp_hinge linear_smooth earliest 76 / 53. Also tried, not adopted: smooth starts up to
-//! 0.8 s (every shape ≈ 20 ms earlier, the same spread); fitting only the last 0.6 / 0.9 / 1.2 /
-//! 1.8 s of the history (worst shape 92 / 52 / 56 / 58 ms median, 44–61 ms |mean|).
+//! `onset_fingers` ∈ {mean, earliest, weighted} × `onset_starts` ∈ {linear, linear_smooth,
+//! linear_cubic}, each with `onset_lead_s` = its mean signed error on the tuning members
+//! without a lead (to 5 ms); ranked by the worst start shape's median |error|, then the worst
+//! |mean signed error|. The decisions (class, false alarms) do not depend on these settings.
+//! Chosen (first row): `ramp_hinge`, `linear_cubic`, `weighted`, lead 0.03 s — worst shape
+//! 49 ms median, 31 ms |mean| (step 47 / −31, linear 42 / +9, smooth 49 / +25 ms). The next
+//! rows (worst median / worst |mean|, ms): hinge linear_cubic weighted (lead 0.02) 52 / 35;
+//! hinge linear_smooth mean (lead 0.045, the previous default) 57 / 47; ramp_hinge
+//! linear_cubic mean 58 / 38; ramp_hinge linear_smooth weighted 59 / 43; hinge linear_smooth
+//! weighted 59 / 43; hinge linear_cubic mean 60 / 44; hinge linear weighted 61 / 53; the
+//! other ten 65–76 / 35–61 (every `earliest` row among them).
+//!
+//! What the tuning members show (`-- onsetdump`, fits refitted offline on those histories):
+//! - **The start is not identified from a finger's pattern point.** The start the fit
+//!   chooses has nearly the same distribution whatever the true shape (per finger, of
+//!   sudden / linear 0.1, 0.2, 0.3 / smooth 0.2, 0.3, 0.4: true steps 45 / 25, 11, 21 /
+//!   11, 9, 20; true linear 25 / 21, 15, 15 / 7, 12, 45; true smooth 21 / 15, 9, 19 / 24, 15,
+//!   51), and the true start fits only ≈ 3–4 log-likelihood units worse than the best
+//!   (white-noise units; the residual is not white). Since the fit dates the *intercept* of
+//!   the visible motion well (`t₀ + r/2`), a wrong `r` is a bias of `Δr/2`: 80–90 ms between
+//!   steps and smooth starts for every estimator tried (single fixed starts: ≈ 120 ms;
+//!   Bayesian averaging over starts, fits on the last 0.25–0.9 s before the intercept, a
+//!   joint start for both fingers, a speed-dependent lead: 80–90 ms).
+//! - **Even knowing the start does not reach 30 ms.** Fitting each finger with its true
+//!   start and length (an oracle, not a method) gives per shape 45 / 50 / 41 ms median with
+//!   means within ±14 ms. The pattern point lags the contact by a distance, not a time: that
+//!   oracle's error grows as the slip slows (+76 ms mean below 4 mm/s, +23 ms above 15 mm/s)
+//!   — the energy-weighted centroid (`wᵢ ∝ zᵢ²`) sticks to the strongest taxel. A scratch
+//!   build with a linear-weight centroid (`wᵢ = max(0, |zᵢ| − f)`) removed the speed
+//!   dependence and brought the oracle to 34 / 33 / 41 ms, but the shape confusion stayed
+//!   (no estimator with it ranked better than the chosen one), so it was not kept.
 //!
 //! **Held out**: seeds 1000..1100 × 5 classes of the widened family, every kernel (500
-//! grasps; 275 with an exponential kernel — physics not tuned on — on some finger), and a
-//! **held-out variant** never used for a choice (seeds 2000..2040 × 5,
-//! [`crate::sim_grasp::GraspFamily::held_out_variant`]: exponential starts, grips 0.3–2 × `F`,
-//! load rises to 4 /s, finger lags to 0.3 s). "Previous onset estimate": `onset_starts =
-//! "linear"`, lead 0.03 s (the defaults before the widened family). Columns as in the tables
-//! further below, plus the **mean signed** onset error of the slips right.
+//! grasps; 275 with an exponential kernel — physics not tuned on — on some finger), scored
+//! once with the chosen defaults, and a **held-out variant** never used for a choice (seeds
+//! 2000..2040 × 5, [`crate::sim_grasp::GraspFamily::held_out_variant`]: exponential starts,
+//! grips 0.3–2 × `F`, load rises to 4 /s, finger lags to 0.3 s). "Previous onset estimate":
+//! `hinge`, `linear_smooth`, `mean`, lead 0.045 s (the defaults before this search). Columns
+//! as in the tables further below, plus the **mean signed** onset error of the slips right.
 //!
 //! | | stable | long. up | long. down | rot. cw | rot. ccw | all right | onset \|err\| median (ms) | mean signed (ms) | \|err\| p90 (ms) | decided after onset, median (ms) | false alarms / min still |
 //! |---|---|---|---|---|---|---|---|---|---|---|---|
-//! | displacement (default), all | 100/100 | 97/100 | 100/100 | 95/100 | 99/100 | 491/500 (98.2 %) | 52 | -9 | 133 | 470 | 0.27 |
-//! | displacement (default), exponential kernel (held-out physics) | 55/55 | 52/55 | 55/55 | 53/55 | 55/55 | 270/275 (98.2 %) | 59 | -15 | 124 | 469 | 0.49 |
-//! | displacement (default), tuning members (in-sample) | 56/56 | 54/56 | 55/56 | 55/56 | 54/56 | 274/280 (97.9 %) | 55 | +0 | 130 | 455 | 0.00 |
-//! | displacement, previous onset estimate, all | 100/100 | 97/100 | 100/100 | 95/100 | 99/100 | 491/500 (98.2 %) | 51 | +24 | 161 | 470 | 0.27 |
+//! | displacement (default), all | 100/100 | 97/100 | 100/100 | 95/100 | 99/100 | 491/500 (98.2 %) | 49 | -3 | 130 | 470 | 0.27 |
+//! | displacement (default), exponential kernel (held-out physics) | 55/55 | 52/55 | 55/55 | 53/55 | 55/55 | 270/275 (98.2 %) | 50 | -6 | 134 | 469 | 0.49 |
+//! | displacement (default), tuning members (in-sample) | 56/56 | 54/56 | 55/56 | 55/56 | 54/56 | 274/280 (97.9 %) | 47 | +1 | 136 | 455 | 0.00 |
+//! | displacement, previous onset estimate, all | 100/100 | 97/100 | 100/100 | 95/100 | 99/100 | 491/500 (98.2 %) | 52 | -9 | 133 | 470 | 0.27 |
+//! | displacement, previous onset estimate, exponential kernel (held-out physics) | 55/55 | 52/55 | 55/55 | 53/55 | 55/55 | 270/275 (98.2 %) | 59 | -15 | 124 | 469 | 0.49 |
 //! | track velocity (baseline), all | 98/100 | 62/100 | 64/100 | 52/100 | 57/100 | 333/500 (66.6 %) | 151 | +194 | 414 | 389 | 0.72 |
 //!
 //! By start shape (held out; each row: the slips of that shape and all stable grasps):
 //!
 //! | | stable | long. up | long. down | rot. cw | rot. ccw | all right | onset \|err\| median (ms) | mean signed (ms) | \|err\| p90 (ms) | decided after onset, median (ms) | false alarms / min still |
 //! |---|---|---|---|---|---|---|---|---|---|---|---|
-//! | displacement (default), step start | 100/100 | 31/31 | 45/45 | 37/38 | 35/35 | 248/249 (99.6 %) | 61 | -52 | 124 | 428 | 0.00 |
-//! | displacement (default), linear start | 100/100 | 39/41 | 27/27 | 29/31 | 31/32 | 226/231 (97.8 %) | 45 | +3 | 125 | 471 | 0.31 |
-//! | displacement (default), smooth start | 100/100 | 27/28 | 28/28 | 29/31 | 33/33 | 217/220 (98.6 %) | 47 | +32 | 148 | 505 | 0.16 |
-//! | displacement, previous onset estimate, step start | 100/100 | 31/31 | 45/45 | 37/38 | 35/35 | 248/249 (99.6 %) | 44 | -21 | 119 | 428 | 0.00 |
-//! | displacement, previous onset estimate, linear start | 100/100 | 39/41 | 27/27 | 29/31 | 31/32 | 226/231 (97.8 %) | 51 | +39 | 158 | 471 | 0.31 |
-//! | displacement, previous onset estimate, smooth start | 100/100 | 27/28 | 28/28 | 29/31 | 33/33 | 217/220 (98.6 %) | 67 | +65 | 183 | 505 | 0.16 |
+//! | displacement (default), step start | 100/100 | 31/31 | 45/45 | 37/38 | 35/35 | 248/249 (99.6 %) | 52 | -32 | 124 | 428 | 0.00 |
+//! | displacement (default), linear start | 100/100 | 39/41 | 27/27 | 29/31 | 31/32 | 226/231 (97.8 %) | 46 | +0 | 128 | 471 | 0.31 |
+//! | displacement (default), smooth start | 100/100 | 27/28 | 28/28 | 29/31 | 33/33 | 217/220 (98.6 %) | 47 | +31 | 148 | 505 | 0.16 |
+//! | displacement, previous onset estimate, step start | 100/100 | 31/31 | 45/45 | 37/38 | 35/35 | 248/249 (99.6 %) | 61 | -52 | 124 | 428 | 0.00 |
+//! | displacement, previous onset estimate, linear start | 100/100 | 39/41 | 27/27 | 29/31 | 31/32 | 226/231 (97.8 %) | 45 | +3 | 125 | 471 | 0.31 |
+//! | displacement, previous onset estimate, smooth start | 100/100 | 27/28 | 28/28 | 29/31 | 33/33 | 217/220 (98.6 %) | 47 | +32 | 148 | 505 | 0.16 |
 //! | track velocity (baseline), step start | 98/100 | 18/31 | 23/45 | 19/38 | 23/35 | 181/249 (72.7 %) | 88 | +139 | 380 | 322 | 0.91 |
 //! | track velocity (baseline), linear start | 98/100 | 28/41 | 22/27 | 14/31 | 15/32 | 177/231 (76.6 %) | 160 | +196 | 390 | 394 | 0.31 |
 //! | track velocity (baseline), smooth start | 98/100 | 16/28 | 19/28 | 19/31 | 19/33 | 171/220 (77.7 %) | 207 | +253 | 472 | 438 | 0.65 |
-//! | held-out variant: default, exponential start | 39/40 | 39/40 | 40/40 | 37/40 | 38/40 | 193/200 (96.5 %) | 52 | -13 | 129 | 451 | 0.68 |
-//! | held-out variant: previous onset estimate, exponential start | 39/40 | 39/40 | 40/40 | 37/40 | 38/40 | 193/200 (96.5 %) | 49 | +22 | 142 | 451 | 0.68 |
+//! | held-out variant: default, exponential start | 39/40 | 39/40 | 40/40 | 37/40 | 38/40 | 193/200 (96.5 %) | 44 | +1 | 140 | 451 | 0.68 |
+//! | held-out variant: previous onset estimate, exponential start | 39/40 | 39/40 | 40/40 | 37/40 | 38/40 | 193/200 (96.5 %) | 52 | -13 | 129 | 451 | 0.68 |
+//!
+//! By widened property (held out, default / previous; median / mean signed, ms): grip still
+//! ramping 48 / −8 against 56 / −12; load rising 50 / +7 against 52 / +1; one finger first
+//! 61 / +26 against 61 / +19; none of the three 39 / −24 against 48 / −35; slower than 4 mm/s
+//! 56 / −12 against 63 / −2.
 //!
 //! Against the targets (per start shape median |error| ≤ 30 ms and mean signed error within
 //! ±10 ms, no drop in class accuracy or false alarms): **not met**. Class accuracy and false
-//! alarms are unchanged (the onset settings do not touch the decision: 491/500, 0.27 / min for
-//! both estimates), and the overall mean signed error moves from +24 to −9 ms, but per shape the
-//! spread remains: steps are dated ≈ 50 ms early, smooth starts ≈ 30 ms late, and every
-//! shape's median |error| is 45–61 ms (the first family's 28 ms does not hold on the widened
-//! one: on its held-out slips with none of the three widened properties the previous estimate
-//! has a median of 32 ms, the default 48 ms). What the tuning members show (`-- onsetdiag`):
-//! the fit dates the *intercept* of the visible motion well, but how long the start took is
-//! not identified from one finger's pattern point at the decision — grouped by the start the
-//! fit chose, the true steps and smooth starts still differ by 80–150 ms (e.g. fits that chose
-//! a smooth 0.4 s start: steps −59, linear +24, smooth +93 ms without a lead), and the two
-//! fingers' fits of one grasp differ by ≈ 130 ms on average (`mean` against `earliest`). A
-//! single lead can centre the mixture, not each shape. What is left: an observable that sees
-//! the start (a position less sticky than the energy centroid, a joint fit of both fingers,
-//! or dating the onset again later than the decision).
+//! alarms are unchanged (491/500, 0.27 / min: the onset settings do not touch the decision).
+//! The steps' bias falls from −52 to −32 ms and their median from 61 to 52 ms, the overall
+//! median from 52 to 49 ms, the held-out variant's from 52 to 44 ms; linear starts are
+//! centred (+0 ms), smooth starts still +31 ms, and every shape's median stays 46–52 ms. Why
+//! (above): the start is not identified from the pattern points, and even a known start
+//! leaves ≈ 40–50 ms from the centroid's stickiness. What is left: a position that follows
+//! the contact evenly (the linear-weight centroid removes the oracle's speed dependence), and
+//! an observable that sees the start itself (the pattern's change, not its centroid).
 //!
 //! # Measured: grasps from the model family, bare default scene (first family, previous onset estimate)
 //! (The figures of this section are the first family's — a linear start of 0–0.3 s, nothing
@@ -293,11 +317,16 @@
 //! points at 100 Hz with `linear_smooth`, ≤ 30 with `linear`) and O(history) for each of the
 //! few candidates re-scored exactly — the same onset as the direct O(starts · 256 · 2 ·
 //! history) fit, to the candidate. Live (`examples/latency.rs`, two fingertips on a CAN bus,
-//! 100 Hz, three runs on a loaded 2-core machine, medians of the runs): a frame that decides a
-//! slip 67–68 µs p50 with the default `onset_starts = "linear_smooth"` against 47 µs with
-//! `linear` (the fit before the widened family); every frame 0.9 µs p50, 1.2 µs p99 with
-//! either (1.2–1.4 µs with `linear`: noise); decision frames' p99 3–8 ms under that load for
-//! both. The pattern path adds
+//! 100 Hz, three runs on a loaded 2-core machine, medians of the runs; measured with the
+//! previous default): a frame that decides a slip 67–68 µs p50 with `onset_starts =
+//! "linear_smooth"` against 47 µs with `linear` (the fit before the widened family); every
+//! frame 0.9 µs p50, 1.2 µs p99 with either (1.2–1.4 µs with `linear`: noise); decision
+//! frames' p99 3–8 ms under that load for both. The current default (`linear_cubic`, the
+//! ramp null, `weighted`: seven starts as before, plus one O(history) pass per finger for the
+//! weight), in-process (`slip_eval`: every push that decided a slip on the 500 held-out
+//! members, 402 decisions, one thread on a loaded 2-core machine): p50 51 µs against 49 µs
+//! for the previous default in the same run; p99 8.1 ms for both (the machine's load). The
+//! pattern path adds
 //! O(taxels) per frame ([`crate::slip_pattern`]); with `evidence = "pattern"` a slip output
 //! needs no locator or track.
 //!
@@ -309,9 +338,9 @@
 //! | `min_duration_s` | quick decisions | fewer false alarms, later events |
 //! | `settle_s` | slips soon after the grasp closes are seen | fewer false alarms from the grasp settling |
 //! | `onset_lead_s` | onsets late on laggy sensors / slow starts | onsets early on quick sensors / sudden slips |
-//! | `onset_starts` | `linear`: ≈ ⅓ of the fit's work per decision; smooth starts dated later | `linear_smooth` (default): the widened family's tuning members' worst start shape 57 ms median \|error\| instead of 67 |
-//! | `onset_model` | `hinge` (default): a grip still ramping before the slip pulls the onset early | `ramp_hinge`: the ramp is absorbed, but steps are dated earlier (tuning members: worse worst shape) |
-//! | `onset_fingers` | `mean` (default): a slip that starts on one finger is dated between the two | `earliest`: the first finger's onset, but the earlier of two noisy fits (steps early) |
+//! | `onset_starts` | `linear`: ≈ ⅔ of the fit's work per decision; soft starts dated later | `linear_cubic` (default) or `linear_smooth`: seven starts; with `ramp_hinge` and `weighted` the tuning members' worst start shape 49 ms median \|error\| (`linear_smooth` 59, `linear` 70) |
+//! | `onset_model` | `hinge`: a grip still ramping before the slip pulls the onset early | `ramp_hinge` (default): the ramp is absorbed; a drift-like slow start is taken for drift |
+//! | `onset_fingers` | `mean`: a finger whose point barely moves or wanders counts as much as a clean one; `earliest`: the first finger's onset, but the earlier of two noisy fits (steps early) | `weighted` (default): each finger by its fit's clarity; a slip that starts on one finger is dated between the two, nearer the clearer |
 //! | `history_s` | cheaper; slow slips reach `distance_mm` in no window, their onsets fall outside it | slow slips decided and dated; long still stretches with drift or squeeze count as motion (4.8 s: a false alarm more on the tuning members); the return to stable comes later (the longest window sees the motion until it leaves it: up to `history_s` after it stops); more work per point |
 //! | `max_gap_s` | a dropout forgets the history | a long dropout may join two contacts |
 //! | `evidence` | `track`: the locator's gated, smoothed track — a weak finger gives none, so no decision | `pattern`: a position from every frame with any change; `both`: the track where it has evidence |
@@ -447,11 +476,11 @@ impl SlipEvidence {
 #[serde(rename_all = "snake_case")]
 pub enum OnsetModel {
     /// Still, then moving: `u = a + b·z(t − t₀)`.
-    #[default]
     Hinge,
     /// Drifting at a constant rate, then moving: `u = a + g·t + b·z(t − t₀)` — a grip force
     /// still ramping (or drift) moves the pattern point slowly before the slip; a still model
     /// puts the onset early to absorb that ramp.
+    #[default]
     RampHinge,
 }
 
@@ -473,8 +502,12 @@ pub enum OnsetStarts {
     Linear,
     /// Those and a speed rising smoothly (`3x² − 2x³`) over 0.2, 0.3 or 0.4 s (7 starts;
     /// more of the fit's work per decision).
-    #[default]
     LinearSmooth,
+    /// The linear ones and a speed rising as `x²` (an accelerating start: the distance grows
+    /// as the cube of the time) over 0.2, 0.3 or 0.4 s (7 starts; the same work as
+    /// `linear_smooth`).
+    #[default]
+    LinearCubic,
 }
 
 impl OnsetStarts {
@@ -483,6 +516,7 @@ impl OnsetStarts {
         match self {
             OnsetStarts::Linear => "linear",
             OnsetStarts::LinearSmooth => "linear_smooth",
+            OnsetStarts::LinearCubic => "linear_cubic",
         }
     }
 }
@@ -492,10 +526,14 @@ impl OnsetStarts {
 #[serde(rename_all = "snake_case")]
 pub enum OnsetFingers {
     /// Their mean.
-    #[default]
     Mean,
     /// The earliest: a slip that starts on one finger starts there.
     Earliest,
+    /// Their mean weighted by how clearly each finger's fit stands out of its residual:
+    /// `(C − E)/E`, `C` the history's spread about its mean, `E` the fit's squared error — a
+    /// finger whose point barely moves, or wanders, counts less than one that moves cleanly.
+    #[default]
+    Weighted,
 }
 
 impl OnsetFingers {
@@ -504,6 +542,7 @@ impl OnsetFingers {
         match self {
             OnsetFingers::Mean => "mean",
             OnsetFingers::Earliest => "earliest",
+            OnsetFingers::Weighted => "weighted",
         }
     }
 }
@@ -567,16 +606,17 @@ pub struct SlipConfig {
     pub history_s: f64,
     /// `displacement`: subtracted from the fitted change point (s; negative moves it later): the
     /// fit's bias — the upstream delay (the averaging, the sensor's fluid lag) against the
-    /// fit's own lateness on soft starts — measured on tuning members. Default 0.045 (the
-    /// mean signed error of the default fit without a lead on the tuning members).
+    /// fit's own lateness on soft starts — measured on tuning members. Default 0.03 (the
+    /// mean signed error of the default fit without a lead on the tuning members, to 5 ms).
     pub onset_lead_s: f64,
-    /// `displacement`: the model of the change-point fit ([`OnsetModel`]). Default `hinge`.
+    /// `displacement`: the model of the change-point fit ([`OnsetModel`]). Default
+    /// `ramp_hinge`.
     pub onset_model: OnsetModel,
     /// `displacement`: how the fingers' change points combine ([`OnsetFingers`]). Default
-    /// `mean`.
+    /// `weighted`.
     pub onset_fingers: OnsetFingers,
     /// `displacement`: the starts the change-point fit tries ([`OnsetStarts`]). Default
-    /// `linear_smooth`.
+    /// `linear_cubic`.
     pub onset_starts: OnsetStarts,
     /// A finger without a usable contact point for longer than this (s, > 0; a contact
     /// dropout or missing input) starts afresh: history cleared, `settle_s` again. Shorter
@@ -629,10 +669,10 @@ impl Default for SlipConfig {
             window_s: 0.3,
             distance_mm: 1.5,
             history_s: 2.4,
-            onset_lead_s: 0.045,
-            onset_model: OnsetModel::Hinge,
-            onset_fingers: OnsetFingers::Mean,
-            onset_starts: OnsetStarts::LinearSmooth,
+            onset_lead_s: 0.03,
+            onset_model: OnsetModel::RampHinge,
+            onset_fingers: OnsetFingers::Weighted,
+            onset_starts: OnsetStarts::LinearCubic,
             max_gap_s: 0.5,
             settle_s: 0.3,
             velocity_window_s: 0.15,
@@ -704,6 +744,10 @@ impl SlipConfig {
         }
     }
 }
+
+/// A finger's world-up position history: (time ns, position mm), oldest first
+/// ([`Slip::position_histories`]).
+pub type PositionHistory = Vec<(i64, f64)>;
 
 /// A change of the grasp's state.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -911,6 +955,16 @@ impl Slip {
         Some((self.moved(0)?, self.moved(1)?))
     }
 
+    /// Each finger's world-up position history the `displacement` rule reads (time ns, mm;
+    /// the last `history_s`) with its displacement, when known: what the onset fit dates a
+    /// slip from (diagnostics: `slip_eval -- onsetdump`).
+    pub fn position_histories(&self) -> [Option<(f64, PositionHistory)>; 2] {
+        let of = |i: usize| {
+            self.fingers[i].evidence(self.cfg.evidence).map(|(m, p)| (m, p.history.iter().copied().collect()))
+        };
+        [of(0), of(1)]
+    }
+
     /// Finger `i`'s displacement from the evidence the rule uses, when known.
     fn moved(&self, i: usize) -> Option<f64> {
         self.fingers[i].evidence(self.cfg.evidence).map(|e| e.0)
@@ -964,16 +1018,19 @@ impl Slip {
     /// `onset_lead_s`.
     fn fitted_onset(&self, fallback: Timestamp) -> Timestamp {
         let drift = self.cfg.onset_model == OnsetModel::RampHinge;
-        let smooth = self.cfg.onset_starts == OnsetStarts::LinearSmooth;
         let mut sum = 0.0;
         let mut n = 0.0;
+        let (mut wsum, mut wn) = (0.0, 0.0);
         let mut earliest = i64::MAX;
         for f in &self.fingers {
             if let Some((_, path)) = f.evidence(self.cfg.evidence).filter(|e| e.0.abs() >= 0.5) {
-                if let Some((t, _)) = change_point(&path.history, drift, smooth) {
+                if let Some((t, _, sse)) = change_point(&path.history, drift, self.cfg.onset_starts) {
                     sum += t as f64;
                     n += 1.0;
                     earliest = earliest.min(t);
+                    let w = fit_weight(&path.history, sse);
+                    wsum += w * t as f64;
+                    wn += w;
                 }
             }
         }
@@ -981,7 +1038,8 @@ impl Slip {
             return fallback;
         }
         let t = match self.cfg.onset_fingers {
-            OnsetFingers::Mean => (sum / n).round() as i64,
+            OnsetFingers::Weighted if wn > 0.0 && (wsum / wn).is_finite() => (wsum / wn).round() as i64,
+            OnsetFingers::Mean | OnsetFingers::Weighted => (sum / n).round() as i64,
             OnsetFingers::Earliest => earliest,
         };
         let t = t - (self.cfg.onset_lead_s * 1e9).round() as i64;
@@ -1183,6 +1241,23 @@ fn ls_slope(pts: impl Iterator<Item = (f64, f64)> + Clone, min_points: usize) ->
     (stt > 0.0).then(|| stu / stt)
 }
 
+/// How clearly a change-point fit with squared error `sse` stands out of the history's
+/// residual: `(C − E)/E` (`C`: the positions' squared spread about their mean, `E` = `sse`,
+/// kept ≥ `1e-12·C`), 0 when the fit explains nothing; the weight of [`OnsetFingers::Weighted`].
+fn fit_weight(h: &VecDeque<(i64, f64)>, sse: f64) -> f64 {
+    let n = h.len() as f64;
+    if n == 0.0 {
+        return 0.0;
+    }
+    let mean = h.iter().map(|p| p.1).sum::<f64>() / n;
+    let c: f64 = h.iter().map(|p| (p.1 - mean) * (p.1 - mean)).sum();
+    let e = sse.max(1e-12 * c);
+    if !(c.is_finite() && e.is_finite()) || e <= 0.0 {
+        return 0.0;
+    }
+    ((c - e) / e).max(0.0)
+}
+
 /// Tails of at most this many points are summed directly in [`change_point`].
 const DIRECT_TAIL: usize = 32;
 
@@ -1204,12 +1279,8 @@ const DIRECT_TAIL: usize = 32;
 /// O(256 · 0.4 s·rate) instead of O(256 · 7 · 2n). Both fingers' fits at 240 history points
 /// (2.4 s at 100 Hz): ≈ 67 µs of a decision frame with every start, 47 µs with the linear
 /// ones (`examples/latency.rs`).
-fn change_point(h: &VecDeque<(i64, f64)>, drift: bool, smooth: bool) -> Option<(i64, Start)> {
-    let (starts, ends) = if smooth {
-        (&STARTS[..], &START_ENDS_S[..])
-    } else {
-        (&STARTS[..LINEAR_STARTS.0], &START_ENDS_S[..LINEAR_STARTS.1])
-    };
+fn change_point(h: &VecDeque<(i64, f64)>, drift: bool, set: OnsetStarts) -> Option<(i64, Start, f64)> {
+    let (starts, ends) = start_set(set);
     let n = h.len();
     if n < 8 {
         return None;
@@ -1296,10 +1367,16 @@ fn change_point(h: &VecDeque<(i64, f64)>, drift: bool, smooth: bool) -> Option<(
                     let (a, b) = (1.0 / (r * r), 1.0 / (2.0 * r * r * r));
                     (a * p3 - b * p4, a * a * p6 - 2.0 * a * b * p7 + b * b * p8, a * pu3 - b * pu4, a * pt3 - b * pt4)
                 }
+                // z = d³/3r²
+                Start::Cubic(_) => {
+                    let a = 1.0 / (3.0 * r * r);
+                    (a * p3, a * a * p6, a * pu3, a * pt3)
+                }
             };
-            // past the start z = t − e (both shapes: e = c + r/2): a short tail directly, a
-            // long one (whose z has the spread to absorb the cancellation) from the suffix sums
-            let e = c + r / 2.0;
+            // past the start z = t − e (e = c + the start's lag: r/2 linear and smooth, 2r/3
+            // cubic): a short tail directly, a long one (whose z has the spread to absorb the
+            // cancellation) from the suffix sums
+            let e = c + start.lag_s();
             if n - j <= DIRECT_TAIL {
                 for q in j..n {
                     let z = te[q] - e;
@@ -1352,7 +1429,7 @@ fn change_point(h: &VecDeque<(i64, f64)>, drift: bool, smooth: bool) -> Option<(
             }
         }
     }
-    best.map(|(_, k, start)| (h[k].0, start))
+    best.map(|(sse, k, start)| (h[k].0, start, sse))
 }
 
 /// With the ramp null, a candidate whose soft-start regressor is (to this fraction of its
@@ -1409,7 +1486,12 @@ fn direct_sse(ts: &[f64], h: &VecDeque<(i64, f64)>, c: f64, start: Start, drift:
 
 /// [`change_point`] by direct sums for every candidate: O(256 · 4 · 2n). The reference the
 /// screened search reproduces, and its fallback when the history is flat to rounding.
-fn change_point_direct(ts: &[f64], h: &VecDeque<(i64, f64)>, drift: bool, starts: &[Start]) -> Option<(i64, Start)> {
+fn change_point_direct(
+    ts: &[f64],
+    h: &VecDeque<(i64, f64)>,
+    drift: bool,
+    starts: &[Start],
+) -> Option<(i64, Start, f64)> {
     let mut best: Option<(f64, usize, Start)> = None;
     for k in candidates(h.len()) {
         for &start in starts {
@@ -1420,27 +1502,39 @@ fn change_point_direct(ts: &[f64], h: &VecDeque<(i64, f64)>, drift: bool, starts
             }
         }
     }
-    best.map(|(_, k, start)| (h[k].0, start))
+    best.map(|(sse, k, start)| (h[k].0, start, sse))
 }
 
 /// A start of the motion the change-point fit tries: its speed rises from 0 to full over `r`
-/// seconds linearly or smoothly (`3x² − 2x³`); `r = 0` is a sudden start.
+/// seconds linearly, smoothly (`3x² − 2x³`) or as `x²` (cubic distance); `r = 0` is a sudden
+/// start.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Start {
     /// `z = d²/2r` for `0 < d < r`.
     Linear(f64),
     /// `z = d³/r² − d⁴/2r³` for `0 < d < r`.
     Smooth(f64),
+    /// `z = d³/3r²` for `0 < d < r`.
+    Cubic(f64),
 }
 
 impl Start {
-    fn length_s(self) -> f64 {
+    const fn length_s(self) -> f64 {
         match self {
-            Start::Linear(r) | Start::Smooth(r) => r,
+            Start::Linear(r) | Start::Smooth(r) | Start::Cubic(r) => r,
         }
     }
 
-    /// The progress `z(t − c)` of a unit-speed motion with this start: `d − r/2` past it.
+    /// How far behind a sudden start at `c` the motion is past the start (s): `z = d − lag`
+    /// for `d ≥ r` (`r/2` linear and smooth, `2r/3` cubic).
+    fn lag_s(self) -> f64 {
+        match self {
+            Start::Linear(r) | Start::Smooth(r) => r / 2.0,
+            Start::Cubic(r) => 2.0 * r / 3.0,
+        }
+    }
+
+    /// The progress `z(t − c)` of a unit-speed motion with this start: `d − lag` past it.
     fn z(self, t: f64, c: f64) -> f64 {
         let d = t - c;
         let r = self.length_s();
@@ -1450,16 +1544,18 @@ impl Start {
             match self {
                 Start::Linear(_) => d * d / (2.0 * r),
                 Start::Smooth(_) => d * d * d / (r * r) - d * d * d * d / (2.0 * r * r * r),
+                Start::Cubic(_) => d * d * d / (3.0 * r * r),
             }
         } else {
-            d - r / 2.0
+            d - self.lag_s()
         }
     }
 }
 
 /// The starts the change-point fit tries (in the direct rule's order): sudden, linear over
-/// 0.1–0.3 s, smooth over 0.2–0.4 s.
-const STARTS: [Start; 7] = [
+/// 0.1–0.3 s, smooth over 0.2–0.4 s, cubic over 0.2–0.4 s. The sets of [`OnsetStarts`] are
+/// the linear ones and either the smooth or the cubic ones ([`start_set`]).
+const STARTS: [Start; 10] = [
     Start::Linear(0.0),
     Start::Linear(0.1),
     Start::Linear(0.2),
@@ -1467,11 +1563,22 @@ const STARTS: [Start; 7] = [
     Start::Smooth(0.2),
     Start::Smooth(0.3),
     Start::Smooth(0.4),
+    Start::Cubic(0.2),
+    Start::Cubic(0.3),
+    Start::Cubic(0.4),
 ];
 
-/// How many of [`STARTS`] the linear set tries (the first ones) and how many of
-/// [`START_ENDS_S`] it needs.
-const LINEAR_STARTS: (usize, usize) = (4, 4);
+/// [`OnsetStarts::LinearCubic`]'s starts, in the direct rule's order.
+const LINEAR_CUBIC: [Start; 7] = [STARTS[0], STARTS[1], STARTS[2], STARTS[3], STARTS[7], STARTS[8], STARTS[9]];
+
+/// The starts of a set and the lengths the screen records its sums at (ascending).
+fn start_set(set: OnsetStarts) -> (&'static [Start], &'static [f64]) {
+    match set {
+        OnsetStarts::Linear => (&STARTS[..4], &START_ENDS_S[..4]),
+        OnsetStarts::LinearSmooth => (&STARTS[..7], &START_ENDS_S[..]),
+        OnsetStarts::LinearCubic => (&LINEAR_CUBIC[..], &START_ENDS_S[..]),
+    }
+}
 
 /// Every start's length, ascending (the screen records its sums where each one ends).
 const START_ENDS_S: [f64; 5] = [0.0, 0.1, 0.2, 0.3, 0.4];
@@ -1483,9 +1590,7 @@ const _: () = {
     }
     let mut k = 0;
     while k < STARTS.len() {
-        let r = match STARTS[k] {
-            Start::Linear(r) | Start::Smooth(r) => r,
-        };
+        let r = STARTS[k].length_s();
         let mut found = false;
         let mut i = 0;
         while i < START_ENDS_S.len() {
@@ -1719,12 +1824,14 @@ mod tests {
             .collect()
     }
 
-    fn direct(h: &VecDeque<(i64, f64)>, drift: bool, smooth: bool) -> Option<(i64, Start)> {
+    const SETS: [OnsetStarts; 3] = [OnsetStarts::Linear, OnsetStarts::LinearSmooth, OnsetStarts::LinearCubic];
+
+    fn direct(h: &VecDeque<(i64, f64)>, drift: bool, set: OnsetStarts) -> Option<(i64, Start, f64)> {
         if h.len() < 8 {
             return None;
         }
         let ts: Vec<f64> = h.iter().map(|p| (p.0 - h[0].0) as f64 * 1e-9).collect();
-        change_point_direct(&ts, h, drift, if smooth { &STARTS[..] } else { &STARTS[..LINEAR_STARTS.0] })
+        change_point_direct(&ts, h, drift, start_set(set).0)
     }
 
     /// `h` with a drift of `rate` per second added (a ramp before and after the onset).
@@ -1737,20 +1844,67 @@ mod tests {
         // 1.5 s at 100 Hz, still then 10 mm/s from 0.8 s, sudden and soft starts
         for r in SOFT_STARTS_S {
             let h = hinge_history(150, 0, 10_000_000, &[0.0], 3.0, &[0.0], 0.8, 10.0, r);
-            for (drift, smooth) in [(false, false), (true, false), (false, true), (true, true)] {
-                let t = change_point(&h, drift, smooth).expect("a hinge").0;
-                assert!((t as f64 * 1e-9 - 0.8).abs() <= 0.0101, "r = {r}, drift {drift}: {t}");
-                assert_eq!(Some(t), direct(&h, drift, smooth).map(|x| x.0));
+            for (drift, set) in SETS.into_iter().flat_map(|s| [(false, s), (true, s)]) {
+                let t = change_point(&h, drift, set).expect("a hinge").0;
+                assert!((t as f64 * 1e-9 - 0.8).abs() <= 0.0101, "r = {r}, drift {drift}, {set:?}: {t}");
+                assert_eq!(Some(t), direct(&h, drift, set).map(|x| x.0));
             }
         }
         // a smooth start: the smooth set dates it and names it
         let h: VecDeque<(i64, f64)> =
             (0..150).map(|i| (i * 10_000_000, 3.0 + 10.0 * Start::Smooth(0.3).z(i as f64 * 0.01, 0.8))).collect();
         for drift in [false, true] {
-            let (t, start) = change_point(&h, drift, true).expect("a hinge");
+            let (t, start, _) = change_point(&h, drift, OnsetStarts::LinearSmooth).expect("a hinge");
             assert!((t as f64 * 1e-9 - 0.8).abs() <= 0.0101 && start == Start::Smooth(0.3), "{t} {start:?}");
-            assert_eq!(Some((t, start)), direct(&h, drift, true));
+            assert_eq!(
+                change_point(&h, drift, OnsetStarts::LinearSmooth),
+                direct(&h, drift, OnsetStarts::LinearSmooth)
+            );
         }
+    }
+
+    /// Without noise, the default set (sudden, linear, cubic starts) dates a sudden, a linear
+    /// and a cubic start (distance growing as the cube of the time) at their known `t₀`: on a
+    /// sample, to the sample with the start named and no residual; between samples (the
+    /// candidates are the samples), within 40 ms — a start between samples is fitted by a
+    /// neighbouring `(t₀, r)` with about the same intercept `t₀ + lag`. A constant history
+    /// has no onset (its fit's weight is 0).
+    #[test]
+    fn the_default_starts_date_step_linear_and_cubic_starts() {
+        for (start, name) in [
+            (Start::Linear(0.0), "step"),
+            (Start::Linear(0.2), "linear"),
+            (Start::Cubic(0.3), "cubic"),
+            (Start::Cubic(0.4), "cubic"),
+        ] {
+            for onset in [0.8, 1.234] {
+                let h: VecDeque<(i64, f64)> =
+                    (0..240).map(|i| (i * 10_000_000, -2.0 + 7.0 * start.z(i as f64 * 0.01, onset))).collect();
+                let (t, got, sse) = change_point(&h, false, OnsetStarts::LinearCubic).expect("a hinge");
+                let tol = if onset == 0.8 { 0.0101 } else { 0.04 };
+                assert!((t as f64 * 1e-9 - onset).abs() <= tol, "{name}: {t} for {onset}");
+                if onset == 0.8 {
+                    // on a sample: the exact start, no residual
+                    assert_eq!(got, start, "{name}");
+                    assert!(sse < 1e-12, "{name}: {sse}");
+                }
+                assert_eq!(
+                    change_point(&h, false, OnsetStarts::LinearCubic),
+                    direct(&h, false, OnsetStarts::LinearCubic)
+                );
+            }
+        }
+        // constant: no onset decided from it (every candidate fits it exactly, and its weight is 0)
+        let flat: VecDeque<(i64, f64)> = (0..240).map(|i| (i * 10_000_000, 1.5)).collect();
+        if let Some((_, _, sse)) = change_point(&flat, false, OnsetStarts::LinearCubic) {
+            assert_eq!(fit_weight(&flat, sse), 0.0);
+        }
+        // the finger weight: a clean fit outweighs a noisy one
+        let noise: Vec<f64> = (0..97).map(|i| ((i * 37 % 97) as f64 / 97.0 - 0.5) * 0.5).collect();
+        let clean = hinge_history(240, 0, 10_000_000, &[0.0], 0.0, &noise[..1], 1.0, 5.0, 0.1);
+        let noisy = hinge_history(240, 0, 10_000_000, &[0.0], 0.0, &noise, 1.0, 5.0, 0.1);
+        let w = |h: &VecDeque<(i64, f64)>| fit_weight(h, change_point(h, false, OnsetStarts::LinearCubic).unwrap().2);
+        assert!(w(&clean) > 100.0 * w(&noisy) && w(&noisy) > 0.0, "{} {}", w(&clean), w(&noisy));
     }
 
     /// A ramp before the onset (a grip force still changing moves the point slowly): the
@@ -1760,17 +1914,17 @@ mod tests {
         let noise: Vec<f64> = (0..97).map(|i| ((i * 37 % 97) as f64 / 97.0 - 0.5) * 0.02).collect();
         for r in SOFT_STARTS_S {
             let h = drifting(&hinge_history(200, 0, 10_000_000, &[0.0], 3.0, &noise, 1.5, 4.0, r), 0.6);
-            let ramp = change_point(&h, true, false).expect("a hinge").0 as f64 * 1e-9;
-            let still = change_point(&h, false, false).expect("a hinge").0 as f64 * 1e-9;
+            let ramp = change_point(&h, true, OnsetStarts::Linear).expect("a hinge").0 as f64 * 1e-9;
+            let still = change_point(&h, false, OnsetStarts::Linear).expect("a hinge").0 as f64 * 1e-9;
             assert!((ramp - 1.5).abs() <= 0.0201, "r = {r}: ramp null {ramp}");
             assert!(still < 1.5 - 0.05, "r = {r}: still model {still}");
-            assert_eq!(change_point(&h, true, false), direct(&h, true, false));
+            assert_eq!(change_point(&h, true, OnsetStarts::Linear), direct(&h, true, OnsetStarts::Linear));
         }
     }
 
     #[test]
     fn change_point_of_flat_and_long_histories_is_the_direct_fit() {
-        for (drift, smooth) in [(false, false), (true, false), (false, true), (true, true)] {
+        for (drift, smooth) in SETS.into_iter().flat_map(|s| [(false, s), (true, s)]) {
             // exactly flat: the candidates differ by rounding alone; the direct rule decides
             let flat: VecDeque<(i64, f64)> = (0..40).map(|i| (i * 10_000_000, 0.1)).collect();
             assert_eq!(change_point(&flat, drift, smooth), direct(&flat, drift, smooth));
@@ -1797,7 +1951,7 @@ mod tests {
             speed in -30.0f64..30.0,
             r in 0.0f64..0.4,
             drift in proptest::prelude::any::<bool>(),
-            smooth in proptest::prelude::any::<bool>(),
+            smooth in proptest::sample::select(SETS.to_vec()),
             ramp in proptest::sample::select(vec![0.0, 0.5, -2.0]),
         ) {
             let noise: Vec<f64> = noise.iter().map(|x| x * noise_scale).collect();
@@ -1917,12 +2071,15 @@ mod tests {
             let onset = ev[0].onset.as_secs_f64();
             assert!((onset - 0.5).abs() <= 0.011, "{want:?}: onset {onset}");
             assert!(ev[0].time - ev[0].first_seen >= 100_000_000);
-            // the default lead moves the onset earlier by 0.045 s
+            // the default lead moves the onset by itself (earlier when positive)
             let ev2 = Slip::try_new(&track()).unwrap().run_all(points(150, ramp(ff_v), ramp(th_v))).unwrap();
-            assert_eq!(ev2[0].onset.0, ev[0].onset.0 - 45_000_000);
+            let lead = (SlipConfig::default().onset_lead_s * 1e9).round() as i64;
+            assert_eq!(ev2[0].onset.0, (ev[0].onset.0 - lead).min(ev2[0].first_seen.0));
             // every onset setting dates this sudden start to the frame, and none changes the decision
             for (onset_model, onset_fingers, onset_starts) in [
                 (OnsetModel::RampHinge, OnsetFingers::Mean, OnsetStarts::LinearSmooth),
+                (OnsetModel::Hinge, OnsetFingers::Mean, OnsetStarts::LinearSmooth),
+                (OnsetModel::RampHinge, OnsetFingers::Weighted, OnsetStarts::LinearCubic),
                 (OnsetModel::Hinge, OnsetFingers::Earliest, OnsetStarts::Linear),
                 (OnsetModel::RampHinge, OnsetFingers::Earliest, OnsetStarts::Linear),
             ] {

@@ -1,0 +1,175 @@
+//! Offline analysis of the slip onset fit on the TUNING members (never the held-out ones):
+//! the evidence behind `gradtac_stages::slip`'s "What the tuning members show" notes.
+//!
+//! ```text
+//! cargo run --release --example slip_eval -- onsetdump > /tmp/tuning.txt
+//! rustc -O -o /tmp/onset_probe scripts/onset_probe.rs
+//! /tmp/onset_probe /tmp/tuning.txt oracle   # the fit with each grasp's true start (an oracle)
+//! /tmp/onset_probe /tmp/tuning.txt conf     # which start the fit chooses, per true shape
+//! /tmp/onset_probe /tmp/tuning.txt an       # the oracle's per-finger error by speed, lag, grip, load
+//! /tmp/onset_probe /tmp/tuning.txt var|var2|grid|win|single   # estimator variants
+//! ```
+//! Each row: per start shape median |error| / mean signed (ms) after the row's own lead (its
+//! mean signed error over all shapes), and the worst shape. A reimplementation of the stage's
+//! fit (direct sums; the stage's first row reproduces it) — standalone, no dependencies.
+#![allow(dead_code, unused)]
+use std::io::BufRead;
+#[derive(Clone)]
+struct G { seed: u64, right: bool, shape: String, r: f64, grip: f64, load: f64, lag: f64, v: f64, onset: f64, fon: [f64;2], dec: f64, est0: f64, plag: [f64;2], h: Vec<(usize, f64, Vec<(f64,f64)>)> }
+fn load(p:&str)->Vec<G>{
+  let f=std::fs::File::open(p).unwrap(); let mut out:Vec<G>=vec![];
+  for l in std::io::BufReader::new(f).lines(){ let l=l.unwrap(); let w:Vec<&str>=l.split(' ').collect();
+    if w[0]=="G"{ let x=|i:usize| w[i].parse::<f64>().unwrap();
+      out.push(G{seed:w[1].parse().unwrap(),right:w[3]=="1",shape:w[4].into(),r:x(5),grip:x(6),load:x(7),lag:x(8),v:x(9),onset:x(10),fon:[x(11),x(12)],dec:x(13),est0:x(14),plag:[x(15),x(16)],h:vec![]});
+    } else { let k:usize=w[1].parse().unwrap(); let m:f64=w[2].parse().unwrap();
+      let pts=w[3..].iter().map(|s|{let mut a=s.split(':'); (a.next().unwrap().parse().unwrap(),a.next().unwrap().parse().unwrap())}).collect();
+      out.last_mut().unwrap().h.push((k,m,pts)); } }
+  out }
+// start progress z(t-c) for linear(r)/smooth(r)/power
+#[derive(Clone,Copy,Debug)] enum S{L(f64),Sm(f64),P(f64,f64)}
+fn z(s:S,t:f64,c:f64)->f64{ let d=t-c; if d<=0.0{return 0.0}
+  match s { S::L(r)=> if d<r {d*d/(2.0*r)} else {d-r/2.0},
+    S::Sm(r)=> if d<r {d*d*d/(r*r)-d*d*d*d/(2.0*r*r*r)} else {d-r/2.0},
+    S::P(p,r)=> if d<r { r/p*(d/r).powf(p) } else { d - r + r/p } } }
+fn sse(h:&[(f64,f64)],c:f64,s:S)->Option<(f64,f64)>{ let m=h.len() as f64;
+  let (mut sz,mut su)=(0.0,0.0); for p in h{sz+=z(s,p.0,c);su+=p.1}
+  let (mz,mu)=(sz/m,su/m); let (mut szz,mut szu)=(0.0,0.0);
+  for p in h{let zz=z(s,p.0,c)-mz; szz+=zz*zz; szu+=zz*(p.1-mu);} if szz<=0.0{return None}
+  let b=szu/szz; let e=h.iter().map(|p|(p.1-mu-b*(z(s,p.0,c)-mz)).powi(2)).sum(); Some((e,b)) }
+fn fit(h:&[(f64,f64)],starts:&[S])->Option<(f64,S,f64)>{ let n=h.len(); if n<8{return None}
+  let mut best:Option<(f64,f64,S)>=None;
+  for k in 3..n-3 { for &s in starts { if let Some((e,_))=sse(h,h[k].0,s){ if best.map_or(true,|b|e<b.0){best=Some((e,h[k].0,s))}}}}
+  best.map(|b|(b.1,b.2,b.0)) }
+fn med(v:&mut Vec<f64>)->f64{ v.sort_by(f64::total_cmp); if v.is_empty(){return f64::NAN} v[(v.len()-1)/2] }
+fn mean(v:&[f64])->f64{v.iter().sum::<f64>()/v.len() as f64}
+fn report(name:&str, gs:&[G], est:&dyn Fn(&G)->Option<f64>){
+  let mut all=vec![]; let mut per:Vec<(String,Vec<f64>)>=vec![];
+  for g in gs.iter().filter(|g|g.right){ if let Some(e)=est(g){ let err=e-g.onset; all.push(err);
+     match per.iter_mut().find(|p|p.0==g.shape){Some(p)=>p.1.push(err),None=>per.push((g.shape.clone(),vec![err]))} } }
+  let lead=mean(&all);
+  let mut line=format!("{name:40} n {} lead {:+.0} |", all.len(), lead*1e3); let mut worst:f64=0.0; let mut worstm:f64=0.0;
+  for sh in ["step","linear","smooth","exponential"]{ if let Some(p)=per.iter().find(|p|p.0==sh){ let e:Vec<f64>=p.1.iter().map(|x|x-lead).collect();
+    let mut a:Vec<f64>=e.iter().map(|x|x.abs()).collect(); let m=med(&mut a); let mn=mean(&e); worst=worst.max(m); worstm=worstm.max(mn.abs());
+    line+=&format!(" {sh} {:.0}/{:+.0}",m*1e3,mn*1e3);} }
+  let mut a:Vec<f64>=all.iter().map(|x|(x-lead).abs()).collect();
+  println!("{line} | all med {:.0} | worst {:.0}/{:.0}", med(&mut a)*1e3, worst*1e3, worstm*1e3);
+}
+fn main(){
+  let path=std::env::args().nth(1).unwrap(); let gs=load(&path);
+  let starts7=[S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::Sm(0.2),S::Sm(0.3),S::Sm(0.4)];
+  report("stage default (as dumped, no lead)", &gs, &|g| Some(g.est0));
+  let cur=|g:&G, st:&[S]| { let ts:Vec<f64>=g.h.iter().filter(|h|h.1.abs()>=0.5).filter_map(|h|fit(&h.2,st).map(|f|f.0)).collect(); if ts.is_empty(){None}else{Some(mean(&ts))} };
+  report("reimpl hinge 7 starts mean", &gs, &|g| cur(g,&starts7));
+  let mode=std::env::args().nth(2).unwrap_or_default();
+  if mode=="an" { analyse(&gs); }
+  if mode=="var" { variants(&gs); }
+  if mode=="grid" { grid(&gs); }
+  if mode=="single" { singles(&gs); }
+  if mode=="win" { windows(&gs); }
+  if mode=="conf" { confusion(&gs); }
+  if mode=="var2" { variants2(&gs); }
+  if mode=="show" { for s in std::env::args().skip(3) { show(&gs, s.parse().unwrap()); } }
+  if mode=="oracle" {
+    report("oracle true shape", &gs, &|g| { let s = match g.shape.as_str(){"step"=>S::L(0.0),"linear"=>S::L(g.r),"smooth"=>S::Sm(g.r),_=>S::L(g.r)}; cur(g,&[s]) });
+    report("step only", &gs, &|g| cur(g,&[S::L(0.0)]));
+    // per finger error vs its own true onset
+    for sh in ["step","linear","smooth"]{ let mut v=vec![]; for g in gs.iter().filter(|g|g.right&&g.shape==sh){ for h in &g.h { if h.1.abs()>=0.5 { if let Some(f)=fit(&h.2,&starts7){ v.push(f.0-g.fon[h.0]); } } } } println!("{sh} per-finger vs own onset: mean {:+.0} n {}", mean(&v)*1e3, v.len()); }
+  }
+}
+fn analyse(gs:&[G]){
+  // oracle per-finger error vs own onset, bucketed
+  let mut rows=vec![];
+  for g in gs.iter().filter(|g|g.right){ let s = match g.shape.as_str(){"step"=>S::L(0.0),"linear"=>S::L(g.r),"smooth"=>S::Sm(g.r),_=>S::L(g.r)};
+    for h in &g.h { if h.1.abs()>=0.5 { if let Some(f)=fit(&h.2,&[s]){ rows.push((g.clone(),h.0,f.0-g.fon[h.0], f.2)); } } } }
+  let b=|name:&str, key:&dyn Fn(&G,usize)->f64, edges:&[f64]| { let mut line=format!("{name}:"); for w in edges.windows(2){ let v:Vec<f64>=rows.iter().filter(|r|{let k=key(&r.0,r.1); k>=w[0]&&k<w[1]}).map(|r|r.2).collect(); let mut a:Vec<f64>=v.iter().map(|x|(x-mean(&v)).abs()).collect(); line+=&format!(" [{},{}) n{} mean {:+.0} mad {:.0};",w[0],w[1],v.len(),mean(&v)*1e3,med(&mut a)*1e3);} println!("{line}"); };
+  b("speed", &|g,_|g.v, &[0.0,4.0,8.0,15.0,31.0]);
+  b("plag", &|g,k|g.plag[k], &[0.0,0.02,0.04,0.06,0.1,1.0]);
+  b("grip", &|g,_|g.grip, &[0.0,0.99,1.01,2.0]);
+  b("load", &|g,_|g.load, &[0.0,0.01,4.0]);
+  b("moved", &|g,k|g.h.iter().find(|h|h.0==k).unwrap().1.abs(), &[0.0,0.75,0.99,1.1]);
+  b("dec-onset", &|g,_|g.dec-g.onset, &[0.0,0.3,0.5,0.8,5.0]);
+}
+fn variants(gs:&[G]){
+  let starts7=[S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::Sm(0.2),S::Sm(0.3),S::Sm(0.4)];
+  // per grasp, per moving finger, per start: (c, sse, b, n)
+  let fits:Vec<Vec<(usize,usize,Vec<(f64,f64,f64)>)>> = gs.iter().map(|g| g.h.iter().filter(|h|h.1.abs()>=0.5).map(|h| {
+     let v=starts7.iter().map(|&s| { let f=fit(&h.2,&[s]).unwrap(); let b=sse(&h.2,f.0,s).unwrap().1; (f.0,f.2,b) }).collect(); (h.0,h.2.len(),v) }).collect()).collect();
+  let idx:std::collections::HashMap<u64,usize>=gs.iter().enumerate().map(|(i,g)|(g.seed*10+g.h.len() as u64*0 + match g.fon[0].to_bits()%1 {_=>0},i)).collect();
+  let _=idx;
+  let find=|g:&G| gs.iter().position(|x| std::ptr::eq(x,g)).unwrap();
+  for delta in [0.0, 0.05, 0.1, 0.15, 0.2, 0.3] {
+    report(&format!("per-finger best, speed corr {delta} mm"), gs, &|g| { let f=&fits[find(g)]; if f.is_empty(){return None}
+       let ts:Vec<f64>=f.iter().map(|(_,_,v)|{ let b=v.iter().min_by(|a,b|a.1.total_cmp(&b.1)).unwrap(); b.0 - delta/b.2.abs().max(0.5) }).collect(); Some(mean(&ts)) });
+    report(&format!("joint shape, speed corr {delta} mm"), gs, &|g| { let f=&fits[find(g)]; if f.is_empty(){return None}
+       let k=(0..7).min_by(|&a,&b| { let la:f64=f.iter().map(|(_,n,v)|*n as f64*v[a].1.ln()).sum(); let lb:f64=f.iter().map(|(_,n,v)|*n as f64*v[b].1.ln()).sum(); la.total_cmp(&lb)}).unwrap();
+       let ts:Vec<f64>=f.iter().map(|(_,_,v)| v[k].0 - delta/v[k].2.abs().max(0.5)).collect(); Some(mean(&ts)) });
+  }
+}
+fn show(gs:&[G], seed:u64){
+  for g in gs.iter().filter(|g|g.seed==seed){ println!("seed {} {} r {:.2} v {:.1} onset {:.3} fon {:?} dec {:.3} est0 {:.3} plag {:?} grip {:.2} load {:.1}", g.seed,g.shape,g.r,g.v,g.onset,g.fon,g.dec,g.est0,g.plag,g.grip,g.load);
+   for h in &g.h { let base:f64 = { let v:Vec<f64>=h.2.iter().filter(|p|p.0<g.fon[h.0]-0.05).map(|p|p.1).collect(); mean(&v)};
+     let mut line=format!(" f{} moved {:.2}:", h.0,h.1); for p in h.2.iter().filter(|p| p.0>g.fon[h.0]-0.25) { line+=&format!(" {:+.0}:{:+.2}", (p.0-g.fon[h.0])*1e3, p.1-base); } println!("{line}"); } }
+}
+fn snr(h:&[(f64,f64)], c:f64, s:S)->f64 { let (e,b)=sse(h,c,s).unwrap(); let m=h.len() as f64; let mz=h.iter().map(|p|z(s,p.0,c)).sum::<f64>()/m; let szz:f64=h.iter().map(|p|(z(s,p.0,c)-mz).powi(2)).sum(); b*b*szz/e.max(1e-12) }
+fn variants2(gs:&[G]){
+  let sets:Vec<(&str,Vec<S>)>=vec![
+    ("7",vec![S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::Sm(0.2),S::Sm(0.3),S::Sm(0.4)]),
+    ("lin4",vec![S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3)]),
+    ("wide",vec![S::L(0.0),S::L(0.05),S::L(0.1),S::L(0.2),S::L(0.3),S::L(0.4),S::Sm(0.1),S::Sm(0.2),S::Sm(0.3),S::Sm(0.4),S::Sm(0.5)]),
+    ("pow",vec![S::L(0.0),S::P(2.0,0.1),S::P(2.0,0.2),S::P(2.0,0.3),S::P(3.0,0.2),S::P(3.0,0.3),S::P(3.0,0.4)]),
+  ];
+  for (name,st) in &sets {
+    let per:Vec<Vec<(usize,f64,S,f64)>> = gs.iter().map(|g| g.h.iter().filter(|h|h.1.abs()>=0.5).filter_map(|h| fit(&h.2,st).map(|f|(h.0,f.0,f.1,snr(&h.2,f.0,f.1)))).collect()).collect();
+    let find=|g:&G| gs.iter().position(|x| std::ptr::eq(x,g)).unwrap();
+    report(&format!("{name} mean"), gs, &|g| { let f=&per[find(g)]; if f.is_empty(){None} else {Some(mean(&f.iter().map(|x|x.1).collect::<Vec<_>>()))} });
+    report(&format!("{name} snr-weighted"), gs, &|g| { let f=&per[find(g)]; if f.is_empty(){None} else { let w:f64=f.iter().map(|x|x.3).sum(); Some(f.iter().map(|x|x.1*x.3).sum::<f64>()/w)} });
+    report(&format!("{name} best-snr finger"), gs, &|g| { let f=&per[find(g)]; f.iter().max_by(|a,b|a.3.total_cmp(&b.3)).map(|x|x.1) });
+    report(&format!("{name} earliest"), gs, &|g| { let f=&per[find(g)]; f.iter().map(|x|x.1).min_by(f64::total_cmp) });
+  }
+}
+fn confusion(gs:&[G]){
+  let st=[S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::Sm(0.2),S::Sm(0.3),S::Sm(0.4)];
+  for sh in ["step","linear","smooth"]{ let mut cnt=[0usize;7]; let mut dl=vec![];
+    for g in gs.iter().filter(|g|g.right&&g.shape==sh){ for h in g.h.iter().filter(|h|h.1.abs()>=0.5){ let f=fit(&h.2,&st).unwrap(); let k=st.iter().position(|s|format!("{s:?}")==format!("{:?}",f.1)).unwrap(); cnt[k]+=1;
+      let s = match sh {"step"=>S::L(0.0),"linear"=>S::L(g.r),_=>S::Sm(g.r)}; let ft=fit(&h.2,&[s]).unwrap(); dl.push(((h.2.len() as f64)*(ft.2/f.2).ln()/2.0)); } }
+    let mut d2=dl.clone(); println!("{sh}: chosen {:?}  loglik gap true-vs-best median {:.2}", cnt, med(&mut d2)); }
+}
+fn windows(gs:&[G]){
+  let st=[S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::Sm(0.2),S::Sm(0.3),S::Sm(0.4)];
+  let e_of=|s:S,c:f64| c + match s {S::L(r)|S::Sm(r)=>r/2.0, S::P(p,r)=> r - r/p};
+  for w in [0.25,0.4,0.6,0.9] {
+    for conf in [false,true] {
+    report(&format!("window {w} before intercept{}", if conf {" (oracle)"} else {""}), gs, &|g| {
+      let ts:Vec<f64>=g.h.iter().filter(|h|h.1.abs()>=0.5).filter_map(|h| { let f=fit(&h.2,&st)?; let e=e_of(f.1,f.0);
+         let sub:Vec<(f64,f64)>=h.2.iter().copied().filter(|p|p.0>=e-w).collect();
+         let sts:Vec<S> = if conf { vec![match g.shape.as_str(){"step"=>S::L(0.0),"linear"=>S::L(g.r),_=>S::Sm(g.r)}] } else { st.to_vec() };
+         fit(&sub,&sts).map(|f|f.0) }).collect(); if ts.is_empty(){None} else {Some(mean(&ts))} });
+  } }
+}
+fn singles(gs:&[G]){
+  let mut cands=vec![S::L(0.0)]; for r in [0.05,0.1,0.15,0.2,0.3,0.4]{cands.push(S::L(r));} for r in [0.1,0.2,0.3,0.4,0.5]{cands.push(S::Sm(r));}
+  for s in &cands { report(&format!("single {:?}",s), gs, &|g| { let ts:Vec<f64>=g.h.iter().filter(|h|h.1.abs()>=0.5).filter_map(|h|fit(&h.2,&[*s]).map(|f|f.0)).collect(); if ts.is_empty(){None}else{Some(mean(&ts))} }); }
+  // BMA over the 7 starts and all candidates: weights exp(-n/2 ln sse) with a temperature
+  let st=[S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::Sm(0.2),S::Sm(0.3),S::Sm(0.4)];
+  for temp in [1.0, 4.0, 16.0] {
+  report(&format!("BMA temp {temp}"), gs, &|g| { let ts:Vec<f64>=g.h.iter().filter(|h|h.1.abs()>=0.5).filter_map(|h| { let n=h.2.len(); if n<8 {return None}
+     let mut all=vec![]; for k in 3..n-3 { for &s in &st { if let Some((e,_))=sse(&h.2,h.2[k].0,s){ all.push((e,h.2[k].0)); } } }
+     let emin=all.iter().map(|a|a.0).fold(f64::INFINITY,f64::min); let (mut w,mut wt)=(0.0,0.0);
+     for a in &all { let q=(-(n as f64)/2.0*(a.0/emin).ln()/temp).exp(); w+=q; wt+=q*a.1; } Some(wt/w) }).collect(); if ts.is_empty(){None}else{Some(mean(&ts))} });
+  }
+}
+fn grid(gs:&[G]){
+  let mut pw=vec![S::L(0.0)]; for p in [1.5,2.0,3.0,4.0] { for r in [0.1,0.2,0.3,0.4] { pw.push(S::P(p,r)); } }
+  let mut pw3=vec![S::L(0.0)]; for p in [2.0,3.0] { for r in [0.1,0.2,0.3,0.4] { pw3.push(S::P(p,r)); } }
+  let mut cub=vec![S::L(0.0)]; for r in [0.1,0.2,0.3,0.4] { cub.push(S::P(3.0,r)); }
+  let sets:Vec<(&str,Vec<S>)>=vec![
+    ("7",vec![S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::Sm(0.2),S::Sm(0.3),S::Sm(0.4)]),
+    ("pow",vec![S::L(0.0),S::P(2.0,0.1),S::P(2.0,0.2),S::P(2.0,0.3),S::P(3.0,0.2),S::P(3.0,0.3),S::P(3.0,0.4)]),
+    ("pow2-3x4",pw3), ("pow-all",pw), ("cubic",cub)];
+  for (name,st) in &sets {
+    let per:Vec<Vec<(usize,f64,S,f64)>> = gs.iter().map(|g| g.h.iter().filter(|h|h.1.abs()>=0.5).filter_map(|h| fit(&h.2,st).map(|f|(h.0,f.0,f.1,snr(&h.2,f.0,f.1)))).collect()).collect();
+    let find=|g:&G| gs.iter().position(|x| std::ptr::eq(x,g)).unwrap();
+    report(&format!("{name} mean"), gs, &|g| { let f=&per[find(g)]; if f.is_empty(){None} else {Some(mean(&f.iter().map(|x|x.1).collect::<Vec<_>>()))} });
+    report(&format!("{name} snr-weighted"), gs, &|g| { let f=&per[find(g)]; if f.is_empty(){None} else { let w:f64=f.iter().map(|x|x.3).sum(); Some(f.iter().map(|x|x.1*x.3).sum::<f64>()/w)} });
+  }
+}
