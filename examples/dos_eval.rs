@@ -49,6 +49,8 @@ use std::time::Instant;
 mod headline;
 #[path = "dos_eval_parts/learned.rs"]
 mod learned;
+#[path = "dos_eval_parts/window.rs"]
+mod window;
 
 /// One labelled recording's frames.
 struct Raw {
@@ -208,6 +210,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut model_out: Option<PathBuf> = None;
     let mut no_floors = false;
     let mut learned_only = false;
+    let mut window_only = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -226,10 +229,11 @@ fn main() -> Result<(), Box<dyn Error>> {
             "--model-out" => model_out = Some(args.next().ok_or("--model-out needs a file")?.into()),
             "--no-floors" => no_floors = true,
             "--learned-only" => learned_only = true,
+            "--window-only" => window_only = true,
             "-h" | "--help" => {
                 println!(
                     "usage: dos_eval [DATA_DIR] [--features a,b,c] [--centroid surface|contour|taxels] [--min-area MM2] \
-                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors] [--learned-only]"
+                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors] [--learned-only] [--window-only]"
                 );
                 return Ok(());
             }
@@ -244,6 +248,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     let layout = Layout::biotac_sp();
     if learned_only {
         return learned::run(&dir, &layout, no_floors);
+    }
+    if window_only {
+        return window::run(&dir, &layout, no_floors);
     }
     let t0 = Instant::now();
     let raw = read_all(&dir)?;
@@ -278,6 +285,7 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     headline::run(&dir, &layout, no_floors)?;
     learned::run(&dir, &layout, no_floors)?;
+    window::run(&dir, &layout, no_floors)?;
     println!(
         "\n## Footnotes: leave-one-object-out tables whose choices were made on that same evaluation \
          (configured features, no mirror augmentation)\n"

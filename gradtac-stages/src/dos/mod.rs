@@ -309,6 +309,10 @@ mod stage;
 /// Training of the learned model (cargo feature `train`; a robot's build leaves it out).
 #[cfg(feature = "train")]
 pub mod train;
+/// Training of the window model (cargo feature `train`).
+#[cfg(feature = "train")]
+pub mod train_window;
+mod window;
 
 pub use classes::*;
 pub use cross_validation::*;
@@ -317,6 +321,7 @@ pub use features::*;
 pub use model::*;
 pub use net::*;
 pub use stage::*;
+pub use window::*;
 
 const STAGE: &str = "dos";
 
@@ -330,3 +335,5 @@ mod tests;
 use tests::support as tests_support;
 #[cfg(test)]
 mod net_tests;
+#[cfg(test)]
+mod window_tests;
