@@ -379,6 +379,13 @@ impl WindowVote<'_> {
         (self.windows > 0).then(|| decision(&self.net.classes, softmax(&self.sum)))
     }
 
+    /// The mean log posterior per window so far, in model class order (`None` before the first
+    /// window): the vote on the scale of one window, to combine with another model's log
+    /// posterior.
+    pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
+        (self.windows > 0).then(|| self.sum.iter().map(|s| s / self.windows as f64).collect())
+    }
+
     /// Start a new span (a new contact).
     pub fn reset(&mut self) {
         self.extractor.reset();
