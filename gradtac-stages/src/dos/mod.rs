@@ -211,10 +211,10 @@
 //! the pattern of how the skin is sheared already holds the direction. Per recording (and on a
 //! stream, since contact) [`WindowVote`] sums the log posteriors of the completed
 //! non-overlapping windows — causal: at frame `t` only windows ending by `t`. Streaming cost
-//! per frame: median 0.11 µs, p99 1.5 µs (`dos_eval`, 46 165 frames, loaded 2-core machine).
+//! per frame: median 0.11 µs, p99 1.4–1.5 µs (`dos_eval`, 46 165 frames, loaded 2-core machine).
 //! The trainer (`train_window`, feature `train`, no crate) adds every recording's mirror image
 //! and random copies (noise, speed and time warp, taxel dropout, layout rotation, vibration,
-//! and a gain and an offset *per taxel*), and fits by minibatch Adam: 1.4 s on all 167
+//! and a gain and an offset *per taxel*), and fits by minibatch Adam: 1.3–1.4 s on all 167
 //! recordings.
 //!
 //! Held out (`dos_eval`, `--window-only` for just this part). Candidates: mirror images only,
