@@ -26,7 +26,13 @@
 //! **The learned model** (`dos_eval_parts/learned.rs`, `--learned-only` runs just it): the
 //! same held-out figures for [`DosNet`](gradtac::stages::dos::DosNet) chosen among its
 //! candidates inside every fold, the published protocol, early answers and its streaming cost.
+//! **The window model** (`dos_eval_parts/window.rs`, `--window-only` runs just it):
+//! [`DosWindowNet`](gradtac::stages::dos::DosWindowNet) per 5-frame window (the published
+//! protocol, window alone and with the causal vote since contact) and per recording (the vote),
+//! held out the same way, its combination with the Student-t design (weight chosen inside the
+//! training objects), early answers, its streaming cost and training time.
 //!
+//! `--window-model-out FILE` writes the window model trained on all recordings (JSON).
 //! `--model-out` writes the model calibrated on all recordings as JSON (the file a scene
 //! loads). Exits 0 with "skipped: data not present" when the directory is absent.
 //!
@@ -49,6 +55,8 @@ use std::time::Instant;
 mod headline;
 #[path = "dos_eval_parts/learned.rs"]
 mod learned;
+#[path = "dos_eval_parts/window.rs"]
+mod window;
 
 /// One labelled recording's frames.
 struct Raw {
@@ -208,6 +216,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut model_out: Option<PathBuf> = None;
     let mut no_floors = false;
     let mut learned_only = false;
+    let mut window_only = false;
+    let mut window_model_out: Option<PathBuf> = None;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -226,10 +236,14 @@ fn main() -> Result<(), Box<dyn Error>> {
             "--model-out" => model_out = Some(args.next().ok_or("--model-out needs a file")?.into()),
             "--no-floors" => no_floors = true,
             "--learned-only" => learned_only = true,
+            "--window-only" => window_only = true,
+            "--window-model-out" => {
+                window_model_out = Some(args.next().ok_or("--window-model-out needs a file")?.into())
+            }
             "-h" | "--help" => {
                 println!(
                     "usage: dos_eval [DATA_DIR] [--features a,b,c] [--centroid surface|contour|taxels] [--min-area MM2] \
-                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors] [--learned-only]"
+                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors] [--learned-only] [--window-only] [--window-model-out FILE]"
                 );
                 return Ok(());
             }
@@ -244,6 +258,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     let layout = Layout::biotac_sp();
     if learned_only {
         return learned::run(&dir, &layout, no_floors);
+    }
+    if window_only {
+        return window::run(&dir, &layout, no_floors, window_model_out.as_deref());
     }
     let t0 = Instant::now();
     let raw = read_all(&dir)?;
@@ -278,6 +295,7 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     headline::run(&dir, &layout, no_floors)?;
     learned::run(&dir, &layout, no_floors)?;
+    window::run(&dir, &layout, no_floors, window_model_out.as_deref())?;
     println!(
         "\n## Footnotes: leave-one-object-out tables whose choices were made on that same evaluation \
          (configured features, no mirror augmentation)\n"

@@ -201,6 +201,58 @@
 //! decay 0.001 / 0.01 and six copies 70.7 / 76.6 %, 8 hidden with 0.03 77.2 %, mirror only
 //! 74–77 %; the grid above was fixed after them and the held-out figures were printed once.
 //!
+//! # The window model ([`DosWindowNet`]) and its combination — measured, not yet the stage's default
+//! [`DosWindowNet`] (module `window`) answers from **one 5-frame (50 ms) window** of raw frames,
+//! as the published ConvLSTM does: the *level pattern* across the taxels (each taxel's window
+//! sum against the mean over all taxels, divided by their spread) and its change across the
+//! window (48 inputs for the BioTac SP, exactly invariant to a gain and an offset common to all
+//! taxels, not per taxel), one hidden layer of 16 `tanh` units, 999 parameters. The drift
+//! features above measure motion *since contact*, which a 50 ms window does not hold (29 %);
+//! the pattern of how the skin is sheared already holds the direction. Per recording (and on a
+//! stream, since contact) [`WindowVote`] sums the log posteriors of the completed
+//! non-overlapping windows — causal: at frame `t` only windows ending by `t`. Streaming cost
+//! per frame: median 0.11 µs, p99 1.4–1.5 µs (`dos_eval`, 46 165 frames, loaded 2-core machine).
+//! The trainer (`train_window`, feature `train`, no crate) adds every recording's mirror image
+//! and random copies (noise, speed and time warp, taxel dropout, layout rotation, vibration,
+//! and a gain and an offset *per taxel*), and fits by minibatch Adam: 1.3–1.4 s on all 167
+//! recordings.
+//!
+//! Held out (`dos_eval`, `--window-only` for just this part). Candidates: mirror images only,
+//! or mirror images and one random copy per recording; chosen per fold by leave-one-object-out
+//! accuracy per window inside the training objects. The network's settings (16 hidden, weight
+//! decay 1e-4, 20 epochs of batches of 64, learning rate 0.003, gain spread 0.01, offset spread
+//! 0.1) were set once, before any figure of this model. The **combination** adds the
+//! Student-t design's log posterior and the vote's mean log posterior per window,
+//! `a·ln p_t + (1 − a)·mean ln p_w`, with `a ∈ {0, 0.25, 0.5, 0.75, 1}` chosen by
+//! leave-one-object-out inside the training objects of every outer fold (both models refitted
+//! on each inner training part, each model's candidate the one its own procedure chose for the
+//! fold); it chose `a` = 0.75 in seven of eight folds and 0.5 once.
+//!
+//! | method (per recording unless marked) | nested leave-one-object-out | basic → solids | solids → basic |
+//! |---|---|---|---|
+//! | Student-t design (the default) | 80.2 % | 85.7 % | 66.7 % |
+//! | window model, vote over all windows | 77.2 % | 89.3 % | 66.7 % |
+//! | window model, per 5-frame window alone | 75.7 % | **86.2 %** | 65.4 % |
+//! | **combination** (weight chosen inside the folds) | **88.0 %** | **89.3 %** | **78.4 %** |
+//!
+//! The published protocol (trained on basic only, per non-overlapping 5-frame window of
+//! solids): the window alone **86.2 %** (2 651 / 3 076; the ConvLSTM 82.56 %, the Student-t
+//! design 29.1 %); with the causal history since contact (the vote) 87.3 %. Early answers, the
+//! vote at 1 s into contact: basic → solids 87.5 %, solids → basic 64.0 %; the combination at
+//! 1 s: 85.7 % and 73.9 % (0.25 s: the vote already 85.7 % and 64.0 %).
+//!
+//! Not reached: solids → basic ≥ 85 % (78.4 %; two training objects). The window model depends
+//! on the sensor's level pattern, so it transfers between objects on one sensor; a second
+//! sensor differs in every taxel's rest level, which only the augmentation models. How the
+//! representation was found (disclosed; in-sample for that choice): before this design,
+//! exploratory numpy fits (softmax regression and 32-unit networks, about twenty
+//! configurations) were scored directly on the two cross-set splits — raw levels per window
+//! 84–90 % / 60–66 %, drift since contact 28–59 % / 30–47 %, the level pattern across taxels
+//! 85–88 % / 66–72 %; the last was ported. The held-out procedure above was then run once, and
+//! the combination was added after seeing that run's figures (its weight grid fixed before its
+//! first run). The `dos` stage still runs the Student-t model: the combination beats it on
+//! every protocol here, but the stage and `gradtac calibrate` do not yet load a window model.
+//!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
 //! per-class variances shrunk toward them, `σ²_{c,j} = λ·σ²_j + (1 − λ)·s²_{c,j}` with
@@ -309,6 +361,10 @@ mod stage;
 /// Training of the learned model (cargo feature `train`; a robot's build leaves it out).
 #[cfg(feature = "train")]
 pub mod train;
+/// Training of the window model (cargo feature `train`).
+#[cfg(feature = "train")]
+pub mod train_window;
+mod window;
 
 pub use classes::*;
 pub use cross_validation::*;
@@ -317,6 +373,7 @@ pub use features::*;
 pub use model::*;
 pub use net::*;
 pub use stage::*;
+pub use window::*;
 
 const STAGE: &str = "dos";
 
@@ -330,3 +387,5 @@ mod tests;
 use tests::support as tests_support;
 #[cfg(test)]
 mod net_tests;
+#[cfg(test)]
+mod window_tests;

@@ -1,0 +1,444 @@
+//! Training of the window model [`DosWindowNet`] (cargo feature `train`; inference needs none
+//! of this): augmentation of raw recordings, their windows, the network's fit by minibatch
+//! Adam, and the leave-one-group-out choice among candidates.
+//!
+//! # Augmentation
+//! Each training recording gives itself, with [`WindowAugment::mirror`] its mirror image (taxel
+//! permutation of the layout's reflection across `y = 0`, class `e ↔ w`, `cw ↔ aw`), and
+//! [`WindowAugment::copies`] random copies of either: [`train::augment`]'s noise, speed and time
+//! warp, taxel dropout, layout rotation and vibration (no crop), then a **gain and an offset per
+//! taxel**: every value of taxel `i` times `exp(g_i)` plus `o_i`, `g_i ~ N(0, gain)`,
+//! `o_i ~ N(0, offset · σ)` with `σ` the spread of the first frame's levels across taxels —
+//! what differs between two sensors, or one sensor before and after a re-mount. (The window
+//! representation is not invariant to those, unlike the drift models'.)
+//!
+//! Every non-overlapping window of every version is one training sample.
+//!
+//! # Fit
+//! Inputs standardised (training mean and spread, spread floored at 1e-3), then minibatch Adam
+//! (batches of [`WindowTrainConfig::batch`], shuffled every epoch, learning rate
+//! [`WindowTrainConfig::learning_rate`]) on the mean cross-entropy plus `l2 · Σ w²` over the
+//! weight matrices, Xavier-uniform initial weights; deterministic for a seed.
+
+use super::net::{dot, softmax};
+use super::train::{self, mirror_permutation, permute, Augment, SplitMix, TrainRecording};
+use super::*;
+
+/// Augmentation of the window model's training recordings (see the [module docs](self)).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WindowAugment {
+    /// Add every recording's mirror image.
+    pub mirror: bool,
+    /// Random copies per recording (≤ 100).
+    pub copies: usize,
+    /// Spread of the per-taxel log gain (`[0, 1]`).
+    pub gain: f64,
+    /// Spread of the per-taxel offset, in units of the spread of levels across taxels (`[0, 10]`).
+    pub offset: f64,
+    /// Noise, speed, warp, dropout, rotation and vibration of the copies ([`Augment`]; its
+    /// `mirror`, `copies` and `crop` are not used).
+    pub base: Augment,
+}
+
+impl Default for WindowAugment {
+    fn default() -> Self {
+        WindowAugment {
+            mirror: true,
+            copies: 1,
+            gain: 0.01,
+            offset: 0.1,
+            base: Augment { crop: 0.0, ..Augment::default() },
+        }
+    }
+}
+
+impl WindowAugment {
+    /// Mirror images only.
+    pub fn mirror_only() -> Self {
+        WindowAugment { copies: 0, ..Default::default() }
+    }
+
+    /// Checks every field.
+    pub fn validate(&self) -> Result<()> {
+        self.base.validate()?;
+        if self.copies > 100 || !(0.0..=1.0).contains(&self.gain) || !(0.0..=10.0).contains(&self.offset) {
+            return Err(invalid(format!(
+                "window augmentation out of range: copies {} (≤ 100), gain {} (in [0, 1]), offset {} (in [0, 10])",
+                self.copies, self.gain, self.offset
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Settings of a window-model fit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WindowTrainConfig {
+    /// Representation and network.
+    pub net: WindowNetConfig,
+    /// Weight decay on the weight matrices.
+    pub l2: f64,
+    /// Passes over the training windows (1..=1000).
+    pub epochs: usize,
+    /// Minibatch size (1..=100000).
+    pub batch: usize,
+    /// Adam's learning rate (`(0, 1]`).
+    pub learning_rate: f64,
+    /// Seed of the augmentation, the initial weights and the batches.
+    pub seed: u64,
+    /// Augmentation.
+    pub augment: WindowAugment,
+}
+
+impl Default for WindowTrainConfig {
+    fn default() -> Self {
+        WindowTrainConfig {
+            net: WindowNetConfig::default(),
+            l2: 1e-4,
+            epochs: 20,
+            batch: 64,
+            learning_rate: 0.003,
+            seed: 1,
+            augment: WindowAugment::default(),
+        }
+    }
+}
+
+impl WindowTrainConfig {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<()> {
+        self.net.validate()?;
+        self.augment.validate()?;
+        if !(self.l2.is_finite() && self.l2 >= 0.0) {
+            return Err(invalid(format!("l2 {} must be finite and ≥ 0", self.l2)));
+        }
+        if !(1..=1000).contains(&self.epochs) {
+            return Err(invalid(format!("epochs {} must be in 1..=1000", self.epochs)));
+        }
+        if !(1..=100_000).contains(&self.batch) {
+            return Err(invalid(format!("batch {} must be in 1..=100000", self.batch)));
+        }
+        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0 && self.learning_rate <= 1.0) {
+            return Err(invalid(format!("learning_rate {} must be in (0, 1]", self.learning_rate)));
+        }
+        Ok(())
+    }
+}
+
+/// The representations of every non-overlapping window of `frames`.
+pub fn windows_of(frames: &[Vec<f64>], net: &WindowNetConfig, taxels: usize) -> Result<Vec<Vec<f64>>> {
+    let mut x = WindowExtractor::try_new(net, taxels)?;
+    let mut out = Vec::with_capacity(frames.len() / net.frames);
+    for f in frames {
+        if x.push(f)? {
+            out.extend(x.input());
+        }
+    }
+    Ok(out)
+}
+
+/// A gain and an offset per taxel (see the [module docs](self)).
+pub fn gain_offset(frames: &mut [Vec<f64>], gain: f64, offset: f64, rng: &mut SplitMix) {
+    let Some(first) = frames.first() else { return };
+    let n = first.len() as f64;
+    let mean = first.iter().sum::<f64>() / n;
+    let sigma = (first.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let g: Vec<f64> = first.iter().map(|_| (gain * rng.normal()).exp()).collect();
+    let o: Vec<f64> = first.iter().map(|_| offset * sigma * rng.normal()).collect();
+    for f in frames {
+        for ((v, g), o) in f.iter_mut().zip(&g).zip(&o) {
+            *v = *v * g + o;
+        }
+    }
+}
+
+/// The versions of one labelled recording: itself, its mirror image (with `augment.mirror`;
+/// refused on a layout that is not symmetric) and `augment.copies` random copies of either.
+pub fn versions(
+    class: DosClass,
+    frames: &[Vec<f64>],
+    layout: &Layout,
+    augment: &WindowAugment,
+    rng: &mut SplitMix,
+) -> Result<Vec<(DosClass, Vec<Vec<f64>>)>> {
+    augment.validate()?;
+    let mut out = vec![(class, frames.to_vec())];
+    if augment.mirror {
+        let p = mirror_permutation(layout)
+            .ok_or_else(|| invalid("mirror augmentation needs a layout symmetric about y = 0"))?;
+        out.push((class.mirrored(), permute(frames, &p)));
+    }
+    let base = Augment { crop: 0.0, ..augment.base.clone() };
+    let originals = out.len();
+    for k in 0..augment.copies {
+        let (c, f) = &out[k % originals];
+        let mut copy = train::augment(f, layout.positions(), &base, rng);
+        gain_offset(&mut copy, augment.gain, augment.offset, rng);
+        out.push((*c, copy));
+    }
+    Ok(out)
+}
+
+/// One recording's training windows: every window of every version, (class, representation).
+pub type WindowSamples = Vec<(DosClass, Vec<f64>)>;
+
+/// Every recording's training windows under `cfg` (seeded per recording, so folds share them).
+pub fn window_samples(recs: &[TrainRecording], layout: &Layout, cfg: &WindowTrainConfig) -> Result<Vec<WindowSamples>> {
+    cfg.validate()?;
+    recs.iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let mut rng = SplitMix::new(cfg.seed.wrapping_add(1_000_003 * i as u64));
+            let mut out = Vec::new();
+            for (c, f) in versions(r.class, &r.frames, layout, &cfg.augment, &mut rng)? {
+                out.extend(windows_of(&f, &cfg.net, layout.len())?.into_iter().map(|x| (c, x)));
+            }
+            Ok(out)
+        })
+        .collect()
+}
+
+/// Fit the window network on samples (each `2·taxels` values; see the [module docs](self)).
+/// The model's classes are those present, in [`DosClass::ALL`] order.
+pub fn fit_windows(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &WindowTrainConfig) -> Result<DosWindowNet> {
+    cfg.validate()?;
+    let d = cfg.net.inputs(taxels);
+    let classes: Vec<DosClass> = DosClass::ALL.into_iter().filter(|c| samples.iter().any(|(s, _)| s == c)).collect();
+    if classes.len() < 2 {
+        return Err(invalid(format!("training needs at least two classes, got {}", classes.len())));
+    }
+    for (i, (_, x)) in samples.iter().enumerate() {
+        if x.len() != d || x.iter().any(|v| !v.is_finite()) {
+            return Err(invalid(format!("sample {i} must be {d} finite values")));
+        }
+    }
+    let n = samples.len();
+    let nf = n as f64;
+    let mean: Vec<f64> = (0..d).map(|j| samples.iter().map(|s| s.1[j]).sum::<f64>() / nf).collect();
+    let scale: Vec<f64> = (0..d)
+        .map(|j| (samples.iter().map(|s| (s.1[j] - mean[j]).powi(2)).sum::<f64>() / nf).sqrt().max(1e-3))
+        .collect();
+    let xs: Vec<Vec<f64>> =
+        samples.iter().map(|(_, x)| x.iter().zip(&mean).zip(&scale).map(|((v, m), s)| (v - m) / s).collect()).collect();
+    let ys: Vec<usize> = samples.iter().map(|(c, _)| classes.iter().position(|k| k == c).unwrap_or(0)).collect();
+    let (h, c) = (cfg.net.hidden, classes.len());
+    let mut rng = SplitMix::new(cfg.seed.wrapping_add(0x5EED));
+    let a1 = (6.0 / (d + h) as f64).sqrt();
+    let a2 = (6.0 / (h + c) as f64).sqrt();
+    let (o_b1, o_w2, o_b2) = (h * d, h * d + h, h * d + h + c * h);
+    let total = o_b2 + c;
+    let mut p = vec![0.0; total];
+    for v in &mut p[..h * d] {
+        *v = rng.range(-a1, a1);
+    }
+    for v in &mut p[o_w2..o_b2] {
+        *v = rng.range(-a2, a2);
+    }
+    let (mut m1, mut m2) = (vec![0.0; total], vec![0.0; total]);
+    let (beta1, beta2, eps) = (0.9f64, 0.999f64, 1e-8);
+    let mut g = vec![0.0; total];
+    let mut hid = vec![0.0; h];
+    let mut dh = vec![0.0; h];
+    let mut order: Vec<usize> = (0..n).collect();
+    let mut step = 0i32;
+    for _ in 0..cfg.epochs {
+        for i in (1..n).rev() {
+            let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+            order.swap(i, j);
+        }
+        for chunk in order.chunks(cfg.batch) {
+            step = step.saturating_add(1);
+            let bn = chunk.len() as f64;
+            g.iter_mut().for_each(|v| *v = 0.0);
+            for &s in chunk {
+                let (x, y) = (&xs[s], ys[s]);
+                for k in 0..h {
+                    hid[k] = (p[o_b1 + k] + dot(&p[k * d..(k + 1) * d], x)).clamp(-40.0, 40.0).tanh();
+                }
+                let logits: Vec<f64> =
+                    (0..c).map(|k| p[o_b2 + k] + dot(&p[o_w2 + k * h..o_w2 + (k + 1) * h], &hid)).collect();
+                let prob = softmax(&logits);
+                dh.iter_mut().for_each(|v| *v = 0.0);
+                for k in 0..c {
+                    let e = (prob[k] - f64::from(u8::from(k == y))) / bn;
+                    g[o_b2 + k] += e;
+                    for j in 0..h {
+                        g[o_w2 + k * h + j] += e * hid[j];
+                        dh[j] += e * p[o_w2 + k * h + j];
+                    }
+                }
+                for k in 0..h {
+                    let e = dh[k] * (1.0 - hid[k] * hid[k]);
+                    g[o_b1 + k] += e;
+                    for (r, v) in g[k * d..(k + 1) * d].iter_mut().zip(x) {
+                        *r += e * v;
+                    }
+                }
+            }
+            for (i, gi) in g.iter_mut().enumerate() {
+                if i < o_b1 || (o_w2..o_b2).contains(&i) {
+                    *gi += 2.0 * cfg.l2 * p[i];
+                }
+            }
+            let (b1t, b2t) = (1.0 - beta1.powi(step), 1.0 - beta2.powi(step));
+            for i in 0..total {
+                m1[i] = beta1 * m1[i] + (1.0 - beta1) * g[i];
+                m2[i] = beta2 * m2[i] + (1.0 - beta2) * g[i] * g[i];
+                p[i] -= cfg.learning_rate * (m1[i] / b1t) / ((m2[i] / b2t).sqrt() + eps);
+            }
+        }
+    }
+    let net = DosWindowNet {
+        config: cfg.net.clone(),
+        taxels,
+        classes,
+        input_mean: mean,
+        input_scale: scale,
+        w1: (0..h).map(|k| p[k * d..(k + 1) * d].to_vec()).collect(),
+        b1: p[o_b1..o_w2].to_vec(),
+        w2: (0..c).map(|k| p[o_w2 + k * h..o_w2 + (k + 1) * h].to_vec()).collect(),
+        b2: p[o_b2..].to_vec(),
+        recordings: 0,
+    };
+    net.validate()?;
+    Ok(net)
+}
+
+/// Fit on the windows of the recordings `train` (all their versions).
+pub fn fit_on(
+    samples: &[WindowSamples],
+    train: &[usize],
+    taxels: usize,
+    cfg: &WindowTrainConfig,
+) -> Result<DosWindowNet> {
+    let s: Vec<(DosClass, Vec<f64>)> = train.iter().flat_map(|&i| samples[i].iter().cloned()).collect();
+    let mut net = fit_windows(&s, taxels, cfg)?;
+    net.recordings = train.len();
+    Ok(net)
+}
+
+/// Per test recording: (correct windows, windows, whether the vote over all its windows is right).
+pub fn score(
+    net: &DosWindowNet,
+    recs: &[TrainRecording],
+    test: &[usize],
+    layout: &Layout,
+) -> Result<Vec<(usize, usize, bool)>> {
+    let mut v = net.vote(layout)?;
+    test.iter()
+        .map(|&i| {
+            v.reset();
+            let (mut ok, mut n) = (0, 0);
+            for f in &recs[i].frames {
+                if let Some(d) = v.push(f)? {
+                    ok += usize::from(d.class == recs[i].class);
+                    n += 1;
+                }
+            }
+            Ok((ok, n, v.decision().is_some_and(|d| d.class == recs[i].class)))
+        })
+        .collect()
+}
+
+/// The groups of `idx`, sorted.
+fn groups_of<'a>(recs: &'a [TrainRecording], idx: &[usize]) -> Vec<&'a str> {
+    let mut g: Vec<&str> = idx.iter().map(|&i| recs[i].group.as_str()).collect();
+    g.sort_unstable();
+    g.dedup();
+    g
+}
+
+/// A held-out outcome of the window model: per test recording (index, correct windows, windows,
+/// vote right), and per outer fold (name, chosen candidate, inner window accuracy).
+#[derive(Clone, Debug, Default)]
+pub struct WindowHeldOut {
+    /// (recording, correct windows, windows, vote right).
+    pub scores: Vec<(usize, usize, usize, bool)>,
+    /// (fold, chosen candidate, inner accuracy per window).
+    pub chosen: Vec<(String, usize, f64)>,
+}
+
+impl WindowHeldOut {
+    /// (correct, decided) per window.
+    pub fn windows(&self) -> (usize, usize) {
+        self.scores.iter().fold((0, 0), |a, s| (a.0 + s.1, a.1 + s.2))
+    }
+    /// (correct, decided) per recording (the vote over all its windows).
+    pub fn recordings(&self) -> (usize, usize) {
+        (self.scores.iter().filter(|s| s.3).count(), self.scores.len())
+    }
+}
+
+/// Leave-one-group-out accuracy per window over the recordings `idx` for each candidate
+/// (`samples[k]` are candidate `k`'s windows); the best (ties: the earlier): (index, accuracy).
+pub fn choose_window(
+    recs: &[TrainRecording],
+    samples: &[&[WindowSamples]],
+    idx: &[usize],
+    layout: &Layout,
+    candidates: &[WindowTrainConfig],
+) -> Result<(usize, f64)> {
+    let groups = groups_of(recs, idx);
+    if groups.len() < 2 {
+        return Err(invalid(format!("leave-one-group-out needs at least two groups, got {}", groups.len())));
+    }
+    let mut best = (0, f64::NEG_INFINITY);
+    for (k, cfg) in candidates.iter().enumerate() {
+        let (mut ok, mut n) = (0, 0);
+        for g in &groups {
+            let train: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group != *g).collect();
+            let test: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group == *g).collect();
+            let net = fit_on(samples[k], &train, layout.len(), cfg)?;
+            for s in score(&net, recs, &test, layout)? {
+                ok += s.0;
+                n += s.1;
+            }
+        }
+        let acc = ok as f64 / n.max(1) as f64;
+        if acc > best.1 {
+            best = (k, acc);
+        }
+    }
+    Ok(best)
+}
+
+/// Choose among `candidates` inside `train` (leave-one-group-out; no choice with one
+/// candidate), fit the choice on `train`, score `test`.
+#[allow(clippy::too_many_arguments)]
+pub fn train_test_window(
+    recs: &[TrainRecording],
+    samples: &[&[WindowSamples]],
+    train: &[usize],
+    test: &[usize],
+    name: &str,
+    layout: &Layout,
+    candidates: &[WindowTrainConfig],
+) -> Result<(WindowHeldOut, DosWindowNet)> {
+    let (k, acc) =
+        if candidates.len() == 1 { (0, f64::NAN) } else { choose_window(recs, samples, train, layout, candidates)? };
+    let net = fit_on(samples[k], train, layout.len(), &candidates[k])?;
+    let scores = score(&net, recs, test, layout)?.into_iter().zip(test).map(|((ok, n, v), &i)| (i, ok, n, v)).collect();
+    Ok((WindowHeldOut { scores, chosen: vec![(name.to_string(), k, acc)] }, net))
+}
+
+/// Nested leave-one-group-out: for every group, the choice by leave-one-group-out on the other
+/// groups, fitted on them, scores the held-out group.
+pub fn nested_window(
+    recs: &[TrainRecording],
+    samples: &[&[WindowSamples]],
+    layout: &Layout,
+    candidates: &[WindowTrainConfig],
+) -> Result<WindowHeldOut> {
+    let all: Vec<usize> = (0..recs.len()).collect();
+    let mut out = WindowHeldOut::default();
+    for g in groups_of(recs, &all) {
+        let train: Vec<usize> = all.iter().copied().filter(|&i| recs[i].group != g).collect();
+        let test: Vec<usize> = all.iter().copied().filter(|&i| recs[i].group == g).collect();
+        let (r, _) = train_test_window(recs, samples, &train, &test, g, layout, candidates)?;
+        out.scores.extend(r.scores);
+        out.chosen.extend(r.chosen);
+    }
+    Ok(out)
+}

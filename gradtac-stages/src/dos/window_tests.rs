@@ -1,0 +1,247 @@
+//! Tests of the window model's inference ([`DosWindowNet`], [`WindowExtractor`], [`WindowVote`])
+//! and, with the `train` feature, of its trainer.
+
+use super::tests_support::synthetic_values;
+use super::*;
+
+/// Synthetic frames rounded to integer counts (what the sensor gives).
+fn counts(class: DosClass, seed: u64) -> Vec<Vec<f64>> {
+    synthetic_values(class, [0.0, 0.0], 0.3, seed).into_iter().map(|f| f.iter().map(|v| v.round()).collect()).collect()
+}
+
+fn inputs(frames: &[Vec<f64>], cfg: &WindowNetConfig) -> Vec<Vec<f64>> {
+    let mut x = WindowExtractor::try_new(cfg, frames[0].len()).unwrap();
+    let mut out = Vec::new();
+    for f in frames {
+        if x.push(f).unwrap() {
+            out.push(x.input().unwrap());
+        }
+    }
+    out
+}
+
+#[test]
+fn window_input_is_exactly_invariant_to_a_common_integer_offset_and_power_of_two_gain() {
+    let cfg = WindowNetConfig::default();
+    for class in DosClass::ALL {
+        let frames = counts(class, 7);
+        let a = inputs(&frames, &cfg);
+        assert_eq!(a.len(), frames.len() / 5);
+        for (gain, offset) in [(2.0, 0.0), (0.5, 0.0), (1.0, 1234.0), (4.0, -3000.0), (0.25, 77.0)] {
+            let moved: Vec<Vec<f64>> = frames.iter().map(|f| f.iter().map(|v| v * gain + offset).collect()).collect();
+            let b = inputs(&moved, &cfg);
+            for (w, (x, y)) in a.iter().zip(&b).enumerate() {
+                for (j, (u, v)) in x.iter().zip(y).enumerate() {
+                    assert_eq!(u.to_bits(), v.to_bits(), "{class} ×{gain} +{offset} window {w} input {j}: {u} vs {v}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn window_input_permutes_exactly_with_the_taxels() {
+    let cfg = WindowNetConfig::default();
+    let frames = counts(DosClass::Cw, 3);
+    let p: Vec<usize> = (0..24).map(|i| (i * 7 + 5) % 24).collect();
+    let permuted: Vec<Vec<f64>> = frames.iter().map(|f| p.iter().map(|&j| f[j]).collect()).collect();
+    for (x, y) in inputs(&frames, &cfg).iter().zip(inputs(&permuted, &cfg)) {
+        for (i, &j) in p.iter().enumerate() {
+            assert_eq!(y[i].to_bits(), x[j].to_bits());
+            assert_eq!(y[24 + i].to_bits(), x[24 + j].to_bits());
+        }
+    }
+}
+
+#[test]
+fn window_input_is_finite_and_defined_at_the_extremes() {
+    let cfg = WindowNetConfig::default();
+    let mut x = WindowExtractor::try_new(&cfg, 24).unwrap();
+    assert!(x.input().is_none());
+    for k in 0..4 {
+        assert!(!x.push(&[3000.0; 24]).unwrap(), "frame {k}");
+        assert!(x.input().is_none());
+    }
+    assert!(x.push(&[3000.0; 24]).unwrap());
+    // all taxels at one level: no pattern
+    assert!(x.input().unwrap().iter().all(|v| *v == 0.0));
+    for scale in [0.0, -1.0, 1e-300, 1e300, f64::MAX, -f64::MAX, f64::MIN_POSITIVE] {
+        x.reset();
+        for t in 0..5 {
+            let f: Vec<f64> = (0..24).map(|i| scale * (1.0 - ((t * 7 + i) % 5) as f64 * 0.1)).collect();
+            x.push(&f).unwrap();
+        }
+        let v = x.input().unwrap();
+        assert!(v.iter().all(|v| v.is_finite()), "{scale}: {v:?}");
+    }
+    assert!(x.push(&[1.0; 23]).is_err());
+    let mut bad = vec![1.0; 24];
+    bad[4] = f64::NAN;
+    let e = x.push(&bad).unwrap_err().to_string();
+    assert!(e.contains("taxel 5"), "{e}");
+    assert!(WindowExtractor::try_new(&WindowNetConfig { frames: 1, ..Default::default() }, 24).is_err());
+    assert!(WindowExtractor::try_new(&WindowNetConfig { hidden: 0, ..Default::default() }, 24).is_err());
+    assert!(
+        WindowExtractor::try_new(&WindowNetConfig { frames: MAX_WINDOW_FRAMES + 1, ..Default::default() }, 24).is_err()
+    );
+    assert!(WindowExtractor::try_new(&cfg, 0).is_err());
+}
+
+/// A small hand-made model (no trainer needed).
+fn tiny_model() -> DosWindowNet {
+    let d = 48;
+    DosWindowNet {
+        config: WindowNetConfig { frames: 5, hidden: 2 },
+        taxels: 24,
+        classes: vec![DosClass::N, DosClass::S, DosClass::T],
+        input_mean: vec![0.0; d],
+        input_scale: vec![1.0; d],
+        w1: vec![(0..d).map(|j| if j < 24 { 0.1 * (j as f64 - 11.5) } else { 0.0 }).collect(), vec![0.01; d]],
+        b1: vec![0.0, 0.1],
+        w2: vec![vec![1.0, 0.0], vec![-1.0, 0.0], vec![0.0, 0.5]],
+        b2: vec![0.0, 0.0, 0.1],
+        recordings: 3,
+    }
+}
+
+#[test]
+fn window_model_round_trips_through_json_and_refuses_bad_files() {
+    let m = tiny_model();
+    m.validate().unwrap();
+    let json = serde_json::to_string(&m).unwrap();
+    let back: DosWindowNet = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, m);
+    assert_eq!(m.parameter_count(), 2 * 48 + 2 * 48 + 2 + 3 * 2 + 3);
+    let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let broken = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut w = v.clone();
+        f(&mut w);
+        serde_json::from_value::<DosWindowNet>(w).unwrap_err().to_string()
+    };
+    assert!(broken(&|w| w["b1"] = serde_json::json!([0.0])).contains("b1"));
+    assert!(broken(&|w| w["w2"] = serde_json::json!([[1.0, 0.0]])).contains("w2"));
+    assert!(broken(&|w| w["input_scale"][3] = serde_json::json!(0.0)).contains("input_scale"));
+    assert!(broken(&|w| w["config"]["hidden"] = serde_json::json!(0)).contains("hidden"));
+    assert!(broken(&|w| w["classes"] = serde_json::json!(["n", "n", "t"])).contains("twice"));
+    assert!(broken(&|w| w["surprise"] = serde_json::json!(1)).contains("surprise"));
+    v["taxels"] = serde_json::json!(2);
+    assert!(serde_json::from_value::<DosWindowNet>(v).is_err());
+    // the layout must match
+    let skew = Layout::try_new(
+        "three",
+        vec!["a".into(), "b".into(), "c".into()],
+        vec![[0.0, 1.0], [1.0, 0.0], [2.0, 3.0]],
+        None,
+    )
+    .unwrap();
+    assert!(m.extractor(&skew).is_err());
+    assert!(m.logits(&[0.0; 47]).is_err());
+    assert!(m.logits(&[f64::NAN; 48]).is_err());
+}
+
+#[test]
+fn the_vote_is_causal_and_sums_the_windows_log_posteriors() {
+    let m = tiny_model();
+    let layout = Layout::biotac_sp();
+    let frames = counts(DosClass::N, 5);
+    let mut vote = m.vote(&layout).unwrap();
+    assert!(vote.decision().is_none());
+    let mut sum = [0.0f64; 3];
+    let mut decisions = Vec::new();
+    for f in &frames {
+        if let Some(w) = vote.push(f).unwrap() {
+            for (s, p) in sum.iter_mut().zip(&w.posterior) {
+                *s += p.ln();
+            }
+            let best = (0..3).fold(0, |b, k| if sum[k] > sum[b] { k } else { b });
+            assert_eq!(vote.decision().unwrap().class, m.classes[best]);
+        }
+        decisions.push(vote.decision().map(|d| d.class));
+    }
+    assert_eq!(vote.windows(), (frames.len() / 5) as u64);
+    // a prefix streamed alone decides as the whole stream did at that point (nothing later is seen)
+    for cut in [5, 23, 100] {
+        let mut v = m.vote(&layout).unwrap();
+        for f in &frames[..cut] {
+            v.push(f).unwrap();
+        }
+        assert_eq!(v.decision().map(|d| d.class), decisions[cut - 1]);
+    }
+    vote.reset();
+    assert!(vote.decision().is_none());
+}
+
+#[cfg(feature = "train")]
+mod training {
+    use super::super::train::{mirror_permutation, SplitMix, TrainRecording};
+    use super::super::train_window::*;
+    use super::*;
+
+    #[test]
+    fn mirror_augmentation_permutes_taxels_and_mirrors_classes() {
+        let layout = Layout::biotac_sp();
+        let p = mirror_permutation(&layout).unwrap();
+        let aug = WindowAugment::mirror_only();
+        for class in DosClass::ALL {
+            let frames = counts(class, 9);
+            let v = versions(class, &frames, &layout, &aug, &mut SplitMix::new(1)).unwrap();
+            assert_eq!(v.len(), 2);
+            assert_eq!(v[0], (class, frames.clone()));
+            let expected = match class {
+                DosClass::E => DosClass::W,
+                DosClass::W => DosClass::E,
+                DosClass::Cw => DosClass::Aw,
+                DosClass::Aw => DosClass::Cw,
+                other => other,
+            };
+            assert_eq!(v[1].0, expected, "{class}");
+            for (m, f) in v[1].1.iter().zip(&frames) {
+                for (i, &j) in p.iter().enumerate() {
+                    assert_eq!(m[i], f[j]);
+                }
+            }
+            // the mirror's windows are the permuted windows, exactly
+            let (a, b) = (inputs(&frames, &WindowNetConfig::default()), inputs(&v[1].1, &WindowNetConfig::default()));
+            for (x, y) in a.iter().zip(&b) {
+                for (i, &j) in p.iter().enumerate() {
+                    assert_eq!(y[i].to_bits(), x[j].to_bits());
+                }
+            }
+        }
+        // random copies keep the shape, are finite and deterministic
+        let frames = counts(DosClass::S, 2);
+        let aug = WindowAugment { copies: 3, ..Default::default() };
+        let a = versions(DosClass::S, &frames, &layout, &aug, &mut SplitMix::new(4)).unwrap();
+        let b = versions(DosClass::S, &frames, &layout, &aug, &mut SplitMix::new(4)).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a.len(), 5);
+        assert!(a.iter().all(|(_, f)| f.iter().all(|r| r.len() == 24 && r.iter().all(|v| v.is_finite()))));
+        assert!(WindowAugment { gain: 2.0, ..Default::default() }.validate().is_err());
+        assert!(WindowAugment { copies: 101, ..Default::default() }.validate().is_err());
+    }
+
+    #[test]
+    fn window_training_separates_synthetic_slips_and_round_trips() {
+        let layout = Layout::biotac_sp();
+        let mut recs = Vec::new();
+        for (k, class) in DosClass::ALL.into_iter().enumerate() {
+            for j in 0..4u64 {
+                let frames = counts(class, 100 + 31 * j + k as u64);
+                recs.push(TrainRecording { class, group: format!("obj{}", j % 2), frames });
+            }
+        }
+        let cfg = WindowTrainConfig { epochs: 10, ..Default::default() };
+        let samples = window_samples(&recs, &layout, &cfg).unwrap();
+        let all: Vec<usize> = (0..recs.len()).collect();
+        let net = fit_on(&samples, &all, 24, &cfg).unwrap();
+        assert_eq!(net, fit_on(&samples, &all, 24, &cfg).unwrap(), "deterministic for a seed");
+        let s = score(&net, &recs, &all, &layout).unwrap();
+        let right = s.iter().filter(|x| x.2).count();
+        assert!(right * 2 > recs.len(), "{right}/{}", recs.len());
+        let back: DosWindowNet = serde_json::from_str(&serde_json::to_string(&net).unwrap()).unwrap();
+        assert_eq!(back, net);
+        assert!(fit_windows(&[(DosClass::N, vec![0.0; 48])], 24, &cfg).is_err());
+        assert!(WindowTrainConfig { epochs: 0, ..Default::default() }.validate().is_err());
+        assert!(WindowTrainConfig { batch: 0, ..Default::default() }.validate().is_err());
+    }
+}
