@@ -41,7 +41,7 @@
 
 use gradtac::stages::centroid::Centroid;
 use gradtac::stages::contour::{Contour, ContourConfig, ContourFrame, ContourOutcome, NoContact};
-use gradtac::stages::events::{Events, EventsConfig, Threshold};
+use gradtac::stages::events::{Events, EventsConfig, Polarity, Threshold};
 use gradtac::stages::fit::Fit;
 use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac::stages::locate::{ChangeDetector, LocateConfig, LocateMethod, Preset};
@@ -49,7 +49,7 @@ use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim_family::{FamilyRecording, KernelShape, Member, PathKind, PhysicsSet, Similarity, CORE_MM};
 use gradtac::stages::track::{ContactState, Track, TrackConfig, TrackPoint};
-use gradtac::stages::window::{Aggregate, Window, WindowConfig};
+use gradtac::stages::window::{Aggregate, Window, WindowConfig, WindowKind};
 use gradtac::stages::EventBatch;
 use gradtac::stream::{Delay, Layout, Stage, StageExt, TaxelFrame};
 use std::collections::HashMap;
@@ -58,11 +58,39 @@ use std::time::Instant;
 /// One setting of one method.
 #[derive(Clone, Debug)]
 enum Setting {
-    Centroid { window: u32, power: f64, contact: f64, smooth: u32, speed: f64 },
-    Delta2 { window: u32 },
-    Fit { window: u32, iterations: u32, gain_rate: f64, model_error: f64, signed: bool, smooth: u32, speed: f64 },
-    Raw { grid: usize, window: u32, min_area: f64 },
-    Events { grid: usize, window: u64, tau: f64, min_area: f64 },
+    Centroid {
+        window: u32,
+        power: f64,
+        contact: f64,
+        smooth: u32,
+        speed: f64,
+    },
+    Delta2 {
+        window: u32,
+    },
+    Fit {
+        window: u32,
+        iterations: u32,
+        gain_rate: f64,
+        model_error: f64,
+        signed: bool,
+        smooth: u32,
+        speed: f64,
+    },
+    Raw {
+        grid: usize,
+        window: u32,
+        min_area: f64,
+    },
+    /// `polarity`: which events count ([`Polarity`]); `window = 0`: a cumulative window (every
+    /// event since the start, signed) instead of a sliding window of counts.
+    Events {
+        grid: usize,
+        window: u64,
+        tau: f64,
+        min_area: f64,
+        polarity: Polarity,
+    },
 }
 
 impl Setting {
@@ -72,6 +100,9 @@ impl Setting {
             Setting::Delta2 { .. } => "Δ²-weighted centroid",
             Setting::Fit { .. } => "fit",
             Setting::Raw { .. } => "raw contour",
+            Setting::Events { polarity: Polarity::Press, .. } => "event contour, press only",
+            Setting::Events { polarity: Polarity::PressRelease, .. } => "event contour, press − release, cumulative",
+            Setting::Events { window: 0, .. } => "event contour, cumulative",
             Setting::Events { tau, .. } if *tau < 0.0 => "event contour, τ from noise",
             Setting::Events { .. } => "event contour",
         }
@@ -90,9 +121,14 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Raw { grid, window, min_area } => format!("{grid}×{grid}, window {window}, min area {min_area} mm²"),
-            Setting::Events { grid, window, tau, min_area } => format!(
-                "{grid}×{grid}, window {window}, τ {}, min area {min_area} mm²",
-                if *tau < 0.0 { format!("{} σ", -tau) } else { tau.to_string() }
+            Setting::Events { grid, window, tau, min_area, polarity } => format!(
+                "{grid}×{grid}, {}, τ {}, min area {min_area} mm²{}",
+                if *window == 0 { "cumulative signed sum".to_string() } else { format!("window {window}") },
+                if *tau < 0.0 { format!("{} σ", -tau) } else { tau.to_string() },
+                match polarity {
+                    Polarity::Both => String::new(),
+                    p => format!(", polarity {}", p.name()),
+                }
             ),
         }
     }
@@ -214,9 +250,13 @@ fn run(
                 .unwrap()
         }
         Setting::Events { grid, window, min_area, .. } => {
-            // the front end (Savitzky–Golay + events) depends on τ only: cached, timed once
+            // the front end (Savitzky–Golay + events) depends on τ and polarity only: cached,
+            // timed once
             let b = batches.expect("events need their batches").clone();
-            let wc = WindowConfig { frames: Some(*window), aggregate: Aggregate::Count, ..Default::default() };
+            let wc = match window {
+                0 => WindowConfig { kind: WindowKind::Cumulative, aggregate: Aggregate::Signed, ..Default::default() },
+                w => WindowConfig { frames: Some(*w), aggregate: Aggregate::Count, ..Default::default() },
+            };
             let cc = ContourConfig { min_peak: 2.0, min_area_mm2: *min_area, ..Default::default() };
             Window::try_new(&wc)
                 .unwrap()
@@ -230,7 +270,7 @@ fn run(
     (pts, t0.elapsed().as_secs_f64() * 1e6 / n)
 }
 
-fn front_end(layout: &Layout, rec: &FamilyRecording, tau: f64) -> (Vec<EventBatch>, f64) {
+fn front_end(layout: &Layout, rec: &FamilyRecording, tau: f64, polarity: Polarity) -> (Vec<EventBatch>, f64) {
     let sg = SavGol::try_with_rate(layout.len(), SavGolConfig::default(), 100.0).unwrap();
     let threshold = if tau < 0.0 {
         // the noise-adaptive τ calibrates over the same frames as the change detector
@@ -238,7 +278,7 @@ fn front_end(layout: &Layout, rec: &FamilyRecording, tau: f64) -> (Vec<EventBatc
     } else {
         Threshold::Uniform(tau)
     };
-    let ev = Events::try_new(layout.len(), EventsConfig { threshold, ..Default::default() }).unwrap();
+    let ev = Events::try_new(layout.len(), EventsConfig { threshold, polarity, ..Default::default() }).unwrap();
     let frames = rec.frames.clone();
     let n = frames.len() as f64;
     let t0 = Instant::now();
@@ -377,8 +417,26 @@ struct Row {
     us: f64,
 }
 
+/// Polarity-aware event settings (issue #22 item 2): (polarity, windows in frames — 0 = the
+/// cumulative signed window —, τ (< 0: in σ of each taxel's noise), min area mm²). `press`
+/// counts only the pressing edge over a sliding window; `press_release` in a cumulative window
+/// sums +1 presses and −1 releases since the start, each taxel's distance from its baseline
+/// (the change field now, flipped electrodes included); `both` in a cumulative window is the
+/// signed level, which flipped electrodes break.
+const EVENT_POLARITY_GRID: [(Polarity, &[u64], f64, f64); 6] = [
+    (Polarity::Press, &[10, 20], -4.0, 120.0),
+    (Polarity::Both, &[0], -4.0, 60.0),
+    (Polarity::PressRelease, &[0], -4.0, 60.0),
+    (Polarity::PressRelease, &[0], -4.0, 120.0),
+    (Polarity::PressRelease, &[0], -2.0, 60.0),
+    (Polarity::PressRelease, &[0], -8.0, 60.0),
+];
+
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
+    // development flags: only the event contours (and the centroid beside them); tuning members only
+    let events_only = std::env::args().any(|a| a == "--events-only");
+    let tuning_only = std::env::args().any(|a| a == "--tuning-only");
     let tune_seeds: Vec<u64> = if quick { (0..3).collect() } else { (0..8).collect() };
     let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };
     let layout = Layout::biotac_sp();
@@ -439,9 +497,20 @@ fn main() {
     for grid in [16usize, 32] {
         for window in [10u64, 20] {
             for &tau in taus {
-                settings.push(Setting::Events { grid, window, tau, min_area: 120.0 });
+                settings.push(Setting::Events { grid, window, tau, min_area: 120.0, polarity: Polarity::Both });
             }
         }
+    }
+    // polarity-aware events (issue #22 item 2), τ from noise (the scene default)
+    for (polarity, windows, tau, min_area) in EVENT_POLARITY_GRID {
+        for &window in windows {
+            for grid in [16usize, 32] {
+                settings.push(Setting::Events { grid, window, tau, min_area, polarity });
+            }
+        }
+    }
+    if events_only {
+        settings.retain(|s| matches!(s, Setting::Events { .. } | Setting::Centroid { window: 1, .. }));
     }
 
     let tune = Member::grid(tune_seeds.iter().copied());
@@ -460,16 +529,27 @@ fn main() {
         settings.len()
     );
 
-    // events front end per (recording, τ)
-    let mut front: HashMap<(bool, usize, u64), Vec<EventBatch>> = HashMap::new();
-    let mut front_us: HashMap<u64, Vec<f64>> = HashMap::new();
-    for &tau in taus {
+    // events front end per (recording, τ, polarity)
+    let mut front: HashMap<(bool, usize, u64, Polarity), Vec<EventBatch>> = HashMap::new();
+    let mut front_us: HashMap<(u64, Polarity), Vec<f64>> = HashMap::new();
+    let mut fronts: Vec<(f64, Polarity)> = Vec::new();
+    for s in &settings {
+        if let Setting::Events { tau, polarity, .. } = *s {
+            if !fronts.contains(&(tau, polarity)) {
+                fronts.push((tau, polarity));
+            }
+        }
+    }
+    for &(tau, polarity) in &fronts {
         for (is_test, recs) in [(false, &tune_recs), (true, &test_recs)] {
+            if is_test && tuning_only {
+                continue;
+            }
             for (i, r) in recs.iter().enumerate() {
-                let (b, us) = front_end(&layout, r, tau);
-                front.insert((is_test, i, tau.to_bits()), b);
+                let (b, us) = front_end(&layout, r, tau, polarity);
+                front.insert((is_test, i, tau.to_bits(), polarity), b);
                 if is_test {
-                    front_us.entry(tau.to_bits()).or_default().push(us);
+                    front_us.entry((tau.to_bits(), polarity)).or_default().push(us);
                 }
             }
         }
@@ -478,7 +558,7 @@ fn main() {
     let mut rows = Vec::new();
     for (k, s) in settings.iter().enumerate() {
         let tau = match s {
-            Setting::Events { tau, .. } => Some(tau.to_bits()),
+            Setting::Events { tau, polarity, .. } => Some((tau.to_bits(), *polarity)),
             _ => None,
         };
         let eval = |recs: &[FamilyRecording], is_test: bool| {
@@ -487,19 +567,32 @@ fn main() {
                 .iter()
                 .enumerate()
                 .map(|(i, r)| {
-                    let b = tau.map(|t| &front[&(is_test, i, t)]);
+                    let b = tau.map(|(t, p)| &front[&(is_test, i, t, p)]);
                     let (pts, mut u) = run(s, &layout, r, b);
                     if is_test {
                         // the faster of two runs: a loaded machine's pauses are not the method's
                         u = u.min(run(s, &layout, r, b).1);
                     }
-                    us.push(u + tau.map_or(0.0, |t| median(front_us[&t].clone())));
+                    us.push(u + tau.and_then(|t| front_us.get(&t)).map_or(0.0, |v| median(v.clone())));
                     score(r, &pts)
                 })
                 .collect();
             (scores, median(us))
         };
         let (ts, _) = eval(&tune_recs, false);
+        if tuning_only {
+            let t = summary(&tune, &ts, width, &all_tune);
+            println!(
+                "tuning | {} | {} | worst {:.3} ({}) | mean {:.3} | contact {:.0} %",
+                s.method(),
+                s.describe(),
+                t.worst,
+                t.kind,
+                t.mean,
+                100.0 * t.contact
+            );
+            continue;
+        }
         let (hs, us) = eval(&test_recs, true);
         rows.push(Row {
             s: s.clone(),
@@ -658,10 +751,11 @@ fn main() {
     println!();
     println!(
         "Sensor width {width:.1} mm (BioTac SP layout x extent); core width {core_width:.1} mm (y extent, across the finger, of the electrodes' COMSOL core positions). Front end of the event contours (Savitzky–Golay + events, included in their µs/frame): {}.",
-        taus.iter()
-            .map(|t| {
+        fronts
+            .iter()
+            .map(|(t, p)| {
                 let label = if *t < 0.0 { format!("{} σ", -t) } else { t.to_string() };
-                format!("τ {label}: {:.2} µs", median(front_us[&t.to_bits()].clone()))
+                format!("τ {label} {}: {:.2} µs", p.name(), median(front_us[&(t.to_bits(), *p)].clone()))
             })
             .collect::<Vec<_>>()
             .join(", ")
