@@ -498,9 +498,9 @@ fn main() {
     }
     // a higher contact threshold against the drift a cumulative window keeps
     for grid in [16usize, 32] {
-        for min_peak in [4.0, 8.0] {
+        for (tau, min_peak) in [(-4.0, 4.0), (-4.0, 6.0), (-4.0, 8.0), (-8.0, 3.0), (-8.0, 4.0)] {
             let polarity = Polarity::PressRelease;
-            settings.push(Setting::Events { grid, window: 0, tau: -4.0, min_area: 60.0, polarity, min_peak });
+            settings.push(Setting::Events { grid, window: 0, tau, min_area: 60.0, polarity, min_peak });
         }
     }
     if events_only {
@@ -576,14 +576,16 @@ fn main() {
         let (ts, _) = eval(&tune_recs, false);
         if tuning_only {
             let t = summary(&tune, &ts, width, &all_tune);
+            let (c, n) = ts.iter().fold((0, 0), |a, s| (a.0 + s.untouched.0, a.1 + s.untouched.1));
             println!(
-                "tuning | {} | {} | worst {:.3} ({}) | mean {:.3} | contact {:.0} %",
+                "tuning | {} | {} | worst {:.3} ({}) | mean {:.3} | contact {:.0} % | untouched in contact {:.1} %",
                 s.method(),
                 s.describe(),
                 t.worst,
                 t.kind,
                 t.mean,
-                100.0 * t.contact
+                100.0 * t.contact,
+                100.0 * c as f64 / n.max(1) as f64
             );
             continue;
         }
@@ -729,6 +731,15 @@ fn main() {
     println!();
     println!("**Untouched stretches reported in contact** (held-out members; track points after 0.3 s with no force within 80 ms), per method's setting chosen on tuning: {}.",
         chosen_untouched.join("; "));
+    println!();
+    println!(
+        "Polarity-aware event rows (press − release, cumulative), untouched stretches reported in contact, held out: {}.",
+        rows.iter()
+            .filter(|r| matches!(r.s, Setting::Events { polarity: Polarity::PressRelease, .. }))
+            .map(|r| format!("{} → {:.1} %", r.s.describe(), 100.0 * r.untouched))
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
     println!();
     for (name, pick, limit) in [
         ("fast", fast, "≤ 5 µs/frame (≥ 200 k frames/s per core)"),
