@@ -38,6 +38,9 @@
 //!   core) and at ≤ 50 µs/frame (`accurate`, ≥ 20 k frames/s), scored held out.
 //!
 //! Run: `cargo run --release --example tradeoff [-- --quick]` (`--quick`: fewer members).
+//! Development flags: `--events-only` (the event contours and the window-1 centroids beside them)
+//! and `--tuning-only` (tuning members only, one line per setting, nothing held out: for
+//! exploring settings without looking at held-out members).
 
 use gradtac::stages::centroid::Centroid;
 use gradtac::stages::contour::{Contour, ContourConfig, ContourFrame, ContourOutcome, NoContact};
