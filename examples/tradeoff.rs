@@ -38,10 +38,13 @@
 //!   core) and at ≤ 50 µs/frame (`accurate`, ≥ 20 k frames/s), scored held out.
 //!
 //! Run: `cargo run --release --example tradeoff [-- --quick]` (`--quick`: fewer members).
+//! Development flags: `--events-only` (the event contours and the window-1 centroids beside them)
+//! and `--tuning-only` (tuning members only, one line per setting, nothing held out: for
+//! exploring settings without looking at held-out members).
 
 use gradtac::stages::centroid::Centroid;
 use gradtac::stages::contour::{Contour, ContourConfig, ContourFrame, ContourOutcome, NoContact};
-use gradtac::stages::events::{Events, EventsConfig, Threshold};
+use gradtac::stages::events::{Events, EventsConfig, Polarity, Threshold};
 use gradtac::stages::fit::Fit;
 use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac::stages::locate::{CentroidWeights, ChangeDetector, LocateConfig, LocateMethod, Preset};
@@ -49,20 +52,22 @@ use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim_family::{FamilyRecording, KernelShape, Member, PathKind, PhysicsSet, Similarity, CORE_MM};
 use gradtac::stages::track::{ContactState, Track, TrackConfig, TrackPoint};
-use gradtac::stages::window::{Aggregate, Window, WindowConfig};
+use gradtac::stages::window::{Aggregate, Window, WindowConfig, WindowKind};
 use gradtac::stages::EventBatch;
 use gradtac::stream::{Delay, Layout, Stage, StageExt, TaxelFrame};
 use std::collections::HashMap;
 use std::time::Instant;
 
-/// One setting of one method.
+/// One setting of one method. Events: `polarity` — which events count ([`Polarity`]);
+/// `window = 0` — a cumulative window (every event since the start, signed) instead of a
+/// sliding window of counts; `min_peak` — the contour's contact threshold in events.
 #[derive(Clone, Debug)]
 enum Setting {
     Centroid { window: u32, power: f64, floor: f64, counts: bool, contact: f64, smooth: u32, speed: f64 },
     Delta2 { window: u32 },
     Fit(FitSetting),
     Raw { grid: usize, window: u32, min_area: f64 },
-    Events { grid: usize, window: u64, tau: f64, min_area: f64 },
+    Events { grid: usize, window: u64, tau: f64, min_area: f64, polarity: Polarity, min_peak: f64 },
 }
 
 /// One setting of the model fit.
@@ -86,6 +91,9 @@ impl Setting {
             Setting::Delta2 { .. } => "Δ²-weighted centroid",
             Setting::Fit(_) => "fit",
             Setting::Raw { .. } => "raw contour",
+            Setting::Events { polarity: Polarity::Press, .. } => "event contour, press only",
+            Setting::Events { polarity: Polarity::PressRelease, .. } => "event contour, press − release, cumulative",
+            Setting::Events { window: 0, .. } => "event contour, cumulative",
             Setting::Events { tau, .. } if *tau < 0.0 => "event contour, τ from noise",
             Setting::Events { .. } => "event contour",
         }
@@ -107,9 +115,15 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Raw { grid, window, min_area } => format!("{grid}×{grid}, window {window}, min area {min_area} mm²"),
-            Setting::Events { grid, window, tau, min_area } => format!(
-                "{grid}×{grid}, window {window}, τ {}, min area {min_area} mm²",
-                if *tau < 0.0 { format!("{} σ", -tau) } else { tau.to_string() }
+            Setting::Events { grid, window, tau, min_area, polarity, min_peak } => format!(
+                "{grid}×{grid}, {}, τ {}, min area {min_area} mm²{}{}",
+                if *window == 0 { "cumulative signed sum".to_string() } else { format!("window {window}") },
+                if *tau < 0.0 { format!("{} σ", -tau) } else { tau.to_string() },
+                match polarity {
+                    Polarity::Both => String::new(),
+                    p => format!(", polarity {}", p.name()),
+                },
+                if *min_peak == 2.0 { String::new() } else { format!(", min peak {min_peak} events") }
             ),
         }
     }
@@ -241,11 +255,15 @@ fn run(
                 .run_all(frames)
                 .unwrap()
         }
-        Setting::Events { grid, window, min_area, .. } => {
-            // the front end (Savitzky–Golay + events) depends on τ only: cached, timed once
+        Setting::Events { grid, window, min_area, min_peak, .. } => {
+            // the front end (Savitzky–Golay + events) depends on τ and polarity only: cached,
+            // timed once
             let b = batches.expect("events need their batches").clone();
-            let wc = WindowConfig { frames: Some(*window), aggregate: Aggregate::Count, ..Default::default() };
-            let cc = ContourConfig { min_peak: 2.0, min_area_mm2: *min_area, ..Default::default() };
+            let wc = match window {
+                0 => WindowConfig { kind: WindowKind::Cumulative, aggregate: Aggregate::Signed, ..Default::default() },
+                w => WindowConfig { frames: Some(*w), aggregate: Aggregate::Count, ..Default::default() },
+            };
+            let cc = ContourConfig { min_peak: *min_peak, min_area_mm2: *min_area, ..Default::default() };
             Window::try_new(&wc)
                 .unwrap()
                 .then(surface(*grid))
@@ -258,7 +276,7 @@ fn run(
     (pts, t0.elapsed().as_secs_f64() * 1e6 / n)
 }
 
-fn front_end(layout: &Layout, rec: &FamilyRecording, tau: f64) -> (Vec<EventBatch>, f64) {
+fn front_end(layout: &Layout, rec: &FamilyRecording, tau: f64, polarity: Polarity) -> (Vec<EventBatch>, f64) {
     let sg = SavGol::try_with_rate(layout.len(), SavGolConfig::default(), 100.0).unwrap();
     let threshold = if tau < 0.0 {
         // the noise-adaptive τ calibrates over the same frames as the change detector
@@ -266,7 +284,7 @@ fn front_end(layout: &Layout, rec: &FamilyRecording, tau: f64) -> (Vec<EventBatc
     } else {
         Threshold::Uniform(tau)
     };
-    let ev = Events::try_new(layout.len(), EventsConfig { threshold, ..Default::default() }).unwrap();
+    let ev = Events::try_new(layout.len(), EventsConfig { threshold, polarity, ..Default::default() }).unwrap();
     let frames = rec.frames.clone();
     let n = frames.len() as f64;
     let t0 = Instant::now();
@@ -280,6 +298,8 @@ struct Score {
     mean_mm: f64,
     contact: f64,
     way: Vec<Option<[f64; 2]>>,
+    /// Track points in untouched stretches (after 0.3 s, no force within 80 ms): in contact, all.
+    untouched: (usize, usize),
 }
 
 fn score(rec: &FamilyRecording, pts: &[TrackPoint]) -> Score {
@@ -319,7 +339,13 @@ fn score(rec: &FamilyRecording, pts: &[TrackPoint]) -> Score {
     } else {
         errs.iter().sum::<f64>() / errs.len() as f64
     };
-    Score { mean_mm, contact: errs.len() as f64 / total as f64, way }
+    let quiet = |t: f64| {
+        let k = (t * 100.0).round() as i64;
+        t > 0.3 && (k - 8..=k + 8).all(|j| j < 0 || rec.force.get(j as usize).is_none_or(|&f| f == 0.0))
+    };
+    let untouched: Vec<&TrackPoint> = pts.iter().filter(|p| quiet(p.time.as_secs_f64())).collect();
+    let untouched = (untouched.iter().filter(|p| p.state == ContactState::Contact).count(), untouched.len());
+    Score { mean_mm, contact: errs.len() as f64 / total as f64, way, untouched }
 }
 
 /// Summary of per-recording means (fractions of `width`) over the members `keep` selects: mean,
@@ -403,10 +429,33 @@ struct Row {
     /// Paper protocol (mm): mean, worst kind.
     paper: (f64, f64),
     us: f64,
+    /// Share of held-out untouched track points reported in contact.
+    untouched: f64,
+    /// The same on the tuning members.
+    tune_untouched: f64,
 }
+
+/// Polarity-aware event settings (issue #22 item 2): (polarity, windows in frames — 0 = the
+/// cumulative signed window —, τ (< 0: in σ of each taxel's noise), min area mm²). `press`
+/// counts only the pressing edge over a sliding window; `press_release` in a cumulative window
+/// sums +1 presses and −1 releases since the start, each taxel's distance from its baseline
+/// (the change field now, flipped electrodes included); `both` in a cumulative window is the
+/// signed level, which flipped electrodes break.
+const EVENT_POLARITY_GRID: [(Polarity, &[u64], f64, f64); 7] = [
+    (Polarity::Press, &[10, 20], -4.0, 120.0),
+    (Polarity::Both, &[0], -4.0, 60.0),
+    (Polarity::PressRelease, &[0], -4.0, 40.0),
+    (Polarity::PressRelease, &[0], -4.0, 60.0),
+    (Polarity::PressRelease, &[0], -4.0, 120.0),
+    (Polarity::PressRelease, &[0], -2.0, 60.0),
+    (Polarity::PressRelease, &[0], -8.0, 60.0),
+];
 
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
+    // development flags: only the event contours (and the centroid beside them); tuning members only
+    let events_only = std::env::args().any(|a| a == "--events-only");
+    let tuning_only = std::env::args().any(|a| a == "--tuning-only");
     let tune_seeds: Vec<u64> = if quick { (0..3).collect() } else { (0..8).collect() };
     let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };
     let layout = Layout::biotac_sp();
@@ -479,9 +528,28 @@ fn main() {
     for grid in [16usize, 32] {
         for window in [10u64, 20] {
             for &tau in taus {
-                settings.push(Setting::Events { grid, window, tau, min_area: 120.0 });
+                let polarity = Polarity::Both;
+                settings.push(Setting::Events { grid, window, tau, min_area: 120.0, polarity, min_peak: 2.0 });
             }
         }
+    }
+    // polarity-aware events (issue #22 item 2), τ from noise (the scene default)
+    for (polarity, windows, tau, min_area) in EVENT_POLARITY_GRID {
+        for &window in windows {
+            for grid in [16usize, 32] {
+                settings.push(Setting::Events { grid, window, tau, min_area, polarity, min_peak: 2.0 });
+            }
+        }
+    }
+    // a higher contact threshold against the drift a cumulative window keeps
+    for grid in [16usize, 32] {
+        for (tau, min_peak) in [(-4.0, 4.0), (-4.0, 6.0), (-4.0, 8.0), (-8.0, 3.0), (-8.0, 4.0)] {
+            let polarity = Polarity::PressRelease;
+            settings.push(Setting::Events { grid, window: 0, tau, min_area: 60.0, polarity, min_peak });
+        }
+    }
+    if events_only {
+        settings.retain(|s| matches!(s, Setting::Events { .. } | Setting::Centroid { window: 1, .. }));
     }
 
     let tune = Member::grid(tune_seeds.iter().copied());
@@ -500,16 +568,27 @@ fn main() {
         settings.len()
     );
 
-    // events front end per (recording, τ)
-    let mut front: HashMap<(bool, usize, u64), Vec<EventBatch>> = HashMap::new();
-    let mut front_us: HashMap<u64, Vec<f64>> = HashMap::new();
-    for &tau in taus {
+    // events front end per (recording, τ, polarity)
+    let mut front: HashMap<(bool, usize, u64, Polarity), Vec<EventBatch>> = HashMap::new();
+    let mut front_us: HashMap<(u64, Polarity), Vec<f64>> = HashMap::new();
+    let mut fronts: Vec<(f64, Polarity)> = Vec::new();
+    for s in &settings {
+        if let Setting::Events { tau, polarity, .. } = *s {
+            if !fronts.contains(&(tau, polarity)) {
+                fronts.push((tau, polarity));
+            }
+        }
+    }
+    for &(tau, polarity) in &fronts {
         for (is_test, recs) in [(false, &tune_recs), (true, &test_recs)] {
+            if is_test && tuning_only {
+                continue;
+            }
             for (i, r) in recs.iter().enumerate() {
-                let (b, us) = front_end(&layout, r, tau);
-                front.insert((is_test, i, tau.to_bits()), b);
+                let (b, us) = front_end(&layout, r, tau, polarity);
+                front.insert((is_test, i, tau.to_bits(), polarity), b);
                 if is_test {
-                    front_us.entry(tau.to_bits()).or_default().push(us);
+                    front_us.entry((tau.to_bits(), polarity)).or_default().push(us);
                 }
             }
         }
@@ -518,7 +597,7 @@ fn main() {
     let mut rows = Vec::new();
     for (k, s) in settings.iter().enumerate() {
         let tau = match s {
-            Setting::Events { tau, .. } => Some(tau.to_bits()),
+            Setting::Events { tau, polarity, .. } => Some((tau.to_bits(), *polarity)),
             _ => None,
         };
         let eval = |recs: &[FamilyRecording], is_test: bool| {
@@ -527,19 +606,34 @@ fn main() {
                 .iter()
                 .enumerate()
                 .map(|(i, r)| {
-                    let b = tau.map(|t| &front[&(is_test, i, t)]);
+                    let b = tau.map(|(t, p)| &front[&(is_test, i, t, p)]);
                     let (pts, mut u) = run(s, &layout, r, b);
                     if is_test {
                         // the faster of two runs: a loaded machine's pauses are not the method's
                         u = u.min(run(s, &layout, r, b).1);
                     }
-                    us.push(u + tau.map_or(0.0, |t| median(front_us[&t].clone())));
+                    us.push(u + tau.and_then(|t| front_us.get(&t)).map_or(0.0, |v| median(v.clone())));
                     score(r, &pts)
                 })
                 .collect();
             (scores, median(us))
         };
         let (ts, _) = eval(&tune_recs, false);
+        if tuning_only {
+            let t = summary(&tune, &ts, width, &all_tune);
+            let (c, n) = ts.iter().fold((0, 0), |a, s| (a.0 + s.untouched.0, a.1 + s.untouched.1));
+            println!(
+                "tuning | {} | {} | worst {:.3} ({}) | mean {:.3} | contact {:.0} % | untouched in contact {:.1} %",
+                s.method(),
+                s.describe(),
+                t.worst,
+                t.kind,
+                t.mean,
+                100.0 * t.contact,
+                100.0 * c as f64 / n.max(1) as f64
+            );
+            continue;
+        }
         let (hs, us) = eval(&test_recs, true);
         rows.push(Row {
             s: s.clone(),
@@ -548,6 +642,14 @@ fn main() {
             novel: summary(&test, &hs, width, &novel_test),
             paper: paper(&test, &test_recs, &hs),
             us,
+            untouched: {
+                let (c, n) = hs.iter().fold((0, 0), |a, s| (a.0 + s.untouched.0, a.1 + s.untouched.1));
+                c as f64 / n.max(1) as f64
+            },
+            tune_untouched: {
+                let (c, n) = ts.iter().fold((0, 0), |a, s| (a.0 + s.untouched.0, a.1 + s.untouched.1));
+                c as f64 / n.max(1) as f64
+            },
         });
         if k % 20 == 19 {
             eprintln!("{} of {} settings", k + 1, settings.len());
@@ -634,6 +736,7 @@ fn main() {
         }
     }
     let mut centroid_best = None;
+    let mut chosen_untouched = Vec::new();
     for m in methods {
         if let Some(r) = rows
             .iter()
@@ -643,6 +746,7 @@ fn main() {
             if m == "centroid" {
                 centroid_best = Some(r.test.worst);
             }
+            chosen_untouched.push(format!("{m} {:.1} %", 100.0 * r.untouched));
             println!(
                 "| {m} | {} | {:.3} ({}) | {:.3} | {:.3} | {:.3} | {:.2} |",
                 r.s.describe(),
@@ -675,6 +779,40 @@ fn main() {
         );
     }
     println!();
+    println!("**Untouched stretches reported in contact** (held-out members; track points after 0.3 s with no force within 80 ms), per method's setting chosen on tuning: {}.",
+        chosen_untouched.join("; "));
+    println!();
+    println!(
+        "Polarity-aware event rows (press − release, cumulative), untouched stretches reported in contact, held out: {}.",
+        rows.iter()
+            .filter(|r| matches!(r.s, Setting::Events { polarity: Polarity::PressRelease, .. }))
+            .map(|r| format!("{} → {:.1} %", r.s.describe(), 100.0 * r.untouched))
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
+    // the event chain's setting chosen on tuning members with untouched stretches in view: within
+    // 0.001 of the lowest tuning worst kind, the fewest tuning untouched contacts
+    let pr: Vec<&Row> = rows
+        .iter()
+        .filter(|r| matches!(r.s, Setting::Events { polarity: Polarity::PressRelease, .. }) && eligible(r))
+        .collect();
+    let best = pr.iter().map(|r| r.tune.worst).fold(f64::INFINITY, f64::min);
+    if let Some(r) =
+        pr.iter().filter(|r| r.tune.worst <= best + 0.001).min_by(|a, b| a.tune_untouched.total_cmp(&b.tune_untouched))
+    {
+        println!(
+            "Press − release event contour chosen on tuning (within 0.001 of the lowest tuning worst kind, the fewest untouched contacts): {} — tuning {:.3} / {:.1} % untouched, **held out {:.3} ({})** / {:.1} % untouched, held-out physics {:.3}, {:.2} µs/frame.",
+            r.s.describe(),
+            r.tune.worst,
+            100.0 * r.tune_untouched,
+            r.test.worst,
+            r.test.kind,
+            100.0 * r.untouched,
+            r.novel.worst,
+            r.us
+        );
+    }
+    println!();
     for (name, pick, limit) in [
         ("fast", fast, "≤ 5 µs/frame (≥ 200 k frames/s per core)"),
         ("accurate", accurate, "≤ 50 µs/frame (≥ 20 k frames/s per core)"),
@@ -699,10 +837,11 @@ fn main() {
     println!();
     println!(
         "Sensor width {width:.1} mm (BioTac SP layout x extent); core width {core_width:.1} mm (y extent, across the finger, of the electrodes' COMSOL core positions). Front end of the event contours (Savitzky–Golay + events, included in their µs/frame): {}.",
-        taus.iter()
-            .map(|t| {
+        fronts
+            .iter()
+            .map(|(t, p)| {
                 let label = if *t < 0.0 { format!("{} σ", -t) } else { t.to_string() };
-                format!("τ {label}: {:.2} µs", median(front_us[&t.to_bits()].clone()))
+                format!("τ {label} {}: {:.2} µs", p.name(), median(front_us[&(t.to_bits(), *p)].clone()))
             })
             .collect::<Vec<_>>()
             .join(", ")

@@ -390,7 +390,16 @@ impl SensorChain {
                         "τ = {noise_sigmas} σ of each taxel's ln-value noise, measured over the first {calibrate_frames} frames (no events during them)"
                     ),
                 };
-                format!("log-change, {tau}, cap {}/taxel/frame", c.max_events_per_step)
+                let polarity = match c.polarity {
+                    gradtac_stages::events::Polarity::Both => "polarity both (+1 up, −1 down)",
+                    gradtac_stages::events::Polarity::Press => {
+                        "polarity press (only crossings away from each taxel's baseline, as +1; releases dropped)"
+                    }
+                    gradtac_stages::events::Polarity::PressRelease => {
+                        "polarity press_release (+1 away from each taxel's baseline, −1 back toward it)"
+                    }
+                };
+                format!("log-change, {tau}, {polarity}, cap {}/taxel/frame", c.max_events_per_step)
             }),
             Tap::Window if self.raw_change.is_some() => {
                 format!("raw change |x − x₀|/x₀ ({})", describe_detector(&st.locate))
@@ -438,6 +447,13 @@ impl SensorChain {
             }
             Tap::Window => {
                 let c = &st.window;
+                if c.kind == gradtac_stages::window::WindowKind::Cumulative {
+                    return format!(
+                        "cumulative (every event since the start: the level now), step {}, {:?}",
+                        c.step, c.aggregate
+                    )
+                    .to_lowercase();
+                }
                 let size = match (c.frames, c.duration_ms) {
                     (_, Some(ms)) => format!("{ms} ms"),
                     (Some(f), None) => format!("{f} frames"),

@@ -52,6 +52,16 @@
 //! `polarity·τ` of a taxel equals `r − ln y₀`, so it reconstructs `ln y − ln y₀` to within `τ`
 //! at every sample.
 //!
+//! # Polarity: which events count toward a contact
+//! [`Polarity`] (`[stages.events] polarity`): `both` (the default, the paper's events: +1 up,
+//! −1 down), `press` (only crossings that take the taxel further from its **baseline** — its
+//! starting level `ln y₀` — emitted as +1; crossings back toward it dropped and counted in
+//! [`EventCounters::released`]) or `press_release` (+1 away from the baseline, −1 back toward
+//! it; the running sum of polarities is then `|k|`, the taxel's distance from its baseline in
+//! thresholds). "Away from the baseline" needs no sign per electrode, so an electrode that
+//! reads the other way under pressure presses like the rest. Emission order, times and the
+//! reference are those of `both`; only which crossings are emitted and their sign differ.
+//!
 //! # Speed
 //! Per 24-taxel frame (criterion, `benches/signal.rs`, one core, release): ≈ 3 ns per taxel when
 //! nothing crosses (66 ns per frame at 0.44 events per frame, 15 M frames/s) plus ≈ 30–50 ns per
@@ -65,6 +75,7 @@
 //! | `threshold = { noise_sigmas, calibrate_frames }` | (as τ, in σ of each taxel's noise) | (as τ); longer calibration: steadier σ, later first event |
 //! | `floor` | more events from near-zero values (log blows up) | insensitive near 0 |
 //! | `refractory_s` | faithful counts | bounded rate, lost resolution |
+//! | `polarity` | `both`: a moving contact's leading (press) and trailing (release) edges both fire | `press`: the pressing edge only; `press_release`: signed by press/release, a long signed window holds the change field |
 
 use crate::{Error, EventBatch, Result, TactileEvent};
 use gradtac_stream::{Delay, Stage, TaxelFrame, Timestamp};
@@ -181,6 +192,51 @@ pub enum EventGapPolicy {
     Reset,
 }
 
+/// Which events count, and what their polarity means (`[stages.events] polarity`).
+///
+/// **The baseline.** Each taxel's baseline is its reference's starting level `r₀ = ln y₀`: the
+/// first sample after start-up (after the noise calibration, when τ is measured), after a
+/// [`reset`](Stage::reset), or after a gap under [`EventGapPolicy::Reset`]. The reference sits
+/// `k` whole thresholds from it (`r = r₀ + kτ`). A crossing that takes `|k|` up moves the value
+/// **away from the baseline** — the taxel is being pressed further, whichever way its value
+/// reads under pressure; a crossing that takes `|k|` down moves it **back toward the baseline**
+/// — a release. So an electrode whose value *rises* under pressure (a flipped sign, up to 30 %
+/// of the electrodes in the simulator family, and on real sensors whose electrodes read either
+/// way) presses with +1 crossings, its neighbours with −1 crossings, and both count as
+/// presses: no sign is assumed or learned, only the untouched level at the start. The cost:
+/// a stream that starts *in contact* takes the pressed level as its baseline (its release
+/// then counts as a press), and slow drift away from the baseline counts as pressing (drift
+/// back toward it as releasing).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Polarity {
+    /// Every crossing is emitted with the direction of `ln y`: +1 up, −1 down (the paper's DVS
+    /// events). The default.
+    #[default]
+    Both,
+    /// Only crossings away from the taxel's baseline are emitted, each with polarity **+1**
+    /// (pressing); crossings back toward it are dropped (counted in
+    /// [`EventCounters::released`]). A window of counts (or signed sums) then sees only the
+    /// pressing edge of a contact.
+    Press,
+    /// Every crossing is emitted, with polarity **+1 away from the baseline** (press) and
+    /// **−1 toward it** (release). The running signed sum of a taxel is then `|k|`, its
+    /// distance from the baseline in thresholds: a signed window as long as the contact holds
+    /// the contact's current change field, whatever each electrode's sign.
+    PressRelease,
+}
+
+impl Polarity {
+    /// The name used in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Polarity::Both => "both",
+            Polarity::Press => "press",
+            Polarity::PressRelease => "press_release",
+        }
+    }
+}
+
 /// Configuration of [`Events`]; a `[stages.events]` table in a scene.
 ///
 /// ```toml
@@ -193,6 +249,8 @@ pub enum EventGapPolicy {
 /// non_finite = "error"      # or "skip"
 /// gap = "interpolate"       # or "reset"
 /// # max_gap_s = 0.05        # an interval longer than this is a gap (optional)
+/// polarity = "both"         # or "press" (only crossings away from each taxel's baseline,
+///                           # as +1) or "press_release" (+1 away, −1 back toward it)
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -219,6 +277,10 @@ pub struct EventsConfig {
     /// An interval longer than this many **seconds** is a gap (besides a `seq` jump, which
     /// always is). Default `None`.
     pub max_gap_s: Option<f64>,
+    /// Which crossings are emitted and what their polarity means: `both` (direction of
+    /// `ln y`, the default), `press` (only away from each taxel's baseline, as +1) or
+    /// `press_release` (+1 away, −1 toward); see [`Polarity`].
+    pub polarity: Polarity,
 }
 
 impl Default for EventsConfig {
@@ -232,6 +294,7 @@ impl Default for EventsConfig {
             non_finite: NonFinitePolicy::Error,
             gap: EventGapPolicy::Interpolate,
             max_gap_s: None,
+            polarity: Polarity::Both,
         }
     }
 }
@@ -248,6 +311,8 @@ pub struct EventCounters {
     pub skipped: u64,
     /// Samples raised to `floor`.
     pub floored: u64,
+    /// Crossings back toward the baseline not emitted under [`Polarity::Press`].
+    pub released: u64,
 }
 
 /// The log-change event generator over [`TaxelFrame`]s; see the [module docs](self).
@@ -617,10 +682,20 @@ impl Events {
             (pt + (frac * dt + 0.5) as i64).max(not_before)
         };
         let cap = self.config.max_events_per_step;
+        let polarity = self.config.polarity;
         let mut emitted = 0u32;
         let mut lv = k + dir;
         let mut remaining = (j - k).unsigned_abs();
         while remaining > 0 {
+            // the crossing into level `lv` moves away from the baseline (level 0) iff it takes
+            // |level| up: lv·dir > 0
+            let away = lv * dir > 0;
+            if polarity == Polarity::Press && !away {
+                self.counters.released += 1;
+                remaining -= 1;
+                lv += dir;
+                continue;
+            }
             if emitted == cap {
                 self.counters.overflow += remaining;
                 self.overflow_per_taxel[i] += remaining;
@@ -655,7 +730,13 @@ impl Events {
                 lv += dir * skip as i64;
                 continue;
             }
-            events.push(TactileEvent { time: Timestamp(te), taxel: i as u16, polarity: dir as i8 });
+            let pol = match polarity {
+                Polarity::Both => dir as i8,
+                Polarity::Press => 1,
+                Polarity::PressRelease if away => 1,
+                Polarity::PressRelease => -1,
+            };
+            events.push(TactileEvent { time: Timestamp(te), taxel: i as u16, polarity: pol });
             self.last_event[i] = te;
             emitted += 1;
             remaining -= 1;
@@ -741,7 +822,13 @@ impl Stage for Events {
             }
         }
         if several {
-            self.sort_batch(&mut events, now);
+            if self.config.polarity == Polarity::PressRelease {
+                // one taxel's step may hold a release then presses (through its baseline): the
+                // packed keys restore one polarity per taxel, so the stable tuple sort
+                events.sort_by_key(|e| (e.time, e.taxel));
+            } else {
+                self.sort_batch(&mut events, now);
+            }
         }
         self.last_frame = Some((frame.time, frame.seq));
         let batch_events = events.to_vec(); // exact size; no allocation when empty
@@ -953,6 +1040,126 @@ mod tests {
         let c: EventsConfig =
             serde_json::from_str(r#"{"threshold": {"noise_sigmas": 4.0, "calibrate_frames": 20}}"#).unwrap();
         assert_eq!(c.threshold, Threshold::Noise { noise_sigmas: 4.0, calibrate_frames: 20 });
+    }
+
+    fn polarity(p: Polarity) -> EventsConfig {
+        EventsConfig { polarity: p, ..tau(0.1) }
+    }
+
+    /// Three electrodes: 0 and 1 fall under pressure (the family's usual sign), 2 is flipped
+    /// (rises); a press (frames 1–3) then a release (frames 5–7).
+    fn press_then_release() -> Vec<TaxelFrame> {
+        let depth = [0.0, 0.2, 0.5, 0.8, 0.8, 0.5, 0.2, 0.0];
+        depth
+            .iter()
+            .enumerate()
+            .map(|(k, d)| frame(k as u64, vec![1.0 - 0.6 * d, 1.0 - 0.3 * d, 1.0 + 0.9 * d]))
+            .collect()
+    }
+
+    #[test]
+    fn press_keeps_pressing_crossings_of_either_sign_and_drops_releases() {
+        let all = Events::try_new(3, polarity(Polarity::Both)).unwrap().run_all(press_then_release()).unwrap();
+        let mut ev = Events::try_new(3, polarity(Polarity::Press)).unwrap();
+        let press = ev.run_all(press_then_release()).unwrap();
+        let count = |b: &[EventBatch], range: std::ops::Range<usize>, t: u16| {
+            b[range].iter().flat_map(|b| &b.events).filter(|e| e.taxel == t).count()
+        };
+        for t in 0..3u16 {
+            // pressing: the same crossings as `both`, now all +1 (the flipped electrode 2 too)
+            assert_eq!(count(&press, 1..5, t), count(&all, 1..5, t), "taxel {t}");
+            assert!(count(&press, 1..5, t) > 0);
+            // releasing: nothing, though `both` fires
+            assert_eq!(count(&press, 5..8, t), 0, "taxel {t}");
+            assert!(count(&all, 5..8, t) > 0);
+        }
+        assert!(press.iter().flat_map(|b| &b.events).all(|e| e.polarity == 1));
+        let released: usize = (0..3).map(|t| count(&all, 5..8, t)).sum();
+        assert_eq!(ev.counters().released, released as u64);
+        // `both` still gives physical directions: electrode 2 rises, 0 and 1 fall, when pressed
+        assert!(all[1..5].iter().flat_map(|b| &b.events).all(|e| e.polarity == if e.taxel == 2 { 1 } else { -1 }));
+    }
+
+    #[test]
+    fn press_release_sums_to_the_distance_from_the_baseline() {
+        // a taxel that swings through its baseline in one step: a release, then presses
+        let frames = [1.0, 1.5, 0.6, 0.6, 1.0, 2.0].iter().enumerate().map(|(k, &v)| frame(k as u64, vec![v, 3.0 - v]));
+        let mut ev = Events::try_new(2, polarity(Polarity::PressRelease)).unwrap();
+        let mut sum = [0i64; 2];
+        let mut out = Vec::new();
+        for f in frames {
+            out.clear();
+            ev.push(f, &mut out).unwrap();
+            let b = &out[0];
+            assert!(b.events.windows(2).all(|w| (w[0].time, w[0].taxel) <= (w[1].time, w[1].taxel)));
+            for e in &b.events {
+                sum[e.taxel as usize] += e.polarity as i64;
+            }
+            for (t, s) in sum.iter().enumerate() {
+                let r = ev.reference(t).unwrap();
+                let r0 = if t == 0 { 0.0 } else { 2f64.ln() };
+                let k = ((r - r0) / 0.1).round() as i64;
+                assert_eq!(*s, k.abs(), "taxel {t} at frame {}", b.seq);
+            }
+        }
+        // the swing 1.5 → 0.6 crosses down through the baseline: releases before presses
+        let mut ev = Events::try_new(1, polarity(Polarity::PressRelease)).unwrap();
+        let b = ev.run_all([frame(0, vec![1.0]), frame(1, vec![1.5]), frame(2, vec![0.6])]).unwrap();
+        let p: Vec<i8> = b[2].events.iter().map(|e| e.polarity).collect();
+        let first_press = p.iter().position(|&x| x == 1).unwrap();
+        assert!(
+            first_press > 0 && p[..first_press].iter().all(|&x| x == -1) && p[first_press..].iter().all(|&x| x == 1)
+        );
+    }
+
+    #[test]
+    fn polarity_parses_and_defaults_to_both() {
+        assert_eq!(EventsConfig::default().polarity, Polarity::Both);
+        for (text, want) in
+            [("both", Polarity::Both), ("press", Polarity::Press), ("press_release", Polarity::PressRelease)]
+        {
+            let c: EventsConfig = serde_json::from_str(&format!(r#"{{"polarity": "{text}"}}"#)).unwrap();
+            assert_eq!(c.polarity, want);
+            assert_eq!(want.name(), text);
+        }
+        assert!(serde_json::from_str::<EventsConfig>(r#"{"polarity": "up"}"#).is_err());
+    }
+
+    proptest::proptest! {
+        /// Any chunking of the frames (a reset-free push per frame vs. `run_all`) gives the same
+        /// events under every polarity; `press` is `both`'s away-from-baseline subset.
+        #[test]
+        fn polarity_is_chunking_invariant_and_press_is_a_subset(
+            values in proptest::collection::vec(proptest::collection::vec(0.05f64..5.0, 3), 2..40),
+            cut in 0usize..40,
+        ) {
+            let frames: Vec<TaxelFrame> = values.iter().enumerate().map(|(k, v)| frame(k as u64, v.clone())).collect();
+            for p in [Polarity::Both, Polarity::Press, Polarity::PressRelease] {
+                let whole = Events::try_new(3, polarity(p)).unwrap().run_all(frames.clone()).unwrap();
+                let mut ev = Events::try_new(3, polarity(p)).unwrap();
+                let mut parts = Vec::new();
+                let cut = cut.min(frames.len());
+                for f in &frames[..cut] { ev.push(f.clone(), &mut parts).unwrap(); }
+                for f in &frames[cut..] { ev.push(f.clone(), &mut parts).unwrap(); }
+                ev.finish(&mut parts).unwrap();
+                proptest::prop_assert_eq!(&whole, &parts);
+            }
+            let both = Events::try_new(3, polarity(Polarity::Both)).unwrap().run_all(frames.clone()).unwrap();
+            let rel = Events::try_new(3, polarity(Polarity::PressRelease)).unwrap().run_all(frames.clone()).unwrap();
+            let press = Events::try_new(3, polarity(Polarity::Press)).unwrap().run_all(frames).unwrap();
+            for ((b, r), p) in both.iter().zip(&rel).zip(&press) {
+                // the same crossings, relabelled; `press` keeps the +1 of press_release
+                let key = |e: &TactileEvent| (e.time, e.taxel);
+                let mut bk: Vec<_> = b.events.iter().map(key).collect();
+                let mut rk: Vec<_> = r.events.iter().map(key).collect();
+                bk.sort();
+                rk.sort();
+                proptest::prop_assert_eq!(bk, rk);
+                let pk: Vec<_> = p.events.iter().map(key).collect();
+                let rp: Vec<_> = r.events.iter().filter(|e| e.polarity == 1).map(key).collect();
+                proptest::prop_assert_eq!(pk, rp);
+            }
+        }
     }
 
     #[test]

@@ -19,6 +19,17 @@
 //!   of age `a` weighs `exp(−a/τ)`. By frames, age counts frames (the newest frame's events
 //!   weigh 1, the previous frame's `exp(−1/τ)`, …); by duration, age is `t − t_event` in time.
 //!
+//! - **cumulative** — the sum of every event since the stream began (or the last
+//!   [`reset`](Stage::reset)), emitted after every `step`-th frame: a window as long as the
+//!   contact, whatever its time scale. With the events stage's
+//!   [`Polarity::PressRelease`](crate::events::Polarity::PressRelease) the signed sum of a taxel
+//!   is its distance from its baseline in thresholds (`|ln y − ln y₀|/τ`, to within one), so
+//!   the aggregate is the contact's change field *now*, flipped electrodes included; with
+//!   [`Polarity::Both`](crate::events::Polarity::Both) it is the signed level `(ln y − ln y₀)/τ`.
+//!   Being a level rather than a sum over a span, it is stamped as a state of the newest
+//!   frame: `start = end` = that frame's time (`frames` still counts the frames since the
+//!   start). Only `signed` and `split` aggregates (a cumulative count only grows); no size.
+//!
 //! Per-taxel aggregate ([`Aggregate`]): `signed` (Σ polarity), `count` (number of events), or
 //! `split` (positive and negative counts separately, [`WindowAggregate::split`]; `values` then
 //! holds the signed sum).
@@ -31,7 +42,8 @@
 //! - tumbling by `frames = N`: `N − 1` frames (the first frame of a window waits for the last);
 //! - tumbling by duration `D`: `D` (plus up to one frame interval until the closing frame);
 //! - sliding and decaying: 0 — every output includes the newest frame; the window's *centre*
-//!   lags by half its length (the responsiveness cost of noise robustness).
+//!   lags by half its length (the responsiveness cost of noise robustness);
+//! - cumulative: 0 — the level after the newest frame.
 //!
 //! # Trade-offs
 //! | choice | responsiveness | noise robustness | output rate |
@@ -41,6 +53,7 @@
 //! | tumbling | one output per window | — | input rate / N |
 //! | sliding | newest frame always in | — | input rate / `step` |
 //! | decaying | smooth, no edge effect when events leave | — | input rate / `step`; floating-point sums |
+//! | cumulative | the level now (with press/release events: the change field) | no forgetting: drift and a wrong baseline stay | input rate / `step` |
 //!
 //! Sliding and tumbling sums are kept as exact integer counts (no drift over long streams);
 //! decaying sums are `f64`.
@@ -63,6 +76,9 @@ pub enum WindowKind {
     Sliding,
     /// Exponentially decaying sum with time constant `frames` / `duration_ms`.
     Decaying,
+    /// The sum since the stream began or the last reset (no size), advanced every `step`
+    /// frames: with press/release events, each taxel's distance from its baseline.
+    Cumulative,
 }
 
 /// The per-taxel aggregate.
@@ -83,7 +99,7 @@ pub enum Aggregate {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct WindowConfig {
-    /// Tumbling, sliding or decaying. Default `sliding`.
+    /// Tumbling, sliding, decaying or cumulative. Default `sliding`.
     pub kind: WindowKind,
     /// Window length (tumbling, sliding) or decay time constant τ (decaying) in input frames.
     /// Default 10 (100 ms at the BioTac's 100 Hz) when `duration_ms` is not given.
@@ -222,7 +238,20 @@ impl Window {
         }
         crate::limits::check_count(STAGE, "step", cfg.step, crate::limits::MAX_WINDOW_FRAMES)?;
         if cfg.kind == WindowKind::Tumbling && cfg.step != 1 {
-            return bad("`step` applies to sliding and decaying windows only".into());
+            return bad("`step` applies to sliding, decaying and cumulative windows only".into());
+        }
+        if cfg.kind == WindowKind::Cumulative {
+            if cfg.frames.is_some() || cfg.duration_ms.is_some() {
+                return bad(
+                    "a cumulative window sums everything since the start: give no `frames` or `duration_ms`".into()
+                );
+            }
+            if cfg.aggregate == Aggregate::Count {
+                return bad(
+                    "a cumulative window takes `aggregate = \"signed\"` or `\"split\"` (a cumulative count only grows)"
+                        .into(),
+                );
+            }
         }
         Ok(Window {
             kind: cfg.kind,
@@ -453,6 +482,18 @@ impl Stage for Window {
                     self.emit_counts(cut, b.time, b.seq, self.frames.len() as u64, out);
                 }
             }
+            (WindowKind::Cumulative, _) => {
+                for e in &b.events {
+                    self.add(e, 1);
+                }
+                self.n_frames += 1;
+                self.since_emit += 1;
+                if self.since_emit >= self.step {
+                    self.since_emit = 0;
+                    // a level, stamped as the state of the newest frame
+                    self.emit_counts(b.time, b.time, b.seq, self.n_frames, out);
+                }
+            }
             (WindowKind::Decaying, size) => {
                 // decay of what was held since the previous frame; `tau_ns` = None: by frames
                 let (decay, tau_ns) = match size {
@@ -554,6 +595,106 @@ mod tests {
     }
     fn batch(seq: u64, t: i64, events: Vec<TactileEvent>) -> EventBatch {
         EventBatch { sensor: "ff".into(), time: Timestamp(t), seq, taxels: 3, events }
+    }
+
+    #[test]
+    fn cumulative_sums_since_the_start_as_a_state_of_the_newest_frame() {
+        let cfg = WindowConfig { kind: WindowKind::Cumulative, ..Default::default() };
+        let mut w = Window::try_new(&cfg).unwrap();
+        let out = w
+            .run_all([
+                batch(0, 10, vec![ev(5, 0, 1), ev(6, 1, -1)]),
+                batch(1, 20, vec![ev(15, 0, 1)]),
+                batch(2, 30, vec![]),
+                batch(3, 40, vec![ev(35, 0, -1), ev(36, 2, 1)]),
+            ])
+            .unwrap();
+        let values: Vec<Vec<f64>> = out.iter().map(|a| a.values.clone()).collect();
+        assert_eq!(
+            values,
+            vec![vec![1.0, -1.0, 0.0], vec![2.0, -1.0, 0.0], vec![2.0, -1.0, 0.0], vec![1.0, -1.0, 1.0]]
+        );
+        assert_eq!((out[3].start, out[3].end, out[3].seq, out[3].frames), (Timestamp(40), Timestamp(40), 3, 4));
+        assert_eq!(w.delay(), Delay::ZERO);
+        // step 2: every other frame; a reset starts the sum again
+        let cfg =
+            WindowConfig { kind: WindowKind::Cumulative, step: 2, aggregate: Aggregate::Split, ..Default::default() };
+        let mut w = Window::try_new(&cfg).unwrap();
+        let out = w.run_all([batch(0, 10, vec![ev(5, 0, 1)]), batch(1, 20, vec![ev(15, 0, -1)])]).unwrap();
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].split.as_ref().unwrap().positive, vec![1.0, 0.0, 0.0]);
+        let out = w.run_all([batch(0, 10, vec![]), batch(1, 20, vec![])]).unwrap();
+        assert_eq!(out[0].values, vec![0.0; 3]);
+        // no size, no count
+        for bad in [
+            WindowConfig { kind: WindowKind::Cumulative, frames: Some(5), ..Default::default() },
+            WindowConfig { kind: WindowKind::Cumulative, duration_ms: Some(50.0), ..Default::default() },
+            WindowConfig { kind: WindowKind::Cumulative, aggregate: Aggregate::Count, ..Default::default() },
+        ] {
+            assert!(Window::try_new(&bad).is_err(), "{bad:?}");
+        }
+    }
+
+    /// The case: a press on the BioTac SP layout with flipped electrodes (every third
+    /// electrode reads the other way, its value rising under pressure), then the release.
+    /// Under `press_release` events a cumulative signed window's maximal contour lies at the
+    /// press while pressed and there is no contact after the release; `both` events' signed
+    /// levels put the peak on a flipped electrode instead.
+    #[test]
+    fn press_release_cumulative_finds_the_press_through_flipped_electrodes() {
+        use crate::contour::{Contour, ContourConfig, ContourOutcome};
+        use crate::events::{Events, EventsConfig, Polarity, Threshold};
+        use crate::interpolate::{Interpolate, InterpolateConfig};
+        use gradtac_stream::{Layout, TaxelFrame};
+        let layout = Layout::biotac_sp();
+        let press = [1.0, -2.0];
+        let depth = [0.0, 0.0, 0.3, 0.7, 1.0, 1.0, 1.0, 0.6, 0.2, 0.0, 0.0, 0.0];
+        let frames: Vec<TaxelFrame> = depth
+            .iter()
+            .enumerate()
+            .map(|(k, d)| {
+                let values = layout
+                    .positions()
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        let r2 = (p[0] - press[0]).powi(2) + (p[1] - press[1]).powi(2);
+                        let sign = if i % 3 == 0 { 1.0 } else { -1.0 };
+                        2500.0 + sign * 400.0 * d * (-r2 / (2.0 * 4.0 * 4.0)).exp()
+                    })
+                    .collect();
+                TaxelFrame::new("ff".into(), Timestamp(k as i64 * 10_000_000), k as u64, values)
+            })
+            .collect();
+        let contours = |p: Polarity| {
+            let c = EventsConfig { threshold: Threshold::Uniform(0.004), polarity: p, ..Default::default() };
+            let b = Events::try_new(layout.len(), c).unwrap().run_all(frames.clone()).unwrap();
+            let cfg = WindowConfig { kind: WindowKind::Cumulative, ..Default::default() };
+            let cc = ContourConfig { min_peak: 2.0, min_area_mm2: 60.0, ..Default::default() };
+            Window::try_new(&cfg)
+                .unwrap()
+                .then(Interpolate::try_new(&InterpolateConfig::default(), &layout).unwrap())
+                .then(Contour::try_new(&cc).unwrap())
+                .run_all(b)
+                .unwrap()
+        };
+        let at = |o: &ContourOutcome| match o {
+            ContourOutcome::Contact(c) => Some(c.centroid_mm),
+            _ => None,
+        };
+        let pr = contours(Polarity::PressRelease);
+        for f in &pr[4..7] {
+            let c = at(&f.outcome).expect("a contact while pressed");
+            let e = (c[0] - press[0]).hypot(c[1] - press[1]);
+            assert!(e < 1.5, "press_release contour at {c:?}, {e:.2} mm from the press");
+        }
+        // released: every taxel back at its baseline, no contact
+        assert!(at(&pr[11].outcome).is_none(), "{:?}", pr[11].outcome);
+        let both = contours(Polarity::Both);
+        let c = at(&both[5].outcome).expect("both: the flipped electrodes' rise is a peak");
+        let e = (c[0] - press[0]).hypot(c[1] - press[1]);
+        let e_pr = at(&pr[5].outcome).map(|c| (c[0] - press[0]).hypot(c[1] - press[1])).unwrap();
+        assert!(e > 2.0 * e_pr, "both: {e:.2} mm, press_release {e_pr:.2} mm");
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! | `frame_time` | time ([`TimeBase`]), not null | the time of the frame whose interval the event fell in ([`EventBatch::time`]) |
 //! | `seq` | `UInt64`, not null | that frame's index ([`EventBatch::seq`]) |
 //! | `taxel` | `UInt16`, not null | the taxel's **number, counting from 1** in layout order (like the names `e1` … `e24`): [`TactileEvent::taxel`] (a 0-based index) + 1; field metadata `gradtac.taxels` = JSON array of the taxel names, so `names[taxel − 1]` names it |
-//! | `polarity` | `Int8`, not null | +1 for a rise of `ln x`, −1 for a fall |
+//! | `polarity` | `Int8`, not null | +1 for a rise of `ln x`, −1 for a fall; under `[stages.events] polarity = "press"` / `"press_release"`: +1 away from the taxel's baseline, −1 back toward it |
 //!
 //! Batches are flattened: a batch of `k` events writes `k` rows in its own (time) order, and a
 //! batch with no events writes **no row** (an event archive holds events, not frame ticks;
