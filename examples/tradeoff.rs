@@ -58,11 +58,38 @@ use std::time::Instant;
 /// One setting of one method.
 #[derive(Clone, Debug)]
 enum Setting {
-    Centroid { window: u32, power: f64, contact: f64, smooth: u32, speed: f64 },
-    Delta2 { window: u32 },
-    Fit { window: u32, iterations: u32, gain_rate: f64, model_error: f64, signed: bool, smooth: u32, speed: f64 },
-    Raw { grid: usize, window: u32, min_area: f64 },
-    Events { grid: usize, window: u64, tau: f64, min_area: f64 },
+    Centroid {
+        window: u32,
+        power: f64,
+        contact: f64,
+        smooth: u32,
+        speed: f64,
+    },
+    Delta2 {
+        window: u32,
+    },
+    Fit {
+        window: u32,
+        iterations: u32,
+        gain_rate: f64,
+        model_error: f64,
+        signed: bool,
+        smooth: u32,
+        speed: f64,
+        /// The motion prior and region hysteresis (`fit_motion_prior` > 0, the library's default).
+        continuity: bool,
+    },
+    Raw {
+        grid: usize,
+        window: u32,
+        min_area: f64,
+    },
+    Events {
+        grid: usize,
+        window: u64,
+        tau: f64,
+        min_area: f64,
+    },
 }
 
 impl Setting {
@@ -84,10 +111,11 @@ impl Setting {
                 format!("window {window}, p = {power}, floor 2 σ, contact {contact} σ, smooth {smooth}, {}", speed(*v))
             }
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit { window, iterations, gain_rate, model_error, signed, smooth, speed: v } => format!(
-                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact 10 σ, smooth {smooth}, {}",
+            Setting::Fit { window, iterations, gain_rate, model_error, signed, smooth, speed: v, continuity } => format!(
+                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact 10 σ, smooth {smooth}, {}, {}",
                 if *signed { "signed" } else { "magnitudes" },
-                speed(*v)
+                speed(*v),
+                if *continuity { "motion prior" } else { "no motion prior" }
             ),
             Setting::Raw { grid, window, min_area } => format!("{grid}×{grid}, window {window}, min area {min_area} mm²"),
             Setting::Events { grid, window, tau, min_area } => format!(
@@ -110,18 +138,21 @@ impl Setting {
                 top_k: None,
                 ..base
             }),
-            Setting::Fit { window, iterations, gain_rate, model_error, signed, smooth, speed } => Some(LocateConfig {
-                fit_signed: signed,
-                method: LocateMethod::Fit,
-                window_frames: window,
-                fit_iterations: iterations,
-                fit_gain_rate: gain_rate,
-                fit_model_error: model_error,
-                contact_sigmas: 10.0,
-                smooth_frames: smooth,
-                max_speed_mm_s: speed,
-                ..base
-            }),
+            Setting::Fit { window, iterations, gain_rate, model_error, signed, smooth, speed, continuity } => {
+                Some(LocateConfig {
+                    fit_motion_prior: if continuity { base.fit_motion_prior } else { 0.0 },
+                    fit_signed: signed,
+                    method: LocateMethod::Fit,
+                    window_frames: window,
+                    fit_iterations: iterations,
+                    fit_gain_rate: gain_rate,
+                    fit_model_error: model_error,
+                    contact_sigmas: 10.0,
+                    smooth_frames: smooth,
+                    max_speed_mm_s: speed,
+                    ..base
+                })
+            }
             _ => None,
         }
     }
@@ -416,9 +447,29 @@ fn main() {
                         signed,
                         smooth: 1,
                         speed: 30.0,
+                        continuity: true,
                     });
                 }
             }
+        }
+    }
+    // the window the real recordings chose for the motion prior (docs/tradeoff.md), and the
+    // former `accurate` point, each with and without the motion prior
+    for window in [5u32, 9] {
+        for continuity in [false, true] {
+            if window == 5 && continuity {
+                continue; // in the grid above
+            }
+            settings.push(Setting::Fit {
+                window,
+                iterations: 3,
+                gain_rate: 0.0,
+                model_error: 0.3,
+                signed: false,
+                smooth: 1,
+                speed: 30.0,
+                continuity,
+            });
         }
     }
     // online gains, at the others' most accurate tuning setting family
@@ -430,6 +481,7 @@ fn main() {
         signed: false,
         smooth: 1,
         speed: 30.0,
+        continuity: true,
     });
     for grid in [16usize, 32] {
         for window in [5u32, 9] {
@@ -630,6 +682,34 @@ fn main() {
             r.test.mean,
             r.novel.worst,
             r.paper.1 / core_width,
+            r.us
+        );
+    }
+    let la = LocateConfig::preset(Preset::Accurate);
+    let lib_accurate = rows.iter().find(|r| {
+        matches!(r.s, Setting::Fit { window, iterations, gain_rate, model_error, signed, smooth, speed, continuity }
+            if window == la.window_frames && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+                && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
+                && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
+    });
+    if let Some(r) = lib_accurate {
+        println!(
+            "| **fit with the library's `accurate` preset** | {} | {:.3} ({}) | {:.3} | {:.3} | {:.3} | {:.2} |",
+            r.s.describe(),
+            r.test.worst,
+            r.test.kind,
+            r.test.mean,
+            r.novel.worst,
+            r.paper.1 / core_width,
+            r.us
+        );
+        println!();
+        println!(
+            "The library's `accurate` preset: {} — tuning {:.3}, held out {:.3} ({}), {:.2} µs/frame (its window and motion prior chosen on real recordings among settings no less accurate on the tuning members, docs/tradeoff.md).",
+            r.s.describe(),
+            r.tune.worst,
+            r.test.worst,
+            r.test.kind,
             r.us
         );
     }
