@@ -57,8 +57,25 @@
 //! Non-finite input is an error naming the frame and taxel (the detector's check), never a
 //! panic.
 //!
-//! The reported point has the centroid's position memory (`smooth_frames`, each frame weighted
-//! by `1/sigma_mm²`) and physical speed bound (`max_speed_mm_s`). The contour's `area_mm2` is
+//! # Continuity
+//! Within a contact the fitted positions pass through a **motion prior** before the reported
+//! point (`fit_motion_prior` > 0 and a speed bound; [`LocateConfig::fit_motion_prior`]): a
+//! constant-position Kalman filter whose measurement is each frame's fit with variance
+//! `sigma_mm²` (×4 when the fit flags a second region), whose contact moves by a random walk of
+//! `fit_motion_prior · max_speed_mm_s · Δt` per frame, and whose state σ is held at most 1 mm.
+//! An innovation beyond `fit_innovation_sigmas` σ of its predicted scatter is down-weighted to
+//! sit at that many σ. A confident fit moves the point at once; one that another region pulls
+//! away, or that the model explains poorly, moves it only as far as the evidence holds, and a
+//! jump only once it persists. Why: on real recordings that start in contact the changes come
+//! from several regions of opposite sign, and the magnitude fit switches between them as their
+//! balance shifts; without the prior the speed bound turned each switch into motion at 30 mm/s
+//! (24.7 % of frame pairs of the 167 BioTacSP-DoS dev recordings at the bound; with it 3.1 %,
+//! the centroid 4.0 %; `docs/tradeoff.md`). Cost: a contact sliding at 20 mm/s is followed with
+//! a lag of up to ≈ 1 mm where the fit wobbles (unit test); on the simulator's tuning members
+//! the worst kind did not get worse (`docs/tradeoff.md`). `fit_motion_prior = 0` turns it off.
+//!
+//! The reported point then has the centroid's position memory (`smooth_frames`, each frame
+//! weighted by `1/sigma_mm²`) and physical speed bound (`max_speed_mm_s`). The contour's `area_mm2` is
 //! `4π w²` (the 2-σ disc of the fitted spread), `peak` the largest relative change above the
 //! noise floor (as the centroid's), `peak_mm` the fitted position; orientation and eccentricity 0.
 //!
@@ -66,7 +83,7 @@
 //! Positions and spread mm, amplitude input units (raw counts), times ns.
 //!
 //! # Delay
-//! `(window_frames − 1)/2` frames plus the position memory's lag. Start-up: `calibrate_frames`.
+//! `(window_frames − 1)/2` frames plus the motion prior's and the position memory's lag. Start-up: `calibrate_frames`.
 //!
 //! # Cost
 //! O(electrodes × iterations): ≈ 1–3 µs per BioTac SP frame in contact (release,
@@ -79,6 +96,8 @@
 //! | `fit_gain_rate` | fixed gains: sign-flipped electrodes stay outliers | adapts faster, follows noise |
 //! | `fit_model_error` | trusts the kernel: strongest electrodes dominate | spreads trust; less precise |
 //! | `window_frames` | immediate, noisier | smoother, more delay |
+//! | `fit_motion_prior` | quieter track, lags fast motion | follows each fit, jumps between regions |
+//! | `fit_innovation_sigmas` | jumps wait longer to be believed (0 = no gate) | believes jumps sooner |
 
 // small dense linear algebra (5×5 normal equations, Cholesky) and per-electrode arrays read
 // most clearly indexed
