@@ -206,6 +206,10 @@ fn explain_shows_the_fit_and_the_preset_values() {
     assert!(!fit.contains("\n  surface"), "the fit needs no surface:\n{fit}");
     let accurate = explain("[stages.locate]\npreset = \"accurate\"\n").unwrap();
     assert!(accurate.contains("preset accurate"), "{accurate}");
+    assert!(accurate.contains("motion prior 0.8 × the speed bound, innovations gated at 1.2 σ"), "{accurate}");
+    let off = explain("[stages.locate]\npreset = \"accurate\"\nfit_motion_prior = 0.0\n").unwrap();
+    assert!(off.contains("no motion prior"), "{off}");
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_motion_prior = -1.0\n").is_err());
     assert!(explain("[stages.locate]\npreset = \"fastest\"\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_rails = [5, 1]\n").is_err());
 }
