@@ -82,6 +82,8 @@ struct FitSetting {
     speed: f64,
     contact: f64,
     lead: f64,
+    /// The motion prior (`fit_motion_prior` > 0, the library's default).
+    continuity: bool,
 }
 
 impl Setting {
@@ -108,11 +110,12 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead }) => format!(
-                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact {contact} σ, lead {} ms, smooth {smooth}, {}",
+            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, continuity }) => format!(
+                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact {contact} σ, lead {} ms, smooth {smooth}, {}, {}",
                 if *signed { "signed" } else { "magnitudes" },
                 lead * 1e3,
-                speed(*v)
+                speed(*v),
+                if *continuity { "motion prior" } else { "no motion prior" }
             ),
             Setting::Raw { grid, window, min_area } => format!("{grid}×{grid}, window {window}, min area {min_area} mm²"),
             Setting::Events { grid, window, tau, min_area, polarity, min_peak } => format!(
@@ -153,7 +156,9 @@ impl Setting {
                 speed,
                 contact,
                 lead,
+                continuity,
             }) => Some(LocateConfig {
+                fit_motion_prior: if continuity { base.fit_motion_prior } else { 0.0 },
                 fit_signed: signed,
                 method: LocateMethod::Fit,
                 window_frames: window,
@@ -485,7 +490,7 @@ fn main() {
         settings.push(Setting::Delta2 { window });
     }
     // the fit: the former grid (contact 10 σ, fixed gains, no lead) ...
-    let fit = |window, iterations, gain_rate, model_error, signed, contact, lead| {
+    let fit = |window, iterations, gain_rate, model_error, signed, contact, lead, continuity| {
         Setting::Fit(FitSetting {
             window,
             iterations,
@@ -496,13 +501,14 @@ fn main() {
             speed: 30.0,
             contact,
             lead,
+            continuity,
         })
     };
     for window in [1u32, 5] {
         for iterations in [3u32, 10] {
             for model_error in [0.15, 0.3] {
                 for signed in [false, true] {
-                    settings.push(fit(window, iterations, 0.0, model_error, signed, 10.0, 0.0));
+                    settings.push(fit(window, iterations, 0.0, model_error, signed, 10.0, 0.0, true));
                 }
             }
         }
@@ -515,10 +521,25 @@ fn main() {
                     if contact == 10.0 && gain_rate == 0.0 && lead == 0.0 {
                         continue; // in the former grid
                     }
-                    settings.push(fit(window, 3, gain_rate, 0.3, false, contact, lead));
+                    settings.push(fit(window, 3, gain_rate, 0.3, false, contact, lead, true));
                 }
             }
         }
+    }
+    // the window the real recordings chose for the motion prior (docs/tradeoff.md), and the
+    // former `accurate` point, each with and without the motion prior; and the library's
+    // `accurate` preset (window 9, online gains at 0.1, motion prior) with and without it
+    for window in [5u32, 9] {
+        for continuity in [false, true] {
+            if window == 5 && continuity {
+                continue; // in the grid above
+            }
+            settings.push(fit(window, 3, 0.0, 0.3, false, 10.0, 0.0, continuity));
+        }
+    }
+    settings.push(fit(5, 3, 0.1, 0.3, false, 10.0, 0.0, false));
+    for continuity in [false, true] {
+        settings.push(fit(9, 3, 0.1, 0.3, false, 10.0, 0.0, continuity));
     }
     for grid in [16usize, 32] {
         for window in [5u32, 9] {
@@ -775,6 +796,34 @@ fn main() {
             r.test.mean,
             r.novel.worst,
             r.paper.1 / core_width,
+            r.us
+        );
+    }
+    let la = LocateConfig::preset(Preset::Accurate);
+    let lib_accurate = rows.iter().find(|r| {
+        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, continuity })
+            if window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+                && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
+                && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
+    });
+    if let Some(r) = lib_accurate {
+        println!(
+            "| **fit with the library's `accurate` preset** | {} | {:.3} ({}) | {:.3} | {:.3} | {:.3} | {:.2} |",
+            r.s.describe(),
+            r.test.worst,
+            r.test.kind,
+            r.test.mean,
+            r.novel.worst,
+            r.paper.1 / core_width,
+            r.us
+        );
+        println!();
+        println!(
+            "The library's `accurate` preset: {} — tuning {:.3}, held out {:.3} ({}), {:.2} µs/frame (its window and motion prior chosen on real recordings among settings no less accurate on the tuning members, docs/tradeoff.md).",
+            r.s.describe(),
+            r.tune.worst,
+            r.test.worst,
+            r.test.kind,
             r.us
         );
     }

@@ -411,11 +411,19 @@ impl SensorChain {
                 } else {
                     "no speed bound".to_string()
                 };
+                let prior = if l.fit_motion_prior > 0.0 && l.max_speed_mm_s > 0.0 {
+                    format!(
+                        "motion prior {} × the speed bound, innovations gated at {} σ",
+                        l.fit_motion_prior, l.fit_innovation_sigmas
+                    )
+                } else {
+                    "no motion prior".to_string()
+                };
                 format!(
                     "model fit (preset {}): robust Levenberg–Marquardt, ≤ {} iterations, on the 3-D electrode cores when the \
                      layout is the BioTac SP; spread, amplitude, far lobe; gains learned at rate {}; model error {} of the \
                      largest change; electrodes at the rails [{}, {}] left out; reports residual and σ (mm) per point; \
-                     lag lead {} s along the velocity of the last {} positions; position memory {} frames, {speed} ({})",
+                     lag lead {} s along the velocity of the last {} positions; {prior}; position memory {} frames, {speed} ({})",
                     l.preset.name(),
                     l.fit_iterations,
                     l.fit_gain_rate,

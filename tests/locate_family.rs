@@ -312,6 +312,10 @@ fn explain_shows_the_fit_and_the_preset_values() {
     let lead = explain("[stages.locate]\npreset = \"accurate\"\nfit_lead_s = 0.02\nfit_velocity_frames = 6\n").unwrap();
     assert!(lead.contains("lag lead 0.02 s along the velocity of the last 6 positions"), "{lead}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_lead_s = 2\n").is_err());
+    assert!(accurate.contains("motion prior 0.8 × the speed bound, innovations gated at 1.2 σ"), "{accurate}");
+    let off = explain("[stages.locate]\npreset = \"accurate\"\nfit_motion_prior = 0.0\n").unwrap();
+    assert!(off.contains("no motion prior"), "{off}");
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_motion_prior = -1.0\n").is_err());
     assert!(explain("[stages.locate]\npreset = \"fastest\"\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_rails = [5, 1]\n").is_err());
 }

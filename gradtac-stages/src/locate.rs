@@ -198,6 +198,17 @@ pub struct LocateConfig {
     /// `fit`: frames (2–100) of the current contact over which the velocity `v̂` is the
     /// least-squares slope of the fitted positions. Default 8.
     pub fit_velocity_frames: u32,
+    /// `fit`: the motion prior's process noise, as a multiple of `max_speed_mm_s · Δt` (≥ 0,
+    /// ≤ 100; 0 = off; off too without a speed bound): each frame's fitted position is a
+    /// measurement (variance `sigma_mm²`) of a contact that moves by a random walk of that
+    /// step, filtered before the position memory ([`crate::fit`], "Continuity"). Default 0.8
+    /// (chosen on the real *Basic* recordings within the tuning members' accuracy,
+    /// `docs/tradeoff.md`).
+    pub fit_motion_prior: f64,
+    /// `fit`: innovations beyond this many σ of their predicted scatter count less (≥ 0,
+    /// ≤ 1000; 0 = all count fully): a fit that jumps to another region moves the filtered
+    /// position only once the jump persists ([`crate::fit`], "Continuity"). Default 1.2.
+    pub fit_innovation_sigmas: f64,
     /// `centroid` / `raw_contour` (and a changes-based force model): a stored untouched
     /// baseline (`gradtac calibrate baseline`, [`Tare`](crate::tare::Tare)), relative to the
     /// scene. With it the detector skips its start-up calibration — a hand that starts in
@@ -233,6 +244,8 @@ struct LocateToml {
     fit_signed: Option<bool>,
     fit_lead_s: Option<f64>,
     fit_velocity_frames: Option<u32>,
+    fit_motion_prior: Option<f64>,
+    fit_innovation_sigmas: Option<f64>,
     baseline: Option<std::path::PathBuf>,
 }
 
@@ -260,7 +273,9 @@ impl From<LocateToml> for LocateConfig {
             fit_rails,
             fit_signed,
             fit_lead_s,
-            fit_velocity_frames
+            fit_velocity_frames,
+            fit_motion_prior,
+            fit_innovation_sigmas
         );
         if t.top_k.is_some() {
             c.top_k = t.top_k;
@@ -290,12 +305,14 @@ impl LocateConfig {
             // (6.3 µs on a quieter one) and never checked against the real-data floors: the
             // centroid stays (docs/tradeoff.md)
             Preset::Fast => base,
-            // the model fit chosen on the tuning members at ≤ 50 µs/frame (2026-11-27, issue #22
-            // round 2: online gains at rate 0.1 chosen; no lag lead — tuning lags are 10–30 ms)
+            // the model fit chosen on the tuning members at ≤ 50 µs/frame (online gains at rate
+            // 0.1; no lag lead — tuning lags are 10–30 ms); its window and continuity (motion
+            // prior, innovation gate) chosen on the real Basic recordings among settings no
+            // less accurate on the tuning members (docs/tradeoff.md)
             Preset::Accurate => LocateConfig {
                 preset: p,
                 method: LocateMethod::Fit,
-                window_frames: 5,
+                window_frames: 9,
                 smooth_frames: 1,
                 max_speed_mm_s: 30.0,
                 fit_iterations: 3,
@@ -303,6 +320,8 @@ impl LocateConfig {
                 fit_lead_s: 0.0,
                 fit_model_error: 0.3,
                 fit_signed: false,
+                fit_motion_prior: 0.8,
+                fit_innovation_sigmas: 1.2,
                 ..base
             },
         }
@@ -331,6 +350,8 @@ impl LocateConfig {
             fit_signed: false,
             fit_lead_s: 0.0,
             fit_velocity_frames: 8,
+            fit_motion_prior: 0.8,
+            fit_innovation_sigmas: 1.2,
             baseline: None,
         }
     }
@@ -385,6 +406,15 @@ impl LocateConfig {
         }
         if !(2..=100).contains(&self.fit_velocity_frames) {
             return bad(format!("`fit_velocity_frames` = {} must be in 2..=100", self.fit_velocity_frames));
+        }
+        if !(self.fit_motion_prior.is_finite() && (0.0..=100.0).contains(&self.fit_motion_prior)) {
+            return bad(format!("`fit_motion_prior` = {} must be in [0, 100] (0 = off)", self.fit_motion_prior));
+        }
+        if !(self.fit_innovation_sigmas.is_finite() && (0.0..=1000.0).contains(&self.fit_innovation_sigmas)) {
+            return bad(format!(
+                "`fit_innovation_sigmas` = {} must be in [0, 1000] (0 = every innovation counts fully)",
+                self.fit_innovation_sigmas
+            ));
         }
         let [lo, hi] = self.fit_rails;
         if lo.is_nan() || hi.is_nan() || lo >= hi {
@@ -1089,6 +1119,9 @@ mod tests {
             LocateConfig { fit_lead_s: f64::INFINITY, ..Default::default() },
             LocateConfig { fit_velocity_frames: 1, ..Default::default() },
             LocateConfig { fit_velocity_frames: 101, ..Default::default() },
+            LocateConfig { fit_motion_prior: -0.5, ..Default::default() },
+            LocateConfig { fit_motion_prior: f64::INFINITY, ..Default::default() },
+            LocateConfig { fit_innovation_sigmas: f64::NAN, ..Default::default() },
         ] {
             assert!(ChangeDetector::try_new(2, &bad).is_err(), "{bad:?}");
         }
