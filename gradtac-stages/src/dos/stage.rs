@@ -49,6 +49,14 @@ impl HasSensor for DosDecision {
 /// 70 µs for 250 frames) on top of checking every frame as it arrives. At `finish`, frames
 /// pushed since the last decision get one more decision over the last (up to) `n` frames.
 ///
+/// With the model's window part ([`DosModel::window`]) each decision is the combined score
+/// ([`DosModel::combine`]) of the Student-t decision and the causal vote of the window net over
+/// the same frames the decision covers: the span since the last decision (or the segment) in
+/// the first two modes, the replayed window in the sliding mode (each completed non-overlapping
+/// window of the net counted from the span's first frame; none yet: the Student-t decision).
+/// Extra cost: a frame copy and, every 5 frames, one window of the net (≈ 1 µs) per frame; in the
+/// sliding mode the replay of `n` frames through the vote per decision.
+///
 /// [`reset`](Stage::reset) drops the open span (and the sliding window). Delay: `n − 1` frames;
 /// with `None` the decision comes at `finish` and [`Stage::delay`] reports zero (no frame
 /// count describes it).
@@ -62,6 +70,9 @@ pub struct DosClassifier {
     /// Sliding mode: the hop, the window of the last `decision_frames` frames, frames since the
     /// last decision, and the extractor the window is replayed through.
     sliding: Option<Sliding>,
+    /// With the model's window part: the causal vote over the span's windows (tumbling spans
+    /// and one decision per segment; the sliding mode replays its window through `Sliding::vote`).
+    vote: Option<WindowVoteState>,
 }
 
 #[derive(Clone, Debug)]
@@ -72,6 +83,8 @@ struct Sliding {
     recent: std::collections::VecDeque<TaxelFrame>,
     since: u64,
     replay: DosFeatureExtractor,
+    /// The window vote the window is replayed through (with the model's window part).
+    vote: Option<WindowVoteState>,
 }
 
 impl DosClassifier {
@@ -89,7 +102,16 @@ impl DosClassifier {
             )));
         }
         let extractor = DosFeatureExtractor::try_new(&model.config, layout)?;
-        Ok(DosClassifier { model, extractor, decision_frames, span: None, sliding: None })
+        let vote = match &model.window {
+            Some(w) => Some(WindowVoteState::try_new(&w.net, layout).map_err(|e| match e {
+                Error::InvalidConfig { stage, reason } => {
+                    Error::InvalidConfig { stage, reason: format!("window.net of the model: {reason}") }
+                }
+                other => other,
+            })?),
+            None => None,
+        };
+        Ok(DosClassifier { model, extractor, decision_frames, span: None, sliding: None, vote })
     }
 
     /// Sliding decisions: one every `hop` frames (≥ 1) over the last `decision_frames` frames,
@@ -108,12 +130,14 @@ impl DosClassifier {
             )));
         }
         let replay = self.extractor.clone();
+        let vote = self.vote.clone();
         self.sliding = Some(Sliding {
             hop,
             early: false,
             recent: std::collections::VecDeque::with_capacity(usize::try_from(n).unwrap_or(0).min(1 << 20)),
             since: 0,
             replay,
+            vote,
         });
         Ok(self)
     }
@@ -144,7 +168,11 @@ impl DosClassifier {
     fn emit(&mut self, out: &mut Vec<DosDecision>) -> Result<()> {
         if let Some((sensor, start, end, seq)) = self.span.take() {
             let features = self.extractor.features();
-            let decision = self.model.classify_vector(&features)?;
+            let mut decision = self.model.classify_vector(&features)?;
+            if let Some(v) = &mut self.vote {
+                decision = self.model.combine(decision, v.mean_log_posterior().as_deref());
+                v.reset();
+            }
             out.push(DosDecision { sensor, start, end, seq, frames: features.frames, decision, features });
             self.extractor.clear_span();
         }
@@ -163,7 +191,14 @@ impl DosClassifier {
             sl.replay.push(f.clone())?;
         }
         let features = sl.replay.features();
-        let decision = self.model.classify_vector(&features)?;
+        let mut decision = self.model.classify_vector(&features)?;
+        if let (Some(v), Some(w)) = (&mut sl.vote, &self.model.window) {
+            v.reset();
+            for f in &sl.recent {
+                v.push(&w.net, &f.values)?;
+            }
+            decision = self.model.combine(decision, v.mean_log_posterior().as_deref());
+        }
         out.push(DosDecision { sensor, start, end, seq, frames: features.frames, decision, features });
         sl.since = 0;
         Ok(())
@@ -197,7 +232,15 @@ impl Stage for DosClassifier {
             return self.push_sliding(frame, out);
         }
         let (sensor, time, seq) = (frame.sensor.clone(), frame.time, frame.seq);
-        self.extractor.push(frame)?;
+        match (&mut self.vote, &self.model.window) {
+            (Some(v), Some(w)) => {
+                let values = frame.values.clone();
+                // the extractor first: a bad frame gets the same error as without a window part
+                self.extractor.push(frame)?;
+                v.push(&w.net, &values)?;
+            }
+            _ => self.extractor.push(frame)?,
+        }
         match &mut self.span {
             Some(s) => {
                 s.2 = time;
@@ -225,6 +268,9 @@ impl Stage for DosClassifier {
     fn reset(&mut self) {
         self.extractor.reset();
         self.span = None;
+        if let Some(v) = &mut self.vote {
+            v.reset();
+        }
         if let Some(sl) = &mut self.sliding {
             sl.recent.clear();
             sl.since = 0;
