@@ -314,6 +314,60 @@ fn pair_scores(
         .collect()
 }
 
+/// The scene's path for one outer fold: the Student-t candidate `tcand` and the window candidate
+/// fitted on `train`, joined into one model file's [`DosModel`] with weight `a`
+/// ([`gradtac::stages::dos::DosWindowPart`]), run as the `dos` stage (one decision per
+/// recording) on every `test` recording: (right, decided, per-recording classes, per-frame
+/// costs in µs).
+#[allow(clippy::too_many_arguments)]
+fn stage_fold(
+    tables: &[Vec<gradtac::stages::dos::LabelledSpan>],
+    tcand: &gradtac::stages::dos_select::Candidate,
+    samples: &[WindowSamples],
+    wcfg: &WindowTrainConfig,
+    tr: &[TrainRecording],
+    train: &[usize],
+    test: &[usize],
+    layout: &Layout,
+    a: f64,
+) -> Result<(usize, Vec<DosClass>, Vec<f64>), Box<dyn Error>> {
+    use gradtac::stages::dos::{DosClassifier, DosWindowPart};
+    use gradtac::stream::{SensorId, Stage, TaxelFrame, Timestamp};
+    let dof = Some(gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF);
+    let net = gradtac::stages::dos::train_window::fit_on(samples, train, layout.len(), wcfg)?;
+    let model = tcand
+        .calibrate(train.iter().map(|&i| &tables[tcand.table][i]), dof)?
+        .with_window(Some(DosWindowPart { weight: a, net }))?;
+    let (mut ok, mut classes, mut cost) = (0, Vec::new(), Vec::new());
+    let mut out = Vec::new();
+    for &i in test {
+        let mut stage = DosClassifier::try_new(model.clone(), layout, None)?;
+        out.clear();
+        for (seq, v) in tr[i].frames.iter().enumerate() {
+            let f = TaxelFrame::new(
+                SensorId::new("ff"),
+                Timestamp::from_nanos(seq as i64 * 10_000_000),
+                seq as u64,
+                v.clone(),
+            );
+            let t = Instant::now();
+            stage.push(f, &mut out)?;
+            cost.push(t.elapsed().as_secs_f64() * 1e6);
+        }
+        stage.finish(&mut out)?;
+        let d = out.last().ok_or("the stage gave no decision")?.decision.class;
+        ok += usize::from(d == tr[i].class);
+        classes.push(d);
+    }
+    Ok((ok, classes, cost))
+}
+
+/// The class the combination with weight `a` decides.
+fn combined_class(pair: &Pair, a: f64) -> DosClass {
+    let s: Vec<f64> = pair.0.iter().zip(&pair.1).map(|(t, w)| a * t + (1.0 - a) * w).collect();
+    DosClass::ALL[(0..7).fold(0, |m, k| if s[k] > s[m] { k } else { m })]
+}
+
 /// Whether the combination with weight `a` decides `class`.
 fn combined_right(pair: &Pair, a: f64, class: DosClass) -> bool {
     let s: Vec<f64> = pair.0.iter().zip(&pair.1).map(|(t, w)| a * t + (1.0 - a) * w).collect();
@@ -349,6 +403,10 @@ pub fn combination(
         g.dedup();
         g
     };
+    // the scene's path (the `dos` stage on the model file's DosModel with its window part):
+    // per fold (right, same class as the combination above, recordings), and per-frame costs
+    let stage_tally = std::cell::RefCell::new(Vec::<(usize, usize, usize)>::new());
+    let stage_costs = std::cell::RefCell::new(Vec::<f64>::new());
     // one outer fold: (tally at the end, tally at 1 s, weight)
     let fold = |tk: usize, wk: usize, train: &[usize], test: &[usize]| -> Result<_, Box<dyn Error>> {
         let mut inner: Vec<(Pair, DosClass)> = Vec::new();
@@ -369,6 +427,11 @@ pub fn combination(
         let whole = pair_scores(&tables, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, usize::MAX)?;
         let at1 = pair_scores(&early, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, 100)?;
         let count = |ps: &[Pair]| ps.iter().zip(test).filter(|(p, &i)| combined_right(p, a, tr[i].class)).count();
+        let (stage_ok, stage_classes, cost) =
+            stage_fold(&tables, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, a)?;
+        let same = whole.iter().zip(&stage_classes).filter(|(p, c)| combined_class(p, a) == **c).count();
+        stage_costs.borrow_mut().extend(cost);
+        stage_tally.borrow_mut().push((stage_ok, same, test.len()));
         Ok(((count(&whole), test.len()), (count(&at1), test.len()), a))
     };
     let pick = |chosen: &[(String, usize, f64)], g: &str| chosen.iter().find(|c| c.0 == g).map(|c| c.1);
@@ -404,5 +467,28 @@ pub fn combination(
         row.join(" | ")
     );
     println!("(weights chosen per outer fold: {}; at 1 s into contact: {})", weights.join(", "), at1.join(", "));
+    let st = stage_tally.into_inner();
+    let nested_folds = st.len().saturating_sub(tallies.len() - 1);
+    let sum = |v: &[(usize, usize, usize)]| v.iter().fold((0, 0, 0), |a, t| (a.0 + t.0, a.1 + t.1, a.2 + t.2));
+    let mut stage_row = vec![sum(&st[..nested_folds])];
+    stage_row.extend(st[nested_folds..].iter().copied());
+    println!(
+        "| the same, through the `dos` stage (the model file's DosModel with its window part, one decision per \
+         recording) | {} |",
+        stage_row.iter().map(|t| pct((t.0, t.2))).collect::<Vec<_>>().join(" | ")
+    );
+    let (same, n) = st.iter().fold((0, 0), |a, t| (a.0 + t.1, a.1 + t.2));
+    let mut cost = stage_costs.into_inner();
+    let (p50, p99) = (quantile(&mut cost, 0.5), quantile(&mut cost, 0.99));
+    println!(
+        "(the stage decides as the combination above on {same} of {n} held-out recordings; its cost per frame with the \
+         window part, {} frames: median {p50:.2} µs, p99 {p99:.2} µs)",
+        cost.len()
+    );
+    if same != n {
+        return Err(
+            format!("the dos stage decided {} of {n} recordings differently from the combination", n - same).into()
+        );
+    }
     Ok(tallies)
 }
