@@ -539,7 +539,10 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("calibrated on 12 recordings: 4 classes"), "{text}");
+    // one object ("sim"): no leave-one-object-out choice, the window part with a = 0.75
+    assert!(text.contains("fewer than two objects") && text.contains("a = 0.75"), "{text}");
     let model = gradtac::calibrate::read_model(&model_path).unwrap();
+    assert_eq!(model.window.as_ref().map(|w| w.weight), Some(gradtac::calibrate::FALLBACK_WINDOW_WEIGHT));
     let test = dir.path().join("test");
     simulated_labelled(&test, 10..11);
     for class in ["n", "s", "e", "w"] {

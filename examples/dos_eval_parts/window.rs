@@ -314,6 +314,9 @@ fn pair_scores(
         .collect()
 }
 
+/// (right, the decided class per test recording, per-frame costs in µs).
+type StageFold = (usize, Vec<DosClass>, Vec<f64>);
+
 /// The scene's path for one outer fold: the Student-t candidate `tcand` and the window candidate
 /// fitted on `train`, joined into one model file's [`DosModel`] with weight `a`
 /// ([`gradtac::stages::dos::DosWindowPart`]), run as the `dos` stage (one decision per
@@ -330,7 +333,7 @@ fn stage_fold(
     test: &[usize],
     layout: &Layout,
     a: f64,
-) -> Result<(usize, Vec<DosClass>, Vec<f64>), Box<dyn Error>> {
+) -> Result<StageFold, Box<dyn Error>> {
     use gradtac::stages::dos::{DosClassifier, DosWindowPart};
     use gradtac::stream::{SensorId, Stage, TaxelFrame, Timestamp};
     let dof = Some(gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF);
