@@ -7,7 +7,7 @@
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train::TrainRecording;
 use gradtac::stages::dos::train_window::{
-    nested_window, train_test_window, window_samples, WindowAugment, WindowHeldOut, WindowSamples, WindowTrainConfig,
+    nested_window, train_test_window, window_samples, WindowHeldOut, WindowSamples, WindowTrainConfig,
 };
 use gradtac::stages::dos::{DosClass, DosWindowNet};
 use gradtac::stream::Layout;
@@ -32,13 +32,10 @@ const MAX_P99_US: f64 = 20.0;
 const MAX_TRAIN_S: f64 = 120.0;
 
 /// The candidates, chosen by leave-one-object-out (accuracy per window) inside the training
-/// objects: augmentation mirror only / mirror + one random copy (noise, speed, warp, dropout,
-/// rotation, vibration, per-taxel gain and offset) of each recording.
+/// objects: the ones `gradtac calibrate` chooses among
+/// ([`gradtac::calibrate::window_candidates`]: mirror only / mirror + one random copy).
 pub fn candidates() -> Vec<WindowTrainConfig> {
-    [WindowAugment::mirror_only(), WindowAugment::default()]
-        .into_iter()
-        .map(|augment| WindowTrainConfig { augment, ..WindowTrainConfig::default() })
-        .collect()
+    gradtac::calibrate::window_candidates()
 }
 
 fn describe(c: &WindowTrainConfig) -> String {
