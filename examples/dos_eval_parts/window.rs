@@ -312,7 +312,39 @@ fn pair_scores(
 }
 
 /// (right, the decided class per test recording, per-frame costs in µs).
-type StageFold = (usize, Vec<DosClass>, Vec<f64>);
+/// Then the per-frame costs of the sliding mode (250 frames, hop 10) with and without the
+/// window part.
+type StageFold = (usize, Vec<DosClass>, Vec<f64>, [Vec<f64>; 2]);
+
+/// Per-frame costs (µs) of the `dos` stage in the sliding mode (the last 250 frames, a decision
+/// every 10) of `model` on the `test` recordings.
+fn sliding_cost(
+    model: &gradtac::stages::dos::DosModel,
+    tr: &[TrainRecording],
+    test: &[usize],
+    layout: &Layout,
+) -> Result<Vec<f64>, Box<dyn Error>> {
+    use gradtac::stages::dos::DosClassifier;
+    use gradtac::stream::{SensorId, Stage, TaxelFrame, Timestamp};
+    let mut cost = Vec::new();
+    let mut out = Vec::new();
+    for &i in test {
+        let mut stage = DosClassifier::try_new(model.clone(), layout, Some(250))?.with_hop(10)?;
+        for (seq, v) in tr[i].frames.iter().enumerate() {
+            let f = TaxelFrame::new(
+                SensorId::new("ff"),
+                Timestamp::from_nanos(seq as i64 * 10_000_000),
+                seq as u64,
+                v.clone(),
+            );
+            let t = Instant::now();
+            stage.push(f, &mut out)?;
+            cost.push(t.elapsed().as_secs_f64() * 1e6);
+            out.clear();
+        }
+    }
+    Ok(cost)
+}
 
 /// The scene's path for one outer fold: the Student-t candidate `tcand` and the window candidate
 /// fitted on `train`, joined into one model file's [`DosModel`] with weight `a`
@@ -359,7 +391,9 @@ fn stage_fold(
         ok += usize::from(d == tr[i].class);
         classes.push(d);
     }
-    Ok((ok, classes, cost))
+    let sliding =
+        [sliding_cost(&model, tr, test, layout)?, sliding_cost(&model.clone().with_window(None)?, tr, test, layout)?];
+    Ok((ok, classes, cost, sliding))
 }
 
 /// The class the combination with weight `a` decides.
@@ -407,6 +441,7 @@ pub fn combination(
     // per fold (right, same class as the combination above, recordings), and per-frame costs
     let stage_tally = std::cell::RefCell::new(Vec::<(usize, usize, usize)>::new());
     let stage_costs = std::cell::RefCell::new(Vec::<f64>::new());
+    let sliding_costs = std::cell::RefCell::new([Vec::<f64>::new(), Vec::new()]);
     // one outer fold: (tally at the end, tally at 1 s, weight)
     let fold = |tk: usize, wk: usize, train: &[usize], test: &[usize]| -> Result<_, Box<dyn Error>> {
         let mut inner: Vec<(Pair, DosClass)> = Vec::new();
@@ -427,10 +462,13 @@ pub fn combination(
         let whole = pair_scores(&tables, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, usize::MAX)?;
         let at1 = pair_scores(&early, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, 100)?;
         let count = |ps: &[Pair]| ps.iter().zip(test).filter(|(p, &i)| combined_right(p, a, tr[i].class)).count();
-        let (stage_ok, stage_classes, cost) =
+        let (stage_ok, stage_classes, cost, sliding) =
             stage_fold(&tables, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, a)?;
         let same = whole.iter().zip(&stage_classes).filter(|(p, c)| combined_class(p, a) == **c).count();
         stage_costs.borrow_mut().extend(cost);
+        for (all, c) in sliding_costs.borrow_mut().iter_mut().zip(sliding) {
+            all.extend(c);
+        }
         stage_tally.borrow_mut().push((stage_ok, same, test.len()));
         Ok(((count(&whole), test.len()), (count(&at1), test.len()), a))
     };
@@ -484,6 +522,18 @@ pub fn combination(
         "(the stage decides as the combination above on {same} of {n} held-out recordings; its cost per frame with the \
          window part, {} frames: median {p50:.2} µs, p99 {p99:.2} µs)",
         cost.len()
+    );
+    let [mut with, mut without] = sliding_costs.into_inner();
+    println!(
+        "(sliding mode, a decision every 10 frames over the last 250, {} frames: with the window part median {:.2} µs, \
+         p99 {:.2} µs, max {:.0} µs; the Student-t part alone median {:.2} µs, p99 {:.2} µs, max {:.0} µs)",
+        with.len(),
+        quantile(&mut with, 0.5),
+        quantile(&mut with, 0.99),
+        quantile(&mut with, 1.0),
+        quantile(&mut without, 0.5),
+        quantile(&mut without, 0.99),
+        quantile(&mut without, 1.0)
     );
     if same != n {
         return Err(

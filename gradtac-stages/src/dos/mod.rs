@@ -271,12 +271,15 @@
 //! Checked in `dos_eval --window-only`: the `dos` stage on the model file each held-out fold's
 //! procedure writes (one decision per recording) decides as the combination on all 334 held-out
 //! recordings (nested 88.0 %, basic → solids 89.3 %, solids → basic 78.4 %), at a cost per frame
-//! of median 0.21 µs, p99 1.72 µs (feature extraction and the vote; 92 330 frames, shared 2-core
-//! machine). `gradtac calibrate` on the 167 development recordings: 7.7 s in all (release), it
+//! of median 0.21–0.22 µs, p99 1.7–1.9 µs (feature extraction and the vote; 92 330 frames, shared
+//! 2-core machine). `gradtac calibrate` on the 167 development recordings: 7.7 s in all (release), it
 //! chose the mirror-only candidate and `a` = 0.75 (leave-one-object-out per recording for
 //! a = 0 / 0.25 / 0.5 / 0.75 / 1: 130 / 142 / 151 / 152 / 139 of 167 — in-sample for that choice).
-//! In the sliding mode each decision replays its `n` frames through the vote as well (about
-//! `n` × 0.1 µs plus `n/5` windows of the net per decision; not separately measured).
+//! In the sliding mode each decision replays its `n` frames through the vote as well as through
+//! the feature extractor: with `n` = 250 and a decision every 10 frames the per-frame p99 (the
+//! decision frames) is 79 µs with the window part against 35 µs without (median 0.22 vs
+//! 0.21 µs; same run). A cache of the per-window log posteriors across decisions would remove
+//! most of that; not done.
 //!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
