@@ -86,6 +86,13 @@ struct Sliding {
     replay: DosFeatureExtractor,
     /// The window vote the window is replayed through (with the model's window part).
     vote: Option<WindowVoteState>,
+    /// Frames pushed since the last reset (the index of the next frame).
+    total: u64,
+    /// Log posterior of the net's window starting at each frame index, kept across decisions
+    /// (a window's log posterior depends on its own frames only).
+    cache: std::collections::HashMap<u64, Vec<f64>>,
+    /// Extractor of one window at a time, for the cache.
+    single: Option<WindowExtractor>,
 }
 
 impl DosClassifier {
@@ -132,6 +139,10 @@ impl DosClassifier {
         }
         let replay = self.extractor.clone();
         let vote = self.vote.clone();
+        let single = match &self.model.window {
+            Some(w) => Some(WindowExtractor::try_new(&w.net.config, w.net.taxels)?),
+            None => None,
+        };
         self.sliding = Some(Sliding {
             hop,
             early: false,
@@ -139,6 +150,9 @@ impl DosClassifier {
             since: 0,
             replay,
             vote,
+            total: 0,
+            cache: std::collections::HashMap::new(),
+            single,
         });
         Ok(self)
     }
@@ -193,10 +207,26 @@ impl DosClassifier {
         }
         let features = sl.replay.features();
         let mut decision = self.model.classify_vector(&features)?;
-        if let (Some(v), Some(w)) = (&mut sl.vote, &self.model.window) {
+        if let (Some(v), Some(w), Some(single)) = (&mut sl.vote, &self.model.window, &mut sl.single) {
+            // the vote over the window's non-overlapping net windows from its first frame, as
+            // a fresh recording; each net window's log posterior computed once across decisions
+            let first = sl.total - sl.recent.len() as u64;
+            let f = w.net.config.frames;
+            sl.cache.retain(|&start, _| start >= first);
             v.reset();
-            for f in &sl.recent {
-                v.push(&w.net, &f.values)?;
+            for k in 0..sl.recent.len() / f {
+                let start = first + (k * f) as u64;
+                if !sl.cache.contains_key(&start) {
+                    single.reset();
+                    for j in 0..f {
+                        single.push(&sl.recent[k * f + j].values)?;
+                    }
+                    let x = single.input().ok_or_else(|| invalid("a full window gave no input"))?;
+                    sl.cache.insert(start, w.net.log_posterior(&x)?);
+                }
+                if let Some(lp) = sl.cache.get(&start) {
+                    v.add_log_posterior(lp);
+                }
             }
             decision = self.model.combine(decision, v.mean_log_posterior().as_deref());
         }
@@ -216,6 +246,7 @@ impl DosClassifier {
         }
         sl.recent.push_back(frame);
         sl.since += 1;
+        sl.total += 1;
         if (sl.early || sl.recent.len() as u64 >= n) && sl.since >= sl.hop {
             self.decide_window(out)?;
         }
@@ -262,6 +293,8 @@ impl Stage for DosClassifier {
         if let Some(sl) = &mut self.sliding {
             sl.recent.clear();
             sl.since = 0;
+            sl.total = 0;
+            sl.cache.clear();
         }
         self.emit(out)
     }
@@ -275,6 +308,8 @@ impl Stage for DosClassifier {
         if let Some(sl) = &mut self.sliding {
             sl.recent.clear();
             sl.since = 0;
+            sl.total = 0;
+            sl.cache.clear();
         }
     }
 

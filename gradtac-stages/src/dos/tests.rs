@@ -715,6 +715,31 @@ fn the_stage_decides_by_the_combined_score_over_the_frames_each_decision_covers(
             let student = model.classify_vector(&features_of(window.to_vec(), &cfg)).unwrap();
             assert_eq!(d.decision, m.combine(student, vote_over(&net, window).as_deref()), "window ending at {last}");
         }
+        // early answers (every 7 frames: net windows of a decision start off the previous ones'
+        // grid), and after a reset
+        let mut early = DosClassifier::try_new(m.clone(), &l, Some(n as u64))
+            .unwrap()
+            .with_hop(7)
+            .unwrap()
+            .with_early_decisions()
+            .unwrap();
+        let mut out = Vec::new();
+        for f in &input[..33] {
+            early.push(f.clone(), &mut out).unwrap();
+        }
+        early.reset();
+        out.clear();
+        for f in &input[33..] {
+            early.push(f.clone(), &mut out).unwrap();
+        }
+        early.finish(&mut out).unwrap();
+        assert!(out.len() > 10);
+        for d in &out {
+            let last = d.seq as usize;
+            let window = &input[(last + 1).saturating_sub(n).max(33)..=last];
+            let student = model.classify_vector(&features_of(window.to_vec(), &cfg)).unwrap();
+            assert_eq!(d.decision, m.combine(student, vote_over(&net, window).as_deref()), "early, ending at {last}");
+        }
     }
     // fewer frames than one window: the Student-t decision
     let m = model.clone().with_window(Some(DosWindowPart { weight: 0.0, net })).unwrap();

@@ -305,6 +305,11 @@ impl DosWindowNet {
         Ok(self.w2.iter().zip(&self.b2).map(|(row, b)| b + dot(row, &h)).collect())
     }
 
+    /// The log posterior of one window's representation (net class order).
+    pub fn log_posterior(&self, input: &[f64]) -> Result<Vec<f64>> {
+        Ok(log_softmax(&self.logits(input)?))
+    }
+
     /// Classify one window's representation.
     pub fn classify(&self, input: &[f64]) -> Result<Decision> {
         let posterior = softmax(&self.logits(input)?);
@@ -328,6 +333,13 @@ impl DosWindowNet {
     pub fn vote(&self, layout: &Layout) -> Result<WindowVote<'_>> {
         Ok(WindowVote { net: self, state: WindowVoteState::try_new(self, layout)? })
     }
+}
+
+/// `l − ln Σ exp l` per logit.
+fn log_softmax(logits: &[f64]) -> Vec<f64> {
+    let top = logits.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lse = top + logits.iter().map(|l| (l - top).exp()).sum::<f64>().ln();
+    logits.iter().map(|l| l - lse).collect()
 }
 
 /// The decision of a posterior (argmax, ties: the first in model order).
@@ -403,13 +415,17 @@ impl WindowVoteState {
         }
         let Some(x) = self.extractor.input() else { return Ok(None) };
         let logits = net.logits(&x)?;
-        let top = logits.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let lse = top + logits.iter().map(|l| (l - top).exp()).sum::<f64>().ln();
-        for (s, l) in self.sum.iter_mut().zip(&logits) {
-            *s += l - lse;
+        self.add_log_posterior(&log_softmax(&logits));
+        Ok(Some(decision(&net.classes, softmax(&logits))))
+    }
+
+    /// Add one window's log posterior ([`DosWindowNet::log_posterior`], net class order) to the
+    /// vote, as [`push`](Self::push) does when a window completes (the same sum, bit for bit).
+    pub fn add_log_posterior(&mut self, log_p: &[f64]) {
+        for (s, l) in self.sum.iter_mut().zip(log_p) {
+            *s += l;
         }
         self.windows += 1;
-        Ok(Some(decision(&net.classes, softmax(&logits))))
     }
 
     /// Completed windows in the vote.
