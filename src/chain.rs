@@ -537,9 +537,16 @@ impl SensorChain {
             Tap::Slip => st.slip.describe(),
             Tap::Dos => match (&self.dos, &st.dos) {
                 (Some(c), Some(d)) => format!(
-                    "slip direction, {} classes, {} parameters, {}",
+                    "slip direction, {} classes, {} parameters, {}, {}",
                     c.model().classes.len(),
                     c.model().parameter_count(),
+                    match &c.model().window {
+                        Some(w) => format!(
+                            "Student t + window net ({}-frame windows, {} hidden), weight a = {}",
+                            w.net.config.frames, w.net.config.hidden, w.weight
+                        ),
+                        None => "Student t alone (no window part)".to_string(),
+                    },
                     match (d.decision_frames, d.hop_frames) {
                         (None, _) => "one decision per recording".to_string(),
                         (Some(n), None) => format!("a decision per {n} frames"),

@@ -204,6 +204,11 @@ struct DosArgs {
     /// Fit on the recordings only, without their mirror images across y = 0.
     #[arg(long)]
     no_mirror: bool,
+    /// Write the Student-t model alone, without the window part (the window net and the
+    /// weight of the combined score, chosen by leave-one-object-out; the default adds it, which
+    /// trains the net about 20 times: ≈ 30 s on the 167 BioTacSP-DoS development recordings).
+    #[arg(long)]
+    no_window: bool,
     /// Also train the learned model (`dos::DosNet`, default settings, a few seconds on one
     /// core) on the same recordings and write it as JSON to this file. Measured held out it
     /// does not beat the default model (see `dos_eval`); the scene's `dos` stage runs the
@@ -563,6 +568,7 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         student_t,
         cross_validate,
         no_mirror,
+        no_window,
         learned_out,
     } = args;
     let (Some(data), Some(out)) = (data, out) else {
@@ -579,6 +585,7 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         shrinkage,
         student_t_dof: (!gaussian).then_some(student_t),
         mirror: !no_mirror,
+        window: !no_window,
         ..Default::default()
     };
     let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];
@@ -601,7 +608,32 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         say!("{}", gradtac::calibrate::held_out_report(&data, &layout, &opts)?);
         sayln!();
     }
-    let model = gradtac::calibrate::calibrate_spans(&spans, &opts)?;
+    let mut model = gradtac::calibrate::calibrate_spans(&spans, &opts)?;
+    if opts.window {
+        let t = std::time::Instant::now();
+        let recs = gradtac::calibrate::read_recordings(&data, &opts)?;
+        let (part, choice) = gradtac::calibrate::calibrate_window_part(&spans, &recs, &layout, &opts)?;
+        if choice.weight_tally.is_empty() {
+            sayln!(
+                "window part: fewer than two objects, no leave-one-object-out choice: candidate {}, weight a = {}",
+                choice.candidate,
+                choice.weight
+            );
+        } else {
+            let tally: Vec<String> =
+                choice.weight_tally.iter().map(|(a, ok, n)| format!("a = {a}: {ok}/{n}")).collect();
+            sayln!(
+                "window part: candidate {} (leave-one-object-out {:.1} % per window); weight by leave-one-object-out per \
+                 recording ({}): a = {} ({:.1} s)",
+                choice.candidate,
+                100.0 * choice.candidate_accuracy,
+                tally.join(", "),
+                choice.weight,
+                t.elapsed().as_secs_f64()
+            );
+        }
+        model = model.with_window(Some(part))?;
+    }
     gradtac::calibrate::write_model(&model, &out)?;
     sayln!(
         "calibrated on {} recordings: {} classes, {} features, {} parameters -> {}",

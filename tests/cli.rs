@@ -539,7 +539,10 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("calibrated on 12 recordings: 4 classes"), "{text}");
+    // one object ("sim"): no leave-one-object-out choice, the window part with a = 0.75
+    assert!(text.contains("fewer than two objects") && text.contains("a = 0.75"), "{text}");
     let model = gradtac::calibrate::read_model(&model_path).unwrap();
+    assert_eq!(model.window.as_ref().map(|w| w.weight), Some(gradtac::calibrate::FALLBACK_WINDOW_WEIGHT));
     let test = dir.path().join("test");
     simulated_labelled(&test, 10..11);
     for class in ["n", "s", "e", "w"] {
@@ -554,6 +557,9 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
         fs::write(&sc, scene).unwrap();
         let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        // explain shows the model's window part and its weight
+        let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
+        assert!(text.contains("Student t + window net (5-frame windows, 16 hidden), weight a = 0.75"), "{text}");
         let file = fs::File::open(dir.path().join(format!("out/{class}.parquet"))).unwrap();
         let batch = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap().next().unwrap().unwrap();
         assert_eq!(batch.num_rows(), 1, "one decision per recording");
@@ -668,16 +674,40 @@ fn calibrate_cross_validates_and_takes_settings() {
     for object in ["| alpha | ", "| beta | ", "| gamma | "] {
         assert!(text.contains(object), "{object}: {text}");
     }
-    assert!(text.contains("calibrated on 12 recordings: 4 classes, 3 features, 24 parameters"), "{text}");
+    assert!(text.contains("calibrated on 12 recordings: 4 classes, 3 features, "), "{text}");
+    // the window part, its candidate and weight chosen by leave-one-object-out (three objects)
+    assert!(text.contains("window part: candidate") && text.contains("a = 0.75: "), "{text}");
     let model = gradtac::calibrate::read_model(&model_path).unwrap();
     assert_eq!(model.config.drift_lags, [20, 40]);
     assert_eq!(model.student_t_dof, None, "--gaussian");
+    let part = model.window.clone().expect("a window part by default");
+    assert!(gradtac::calibrate::WINDOW_WEIGHTS.contains(&part.weight), "{}", part.weight);
+    assert_eq!((part.net.taxels, part.net.recordings), (24, 12));
+    assert_eq!(model.parameter_count(), 24 + part.net.parameter_count() + 1);
     // the CLI passed every option on: the library, given the same options, fits the same model
     let opts = gradtac::calibrate::CalibrateOptions { shrinkage: 0.25, student_t_dof: None, ..Default::default() }
         .with_settings_file(&settings)
         .unwrap();
-    let spans = gradtac::calibrate::labelled_spans(&train, &gradtac::stream::Layout::biotac_sp(), &opts).unwrap();
-    assert_eq!(gradtac::calibrate::calibrate_spans(&spans, &opts).unwrap(), model);
+    let layout = gradtac::stream::Layout::biotac_sp();
+    let spans = gradtac::calibrate::labelled_spans(&train, &layout, &opts).unwrap();
+    let student = gradtac::calibrate::calibrate_spans(&spans, &opts).unwrap();
+    assert_eq!(student, model.clone().with_window(None).unwrap());
+    assert_eq!(gradtac::calibrate::calibrate_dos(&train, &layout, &opts).unwrap().0, model, "deterministic");
+    // --no-window: the Student-t model alone, as before the window part existed
+    let out = gradtac()
+        .args(["calibrate", "--no-window", "--gaussian", "--shrinkage", "0.25", "--settings"])
+        .arg(&settings)
+        .arg(&train)
+        .arg("--out")
+        .arg(&model_path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("calibrated on 12 recordings: 4 classes, 3 features, 24 parameters"), "{text}");
+    assert!(!text.contains("window part"), "{text}");
+    assert_eq!(gradtac::calibrate::read_model(&model_path).unwrap(), student);
+    assert!(!fs::read_to_string(&model_path).unwrap().contains("\"window\""));
     let default = gradtac::calibrate::CalibrateOptions { shrinkage: 0.5, ..opts.clone() };
     assert_ne!(gradtac::calibrate::calibrate_spans(&spans, &default).unwrap().class_variances, model.class_variances);
 

@@ -7,7 +7,7 @@
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train::TrainRecording;
 use gradtac::stages::dos::train_window::{
-    nested_window, train_test_window, window_samples, WindowAugment, WindowHeldOut, WindowSamples, WindowTrainConfig,
+    nested_window, train_test_window, window_samples, WindowHeldOut, WindowSamples, WindowTrainConfig,
 };
 use gradtac::stages::dos::{DosClass, DosWindowNet};
 use gradtac::stream::Layout;
@@ -32,13 +32,10 @@ const MAX_P99_US: f64 = 20.0;
 const MAX_TRAIN_S: f64 = 120.0;
 
 /// The candidates, chosen by leave-one-object-out (accuracy per window) inside the training
-/// objects: augmentation mirror only / mirror + one random copy (noise, speed, warp, dropout,
-/// rotation, vibration, per-taxel gain and offset) of each recording.
+/// objects: the ones `gradtac calibrate` chooses among
+/// ([`gradtac::calibrate::window_candidates`]: mirror only / mirror + one random copy).
 pub fn candidates() -> Vec<WindowTrainConfig> {
-    [WindowAugment::mirror_only(), WindowAugment::default()]
-        .into_iter()
-        .map(|augment| WindowTrainConfig { augment, ..WindowTrainConfig::default() })
-        .collect()
+    gradtac::calibrate::window_candidates()
 }
 
 fn describe(c: &WindowTrainConfig) -> String {
@@ -314,6 +311,97 @@ fn pair_scores(
         .collect()
 }
 
+/// (right, the decided class per test recording, per-frame costs in µs).
+/// Then the per-frame costs of the sliding mode (250 frames, hop 10) with and without the
+/// window part.
+type StageFold = (usize, Vec<DosClass>, Vec<f64>, [Vec<f64>; 2]);
+
+/// Per-frame costs (µs) of the `dos` stage in the sliding mode (the last 250 frames, a decision
+/// every 10) of `model` on the `test` recordings.
+fn sliding_cost(
+    model: &gradtac::stages::dos::DosModel,
+    tr: &[TrainRecording],
+    test: &[usize],
+    layout: &Layout,
+) -> Result<Vec<f64>, Box<dyn Error>> {
+    use gradtac::stages::dos::DosClassifier;
+    use gradtac::stream::{SensorId, Stage, TaxelFrame, Timestamp};
+    let mut cost = Vec::new();
+    let mut out = Vec::new();
+    for &i in test {
+        let mut stage = DosClassifier::try_new(model.clone(), layout, Some(250))?.with_hop(10)?;
+        for (seq, v) in tr[i].frames.iter().enumerate() {
+            let f = TaxelFrame::new(
+                SensorId::new("ff"),
+                Timestamp::from_nanos(seq as i64 * 10_000_000),
+                seq as u64,
+                v.clone(),
+            );
+            let t = Instant::now();
+            stage.push(f, &mut out)?;
+            cost.push(t.elapsed().as_secs_f64() * 1e6);
+            out.clear();
+        }
+    }
+    Ok(cost)
+}
+
+/// The scene's path for one outer fold: the Student-t candidate `tcand` and the window candidate
+/// fitted on `train`, joined into one model file's [`DosModel`] with weight `a`
+/// ([`gradtac::stages::dos::DosWindowPart`]), run as the `dos` stage (one decision per
+/// recording) on every `test` recording: (right, decided, per-recording classes, per-frame
+/// costs in µs).
+#[allow(clippy::too_many_arguments)]
+fn stage_fold(
+    tables: &[Vec<gradtac::stages::dos::LabelledSpan>],
+    tcand: &gradtac::stages::dos_select::Candidate,
+    samples: &[WindowSamples],
+    wcfg: &WindowTrainConfig,
+    tr: &[TrainRecording],
+    train: &[usize],
+    test: &[usize],
+    layout: &Layout,
+    a: f64,
+) -> Result<StageFold, Box<dyn Error>> {
+    use gradtac::stages::dos::{DosClassifier, DosWindowPart};
+    use gradtac::stream::{SensorId, Stage, TaxelFrame, Timestamp};
+    let dof = Some(gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF);
+    let net = gradtac::stages::dos::train_window::fit_on(samples, train, layout.len(), wcfg)?;
+    let model = tcand
+        .calibrate(train.iter().map(|&i| &tables[tcand.table][i]), dof)?
+        .with_window(Some(DosWindowPart { weight: a, net }))?;
+    let (mut ok, mut classes, mut cost) = (0, Vec::new(), Vec::new());
+    let mut out = Vec::new();
+    for &i in test {
+        let mut stage = DosClassifier::try_new(model.clone(), layout, None)?;
+        out.clear();
+        for (seq, v) in tr[i].frames.iter().enumerate() {
+            let f = TaxelFrame::new(
+                SensorId::new("ff"),
+                Timestamp::from_nanos(seq as i64 * 10_000_000),
+                seq as u64,
+                v.clone(),
+            );
+            let t = Instant::now();
+            stage.push(f, &mut out)?;
+            cost.push(t.elapsed().as_secs_f64() * 1e6);
+        }
+        stage.finish(&mut out)?;
+        let d = out.last().ok_or("the stage gave no decision")?.decision.class;
+        ok += usize::from(d == tr[i].class);
+        classes.push(d);
+    }
+    let sliding =
+        [sliding_cost(&model, tr, test, layout)?, sliding_cost(&model.clone().with_window(None)?, tr, test, layout)?];
+    Ok((ok, classes, cost, sliding))
+}
+
+/// The class the combination with weight `a` decides.
+fn combined_class(pair: &Pair, a: f64) -> DosClass {
+    let s: Vec<f64> = pair.0.iter().zip(&pair.1).map(|(t, w)| a * t + (1.0 - a) * w).collect();
+    DosClass::ALL[(0..7).fold(0, |m, k| if s[k] > s[m] { k } else { m })]
+}
+
 /// Whether the combination with weight `a` decides `class`.
 fn combined_right(pair: &Pair, a: f64, class: DosClass) -> bool {
     let s: Vec<f64> = pair.0.iter().zip(&pair.1).map(|(t, w)| a * t + (1.0 - a) * w).collect();
@@ -349,6 +437,11 @@ pub fn combination(
         g.dedup();
         g
     };
+    // the scene's path (the `dos` stage on the model file's DosModel with its window part):
+    // per fold (right, same class as the combination above, recordings), and per-frame costs
+    let stage_tally = std::cell::RefCell::new(Vec::<(usize, usize, usize)>::new());
+    let stage_costs = std::cell::RefCell::new(Vec::<f64>::new());
+    let sliding_costs = std::cell::RefCell::new([Vec::<f64>::new(), Vec::new()]);
     // one outer fold: (tally at the end, tally at 1 s, weight)
     let fold = |tk: usize, wk: usize, train: &[usize], test: &[usize]| -> Result<_, Box<dyn Error>> {
         let mut inner: Vec<(Pair, DosClass)> = Vec::new();
@@ -369,6 +462,14 @@ pub fn combination(
         let whole = pair_scores(&tables, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, usize::MAX)?;
         let at1 = pair_scores(&early, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, 100)?;
         let count = |ps: &[Pair]| ps.iter().zip(test).filter(|(p, &i)| combined_right(p, a, tr[i].class)).count();
+        let (stage_ok, stage_classes, cost, sliding) =
+            stage_fold(&tables, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, a)?;
+        let same = whole.iter().zip(&stage_classes).filter(|(p, c)| combined_class(p, a) == **c).count();
+        stage_costs.borrow_mut().extend(cost);
+        for (all, c) in sliding_costs.borrow_mut().iter_mut().zip(sliding) {
+            all.extend(c);
+        }
+        stage_tally.borrow_mut().push((stage_ok, same, test.len()));
         Ok(((count(&whole), test.len()), (count(&at1), test.len()), a))
     };
     let pick = |chosen: &[(String, usize, f64)], g: &str| chosen.iter().find(|c| c.0 == g).map(|c| c.1);
@@ -404,5 +505,40 @@ pub fn combination(
         row.join(" | ")
     );
     println!("(weights chosen per outer fold: {}; at 1 s into contact: {})", weights.join(", "), at1.join(", "));
+    let st = stage_tally.into_inner();
+    let nested_folds = st.len().saturating_sub(tallies.len() - 1);
+    let sum = |v: &[(usize, usize, usize)]| v.iter().fold((0, 0, 0), |a, t| (a.0 + t.0, a.1 + t.1, a.2 + t.2));
+    let mut stage_row = vec![sum(&st[..nested_folds])];
+    stage_row.extend(st[nested_folds..].iter().copied());
+    println!(
+        "| the same, through the `dos` stage (the model file's DosModel with its window part, one decision per \
+         recording) | {} |",
+        stage_row.iter().map(|t| pct((t.0, t.2))).collect::<Vec<_>>().join(" | ")
+    );
+    let (same, n) = st.iter().fold((0, 0), |a, t| (a.0 + t.1, a.1 + t.2));
+    let mut cost = stage_costs.into_inner();
+    let (p50, p99) = (quantile(&mut cost, 0.5), quantile(&mut cost, 0.99));
+    println!(
+        "(the stage decides as the combination above on {same} of {n} held-out recordings; its cost per frame with the \
+         window part, {} frames: median {p50:.2} µs, p99 {p99:.2} µs)",
+        cost.len()
+    );
+    let [mut with, mut without] = sliding_costs.into_inner();
+    println!(
+        "(sliding mode, a decision every 10 frames over the last 250, {} frames: with the window part median {:.2} µs, \
+         p99 {:.2} µs, max {:.0} µs; the Student-t part alone median {:.2} µs, p99 {:.2} µs, max {:.0} µs)",
+        with.len(),
+        quantile(&mut with, 0.5),
+        quantile(&mut with, 0.99),
+        quantile(&mut with, 1.0),
+        quantile(&mut without, 0.5),
+        quantile(&mut without, 0.99),
+        quantile(&mut without, 1.0)
+    );
+    if same != n {
+        return Err(
+            format!("the dos stage decided {} of {n} recordings differently from the combination", n - same).into()
+        );
+    }
     Ok(tallies)
 }

@@ -38,6 +38,91 @@ pub struct DosModel {
     /// written before it existed) for a Gaussian. Fixed, not fitted:
     /// [`DosModel::DEFAULT_STUDENT_T_DOF`] from [`calibrate`](DosModel::calibrate).
     pub student_t_dof: Option<f64>,
+    /// The window part ([`DosWindowPart`]): with it, decisions combine this model's log
+    /// posterior with the causal vote of a [`DosWindowNet`] ([`combine`](Self::combine)).
+    /// `None` (or absent in the file, as in models written before it existed, and then not
+    /// written): the Student-t model alone, exactly as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window: Option<DosWindowPart>,
+}
+
+/// The window part of a [`DosModel`]: a [`DosWindowNet`] and the weight `a` of the combined
+/// score `a·ln p_t + (1 − a)·(mean ln p per window of the net's vote)` (see the
+/// [module docs](crate::dos)).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, try_from = "RawWindowPart")]
+pub struct DosWindowPart {
+    /// Weight `a` of the Student-t log posterior, in `[0, 1]` (0: the window vote alone; 1: the
+    /// Student-t model alone).
+    pub weight: f64,
+    /// The window model.
+    pub net: DosWindowNet,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWindowPart {
+    weight: f64,
+    net: super::window::RawWindowNet,
+}
+
+/// `window.net: …` for an invalid net.
+fn in_window_net(e: Error) -> Error {
+    match e {
+        Error::InvalidConfig { stage, reason } => {
+            Error::InvalidConfig { stage, reason: format!("window.net: {reason}") }
+        }
+        other => other,
+    }
+}
+
+impl TryFrom<RawWindowPart> for DosWindowPart {
+    type Error = Error;
+    fn try_from(r: RawWindowPart) -> Result<Self> {
+        let part = DosWindowPart { weight: r.weight, net: DosWindowNet::try_from(r.net).map_err(in_window_net)? };
+        part.validate()?;
+        Ok(part)
+    }
+}
+
+impl DosWindowPart {
+    /// Checks the weight and the net; the error names the field (`window.weight`, `window.net`).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.weight.is_finite() && (0.0..=1.0).contains(&self.weight)) {
+            return Err(invalid(format!("window.weight {} must lie in [0, 1]", self.weight)));
+        }
+        self.net.validate().map_err(in_window_net)
+    }
+}
+
+/// Floor of a log posterior in the combined score (a class one model does not know, or a
+/// posterior that underflowed).
+const MIN_LOG_P: f64 = -1e3;
+
+/// The combined scores, in `classes` order: `a·ln p_t + (1 − a)·w` with `posterior` the
+/// Student-t model's (over `classes`) and `window_log_p` the window vote's mean log posterior
+/// per window (over `window_classes`); each log floored at −1000, a class the net does not know
+/// gets −1000 from it.
+pub fn combined_scores(
+    classes: &[DosClass],
+    posterior: &[f64],
+    window_classes: &[DosClass],
+    window_log_p: &[f64],
+    a: f64,
+) -> Vec<f64> {
+    classes
+        .iter()
+        .zip(posterior)
+        .map(|(c, p)| {
+            let lt = p.max(1e-300).ln().max(MIN_LOG_P);
+            let lw = window_classes
+                .iter()
+                .position(|x| x == c)
+                .and_then(|k| window_log_p.get(k))
+                .map_or(MIN_LOG_P, |w| w.max(MIN_LOG_P));
+            a * lt + (1.0 - a) * lw
+        })
+        .collect()
 }
 
 #[derive(Deserialize)]
@@ -53,6 +138,8 @@ struct RawModel {
     recordings: usize,
     #[serde(default)]
     student_t_dof: Option<f64>,
+    #[serde(default)]
+    window: Option<DosWindowPart>,
 }
 
 impl TryFrom<RawModel> for DosModel {
@@ -66,6 +153,7 @@ impl TryFrom<RawModel> for DosModel {
             class_variances: r.class_variances,
             recordings: r.recordings,
             student_t_dof: r.student_t_dof,
+            window: r.window,
         };
         m.validate()?;
         Ok(m)
@@ -208,6 +296,7 @@ impl DosModel {
             class_variances,
             recordings: samples.len(),
             student_t_dof: Some(Self::DEFAULT_STUDENT_T_DOF),
+            window: None,
         };
         m.validate()?;
         Ok(m)
@@ -257,14 +346,49 @@ impl DosModel {
                 }
             }
         }
+        if let Some(w) = &self.window {
+            w.validate()?;
+        }
         Ok(())
     }
 
+    /// The same model with a window part (validated), or without one (`None`).
+    pub fn with_window(mut self, window: Option<DosWindowPart>) -> Result<Self> {
+        self.window = window;
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// The decision of the combined score ([`combined_scores`]) from this model's decision
+    /// `student` and the window vote's mean log posterior per window (in the net's class order):
+    /// the class of the largest score (ties: the first in model order), `posterior`
+    /// `softmax(score)`, `distances` `−2·score`. `student` unchanged when the model has no
+    /// window part or the vote has no completed window yet.
+    pub fn combine(&self, student: Decision, window_log_p: Option<&[f64]>) -> Decision {
+        let (Some(part), Some(w)) = (&self.window, window_log_p) else { return student };
+        let s = combined_scores(&self.classes, &student.posterior, &part.net.classes, w, part.weight);
+        let mut best = 0;
+        for (k, v) in s.iter().enumerate() {
+            if *v > s[best] {
+                best = k;
+            }
+        }
+        let top = s[best];
+        let e: Vec<f64> = s.iter().map(|v| (v - top).exp()).collect();
+        let sum: f64 = e.iter().sum();
+        Decision {
+            class: self.classes[best],
+            posterior: e.iter().map(|v| v / sum).collect(),
+            distances: s.iter().map(|v| -2.0 * v).collect(),
+        }
+    }
+
     /// Number of fitted numbers the decision uses: `2 × classes × features` with per-class
-    /// variances (means and variances per class), `(classes + 1) × features` without.
+    /// variances (means and variances per class), `(classes + 1) × features` without; plus,
+    /// with a window part, the net's [`DosWindowNet::parameter_count`] and the weight.
     pub fn parameter_count(&self) -> usize {
         let rows = if self.class_variances.is_empty() { self.classes.len() + 1 } else { 2 * self.classes.len() };
-        rows * self.config.features.len()
+        rows * self.config.features.len() + self.window.as_ref().map_or(0, |w| w.net.parameter_count() + 1)
     }
 
     /// Classify one feature vector (the model's features, in order).

@@ -581,3 +581,168 @@ pub(super) mod support {
         synthetic(class, c0, phi0, seed).into_iter().map(|f| f.values).collect()
     }
 }
+
+/// A hand-made window net over all seven classes (no trainer needed).
+fn tiny_window_net() -> DosWindowNet {
+    let d = 48;
+    DosWindowNet {
+        config: WindowNetConfig { frames: 5, hidden: 2 },
+        taxels: 24,
+        classes: DosClass::ALL.to_vec(),
+        input_mean: vec![0.0; d],
+        input_scale: vec![1.0; d],
+        w1: vec![(0..d).map(|j| if j < 24 { 0.1 * (j as f64 - 11.5) } else { 0.0 }).collect(), vec![0.01; d]],
+        b1: vec![0.0, 0.1],
+        w2: (0..7).map(|k| vec![0.3 * k as f64 - 1.0, 0.2]).collect(),
+        b2: (0..7).map(|k| 0.05 * k as f64).collect(),
+        recordings: 14,
+    }
+}
+
+#[test]
+fn a_model_file_without_a_window_part_reads_writes_and_decides_as_before() {
+    let (cfg, model) = motion_model();
+    assert!(model.window.is_none());
+    let json = serde_json::to_string(&model).unwrap();
+    // the file format of a model without a window part is unchanged: no `window` key
+    assert!(!json.contains("\"window\""), "{json}");
+    let back: DosModel = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, model);
+    assert_eq!(back.parameter_count(), model.parameter_count());
+    let l = Layout::biotac_sp();
+    for class in [DosClass::N, DosClass::Cw, DosClass::T] {
+        let input = synthetic(class, [0.0, 0.0], 0.1, 9);
+        let whole = features_of(input.clone(), &cfg);
+        let got = DosClassifier::try_new(back.clone(), &l, None).unwrap().run_all(input.clone()).unwrap();
+        assert_eq!(got.len(), 1);
+        assert_eq!(got[0].decision, model.classify_vector(&whole).unwrap(), "{class}");
+        // combining without a window part is the identity
+        assert_eq!(model.combine(got[0].decision.clone(), Some(&[0.0; 7])), got[0].decision);
+        let tumbling = DosClassifier::try_new(back.clone(), &l, Some(50)).unwrap().run_all(input.clone()).unwrap();
+        let reference = DosClassifier::try_new(model.clone(), &l, Some(50)).unwrap().run_all(input).unwrap();
+        assert_eq!(tumbling, reference);
+    }
+}
+
+#[test]
+fn a_window_part_round_trips_and_bad_ones_are_refused_by_field() {
+    let (_, model) = motion_model();
+    let m = model.clone().with_window(Some(DosWindowPart { weight: 0.75, net: tiny_window_net() })).unwrap();
+    let json = serde_json::to_string_pretty(&m).unwrap();
+    let back: DosModel = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, m);
+    assert_eq!(m.parameter_count(), model.parameter_count() + tiny_window_net().parameter_count() + 1);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let broken = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut w = v.clone();
+        f(&mut w);
+        serde_json::from_value::<DosModel>(w).unwrap_err().to_string()
+    };
+    for bad in [-0.1, 1.5] {
+        let e = broken(&|w| w["window"]["weight"] = serde_json::json!(bad));
+        assert!(e.contains("window.weight"), "{e}");
+    }
+    let e = broken(&|w| w["window"]["net"]["b1"] = serde_json::json!([0.0]));
+    assert!(e.contains("window.net") && e.contains("b1"), "{e}");
+    let e = broken(&|w| w["window"]["surprise"] = serde_json::json!(1));
+    assert!(e.contains("surprise"), "{e}");
+    let e = broken(&|w| w["window"].as_object_mut().unwrap().retain(|k, _| k != "weight"));
+    assert!(e.contains("weight"), "{e}");
+    assert!(model.clone().with_window(Some(DosWindowPart { weight: f64::NAN, net: tiny_window_net() })).is_err());
+    // the taxel count must match the layout
+    let three = Layout::try_new(
+        "three",
+        vec!["a".into(), "b".into(), "c".into()],
+        vec![[0.0, 1.0], [1.0, 0.0], [2.0, 3.0]],
+        None,
+    )
+    .unwrap();
+    let mut small = model.clone();
+    small.config.features = vec![Feature::Rate];
+    small.means.iter_mut().for_each(|r| r.truncate(1));
+    small.variances.truncate(1);
+    small.class_variances.iter_mut().for_each(|r| r.truncate(1));
+    let small = small.with_window(Some(DosWindowPart { weight: 0.5, net: tiny_window_net() })).unwrap();
+    let e = DosClassifier::try_new(small, &three, None).unwrap_err().to_string();
+    assert!(e.contains("window.net") && e.contains("24 taxels"), "{e}");
+}
+
+/// The vote's mean log posterior over `frames` (raw values), streamed from the first.
+fn vote_over(net: &DosWindowNet, frames: &[TaxelFrame]) -> Option<Vec<f64>> {
+    let mut v = net.vote(&Layout::biotac_sp()).unwrap();
+    for f in frames {
+        v.push(&f.values).unwrap();
+    }
+    v.mean_log_posterior()
+}
+
+#[test]
+fn the_stage_decides_by_the_combined_score_over_the_frames_each_decision_covers() {
+    let (cfg, model) = motion_model();
+    let net = tiny_window_net();
+    let l = Layout::biotac_sp();
+    let input = synthetic(DosClass::E, [0.0, 0.0], 0.1, 11);
+    for a in [0.0, 0.25, 0.75, 1.0] {
+        let m = model.clone().with_window(Some(DosWindowPart { weight: a, net: net.clone() })).unwrap();
+        // one decision per segment: the Student-t features and the vote over every frame
+        let got = DosClassifier::try_new(m.clone(), &l, None).unwrap().run_all(input.clone()).unwrap();
+        let student = model.classify_vector(&features_of(input.clone(), &cfg)).unwrap();
+        let w = vote_over(&net, &input).unwrap();
+        let want = m.combine(student.clone(), Some(&w));
+        assert_eq!(got[0].decision, want, "a = {a}");
+        let s = combined_scores(&m.classes, &student.posterior, &net.classes, &w, a);
+        let best = (0..s.len()).fold(0, |b, k| if s[k] > s[b] { k } else { b });
+        assert_eq!(want.class, m.classes[best]);
+        if a == 1.0 {
+            assert_eq!(want.class, student.class, "a = 1: the Student-t model alone");
+        }
+        // tumbling spans: each span's vote starts at the span
+        let tumbling = DosClassifier::try_new(m.clone(), &l, Some(50)).unwrap().run_all(input.clone()).unwrap();
+        let plain = DosClassifier::try_new(model.clone(), &l, Some(50)).unwrap().run_all(input.clone()).unwrap();
+        assert_eq!(tumbling.len(), plain.len());
+        for (k, (t, p)) in tumbling.iter().zip(&plain).enumerate() {
+            let frames = &input[50 * k..(50 * k + t.frames as usize)];
+            assert_eq!(t.features, p.features);
+            assert_eq!(t.decision, m.combine(p.decision.clone(), vote_over(&net, frames).as_deref()), "span {k}");
+        }
+        // sliding: each decision replays its window through the vote as a fresh recording
+        let (n, hop) = (80usize, 16u64);
+        let sliding = DosClassifier::try_new(m.clone(), &l, Some(n as u64)).unwrap().with_hop(hop).unwrap();
+        let out = { sliding }.run_all(input.clone()).unwrap();
+        for d in &out {
+            let last = d.seq as usize;
+            let window = &input[last + 1 - n..=last];
+            let student = model.classify_vector(&features_of(window.to_vec(), &cfg)).unwrap();
+            assert_eq!(d.decision, m.combine(student, vote_over(&net, window).as_deref()), "window ending at {last}");
+        }
+        // early answers (every 7 frames: net windows of a decision start off the previous ones'
+        // grid), and after a reset
+        let mut early = DosClassifier::try_new(m.clone(), &l, Some(n as u64))
+            .unwrap()
+            .with_hop(7)
+            .unwrap()
+            .with_early_decisions()
+            .unwrap();
+        let mut out = Vec::new();
+        for f in &input[..33] {
+            early.push(f.clone(), &mut out).unwrap();
+        }
+        early.reset();
+        out.clear();
+        for f in &input[33..] {
+            early.push(f.clone(), &mut out).unwrap();
+        }
+        early.finish(&mut out).unwrap();
+        assert!(out.len() > 10);
+        for d in &out {
+            let last = d.seq as usize;
+            let window = &input[(last + 1).saturating_sub(n).max(33)..=last];
+            let student = model.classify_vector(&features_of(window.to_vec(), &cfg)).unwrap();
+            assert_eq!(d.decision, m.combine(student, vote_over(&net, window).as_deref()), "early, ending at {last}");
+        }
+    }
+    // fewer frames than one window: the Student-t decision
+    let m = model.clone().with_window(Some(DosWindowPart { weight: 0.0, net })).unwrap();
+    let got = DosClassifier::try_new(m, &l, None).unwrap().run_all(input[..4].to_vec()).unwrap();
+    assert_eq!(got[0].decision, model.classify_vector(&features_of(input[..4].to_vec(), &cfg)).unwrap());
+}

@@ -198,9 +198,11 @@ pub struct DosWindowNet {
     pub recordings: usize,
 }
 
+/// A window net as read, before validation (the [`DosWindowPart`] of a model validates it with
+/// the field's name).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawWindowNet {
+pub(super) struct RawWindowNet {
     config: WindowNetConfig,
     taxels: usize,
     classes: Vec<DosClass>,
@@ -303,6 +305,11 @@ impl DosWindowNet {
         Ok(self.w2.iter().zip(&self.b2).map(|(row, b)| b + dot(row, &h)).collect())
     }
 
+    /// The log posterior of one window's representation (net class order).
+    pub fn log_posterior(&self, input: &[f64]) -> Result<Vec<f64>> {
+        Ok(log_softmax(&self.logits(input)?))
+    }
+
     /// Classify one window's representation.
     pub fn classify(&self, input: &[f64]) -> Result<Decision> {
         let posterior = softmax(&self.logits(input)?);
@@ -324,8 +331,15 @@ impl DosWindowNet {
 
     /// A streaming per-span answer of this model on `layout` ([`WindowVote`]).
     pub fn vote(&self, layout: &Layout) -> Result<WindowVote<'_>> {
-        Ok(WindowVote { net: self, extractor: self.extractor(layout)?, sum: vec![0.0; self.classes.len()], windows: 0 })
+        Ok(WindowVote { net: self, state: WindowVoteState::try_new(self, layout)? })
     }
+}
+
+/// `l − ln Σ exp l` per logit.
+fn log_softmax(logits: &[f64]) -> Vec<f64> {
+    let top = logits.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lse = top + logits.iter().map(|l| (l - top).exp()).sum::<f64>().ln();
+    logits.iter().map(|l| l - lse).collect()
 }
 
 /// The decision of a posterior (argmax, ties: the first in model order).
@@ -345,27 +359,73 @@ fn decision(classes: &[DosClass], posterior: Vec<f64>) -> Decision {
 #[derive(Clone, Debug)]
 pub struct WindowVote<'a> {
     net: &'a DosWindowNet,
-    extractor: WindowExtractor,
-    sum: Vec<f64>,
-    windows: u64,
+    state: WindowVoteState,
 }
 
 impl WindowVote<'_> {
     /// Push one raw frame; when it completes a window, that window's decision (the window
     /// alone) is returned and added to the vote.
     pub fn push(&mut self, values: &[f64]) -> Result<Option<Decision>> {
+        self.state.push(self.net, values)
+    }
+
+    /// Completed windows in the vote.
+    pub fn windows(&self) -> u64 {
+        self.state.windows
+    }
+
+    /// The vote's decision so far (`None` before the first window); its posterior is the
+    /// normalised product of the windows' posteriors.
+    pub fn decision(&self) -> Option<Decision> {
+        self.state.decision(self.net)
+    }
+
+    /// The mean log posterior per window so far, in model class order (`None` before the first
+    /// window): the vote on the scale of one window, to combine with another model's log
+    /// posterior.
+    pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
+        self.state.mean_log_posterior()
+    }
+
+    /// Start a new span (a new contact).
+    pub fn reset(&mut self) {
+        self.state.reset();
+    }
+}
+
+/// The state of a [`WindowVote`] without the borrow of its net, for an owner of the net (the
+/// `dos` stage keeps both): every call takes the net the state was made for.
+#[derive(Clone, Debug)]
+pub struct WindowVoteState {
+    extractor: WindowExtractor,
+    sum: Vec<f64>,
+    windows: u64,
+}
+
+impl WindowVoteState {
+    /// An empty vote of `net` on `layout` (which must have the net's taxel count).
+    pub fn try_new(net: &DosWindowNet, layout: &Layout) -> Result<Self> {
+        Ok(WindowVoteState { extractor: net.extractor(layout)?, sum: vec![0.0; net.classes.len()], windows: 0 })
+    }
+
+    /// [`WindowVote::push`] with `net` (the net this state was made for).
+    pub fn push(&mut self, net: &DosWindowNet, values: &[f64]) -> Result<Option<Decision>> {
         if !self.extractor.push(values)? {
             return Ok(None);
         }
         let Some(x) = self.extractor.input() else { return Ok(None) };
-        let logits = self.net.logits(&x)?;
-        let top = logits.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let lse = top + logits.iter().map(|l| (l - top).exp()).sum::<f64>().ln();
-        for (s, l) in self.sum.iter_mut().zip(&logits) {
-            *s += l - lse;
+        let logits = net.logits(&x)?;
+        self.add_log_posterior(&log_softmax(&logits));
+        Ok(Some(decision(&net.classes, softmax(&logits))))
+    }
+
+    /// Add one window's log posterior ([`DosWindowNet::log_posterior`], net class order) to the
+    /// vote, as [`push`](Self::push) does when a window completes (the same sum, bit for bit).
+    pub fn add_log_posterior(&mut self, log_p: &[f64]) {
+        for (s, l) in self.sum.iter_mut().zip(log_p) {
+            *s += l;
         }
         self.windows += 1;
-        Ok(Some(decision(&self.net.classes, softmax(&logits))))
     }
 
     /// Completed windows in the vote.
@@ -373,15 +433,12 @@ impl WindowVote<'_> {
         self.windows
     }
 
-    /// The vote's decision so far (`None` before the first window); its posterior is the
-    /// normalised product of the windows' posteriors.
-    pub fn decision(&self) -> Option<Decision> {
-        (self.windows > 0).then(|| decision(&self.net.classes, softmax(&self.sum)))
+    /// [`WindowVote::decision`] with `net`.
+    pub fn decision(&self, net: &DosWindowNet) -> Option<Decision> {
+        (self.windows > 0).then(|| decision(&net.classes, softmax(&self.sum)))
     }
 
-    /// The mean log posterior per window so far, in model class order (`None` before the first
-    /// window): the vote on the scale of one window, to combine with another model's log
-    /// posterior.
+    /// [`WindowVote::mean_log_posterior`].
     pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
         (self.windows > 0).then(|| self.sum.iter().map(|s| s / self.windows as f64).collect())
     }
