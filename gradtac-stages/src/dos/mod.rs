@@ -382,6 +382,7 @@ use std::sync::Arc;
 
 mod classes;
 mod cross_validation;
+mod dense;
 mod extractor;
 mod features;
 mod model;

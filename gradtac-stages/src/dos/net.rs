@@ -28,6 +28,7 @@
 //! multiply-adds and `hidden` `tanh` — about 2 200 with the defaults. Memory: `max(lags) × taxels`
 //! values per drift map.
 
+use super::dense::{self, Dense};
 use super::*;
 use crate::drift::DriftSnapshot;
 
@@ -293,8 +294,19 @@ impl DosNet {
 
     /// Number of fitted numbers (weights, biases, input means and spreads).
     pub fn parameter_count(&self) -> usize {
-        let (d, h, c) = (self.inputs(), self.config.hidden, self.classes.len());
-        2 * d + h * d + h + c * h + c
+        dense::parameter_count(self.inputs(), self.config.hidden, self.classes.len())
+    }
+
+    /// The network's numbers, for [`dense`](super::dense)'s checks and evaluation.
+    fn dense(&self) -> Dense<'_> {
+        Dense {
+            input_mean: &self.input_mean,
+            input_scale: &self.input_scale,
+            w1: &self.w1,
+            b1: &self.b1,
+            w2: &self.w2,
+            b2: &self.b2,
+        }
     }
 
     /// Checks shapes and values (done on deserialisation).
@@ -303,56 +315,12 @@ impl DosNet {
         if !(3..=MAX_NET_TAXELS).contains(&self.taxels) {
             return Err(invalid(format!("taxels {} must be in 3..={MAX_NET_TAXELS}", self.taxels)));
         }
-        if self.classes.len() < 2 {
-            return Err(invalid("a model needs at least two classes"));
-        }
-        for (i, c) in self.classes.iter().enumerate() {
-            if self.classes[..i].contains(c) {
-                return Err(invalid(format!("class {c} appears twice")));
-            }
-        }
-        let (d, h, c) = (self.inputs(), self.config.hidden, self.classes.len());
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-        let check = |name: &str, v: &[f64], len: usize| -> Result<()> {
-            if v.len() != len || !finite(v) {
-                return Err(invalid(format!("{name} must be {len} finite values, got {}", v.len())));
-            }
-            Ok(())
-        };
-        check("input_mean", &self.input_mean, d)?;
-        check("input_scale", &self.input_scale, d)?;
-        if self.input_scale.iter().any(|&s| s <= 0.0) {
-            return Err(invalid("input_scale values must be > 0"));
-        }
-        if self.w1.len() != h {
-            return Err(invalid(format!("w1 has {} rows for {h} hidden units", self.w1.len())));
-        }
-        for row in &self.w1 {
-            check("a row of w1", row, d)?;
-        }
-        check("b1", &self.b1, h)?;
-        if self.w2.len() != c {
-            return Err(invalid(format!("w2 has {} rows for {c} classes", self.w2.len())));
-        }
-        for row in &self.w2 {
-            check("a row of w2", row, h)?;
-        }
-        check("b2", &self.b2, c)
+        self.dense().validate(&self.classes, self.inputs(), self.config.hidden)
     }
 
     /// The output logits for a representation (`inputs()` values, unchecked lengths are an error).
     pub fn logits(&self, input: &[f64]) -> Result<Vec<f64>> {
-        if input.len() != self.inputs() {
-            return Err(invalid(format!("{} inputs for a model of {}", input.len(), self.inputs())));
-        }
-        if let Some(j) = input.iter().position(|v| !v.is_finite()) {
-            return Err(invalid(format!("input {j} is {}", input[j])));
-        }
-        let x: Vec<f64> =
-            input.iter().zip(&self.input_mean).zip(&self.input_scale).map(|((v, m), s)| (v - m) / s).collect();
-        let h: Vec<f64> =
-            self.w1.iter().zip(&self.b1).map(|(row, b)| (b + dot(row, &x)).clamp(-MAX_ACT, MAX_ACT).tanh()).collect();
-        Ok(self.w2.iter().zip(&self.b2).map(|(row, b)| b + dot(row, &h)).collect())
+        self.dense().logits(input)
     }
 
     /// Classify a representation ([`NetExtractor::input`]).
@@ -383,12 +351,7 @@ impl DosNet {
     }
 }
 
-/// Largest pre-activation fed to `tanh` (it is ±1 to double precision well before).
-const MAX_ACT: f64 = 40.0;
-
-pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
+pub(super) use super::dense::dot;
 
 /// `softmax(z)`, stable for any finite `z`.
 pub fn softmax(z: &[f64]) -> Vec<f64> {

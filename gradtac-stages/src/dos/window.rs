@@ -34,7 +34,8 @@
 //! the sums, `inputs × hidden + hidden × classes` multiply-adds and `hidden` `tanh` (≈ 900 with
 //! 16 hidden units). Memory: `F × n` values.
 
-use super::net::{dot, softmax};
+use super::dense::{self, Dense};
+use super::net::softmax;
 use super::*;
 
 /// Settings of the window model's representation and network, stored in the model file.
@@ -244,8 +245,19 @@ impl DosWindowNet {
 
     /// Number of fitted numbers (weights, biases, input means and spreads).
     pub fn parameter_count(&self) -> usize {
-        let (d, h, c) = (self.inputs(), self.config.hidden, self.classes.len());
-        2 * d + h * d + h + c * h + c
+        dense::parameter_count(self.inputs(), self.config.hidden, self.classes.len())
+    }
+
+    /// The network's numbers, for [`dense`](super::dense)'s checks and evaluation.
+    fn dense(&self) -> Dense<'_> {
+        Dense {
+            input_mean: &self.input_mean,
+            input_scale: &self.input_scale,
+            w1: &self.w1,
+            b1: &self.b1,
+            w2: &self.w2,
+            b2: &self.b2,
+        }
     }
 
     /// Checks shapes and values (done on deserialisation); the error names the field.
@@ -254,55 +266,12 @@ impl DosWindowNet {
         if !(3..=MAX_NET_TAXELS).contains(&self.taxels) {
             return Err(invalid(format!("taxels {} must be in 3..={MAX_NET_TAXELS}", self.taxels)));
         }
-        if self.classes.len() < 2 {
-            return Err(invalid("a model needs at least two classes"));
-        }
-        for (i, c) in self.classes.iter().enumerate() {
-            if self.classes[..i].contains(c) {
-                return Err(invalid(format!("class {c} appears twice")));
-            }
-        }
-        let (d, h, c) = (self.inputs(), self.config.hidden, self.classes.len());
-        let check = |name: &str, v: &[f64], len: usize| -> Result<()> {
-            if v.len() != len || !v.iter().all(|x| x.is_finite()) {
-                return Err(invalid(format!("{name} must be {len} finite values, got {}", v.len())));
-            }
-            Ok(())
-        };
-        check("input_mean", &self.input_mean, d)?;
-        check("input_scale", &self.input_scale, d)?;
-        if self.input_scale.iter().any(|&s| s <= 0.0) {
-            return Err(invalid("input_scale values must be > 0"));
-        }
-        if self.w1.len() != h {
-            return Err(invalid(format!("w1 has {} rows for {h} hidden units", self.w1.len())));
-        }
-        for row in &self.w1 {
-            check("a row of w1", row, d)?;
-        }
-        check("b1", &self.b1, h)?;
-        if self.w2.len() != c {
-            return Err(invalid(format!("w2 has {} rows for {c} classes", self.w2.len())));
-        }
-        for row in &self.w2 {
-            check("a row of w2", row, h)?;
-        }
-        check("b2", &self.b2, c)
+        self.dense().validate(&self.classes, self.inputs(), self.config.hidden)
     }
 
     /// The output logits for a window's representation ([`WindowExtractor::input`]).
     pub fn logits(&self, input: &[f64]) -> Result<Vec<f64>> {
-        if input.len() != self.inputs() {
-            return Err(invalid(format!("{} inputs for a model of {}", input.len(), self.inputs())));
-        }
-        if let Some(j) = input.iter().position(|v| !v.is_finite()) {
-            return Err(invalid(format!("input {j} is {}", input[j])));
-        }
-        let x: Vec<f64> =
-            input.iter().zip(&self.input_mean).zip(&self.input_scale).map(|((v, m), s)| (v - m) / s).collect();
-        let h: Vec<f64> =
-            self.w1.iter().zip(&self.b1).map(|(row, b)| (b + dot(row, &x)).clamp(-40.0, 40.0).tanh()).collect();
-        Ok(self.w2.iter().zip(&self.b2).map(|(row, b)| b + dot(row, &h)).collect())
+        self.dense().logits(input)
     }
 
     /// The log posterior of one window's representation (net class order).
