@@ -750,6 +750,18 @@ fn main() {
     println!();
     println!("| method | setting | held-out worst kind | held-out mean | held-out physics worst kind | paper worst kind ÷ 14.5 mm | µs/frame |");
     println!("|---|---|---|---|---|---|---|");
+    let chosen_row = |label: &str, r: &Row| {
+        println!(
+            "| {label} | {} | {:.3} ({}) | {:.3} | {:.3} | {:.3} | {:.2} |",
+            r.s.describe(),
+            r.test.worst,
+            r.test.kind,
+            r.test.mean,
+            r.novel.worst,
+            r.paper.1 / core_width,
+            r.us
+        );
+    };
     let mut methods: Vec<&str> = Vec::new();
     for r in &rows {
         if !methods.contains(&r.s.method()) {
@@ -768,16 +780,7 @@ fn main() {
                 centroid_best = Some(r.test.worst);
             }
             chosen_untouched.push(format!("{m} {:.1} %", 100.0 * r.untouched));
-            println!(
-                "| {m} | {} | {:.3} ({}) | {:.3} | {:.3} | {:.3} | {:.2} |",
-                r.s.describe(),
-                r.test.worst,
-                r.test.kind,
-                r.test.mean,
-                r.novel.worst,
-                r.paper.1 / core_width,
-                r.us
-            );
+            chosen_row(m, r);
         }
     }
     let ld = LocateConfig::preset(Preset::Fast);
@@ -788,16 +791,7 @@ fn main() {
                 && smooth == ld.smooth_frames && speed == ld.max_speed_mm_s)
     });
     if let Some(r) = lib_centroid {
-        println!(
-            "| **centroid with the former default settings** | {} | {:.3} ({}) | {:.3} | {:.3} | {:.3} | {:.2} |",
-            r.s.describe(),
-            r.test.worst,
-            r.test.kind,
-            r.test.mean,
-            r.novel.worst,
-            r.paper.1 / core_width,
-            r.us
-        );
+        chosen_row("**centroid with the library's default (`fast`) settings**", r);
     }
     let la = LocateConfig::preset(Preset::Accurate);
     let lib_accurate = rows.iter().find(|r| {
@@ -807,16 +801,7 @@ fn main() {
                 && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
     });
     if let Some(r) = lib_accurate {
-        println!(
-            "| **fit with the library's `accurate` preset** | {} | {:.3} ({}) | {:.3} | {:.3} | {:.3} | {:.2} |",
-            r.s.describe(),
-            r.test.worst,
-            r.test.kind,
-            r.test.mean,
-            r.novel.worst,
-            r.paper.1 / core_width,
-            r.us
-        );
+        chosen_row("**fit with the library's `accurate` preset**", r);
         println!();
         println!(
             "The library's `accurate` preset: {} — tuning {:.3}, held out {:.3} ({}), {:.2} µs/frame (its window and motion prior chosen on real recordings among settings no less accurate on the tuning members, docs/tradeoff.md).",
