@@ -103,15 +103,24 @@ fn tripled_noise_gives_the_same_track() {
 /// The event-contour chain of `[stages.locate] method = "events"` with its noise-adaptive τ
 /// (`event_tau_sigmas`, measured over `calibrate_frames`), or with a fixed τ.
 fn event_track(rec: &FamilyRecording, threshold: Threshold) -> Vec<TrackPoint> {
-    let layout = Layout::biotac_sp();
     let ev = EventsConfig { threshold, ..Default::default() };
     let wc = WindowConfig { frames: Some(20), aggregate: Aggregate::Count, ..Default::default() };
-    let ic = InterpolateConfig {
-        grid: GridConfig { nx: 16, ..Default::default() },
-        incremental: true,
-        ..Default::default()
-    };
     let cc = ContourConfig { min_peak: 2.0, min_area_mm2: 120.0, ..Default::default() };
+    event_chain_track(rec, ev, wc, 16, cc)
+}
+
+/// Savitzky–Golay → events → window → natural-neighbour surface (`nx` wide) → maximal contour
+/// → track, on the recording's frames.
+fn event_chain_track(
+    rec: &FamilyRecording,
+    ev: EventsConfig,
+    wc: WindowConfig,
+    nx: usize,
+    cc: ContourConfig,
+) -> Vec<TrackPoint> {
+    let layout = Layout::biotac_sp();
+    let ic =
+        InterpolateConfig { grid: GridConfig { nx, ..Default::default() }, incremental: true, ..Default::default() };
     SavGol::try_with_rate(layout.len(), SavGolConfig::default(), 100.0)
         .unwrap()
         .then(Events::try_new(layout.len(), ev).unwrap())
@@ -171,24 +180,10 @@ fn tripled_noise_gives_the_same_event_track() {
 fn press_release_track(rec: &FamilyRecording) -> Vec<TrackPoint> {
     use gradtac::stages::events::Polarity;
     use gradtac::stages::window::WindowKind;
-    let layout = Layout::biotac_sp();
     let ev = EventsConfig { polarity: Polarity::PressRelease, ..Default::default() };
     let wc = WindowConfig { kind: WindowKind::Cumulative, aggregate: Aggregate::Signed, ..Default::default() };
-    let ic = InterpolateConfig {
-        grid: GridConfig { nx: 32, ..Default::default() },
-        incremental: true,
-        ..Default::default()
-    };
     let cc = ContourConfig { min_peak: 6.0, min_area_mm2: 60.0, ..Default::default() };
-    SavGol::try_with_rate(layout.len(), SavGolConfig::default(), 100.0)
-        .unwrap()
-        .then(Events::try_new(layout.len(), ev).unwrap())
-        .then(Window::try_new(&wc).unwrap())
-        .then(Interpolate::try_new(&ic, &layout).unwrap())
-        .then(Contour::try_new(&cc).unwrap())
-        .then(Track::try_new(&TrackConfig::default()).unwrap())
-        .run_all(rec.frames.clone())
-        .unwrap()
+    event_chain_track(rec, ev, wc, 32, cc)
 }
 
 #[test]
