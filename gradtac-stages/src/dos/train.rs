@@ -137,17 +137,23 @@ impl TrainConfig {
     pub fn validate(&self) -> Result<()> {
         self.net.validate()?;
         self.augment.validate()?;
-        if !(self.l2.is_finite() && self.l2 >= 0.0) {
-            return Err(invalid(format!("l2 {} must be finite and ≥ 0", self.l2)));
-        }
-        if !(1..=100_000).contains(&self.epochs) {
-            return Err(invalid(format!("epochs {} must be in 1..=100000", self.epochs)));
-        }
-        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0 && self.learning_rate <= 1.0) {
-            return Err(invalid(format!("learning_rate {} must be in (0, 1]", self.learning_rate)));
-        }
-        Ok(())
+        check_optimiser(self.l2, self.epochs, 100_000, self.learning_rate)
     }
+}
+
+/// The optimiser settings both trainers share: `l2` finite and ≥ 0, `epochs` in
+/// `1..=max_epochs`, `learning_rate` in (0, 1].
+pub(super) fn check_optimiser(l2: f64, epochs: usize, max_epochs: usize, learning_rate: f64) -> Result<()> {
+    if !(l2.is_finite() && l2 >= 0.0) {
+        return Err(invalid(format!("l2 {l2} must be finite and ≥ 0")));
+    }
+    if !(1..=max_epochs).contains(&epochs) {
+        return Err(invalid(format!("epochs {epochs} must be in 1..={max_epochs}")));
+    }
+    if !(learning_rate.is_finite() && learning_rate > 0.0 && learning_rate <= 1.0) {
+        return Err(invalid(format!("learning_rate {learning_rate} must be in (0, 1]")));
+    }
+    Ok(())
 }
 
 /// A small deterministic generator (SplitMix64): the trainer needs reproducible draws, not a

@@ -111,17 +111,9 @@ impl WindowTrainConfig {
     pub fn validate(&self) -> Result<()> {
         self.net.validate()?;
         self.augment.validate()?;
-        if !(self.l2.is_finite() && self.l2 >= 0.0) {
-            return Err(invalid(format!("l2 {} must be finite and ≥ 0", self.l2)));
-        }
-        if !(1..=1000).contains(&self.epochs) {
-            return Err(invalid(format!("epochs {} must be in 1..=1000", self.epochs)));
-        }
+        train::check_optimiser(self.l2, self.epochs, 1000, self.learning_rate)?;
         if !(1..=100_000).contains(&self.batch) {
             return Err(invalid(format!("batch {} must be in 1..=100000", self.batch)));
-        }
-        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0 && self.learning_rate <= 1.0) {
-            return Err(invalid(format!("learning_rate {} must be in (0, 1]", self.learning_rate)));
         }
         Ok(())
     }
