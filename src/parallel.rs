@@ -148,14 +148,7 @@ impl Parallel {
         threads: usize,
         memory: Option<&crate::memory::MemoryOutputs>,
     ) -> Result<Parallel, Error> {
-        let chains = plan
-            .sensors
-            .iter()
-            .filter(|p| p.is_read())
-            .map(|p| SensorChain::build(scene, p))
-            .collect::<Result<Vec<_>, _>>()?;
-        let slip = SlipNode::build(scene, plan)?;
-        let sinks = Sinks::open_in(scene, plan, memory)?;
+        let (chains, slip, sinks) = crate::run::build_parts(scene, plan, memory)?;
         let n = threads.clamp(1, chains.len().max(1));
         let sensors: Vec<SensorId> = chains.iter().map(|c| c.sensor().clone()).collect();
         let mut groups: Vec<Vec<SensorChain>> = (0..n).map(|_| Vec::new()).collect();

@@ -93,6 +93,26 @@ impl fmt::Display for RunReport {
     }
 }
 
+/// What a run is built from, in the order a run opens them: the chain of every sensor the
+/// plan reads, the cross-sensor slip stage when the plan runs one, and the sinks (each output
+/// in `memory` instead of a file when given). The serial [`Runner`] and the chain threads
+/// (`crate::parallel`) both start here.
+pub(crate) fn build_parts(
+    scene: &Scene,
+    plan: &Plan,
+    memory: Option<&MemoryOutputs>,
+) -> Result<(Vec<SensorChain>, Option<SlipNode>, Sinks), Error> {
+    let chains = plan
+        .sensors
+        .iter()
+        .filter(|p| p.is_read())
+        .map(|p| SensorChain::build(scene, p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let slip = SlipNode::build(scene, plan)?;
+    let sinks = Sinks::open_in(scene, plan, memory)?;
+    Ok((chains, slip, sinks))
+}
+
 /// The cross-sensor two-finger slip stage and the outputs that tap it.
 pub(crate) struct SlipNode {
     stage: Slip,
@@ -193,14 +213,7 @@ impl Runner {
 
     /// [`Runner::new`] with every output in `memory` instead of a file when given.
     pub fn new_in(scene: &Scene, plan: &Plan, memory: Option<&MemoryOutputs>) -> Result<Runner, Error> {
-        let chains = plan
-            .sensors
-            .iter()
-            .filter(|p| p.is_read())
-            .map(|p| SensorChain::build(scene, p))
-            .collect::<Result<Vec<_>, _>>()?;
-        let slip = SlipNode::build(scene, plan)?;
-        let sinks = Sinks::open_in(scene, plan, memory)?;
+        let (chains, slip, sinks) = build_parts(scene, plan, memory)?;
         Ok(Runner { chains, slip, sinks, last: 0 })
     }
 
