@@ -361,11 +361,24 @@ pub fn training_set(
     Ok(out)
 }
 
-/// Fit the network on representations (each `net.inputs(taxels)` values) — see the
-/// [module docs](self). The model's classes are those present, in [`DosClass::ALL`] order.
-pub fn fit(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &TrainConfig) -> Result<DosNet> {
-    cfg.validate()?;
-    let d = cfg.net.inputs(taxels);
+/// What both trainers start from ([`fit`] and the window trainer's `fit_windows`): the classes
+/// present (in [`DosClass::ALL`] order, at least two), the inputs standardised by their mean
+/// and spread (at least 1e-3), each sample's class index, and the flattened parameters — `w1`
+/// (`hidden × d`), `b1`, `w2` (`classes × hidden`), `b2` — with Glorot-uniform weights and
+/// zero biases drawn from the seed's generator, which the trainer goes on using.
+pub(super) struct Prepared {
+    pub classes: Vec<DosClass>,
+    pub mean: Vec<f64>,
+    pub scale: Vec<f64>,
+    pub xs: Vec<Vec<f64>>,
+    pub ys: Vec<usize>,
+    pub p: Vec<f64>,
+    pub rng: SplitMix,
+}
+
+/// [`Prepared`] for `samples` of `d` values each; an error for fewer than two classes or a
+/// sample of the wrong length or with a non-finite value.
+pub(super) fn prepare(samples: &[(DosClass, Vec<f64>)], d: usize, hidden: usize, seed: u64) -> Result<Prepared> {
     let classes: Vec<DosClass> = DosClass::ALL.into_iter().filter(|c| samples.iter().any(|(s, _)| s == c)).collect();
     if classes.len() < 2 {
         return Err(invalid(format!("training needs at least two classes, got {}", classes.len())));
@@ -386,20 +399,32 @@ pub fn fit(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &TrainConfig) -
     let xs: Vec<Vec<f64>> =
         samples.iter().map(|(_, x)| x.iter().zip(&mean).zip(&scale).map(|((v, m), s)| (v - m) / s).collect()).collect();
     let ys: Vec<usize> = samples.iter().map(|(c, _)| classes.iter().position(|k| k == c).unwrap_or(0)).collect();
-    let (h, c) = (cfg.net.hidden, classes.len());
-    let mut rng = SplitMix::new(cfg.seed.wrapping_add(0x5EED));
+    let (h, c) = (hidden, classes.len());
+    let mut rng = SplitMix::new(seed.wrapping_add(0x5EED));
     let a1 = (6.0 / (d + h) as f64).sqrt();
     let a2 = (6.0 / (h + c) as f64).sqrt();
-    // parameters flattened: w1 (h×d), b1 (h), w2 (c×h), b2 (c)
-    let (o_b1, o_w2, o_b2) = (h * d, h * d + h, h * d + h + c * h);
-    let total = o_b2 + c;
-    let mut p = vec![0.0; total];
+    let (o_w2, o_b2) = (h * d + h, h * d + h + c * h);
+    let mut p = vec![0.0; o_b2 + c];
     for v in &mut p[..h * d] {
         *v = rng.range(-a1, a1);
     }
     for v in &mut p[o_w2..o_b2] {
         *v = rng.range(-a2, a2);
     }
+    Ok(Prepared { classes, mean, scale, xs, ys, p, rng })
+}
+
+/// Fit the network on representations (each `net.inputs(taxels)` values) — see the
+/// [module docs](self). The model's classes are those present, in [`DosClass::ALL`] order.
+pub fn fit(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &TrainConfig) -> Result<DosNet> {
+    cfg.validate()?;
+    let d = cfg.net.inputs(taxels);
+    let Prepared { classes, mean, scale, xs, ys, mut p, .. } = prepare(samples, d, cfg.net.hidden, cfg.seed)?;
+    let n = samples.len() as f64;
+    let (h, c) = (cfg.net.hidden, classes.len());
+    // parameters flattened: w1 (h×d), b1 (h), w2 (c×h), b2 (c)
+    let (o_b1, o_w2, o_b2) = (h * d, h * d + h, h * d + h + c * h);
+    let total = o_b2 + c;
     let (mut m1, mut m2) = (vec![0.0; total], vec![0.0; total]);
     let (beta1, beta2, eps) = (0.9f64, 0.999f64, 1e-8);
     let mut g = vec![0.0; total];

@@ -197,37 +197,12 @@ pub fn window_samples(recs: &[TrainRecording], layout: &Layout, cfg: &WindowTrai
 pub fn fit_windows(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &WindowTrainConfig) -> Result<DosWindowNet> {
     cfg.validate()?;
     let d = cfg.net.inputs(taxels);
-    let classes: Vec<DosClass> = DosClass::ALL.into_iter().filter(|c| samples.iter().any(|(s, _)| s == c)).collect();
-    if classes.len() < 2 {
-        return Err(invalid(format!("training needs at least two classes, got {}", classes.len())));
-    }
-    for (i, (_, x)) in samples.iter().enumerate() {
-        if x.len() != d || x.iter().any(|v| !v.is_finite()) {
-            return Err(invalid(format!("sample {i} must be {d} finite values")));
-        }
-    }
+    let train::Prepared { classes, mean, scale, xs, ys, mut p, mut rng } =
+        train::prepare(samples, d, cfg.net.hidden, cfg.seed)?;
     let n = samples.len();
-    let nf = n as f64;
-    let mean: Vec<f64> = (0..d).map(|j| samples.iter().map(|s| s.1[j]).sum::<f64>() / nf).collect();
-    let scale: Vec<f64> = (0..d)
-        .map(|j| (samples.iter().map(|s| (s.1[j] - mean[j]).powi(2)).sum::<f64>() / nf).sqrt().max(1e-3))
-        .collect();
-    let xs: Vec<Vec<f64>> =
-        samples.iter().map(|(_, x)| x.iter().zip(&mean).zip(&scale).map(|((v, m), s)| (v - m) / s).collect()).collect();
-    let ys: Vec<usize> = samples.iter().map(|(c, _)| classes.iter().position(|k| k == c).unwrap_or(0)).collect();
     let (h, c) = (cfg.net.hidden, classes.len());
-    let mut rng = SplitMix::new(cfg.seed.wrapping_add(0x5EED));
-    let a1 = (6.0 / (d + h) as f64).sqrt();
-    let a2 = (6.0 / (h + c) as f64).sqrt();
     let (o_b1, o_w2, o_b2) = (h * d, h * d + h, h * d + h + c * h);
     let total = o_b2 + c;
-    let mut p = vec![0.0; total];
-    for v in &mut p[..h * d] {
-        *v = rng.range(-a1, a1);
-    }
-    for v in &mut p[o_w2..o_b2] {
-        *v = rng.range(-a2, a2);
-    }
     let (mut m1, mut m2) = (vec![0.0; total], vec![0.0; total]);
     let (beta1, beta2, eps) = (0.9f64, 0.999f64, 1e-8);
     let mut g = vec![0.0; total];
