@@ -261,19 +261,21 @@ fn explain_prints_the_event_polarity_and_a_cumulative_window() {
     assert!(err.unwrap_err().to_string().contains("cumulative"));
 }
 
-#[test]
-fn explain_prints_the_effective_locate_values_and_ambiguous_thresholds_are_refused() {
+/// `explain` of a one-sensor scene with a track output and the given `[stages.*]` tables.
+fn explain(stages: &str) -> Result<String, gradtac::Error> {
     use gradtac::{Plan, Scene};
     use std::path::Path;
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let sensor =
         "[[sensor]]\nname = \"ff\"\nsource = { csv = \"x.csv\", columns = \"ff_e{1..24}\", rate_hz = 100.0 }\n";
     let output = "[[output]]\ntap = \"track\"\npath = \"t.parquet\"\n";
-    let explain = |stages: &str| {
-        let scene = Scene::from_toml(&format!("{sensor}{stages}\n{output}"), dir, Path::new("s.toml"))?;
-        let plan = Plan::new(&scene)?;
-        Ok::<String, gradtac::Error>(plan.explain(&scene))
-    };
+    let scene = Scene::from_toml(&format!("{sensor}{stages}\n{output}"), dir, Path::new("s.toml"))?;
+    let plan = Plan::new(&scene)?;
+    Ok(plan.explain(&scene))
+}
+
+#[test]
+fn explain_prints_the_effective_locate_values_and_ambiguous_thresholds_are_refused() {
     let bare = explain("").unwrap();
     assert!(bare.contains("moves at most 30 mm/s") && bare.contains("position memory 3 frames"), "{bare}");
     let ev = explain("[stages.locate]\nmethod = \"events\"\n").unwrap();
@@ -287,17 +289,6 @@ fn explain_prints_the_effective_locate_values_and_ambiguous_thresholds_are_refus
 
 #[test]
 fn explain_shows_the_fit_and_the_preset_values() {
-    use gradtac::{Plan, Scene};
-    use std::path::Path;
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let sensor =
-        "[[sensor]]\nname = \"ff\"\nsource = { csv = \"x.csv\", columns = \"ff_e{1..24}\", rate_hz = 100.0 }\n";
-    let output = "[[output]]\ntap = \"track\"\npath = \"t.parquet\"\n";
-    let explain = |stages: &str| {
-        let scene = Scene::from_toml(&format!("{sensor}{stages}\n{output}"), dir, Path::new("s.toml"))?;
-        let plan = Plan::new(&scene)?;
-        Ok::<String, gradtac::Error>(plan.explain(&scene))
-    };
     let fit = explain("[stages.locate]\nmethod = \"fit\"\nfit_iterations = 7\n").unwrap();
     assert!(fit.contains("model fit (preset fast)") && fit.contains("≤ 7 iterations"), "{fit}");
     assert!(!fit.contains("\n  surface"), "the fit needs no surface:\n{fit}");
