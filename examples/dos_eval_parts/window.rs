@@ -278,6 +278,22 @@ fn log_over_all(classes: &[DosClass], log_p: &[f64]) -> [f64; 7] {
 /// `span` frames: (Student t, window vote's mean per window).
 type Pair = ([f64; 7], [f64; 7]);
 
+/// The Student-t candidate `tcand` (on `tables`) and the window candidate `wcfg`, both fitted
+/// on the `train` recordings.
+fn fit_pair(
+    tables: &[Vec<gradtac::stages::dos::LabelledSpan>],
+    tcand: &gradtac::stages::dos_select::Candidate,
+    samples: &[WindowSamples],
+    wcfg: &WindowTrainConfig,
+    train: &[usize],
+    layout: &Layout,
+) -> Result<(gradtac::stages::dos::DosModel, DosWindowNet), Box<dyn Error>> {
+    let dof = Some(gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF);
+    let model = tcand.calibrate(train.iter().map(|&i| &tables[tcand.table][i]), dof)?;
+    let net = gradtac::stages::dos::train_window::fit_on(samples, train, layout.len(), wcfg)?;
+    Ok((model, net))
+}
+
 /// Fit the Student-t candidate `tc` (on `tables`) and the window candidate `wk` on `train`;
 /// both models' log posteriors for every `test` recording over its first `span` frames
 /// (`tables` must be of that span).
@@ -293,9 +309,7 @@ fn pair_scores(
     layout: &Layout,
     span: usize,
 ) -> Result<Vec<Pair>, Box<dyn Error>> {
-    let dof = Some(gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF);
-    let model = tcand.calibrate(train.iter().map(|&i| &tables[tcand.table][i]), dof)?;
-    let net = gradtac::stages::dos::train_window::fit_on(samples, train, layout.len(), wcfg)?;
+    let (model, net) = fit_pair(tables, tcand, samples, wcfg, train, layout)?;
     let mut vote = net.vote(layout)?;
     test.iter()
         .map(|&i| {
@@ -365,11 +379,8 @@ fn stage_fold(
 ) -> Result<StageFold, Box<dyn Error>> {
     use gradtac::stages::dos::{DosClassifier, DosWindowPart};
     use gradtac::stream::{SensorId, Stage, TaxelFrame, Timestamp};
-    let dof = Some(gradtac::stages::dos::DosModel::DEFAULT_STUDENT_T_DOF);
-    let net = gradtac::stages::dos::train_window::fit_on(samples, train, layout.len(), wcfg)?;
-    let model = tcand
-        .calibrate(train.iter().map(|&i| &tables[tcand.table][i]), dof)?
-        .with_window(Some(DosWindowPart { weight: a, net }))?;
+    let (model, net) = fit_pair(tables, tcand, samples, wcfg, train, layout)?;
+    let model = model.with_window(Some(DosWindowPart { weight: a, net }))?;
     let (mut ok, mut classes, mut cost) = (0, Vec::new(), Vec::new());
     let mut out = Vec::new();
     for &i in test {
