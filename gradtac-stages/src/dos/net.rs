@@ -351,8 +351,6 @@ impl DosNet {
     }
 }
 
-pub(super) use super::dense::dot;
-
 /// `softmax(z)`, stable for any finite `z`.
 pub fn softmax(z: &[f64]) -> Vec<f64> {
     let m = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);

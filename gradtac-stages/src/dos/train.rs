@@ -27,7 +27,8 @@
 //! (learning rate 0.01) on the mean cross-entropy plus `l2 · Σ w²` over the weight matrices,
 //! `epochs` steps, Xavier-uniform initial weights from `seed`. Deterministic for a seed.
 
-use super::net::{dot, softmax};
+use super::dense::dot;
+use super::net::softmax;
 use super::*;
 
 /// Augmentation strengths (see the [module docs](self)). The strengths were set a priori (not

@@ -20,7 +20,8 @@
 //! [`WindowTrainConfig::learning_rate`]) on the mean cross-entropy plus `l2 · Σ w²` over the
 //! weight matrices, Xavier-uniform initial weights; deterministic for a seed.
 
-use super::net::{dot, softmax};
+use super::dense::dot;
+use super::net::softmax;
 use super::train::{self, mirror_permutation, permute, Augment, SplitMix, TrainRecording};
 use super::*;
 
