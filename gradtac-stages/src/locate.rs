@@ -839,6 +839,13 @@ impl ChangeDetector {
         &self.exc
     }
 
+    /// No taxel changed beyond its floor: the relative changes and the excesses both 0 (they
+    /// are set and cleared together).
+    fn clear_changes(&mut self) {
+        self.rel.iter_mut().for_each(|r| *r = 0.0);
+        self.exc.iter_mut().for_each(|r| *r = 0.0);
+    }
+
     /// The signed change `x̄ − x₀` of every taxel (input units: the mean of the last `window`
     /// frames less the baseline) after the last [`push`](Self::push), written into `out`
     /// (cleared first; left empty while calibrating).
@@ -868,8 +875,7 @@ impl ChangeDetector {
         }
         self.ring.clear();
         self.sum.iter_mut().for_each(|s| *s = 0.0);
-        self.rel.iter_mut().for_each(|r| *r = 0.0);
-        self.exc.iter_mut().for_each(|r| *r = 0.0);
+        self.clear_changes();
         self.last_time = None;
         self.sensor = None;
     }
@@ -923,8 +929,7 @@ impl ChangeDetector {
             if self.calib.len() >= self.cfg.calibrate_frames as usize {
                 self.finish_calibration();
             }
-            self.rel.iter_mut().for_each(|r| *r = 0.0);
-            self.exc.iter_mut().for_each(|r| *r = 0.0);
+            self.clear_changes();
             return Ok(Changes { start, end: f.time, seq: f.seq, contact: false, calibrating: true });
         }
         let k = self.ring.len() as f64;
@@ -967,11 +972,10 @@ impl ChangeDetector {
         if let Some(d) = &mut self.drift {
             contact = d.after(f.time, dt, k, &self.sum, &mut self.baseline, &self.delta, &self.sigma, contact, beta);
             if !contact {
-                self.rel.iter_mut().for_each(|r| *r = 0.0);
+                self.clear_changes();
             }
         } else if !contact {
-            self.rel.iter_mut().for_each(|r| *r = 0.0);
-            self.exc.iter_mut().for_each(|r| *r = 0.0);
+            self.clear_changes();
             if self.follow_all {
                 for i in 0..self.n {
                     let mean = self.sum[i] / k;
