@@ -32,6 +32,13 @@
 //! held out the same way, its combination with the Student-t design (weight chosen inside the
 //! training objects), early answers, its streaming cost and training time.
 //!
+//! `--window-candidates FILE.json` replaces the window model's candidates by a JSON list of
+//! (partial) `WindowTrainConfig`s (e.g. `examples/dos_eval_parts/since_start_ensemble.json`,
+//! the since-start five-member ensemble measured in the `dos` module docs; CI runs the
+//! defaults). `--window-inner` is the development view: each candidate's leave-one-object-out
+//! accuracy *inside* basic and *inside* solids only (no held-out figure), for exploring
+//! candidates without looking at the test objects.
+//!
 //! `--window-model-out FILE` writes the window model trained on all recordings (JSON).
 //! `--model-out` writes the model calibrated on all recordings as JSON (the file a scene
 //! loads). Exits 0 with "skipped: data not present" when the directory is absent.
@@ -218,6 +225,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut learned_only = false;
     let mut window_only = false;
     let mut window_model_out: Option<PathBuf> = None;
+    let mut window_cands: Option<PathBuf> = None;
+    let mut window_inner = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -237,13 +246,17 @@ fn main() -> Result<(), Box<dyn Error>> {
             "--no-floors" => no_floors = true,
             "--learned-only" => learned_only = true,
             "--window-only" => window_only = true,
+            "--window-candidates" => {
+                window_cands = Some(args.next().ok_or("--window-candidates needs a JSON file")?.into())
+            }
+            "--window-inner" => window_inner = true,
             "--window-model-out" => {
                 window_model_out = Some(args.next().ok_or("--window-model-out needs a file")?.into())
             }
             "-h" | "--help" => {
                 println!(
                     "usage: dos_eval [DATA_DIR] [--features a,b,c] [--centroid surface|contour|taxels] [--min-area MM2] \
-                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors] [--learned-only] [--window-only] [--window-model-out FILE]"
+                     [--threshold TAU] [--track-window FRAMES] [--model-out FILE] [--no-floors] [--learned-only] [--window-only] [--window-model-out FILE] [--window-candidates FILE.json] [--window-inner]"
                 );
                 return Ok(());
             }
@@ -259,8 +272,15 @@ fn main() -> Result<(), Box<dyn Error>> {
     if learned_only {
         return learned::run(&dir, &layout, no_floors);
     }
+    let wc = match &window_cands {
+        Some(p) => window::candidates_from(p)?,
+        None => window::candidates(),
+    };
+    if window_inner {
+        return window::inner_only(&dir, &layout, &wc);
+    }
     if window_only {
-        return window::run(&dir, &layout, no_floors, window_model_out.as_deref());
+        return window::run(&dir, &layout, no_floors, window_model_out.as_deref(), wc);
     }
     let t0 = Instant::now();
     let raw = read_all(&dir)?;
@@ -295,7 +315,7 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     headline::run(&dir, &layout, no_floors)?;
     learned::run(&dir, &layout, no_floors)?;
-    window::run(&dir, &layout, no_floors, window_model_out.as_deref())?;
+    window::run(&dir, &layout, no_floors, window_model_out.as_deref(), wc)?;
     println!(
         "\n## Footnotes: leave-one-object-out tables whose choices were made on that same evaluation \
          (configured features, no mirror augmentation)\n"

@@ -38,6 +38,44 @@ pub fn candidates() -> Vec<WindowTrainConfig> {
     gradtac::calibrate::window_candidates()
 }
 
+/// The candidates of a JSON file: a list of (partial) [`WindowTrainConfig`]s, missing fields
+/// at their defaults (for exploring with `--window-inner` before fixing a candidate set).
+pub fn candidates_from(path: &std::path::Path) -> Result<Vec<WindowTrainConfig>, Box<dyn Error>> {
+    let c: Vec<WindowTrainConfig> = serde_json::from_str(&std::fs::read_to_string(path)?)?;
+    for x in &c {
+        x.validate()?;
+    }
+    Ok(c)
+}
+
+/// Development view, no held-out figure: each candidate's leave-one-object-out accuracy
+/// *inside* basic and *inside* solids (what the cross-set trainings choose on), per window and
+/// per recording (the vote). Never prints anything scored on an object outside its set's
+/// training objects.
+pub fn inner_only(dir: &std::path::Path, layout: &Layout, cands: &[WindowTrainConfig]) -> Result<(), Box<dyn Error>> {
+    let recs = gradtac::calibrate::read_recordings(dir, &CalibrateOptions::default())?;
+    let tr = train_recordings(&recs);
+    let samples: Vec<Vec<WindowSamples>> =
+        cands.iter().map(|c| window_samples(&tr, layout, c)).collect::<Result<_, _>>()?;
+    let views: Vec<&[WindowSamples]> = samples.iter().map(|s| s.as_slice()).collect();
+    let of = |set: &str| -> Vec<usize> { (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect() };
+    println!("| candidate | inside basic, per window | per recording | inside solids, per window | per recording |");
+    println!("|---|---|---|---|---|");
+    let b = gradtac::stages::dos::train_window::inner_scores(&tr, &views, &of("basic"), layout, cands)?;
+    let s = gradtac::stages::dos::train_window::inner_scores(&tr, &views, &of("solids"), layout, cands)?;
+    for (k, c) in cands.iter().enumerate() {
+        println!(
+            "| {k}: {} | {} | {} | {} | {} |",
+            serde_json::to_string(c)?,
+            pct(b[k].0),
+            pct(b[k].1),
+            pct(s[k].0),
+            pct(s[k].1)
+        );
+    }
+    Ok(())
+}
+
 fn describe(c: &WindowTrainConfig) -> String {
     format!(
         "{}-frame windows, {} hidden, l2 {}, {} epochs of batches of {}, mirror {}, {} random copies (gain {}, offset {})",
@@ -116,10 +154,10 @@ pub fn run(
     layout: &Layout,
     no_floors: bool,
     model_out: Option<&std::path::Path>,
+    cands: Vec<WindowTrainConfig>,
 ) -> Result<(), Box<dyn Error>> {
     let recs = gradtac::calibrate::read_recordings(dir, &CalibrateOptions::default())?;
     let tr = train_recordings(&recs);
-    let cands = candidates();
     println!(
         "\n## The window model (per 5-frame window: the level pattern across taxels and its change across the window \
          → one hidden layer; per recording: the causal vote over windows; `dos::DosWindowNet`)\n"

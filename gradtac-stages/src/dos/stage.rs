@@ -1,5 +1,6 @@
 //! [`DosClassifier`]: the `dos` stage, raw frames in, [`DosDecision`]s out.
 
+use super::window::WindowInputs;
 use super::*;
 
 /// One slip-direction decision of the [`DosClassifier`] stage.
@@ -213,12 +214,26 @@ impl DosClassifier {
             // a fresh recording; each net window's log posterior computed once across decisions
             let first = sl.total - sl.recent.len() as u64;
             let f = w.net.config.frames;
-            sl.cache.retain(|&start, _| start >= first);
+            // a net measured against the span's start sees the replayed window's own first
+            // frames as its reference, which moves with the window: nothing is kept
+            let own_reference = w.net.config.inputs != WindowInputs::Levels;
+            if own_reference {
+                sl.cache.clear();
+            } else {
+                sl.cache.retain(|&start, _| start >= first);
+            }
             v.reset();
             for k in 0..sl.recent.len() / f {
                 let start = first + (k * f) as u64;
                 if !sl.cache.contains_key(&start) {
-                    single.reset();
+                    if own_reference {
+                        // the reference a replay from the window's first frame has at this
+                        // net window's end: its first frames up to the reference length
+                        let seen = (k + 1) * f;
+                        single.reset_with_reference(sl.recent.iter().take(seen).map(|fr| fr.values.as_slice()))?;
+                    } else {
+                        single.reset();
+                    }
                     for j in 0..f {
                         single.push(&sl.recent[k * f + j].values)?;
                     }

@@ -584,14 +584,24 @@ pub(super) mod support {
 
 /// A hand-made window net over all seven classes (no trainer needed).
 fn tiny_window_net() -> DosWindowNet {
-    let d = 48;
+    tiny_window_net_of(WindowInputs::Levels)
+}
+
+/// [`tiny_window_net`] on `inputs` (reference of 7 frames: the first net window's reference is
+/// partial, the second's complete).
+fn tiny_window_net_of(inputs: WindowInputs) -> DosWindowNet {
+    let config = WindowNetConfig { frames: 5, hidden: 2, inputs, reference_frames: 7 };
+    let d = config.inputs(24);
     DosWindowNet {
-        config: WindowNetConfig { frames: 5, hidden: 2 },
+        config,
         taxels: 24,
         classes: DosClass::ALL.to_vec(),
         input_mean: vec![0.0; d],
         input_scale: vec![1.0; d],
-        w1: vec![(0..d).map(|j| if j < 24 { 0.1 * (j as f64 - 11.5) } else { 0.0 }).collect(), vec![0.01; d]],
+        w1: vec![
+            (0..d).map(|j| if j < 24 { 0.1 * (j as f64 - 11.5) } else { 0.0 }).collect(),
+            (0..d).map(|j| if j < 48 { 0.01 } else { 0.05 * ((j % 24) as f64 - 11.5) }).collect(),
+        ],
         b1: vec![0.0, 0.1],
         w2: (0..7).map(|k| vec![0.3 * k as f64 - 1.0, 0.2]).collect(),
         b2: (0..7).map(|k| 0.05 * k as f64).collect(),
@@ -678,8 +688,17 @@ fn vote_over(net: &DosWindowNet, frames: &[TaxelFrame]) -> Option<Vec<f64>> {
 
 #[test]
 fn the_stage_decides_by_the_combined_score_over_the_frames_each_decision_covers() {
+    for inputs in [WindowInputs::Levels, WindowInputs::SinceStart, WindowInputs::Both] {
+        stage_decides_by_the_combined_score(tiny_window_net_of(inputs));
+    }
+}
+
+/// The stage's decisions with `net` as its window part are the combination of the Student-t
+/// decision and a fresh vote over the frames each decision covers (a net measured against the
+/// span's start sees the covered frames' own start: the sliding replay gives each replayed net
+/// window the reference it has in a fresh vote).
+fn stage_decides_by_the_combined_score(net: DosWindowNet) {
     let (cfg, model) = motion_model();
-    let net = tiny_window_net();
     let l = Layout::biotac_sp();
     let input = synthetic(DosClass::E, [0.0, 0.0], 0.1, 11);
     for a in [0.0, 0.25, 0.75, 1.0] {

@@ -91,6 +91,11 @@ pub struct WindowTrainConfig {
     pub seed: u64,
     /// Augmentation.
     pub augment: WindowAugment,
+    /// Networks fitted with the seeds `seed, seed + 1, …` on the same windows and merged into
+    /// one by averaging their logits ([`merge_members`]: one network of `members × hidden`
+    /// hidden units, the same arithmetic at inference) (1..=16, `members × hidden` ≤ 256).
+    /// Default 1.
+    pub members: usize,
 }
 
 impl Default for WindowTrainConfig {
@@ -103,6 +108,7 @@ impl Default for WindowTrainConfig {
             learning_rate: 0.003,
             seed: 1,
             augment: WindowAugment::default(),
+            members: 1,
         }
     }
 }
@@ -115,6 +121,12 @@ impl WindowTrainConfig {
         train::check_optimiser(self.l2, self.epochs, 1000, self.learning_rate)?;
         if !(1..=100_000).contains(&self.batch) {
             return Err(invalid(format!("batch {} must be in 1..=100000", self.batch)));
+        }
+        if !(1..=16).contains(&self.members) || self.members * self.net.hidden > MAX_HIDDEN {
+            return Err(invalid(format!(
+                "members {} must be in 1..=16 with members × hidden ({}) ≤ {MAX_HIDDEN}",
+                self.members, self.net.hidden
+            )));
         }
         Ok(())
     }
@@ -193,10 +205,24 @@ pub fn window_samples(recs: &[TrainRecording], layout: &Layout, cfg: &WindowTrai
         .collect()
 }
 
-/// Fit the window network on samples (each `2·taxels` values; see the [module docs](self)).
-/// The model's classes are those present, in [`DosClass::ALL`] order.
+/// Fit the window network on samples (each [`WindowNetConfig::inputs`] values; see the
+/// [module docs](self)): [`WindowTrainConfig::members`] networks of seeds `seed, seed + 1, …`,
+/// merged ([`merge_members`]). The model's classes are those present, in [`DosClass::ALL`] order.
 pub fn fit_windows(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &WindowTrainConfig) -> Result<DosWindowNet> {
     cfg.validate()?;
+    if cfg.members == 1 {
+        return fit_one(samples, taxels, cfg);
+    }
+    let nets = (0..cfg.members as u64)
+        .map(|k| {
+            fit_one(samples, taxels, &WindowTrainConfig { seed: cfg.seed.wrapping_add(k), members: 1, ..cfg.clone() })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    merge_members(&nets)
+}
+
+/// One network ([`fit_windows`] with one member).
+fn fit_one(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &WindowTrainConfig) -> Result<DosWindowNet> {
     let d = cfg.net.inputs(taxels);
     let train::Prepared { classes, mean, scale, xs, ys, mut p, mut rng } =
         train::prepare(samples, d, cfg.net.hidden, cfg.seed)?;
@@ -274,6 +300,64 @@ pub fn fit_windows(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &Window
     Ok(net)
 }
 
+/// Merge window networks of one representation and one class list into one whose logits are
+/// the mean of theirs (a logit-averaging ensemble): the hidden layers side by side, every
+/// member's input standardisation folded into its rows against the first member's
+/// (`w' = w·σ₀/σ_m`, `b' = b + Σ_j w_j (μ₀_j − μ_m_j)/σ_m_j`), the output rows divided by the
+/// member count. Equal to the mean of the members' logits up to rounding (tested); one network
+/// at inference, with `Σ hidden` units (≤ 256).
+pub fn merge_members(nets: &[DosWindowNet]) -> Result<DosWindowNet> {
+    let first = nets.first().ok_or_else(|| invalid("merging no window networks"))?;
+    let k = nets.len() as f64;
+    let shape = |c: &WindowNetConfig| WindowNetConfig { hidden: 0, ..c.clone() };
+    let mut out = DosWindowNet {
+        config: shape(&first.config),
+        taxels: first.taxels,
+        classes: first.classes.clone(),
+        input_mean: first.input_mean.clone(),
+        input_scale: first.input_scale.clone(),
+        w1: Vec::new(),
+        b1: Vec::new(),
+        w2: vec![Vec::new(); first.classes.len()],
+        b2: vec![0.0; first.classes.len()],
+        recordings: first.recordings,
+    };
+    for n in nets {
+        if n.taxels != first.taxels || n.classes != first.classes || shape(&n.config) != shape(&first.config) {
+            return Err(invalid("merged window networks must share taxels, classes and representation"));
+        }
+        let same = n.input_mean == first.input_mean && n.input_scale == first.input_scale;
+        for (row, b) in n.w1.iter().zip(&n.b1) {
+            if same {
+                // the same standardisation (members fitted on the same windows): rows unchanged
+                out.w1.push(row.clone());
+                out.b1.push(*b);
+                continue;
+            }
+            let mut bias = *b;
+            let mut r = Vec::with_capacity(row.len());
+            for (j, w) in row.iter().enumerate() {
+                r.push(w * first.input_scale[j] / n.input_scale[j]);
+                bias += w * (first.input_mean[j] - n.input_mean[j]) / n.input_scale[j];
+            }
+            out.w1.push(r);
+            out.b1.push(bias);
+        }
+        for (c, row) in n.w2.iter().enumerate() {
+            if nets.len() == 1 {
+                out.w2[c].extend_from_slice(row);
+                out.b2[c] = n.b2[c];
+            } else {
+                out.w2[c].extend(row.iter().map(|w| w / k));
+                out.b2[c] += n.b2[c] / k;
+            }
+        }
+        out.config.hidden += n.config.hidden;
+    }
+    out.validate()?;
+    Ok(out)
+}
+
 /// Fit on the windows of the recordings `train` (all their versions).
 pub fn fit_on(
     samples: &[WindowSamples],
@@ -339,8 +423,43 @@ impl WindowHeldOut {
     }
 }
 
+/// One candidate's inner tallies: ((correct windows, windows), (recordings whose vote is
+/// right, recordings)).
+pub type InnerScore = ((usize, usize), (usize, usize));
+
+/// Leave-one-group-out over the recordings `idx` for each candidate (`samples[k]` are
+/// candidate `k`'s windows): per candidate ((correct windows, windows), (recordings whose vote
+/// is right, recordings)).
+pub fn inner_scores(
+    recs: &[TrainRecording],
+    samples: &[&[WindowSamples]],
+    idx: &[usize],
+    layout: &Layout,
+    candidates: &[WindowTrainConfig],
+) -> Result<Vec<InnerScore>> {
+    let groups = groups_of(recs, idx);
+    if groups.len() < 2 {
+        return Err(invalid(format!("leave-one-group-out needs at least two groups, got {}", groups.len())));
+    }
+    let mut out = Vec::with_capacity(candidates.len());
+    for (k, cfg) in candidates.iter().enumerate() {
+        let (mut w, mut r) = ((0, 0), (0, 0));
+        for g in &groups {
+            let train: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group != *g).collect();
+            let test: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group == *g).collect();
+            let net = fit_on(samples[k], &train, layout.len(), cfg)?;
+            for s in score(&net, recs, &test, layout)? {
+                w = (w.0 + s.0, w.1 + s.1);
+                r = (r.0 + usize::from(s.2), r.1 + 1);
+            }
+        }
+        out.push((w, r));
+    }
+    Ok(out)
+}
+
 /// Leave-one-group-out accuracy per window over the recordings `idx` for each candidate
-/// (`samples[k]` are candidate `k`'s windows); the best (ties: the earlier): (index, accuracy).
+/// ([`inner_scores`]); the best (ties: the earlier): (index, accuracy).
 pub fn choose_window(
     recs: &[TrainRecording],
     samples: &[&[WindowSamples]],
@@ -348,23 +467,9 @@ pub fn choose_window(
     layout: &Layout,
     candidates: &[WindowTrainConfig],
 ) -> Result<(usize, f64)> {
-    let groups = groups_of(recs, idx);
-    if groups.len() < 2 {
-        return Err(invalid(format!("leave-one-group-out needs at least two groups, got {}", groups.len())));
-    }
     let mut best = (0, f64::NEG_INFINITY);
-    for (k, cfg) in candidates.iter().enumerate() {
-        let (mut ok, mut n) = (0, 0);
-        for g in &groups {
-            let train: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group != *g).collect();
-            let test: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group == *g).collect();
-            let net = fit_on(samples[k], &train, layout.len(), cfg)?;
-            for s in score(&net, recs, &test, layout)? {
-                ok += s.0;
-                n += s.1;
-            }
-        }
-        let acc = ok as f64 / n.max(1) as f64;
+    for (k, (w, _)) in inner_scores(recs, samples, idx, layout, candidates)?.into_iter().enumerate() {
+        let acc = w.0 as f64 / w.1.max(1) as f64;
         if acc > best.1 {
             best = (k, acc);
         }

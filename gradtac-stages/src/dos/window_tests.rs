@@ -87,11 +87,67 @@ fn window_input_is_finite_and_defined_at_the_extremes() {
     assert!(WindowExtractor::try_new(&cfg, 0).is_err());
 }
 
+#[test]
+fn the_since_start_pattern_ignores_an_offset_per_taxel_and_levels_inputs_are_as_before() {
+    let frames = counts(DosClass::Aw, 5);
+    let levels = inputs(&frames, &WindowNetConfig::default());
+    for reference_frames in [1, 10, 40] {
+        let both = WindowNetConfig { inputs: WindowInputs::Both, reference_frames, ..Default::default() };
+        let since = WindowNetConfig { inputs: WindowInputs::SinceStart, ..both.clone() };
+        let (b, s) = (inputs(&frames, &both), inputs(&frames, &since));
+        assert_eq!(b.len(), levels.len());
+        for ((l, b), s) in levels.iter().zip(&b).zip(&s) {
+            assert_eq!((b.len(), s.len()), (72, 48));
+            // the level pattern and the change across the window are the Levels inputs, bit for bit
+            assert_eq!(&b[..24], &l[..24]);
+            assert_eq!(&b[48..], &l[24..]);
+            assert_eq!(&s[24..], &l[24..]);
+            assert_eq!(&s[..24], &b[24..48]);
+        }
+        // the first window's pattern since the start sums to zero across taxels
+        assert!(s[0][..24].iter().sum::<f64>().abs() < 1e-9);
+        // an offset per taxel (a static pattern, e.g. the object's shape) changes the
+        // since-start pattern only through its common scale (the level spread `s`)
+        let offsets: Vec<f64> = (0..24).map(|i| ((i * 37) % 11) as f64 * 40.0 - 200.0).collect();
+        let moved: Vec<Vec<f64>> =
+            frames.iter().map(|f| f.iter().zip(&offsets).map(|(v, o)| v + o).collect()).collect();
+        let m = inputs(&moved, &since);
+        let unit = |v: &[f64]| {
+            let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            v.iter().map(|x| x / n.max(1e-300)).collect::<Vec<f64>>()
+        };
+        for (w, (x, y)) in s.iter().zip(&m).enumerate().skip(1) {
+            for (u, v) in unit(&x[..24]).iter().zip(unit(&y[..24])) {
+                assert!((u - v).abs() < 1e-9, "reference {reference_frames}, window {w}: {u} vs {v}");
+            }
+        }
+    }
+    // the reference is causal: a prefix gives the same windows as the whole recording did
+    let cfg = WindowNetConfig { inputs: WindowInputs::Both, reference_frames: 23, ..Default::default() };
+    let whole = inputs(&frames, &cfg);
+    assert_eq!(inputs(&frames[..30], &cfg), whole[..6].to_vec());
+    // a given reference equals the one gathered from the same frames
+    let mut x = WindowExtractor::try_new(&cfg, 24).unwrap();
+    x.reset_with_reference(frames[..23].iter().map(|f| f.as_slice())).unwrap();
+    for f in &frames[25..30] {
+        x.push(f).unwrap();
+    }
+    assert_eq!(x.input().unwrap(), whole[5]);
+    assert!(x.reset_with_reference([&[1.0; 23][..]]).is_err());
+    assert!(x.reset_with_reference([&[f64::NAN; 24][..]]).is_err());
+    assert!(WindowNetConfig { reference_frames: 0, ..cfg.clone() }.validate().is_err());
+    assert!(WindowNetConfig { reference_frames: MAX_WINDOW_FRAMES + 1, ..cfg }.validate().is_err());
+    // a model file written before the field reads as the level representation
+    let old: WindowNetConfig = serde_json::from_str(r#"{"frames": 5, "hidden": 16}"#).unwrap();
+    assert_eq!(old, WindowNetConfig::default());
+    assert_eq!(old.inputs, WindowInputs::Levels);
+}
+
 /// A small hand-made model (no trainer needed).
 fn tiny_model() -> DosWindowNet {
     let d = 48;
     DosWindowNet {
-        config: WindowNetConfig { frames: 5, hidden: 2 },
+        config: WindowNetConfig { frames: 5, hidden: 2, ..Default::default() },
         taxels: 24,
         classes: vec![DosClass::N, DosClass::S, DosClass::T],
         input_mean: vec![0.0; d],
@@ -243,5 +299,68 @@ mod training {
         assert!(fit_windows(&[(DosClass::N, vec![0.0; 48])], 24, &cfg).is_err());
         assert!(WindowTrainConfig { epochs: 0, ..Default::default() }.validate().is_err());
         assert!(WindowTrainConfig { batch: 0, ..Default::default() }.validate().is_err());
+    }
+
+    #[test]
+    fn merged_members_average_the_members_logits_in_one_network() {
+        let layout = Layout::biotac_sp();
+        let mut recs = Vec::new();
+        for (k, class) in DosClass::ALL.into_iter().enumerate() {
+            for j in 0..2u64 {
+                recs.push(TrainRecording {
+                    class,
+                    group: format!("obj{j}"),
+                    frames: counts(class, 300 + 7 * j + k as u64),
+                });
+            }
+        }
+        let net = WindowNetConfig { inputs: WindowInputs::Both, hidden: 4, ..Default::default() };
+        // one random copy each: the members' windows differ (their standardisations are folded)
+        let cfg = WindowTrainConfig { net, epochs: 3, members: 3, ..Default::default() };
+        let all: Vec<usize> = (0..recs.len()).collect();
+        let members: Vec<DosWindowNet> = (0..3u64)
+            .map(|k| {
+                let c = WindowTrainConfig { seed: 1 + k, members: 1, ..cfg.clone() };
+                fit_on(&window_samples(&recs, &layout, &c).unwrap(), &all, 24, &c).unwrap()
+            })
+            .collect();
+        assert_ne!(members[0].input_mean, members[1].input_mean);
+        let merged = merge_members(&members).unwrap();
+        assert_eq!(merged.config.hidden, 12);
+        assert_eq!(merged.parameter_count(), dense_count(72, 12, 7));
+        let x = inputs(&recs[3].frames, &merged.config);
+        for w in &x {
+            let want: Vec<f64> =
+                (0..7).map(|c| members.iter().map(|m| m.logits(w).unwrap()[c]).sum::<f64>() / 3.0).collect();
+            for (a, b) in merged.logits(w).unwrap().iter().zip(&want) {
+                assert!((a - b).abs() < 1e-9 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+        }
+        // one member merges to itself; the trainer's members are the same merge
+        assert_eq!(merge_members(&members[..1]).unwrap(), members[0]);
+        let same = WindowTrainConfig { augment: WindowAugment::mirror_only(), ..cfg.clone() };
+        let samples = window_samples(&recs, &layout, &same).unwrap();
+        let one: Vec<DosWindowNet> = (0..3u64)
+            .map(|k| {
+                fit_on(&samples, &all, 24, &WindowTrainConfig { seed: 1 + k, members: 1, ..same.clone() }).unwrap()
+            })
+            .collect();
+        let mut want = merge_members(&one).unwrap();
+        want.recordings = all.len();
+        assert_eq!(fit_on(&samples, &all, 24, &same).unwrap(), want);
+        // refused: nothing, mixed representations, too many hidden units
+        assert!(merge_members(&[]).is_err());
+        let mut other = members[1].clone();
+        other.config.inputs = WindowInputs::SinceStart;
+        assert!(merge_members(&[members[0].clone(), other]).is_err());
+        assert!(WindowTrainConfig { members: 17, ..Default::default() }.validate().is_err());
+        assert!(WindowTrainConfig { members: 0, ..Default::default() }.validate().is_err());
+        let wide = WindowNetConfig { hidden: 64, ..Default::default() };
+        assert!(WindowTrainConfig { net: wide, members: 5, ..Default::default() }.validate().is_err());
+    }
+
+    /// Fitted numbers of a network of `d` inputs, `h` hidden units and `c` classes.
+    fn dense_count(d: usize, h: usize, c: usize) -> usize {
+        2 * d + h * d + h + c * h + c
     }
 }
