@@ -11,6 +11,7 @@ use gradtac::stages::dos::train_window::{
 };
 use gradtac::stages::dos::{DosClass, DosWindowNet};
 use gradtac::stream::Layout;
+use std::collections::BTreeMap;
 use std::error::Error;
 use std::time::Instant;
 
@@ -491,6 +492,8 @@ pub fn combination(
     let stage_tally = std::cell::RefCell::new(Vec::<(usize, usize, usize)>::new());
     let stage_costs = std::cell::RefCell::new(Vec::<f64>::new());
     let sliding_costs = std::cell::RefCell::new([Vec::<f64>::new(), Vec::new()]);
+    // per outer fold, every test recording's (object, class, decided class)
+    let decided = std::cell::RefCell::new(Vec::<Vec<(String, DosClass, DosClass)>>::new());
     // one outer fold: (tally at the end, tally at 1 s, weight)
     let fold = |tk: usize, wk: usize, train: &[usize], test: &[usize]| -> Result<_, Box<dyn Error>> {
         let mut inner: Vec<(Pair, DosClass)> = Vec::new();
@@ -519,6 +522,9 @@ pub fn combination(
             all.extend(c);
         }
         stage_tally.borrow_mut().push((stage_ok, same, test.len()));
+        decided.borrow_mut().push(
+            test.iter().zip(&whole).map(|(&i, p)| (tr[i].group.clone(), tr[i].class, combined_class(p, a))).collect(),
+        );
         Ok(((count(&whole), test.len()), (count(&at1), test.len()), a))
     };
     let pick = |chosen: &[(String, usize, f64)], g: &str| chosen.iter().find(|c| c.0 == g).map(|c| c.1);
@@ -554,6 +560,33 @@ pub fn combination(
         row.join(" | ")
     );
     println!("(weights chosen per outer fold: {}; at 1 s into contact: {})", weights.join(", "), at1.join(", "));
+    // where the cross-set combination errs: per test object and the confusions
+    let decided = decided.into_inner();
+    let nested_n = decided.len().saturating_sub(at1.len());
+    for ((name, _), d) in splits.iter().zip(&decided[nested_n..]) {
+        let mut objects: Vec<&str> = d.iter().map(|x| x.0.as_str()).collect();
+        objects.sort_unstable();
+        objects.dedup();
+        let per: Vec<String> = objects
+            .iter()
+            .map(|o| {
+                let t = d.iter().filter(|x| x.0 == *o);
+                let ok = t.clone().filter(|x| x.1 == x.2).count();
+                format!("{o} {}", pct((ok, t.count())))
+            })
+            .collect();
+        let mut conf = BTreeMap::<(String, String), usize>::new();
+        for x in d.iter().filter(|x| x.1 != x.2) {
+            *conf.entry((x.1.to_string(), x.2.to_string())).or_default() += 1;
+        }
+        let mut conf: Vec<_> = conf.into_iter().collect();
+        conf.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        println!(
+            "(combination, {name}, per test object: {}; errors true → decided: {})",
+            per.join(", "),
+            conf.iter().map(|((t, p), n)| format!("{t}→{p} {n}")).collect::<Vec<_>>().join(", ")
+        );
+    }
     let st = stage_tally.into_inner();
     let nested_folds = st.len().saturating_sub(tallies.len() - 1);
     let sum = |v: &[(usize, usize, usize)]| v.iter().fold((0, 0, 0), |a, t| (a.0 + t.0, a.1 + t.1, a.2 + t.2));

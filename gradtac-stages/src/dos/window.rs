@@ -77,17 +77,32 @@ pub struct WindowNetConfig {
     /// Hidden units (1..=256). Default 16.
     pub hidden: usize,
     /// What the window's pattern is measured against ([`WindowInputs`]). Default
-    /// [`WindowInputs::Levels`] (the representation of model files written before this field).
+    /// [`WindowInputs::Levels`] (the representation of model files written before this field;
+    /// not written when it is the default, so such files stay as they were).
+    #[serde(skip_serializing_if = "WindowInputs::is_levels")]
     pub inputs: WindowInputs,
     /// Frames since the span's start (the contact) whose mean is the span's own reference
     /// level per taxel, for [`WindowInputs::SinceStart`] and [`WindowInputs::Both`]
-    /// (1..=1000). Default 10 (0.1 s at 100 Hz).
+    /// (1..=1000). Default 10 (0.1 s at 100 Hz; not written when it is the default).
+    #[serde(skip_serializing_if = "is_default_reference")]
     pub reference_frames: usize,
 }
 
 impl Default for WindowNetConfig {
     fn default() -> Self {
         WindowNetConfig { frames: 5, hidden: 16, inputs: WindowInputs::Levels, reference_frames: 10 }
+    }
+}
+
+/// Whether `frames` is the default reference length (10).
+fn is_default_reference(frames: &usize) -> bool {
+    *frames == 10
+}
+
+impl WindowInputs {
+    /// Whether these are [`WindowInputs::Levels`].
+    pub fn is_levels(&self) -> bool {
+        *self == WindowInputs::Levels
     }
 }
 

@@ -141,6 +141,12 @@ fn the_since_start_pattern_ignores_an_offset_per_taxel_and_levels_inputs_are_as_
     let old: WindowNetConfig = serde_json::from_str(r#"{"frames": 5, "hidden": 16}"#).unwrap();
     assert_eq!(old, WindowNetConfig::default());
     assert_eq!(old.inputs, WindowInputs::Levels);
+    // and a default one is written as before; other settings are written and read back
+    assert_eq!(serde_json::to_string(&old).unwrap(), r#"{"frames":5,"hidden":16}"#);
+    let both = WindowNetConfig { inputs: WindowInputs::Both, reference_frames: 25, ..Default::default() };
+    let json = serde_json::to_string(&both).unwrap();
+    assert!(json.contains(r#""inputs":"both""#) && json.contains(r#""reference_frames":25"#), "{json}");
+    assert_eq!(serde_json::from_str::<WindowNetConfig>(&json).unwrap(), both);
 }
 
 /// A small hand-made model (no trainer needed).
@@ -357,6 +363,51 @@ mod training {
         assert!(WindowTrainConfig { members: 0, ..Default::default() }.validate().is_err());
         let wide = WindowNetConfig { hidden: 64, ..Default::default() };
         assert!(WindowTrainConfig { net: wide, members: 5, ..Default::default() }.validate().is_err());
+    }
+
+    #[test]
+    fn inner_scores_tally_every_held_out_window_and_the_choice_is_their_best() {
+        let layout = Layout::biotac_sp();
+        let mut recs = Vec::new();
+        for (k, class) in DosClass::ALL.into_iter().enumerate() {
+            for j in 0..3u64 {
+                let frames = counts(class, 500 + 11 * j + k as u64)[..40].to_vec();
+                recs.push(TrainRecording { class, group: format!("obj{j}"), frames });
+            }
+        }
+        let small = |inputs| WindowNetConfig { inputs, hidden: 3, ..Default::default() };
+        let cands = [
+            WindowTrainConfig {
+                net: small(WindowInputs::Levels),
+                epochs: 2,
+                augment: WindowAugment::mirror_only(),
+                ..Default::default()
+            },
+            WindowTrainConfig {
+                net: small(WindowInputs::Both),
+                epochs: 2,
+                augment: WindowAugment::mirror_only(),
+                ..Default::default()
+            },
+        ];
+        let samples: Vec<Vec<WindowSamples>> =
+            cands.iter().map(|c| window_samples(&recs, &layout, c).unwrap()).collect();
+        let views: Vec<&[WindowSamples]> = samples.iter().map(|s| s.as_slice()).collect();
+        let idx: Vec<usize> = (0..recs.len()).collect();
+        let scores = inner_scores(&recs, &views, &idx, &layout, &cands).unwrap();
+        assert_eq!(scores.len(), 2);
+        for ((ok, n), (rok, rn)) in &scores {
+            // every recording held out once: 40 frames = 8 windows each
+            assert_eq!((*n, *rn), (8 * recs.len(), recs.len()));
+            assert!(ok <= n && rok <= rn);
+        }
+        let (k, acc) = choose_window(&recs, &views, &idx, &layout, &cands).unwrap();
+        let accs: Vec<f64> = scores.iter().map(|((ok, n), _)| *ok as f64 / *n as f64).collect();
+        assert_eq!(acc, accs[k]);
+        assert!(accs.iter().all(|a| *a <= acc));
+        assert!(accs[..k].iter().all(|a| *a < acc), "ties go to the earlier");
+        let one: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group == "obj0").collect();
+        assert!(inner_scores(&recs, &views, &one, &layout, &cands).is_err());
     }
 
     /// Fitted numbers of a network of `d` inputs, `h` hidden units and `c` classes.
