@@ -508,7 +508,8 @@ impl SensorChain {
                 format!(
                     "{what} {} signed changes (model file), no force without contact, every baseline follows \
                      drift while untouched ({}; drift model: settle {} s when steady {} σ over {} s, slope memory {} s \
-                     prior {} s³, release below {} of the contact's peak total change)",
+                     prior {} s³, release below {} of the contact's peak total change; hold beyond {} σ: baseline \
+                     frozen{}, following {} s outside excursions, a level steady {} s is the new rest)",
                     f.detector().change().len(),
                     describe_detector(&st.locate),
                     d.settle_s,
@@ -516,7 +517,11 @@ impl SensorChain {
                     d.steady_s,
                     d.slope_memory_s,
                     d.slope_prior_s3,
-                    d.release_fraction
+                    d.release_fraction,
+                    d.hold_sigmas,
+                    if d.hold_contact { " and a contact until it returns" } else { "" },
+                    d.quiet_s,
+                    d.stale_s
                 )
             }
             Tap::Force => st.force.as_ref().map_or("no model".into(), |f| {

@@ -137,6 +137,14 @@ impl<'de> Deserialize<'de> for ForceModelSpec {
 pub fn read_force_file(path: &Path) -> Result<ForceFile, Error> {
     let text = crate::guard::read_text_capped(path, crate::guard::MAX_MODEL_BYTES)?;
     let bad = |reason: String| Error::Scene { path: path.to_path_buf(), reason };
+    // the format and version first: a newer file is refused by its version, not by a field
+    #[derive(serde::Deserialize)]
+    struct Header {
+        format: String,
+        version: u32,
+    }
+    let head: Header = serde_json::from_str(&text).map_err(|e| bad(format!("not a gradtac force model: {e}")))?;
+    gradtac_stages::force_model::check_header(&head.format, head.version).map_err(|e| bad(e.to_string()))?;
     let file: ForceFile = serde_json::from_str(&text).map_err(|e| bad(format!("not a gradtac force model: {e}")))?;
     file.validate().map_err(|e| bad(e.to_string()))?;
     Ok(file)

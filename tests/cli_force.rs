@@ -102,30 +102,29 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
     // before the first press (1 s at rest, after the detector's 20 calibration frames) no
     // frame reports a force
     assert!(f[..100].iter().all(Option::is_none), "a force before the first press");
-    // Between presses this member shows the force detector's known failure (docs/force.md,
-    // "Untouched frames"): its second press (3 N) never crosses the contact threshold, is
-    // absorbed into the baseline during its hold, and after the lift the inverted change reads
-    // as a contact that does not end — measured 51 of 162 untouched frames above 0.5 N with
-    // the drift model and `total` (0 of 162 with the previous detector and ridge; 3.8 % of the
-    // held-out members' untouched frames in examples/force_eval.rs). The issue's 2 % is not
-    // met; this pins the figure so a change in either direction is seen.
+    // Between presses this member shows what is left of the force gate's known failure
+    // (docs/force.md, "Untouched frames"): with the session-29 drift model its second press
+    // (3 N) was absorbed into the baseline during its hold and its lift read as a contact that
+    // did not end (51 of 162 untouched frames above 0.5 N). The gate's holds
+    // (`force_model::FORCE_GATE`) keep that press out of the baseline; measured 38 of 162 now,
+    // the rest being contacts that have not yet returned (steady below 0.3 of their peak)
+    // when the 0.6 s rests end. The issue's 2 % is not met; this pins the figure so a change
+    // in either direction is seen.
     eprintln!("{over} of {quiet} untouched frames above 0.5 N");
-    assert!(over as f64 <= 0.35 * quiet as f64, "{over} of {quiet} untouched frames above 0.5 N");
+    assert!(over as f64 <= 0.25 * quiet as f64, "{over} of {quiet} untouched frames above 0.5 N");
     // the same sensor's next session at the same places (the held-out places are
     // examples/force_eval.rs's business)
     let mape = 100.0 * errs.iter().sum::<f64>() / errs.len() as f64;
     eprintln!("MAPE {mape:.1} % above 0.5 N");
-    // docs/force.md: the calibrated models do not reach the 10 % the issue asks (here 72 % with
-    // `total`, dominated by the stuck contact above; 57–79 % with ridge and the previous
-    // detector); this only checks that the estimates beat reporting nothing (100 %)
-    assert!(mape < 95.0, "MAPE {mape:.1} % on the same sensor's next session");
+    // docs/force.md: the calibrated models do not reach the 10 % the issue asks (here 31.4 %
+    // with `total` and the gate, 72 % with the session-29 drift model); pinned with a margin
+    assert!(mape < 45.0, "MAPE {mape:.1} % on the same sensor's next session");
     let pressed = (0..f.len()).filter(|&k| test.force[k.saturating_sub(4)] > 2.0);
     let (n, with) = pressed.fold((0, 0), |(n, w), k| (n + 1, w + usize::from(f[k].is_some())));
-    // the force detector lets untouched taxels follow drift, which also absorbs part of a slow
-    // 2 s ramp before it crosses the contact threshold (docs/force.md): measured 1472 of 1640
-    // with the drift model (632 with the previous detector)
+    // the gate holds a press from 2 σ on, so no press above 2 N goes unreported: measured 1640
+    // of 1640 (1472 with the session-29 drift model, 632 with the detector before it)
     eprintln!("a force in {with} of {n} frames pressed above 2 N");
-    assert!(with as f64 > 0.3 * n as f64, "a force in {with} of {n} frames pressed above 2 N");
+    assert!(with as f64 > 0.95 * n as f64, "a force in {with} of {n} frames pressed above 2 N");
 }
 
 #[test]
@@ -175,6 +174,8 @@ fn a_gauge_file_matched_by_time_and_clear_refusals() {
     let out = gradtac().arg("explain").arg(&bad).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("f.json"), "{err}");
+    // refused by its version (read before the model), not by a field this build does not know
+    assert!(err.contains("version 7") && err.contains("newer gradtac"), "{err}");
     // the slip-direction form still answers (with what it needs)
     let out = gradtac().arg("calibrate").output().unwrap();
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("force, baseline, dos"));

@@ -20,12 +20,15 @@
 //! [`ChangeDetector`](crate::locate::ChangeDetector) with the scene's `[stages.locate]`
 //! detector settings (and its stored baseline, [`ChangeForce::with_tare`]), so it needs no
 //! other stage: a bare scene with a `force` output runs source → force.
-//! Its detector ([`force_detector`]) lets every taxel's baseline follow drift in frames without
-//! a contact, settles fast in steady untouched frames, carries each taxel's drift slope through
-//! contacts and releases a steady contact that fell below half its peak
-//! ([`DriftModel`](crate::locate::DriftModel)), so a drifting, untouched sensor does not read
-//! as pressed; the price is that a slow press is partly absorbed while it is still below the
-//! contact threshold.
+//! Its detector ([`force_detector`]) runs the force gate [`FORCE_GATE`]
+//! ([`DriftModel`](crate::locate::DriftModel) with holds): it carries each taxel's drift slope
+//! through contacts, freezes the baseline of a frame with some taxel beyond 2 σ (a contact
+//! until the excursion returns: steady below 0.3 of its peak total change, when the baseline
+//! settles fast), follows at 5 s outside excursions and takes a level steady for 10 s as the new
+//! rest — so a drifting, untouched sensor does not read as pressed and a light press is not
+//! absorbed into the baseline during its hold (its lift then read as a contact that never
+//! ends, the session-29 model's failure). The price: a press rising slower than the noise is
+//! partly taken by the slope, and a press held still for 10 s ends.
 //!
 //! # Units, delay
 //! Newtons; counts in, like the detector. Delay `(window_frames − 1)/2` frames (the mean of the
@@ -47,8 +50,10 @@ const STAGE: &str = "force";
 
 /// The `format` tag of a force model file.
 pub const FORCE_FORMAT: &str = "gradtac-force";
-/// The version this build writes and reads.
-pub const FORCE_VERSION: u32 = 1;
+/// The newest version this build reads (and writes, for a `total` model): version 2 added the
+/// `total` method; `ridge`, `area` and `amplitude` models are still written as version 1, so
+/// builds that predate `total` keep reading them. Every version up to this one is read.
+pub const FORCE_VERSION: u32 = 2;
 /// Most taxels a model may hold.
 pub const MAX_TAXELS: usize = 65_536;
 /// Most knots of an isotonic curve in a file.
@@ -168,6 +173,15 @@ impl CalibratedForce {
         self.method().reads_changes()
     }
 
+    /// The file version a model of this method is written with: 2 for `total` (a build that
+    /// reads only version 1 refuses it by its version), 1 for the others.
+    pub fn version(&self) -> u32 {
+        match self {
+            CalibratedForce::Total { .. } => 2,
+            _ => 1,
+        }
+    }
+
     /// The prediction for changes `delta` (N, ≥ 0; NaN in, NaN out); `None` for a curve model.
     pub fn predict_changes(&self, delta: &[f64]) -> Option<f64> {
         match self {
@@ -198,9 +212,39 @@ pub fn total_change(delta: &[f64]) -> (f64, f64) {
     (s1, s2)
 }
 
+/// The force stage's contact gate ([`DriftModel`] with holds; chosen on the tuning members of
+/// `examples/force_eval.rs`, `docs/force.md`): a frame with some taxel beyond 2 σ of its
+/// baseline is *held* — its baseline frozen (moved only along the drift slope), and a contact
+/// of an excursion that has not returned (hysteresis down to 2 σ); an excursion *returns* when
+/// it is steady below 0.3 of its peak total change, and only then does the baseline settle
+/// fast (0.2 s); outside excursions the baseline follows at 5 s; a held stretch steady for
+/// 10 s is a new resting level. Unlike the session-29 model ([`DriftModel::default`]) a light
+/// press below the contact threshold is not absorbed into the baseline during its hold, so its
+/// lift does not read as a contact that never ends.
+pub const FORCE_GATE: DriftModel = DriftModel {
+    steady_s: 0.3,
+    steady_sigmas: 2.0,
+    settle_s: 0.2,
+    slope_memory_s: 20.0,
+    slope_prior_s3: 5.0,
+    release_fraction: 0.3,
+    hold_sigmas: 2.0,
+    hold_total: 0.0,
+    hold_contact: true,
+    release_moving: 0.0,
+    quiet_s: 5.0,
+    stale_s: 10.0,
+};
+
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
-/// settings `locate` with the force stage's [`DriftModel`] (its defaults).
+/// settings `locate` with the force stage's gate [`FORCE_GATE`].
 pub fn force_detector(taxels: usize, locate: &LocateConfig) -> Result<ChangeDetector> {
+    ChangeDetector::try_new(taxels, locate)?.with_drift_model(FORCE_GATE)
+}
+
+/// The session-29 force detector (the drift model's defaults, without holds): kept for the
+/// reference row of `examples/force_eval.rs`.
+pub fn force_detector_s29(taxels: usize, locate: &LocateConfig) -> Result<ChangeDetector> {
     ChangeDetector::try_new(taxels, locate)?.with_drift_model(DriftModel::default())
 }
 
@@ -238,18 +282,25 @@ fn invalid(reason: String) -> Error {
     Error::InvalidConfig { stage: STAGE, reason }
 }
 
+/// Check a force file's format tag and version (read first, before the model: a file newer
+/// than this build is refused by its version, not by a field it does not know).
+pub fn check_header(format: &str, version: u32) -> Result<()> {
+    if format != FORCE_FORMAT {
+        return Err(invalid(format!("format {format:?} is not {FORCE_FORMAT:?}")));
+    }
+    if version == 0 || version > FORCE_VERSION {
+        return Err(invalid(format!(
+            "version {version} (this build reads versions 1 to {FORCE_VERSION}; a newer gradtac wrote it — \
+             update gradtac, or calibrate again with this one)"
+        )));
+    }
+    Ok(())
+}
+
 impl ForceFile {
     /// Check a (read) file: format, version, bounds, finite numbers, the curve's validity.
     pub fn validate(&self) -> Result<()> {
-        if self.format != FORCE_FORMAT {
-            return Err(invalid(format!("format {:?} is not {FORCE_FORMAT:?}", self.format)));
-        }
-        if self.version != FORCE_VERSION {
-            return Err(invalid(format!(
-                "version {} (this build reads version {FORCE_VERSION}; calibrate again with gradtac calibrate force)",
-                self.version
-            )));
-        }
+        check_header(&self.format, self.version)?;
         if self.taxels == 0 || self.taxels > MAX_TAXELS {
             return Err(invalid(format!("{} taxels (want 1..={MAX_TAXELS})", self.taxels)));
         }
@@ -507,7 +558,7 @@ pub fn calibrate(
     let hi = used.iter().map(|s| s.force_n).fold(f64::NEG_INFINITY, f64::max);
     let file = ForceFile {
         format: FORCE_FORMAT.into(),
-        version: FORCE_VERSION,
+        version: model.version(),
         layout: layout.name().to_string(),
         taxels: n,
         model,
@@ -676,6 +727,126 @@ mod tests {
         let mut sink = Vec::new();
         let e = s.push(bad, &mut sink).unwrap_err();
         assert!(e.to_string().contains("300") || e.to_string().contains("7"), "{e}");
+    }
+
+    /// Two taxels at 100 Hz with ±1 count alternating noise; `press(k)` counts are subtracted
+    /// from taxel 1 at frame `k`.
+    fn two_taxels(k: u64, press: f64) -> TaxelFrame {
+        let e = if k % 2 == 0 { 1.0 } else { -1.0 };
+        TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![1000.0 + e, 2000.0 - press - e])
+    }
+
+    #[test]
+    fn the_gate_does_not_absorb_a_light_press_below_the_contact_threshold() {
+        // a light press: a 2 s ramp to 8 counts (≈ 5 σ of one frame, below the 10 σ contact
+        // threshold), held 1.5 s, lifted over 1 s, then 3 s at rest
+        let press = |k: u64| match k {
+            0..=299 => 0.0,
+            300..=499 => 8.0 * (k - 300) as f64 / 200.0,
+            500..=649 => 8.0,
+            650..=749 => 8.0 * (750 - k) as f64 / 100.0,
+            _ => 0.0,
+        };
+        let cfg = LocateConfig::default();
+        let mut gate = force_detector(2, &cfg).unwrap();
+        let mut s29 = force_detector_s29(2, &cfg).unwrap();
+        let (mut held_gate, mut held_s29) = (f64::INFINITY, f64::INFINITY);
+        let mut contact_in_hold = 0;
+        for k in 0..1050u64 {
+            let f = two_taxels(k, press(k));
+            let a = gate.push(&f, "t").unwrap();
+            s29.push(&f, "t").unwrap();
+            if (560..650).contains(&k) {
+                // how much of the press the change still shows at the end of its hold
+                held_gate = held_gate.min(-gate.change()[1]);
+                held_s29 = held_s29.min(-s29.change()[1]);
+                contact_in_hold += usize::from(a.contact);
+            }
+            if k >= 900 {
+                assert!(!a.contact, "frame {k}: the lift read as a contact");
+                assert!(gate.change()[1].abs() < 2.0, "frame {k}: {:?}", gate.change());
+            }
+        }
+        eprintln!("the press's 8 counts at the end of its hold: gate {held_gate:.2}, session 29 {held_s29:.2}");
+        assert!(held_gate > 5.0, "the gate absorbed the press: {held_gate}");
+        assert!(held_s29 < 0.5 * held_gate, "the session-29 model kept it: {held_s29}");
+        // held beyond 2 σ: a contact by the hold although below 10 σ
+        assert_eq!(contact_in_hold, 90);
+    }
+
+    #[test]
+    fn a_contact_returns_and_its_residual_settles() {
+        // a 200-count press; after it the taxel rests 6 counts off its old level (a residual
+        // the drift slope did not predict)
+        let press = |k: u64| match k {
+            0..=299 => 0.0,
+            300..=599 => 200.0,
+            _ => 6.0,
+        };
+        let mut gate = force_detector(2, &LocateConfig::default()).unwrap();
+        for k in 0..1000u64 {
+            let c = gate.push(&two_taxels(k, press(k)), "t").unwrap();
+            if (320..600).contains(&k) {
+                assert!(c.contact, "frame {k}");
+            }
+            if k >= 700 {
+                assert!(!c.contact, "frame {k}: the residual reads as a contact");
+            }
+        }
+        // the baseline took the residual
+        assert!(gate.change()[1].abs() < 1.0, "{:?}", gate.change());
+    }
+
+    #[test]
+    fn a_steady_step_becomes_the_resting_level_after_the_stale_time() {
+        // an offset step of 30 counts (a temperature jump, not a press) that stays
+        let mut gate = force_detector(2, &LocateConfig::default()).unwrap();
+        let stale = (FORCE_GATE.stale_s * 100.0) as u64;
+        let mut last_contact = 0;
+        for k in 0..(400 + stale + 300) {
+            let c = gate.push(&two_taxels(k, if k >= 300 { 30.0 } else { 0.0 }), "t").unwrap();
+            if c.contact {
+                last_contact = k;
+            }
+        }
+        assert!(last_contact > 300 + stale / 2, "the step was never a contact: {last_contact}");
+        assert!(last_contact < 400 + stale, "the step stayed a contact: {last_contact}");
+        assert!(gate.change()[1].abs() < 2.0, "{:?}", gate.change());
+    }
+
+    #[test]
+    fn the_gate_and_its_settings_are_validated() {
+        FORCE_GATE.validate().unwrap();
+        for bad in [
+            DriftModel { hold_sigmas: -1.0, ..FORCE_GATE },
+            DriftModel { hold_total: f64::NAN, ..FORCE_GATE },
+            DriftModel { release_moving: 1.0, ..FORCE_GATE },
+            DriftModel { quiet_s: -0.5, ..FORCE_GATE },
+            DriftModel { stale_s: f64::INFINITY, ..FORCE_GATE },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+        // a partial JSON drift model takes the defaults for the rest
+        let m: DriftModel = serde_json::from_str(r#"{"hold_sigmas": 3}"#).unwrap();
+        assert_eq!(m, DriftModel { hold_sigmas: 3.0, ..DriftModel::default() });
+    }
+
+    #[test]
+    fn total_files_are_version_2_others_version_1_and_newer_files_are_refused_by_version() {
+        let total =
+            calibrate(&power_law_samples(), CalibrationMethod::Total, 0.0, ForceMethod::Linear, &Layout::biotac_sp())
+                .unwrap();
+        assert_eq!(total.version, 2);
+        let ridge =
+            calibrate(&power_law_samples(), CalibrationMethod::Ridge, 0.1, ForceMethod::Linear, &Layout::biotac_sp())
+                .unwrap();
+        assert_eq!(ridge.version, 1, "a ridge file stays readable by builds before `total`");
+        // a version-1 `total` file (written by the build that introduced `total`) is read
+        ForceFile { version: 1, ..total.clone() }.validate().unwrap();
+        let e = check_header(FORCE_FORMAT, FORCE_VERSION + 1).unwrap_err().to_string();
+        assert!(e.contains("newer gradtac") && e.contains(&format!("1 to {FORCE_VERSION}")), "{e}");
+        assert!(check_header(FORCE_FORMAT, 0).is_err());
+        assert!(check_header("gradtac-tare", 1).unwrap_err().to_string().contains("format"));
     }
 
     #[test]

@@ -516,13 +516,19 @@ impl PositionMemory {
 /// | settle | a frame without contact whose window mean moved less than `steady_sigmas` σ on every taxel over the last `steady_s` is *steady*; its baseline follows with time constant `settle_s` (instead of `follow_s`) | 0.3 s, 2 σ, 0.2 s |
 /// | slope | steady untouched frames are anchors of a per-taxel line (time-weighted least squares with memory `slope_memory_s`, slope shrunk toward 0 by `slope_prior_s3`, s³); every frame moves the baseline along its slope, also during a contact | 20 s, 5 s³ |
 /// | release | a steady contact frame whose total change `Σ|Δᵢ|` is below `release_fraction` of the contact's peak is no contact (a stale baseline, not a press), and its baseline follows | 0.5 |
+/// | hold | a frame with some taxel beyond `hold_sigmas` σ (or `Σ|Δᵢ|` beyond `hold_total · Σσᵢ`) is *held*: its baseline is frozen (slope only), it is no slope anchor, and with `hold_contact` a contact until its excursion *returns* (steady below `release_fraction` of the excursion's peak; then it settles at `settle_s` until something moves); `release_moving` ends such a contact, steady or not, below that fraction of the peak | off |
+/// | quiet | with `quiet_s`, frames outside an excursion follow at `quiet_s` (steady or not): only a returning excursion settles fast | off |
+/// | stale | a held or contact stretch steady for `stale_s` is a new resting level: the baseline takes it, the slope's anchors start again | off |
+///
+/// The holds are off by default (the session-29 model); the force stage runs them with
+/// `force_model::FORCE_GATE`.
 ///
 /// The defaults were chosen on the tuning members of `examples/force_eval.rs` (see
 /// `docs/force.md`). Trade-off: a press held perfectly still below `contact_sigmas` is absorbed
 /// at `settle_s` (it never was a contact); a contact held still after falling to less than
 /// half its peak total change ends.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct DriftModel {
     /// Steadiness look-back (s), in (0, 60].
     pub steady_s: f64,
@@ -536,6 +542,26 @@ pub struct DriftModel {
     pub slope_prior_s3: f64,
     /// Release fraction of the contact's peak total change, in [0, 1) (0: off).
     pub release_fraction: f64,
+    /// Hold bound (σ of one frame, ≥ 0; 0: off): a frame with some taxel this far from its
+    /// baseline is *held* — its baseline is frozen (moved only along the drift slope), it is no
+    /// anchor of the slope, and a contact stays a contact while it lasts (hysteresis).
+    pub hold_sigmas: f64,
+    /// Hold bound on the total change (≥ 0; 0: off): a frame whose `Σ|Δᵢ|` exceeds this
+    /// multiple of `Σσᵢ` is held too (a light press spread over many taxels).
+    pub hold_total: f64,
+    /// A held frame of an excursion that has not returned is a contact (the contact
+    /// threshold drops to the hold bounds).
+    pub hold_contact: bool,
+    /// Early release, a fraction of the excursion's peak total change in [0, 1) (0: off): a
+    /// contact kept only by the hold (no taxel beyond `contact_sigmas`) ends, steady or not,
+    /// once its total change falls below this fraction of the peak.
+    pub release_moving: f64,
+    /// Quiet following (s, ≥ 0; 0: off): with it, frames outside an excursion follow with this
+    /// time constant (steady or not), and only a returning excursion settles at `settle_s`.
+    pub quiet_s: f64,
+    /// Stale time (s, ≥ 0; 0: off): a held or contact stretch that has been steady this long is
+    /// a new resting level, not a press: the baseline takes it and any contact ends.
+    pub stale_s: f64,
 }
 
 impl Default for DriftModel {
@@ -547,6 +573,12 @@ impl Default for DriftModel {
             slope_memory_s: 20.0,
             slope_prior_s3: 5.0,
             release_fraction: 0.5,
+            hold_sigmas: 0.0,
+            hold_total: 0.0,
+            hold_contact: false,
+            release_moving: 0.0,
+            quiet_s: 0.0,
+            stale_s: 0.0,
         }
     }
 }
@@ -562,7 +594,16 @@ impl DriftModel {
             && pos(self.slope_memory_s)
             && self.slope_prior_s3.is_finite()
             && self.slope_prior_s3 >= 0.0
-            && (0.0..1.0).contains(&self.release_fraction);
+            && (0.0..1.0).contains(&self.release_fraction)
+            && self.hold_sigmas.is_finite()
+            && self.hold_sigmas >= 0.0
+            && self.hold_total.is_finite()
+            && self.hold_total >= 0.0
+            && (0.0..1.0).contains(&self.release_moving)
+            && self.quiet_s.is_finite()
+            && self.quiet_s >= 0.0
+            && self.stale_s.is_finite()
+            && self.stale_s >= 0.0;
         if ok {
             Ok(())
         } else {
@@ -592,6 +633,12 @@ struct DriftState {
     slope: Vec<f64>,
     in_contact: bool,
     peak: f64,
+    /// Start of the current steady held stretch.
+    stale_since: Option<Timestamp>,
+    /// The current excursion reached contact.
+    touched: bool,
+    /// The current excursion returned and has been steady since (holds only).
+    settling: bool,
 }
 
 impl DriftState {
@@ -608,6 +655,9 @@ impl DriftState {
             slope: vec![0.0; n],
             in_contact: false,
             peak: 0.0,
+            stale_since: None,
+            touched: false,
+            settling: false,
         }
     }
 
@@ -640,25 +690,82 @@ impl DriftState {
         }
         self.history.push_back((time, mean.clone()));
         let total: f64 = delta.iter().map(|d| d.abs()).sum();
-        if contact {
+        let held = (m.hold_sigmas > 0.0 && delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_sigmas * s))
+            || (m.hold_total > 0.0 && total > m.hold_total * sigma.iter().sum::<f64>());
+        let holds = m.hold_sigmas > 0.0 || m.hold_total > 0.0;
+        // an excursion: from the first held (or contact) frame until none is; its peak total
+        // change tells a hold (near the peak) from a return (well below it)
+        if self.settling && !steady {
+            // movement after a return: a new excursion starts here
+            self.settling = false;
+            self.in_contact = false;
+        }
+        if contact || held {
             if !self.in_contact {
                 self.in_contact = true;
+                self.touched = false;
                 self.peak = 0.0;
             }
             self.peak = self.peak.max(total);
-            if steady && total < m.release_fraction * self.peak {
-                contact = false;
+        } else {
+            self.in_contact = false;
+            self.settling = false;
+        }
+        let returning = steady && self.in_contact && (self.settling || total < m.release_fraction * self.peak);
+        self.settling = holds && returning;
+        // hysteresis: a contact lasts while its excursion is held, until it returns
+        if !contact && held && (self.touched || m.hold_contact) {
+            contact = !(m.release_moving > 0.0 && total < m.release_moving * self.peak);
+        }
+        if contact && returning {
+            contact = false;
+            if !holds {
+                // without holds a release ends the excursion: a next contact frame starts afresh
+                self.in_contact = false;
             }
         }
+        // a held or contact stretch, not returning, that stays steady for `stale_s` is a new
+        // resting level (an offset step), not a press: the baseline takes it
+        if (contact || held) && steady && m.stale_s > 0.0 {
+            let since = *self.stale_since.get_or_insert(time);
+            if (time.0 - since.0) as f64 * 1e-9 >= m.stale_s {
+                baseline.copy_from_slice(&mean);
+                self.stale_since = None;
+                self.in_contact = false;
+                self.touched = false;
+                // the slope's anchors before the step would read it as drift: start them again
+                self.w = 0.0;
+                self.st = 0.0;
+                self.stt = 0.0;
+                self.sx.iter_mut().for_each(|x| *x = 0.0);
+                self.stx.iter_mut().for_each(|x| *x = 0.0);
+                self.t0 = None;
+                return false;
+            }
+        } else {
+            self.stale_since = None;
+        }
         if contact {
+            self.touched = true;
             return true;
         }
-        self.in_contact = false;
-        let b = if steady { 1.0 - (-dt / m.settle_s).exp() } else { beta };
+        self.touched = false;
+        if held && !returning {
+            // a hold below the contact threshold: frozen (not absorbed)
+            return false;
+        }
+        self.stale_since = None;
+        let b = if m.quiet_s > 0.0 && !returning {
+            1.0 - (-dt / m.quiet_s).exp()
+        } else if steady {
+            1.0 - (-dt / m.settle_s).exp()
+        } else {
+            beta
+        };
         for (base, x) in baseline.iter_mut().zip(&mean) {
             *base += b * (x - *base);
         }
-        if steady {
+        if steady && (!held || returning) {
             let t0 = *self.t0.get_or_insert(time);
             let t = (time.0 - t0.0) as f64 * 1e-9;
             let a = (-dt / m.slope_memory_s).exp();
