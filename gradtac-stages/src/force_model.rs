@@ -17,13 +17,13 @@
 //! [`ChangeForce`] runs a model on changes: raw frames in, one
 //! [`ForceEstimate`] per frame out — no force (`None`) while the detector sees no contact (so
 //! untouched frames report none) or is still calibrating. It owns a
-//! [`ChangeDetector`](crate::locate::ChangeDetector) with the scene's `[stages.locate]`
+//! [`ChangeDetector`] with the scene's `[stages.locate]`
 //! detector settings (and its stored baseline, [`ChangeForce::with_tare`]), so it needs no
 //! other stage: a bare scene with a `force` output runs source → force.
 //! Its detector ([`force_detector`]) lets every taxel's baseline follow drift in frames without
 //! a contact, settles fast in steady untouched frames, carries each taxel's drift slope through
 //! contacts and releases a steady contact that fell below half its peak
-//! ([`DriftModel`](crate::locate::DriftModel)), so a drifting, untouched sensor does not read
+//! ([`DriftModel`]), so a drifting, untouched sensor does not read
 //! as pressed; the price is that a slow press is partly absorbed while it is still below the
 //! contact threshold.
 //!
