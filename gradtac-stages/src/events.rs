@@ -53,8 +53,9 @@
 //! at every sample.
 //!
 //! # Polarity: which events count toward a contact
-//! [`Polarity`] (`[stages.events] polarity`): `both` (the default, the paper's events: +1 up,
-//! −1 down), `press` (only crossings that take the taxel further from its **baseline** — its
+//! [`Polarity`] (`[stages.events] polarity`): `both` (the stage's default, the paper's events:
+//! +1 up, −1 down; a scene's event chain defaults to `press_release` instead, through
+//! `[stages.locate] event_chain`, [`EventChain`](crate::locate::EventChain)), `press` (only crossings that take the taxel further from its **baseline** — its
 //! starting level `ln y₀` — emitted as +1; crossings back toward it dropped and counted in
 //! [`EventCounters::released`]) or `press_release` (+1 away from the baseline, −1 back toward
 //! it; the running sum of polarities is then `|k|`, the taxel's distance from its baseline in
@@ -211,7 +212,8 @@ pub enum EventGapPolicy {
 #[serde(rename_all = "snake_case")]
 pub enum Polarity {
     /// Every crossing is emitted with the direction of `ln y`: +1 up, −1 down (the paper's DVS
-    /// events). The default.
+    /// events). The stage's default (a scene's event chain defaults to
+    /// [`PressRelease`](Polarity::PressRelease): [`EventChain`](crate::locate::EventChain)).
     #[default]
     Both,
     /// Only crossings away from the taxel's baseline are emitted, each with polarity **+1**
@@ -222,7 +224,8 @@ pub enum Polarity {
     /// Every crossing is emitted, with polarity **+1 away from the baseline** (press) and
     /// **−1 toward it** (release). The running signed sum of a taxel is then `|k|`, its
     /// distance from the baseline in thresholds: a signed window as long as the contact holds
-    /// the contact's current change field, whatever each electrode's sign.
+    /// the contact's current change field, whatever each electrode's sign. The default of a
+    /// scene's event chain ([`EventChain`](crate::locate::EventChain)).
     PressRelease,
 }
 
