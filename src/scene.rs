@@ -34,7 +34,7 @@ use gradtac_stages::events::EventsConfig;
 use gradtac_stages::force::ForceModel;
 use gradtac_stages::force_model::ForceFile;
 use gradtac_stages::interpolate::InterpolateConfig;
-use gradtac_stages::locate::{LocateConfig, LocateMethod};
+use gradtac_stages::locate::{EventChain, LocateConfig, LocateMethod};
 use gradtac_stages::normalise::NormaliseConfig;
 use gradtac_stages::savgol::SavGolConfig;
 use gradtac_stages::servo::ServoConfig;
@@ -445,8 +445,8 @@ impl SourceSpec {
 }
 
 /// Stage settings, one table per stage (`[stages.<tap>]`); a missing table means the stage's
-/// defaults, except for the event chain's five keys, which take the values of
-/// `[stages.locate] event_chain` ([`EventChain`](gradtac_stages::locate::EventChain); `press_release` by default) when the scene
+/// defaults, except for the event chain's six keys, which take the values of
+/// `[stages.locate] event_chain` ([`EventChain`]; `press_release` by default) when the scene
 /// leaves them unset ([`StageSettings::apply_event_chain`]). Each table is the stage's own
 /// configuration struct, documented with the stage.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -492,7 +492,7 @@ pub struct StageSettings {
 }
 
 /// The settings of a scene with no `[stages.*]` table: every stage's defaults, with the event
-/// chain's keys from the default [`EventChain`](gradtac_stages::locate::EventChain) (`press_release`).
+/// chain's keys from the default [`EventChain`] (`press_release`).
 impl Default for StageSettings {
     fn default() -> Self {
         let mut st = StageSettings {
@@ -530,14 +530,17 @@ pub const EVENT_CHAIN_KEYS: [(&str, &str); 8] = [
 
 impl StageSettings {
     /// Give the event chain's keys that `set(&(table, key))` says the scene did not set the
-    /// values of `[stages.locate] event_chain` ([`EventChain`](gradtac_stages::locate::EventChain)):
+    /// values of `[stages.locate] event_chain` ([`EventChain`]):
     /// `[stages.normalise] bypass` (only when the scene has no `[stages.normalise]` table and no
     /// `normalise` output), `[stages.events] polarity`,
     /// `[stages.window] kind` (only when the window has no `frames` / `duration_ms` either: a
     /// size alone asks for the stages' sized `sliding` window), `[stages.surface] grid.nx`,
-    /// `[stages.contour] min_peak` and `min_area_mm2`. [`Scene::from_toml`] calls it with the
+    /// `[stages.contour] min_peak` and `min_area_mm2` — the last four not under
+    /// `method = "raw_contour"`, whose window, surface and contour are the raw change's and keep
+    /// the stages' defaults. [`Scene::from_toml`] calls it with the
     /// keys its text sets; code that builds settings calls it with `|_| false`, as
-    /// [`StageSettings::default`] does.
+    /// [`StageSettings::default`] does (for the centroid), and again after changing
+    /// `locate.method` or `locate.event_chain`.
     pub fn apply_event_chain(&mut self, set: impl Fn(&(&str, &str)) -> bool) {
         let chain = self.locate.event_chain;
         let [normalise, polarity, kind, frames, duration, nx, peak, area] = EVENT_CHAIN_KEYS.map(|k| set(&k));
@@ -547,6 +550,9 @@ impl StageSettings {
         if !polarity {
             self.events.polarity = chain.polarity();
         }
+        // raw_contour's window, surface and contour are the raw change's, not the event chain's:
+        // they keep the stages' own defaults (the `paper` chain's values)
+        let chain = if self.locate.method == LocateMethod::RawContour { EventChain::Paper } else { chain };
         if !(kind || frames || duration) {
             self.window.kind = chain.window_kind();
         }

@@ -299,6 +299,20 @@ fn explain_prints_the_event_polarity_and_a_cumulative_window() {
     let sized = Scene::from_toml(&sized, dir, Path::new("s.toml")).unwrap();
     let text = Plan::new(&sized).unwrap().explain(&sized);
     assert!(text.contains("polarity press_release") && text.contains("sliding 20 frames"), "{text}");
+    // raw_contour's window, surface and contour are not the event chain's: the stages' defaults
+    let raw = bare.text.replace("method = \"events\"", "method = \"raw_contour\"");
+    let raw = Scene::from_toml(&raw, dir, Path::new("s.toml")).unwrap();
+    assert_eq!((raw.stages.surface.grid.nx, raw.stages.contour.min_area_mm2), (64, 1.0));
+    assert_eq!(raw.stages.window.kind, gradtac::stages::window::WindowKind::Sliding);
+    // settings built in code: re-applied after the method changes, the same
+    let mut code = StageSettings::default();
+    assert_eq!((code.surface.grid.nx, code.contour.min_area_mm2), (32, 60.0));
+    code.locate.method = LocateMethod::RawContour;
+    code.apply_event_chain(|_| false);
+    assert_eq!(
+        format!("{:?}", code),
+        format!("{:?}", StageSettings { locate: code.locate.clone(), ..raw.stages.clone() })
+    );
     // a normalise output (or table) keeps the normalisation: its events read normalised values
     let normalised =
         bare.text.replace("tap = \"track\"\npath = \"t.parquet\"", "tap = \"normalise\"\npath = \"n.parquet\"");
