@@ -92,7 +92,7 @@ pub fn unused_settings(scene: &Scene, plan: &Plan) -> Vec<Unused> {
                 })
             }
             "locate"
-                if !located && !force_frames && !(runs(Tap::Events) && table.get_ref().contains_key("event_chain")) =>
+                if !(located || force_frames || runs(Tap::Events) && table.get_ref().contains_key("event_chain")) =>
             {
                 Some("no output needs contact location (contour, track, force, servo or slip by tracks)".into())
             }
