@@ -82,11 +82,13 @@ impl LocateMethod {
 ///
 /// `press_release` is the event setting chosen on the tuning members of the simulator family
 /// and scored once on held-out members with held-out physics (the repository's
-/// `docs/tradeoff.md`, "Event chain"): held-out worst kind 0.063 of the width, 4.2 % of
-/// untouched track points in contact, against 0.104–0.116 and 48–55 % for the paper's chain at
-/// its best setting. `paper` is the chain as the paper states it: the stages' own defaults, so
-/// a chain composed in code from `EventsConfig::default()`, `WindowConfig::default()`, … runs
-/// it.
+/// `docs/tradeoff.md`, rounds 3 and 4): held-out worst kind 0.063 of the width, 4.2 % of
+/// untouched track points in contact; through a scene's stages, `paper` scores 0.401 (0.104–0.116
+/// and 48–55 % untouched in contact at its best setting of the example's grid). `paper` is the
+/// chain as the paper states it: the stages' own defaults, so a chain composed in code from
+/// `EventsConfig::default()`, `WindowConfig::default()`, … runs it. The price of the default:
+/// a cumulative window never empties, so its surface and contour run every frame (criterion,
+/// the root package's `scene` bench: ≈ 14 µs/frame against ≈ 5–9 µs for `paper`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum EventChain {
