@@ -5,9 +5,12 @@
 //!
 //! `cargo bench -p gradtac --bench scene`
 //!
-//! - `scene/<input>/events`: `[stages.locate] method = "events"` — normalise → Savitzky–Golay
-//!   → events (noise-adaptive τ) → window → natural neighbour 64 × 64 and maximal contour
+//! - `scene/<input>/events`: `[stages.locate] method = "events"` with its default event chain
+//!   (`event_chain = "press_release"`) — Savitzky–Golay on raw counts → press/release events
+//!   (noise-adaptive τ) → cumulative window → natural neighbour 32 × 32 and maximal contour
 //!   (fused, as a scene runs them when no output taps the surface) → track → Parquet.
+//! - `scene/<input>/events_paper`: the same with `event_chain = "paper"` — normalise →
+//!   Savitzky–Golay → events of both polarities → 10-frame sliding window → 64 × 64.
 //! - `scene/<input>/centroid`: the default scene — taxel centroid → track → Parquet.
 //!
 //! Inputs: `real` — the BioTacSP-DoS recording `aw/bottle0.csv` (`shared/data` beside the
@@ -79,7 +82,7 @@ fn inputs(layout: &Layout) -> Vec<(&'static str, Vec<TaxelFrame>)> {
     v
 }
 
-fn scene(dir: &Path, method: &str) -> (Scene, Plan) {
+fn scene(dir: &Path, name: &str, method: &str, extra: &str) -> (Scene, Plan) {
     let text = format!(
         r#"
 [[sensor]]
@@ -88,13 +91,13 @@ source = {{ csv = "unused.csv", columns = "ff_e{{1..24}}", rate_hz = 100.0 }}
 
 [stages.locate]
 method = "{method}"
-
+{extra}
 [[output]]
 tap = "track"
-path = "out/track-{method}.parquet"
+path = "out/track-{name}.parquet"
 "#
     );
-    let scene = Scene::from_toml(&text, dir, &dir.join(format!("{method}.toml"))).expect("a valid scene");
+    let scene = Scene::from_toml(&text, dir, &dir.join(format!("{name}.toml"))).expect("a valid scene");
     let plan = Plan::new(&scene).expect("a valid plan");
     (scene, plan)
 }
@@ -105,15 +108,19 @@ fn bench(c: &mut Criterion) {
     for (name, frames) in inputs(&layout) {
         let mut g = c.benchmark_group(format!("scene/{name}"));
         g.throughput(Throughput::Elements(frames.len() as u64));
-        for method in ["events", "centroid"] {
-            let (scene, plan) = scene(dir.path(), method);
-            if method == "events" {
+        for (name, method, extra) in [
+            ("events", "events", ""),
+            ("events_paper", "events", "event_chain = \"paper\""),
+            ("centroid", "centroid", ""),
+        ] {
+            let (scene, plan) = scene(dir.path(), name, method, extra);
+            if name == "events" {
                 // the fixed part of an iteration: build the runner, write an empty file
                 g.bench_function("setup", |b| {
                     b.iter(|| Runner::new(&scene, &plan).expect("runner").finish().expect("written"))
                 });
             }
-            g.bench_function(method, |b| {
+            g.bench_function(name, |b| {
                 b.iter_batched(
                     || frames.clone(),
                     |frames| {

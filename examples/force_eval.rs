@@ -150,7 +150,9 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                 Source::Area(m) => m,
                 _ => LocateMethod::Fit,
             };
-            let st = StageSettings { locate: LocateConfig { method, ..Default::default() }, ..Default::default() };
+            let mut st = StageSettings { locate: LocateConfig { method, ..Default::default() }, ..Default::default() };
+            // the scene's event-chain defaults follow the method (raw_contour keeps the stages' own)
+            st.apply_event_chain(|_| false);
             let contours: Vec<ContourFrame> = match method {
                 LocateMethod::Centroid => Centroid::try_new(&st.locate, &layout).unwrap().run_all(frames).unwrap(),
                 LocateMethod::Fit => Fit::try_new(&st.locate, &layout).unwrap().run_all(frames).unwrap(),

@@ -40,14 +40,19 @@
 //! Run: `cargo run --release --example tradeoff [-- --quick]` (`--quick`: fewer members).
 //! Development flags: `--events-only` (the event contours and the window-1 centroids beside them)
 //! and `--tuning-only` (tuning members only, one line per setting, nothing held out: for
-//! exploring settings without looking at held-out members).
+//! exploring settings without looking at held-out members); `--scene-only` runs only the two
+//! rows of what a `method = "events"` scene runs (`event_chain` default and `paper`).
 
+use gradtac::chain::{effective_contour, effective_events};
+use gradtac::scene::StageSettings;
 use gradtac::stages::centroid::Centroid;
 use gradtac::stages::contour::{Contour, ContourConfig, ContourFrame, ContourOutcome, NoContact};
 use gradtac::stages::events::{Events, EventsConfig, Polarity, Threshold};
 use gradtac::stages::fit::Fit;
 use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
-use gradtac::stages::locate::{CentroidWeights, ChangeDetector, LocateConfig, LocateMethod, Preset};
+use gradtac::stages::locate::{CentroidWeights, ChangeDetector, EventChain, LocateConfig, LocateMethod, Preset};
+use gradtac::stages::normalise::Normalise;
+use gradtac::stages::peak::SurfaceContour;
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim_family::{FamilyRecording, KernelShape, Member, PathKind, PhysicsSet, Similarity, CORE_MM};
@@ -63,11 +68,36 @@ use std::time::Instant;
 /// sliding window of counts; `min_peak` — the contour's contact threshold in events.
 #[derive(Clone, Debug)]
 enum Setting {
-    Centroid { window: u32, power: f64, floor: f64, counts: bool, contact: f64, smooth: u32, speed: f64 },
-    Delta2 { window: u32 },
+    Centroid {
+        window: u32,
+        power: f64,
+        floor: f64,
+        counts: bool,
+        contact: f64,
+        smooth: u32,
+        speed: f64,
+    },
+    Delta2 {
+        window: u32,
+    },
     Fit(FitSetting),
-    Raw { grid: usize, window: u32, min_area: f64 },
-    Events { grid: usize, window: u64, tau: f64, min_area: f64, polarity: Polarity, min_peak: f64 },
+    Raw {
+        grid: usize,
+        window: u32,
+        min_area: f64,
+    },
+    Events {
+        grid: usize,
+        window: u64,
+        tau: f64,
+        min_area: f64,
+        polarity: Polarity,
+        min_peak: f64,
+    },
+    /// What a scene with `[stages.locate] method = "events"` runs, every stage from the scene's
+    /// settings (`StageSettings` with this `event_chain`, no other key): normalise →
+    /// Savitzky–Golay → events → window → surface and maximal contour → track.
+    SceneEvents(EventChain),
 }
 
 /// One setting of the model fit.
@@ -98,6 +128,8 @@ impl Setting {
             Setting::Events { window: 0, .. } => "event contour, cumulative",
             Setting::Events { tau, .. } if *tau < 0.0 => "event contour, τ from noise",
             Setting::Events { .. } => "event contour",
+            Setting::SceneEvents(EventChain::PressRelease) => "**events, the library's default scene**",
+            Setting::SceneEvents(EventChain::Paper) => "events, the scene's paper chain",
         }
     }
 
@@ -128,6 +160,23 @@ impl Setting {
                 },
                 if *min_peak == 2.0 { String::new() } else { format!(", min peak {min_peak} events") }
             ),
+            Setting::SceneEvents(chain) => {
+                let st = scene_settings(*chain);
+                format!(
+                    "`method = \"events\"`{}: {}, τ {} σ, polarity {}, {:?} window, {}×{}, min peak {}, min area {} mm²",
+                    if *chain == EventChain::Paper { ", `event_chain = \"paper\"`" } else { "" },
+                    if st.normalise.bypass { "raw counts (normalise bypassed)" } else { "min–max normalised" },
+                    st.locate.event_tau_sigmas,
+                    st.events.polarity.name(),
+                    st.window.kind,
+                    st.surface.grid.nx,
+                    st.surface.grid.nx,
+                    st.contour.min_peak,
+                    st.contour.min_area_mm2
+                )
+                .replace("Cumulative", "cumulative")
+                .replace("Sliding", "sliding 10-frame")
+            }
         }
     }
 
@@ -211,6 +260,15 @@ impl Stage for Delta2 {
     }
 }
 
+/// A scene's stage settings under `method = "events"` with `chain` and no other key.
+fn scene_settings(chain: EventChain) -> StageSettings {
+    let mut st = StageSettings::default();
+    st.locate.method = LocateMethod::Events;
+    st.locate.event_chain = chain;
+    st.apply_event_chain(|_| false);
+    st
+}
+
 /// Run one setting on one recording: track points and µs/frame.
 fn run(
     s: &Setting,
@@ -234,6 +292,19 @@ fn run(
     let n = frames.len() as f64;
     let t0 = Instant::now();
     let pts = match s {
+        Setting::SceneEvents(chain) => {
+            let st = scene_settings(*chain);
+            let n = layout.len();
+            Normalise::try_new(n, &st.normalise)
+                .unwrap()
+                .then(SavGol::try_with_rate(n, st.savgol.clone(), 100.0).unwrap())
+                .then(Events::try_new(n, effective_events(&st)).unwrap())
+                .then(Window::try_new(&st.window).unwrap())
+                .then(SurfaceContour::try_new(&st.surface, &effective_contour(&st), layout).unwrap())
+                .then(Track::try_new(&st.track).unwrap())
+                .run_all(frames)
+                .unwrap()
+        }
         Setting::Centroid { .. } => {
             Centroid::try_new(&s.locate().unwrap(), layout).unwrap().then(track()).run_all(frames).unwrap()
         }
@@ -569,8 +640,16 @@ fn main() {
             settings.push(Setting::Events { grid, window: 0, tau, min_area: 60.0, polarity, min_peak });
         }
     }
+    // what a bare `method = "events"` scene runs, and its paper chain, through the scene's stages
+    settings.push(Setting::SceneEvents(EventChain::PressRelease));
+    settings.push(Setting::SceneEvents(EventChain::Paper));
+    if std::env::args().any(|a| a == "--scene-only") {
+        settings.retain(|s| matches!(s, Setting::SceneEvents(_)));
+    }
     if events_only {
-        settings.retain(|s| matches!(s, Setting::Events { .. } | Setting::Centroid { window: 1, .. }));
+        settings.retain(|s| {
+            matches!(s, Setting::Events { .. } | Setting::SceneEvents(_) | Setting::Centroid { window: 1, .. })
+        });
     }
 
     let tune = Member::grid(tune_seeds.iter().copied());

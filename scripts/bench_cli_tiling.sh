@@ -6,8 +6,8 @@
 #   scripts/bench_cli_tiling.sh [GRADTAC_BINARY ...]
 #
 # Each contact-location method in METHODS (default "events centroid") is timed: `events` is
-# the natural-neighbour event chain (normalise → Savitzky–Golay → events → window → surface
-# 64×64 → contour → track), `centroid` the default scene's chain, whose kernel is cheap, so its
+# the natural-neighbour event chain of a bare `method = "events"` (its default event_chain:
+# Savitzky–Golay → press/release events → cumulative window → surface 32×32 → contour → track), `centroid` the default scene's chain, whose kernel is cheap, so its
 # figure is mostly CSV reading, routing and Parquet writing. Every binary given is timed back
 # to back on the same tiling (e.g. an old build and a new one), repeated REPEATS times
 # (default 3) in turn; the median is printed per binary and method. Defaults:

@@ -399,7 +399,12 @@ impl SensorChain {
                         "polarity press_release (+1 away from each taxel's baseline, −1 back toward it)"
                     }
                 };
-                format!("log-change, {tau}, {polarity}, cap {}/taxel/frame", c.max_events_per_step)
+                format!(
+                    "log-change, {tau}, {polarity}, cap {}/taxel/frame (event chain {}: the defaults of the \
+                     polarity, window kind, grid and contour keys the scene leaves unset)",
+                    c.max_events_per_step,
+                    st.locate.event_chain.name()
+                )
             }),
             Tap::Window if self.raw_change.is_some() => {
                 format!("raw change |x − x₀|/x₀ ({})", describe_detector(&st.locate))

@@ -34,7 +34,7 @@ use gradtac_stages::events::EventsConfig;
 use gradtac_stages::force::ForceModel;
 use gradtac_stages::force_model::ForceFile;
 use gradtac_stages::interpolate::InterpolateConfig;
-use gradtac_stages::locate::{LocateConfig, LocateMethod};
+use gradtac_stages::locate::{EventChain, LocateConfig, LocateMethod};
 use gradtac_stages::normalise::NormaliseConfig;
 use gradtac_stages::savgol::SavGolConfig;
 use gradtac_stages::servo::ServoConfig;
@@ -453,8 +453,11 @@ impl SourceSpec {
 }
 
 /// Stage settings, one table per stage (`[stages.<tap>]`); a missing table means the stage's
-/// defaults. Each table is the stage's own configuration struct, documented with the stage.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+/// defaults, except for the event chain's six keys, which take the values of
+/// `[stages.locate] event_chain` ([`EventChain`]; `press_release` by default) when the scene
+/// leaves them unset ([`StageSettings::apply_event_chain`]). Each table is the stage's own
+/// configuration struct, documented with the stage.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StageSettings {
     /// Min–max normalisation ([`NormaliseConfig`]).
@@ -494,6 +497,92 @@ pub struct StageSettings {
     /// One-fingertip slip direction ([`DosSettings`]; required by the dos tap).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dos: Option<DosSettings>,
+}
+
+/// The settings of a scene with no `[stages.*]` table: every stage's defaults, with the event
+/// chain's keys from the default [`EventChain`] (`press_release`).
+impl Default for StageSettings {
+    fn default() -> Self {
+        let mut st = StageSettings {
+            normalise: Default::default(),
+            savgol: Default::default(),
+            events: Default::default(),
+            window: Default::default(),
+            surface: Default::default(),
+            contour: Default::default(),
+            locate: Default::default(),
+            track: Default::default(),
+            force: None,
+            servo: Default::default(),
+            slip: Default::default(),
+            dos: None,
+        };
+        st.apply_event_chain(|_| false);
+        st
+    }
+}
+
+/// The event-chain keys a scene may set (`[stages.<table>] <key>`; an empty key: the table
+/// itself, or for `normalise` also an output tapping it), checked by
+/// [`StageSettings::apply_event_chain`]'s `set`.
+pub const EVENT_CHAIN_KEYS: [(&str, &str); 8] = [
+    ("normalise", ""),
+    ("events", "polarity"),
+    ("window", "kind"),
+    ("window", "frames"),
+    ("window", "duration_ms"),
+    ("surface", "grid.nx"),
+    ("contour", "min_peak"),
+    ("contour", "min_area_mm2"),
+];
+
+impl StageSettings {
+    /// Give the event chain's keys that `set(&(table, key))` says the scene did not set the
+    /// values of `[stages.locate] event_chain` ([`EventChain`]):
+    /// `[stages.normalise] bypass` (only when the scene has no `[stages.normalise]` table and no
+    /// `normalise` output), `[stages.events] polarity`,
+    /// `[stages.window] kind` (only when the window has no `frames` / `duration_ms` either: a
+    /// size alone asks for the stages' sized `sliding` window), `[stages.surface] grid.nx`,
+    /// `[stages.contour] min_peak` and `min_area_mm2` — the last four not under
+    /// `method = "raw_contour"`, whose window, surface and contour are the raw change's and keep
+    /// the stages' defaults. [`Scene::from_toml`] calls it with the
+    /// keys its text sets; code that builds settings calls it with `|_| false`, as
+    /// [`StageSettings::default`] does (for the centroid), and again after changing
+    /// `locate.method` or `locate.event_chain`.
+    pub fn apply_event_chain(&mut self, set: impl Fn(&(&str, &str)) -> bool) {
+        let chain = self.locate.event_chain;
+        let [normalise, polarity, kind, frames, duration, nx, peak, area] = EVENT_CHAIN_KEYS.map(|k| set(&k));
+        if !normalise {
+            self.normalise.bypass = chain.normalise_bypass();
+        }
+        if !polarity {
+            self.events.polarity = chain.polarity();
+        }
+        // raw_contour's window, surface and contour are the raw change's, not the event chain's:
+        // they keep the stages' own defaults (the `paper` chain's values)
+        let chain = if self.locate.method == LocateMethod::RawContour { EventChain::Paper } else { chain };
+        if !(kind || frames || duration) {
+            self.window.kind = chain.window_kind();
+        }
+        if !nx {
+            self.surface.grid.nx = chain.grid_nx();
+        }
+        if !peak {
+            self.contour.min_peak = chain.min_peak();
+        }
+        if !area {
+            self.contour.min_area_mm2 = chain.min_area_mm2();
+        }
+    }
+}
+
+/// Whether a scene's parsed TOML sets `[stages.<table>] <key>` (`key` may be dotted, `grid.nx`).
+fn sets_stage_key(top: Option<&toml::Table>, (table, key): &(&str, &str)) -> bool {
+    let mut at = top.and_then(|v| v.get("stages")).and_then(|s| s.get(table));
+    for part in key.split('.').filter(|p| !p.is_empty()) {
+        at = at.and_then(|t| t.get(part));
+    }
+    at.is_some()
 }
 
 /// `[stages.dos]`: the one-fingertip slip-direction classifier.
@@ -551,6 +640,11 @@ impl Scene {
     /// Parse a scene from TOML text; relative paths will resolve against `base_dir`.
     pub fn from_toml(text: &str, base_dir: impl Into<PathBuf>, origin: &Path) -> Result<Self, Error> {
         let mut scene: Scene = toml::from_str(text).map_err(|e| parse_error(text, origin, &e))?;
+        let top = toml::from_str::<toml::Table>(text).ok();
+        let taps_normalise = scene.outputs.iter().any(|o| o.tap == "normalise");
+        scene
+            .stages
+            .apply_event_chain(|k| sets_stage_key(top.as_ref(), k) || (*k == ("normalise", "") && taps_normalise));
         scene.base_dir = base_dir.into();
         scene.text = text.to_string();
         scene.origin = origin.to_path_buf();

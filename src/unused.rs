@@ -73,30 +73,42 @@ pub fn unused_settings(scene: &Scene, plan: &Plan) -> Vec<Unused> {
         let key = format!("[stages.{name}]");
         let no_output = |stage: &str| format!("no output needs the {stage} stage (nor a stage after it)");
         let why: Option<String> = match name.as_str() {
-            "normalise" | "savgol" | "events" | "window" if method != LocateMethod::Events => {
+            // (the event stages also run for an `events`, `window` or `surface` tap of any method)
+            "normalise" | "savgol" | "events" | "window" if method != LocateMethod::Events && !runs(Tap::Events) => {
                 Some(if runs(Tap::Contour) {
                     format!("{m} does not run the event chain (normalise → savgol → events → window)")
                 } else {
                     no_output(name)
                 })
             }
-            "surface" | "contour" if matches!(method, LocateMethod::Centroid | LocateMethod::Fit) => {
+            "surface" | "contour"
+                if matches!(method, LocateMethod::Centroid | LocateMethod::Fit)
+                    && !(name == "surface" && runs(Tap::Surface)) =>
+            {
                 Some(if runs(Tap::Contour) {
                     format!("{m} locates contact from the taxels directly: no surface or contour is computed")
                 } else {
                     no_output(name)
                 })
             }
-            "locate" if !located && !force_frames => {
+            "locate"
+                if !(located || force_frames || runs(Tap::Events) && table.get_ref().contains_key("event_chain")) =>
+            {
                 Some("no output needs contact location (contour, track, force, servo or slip by tracks)".into())
             }
             "locate" => {
                 for (k, v) in table.get_ref() {
-                    if !locate_key_used(k, method, force_frames) {
+                    // the event chain's defaults apply wherever the event stages run
+                    let (used, why) = if k == "event_chain" {
+                        (runs(Tap::Events), "no output runs the event chain (events, window, surface)".to_string())
+                    } else {
+                        (locate_key_used(k, method, force_frames), format!("{m} does not read it"))
+                    };
+                    if !used {
                         out.push(Unused {
                             key: format!("[stages.locate] {k}"),
                             line: line_of(&scene.text, v.span().start),
-                            why: format!("{m} does not read it"),
+                            why,
                         });
                     }
                 }
@@ -157,5 +169,19 @@ mod tests {
         // the defaults' scene: nothing
         let (s, p) = scene("", "track");
         assert!(unused_settings(&s, &p).is_empty());
+    }
+
+    #[test]
+    fn the_event_chain_keys_count_wherever_the_event_stages_run() {
+        // a surface tap runs the event chain under the centroid too: its tables and the chain
+        // are used, while the track still locates by the centroid
+        let chain = "\n[stages.locate]\nevent_chain = \"paper\"\n[stages.events]\npolarity = \"both\"\n\
+                     [stages.surface]\ngrid = { nx = 16 }\n";
+        let (s, p) = scene(chain, "surface");
+        assert_eq!(unused_settings(&s, &p), vec![]);
+        // with only a track output nothing runs them: each is named
+        let (s, p) = scene(chain, "track");
+        let keys: Vec<String> = unused_settings(&s, &p).into_iter().map(|u| u.key).collect();
+        assert_eq!(keys, ["[stages.locate] event_chain", "[stages.events]", "[stages.surface]"], "{keys:?}");
     }
 }

@@ -173,21 +173,38 @@ fn tripled_noise_gives_the_same_event_track() {
     );
 }
 
-/// The polarity-aware event contour (issue #22 item 2): press/release events (+1 away from
-/// each taxel's baseline, −1 back) summed in a cumulative window — each taxel's distance from
-/// its baseline — then the surface and maximal contour `docs/tradeoff.md` chose on its tuning
-/// members (32×32, min area 60 mm², min peak 6 events).
+/// The polarity-aware event contour (issue #22 item 2), as a bare `method = "events"` scene
+/// runs it (`event_chain = "press_release"`, the default): press/release events (+1 away from
+/// each taxel's baseline, −1 back) on raw counts summed in a cumulative window — each taxel's
+/// distance from its baseline — then the surface and maximal contour `docs/tradeoff.md` chose
+/// on its tuning members (32×32, min area 60 mm², min peak 6 events); built from the scene's
+/// default settings through the scene's stages.
 fn press_release_track(rec: &FamilyRecording) -> Vec<TrackPoint> {
+    use gradtac::chain::{effective_contour, effective_events};
     use gradtac::stages::events::Polarity;
+    use gradtac::stages::normalise::Normalise;
+    use gradtac::stages::peak::SurfaceContour;
     use gradtac::stages::window::WindowKind;
-    let ev = EventsConfig { polarity: Polarity::PressRelease, ..Default::default() };
-    let wc = WindowConfig { kind: WindowKind::Cumulative, aggregate: Aggregate::Signed, ..Default::default() };
-    let cc = ContourConfig { min_peak: 6.0, min_area_mm2: 60.0, ..Default::default() };
-    event_chain_track(rec, ev, wc, 32, cc)
+    let mut st = StageSettings::default();
+    st.locate.method = LocateMethod::Events;
+    assert!(st.normalise.bypass && st.events.polarity == Polarity::PressRelease);
+    assert_eq!((st.window.kind, st.surface.grid.nx), (WindowKind::Cumulative, 32));
+    assert_eq!((st.contour.min_peak, st.contour.min_area_mm2), (6.0, 60.0));
+    let layout = Layout::biotac_sp();
+    let n = layout.len();
+    Normalise::try_new(n, &st.normalise)
+        .unwrap()
+        .then(SavGol::try_with_rate(n, st.savgol.clone(), 100.0).unwrap())
+        .then(Events::try_new(n, effective_events(&st)).unwrap())
+        .then(Window::try_new(&st.window).unwrap())
+        .then(SurfaceContour::try_new(&st.surface, &effective_contour(&st), &layout).unwrap())
+        .then(Track::try_new(&st.track).unwrap())
+        .run_all(rec.frames.clone())
+        .unwrap()
 }
 
 #[test]
-fn press_release_events_beat_the_paper_events_on_unseen_members() {
+fn default_events_scene_beats_the_paper_events_on_unseen_members() {
     // unseen members (seeds 500..504), whose electrodes read either way under pressure
     let width = Layout::biotac_sp().extent().width();
     let (mut quiet, mut quiet_contact) = (0usize, 0usize);
@@ -234,6 +251,7 @@ fn press_release_events_beat_the_paper_events_on_unseen_members() {
 
 #[test]
 fn explain_prints_the_event_polarity_and_a_cumulative_window() {
+    use gradtac::stages::events::Polarity;
     use gradtac::{Plan, Scene};
     use std::path::Path;
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -247,14 +265,59 @@ fn explain_prints_the_event_polarity_and_a_cumulative_window() {
     assert!(text.contains("cumulative (every event since the start"), "{text}");
     // the scene docs/tradeoff.md recommends for the event chain: every key in effect
     assert!(text.contains("on 32×32 grid") && text.contains("min peak 6, min area 60 mm²"), "{text}");
-    // the default stays the paper's events
-    let bare = scene
-        .text
-        .replace("[stages.events]\npolarity = \"press_release\"\n", "")
-        .replace("[stages.window]\nkind = \"cumulative\"\n", "");
+    // those five lines are the bare `method = "events"` default (event_chain = "press_release"):
+    // the same effective values without them
+    let recommended = [
+        "[stages.events]\npolarity = \"press_release\"\n",
+        "[stages.window]\nkind = \"cumulative\"\n",
+        "[stages.surface]\ngrid = { nx = 32 }\n",
+        "[stages.contour]\nmin_peak = 6\nmin_area_mm2 = 60\n",
+    ];
+    let bare = recommended.iter().fold(scene.text.clone(), |t, lines| t.replace(lines, ""));
+    assert!(!bare.contains("[stages.events]") && !bare.contains("[stages.contour]"), "{bare}");
     let bare = Scene::from_toml(&bare, dir, Path::new("s.toml")).unwrap();
+    assert_eq!(format!("{:?}", bare.stages), format!("{:?}", scene.stages));
     let text = Plan::new(&bare).unwrap().explain(&bare);
+    assert!(text.contains("polarity press_release") && text.contains("event chain press_release"), "{text}");
+    assert!(text.contains("bypassed: raw values pass through"), "{text}");
+    assert!(text.contains("cumulative (every event since the start"), "{text}");
+    assert!(text.contains("on 32×32 grid") && text.contains("min peak 6, min area 60 mm²"), "{text}");
+    // the paper's chain is one line away, and every key the scene sets still wins
+    let paper = bare.text.replace("method = \"events\"\n", "method = \"events\"\nevent_chain = \"paper\"\n");
+    let paper = Scene::from_toml(&paper, dir, Path::new("s.toml")).unwrap();
+    let text = Plan::new(&paper).unwrap().explain(&paper);
     assert!(text.contains("polarity both") && text.contains("sliding 10 frames"), "{text}");
+    assert!(text.contains("on 64×64 grid") && text.contains("min peak 1, min area 1 mm²"), "{text}");
+    assert!(text.contains("event chain paper") && text.contains("min–max, bounds from the first"), "{text}");
+    let mixed =
+        paper.text.replace("event_chain = \"paper\"\n", "event_chain = \"paper\"\n[stages.contour]\nmin_peak = 2\n");
+    let mixed = Scene::from_toml(&mixed, dir, Path::new("s.toml")).unwrap();
+    let text = Plan::new(&mixed).unwrap().explain(&mixed);
+    assert!(text.contains("polarity both") && text.contains("min peak 2, min area 1 mm²"), "{text}");
+    // a window given a size alone is the sized sliding window, under either chain
+    let sized = bare.text.replace("method = \"events\"\n", "method = \"events\"\n[stages.window]\nframes = 20\n");
+    let sized = Scene::from_toml(&sized, dir, Path::new("s.toml")).unwrap();
+    let text = Plan::new(&sized).unwrap().explain(&sized);
+    assert!(text.contains("polarity press_release") && text.contains("sliding 20 frames"), "{text}");
+    // raw_contour's window, surface and contour are not the event chain's: the stages' defaults
+    let raw = bare.text.replace("method = \"events\"", "method = \"raw_contour\"");
+    let raw = Scene::from_toml(&raw, dir, Path::new("s.toml")).unwrap();
+    assert_eq!((raw.stages.surface.grid.nx, raw.stages.contour.min_area_mm2), (64, 1.0));
+    assert_eq!(raw.stages.window.kind, gradtac::stages::window::WindowKind::Sliding);
+    // settings built in code: re-applied after the method changes, the same
+    let mut code = StageSettings::default();
+    assert_eq!((code.surface.grid.nx, code.contour.min_area_mm2), (32, 60.0));
+    code.locate.method = LocateMethod::RawContour;
+    code.apply_event_chain(|_| false);
+    assert_eq!(
+        format!("{:?}", code),
+        format!("{:?}", StageSettings { locate: code.locate.clone(), ..raw.stages.clone() })
+    );
+    // a normalise output (or table) keeps the normalisation: its events read normalised values
+    let normalised =
+        bare.text.replace("tap = \"track\"\npath = \"t.parquet\"", "tap = \"normalise\"\npath = \"n.parquet\"");
+    let normalised = Scene::from_toml(&normalised, dir, Path::new("s.toml")).unwrap();
+    assert!(!normalised.stages.normalise.bypass && normalised.stages.events.polarity == Polarity::PressRelease);
     // a cumulative window has no size
     let sized = scene.text.replace("kind = \"cumulative\"", "kind = \"cumulative\"\nframes = 5");
     let err = Scene::from_toml(&sized, dir, Path::new("s.toml")).and_then(|s| Plan::new(&s).map(|_| ()));

@@ -17,7 +17,7 @@
 //! shared data directory is present (`$GRADTAC_DATA`, default `shared/data` beside the repository), and is
 //! skipped otherwise.
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use gradtac_stages::events::{Events, EventsConfig, Threshold};
+use gradtac_stages::events::{Events, EventsConfig, Polarity, Threshold};
 use gradtac_stages::normalise::{Normalise, NormaliseConfig};
 use gradtac_stages::savgol::{SavGol, SavGolConfig, SavGolMode};
 use gradtac_stream::{SensorId, Stage, StageExt, TaxelFrame, Timestamp};
@@ -67,7 +67,12 @@ fn savgol(mode: SavGolMode) -> SavGol {
 }
 
 fn events() -> Events {
-    Events::try_new(TAXELS, EventsConfig { threshold: Threshold::Uniform(0.05), ..Default::default() }).unwrap()
+    events_with(Polarity::Both)
+}
+
+fn events_with(polarity: Polarity) -> Events {
+    Events::try_new(TAXELS, EventsConfig { threshold: Threshold::Uniform(0.05), polarity, ..Default::default() })
+        .unwrap()
 }
 
 /// Push every frame through `stage`, draining outputs every 64 frames (as an adapter would).
@@ -117,9 +122,16 @@ fn benches(c: &mut Criterion) {
             b.iter_batched(|| touch_n.clone(), |fs| run(&mut s, fs, &mut out), BatchSize::LargeInput)
         });
     }
-    for (name, frames) in [("events_touch", &touch_n), ("events_quiet", &quiet_n)] {
+    // `press_release` (the scene's event-chain default): the touch input swings through each
+    // taxel's baseline, so one taxel's step may hold releases then presses
+    for (name, frames, polarity) in [
+        ("events_touch", &touch_n, Polarity::Both),
+        ("events_quiet", &quiet_n, Polarity::Both),
+        ("events_touch_press_release", &touch_n, Polarity::PressRelease),
+        ("events_quiet_press_release", &quiet_n, Polarity::PressRelease),
+    ] {
         let mut out = Vec::with_capacity(128);
-        let mut s = events();
+        let mut s = events_with(polarity);
         g.bench_function(name, |b| {
             b.iter_batched(|| frames.clone(), |fs| run(&mut s, fs, &mut out), BatchSize::LargeInput)
         });

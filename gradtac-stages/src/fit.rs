@@ -15,7 +15,7 @@
 //!
 //! - `(x, y)`: the contact on the layout plane, lifted onto the skin: on the built-in BioTac SP
 //!   layout `eᵢ` are the electrodes' 3-D **core** positions (the COMSOL model,
-//!   [`CORE_MM`](crate::sim_family::CORE_MM)), `hᵢ` their core-to-skin depths and `skin` the
+//!   [`CORE_MM`]), `hᵢ` their core-to-skin depths and `skin` the
 //!   fingertip ellipsoid ([`skin_point`](crate::sim_family::skin_point)); on any other layout the
 //!   skin is the plane and every core lies 3 mm under its taxel;
 //! - `w` the spread (mm, 0.8–8), `A` the amplitude (signed, input units at `ρ = 0` for a unit

@@ -17,11 +17,11 @@
 //! [`ChangeForce`] runs a model on changes: raw frames in, one
 //! [`ForceEstimate`] per frame out — no force (`None`) while the detector sees no contact (so
 //! untouched frames report none) or is still calibrating. It owns a
-//! [`ChangeDetector`](crate::locate::ChangeDetector) with the scene's `[stages.locate]`
+//! [`ChangeDetector`] with the scene's `[stages.locate]`
 //! detector settings (and its stored baseline, [`ChangeForce::with_tare`]), so it needs no
 //! other stage: a bare scene with a `force` output runs source → force.
 //! Its detector ([`force_detector`]) runs the force gate [`FORCE_GATE`]
-//! ([`DriftModel`](crate::locate::DriftModel) with holds): it carries each taxel's drift slope
+//! ([`DriftModel`] with holds): it carries each taxel's drift slope
 //! through contacts, freezes the baseline of a frame with some taxel beyond 2 σ (a contact
 //! until the excursion returns: steady below 0.3 of its peak total change, when the baseline
 //! settles fast), follows at 5 s outside excursions and takes a level steady for 10 s as the new

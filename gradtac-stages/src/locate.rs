@@ -8,7 +8,7 @@
 //! |---|---|---|---|
 //! | `centroid` | raw → [`Centroid`](crate::centroid::Centroid) (speed-bounded) | ≈ 0.1–0.3 µs/frame | `(window − 1)/2` frames + memory lag |
 //! | `raw_contour` | raw → [`RawChange`](crate::raw_contour::RawChange) → surface → contour | surface + contour (µs, grows with the grid) | `(window − 1)/2` frames |
-//! | `events` | normalise → Savitzky–Golay → events (τ from each taxel's noise: `event_tau_sigmas`) → window → surface → contour (the paper's event contours) | front end + surface + contour | Savitzky–Golay + window |
+//! | `events` | (normalise →) Savitzky–Golay → events (τ from each taxel's noise: `event_tau_sigmas`) → window → surface → contour: by default ([`EventChain::PressRelease`]) press/release events on raw counts in a cumulative window, 32×32, min peak 6; `event_chain = "paper"` runs the paper's chain as it states it | front end + surface + contour | Savitzky–Golay + window |
 //!
 //! The first two share [`ChangeDetector`]: a short **calibration** measures each taxel's
 //! baseline `x₀` and noise `σ` (the larger of the first-difference estimate and the scatter about
@@ -63,6 +63,98 @@ impl LocateMethod {
             LocateMethod::RawContour => "raw_contour",
             LocateMethod::Events => "events",
             LocateMethod::Fit => "fit",
+        }
+    }
+}
+
+/// The event chain's defaults (`[stages.locate] event_chain`): the values a scene's
+/// `[stages.normalise] bypass`, `[stages.events] polarity`, `[stages.window] kind`,
+/// `[stages.surface] grid.nx` and `[stages.contour] min_peak` / `min_area_mm2` take wherever
+/// the scene runs the event chain (the `events` method, and the `events`, `window` and
+/// `surface` taps of any method) and the scene does not set them itself. A key the scene sets
+/// always wins; a scene with a `[stages.normalise]` table or a `normalise` output keeps the
+/// min–max normalisation (its events then read the normalised values, as the paper's do).
+///
+/// | chain | normalise | polarity | window | grid | min peak | min area |
+/// |---|---|---|---|---|---|---|
+/// | `press_release` (default) | bypassed (events on raw counts) | `press_release` | `cumulative` | 32×32 | 6 events | 60 mm² |
+/// | `paper` | min–max | `both` | `sliding`, 10 frames | 64×64 | 1 event | 1 mm² |
+///
+/// `press_release` is the event setting chosen on the tuning members of the simulator family
+/// and scored once on held-out members with held-out physics (the repository's
+/// `docs/tradeoff.md`, rounds 3 and 4): held-out worst kind 0.063 of the width, 4.2 % of
+/// untouched track points in contact; through a scene's stages, `paper` scores 0.401 (0.104–0.116
+/// and 48–55 % untouched in contact at its best setting of the example's grid). `paper` is the
+/// chain as the paper states it: the stages' own defaults, so a chain composed in code from
+/// `EventsConfig::default()`, `WindowConfig::default()`, … runs it. The price of the default:
+/// a cumulative window never empties, so its surface and contour run every frame (criterion,
+/// the root package's `scene` bench: ≈ 14 µs/frame against ≈ 5–9 µs for `paper`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum EventChain {
+    /// Press/release events in a cumulative window: each taxel's distance from its baseline,
+    /// on a 32×32 surface, contact from 6 events and 60 mm². The default.
+    #[default]
+    PressRelease,
+    /// The paper's chain: signed events of both directions in a 10-frame sliding window, the
+    /// stages' own defaults.
+    Paper,
+}
+
+impl EventChain {
+    /// The name in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            EventChain::PressRelease => "press_release",
+            EventChain::Paper => "paper",
+        }
+    }
+
+    /// `[stages.normalise] bypass` of this chain: the log-change events of `press_release` act
+    /// on raw counts (min–max bounds from an untouched start span only the noise, so a press
+    /// drives most electrodes below the lower bound, onto the events' floor).
+    pub fn normalise_bypass(self) -> bool {
+        self == EventChain::PressRelease
+    }
+
+    /// `[stages.events] polarity` of this chain.
+    pub fn polarity(self) -> crate::events::Polarity {
+        match self {
+            EventChain::PressRelease => crate::events::Polarity::PressRelease,
+            EventChain::Paper => crate::events::Polarity::Both,
+        }
+    }
+
+    /// `[stages.window] kind` of this chain (when the scene gives the window no size either: a
+    /// `frames` or `duration_ms` alone asks for the sized `sliding` window).
+    pub fn window_kind(self) -> crate::window::WindowKind {
+        match self {
+            EventChain::PressRelease => crate::window::WindowKind::Cumulative,
+            EventChain::Paper => crate::window::WindowKind::Sliding,
+        }
+    }
+
+    /// `[stages.surface] grid.nx` (columns; rows follow the layout's aspect unless given).
+    pub fn grid_nx(self) -> usize {
+        match self {
+            EventChain::PressRelease => 32,
+            EventChain::Paper => crate::interpolate::GridConfig::default().nx,
+        }
+    }
+
+    /// `[stages.contour] min_peak` (events).
+    pub fn min_peak(self) -> f64 {
+        match self {
+            EventChain::PressRelease => 6.0,
+            EventChain::Paper => crate::contour::ContourConfig::default().min_peak,
+        }
+    }
+
+    /// `[stages.contour] min_area_mm2`.
+    pub fn min_area_mm2(self) -> f64 {
+        match self {
+            EventChain::PressRelease => 60.0,
+            EventChain::Paper => crate::contour::ContourConfig::default().min_area_mm2,
         }
     }
 }
@@ -170,6 +262,9 @@ pub struct LocateConfig {
     /// ([`Threshold::Noise`](crate::events::Threshold::Noise)), so the event-count contact
     /// threshold (`[stages.contour] min_peak`) means the same number of σ on any sensor. Default 4.
     pub event_tau_sigmas: f64,
+    /// The event chain's defaults ([`EventChain`]): `press_release` (default, chosen on tuning
+    /// members) or `paper`; applied by the scene to the event stages' keys it does not set.
+    pub event_chain: EventChain,
     /// `fit`: most Levenberg–Marquardt iterations per frame (1–100). Default 3.
     pub fit_iterations: u32,
     /// `fit`: rate (0–1; 0 = fixed unit gains) at which each electrode's signed gain follows
@@ -237,6 +332,7 @@ struct LocateToml {
     smooth_frames: Option<u32>,
     max_speed_mm_s: Option<f64>,
     event_tau_sigmas: Option<f64>,
+    event_chain: Option<EventChain>,
     fit_iterations: Option<u32>,
     fit_gain_rate: Option<f64>,
     fit_model_error: Option<f64>,
@@ -267,6 +363,7 @@ impl From<LocateToml> for LocateConfig {
             smooth_frames,
             max_speed_mm_s,
             event_tau_sigmas,
+            event_chain,
             fit_iterations,
             fit_gain_rate,
             fit_model_error,
@@ -343,6 +440,7 @@ impl LocateConfig {
             smooth_frames: 3,
             max_speed_mm_s: 30.0,
             event_tau_sigmas: 4.0,
+            event_chain: EventChain::PressRelease,
             fit_iterations: 3,
             fit_gain_rate: 0.0,
             fit_model_error: 0.3,

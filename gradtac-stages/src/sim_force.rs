@@ -1,11 +1,11 @@
 //! Force sessions on the forward-model family: presses at several places of the pad with a
 //! gauge's force truth, the skin's response **not linear in force** and its **spread growing
-//! with force** — what calibrating and scoring a force model needs ([`sim_family`] moves one
+//! with force** — what calibrating and scoring a force model needs ([`sim_family`](crate::sim_family) moves one
 //! contact at one constant force; its members and figures are unchanged by this module).
 //!
 //! A session is one member's sensor ([`Physics::draw`] of the seed: kernel shape and width,
 //! amplitude, signed gains, fluid lag, saturation knee, baselines, drift, noise, 12-bit ADC —
-//! every term of [`sim_family`]'s table) plus a [`ForceResponse`] drawn from the same seed:
+//! every term of [`sim_family`](crate::sim_family)'s table) plus a [`ForceResponse`] drawn from the same seed:
 //!
 //! | term | formula | range drawn per member |
 //! |---|---|---|

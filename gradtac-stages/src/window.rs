@@ -29,6 +29,9 @@
 //!   Being a level rather than a sum over a span, it is stamped as a state of the newest
 //!   frame: `start = end` = that frame's time (`frames` still counts the frames since the
 //!   start). Only `signed` and `split` aggregates (a cumulative count only grows); no size.
+//!   The stage's default kind is `sliding` (the paper's); a scene's event chain defaults to
+//!   `cumulative` with press/release events unless its window is given a size or a kind
+//!   ([`EventChain`](crate::locate::EventChain)).
 //!
 //! Per-taxel aggregate ([`Aggregate`]): `signed` (Σ polarity), `count` (number of events), or
 //! `split` (positive and negative counts separately, [`WindowAggregate::split`]; `values` then

@@ -2,7 +2,7 @@
 //! CDR-encoded messages and `ros2msg` schemas, yielding the taxel frames of every sensor that
 //! reads it.
 //!
-//! The container is read by [`McapReader`](super::mcap_read::McapReader) (every length a
+//! The container is read by [`McapReader`] (every length a
 //! record claims checked before anything is allocated for it; chunks uncompressed, zstd or
 //! lz4, within the decompression budget); the messages are decoded by the schema text each
 //! channel's schema carries (`ros2msg`, parsed with ROS 2 rules) and the CDR decoder. Times:

@@ -168,7 +168,7 @@
 //! exactly invariant to a gain and an offset per taxel) with one hidden layer of 16 `tanh` units
 //! (2 421 parameters). It streams: the representation is kept as running sums, and a decision
 //! every frame costs a median 2.9 µs, p99 3.4 µs (`dos_eval`, 46 165 frames, release build,
-//! a loaded 2-core machine). The trainer ([`train`], cargo feature `train`, no extra crate)
+//! a loaded 2-core machine). The trainer (`dos::train`, cargo feature `train`, no extra crate)
 //! adds every recording's mirror image (taxel permutation of the layout's reflection,
 //! `e ↔ w`, `cw ↔ aw`) and random copies with white noise, speed and time warp, taxel dropout,
 //! small layout rotations, vibration added or removed and prefix crops, and fits by full-batch
@@ -446,10 +446,8 @@ mod features;
 mod model;
 mod net;
 mod stage;
-/// Training of the learned model (cargo feature `train`; a robot's build leaves it out).
 #[cfg(feature = "train")]
 pub mod train;
-/// Training of the window model (cargo feature `train`).
 #[cfg(feature = "train")]
 pub mod train_window;
 mod window;

@@ -68,7 +68,7 @@ impl NetConfig {
     }
 }
 
-/// The streaming representation of [`DosNet`] (see the [module docs](self)): push raw frames,
+/// The streaming representation of [`DosNet`] (see the [module docs](crate::dos)): push raw frames,
 /// read [`input`](Self::input) for the span so far. A plain state machine:
 /// [`reset`](Self::reset) starts a new span.
 #[derive(Clone, Debug)]
@@ -219,7 +219,7 @@ pub(super) fn drift_moments(snap: &DriftSnapshot, positions: &[[f64; 2]], centre
     [level, cx, cy, (r2 / total).ln_1p(), aniso / total, cross / total, signed_y / total]
 }
 
-/// The learned slip-direction model (see the [module docs](self)): representation settings,
+/// The learned slip-direction model (see the [module docs](crate::dos)): representation settings,
 /// input standardisation and the network's weights. Serialises to JSON (serde), validated when
 /// read.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -160,7 +160,7 @@ const SCALE: f64 = 1.0 / 18_446_744_073_709_551_616.0;
 /// Largest `|d_i|` (a change across the window far larger than the spread of levels).
 const MAX_CHANGE: f64 = 1e3;
 
-/// The streaming representation of [`DosWindowNet`] (see the [module docs](self)): push raw
+/// The streaming representation of [`DosWindowNet`] (see the [module docs](crate::dos)): push raw
 /// frames; [`input`](Self::input) is the representation of the last `frames` frames. A plain
 /// state machine: [`reset`](Self::reset) starts a new span.
 #[derive(Clone, Debug)]
@@ -325,7 +325,7 @@ impl WindowExtractor {
     }
 }
 
-/// The window model of slip direction (see the [module docs](self)): representation settings,
+/// The window model of slip direction (see the [module docs](crate::dos)): representation settings,
 /// input standardisation and the network's weights. Serialises to JSON (serde), validated when
 /// read.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
