@@ -521,6 +521,30 @@ impl OnsetStarts {
     }
 }
 
+/// Which pattern position the change-point fit that dates a slip's onset reads
+/// ([`crate::slip_pattern`]; the decision always reads the energy-weighted one).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum OnsetPosition {
+    /// The decision's position: the mean weighted by the change's energy above the floor,
+    /// `max(0, zᵢ² − f²)` — it sticks to the strongest taxel while the contact crosses it.
+    #[default]
+    Energy,
+    /// The mean weighted by the change above the floor, `max(0, |zᵢ| − f)`: follows the
+    /// contact more evenly across the taxels (one more weighted sum per frame).
+    Linear,
+}
+
+impl OnsetPosition {
+    /// The name in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            OnsetPosition::Energy => "energy",
+            OnsetPosition::Linear => "linear",
+        }
+    }
+}
+
 /// How the fingers' fitted change points make one onset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
@@ -618,6 +642,10 @@ pub struct SlipConfig {
     /// `displacement`: the starts the change-point fit tries ([`OnsetStarts`]). Default
     /// `linear_cubic`.
     pub onset_starts: OnsetStarts,
+    /// `displacement` with pattern evidence: the pattern position the change-point fit reads
+    /// ([`OnsetPosition`]; the decision reads the energy-weighted one whatever this is). Default
+    /// `energy`.
+    pub onset_position: OnsetPosition,
     /// A finger without a usable contact point for longer than this (s, > 0; a contact
     /// dropout or missing input) starts afresh: history cleared, `settle_s` again. Shorter
     /// dropouts keep the history (the contact may have moved meanwhile) and the last evidence.
@@ -673,6 +701,7 @@ impl Default for SlipConfig {
             onset_model: OnsetModel::RampHinge,
             onset_fingers: OnsetFingers::Weighted,
             onset_starts: OnsetStarts::LinearCubic,
+            onset_position: OnsetPosition::Energy,
             max_gap_s: 0.5,
             settle_s: 0.3,
             velocity_window_s: 0.15,
@@ -712,13 +741,14 @@ impl SlipConfig {
         match self.method {
             SlipMethod::Displacement => format!(
                 "two-finger slip by displacement: {} mm over {} s per finger after {} s of contact, onset by \
-                 change-point fit ({}, {} starts, {} finger) over {} s minus {} s, dropouts > {} s start afresh; evidence {}{}; {common}",
+                 change-point fit ({}, {} starts, {} finger, {} position) over {} s minus {} s, dropouts > {} s start afresh; evidence {}{}; {common}",
                 self.distance_mm,
                 self.window_s,
                 self.settle_s,
                 self.onset_model.name(),
                 self.onset_starts.name(),
                 self.onset_fingers.name(),
+                self.onset_position.name(),
                 self.history_s,
                 self.onset_lead_s,
                 self.max_gap_s,
@@ -784,6 +814,9 @@ impl Timed for SlipEvent {
 struct Path {
     /// (time ns, world-up position mm).
     history: VecDeque<(i64, f64)>,
+    /// (time ns, world-up position mm) of the onset fit's position (`onset_position`; for a
+    /// track the same as `history`): the same times as `history`.
+    onset_history: VecDeque<(i64, f64)>,
     last_time: Option<Timestamp>,
     /// Start of the current contact (ns).
     contact_since: Option<i64>,
@@ -796,6 +829,7 @@ struct Path {
 impl Path {
     fn clear(&mut self) {
         self.history.clear();
+        self.onset_history.clear();
         self.contact_since = None;
         self.last_usable = None;
         self.moved = None;
@@ -955,12 +989,13 @@ impl Slip {
         Some((self.moved(0)?, self.moved(1)?))
     }
 
-    /// Each finger's world-up position history the `displacement` rule reads (time ns, mm;
-    /// the last `history_s`) with its displacement, when known: what the onset fit dates a
-    /// slip from (diagnostics: `slip_eval -- onsetdump`).
+    /// Each finger's world-up position history the onset fit reads (time ns, mm; the last
+    /// `history_s`; the `onset_position` of pattern points) with the displacement the rule
+    /// measured, when known: what the onset fit dates a slip from (diagnostics: `slip_eval --
+    /// onsetdump`).
     pub fn position_histories(&self) -> [Option<(f64, PositionHistory)>; 2] {
         let of = |i: usize| {
-            self.fingers[i].evidence(self.cfg.evidence).map(|(m, p)| (m, p.history.iter().copied().collect()))
+            self.fingers[i].evidence(self.cfg.evidence).map(|(m, p)| (m, p.onset_history.iter().copied().collect()))
         };
         [of(0), of(1)]
     }
@@ -1024,11 +1059,11 @@ impl Slip {
         let mut earliest = i64::MAX;
         for f in &self.fingers {
             if let Some((_, path)) = f.evidence(self.cfg.evidence).filter(|e| e.0.abs() >= 0.5) {
-                if let Some((t, _, sse)) = change_point(&path.history, drift, self.cfg.onset_starts) {
+                if let Some((t, _, sse)) = change_point(&path.onset_history, drift, self.cfg.onset_starts) {
                     sum += t as f64;
                     n += 1.0;
                     earliest = earliest.min(t);
-                    let w = fit_weight(&path.history, sse);
+                    let w = fit_weight(&path.onset_history, sse);
                     wsum += w * t as f64;
                     wn += w;
                 }
@@ -1648,7 +1683,7 @@ impl Slip {
     /// raw-frame pattern point); events as [`Stage::push`].
     pub fn push_input(&mut self, input: SlipInput, out: &mut Vec<SlipEvent>) -> Result<()> {
         // (source 0 = track, 1 = pattern)
-        let (sensor, time, start, seq, usable, xy, gated, track, src) = match &input {
+        let (sensor, time, start, seq, usable, xy, onset_xy, gated, track, src) = match &input {
             SlipInput::Track(p) => (
                 &p.sensor,
                 p.time,
@@ -1656,11 +1691,23 @@ impl Slip {
                 p.seq,
                 p.state == ContactState::Contact,
                 [p.x_mm, p.y_mm],
+                [p.x_mm, p.y_mm],
                 p.gated,
                 p.track,
                 0,
             ),
-            SlipInput::Pattern(p) => (&p.sensor, p.time, p.start, p.seq, p.contact, [p.x_mm, p.y_mm], false, None, 1),
+            SlipInput::Pattern(p) => (
+                &p.sensor,
+                p.time,
+                p.start,
+                p.seq,
+                p.contact,
+                [p.x_mm, p.y_mm],
+                [p.onset_x_mm, p.onset_y_mm],
+                false,
+                None,
+                1,
+            ),
         };
         let i = if *sensor == self.first {
             0
@@ -1720,9 +1767,13 @@ impl Slip {
                     // the point describes the middle of the averaging span
                     let mid = start.as_nanos().min(now) / 2 + now / 2;
                     let mid = mid.max(path.history.back().map_or(i64::MIN, |q| q.0));
-                    path.history.push_back((mid, xy[0] * up[0] + xy[1] * up[1]));
+                    let u = xy[0] * up[0] + xy[1] * up[1];
+                    path.history.push_back((mid, u));
+                    let v = onset_xy[0] * up[0] + onset_xy[1] * up[1];
+                    path.onset_history.push_back((mid, if v.is_finite() { v } else { u }));
                     while path.history.front().is_some_and(|q| mid - q.0 > self.history_ns) {
                         path.history.pop_front();
+                        path.onset_history.pop_front();
                     }
                     path.moved = displacement_of(&path.history, self.window_ns, self.history_ns, self.cfg.distance_mm);
                 }
@@ -2228,6 +2279,8 @@ mod tests {
                     energy: 100.0,
                     x_mm: p[0],
                     y_mm: p[1],
+                    onset_x_mm: p[0],
+                    onset_y_mm: p[1],
                 }
             })
             .collect()

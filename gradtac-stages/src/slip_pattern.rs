@@ -76,7 +76,7 @@
 //! # Ok::<(), gradtac_stages::Error>(())
 //! ```
 
-use crate::slip::SlipConfig;
+use crate::slip::{OnsetPosition, SlipConfig};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Layout, SensorId, Stage, TaxelFrame, Timed, Timestamp};
 use serde::{Deserialize, Serialize};
@@ -103,6 +103,12 @@ pub struct PatternPoint {
     pub x_mm: f64,
     /// Weighted mean y of the pattern (mm; NaN without contact).
     pub y_mm: f64,
+    /// The position the slip stage's onset fit reads (mm; NaN without contact): with
+    /// `onset_position = "energy"` the same as `x_mm`, with `"linear"` the mean weighted by the
+    /// change above the floor, `max(0, |zᵢ| − f)` (step 6 of the [module docs](self)).
+    pub onset_x_mm: f64,
+    /// The onset fit's y (mm; NaN without contact), as `onset_x_mm`.
+    pub onset_y_mm: f64,
 }
 
 impl Timed for PatternPoint {
@@ -132,6 +138,8 @@ pub struct SlipPattern {
     floor2: f64,
     contact2: f64,
     follow_s: f64,
+    floor: f64,
+    linear_onset: bool,
     fingers: [FingerPattern; 2],
 }
 
@@ -174,6 +182,8 @@ impl SlipPattern {
             floor2: cfg.pattern_floor_sigmas * cfg.pattern_floor_sigmas,
             contact2: cfg.pattern_contact_sigmas * cfg.pattern_contact_sigmas,
             follow_s: cfg.pattern_follow_s,
+            floor: cfg.pattern_floor_sigmas,
+            linear_onset: cfg.onset_position == OnsetPosition::Linear,
             fingers: Default::default(),
         })
     }
@@ -239,6 +249,8 @@ impl SlipPattern {
             energy: 0.0,
             x_mm: f64::NAN,
             y_mm: f64::NAN,
+            onset_x_mm: f64::NAN,
+            onset_y_mm: f64::NAN,
         };
         if f.baseline.is_empty() {
             f.calib.push(frame.values.clone());
@@ -254,6 +266,7 @@ impl SlipPattern {
         let k = f.ring.len() as f64;
         let beta = if self.follow_s > 0.0 { 1.0 - (-dt / self.follow_s).exp() } else { 0.0 };
         let (mut e, mut mx, mut my) = (0.0, 0.0, 0.0);
+        let (mut l, mut lx, mut ly) = (0.0, 0.0, 0.0);
         for ((sum, base), (sigma, at)) in f.sum.iter().zip(f.baseline.iter_mut()).zip(f.sigma.iter().zip(pos)) {
             let mean = sum / k;
             let z = (mean - *base) / sigma;
@@ -264,12 +277,23 @@ impl SlipPattern {
             e += w;
             mx += w * at[0];
             my += w * at[1];
+            if self.linear_onset {
+                let v = (z.abs() - self.floor).max(0.0);
+                l += v;
+                lx += v * at[0];
+                ly += v * at[1];
+            }
         }
         p.energy = e;
         if e >= self.contact2 && e > 0.0 && e.is_finite() {
             p.contact = true;
             p.x_mm = mx / e;
             p.y_mm = my / e;
+            // every taxel with energy above the floor has |z| above it: l > 0 here
+            (p.onset_x_mm, p.onset_y_mm) = match self.linear_onset {
+                true if l > 0.0 && l.is_finite() => (lx / l, ly / l),
+                _ => (p.x_mm, p.y_mm),
+            };
         }
         out.push(p);
         Ok(())
