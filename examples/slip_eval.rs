@@ -2,7 +2,9 @@
 //! (`gradtac_stages::sim_grasp`, `GraspFamily::widened`): the default chain of a bare scene
 //! (raw frames → slip_pattern → slip) scored on held-out members — whole, by start shape
 //! (step / linear / smooth) and by widened property — against the previous default onset
-//! estimate (`hinge`, `linear_smooth`, `mean`, lead 0.045 s) and the track-velocity baseline (taxel centroid → track → slip), with the
+//! estimate (the energy-weighted pattern position; `ramp_hinge`, `linear_cubic`, `weighted`, lead
+//! 0.03 s), the linear-weight position (searched, not chosen) and the track-velocity baseline
+//! (taxel centroid → track → slip), with the
 //! demo's recording (`gradtac demo`) through the same inputs and a held-out variant of the
 //! family never used for a choice. It also times every push that decided a slip (the
 //! change-point fits run there): p50 / p99 over the held-out members, default and previous.
@@ -467,12 +469,16 @@ fn main() {
     println!("demo recording (`gradtac demo`), default: {:?} onset error {:+.3} s", d.0, d.1);
     let d = demo_onset(&demo, &before);
     println!(
-        "demo recording, previous onset estimate (hinge, linear_smooth, mean, lead 0.045 s): {:?} onset error {:+.3} s\n",
+        "demo recording, previous default (energy position, ramp_hinge, linear_cubic, weighted, lead 0.03 s): {:?} onset error {:+.3} s\n",
         d.0, d.1
     );
-    for (label, cfg) in [("default", &def), ("previous onset estimate", &before)] {
+    for (label, cfg) in [("default", &def), ("previous default", &before)] {
         let (p50, p99, n) = decide_cost(&held, cfg);
         println!("slip-deciding pushes, {label}: p50 {p50:.1} µs, p99 {p99:.1} µs ({n} decisions, held-out members)");
+        let (p50, p99, n) = pattern_cost(&held, cfg);
+        println!(
+            "slip_pattern pushes, {label}: p50 {p50:.2} µs, p99 {p99:.2} µs per frame ({n} frames, held-out members)"
+        );
     }
     println!();
     let base = SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..Default::default() };
@@ -487,7 +493,7 @@ fn main() {
     };
     let configs = [
         ("displacement (default)", &def),
-        ("displacement, previous onset estimate", &before),
+        ("displacement, previous default (energy position)", &before),
         ("displacement, linear-weight onset position (not chosen)", &linear),
         ("track velocity (baseline)", &base),
     ];
@@ -520,7 +526,7 @@ fn main() {
             println!("{}", summarise(&sc).row(&format!("{label}, {} start", shape.name())));
         }
     }
-    println!("\n## By widened property (held-out, default, previous onset estimate, linear-weight onset position; slips with the property + all stable)\n");
+    println!("\n## By widened property (held-out, default, previous default, linear-weight onset position; slips with the property + all stable)\n");
     println!("{HEADER}");
     type Prop = (&'static str, fn(&Case) -> bool);
     let props: [Prop; 5] = [
@@ -585,14 +591,15 @@ const HELD_OUT: std::ops::Range<u64> = 1000..1100;
 const VARIANT: std::ops::Range<u64> = 2000..2040;
 
 /// The previous default onset estimate (the last session's, chosen on the same tuning members):
-/// a still-then-moving hinge with linear and smooth starts, the fingers' mean, lead 0.045 s
-/// (everything else default).
+/// the energy-weighted pattern position, a drifting-then-moving hinge with linear and cubic
+/// starts, the fingers weighted by fit clarity, lead 0.03 s (everything else default).
 fn previous_onset() -> SlipConfig {
     SlipConfig {
-        onset_model: OnsetModel::Hinge,
-        onset_fingers: OnsetFingers::Mean,
-        onset_starts: OnsetStarts::LinearSmooth,
-        onset_lead_s: 0.045,
+        onset_position: OnsetPosition::Energy,
+        onset_model: OnsetModel::RampHinge,
+        onset_fingers: OnsetFingers::Weighted,
+        onset_starts: OnsetStarts::LinearCubic,
+        onset_lead_s: 0.03,
         ..Default::default()
     }
 }
@@ -619,6 +626,26 @@ fn decide_cost(cases: &[Case], cfg: &SlipConfig) -> (f64, f64, usize) {
     (pct(&mut us, 0.5), pct(&mut us, 0.99), n)
 }
 
+/// The wall time (µs) of every raw frame pushed through the pattern stage (the onset position's
+/// model fits run there with `onset_position = "fit"`), over `cases`: `(p50, p99, count)`.
+fn pattern_cost(cases: &[Case], cfg: &SlipConfig) -> (f64, f64, usize) {
+    use gradtac::stages::slip_pattern::SlipPattern;
+    let layout = gradtac::stream::Layout::biotac_sp();
+    let mut us = Vec::new();
+    let mut out = Vec::new();
+    for c in cases {
+        let mut s = SlipPattern::try_new(cfg, [&layout, &layout]).expect("valid");
+        for f in &c.rec.frames {
+            out.clear();
+            let t = std::time::Instant::now();
+            s.push_frame(f, &mut out).expect("ok");
+            us.push(t.elapsed().as_secs_f64() * 1e6);
+        }
+    }
+    let n = us.len();
+    (pct(&mut us, 0.5), pct(&mut us, 0.99), n)
+}
+
 /// The onset estimate's search on the tuning members only: model × finger combination, each
 /// with `onset_lead_s` = its mean signed onset error on the tuning members without a lead
 /// (to 0.005 s); ranked by the worst start shape's median |error| after the correction, then
@@ -627,7 +654,7 @@ fn decide_cost(cases: &[Case], cfg: &SlipConfig) -> (f64, f64, usize) {
 fn tune_onset(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<Vec<TrackPoint>>)) {
     let mut rows = Vec::new();
     for (onset_position, (onset_model, onset_fingers, onset_starts)) in
-        [OnsetPosition::Energy, OnsetPosition::Linear].into_iter().flat_map(|p| {
+        [OnsetPosition::Energy, OnsetPosition::Linear, OnsetPosition::Fit].into_iter().flat_map(|p| {
             [OnsetModel::Hinge, OnsetModel::RampHinge]
                 .into_iter()
                 .flat_map(|m| [OnsetFingers::Mean, OnsetFingers::Earliest, OnsetFingers::Weighted].map(|f| (m, f)))
@@ -702,7 +729,16 @@ fn fit_history(c: &Case, k: usize, from: i64, to: i64) -> Vec<String> {
     let up = if k == 0 { 1.0 } else { -1.0 };
     let layout = Layout::biotac_sp();
     let wf = std::env::var("DUMP_FIT_WINDOW").ok().and_then(|v| v.parse().ok()).unwrap_or(3);
-    let cfg = LocateConfig { window_frames: wf, ..Default::default() };
+    let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+    let cfg = LocateConfig {
+        window_frames: wf,
+        fit_motion_prior: env("DUMP_FIT_PRIOR", 0.8),
+        smooth_frames: env("DUMP_FIT_SMOOTH", 3.0) as u32,
+        fit_iterations: env("DUMP_FIT_ITER", 3.0) as u32,
+        contact_sigmas: env("DUMP_FIT_CONTACT", 10.0),
+        ..Default::default()
+    };
+    let peak = std::env::var("DUMP_FIT_PEAK").is_ok();
     let mut f = Fit::try_new(&cfg, &layout).expect("valid");
     let mut out = Vec::new();
     for fr in c.rec.frames.iter().filter(|fr| fr.sensor.as_str() == name) {
@@ -712,7 +748,8 @@ fn fit_history(c: &Case, k: usize, from: i64, to: i64) -> Vec<String> {
         .filter_map(|cf| {
             let mid = cf.start.as_nanos() / 2 + cf.end.as_nanos() / 2;
             let m = cf.outcome.contact()?;
-            (mid >= from && mid <= to).then(|| format!("{:.4}:{:.4}", mid as f64 * 1e-9, up * m.centroid_mm[1]))
+            let y = if peak { m.peak_mm[1] } else { m.centroid_mm[1] };
+            (mid >= from && mid <= to).then(|| format!("{:.4}:{:.4}", mid as f64 * 1e-9, up * y))
         })
         .collect()
 }

@@ -19,7 +19,7 @@
 //! - the previous track-velocity rule does worse on the same grasps (the baseline).
 
 use gradtac::stages::sim_grasp::{detect, score, GraspMember, GraspScore};
-use gradtac::stages::slip::{OnsetFingers, OnsetModel, OnsetStarts, SlipConfig, SlipMethod};
+use gradtac::stages::slip::{OnsetFingers, OnsetModel, OnsetPosition, OnsetStarts, SlipConfig, SlipMethod};
 
 fn scores(cfg: &SlipConfig) -> Vec<GraspScore> {
     GraspMember::grid(1000..1008)
@@ -67,10 +67,11 @@ fn defaults_hold_on_held_out_members() {
 
     // the previous default onset estimate
     let previous = SlipConfig {
-        onset_model: OnsetModel::Hinge,
-        onset_fingers: OnsetFingers::Mean,
-        onset_starts: OnsetStarts::LinearSmooth,
-        onset_lead_s: 0.045,
+        onset_position: OnsetPosition::Energy,
+        onset_model: OnsetModel::RampHinge,
+        onset_fingers: OnsetFingers::Weighted,
+        onset_starts: OnsetStarts::LinearCubic,
+        onset_lead_s: 0.03,
         ..Default::default()
     };
     let (def, prev) = (mean_signed(&s), mean_signed(&scores(&previous)));
