@@ -80,8 +80,9 @@
 //! `onset_position` ∈ {energy, linear, fit} × the previous round's 18 fit settings, each with
 //! its own lead (54 settings); then, for `fit` only, the fit's contact test ∈ {10 (the locator's
 //! default), 6, 4} σ, 6 instead of 3 iterations and signed instead of magnitudes (18 settings
-//! each; 126 settings in all). Ranked by the worst start shape's median |error|, then its |mean
-//! signed|. Chosen: `fit` (contact 4 σ, 3 iterations, magnitudes), `ramp_hinge`,
+//! each; 126 settings in all; that second step ran on a scratch build reading the fit's settings
+//! from the environment — the example's search runs the first step with the chosen 4 σ). Ranked
+//! by the worst start shape's median |error|, then its |mean signed|. Chosen: `fit` (contact 4 σ, 3 iterations, magnitudes), `ramp_hinge`,
 //! `linear_cubic`, `weighted`, lead 0.025 s — worst shape 44 ms median, 28 ms |mean| (step
 //! 44 / −22, linear 40 / +0, smooth 39 / +28 ms). Next: contact 6 σ 48 / 26, contact 10 σ
 //! 48 / 27, the previous default (`energy`) 49 / 31, 6 iterations 51 / 27, the best `linear`
