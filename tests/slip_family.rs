@@ -11,11 +11,11 @@
 //! - no slip event on any stable grasp;
 //! - at most one slipping grasp with a slip event before its onset (measured 1);
 //! - at least 31 of the 32 slipping grasps classified right (measured 31);
-//! - median |onset error| ≤ 75 ms (measured 33 ms on these few; 49 ms over the 400 held-out
-//!   slips of `slip_eval`, 46–52 ms per start shape — above the 30 ms target);
-//! - |mean signed onset error| ≤ 35 ms (measured −0 ms here; the previous default estimate —
-//!   `hinge`, `linear_smooth`, `mean`, lead 0.045 s — gives −23 ms on these few; over the 400
-//!   held-out slips −3 against −9 ms);
+//! - median |onset error| ≤ 75 ms (measured 46 ms on these few; 42 ms over the 400 held-out
+//!   slips of `slip_eval`, 40–43 ms per start shape — above the 30 ms target);
+//! - |mean signed onset error| ≤ 35 ms (measured −18 ms here; the previous default estimate —
+//!   the energy-weighted position, `ramp_hinge`, `linear_cubic`, `weighted`, lead 0.03 s —
+//!   gives −0 ms on these few; over the 400 held-out slips −1 against −3 ms);
 //! - the previous track-velocity rule does worse on the same grasps (the baseline).
 
 use gradtac::stages::sim_grasp::{detect, score, GraspMember, GraspScore};

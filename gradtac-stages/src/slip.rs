@@ -2420,6 +2420,17 @@ mod tests {
     }
 
     #[test]
+    fn explain_names_the_onset_position_and_its_fit() {
+        let d = SlipConfig::default().describe();
+        assert!(d.contains("fit (per-frame model fit: contact 4 σ, 3 iterations, magnitudes)"), "{d}");
+        let e = SlipConfig { onset_position: OnsetPosition::Energy, ..Default::default() }.describe();
+        assert!(e.contains("weighted finger, energy position"), "{e}");
+        let toml: SlipConfig = toml::from_str("onset_position = \"linear\"").unwrap();
+        assert_eq!(toml.onset_position, OnsetPosition::Linear);
+        assert!(toml::from_str::<SlipConfig>("onset_position = \"centroid\"").is_err());
+    }
+
+    #[test]
     fn onset_points_missing_on_some_frames_leave_gaps_in_the_onset_history_only() {
         // the model fit finds no contact on every third frame (NaN onset position): the
         // decision (from x_mm, y_mm) is unchanged and the onset is dated from the rest
