@@ -15,7 +15,8 @@
 //!    the widened grasp family (smooth starts tried, lead 0.045 s) printed −0.035 s; the
 //!    next onset fit (cubic starts, a drift before the onset, the fingers weighted by their
 //!    fits' clarity, lead 0.03 s) −0.020 s; the current one, which reads a per-frame model
-//!    fit's contact point (lead 0.025 s), prints −0.050 s (over 500 held-out grasps of the
+//!    fit's contact point (lead 0.025 s), prints −0.074 s (`slip_eval`'s in-process replay of
+//!    the same frames: −0.050 s, the previous one −0.020 s; over 500 held-out grasps of the
 //!    widened model family the median onset error is 42 ms, mean signed −1 ms, against 49 ms
 //!    and −3 ms for the one before and 160 ms for the track-velocity rule —
 //!    `gradtac_stages::slip`).
