@@ -2,7 +2,9 @@
 //! (`gradtac_stages::sim_grasp`, `GraspFamily::widened`): the default chain of a bare scene
 //! (raw frames → slip_pattern → slip) scored on held-out members — whole, by start shape
 //! (step / linear / smooth) and by widened property — against the previous default onset
-//! estimate (`hinge`, `linear_smooth`, `mean`, lead 0.045 s) and the track-velocity baseline (taxel centroid → track → slip), with the
+//! estimate (the energy-weighted pattern position; `ramp_hinge`, `linear_cubic`, `weighted`, lead
+//! 0.03 s), the linear-weight position (searched, not chosen) and the track-velocity baseline
+//! (taxel centroid → track → slip), with the
 //! demo's recording (`gradtac demo`) through the same inputs and a held-out variant of the
 //! family never used for a choice. It also times every push that decided a slip (the
 //! change-point fits run there): p50 / p99 over the held-out members, default and previous.
@@ -13,7 +15,9 @@
 //! cargo run --release --example slip_eval -- tune onset  # the onset search on the tuning seeds
 //! cargo run --release --example slip_eval -- onsetdiag   # each tuning slip's signed error and properties
 //! cargo run --release --example slip_eval -- onsetdump   # each tuning slip's position histories at its decision
-//!                                                        # (input of scripts/onset_probe.rs)
+//!                                                        # (input of scripts/onset_probe.rs; DUMP_POSITION=linear:
+//!                                                        # the linear-weight position; DUMP_FIT=1: the model-fit
+//!                                                        # locator's positions over the same span instead)
 //! cargo run --release --example slip_eval -- tune        # the (earlier) evidence search
 //! cargo run --release --example slip_eval -- tune rule   # then window_s × min_duration_s × dominance
 //! DIAG_SEEDS=400 cargo run --release --example slip_eval -- diag  # the tuning members' misses
@@ -39,7 +43,7 @@ use gradtac::stages::sim_grasp::{
     score, slip_inputs, track_points_per_frame, GraspFamily, GraspMember, GraspRecording, GraspScore, StartShape,
 };
 use gradtac::stages::slip::{
-    OnsetFingers, OnsetModel, OnsetStarts, Slip, SlipClass, SlipConfig, SlipEvidence, SlipMethod,
+    OnsetFingers, OnsetModel, OnsetPosition, OnsetStarts, Slip, SlipClass, SlipConfig, SlipEvidence, SlipMethod,
 };
 use gradtac::stages::track::TrackPoint;
 
@@ -305,7 +309,11 @@ fn main() {
         // no lead), with the truth: the data the onset estimator is designed on
         // (tuning members only: the held-out ones are never looked at for a choice)
         let set = tuning;
-        let cfg = SlipConfig { onset_lead_s: 0.0, ..Default::default() };
+        let onset_position = match std::env::var("DUMP_POSITION").as_deref() {
+            Ok("linear") => OnsetPosition::Linear,
+            _ => OnsetPosition::Energy,
+        };
+        let cfg = SlipConfig { onset_lead_s: 0.0, onset_position, ..Default::default() };
         for c in set.iter().filter(|c| c.truth.class.is_slip()) {
             let r = run(c, &cfg);
             let input = slip_inputs(&c.rec.frames, &c.tracks, &cfg).expect("valid");
@@ -338,8 +346,10 @@ fn main() {
                     );
                     for (k, h) in s.position_histories().iter().enumerate() {
                         if let Some((m, h)) = h {
-                            let pts: Vec<String> =
-                                h.iter().map(|p| format!("{:.4}:{:.4}", p.0 as f64 * 1e-9, p.1)).collect();
+                            let pts: Vec<String> = match std::env::var("DUMP_FIT").is_ok() {
+                                true => fit_history(c, k, h.first().map_or(0, |p| p.0), h.last().map_or(0, |p| p.0)),
+                                false => h.iter().map(|p| format!("{:.4}:{:.4}", p.0 as f64 * 1e-9, p.1)).collect(),
+                            };
                             println!("H {k} {m:.3} {}", pts.join(" "));
                         }
                     }
@@ -459,18 +469,32 @@ fn main() {
     println!("demo recording (`gradtac demo`), default: {:?} onset error {:+.3} s", d.0, d.1);
     let d = demo_onset(&demo, &before);
     println!(
-        "demo recording, previous onset estimate (hinge, linear_smooth, mean, lead 0.045 s): {:?} onset error {:+.3} s\n",
+        "demo recording, previous default (energy position, ramp_hinge, linear_cubic, weighted, lead 0.03 s): {:?} onset error {:+.3} s\n",
         d.0, d.1
     );
-    for (label, cfg) in [("default", &def), ("previous onset estimate", &before)] {
+    for (label, cfg) in [("default", &def), ("previous default", &before)] {
         let (p50, p99, n) = decide_cost(&held, cfg);
         println!("slip-deciding pushes, {label}: p50 {p50:.1} µs, p99 {p99:.1} µs ({n} decisions, held-out members)");
+        let (p50, p99, n) = pattern_cost(&held, cfg);
+        println!(
+            "slip_pattern pushes, {label}: p50 {p50:.2} µs, p99 {p99:.2} µs per frame ({n} frames, held-out members)"
+        );
     }
     println!();
     let base = SlipConfig { method: SlipMethod::Velocity, min_duration_s: 0.08, ..Default::default() };
+    // the onset fit on the linear-weight pattern position (the search's best row with it on the
+    // tuning members; not chosen: scored here as a record, the decisions are the default's)
+    let linear = SlipConfig {
+        onset_position: OnsetPosition::Linear,
+        onset_model: OnsetModel::Hinge,
+        onset_starts: OnsetStarts::Linear,
+        onset_lead_s: 0.025,
+        ..Default::default()
+    };
     let configs = [
         ("displacement (default)", &def),
-        ("displacement, previous onset estimate", &before),
+        ("displacement, previous default (energy position)", &before),
+        ("displacement, linear-weight onset position (not chosen)", &linear),
         ("track velocity (baseline)", &base),
     ];
     let runs: Vec<Vec<GraspScore>> =
@@ -489,7 +513,7 @@ fn main() {
             "{}",
             summarise(&sel(k, &|c| c.exponential)).row(&format!("{label}, exponential kernel (held-out physics)"))
         );
-        if k < 2 {
+        if k < 3 {
             let tun: Vec<GraspScore> = tuning.iter().map(|c| run(c, cfg)).collect();
             println!("{}", summarise(&tun).row(&format!("{label}, tuning members (in-sample)")));
         }
@@ -502,7 +526,7 @@ fn main() {
             println!("{}", summarise(&sc).row(&format!("{label}, {} start", shape.name())));
         }
     }
-    println!("\n## By widened property (held-out, default vs previous onset estimate; slips with the property + all stable)\n");
+    println!("\n## By widened property (held-out, default, previous default, linear-weight onset position; slips with the property + all stable)\n");
     println!("{HEADER}");
     type Prop = (&'static str, fn(&Case) -> bool);
     let props: [Prop; 5] = [
@@ -512,7 +536,7 @@ fn main() {
         ("none of the three", |c| c.truth.grip_start == 1.0 && c.truth.load_rise == 0.0 && c.truth.finger_lag_s == 0.0),
         ("slower than 4 mm/s", |c| c.truth.speed_mm_s < 4.0),
     ];
-    for (k, (label, _)) in configs.iter().enumerate().take(2) {
+    for (k, (label, _)) in configs.iter().enumerate().take(3) {
         for (name, f) in &props {
             let sc = sel(k, &|c| !c.truth.class.is_slip() || f(c));
             println!("{}", summarise(&sc).row(&format!("{label}, {name}")));
@@ -523,7 +547,7 @@ fn main() {
         VARIANT.start, VARIANT.end
     );
     println!("{HEADER}");
-    for (label, cfg) in &configs[..2] {
+    for (label, cfg) in &configs[..3] {
         let sc: Vec<GraspScore> = variant.iter().map(|c| run(c, cfg)).collect();
         println!("{}", summarise(&sc).row(&format!("{label}, exponential start")));
     }
@@ -567,14 +591,15 @@ const HELD_OUT: std::ops::Range<u64> = 1000..1100;
 const VARIANT: std::ops::Range<u64> = 2000..2040;
 
 /// The previous default onset estimate (the last session's, chosen on the same tuning members):
-/// a still-then-moving hinge with linear and smooth starts, the fingers' mean, lead 0.045 s
-/// (everything else default).
+/// the energy-weighted pattern position, a drifting-then-moving hinge with linear and cubic
+/// starts, the fingers weighted by fit clarity, lead 0.03 s (everything else default).
 fn previous_onset() -> SlipConfig {
     SlipConfig {
-        onset_model: OnsetModel::Hinge,
-        onset_fingers: OnsetFingers::Mean,
-        onset_starts: OnsetStarts::LinearSmooth,
-        onset_lead_s: 0.045,
+        onset_position: OnsetPosition::Energy,
+        onset_model: OnsetModel::RampHinge,
+        onset_fingers: OnsetFingers::Weighted,
+        onset_starts: OnsetStarts::LinearCubic,
+        onset_lead_s: 0.03,
         ..Default::default()
     }
 }
@@ -601,6 +626,26 @@ fn decide_cost(cases: &[Case], cfg: &SlipConfig) -> (f64, f64, usize) {
     (pct(&mut us, 0.5), pct(&mut us, 0.99), n)
 }
 
+/// The wall time (µs) of every raw frame pushed through the pattern stage (the onset position's
+/// model fits run there with `onset_position = "fit"`), over `cases`: `(p50, p99, count)`.
+fn pattern_cost(cases: &[Case], cfg: &SlipConfig) -> (f64, f64, usize) {
+    use gradtac::stages::slip_pattern::SlipPattern;
+    let layout = gradtac::stream::Layout::biotac_sp();
+    let mut us = Vec::new();
+    let mut out = Vec::new();
+    for c in cases {
+        let mut s = SlipPattern::try_new(cfg, [&layout, &layout]).expect("valid");
+        for f in &c.rec.frames {
+            out.clear();
+            let t = std::time::Instant::now();
+            s.push_frame(f, &mut out).expect("ok");
+            us.push(t.elapsed().as_secs_f64() * 1e6);
+        }
+    }
+    let n = us.len();
+    (pct(&mut us, 0.5), pct(&mut us, 0.99), n)
+}
+
 /// The onset estimate's search on the tuning members only: model × finger combination, each
 /// with `onset_lead_s` = its mean signed onset error on the tuning members without a lead
 /// (to 0.005 s); ranked by the worst start shape's median |error| after the correction, then
@@ -608,15 +653,26 @@ fn decide_cost(cases: &[Case], cfg: &SlipConfig) -> (f64, f64, usize) {
 /// depend on these settings: only the onset's dating does.
 fn tune_onset(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<Vec<TrackPoint>>)) {
     let mut rows = Vec::new();
-    for (onset_model, onset_fingers, onset_starts) in [OnsetModel::Hinge, OnsetModel::RampHinge]
-        .into_iter()
-        .flat_map(|m| [OnsetFingers::Mean, OnsetFingers::Earliest, OnsetFingers::Weighted].map(|f| (m, f)))
-        .flat_map(|(m, f)| {
-            [OnsetStarts::Linear, OnsetStarts::LinearSmooth, OnsetStarts::LinearCubic].map(|s| (m, f, s))
+    for (onset_position, (onset_model, onset_fingers, onset_starts)) in
+        [OnsetPosition::Energy, OnsetPosition::Linear, OnsetPosition::Fit].into_iter().flat_map(|p| {
+            [OnsetModel::Hinge, OnsetModel::RampHinge]
+                .into_iter()
+                .flat_map(|m| [OnsetFingers::Mean, OnsetFingers::Earliest, OnsetFingers::Weighted].map(|f| (m, f)))
+                .flat_map(|(m, f)| {
+                    [OnsetStarts::Linear, OnsetStarts::LinearSmooth, OnsetStarts::LinearCubic].map(|s| (m, f, s))
+                })
+                .map(move |x| (p, x))
         })
     {
         {
-            let cfg = SlipConfig { onset_model, onset_fingers, onset_starts, onset_lead_s: 0.0, ..Default::default() };
+            let cfg = SlipConfig {
+                onset_model,
+                onset_fingers,
+                onset_starts,
+                onset_position,
+                onset_lead_s: 0.0,
+                ..Default::default()
+            };
             let scores: Vec<GraspScore> = tuning.iter().map(|c| run(c, &cfg)).collect();
             let signed: Vec<f64> =
                 scores.iter().filter(|r| r.right() && r.truth.class.is_slip()).map(|r| r.onset_error_s).collect();
@@ -649,9 +705,10 @@ fn tune_onset(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<Vec
     );
     for (med, mn, cfg, per, d) in rows {
         println!(
-            "worst median {:.0} ms, worst |mean| {:.0} ms | {} {} {} lead {:+.3} | per shape median/mean (ms):{} | demo {:?} {:+.3} s",
+            "worst median {:.0} ms, worst |mean| {:.0} ms | {} {} {} {} lead {:+.3} | per shape median/mean (ms):{} | demo {:?} {:+.3} s",
             med * 1e3,
             mn * 1e3,
+            cfg.onset_position.name(),
             cfg.onset_model.name(),
             cfg.onset_starts.name(),
             cfg.onset_fingers.name(),
@@ -661,4 +718,38 @@ fn tune_onset(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<Vec
             d.1
         );
     }
+}
+
+/// Scratch: finger `k`'s world-up positions from the model-fit locator over `[from, to]` ns.
+fn fit_history(c: &Case, k: usize, from: i64, to: i64) -> Vec<String> {
+    use gradtac::stages::fit::Fit;
+    use gradtac::stages::locate::LocateConfig;
+    use gradtac::stream::{Layout, Stage};
+    let name = ["ff", "th"][k];
+    let up = if k == 0 { 1.0 } else { -1.0 };
+    let layout = Layout::biotac_sp();
+    let wf = std::env::var("DUMP_FIT_WINDOW").ok().and_then(|v| v.parse().ok()).unwrap_or(3);
+    let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+    let cfg = LocateConfig {
+        window_frames: wf,
+        fit_motion_prior: env("DUMP_FIT_PRIOR", 0.8),
+        smooth_frames: env("DUMP_FIT_SMOOTH", 3.0) as u32,
+        fit_iterations: env("DUMP_FIT_ITER", 3.0) as u32,
+        contact_sigmas: env("DUMP_FIT_CONTACT", 10.0),
+        ..Default::default()
+    };
+    let peak = std::env::var("DUMP_FIT_PEAK").is_ok();
+    let mut f = Fit::try_new(&cfg, &layout).expect("valid");
+    let mut out = Vec::new();
+    for fr in c.rec.frames.iter().filter(|fr| fr.sensor.as_str() == name) {
+        f.push(fr.clone(), &mut out).expect("ok");
+    }
+    out.iter()
+        .filter_map(|cf| {
+            let mid = cf.start.as_nanos() / 2 + cf.end.as_nanos() / 2;
+            let m = cf.outcome.contact()?;
+            let y = if peak { m.peak_mm[1] } else { m.centroid_mm[1] };
+            (mid >= from && mid <= to).then(|| format!("{:.4}:{:.4}", mid as f64 * 1e-9, up * y))
+        })
+        .collect()
 }

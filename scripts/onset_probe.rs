@@ -8,6 +8,11 @@
 //! /tmp/onset_probe /tmp/tuning.txt conf     # which start the fit chooses, per true shape
 //! /tmp/onset_probe /tmp/tuning.txt an       # the oracle's per-finger error by speed, lag, grip, load
 //! /tmp/onset_probe /tmp/tuning.txt var|var2|grid|win|single   # estimator variants
+//! /tmp/onset_probe /tmp/tuning.txt pen     # the stage's fit (ramp null, linear_cubic, weighted) with a
+//!                                          # penalty per start length (JOINT=1: one start for both fingers)
+//! /tmp/onset_probe /tmp/tuning.txt stack   # a linear stack of the starts' change points, 5-fold CV over seeds
+//! (round 3: `DUMP_POSITION=linear` or `DUMP_FIT=1` on the dump for the other onset positions;
+//! drop history lines with fewer than 8 points first: `awk '$1=="G" || NF>=40'`)
 //! ```
 //! Each row: per start shape median |error| / mean signed (ms) after the row's own lead (its
 //! mean signed error over all shapes), and the worst shape. A reimplementation of the stage's
@@ -68,6 +73,8 @@ fn main(){
   if mode=="win" { windows(&gs); }
   if mode=="conf" { confusion(&gs); }
   if mode=="var2" { variants2(&gs); }
+  if mode=="pen" { penalty(&gs); }
+  if mode=="stack" { stack(&gs); }
   if mode=="show" { for s in std::env::args().skip(3) { show(&gs, s.parse().unwrap()); } }
   if mode=="oracle" {
     report("oracle true shape", &gs, &|g| { let s = match g.shape.as_str(){"step"=>S::L(0.0),"linear"=>S::L(g.r),"smooth"=>S::Sm(g.r),_=>S::L(g.r)}; cur(g,&[s]) });
@@ -172,4 +179,88 @@ fn grid(gs:&[G]){
     report(&format!("{name} mean"), gs, &|g| { let f=&per[find(g)]; if f.is_empty(){None} else {Some(mean(&f.iter().map(|x|x.1).collect::<Vec<_>>()))} });
     report(&format!("{name} snr-weighted"), gs, &|g| { let f=&per[find(g)]; if f.is_empty(){None} else { let w:f64=f.iter().map(|x|x.3).sum(); Some(f.iter().map(|x|x.1*x.3).sum::<f64>()/w)} });
   }
+}
+// drift-aware fit: u = a + g t + b z ; returns (sse, b)
+fn sse_d(h:&[(f64,f64)],c:f64,s:S,drift:bool)->Option<(f64,f64)>{ let m=h.len() as f64;
+  let (mut sz,mut su,mut st)=(0.0,0.0,0.0); for p in h{sz+=z(s,p.0,c);su+=p.1;st+=p.0}
+  let (mz,mu,mt)=(sz/m,su/m,st/m); let (mut szz,mut szu,mut stt,mut stu,mut szt)=(0.0,0.0,0.0,0.0,0.0);
+  for p in h{let zz=z(s,p.0,c)-mz; let tt=p.0-mt; let uu=p.1-mu; szz+=zz*zz; szu+=zz*uu; stt+=tt*tt; stu+=tt*uu; szt+=zz*tt;}
+  let (b,g)= if drift { let var=szz-szt*szt/stt; if var<=1e-9*szz.max(1e-300){return None}; let b=(szu-szt*stu/stt)/var; (b,(stu-b*szt)/stt) } else { if szz<=0.0{return None}; (szu/szz,0.0) };
+  let e=h.iter().map(|p|(p.1-mu-b*(z(s,p.0,c)-mz)-g*(p.0-mt)).powi(2)).sum(); Some((e,b)) }
+fn fit_d(h:&[(f64,f64)],s:S,drift:bool)->Option<(f64,f64,f64)>{ let n=h.len(); if n<8{return None}
+  let step=((n-6)+255)/256; let mut best:Option<(f64,f64,f64)>=None;
+  let mut k=3; while k<n-3 { if let Some((e,b))=sse_d(h,h[k].0,s,drift){ if best.map_or(true,|x|e<x.0){best=Some((e,h[k].0,b))}} k+=step.max(1);} best.map(|x|(x.1,x.0,x.2)) }
+fn solve(a:&mut Vec<Vec<f64>>, b:&mut Vec<f64>)->Vec<f64>{ let n=b.len(); for i in 0..n{ let p=(i..n).max_by(|&x,&y|a[x][i].abs().total_cmp(&a[y][i].abs())).unwrap(); a.swap(i,p); b.swap(i,p); for j in i+1..n{ let f=a[j][i]/a[i][i]; for k in i..n{a[j][k]-=f*a[i][k];} b[j]-=f*b[i]; } } let mut x=vec![0.0;n]; for i in (0..n).rev(){ let mut s=b[i]; for k in i+1..n{s-=a[i][k]*x[k];} x[i]=s/a[i][i]; } x }
+// ridge LS with per-sample weights; features include intercept as first
+fn ls(xs:&[Vec<f64>], ys:&[f64], ws:&[f64], ridge:f64)->Vec<f64>{ let p=xs[0].len(); let mut a=vec![vec![0.0;p];p]; let mut b=vec![0.0;p];
+  for ((x,y),w) in xs.iter().zip(ys).zip(ws){ for i in 0..p{ b[i]+=w*x[i]*y; for j in 0..p{a[i][j]+=w*x[i]*x[j];} } }
+  for i in 1..p{a[i][i]+=ridge;} solve(&mut a,&mut b) }
+fn stack(all:&[G]){
+  let gs:Vec<G>=all.iter().filter(|g|g.right).cloned().collect();
+  let drift = true;
+  let st=[S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::P(3.0,0.2),S::P(3.0,0.3),S::P(3.0,0.4),S::Sm(0.2),S::Sm(0.4)];
+  // per grasp: per start: (mean over fingers of t0 - onset_ref) ; use est relative to a reference (decision time) to keep numbers small
+  // features: t0_s - dec for each start s (finger mean, weights = clarity), plus best-start t0
+  let mut feats:Vec<Vec<f64>>=vec![]; let mut ys=vec![]; let mut shapes=vec![]; let mut seeds=vec![]; let mut best0=vec![];
+  for g in &gs { let hs:Vec<&(usize,f64,Vec<(f64,f64)>)>=g.h.iter().filter(|h|h.1.abs()>=0.5).collect(); if hs.is_empty(){continue}
+    let mut per=vec![0.0;st.len()]; let mut bestt=0.0; let mut lsse=vec![0.0;st.len()]; let mut speed=0.0;
+    for h in &hs { let fs:Vec<(f64,f64,f64)>=st.iter().map(|&s|fit_d(&h.2,s,drift).unwrap()).collect();
+      for (i,f) in fs.iter().enumerate(){ per[i]+=(f.0-g.dec)/hs.len() as f64; lsse[i]+=f.1.ln()*h.2.len() as f64/2.0; }
+      let bi=(0..st.len()).min_by(|&a,&b|fs[a].1.total_cmp(&fs[b].1)).unwrap(); bestt+=(fs[bi].0-g.dec)/hs.len() as f64; speed+=fs[0].2.abs()/hs.len() as f64; }
+    let lmin=lsse.iter().cloned().fold(f64::INFINITY,f64::min);
+    let mut x=vec![1.0]; x.extend(per.iter()); // per-start t0
+    // soft: loglik gaps
+    x.extend(lsse.iter().map(|l|(l-lmin).min(20.0)*0.01));
+    x.push(1.0/speed.max(1.0));
+    feats.push(x); ys.push(g.onset-g.dec); shapes.push(g.shape.clone()); seeds.push(g.seed); best0.push(bestt);
+  }
+  let nsh=|s:&str| shapes.iter().filter(|x|*x==s).count() as f64;
+  let ws:Vec<f64>=shapes.iter().map(|s|1.0/nsh(s)).collect();
+  let score=|name:&str, pred:&dyn Fn(usize)->f64| { let mut line=format!("{name:50}"); let mut worst:f64=0.0; let mut wm:f64=0.0;
+    for sh in ["step","linear","smooth"]{ let e:Vec<f64>=(0..ys.len()).filter(|&i|shapes[i]==sh).map(|i|pred(i)-ys[i]).collect(); let mut a:Vec<f64>=e.iter().map(|x|x.abs()).collect(); let m=med(&mut a); let mn=mean(&e); worst=worst.max(m); wm=wm.max(mn.abs()); line+=&format!(" {sh} {:.0}/{:+.0}",m*1e3,mn*1e3);} println!("{line} | worst {:.0}/{:.0}",worst*1e3,wm*1e3); };
+  let lead=mean(&(0..ys.len()).map(|i|best0[i]-ys[i]).collect::<Vec<_>>());
+  score("best start, lead", &|i| best0[i]-lead);
+  // subsets of features
+  let sets:Vec<(&str,Vec<usize>)>=vec![
+    ("t0 per start",(0..1+st.len()).collect()),
+    ("t0 per start + gaps",(0..1+2*st.len()).collect()),
+    ("t0 per start + gaps + 1/v",(0..2+2*st.len()).collect()),
+    ("t0 step+lin0.3+cub0.4",vec![0,1,4,7]),
+    ("t0 step+lin0.3+cub0.4 + 1/v",vec![0,1,4,7,1+2*st.len()]),
+  ];
+  for (name,idx) in &sets { for ridge in [0.0, 1e-3] {
+    let sub=|i:usize| idx.iter().map(|&k|feats[i][k]).collect::<Vec<f64>>();
+    let xs:Vec<Vec<f64>>=(0..ys.len()).map(sub).collect();
+    let beta=ls(&xs,&ys,&ws,ridge);
+    score(&format!("{name} r{ridge} in-sample"), &|i| xs[i].iter().zip(&beta).map(|(a,b)|a*b).sum());
+    // 5-fold CV over seeds
+    let mut pred=vec![0.0;ys.len()];
+    for f in 0..5u64 { let tr:Vec<usize>=(0..ys.len()).filter(|&i|seeds[i]%5!=f).collect();
+      let b=ls(&tr.iter().map(|&i|xs[i].clone()).collect::<Vec<_>>(), &tr.iter().map(|&i|ys[i]).collect::<Vec<_>>(), &tr.iter().map(|&i|ws[i]).collect::<Vec<_>>(), ridge);
+      for i in (0..ys.len()).filter(|&i|seeds[i]%5==f){ pred[i]=xs[i].iter().zip(&b).map(|(a,b)|a*b).sum(); } }
+    score(&format!("{name} r{ridge} 5-fold CV"), &|i| pred[i]);
+  } }
+}
+fn penalty(all:&[G]){
+  let gs:Vec<G>=all.iter().filter(|g|g.right).cloned().collect();
+  let st=[S::L(0.0),S::L(0.1),S::L(0.2),S::L(0.3),S::P(3.0,0.2),S::P(3.0,0.3),S::P(3.0,0.4)];
+  let lag=|s:S| match s {S::L(r)|S::Sm(r)=>r/2.0, S::P(p,r)=> r - r/p};
+  // per grasp per finger: per start (t0, sse), n, C
+  let fits:Vec<Vec<(usize,f64,Vec<(f64,f64)>)>>=gs.iter().map(|g| g.h.iter().filter(|h|h.1.abs()>=0.5).map(|h|{
+     let n=h.2.len(); let m=h.2.iter().map(|p|p.1).sum::<f64>()/n as f64; let c:f64=h.2.iter().map(|p|(p.1-m).powi(2)).sum();
+     (n,c,st.iter().map(|&s|{let f=fit_d(&h.2,s,true).unwrap(); (f.0,f.1)}).collect())}).collect()).collect();
+  for mode in ["len","lag"] { for kappa in [-4.0,-2.0,-1.0,0.0,1.0,2.0,3.0,4.0,6.0,10.0] {
+    let est:Vec<Option<f64>>=fits.iter().map(|f|{ if f.is_empty(){return None}
+      let (mut ws,mut wt)=(0.0,0.0);
+      let joint = std::env::var("JOINT").is_ok();
+      let kj=(0..st.len()).min_by(|&a,&b|{ let la:f64=f.iter().map(|(n,_,v)|(*n as f64)/2.0*v[a].1.ln()).sum(); let lb:f64=f.iter().map(|(n,_,v)|(*n as f64)/2.0*v[b].1.ln()).sum(); let pa=match st[a]{S::L(r)|S::Sm(r)|S::P(_,r)=>r}; let pb=match st[b]{S::L(r)|S::Sm(r)|S::P(_,r)=>r}; (la+kappa*pa/0.1).total_cmp(&(lb+kappa*pb/0.1))}).unwrap();
+      for (n,c,v) in f { let k= if joint {kj} else {(0..st.len()).min_by(|&a,&b|{ let pa=if mode=="len"{match st[a]{S::L(r)|S::Sm(r)|S::P(_,r)=>r}}else{lag(st[a])}; let pb=if mode=="len"{match st[b]{S::L(r)|S::Sm(r)|S::P(_,r)=>r}}else{lag(st[b])};
+          ((*n as f64)/2.0*v[a].1.ln()+kappa*pa/0.1).total_cmp(&((*n as f64)/2.0*v[b].1.ln()+kappa*pb/0.1))}).unwrap()};
+        let e=v[k].1; let w=((c-e)/e).max(0.0); ws+=w; wt+=w*v[k].0; }
+      Some(wt/ws) }).collect();
+    let errs:Vec<f64>=gs.iter().zip(&est).filter_map(|(g,e)|e.map(|e|e-g.onset)).collect(); let lead=mean(&errs);
+    let mut line=format!("{mode} kappa {kappa:5} lead {:+.0}:",lead*1e3); let (mut w1,mut w2):(f64,f64)=(0.0,0.0);
+    for sh in ["step","linear","smooth"]{ let e:Vec<f64>=gs.iter().zip(&est).filter(|(g,_)|g.shape==sh).filter_map(|(g,e)|e.map(|e|e-g.onset-lead)).collect(); let mut a:Vec<f64>=e.iter().map(|x|x.abs()).collect(); let m=med(&mut a); let mn=mean(&e); w1=w1.max(m); w2=w2.max(mn.abs()); line+=&format!(" {sh} {:.0}/{:+.0}",m*1e3,mn*1e3); }
+    println!("{line} | worst {:.0}/{:.0}",w1*1e3,w2*1e3);
+  } }
 }

@@ -13,10 +13,13 @@
 //!    centroid) and a slip onset error of −0.040 s; the track-based displacement rule then
 //!    printed −0.075 s; the pattern evidence printed −0.020 s, and the onset fit chosen for
 //!    the widened grasp family (smooth starts tried, lead 0.045 s) printed −0.035 s; the
-//!    current onset fit (cubic starts, a drift before the onset, the fingers weighted by
-//!    their fits' clarity, lead 0.03 s) prints −0.020 s (over 500 held-out grasps of the
-//!    widened model family the median onset error is 49 ms, mean signed −3 ms, against 151 ms
-//!    for the track-velocity rule — `gradtac_stages::slip`).
+//!    next onset fit (cubic starts, a drift before the onset, the fingers weighted by their
+//!    fits' clarity, lead 0.03 s) −0.020 s; the current one, which reads a per-frame model
+//!    fit's contact point (lead 0.025 s), prints −0.074 s (`slip_eval`'s in-process replay of
+//!    the same frames: −0.050 s, the previous one −0.020 s; over 500 held-out grasps of the
+//!    widened model family the median onset error is 42 ms, mean signed −1 ms, against 49 ms
+//!    and −3 ms for the one before and 160 ms for the track-velocity rule —
+//!    `gradtac_stages::slip`).
 //! 3. The demo reads the tracks and slip events back and compares them with the truth:
 //!    contact localisation error (mm and fraction of sensor width) and slip class and onset.
 
