@@ -551,7 +551,8 @@ impl Fit {
         &self.geo
     }
 
-    /// The electrodes' learned signed gains (mean magnitude 1).
+    /// The electrodes' learned signed gains: mean magnitude 1 with the per-frame step, zero mean
+    /// log-magnitude and no linear trend across the layout with the self-calibration.
     pub fn gains(&self) -> &[f64] {
         &self.gain
     }
