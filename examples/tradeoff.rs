@@ -41,7 +41,8 @@
 //! Development flags: `--events-only` (the event contours and the window-1 centroids beside them)
 //! and `--tuning-only` (tuning members only, one line per setting, nothing held out: for
 //! exploring settings without looking at held-out members); `--scene-only` runs only the two
-//! rows of what a `method = "events"` scene runs (`event_chain` default and `paper`).
+//! rows of what a `method = "events"` scene runs (`event_chain` default and `paper`);
+//! `--fit-only` (the fit, centroid and Δ² rows only).
 
 use gradtac::chain::{effective_contour, effective_events};
 use gradtac::scene::StageSettings;
@@ -114,6 +115,9 @@ struct FitSetting {
     lead: f64,
     /// The motion prior (`fit_motion_prior` > 0, the library's default).
     continuity: bool,
+    /// Gains' self-calibration: key frames (`fit_gain_keys`; 0 = the per-frame step), with
+    /// the `accurate` preset's spacing and prior.
+    keys: u32,
 }
 
 impl Setting {
@@ -142,9 +146,10 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, continuity }) => format!(
-                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact {contact} σ, lead {} ms, smooth {smooth}, {}, {}",
+            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, continuity, keys }) => format!(
+                "window {window}, ≤ {iterations} iterations, {}, {}, model error {model_error}, contact {contact} σ, lead {} ms, smooth {smooth}, {}, {}",
                 if *signed { "signed" } else { "magnitudes" },
+                if *keys > 0 && *gain_rate > 0.0 { format!("gains self-calibrated ({keys} keys)") } else { format!("gain rate {gain_rate}") },
                 lead * 1e3,
                 speed(*v),
                 if *continuity { "motion prior" } else { "no motion prior" }
@@ -206,7 +211,11 @@ impl Setting {
                 contact,
                 lead,
                 continuity,
+                keys,
             }) => Some(LocateConfig {
+                fit_gain_keys: keys,
+                fit_gain_spacing_mm: LocateConfig::preset(Preset::Accurate).fit_gain_spacing_mm,
+                fit_gain_prior: LocateConfig::preset(Preset::Accurate).fit_gain_prior,
                 fit_motion_prior: if continuity { base.fit_motion_prior } else { 0.0 },
                 fit_signed: signed,
                 method: LocateMethod::Fit,
@@ -532,6 +541,8 @@ fn main() {
     // development flags: only the event contours (and the centroid beside them); tuning members only
     let events_only = std::env::args().any(|a| a == "--events-only");
     let tuning_only = std::env::args().any(|a| a == "--tuning-only");
+    // development flag: only the fit and the centroid rows (the round-4 rows of docs/tradeoff.md)
+    let fit_only = std::env::args().any(|a| a == "--fit-only");
     let tune_seeds: Vec<u64> = if quick { (0..3).collect() } else { (0..8).collect() };
     let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };
     let layout = Layout::biotac_sp();
@@ -573,6 +584,7 @@ fn main() {
             contact,
             lead,
             continuity,
+            keys: 0,
         })
     };
     for window in [1u32, 5] {
@@ -612,6 +624,13 @@ fn main() {
     for continuity in [false, true] {
         settings.push(fit(9, 3, 0.1, 0.3, false, 10.0, 0.0, continuity));
     }
+    // round 4: the gains' self-calibration (key frames, `fit_gain_keys`) at the windows above
+    for window in [1u32, 5, 9] {
+        if let Setting::Fit(mut f) = fit(window, 3, 0.1, 0.3, false, 10.0, 0.0, true) {
+            f.keys = LocateConfig::preset(Preset::Accurate).fit_gain_keys;
+            settings.push(Setting::Fit(f));
+        }
+    }
     for grid in [16usize, 32] {
         for window in [5u32, 9] {
             settings.push(Setting::Raw { grid, window, min_area: 60.0 });
@@ -645,6 +664,9 @@ fn main() {
     settings.push(Setting::SceneEvents(EventChain::Paper));
     if std::env::args().any(|a| a == "--scene-only") {
         settings.retain(|s| matches!(s, Setting::SceneEvents(_)));
+    }
+    if fit_only {
+        settings.retain(|s| matches!(s, Setting::Fit(_) | Setting::Centroid { .. } | Setting::Delta2 { .. }));
     }
     if events_only {
         settings.retain(|s| {
@@ -874,8 +896,8 @@ fn main() {
     }
     let la = LocateConfig::preset(Preset::Accurate);
     let lib_accurate = rows.iter().find(|r| {
-        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, continuity })
-            if window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, continuity, keys })
+            if keys == la.fit_gain_keys && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
                 && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
                 && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
     });

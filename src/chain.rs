@@ -424,14 +424,23 @@ impl SensorChain {
                 } else {
                     "no motion prior".to_string()
                 };
+                let gains = if l.fit_gain_rate <= 0.0 {
+                    "unit gains".to_string()
+                } else if l.fit_gain_keys > 0 {
+                    format!(
+                        "gains self-calibrated over up to {} key frames {} mm apart (prior {}, zero mean log-gain and trend)",
+                        l.fit_gain_keys, l.fit_gain_spacing_mm, l.fit_gain_prior
+                    )
+                } else {
+                    format!("gains learned at rate {}", l.fit_gain_rate)
+                };
                 format!(
                     "model fit (preset {}): robust Levenberg–Marquardt, ≤ {} iterations, on the 3-D electrode cores when the \
-                     layout is the BioTac SP; spread, amplitude, far lobe; gains learned at rate {}; model error {} of the \
+                     layout is the BioTac SP; spread, amplitude, far lobe; {gains}; model error {} of the \
                      largest change; electrodes at the rails [{}, {}] left out; reports residual and σ (mm) per point; \
                      lag lead {} s along the velocity of the last {} positions; {prior}; position memory {} frames, {speed} ({})",
                     l.preset.name(),
                     l.fit_iterations,
-                    l.fit_gain_rate,
                     l.fit_model_error,
                     l.fit_rails[0],
                     l.fit_rails[1],

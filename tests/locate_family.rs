@@ -357,7 +357,12 @@ fn explain_shows_the_fit_and_the_preset_values() {
     assert!(!fit.contains("\n  surface"), "the fit needs no surface:\n{fit}");
     let accurate = explain("[stages.locate]\npreset = \"accurate\"\n").unwrap();
     assert!(accurate.contains("preset accurate"), "{accurate}");
-    assert!(accurate.contains("gains learned at rate 0.1"), "{accurate}");
+    assert!(accurate.contains("gains self-calibrated over up to 64 key frames 0.5 mm apart (prior 0.3"), "{accurate}");
+    let step = explain("[stages.locate]\npreset = \"accurate\"\nfit_gain_keys = 0\n").unwrap();
+    assert!(step.contains("gains learned at rate 0.1"), "{step}");
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_keys = 5000\n").is_err());
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_spacing_mm = 0\n").is_err());
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_prior = -1\n").is_err());
     let lead = explain("[stages.locate]\npreset = \"accurate\"\nfit_lead_s = 0.02\nfit_velocity_frames = 6\n").unwrap();
     assert!(lead.contains("lag lead 0.02 s along the velocity of the last 6 positions"), "{lead}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_lead_s = 2\n").is_err());

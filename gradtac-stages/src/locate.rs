@@ -272,6 +272,19 @@ pub struct LocateConfig {
     /// uses 0.1 (chosen on the tuning members: per-electrode gains are the largest single error
     /// term of the fit, `docs/tradeoff.md`).
     pub fit_gain_rate: f64,
+    /// `fit`: how the gains are learned (0–1000 key frames). 0: the per-frame step
+    /// (`fit_gain_rate` toward each clean fit's ratio). > 0: **self-calibration** — up to this
+    /// many clean fits at least `fit_gain_spacing_mm` apart are kept and re-fitted with the
+    /// current gains; per electrode `gᵢ = (Σ w Δᵢ mᵢ + prior) / (Σ w mᵢ² + prior)` over them
+    /// (`mᵢ` the unit-gain model at the key's fit), with zero mean log-gain and zero linear
+    /// trend across the layout ([`crate::fit`], *Gains*). Used when `fit_gain_rate` > 0.
+    /// Default 0.
+    pub fit_gain_keys: u32,
+    /// `fit`: self-calibration's spacing of key frames (mm, > 0, ≤ 100). Default 1.
+    pub fit_gain_spacing_mm: f64,
+    /// `fit`: self-calibration's pull toward unit gains (≥ 0, ≤ 1e6), in key frames of a full
+    /// response (an electrode at the key's largest change counts ≈ 1). Default 1.
+    pub fit_gain_prior: f64,
     /// `fit`: model error as a fraction of the frame's largest change, added in quadrature to
     /// each electrode's measured noise (≥ 0, ≤ 1): how much the response may differ from the
     /// fitted kernel before an electrode stops counting fully. Default 0.3.
@@ -335,6 +348,9 @@ struct LocateToml {
     event_chain: Option<EventChain>,
     fit_iterations: Option<u32>,
     fit_gain_rate: Option<f64>,
+    fit_gain_keys: Option<u32>,
+    fit_gain_spacing_mm: Option<f64>,
+    fit_gain_prior: Option<f64>,
     fit_model_error: Option<f64>,
     fit_rails: Option<[f64; 2]>,
     fit_signed: Option<bool>,
@@ -366,6 +382,9 @@ impl From<LocateToml> for LocateConfig {
             event_chain,
             fit_iterations,
             fit_gain_rate,
+            fit_gain_keys,
+            fit_gain_spacing_mm,
+            fit_gain_prior,
             fit_model_error,
             fit_rails,
             fit_signed,
@@ -405,7 +424,9 @@ impl LocateConfig {
             // the model fit chosen on the tuning members at ≤ 50 µs/frame (online gains at rate
             // 0.1; no lag lead — tuning lags are 10–30 ms); its window and continuity (motion
             // prior, innovation gate) chosen on the real Basic recordings among settings no
-            // less accurate on the tuning members (docs/tradeoff.md)
+            // less accurate on the tuning members (docs/tradeoff.md); round 4: the gains
+            // self-calibrated over 64 key frames 0.5 mm apart, prior 0.3 (tuning worst kind
+            // 0.033 → 0.032; prior and spacing chosen on the tuning members)
             Preset::Accurate => LocateConfig {
                 preset: p,
                 method: LocateMethod::Fit,
@@ -414,6 +435,9 @@ impl LocateConfig {
                 max_speed_mm_s: 30.0,
                 fit_iterations: 3,
                 fit_gain_rate: 0.1,
+                fit_gain_keys: 64,
+                fit_gain_spacing_mm: 0.5,
+                fit_gain_prior: 0.3,
                 fit_lead_s: 0.0,
                 fit_model_error: 0.3,
                 fit_signed: false,
@@ -443,6 +467,9 @@ impl LocateConfig {
             event_chain: EventChain::PressRelease,
             fit_iterations: 3,
             fit_gain_rate: 0.0,
+            fit_gain_keys: 0,
+            fit_gain_spacing_mm: 1.0,
+            fit_gain_prior: 1.0,
             fit_model_error: 0.3,
             fit_rails: [0.0, 4095.0],
             fit_signed: false,
@@ -495,6 +522,18 @@ impl LocateConfig {
         }
         if !(self.fit_gain_rate.is_finite() && (0.0..=1.0).contains(&self.fit_gain_rate)) {
             return bad(format!("`fit_gain_rate` = {} must be in [0, 1]", self.fit_gain_rate));
+        }
+        if self.fit_gain_keys > 1000 {
+            return bad(format!("`fit_gain_keys` = {} must be in 0..=1000 (0 = per-frame step)", self.fit_gain_keys));
+        }
+        if !(self.fit_gain_spacing_mm.is_finite()
+            && self.fit_gain_spacing_mm > 0.0
+            && self.fit_gain_spacing_mm <= 100.0)
+        {
+            return bad(format!("`fit_gain_spacing_mm` = {} must be in (0, 100]", self.fit_gain_spacing_mm));
+        }
+        if !(self.fit_gain_prior.is_finite() && (0.0..=1e6).contains(&self.fit_gain_prior)) {
+            return bad(format!("`fit_gain_prior` = {} must be in [0, 1e6]", self.fit_gain_prior));
         }
         if !(self.fit_model_error.is_finite() && (0.0..=1.0).contains(&self.fit_model_error)) {
             return bad(format!("`fit_model_error` = {} must be in [0, 1]", self.fit_model_error));

@@ -1,0 +1,142 @@
+//! Development probe for the model fit's settings (`[stages.locate]`, method `fit`): the
+//! worst kind's mean error (fraction of the 26.6 mm width) on the family's **tuning** members
+//! (seeds 0–7 × 4 kinds, `PhysicsSet::Tuning`), scored exactly as `examples/tradeoff.rs` scores
+//! (every contact track point during the movement against the truth at the middle of its
+//! span). Faster than `tradeoff` for exploring one key at a time.
+//!
+//! Run: `cargo run --release --example fit_probe -- [options] [TOML lines]`, e.g.
+//! `-- 'fit_gain_memory = 300.0' 'window_frames = 5'`: each line is added to a
+//! `[stages.locate]` table that starts from `preset = "accurate"`.
+//!
+//! Options: `--seeds N` (tuning seeds 0..N, default 8); `--only TERM` (an ideal sensor —
+//! Gaussian kernel, 1 ms lag, no drift, 0.5 counts of noise, no saturation, unit gains — with
+//! one term of the member's physics kept: `gains`, `lag`, `kernel`, `drift`, `noise`, `knee`;
+//! `none` keeps none); `--without TERM` (the member's physics with that term made ideal);
+//! `--heldout` (score the held-out members, seeds 100–115 × 4 kinds, `PhysicsSet::HeldOut`,
+//! instead: for a final candidate only, never for a choice).
+
+use gradtac::stages::fit::Fit;
+use gradtac::stages::locate::LocateConfig;
+use gradtac::stages::sim_family::{KernelShape, Member, PathKind, Physics, PhysicsSet};
+use gradtac::stages::track::{ContactState, Track, TrackConfig};
+use gradtac::stream::{Layout, StageExt};
+use std::collections::HashMap;
+
+fn ideal(p: &mut Physics, term: &str, keep: bool) {
+    let on = |t: &str| (t == term) == keep;
+    if on("gains") {
+        p.gain.iter_mut().for_each(|g| *g = g.signum());
+    }
+    if on("lag") {
+        p.lag_s = 0.001;
+    }
+    if on("kernel") {
+        p.kernel = KernelShape::Gaussian;
+    }
+    if on("drift") {
+        p.drift_slope.iter_mut().for_each(|d| *d = 0.0);
+        p.drift_walk = 0.0;
+    }
+    if on("noise") {
+        p.noise_counts = 0.5;
+    }
+    if on("knee") {
+        p.knee_counts = 1e6;
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut seeds = 8u64;
+    let mut heldout = false;
+    let mut only: Option<String> = None;
+    let mut without: Option<String> = None;
+    let mut toml = String::from("preset = \"accurate\"\n");
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--seeds" => seeds = it.next().and_then(|v| v.parse().ok()).expect("--seeds N"),
+            "--heldout" => heldout = true,
+            "--only" => only = it.next().cloned(),
+            "--without" => without = it.next().cloned(),
+            line => {
+                toml.push_str(line);
+                toml.push('\n');
+            }
+        }
+    }
+    let cfg: LocateConfig = toml::from_str(&toml).expect("a [stages.locate] table");
+    cfg.validate().expect("valid settings");
+    let (set, members) = if heldout {
+        (PhysicsSet::HeldOut, Member::grid(100..116))
+    } else {
+        (PhysicsSet::Tuning, Member::grid(0..seeds))
+    };
+    let layout = Layout::biotac_sp();
+    let width = layout.extent().width();
+    let mut by_kind: HashMap<PathKind, Vec<f64>> = HashMap::new();
+    let (mut contact, mut total) = (0usize, 0usize);
+    for m in &members {
+        let mut p = m.physics_in(set);
+        if let Some(t) = &only {
+            ideal(&mut p, t, false);
+        }
+        if let Some(t) = &without {
+            ideal(&mut p, t, true);
+        }
+        let rec = p.simulate(m.seed);
+        let pts = Fit::try_new(&cfg, &layout)
+            .unwrap()
+            .then(Track::try_new(&TrackConfig::default()).unwrap())
+            .run_all(rec.frames.clone())
+            .unwrap();
+        let (t0, t1) = rec.moving_s;
+        let mut errs = Vec::new();
+        for q in &pts {
+            let mid = 0.5 * (q.start.as_secs_f64() + q.time.as_secs_f64());
+            if mid > t0 && mid < t1 {
+                total += 1;
+                if q.state == ContactState::Contact {
+                    let c = rec.physics.path.at((mid - t0) / (t1 - t0));
+                    let e = (q.x_mm - c[0]).hypot(q.y_mm - c[1]);
+                    if e.is_finite() {
+                        errs.push(e);
+                        contact += 1;
+                    }
+                }
+            }
+        }
+        // no contact during the movement: the truth's mean distance from the pad centre (as
+        // `tradeoff` scores it)
+        let mean = if errs.is_empty() {
+            let c = layout.extent().centre();
+            (1..20).map(|i| rec.physics.path.at(i as f64 / 20.0)).map(|p| (p[0] - c[0]).hypot(p[1] - c[1])).sum::<f64>()
+                / 19.0
+        } else {
+            errs.iter().sum::<f64>() / errs.len() as f64
+        };
+        by_kind.entry(m.kind).or_default().push(mean / width);
+    }
+    let mut worst = (0.0, "");
+    let mut all = Vec::new();
+    let mut per = Vec::new();
+    for k in PathKind::ALL {
+        let v = &by_kind[&k];
+        let mk = v.iter().sum::<f64>() / v.len() as f64;
+        all.extend_from_slice(v);
+        per.push(format!("{} {mk:.4}", k.name()));
+        if mk > worst.0 {
+            worst = (mk, k.name());
+        }
+    }
+    println!(
+        "{} | worst {:.4} ({}) | mean {:.4} | contact {:.1} % | {} | {}",
+        if heldout { "HELD OUT" } else { "tuning" },
+        worst.0,
+        worst.1,
+        all.iter().sum::<f64>() / all.len() as f64,
+        100.0 * contact as f64 / total.max(1) as f64,
+        per.join(", "),
+        args.join(" ")
+    );
+}
