@@ -39,7 +39,8 @@
 //!
 //! Run: `cargo run --release --example tradeoff [-- --quick]` (`--quick`: fewer members).
 //! Development flags: `--events-only` (the event contours and the window-1 centroids beside them)
-//! and `--tuning-only` (tuning members only, one line per setting, nothing held out: for
+//! `--fit-only` (the fits at online gain rate 0.1, 3 iterations, contact 10 σ: the lag rows and
+//! their references) and `--tuning-only` (tuning members only, one line per setting, nothing held out: for
 //! exploring settings without looking at held-out members).
 
 use gradtac::stages::centroid::Centroid;
@@ -82,6 +83,8 @@ struct FitSetting {
     speed: f64,
     contact: f64,
     lead: f64,
+    /// The lag estimated online (`fit_lag_estimate`) instead of the fixed `lead`.
+    lag: bool,
     /// The motion prior (`fit_motion_prior` > 0, the library's default).
     continuity: bool,
 }
@@ -110,10 +113,10 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, continuity }) => format!(
-                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact {contact} σ, lead {} ms, smooth {smooth}, {}, {}",
+            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, lag, continuity }) => format!(
+                "window {window}, ≤ {iterations} iterations, {}, gain rate {gain_rate}, model error {model_error}, contact {contact} σ, {}, smooth {smooth}, {}, {}",
                 if *signed { "signed" } else { "magnitudes" },
-                lead * 1e3,
+                if *lag { "lag estimated online".to_string() } else { format!("lead {} ms", lead * 1e3) },
                 speed(*v),
                 if *continuity { "motion prior" } else { "no motion prior" }
             ),
@@ -156,8 +159,10 @@ impl Setting {
                 speed,
                 contact,
                 lead,
+                lag,
                 continuity,
             }) => Some(LocateConfig {
+                fit_lag_estimate: lag,
                 fit_motion_prior: if continuity { base.fit_motion_prior } else { 0.0 },
                 fit_signed: signed,
                 method: LocateMethod::Fit,
@@ -461,6 +466,7 @@ fn main() {
     // development flags: only the event contours (and the centroid beside them); tuning members only
     let events_only = std::env::args().any(|a| a == "--events-only");
     let tuning_only = std::env::args().any(|a| a == "--tuning-only");
+    let fit_only = std::env::args().any(|a| a == "--fit-only");
     let tune_seeds: Vec<u64> = if quick { (0..3).collect() } else { (0..8).collect() };
     let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };
     let layout = Layout::biotac_sp();
@@ -501,6 +507,7 @@ fn main() {
             speed: 30.0,
             contact,
             lead,
+            lag: false,
             continuity,
         })
     };
@@ -541,6 +548,15 @@ fn main() {
     for continuity in [false, true] {
         settings.push(fit(9, 3, 0.1, 0.3, false, 10.0, 0.0, continuity));
     }
+    // the lag estimated online (round 4): the `accurate` point and the window-1 / window-5 fits
+    for window in [1u32, 5, 9] {
+        for continuity in [false, true] {
+            if let Setting::Fit(mut f) = fit(window, 3, 0.1, 0.3, false, 10.0, 0.0, continuity) {
+                f.lag = true;
+                settings.push(Setting::Fit(f));
+            }
+        }
+    }
     for grid in [16usize, 32] {
         for window in [5u32, 9] {
             settings.push(Setting::Raw { grid, window, min_area: 60.0 });
@@ -568,6 +584,10 @@ fn main() {
             let polarity = Polarity::PressRelease;
             settings.push(Setting::Events { grid, window: 0, tau, min_area: 60.0, polarity, min_peak });
         }
+    }
+    if fit_only {
+        settings
+            .retain(|s| matches!(s, Setting::Fit(f) if f.gain_rate == 0.1 && f.iterations == 3 && f.contact == 10.0));
     }
     if events_only {
         settings.retain(|s| matches!(s, Setting::Events { .. } | Setting::Centroid { window: 1, .. }));
@@ -795,8 +815,8 @@ fn main() {
     }
     let la = LocateConfig::preset(Preset::Accurate);
     let lib_accurate = rows.iter().find(|r| {
-        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, continuity })
-            if window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity })
+            if window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
                 && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
                 && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
     });

@@ -457,6 +457,8 @@ pub struct Fit {
     lead: Lead,
     /// The motion prior's state (`fit_motion_prior`).
     prior: MotionPrior,
+    /// The online lag estimate (`fit_lag_estimate`), when on.
+    lag: Option<crate::lag::LagEstimator>,
 }
 
 impl Fit {
@@ -475,7 +477,23 @@ impl Fit {
             memory: PositionMemory::default(),
             lead: Lead::new(cfg.fit_velocity_frames as usize),
             prior: MotionPrior::default(),
+            lag: cfg.fit_lag_estimate.then(|| crate::lag::LagEstimator::new(cfg.fit_lag_prior, cfg.fit_lag_max_s)),
         })
+    }
+
+    /// The online lag estimator (`fit_lag_estimate`), when on.
+    pub fn lag(&self) -> Option<&crate::lag::LagEstimator> {
+        self.lag.as_ref()
+    }
+
+    /// The lead (s) the fitted position gets: `fit_lead_s`, or 0 when `fit_lag_estimate` is on
+    /// (the estimated lag is then undone on the electrodes, before the fit).
+    pub fn lead_s(&self) -> f64 {
+        if self.lag.is_some() {
+            0.0
+        } else {
+            self.det.config().fit_lead_s
+        }
     }
 
     /// The change detector (calibrated noise and baselines).
@@ -666,6 +684,9 @@ impl Stage for Fit {
 
     fn push(&mut self, f: TaxelFrame, out: &mut Vec<ContourFrame>) -> Result<()> {
         let ch = self.det.push(&f, STAGE)?;
+        if let Some(lag) = &mut self.lag {
+            lag.push(f.time, &f.values, self.det.baseline(), self.det.noise(), self.det.change());
+        }
         let outcome = if ch.calibrating {
             ContourOutcome::NoContact(NoContact::NoData)
         } else if !ch.contact {
@@ -673,6 +694,9 @@ impl Stage for Fit {
         } else {
             let mut d = std::mem::take(&mut self.d);
             self.det.signed_changes(&mut d);
+            if let Some(lag) = &self.lag {
+                lag.sharpen(&mut d, self.det.config().window_frames as usize);
+            }
             if !self.det.config().fit_signed {
                 d.iter_mut().for_each(|v| *v = v.abs());
             }
@@ -680,8 +704,9 @@ impl Stage for Fit {
             match self.fit(&f.values) {
                 None => ContourOutcome::NoContact(NoContact::NoData),
                 Some((p, summary, at_edge)) => {
+                    let lead_s = self.lead_s();
                     let cfg = self.det.config();
-                    let p = self.lead.push(ch.end, p, cfg.fit_lead_s, cfg.max_speed_mm_s);
+                    let p = self.lead.push(ch.end, p, lead_s, cfg.max_speed_mm_s);
                     let b = self.geo.bounds;
                     let p = [p[0].clamp(b[0], b[1]), p[1].clamp(b[2], b[3])];
                     let mass = 1.0 / summary.sigma_mm.max(1e-3).powi(2);
@@ -729,6 +754,9 @@ impl Stage for Fit {
         self.prior.clear();
         self.warm = None;
         self.gain.iter_mut().for_each(|g| *g = 1.0);
+        if let Some(l) = &mut self.lag {
+            l.reset();
+        }
     }
 
     fn delay(&self) -> Delay {
