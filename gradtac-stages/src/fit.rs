@@ -88,11 +88,17 @@
 //! contact starts without lead. For a discrete first-order lag at frame period `Δt` the
 //! steady delay is `Δt·e^{−Δt/τ}/(1 − e^{−Δt/τ}) ≈ τ − Δt/2`, which a lead of that size removes
 //! exactly on a straight track (test `lead_undoes_a_first_order_lag_of_a_moving_contact`).
-//! `τ̂` is a fixed setting, not estimated online: at a constant velocity a lagged field is, to
-//! first order in `v·τ / w`, the same field shifted, so neither the position track nor the
-//! electrodes' pattern says what `τ` is without knowing how the contact really moved
-//! (`docs/tradeoff.md`). Default 0 (no lead); the `accurate` preset keeps 0 — the tuning
-//! members' lags (10–30 ms) do not pay for it.
+//! `fit_lead_s` is a fixed setting: at a constant velocity a lagged field is, to first order
+//! in `v·τ / w`, the same field shifted, so neither the position track nor the electrodes'
+//! pattern *during the slide* says what `τ` is. Default 0 (no lead).
+//!
+//! **`fit_lag_estimate = true`** (the `accurate` preset) estimates `τ` online instead, from
+//! how each press onset turns its corners ([`crate::lag`]: a lagged-ramp fit per onset,
+//! evidence summed over presses, prior at 0, bounded by `fit_lag_max_s`), and undoes it on
+//! the electrodes before the fit — each window's mean change gets the first-order lag's
+//! exact inverse, `β/(1 − β)·(x[k] − x[k−W])/W` — rather than moving the point along a
+//! velocity; `fit_lead_s` is then not used. Before the sensor's first press onset nothing
+//! changes.
 //!
 //! # Units
 //! Positions and spread mm, amplitude input units (raw counts), times ns; `fit_lead_s` s.
@@ -114,6 +120,7 @@
 //! | `fit_model_error` | trusts the kernel: strongest electrodes dominate | spreads trust; less precise |
 //! | `window_frames` | immediate, noisier | smoother, more delay |
 //! | `fit_lead_s` | a moving contact reported `v·τ` behind (fluid lag) | ahead of it when `τ` is shorter; velocity noise × lead added |
+//! | `fit_lag_estimate` | off: the fluid lag stays in the field (`v·τ` behind) | the lag undone on the electrodes once a press was seen; frame noise × `β/(1−β)/W` added; a smooth press reads as lag (over-sharpened) |
 //! | `fit_velocity_frames` | velocity follows turns, noisier | steadier, lags on circles and turns |
 //!
 //! The error terms, measured (`docs/tradeoff.md`, the `accurate` settings on the family's
