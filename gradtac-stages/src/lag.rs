@@ -339,7 +339,7 @@ fn lagged_ramp(t: f64, tau: f64) -> f64 {
 pub fn onset_profile(s: &[f64], dt: f64, k0_max: usize) -> [f64; TAU_GRID_S.len()] {
     let m = s.len();
     let mut out = [f64::INFINITY; TAU_GRID_S.len()];
-    if m < 8 || !(dt > 0.0) || s.iter().any(|v| !v.is_finite()) {
+    if m < 8 || dt.is_nan() || dt <= 0.0 || s.iter().any(|v| !v.is_finite()) {
         return out;
     }
     let ss: f64 = s.iter().map(|v| v * v).sum();
