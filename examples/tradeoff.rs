@@ -42,7 +42,7 @@
 //! and `--tuning-only` (tuning members only, one line per setting, nothing held out: for
 //! exploring settings without looking at held-out members); `--scene-only` runs only the two
 //! rows of what a `method = "events"` scene runs (`event_chain` default and `paper`);
-//! `--fit-only` (the fit, centroid and Δ² rows only).
+//! `--fit-only` (the fit, centroid and Δ² rows only: the round-4 rows of docs/tradeoff.md).
 
 use gradtac::chain::{effective_contour, effective_events};
 use gradtac::scene::StageSettings;
@@ -113,6 +113,8 @@ struct FitSetting {
     speed: f64,
     contact: f64,
     lead: f64,
+    /// The lag estimated online (`fit_lag_estimate`) instead of the fixed `lead`.
+    lag: bool,
     /// The motion prior (`fit_motion_prior` > 0, the library's default).
     continuity: bool,
     /// Gains' self-calibration: key frames (`fit_gain_keys`; 0 = the per-frame step), with
@@ -146,11 +148,11 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, continuity, keys }) => format!(
-                "window {window}, ≤ {iterations} iterations, {}, {}, model error {model_error}, contact {contact} σ, lead {} ms, smooth {smooth}, {}, {}",
+            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, lag, continuity, keys }) => format!(
+                "window {window}, ≤ {iterations} iterations, {}, {}, model error {model_error}, contact {contact} σ, {}, smooth {smooth}, {}, {}",
                 if *signed { "signed" } else { "magnitudes" },
                 if *keys > 0 && *gain_rate > 0.0 { format!("gains self-calibrated ({keys} keys)") } else { format!("gain rate {gain_rate}") },
-                lead * 1e3,
+                if *lag { "lag estimated online".to_string() } else { format!("lead {} ms", lead * 1e3) },
                 speed(*v),
                 if *continuity { "motion prior" } else { "no motion prior" }
             ),
@@ -210,12 +212,14 @@ impl Setting {
                 speed,
                 contact,
                 lead,
+                lag,
                 continuity,
                 keys,
             }) => Some(LocateConfig {
                 fit_gain_keys: keys,
                 fit_gain_spacing_mm: LocateConfig::preset(Preset::Accurate).fit_gain_spacing_mm,
                 fit_gain_prior: LocateConfig::preset(Preset::Accurate).fit_gain_prior,
+                fit_lag_estimate: lag,
                 fit_motion_prior: if continuity { base.fit_motion_prior } else { 0.0 },
                 fit_signed: signed,
                 method: LocateMethod::Fit,
@@ -583,6 +587,7 @@ fn main() {
             speed: 30.0,
             contact,
             lead,
+            lag: false,
             continuity,
             keys: 0,
         })
@@ -624,11 +629,16 @@ fn main() {
     for continuity in [false, true] {
         settings.push(fit(9, 3, 0.1, 0.3, false, 10.0, 0.0, continuity));
     }
-    // round 4: the gains' self-calibration (key frames, `fit_gain_keys`) at the windows above
+    // round 4: the gains' self-calibration (key frames, `fit_gain_keys`) and the lag estimated
+    // online (`fit_lag_estimate`), each alone and together, at the windows above
+    let keys = LocateConfig::preset(Preset::Accurate).fit_gain_keys;
     for window in [1u32, 5, 9] {
-        if let Setting::Fit(mut f) = fit(window, 3, 0.1, 0.3, false, 10.0, 0.0, true) {
-            f.keys = LocateConfig::preset(Preset::Accurate).fit_gain_keys;
-            settings.push(Setting::Fit(f));
+        for (k, lag, continuity) in [(keys, false, true), (0, true, false), (0, true, true), (keys, true, true)] {
+            if let Setting::Fit(mut f) = fit(window, 3, 0.1, 0.3, false, 10.0, 0.0, continuity) {
+                f.keys = k;
+                f.lag = lag;
+                settings.push(Setting::Fit(f));
+            }
         }
     }
     for grid in [16usize, 32] {
@@ -896,8 +906,8 @@ fn main() {
     }
     let la = LocateConfig::preset(Preset::Accurate);
     let lib_accurate = rows.iter().find(|r| {
-        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, continuity, keys })
-            if keys == la.fit_gain_keys && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys })
+            if keys == la.fit_gain_keys && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
                 && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
                 && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
     });

@@ -434,18 +434,28 @@ impl SensorChain {
                 } else {
                     format!("gains learned at rate {}", l.fit_gain_rate)
                 };
+                let lag = if l.fit_lag_estimate {
+                    format!(
+                        "fluid lag estimated online from each press onset (prior {} nats per 10 ms toward none, at most {} s) \
+                         and undone on the electrodes before the fit",
+                        l.fit_lag_prior, l.fit_lag_max_s
+                    )
+                } else {
+                    format!(
+                        "lag lead {} s along the velocity of the last {} positions",
+                        l.fit_lead_s, l.fit_velocity_frames
+                    )
+                };
                 format!(
                     "model fit (preset {}): robust Levenberg–Marquardt, ≤ {} iterations, on the 3-D electrode cores when the \
                      layout is the BioTac SP; spread, amplitude, far lobe; {gains}; model error {} of the \
                      largest change; electrodes at the rails [{}, {}] left out; reports residual and σ (mm) per point; \
-                     lag lead {} s along the velocity of the last {} positions; {prior}; position memory {} frames, {speed} ({})",
+                     {lag}; {prior}; position memory {} frames, {speed} ({})",
                     l.preset.name(),
                     l.fit_iterations,
                     l.fit_model_error,
                     l.fit_rails[0],
                     l.fit_rails[1],
-                    l.fit_lead_s,
-                    l.fit_velocity_frames,
                     l.smooth_frames,
                     describe_detector(l)
                 )

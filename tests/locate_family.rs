@@ -363,7 +363,20 @@ fn explain_shows_the_fit_and_the_preset_values() {
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_keys = 5000\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_spacing_mm = 0\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_prior = -1\n").is_err());
-    let lead = explain("[stages.locate]\npreset = \"accurate\"\nfit_lead_s = 0.02\nfit_velocity_frames = 6\n").unwrap();
+    assert!(
+        accurate.contains(
+            "fluid lag estimated online from each press onset (prior 0.5 nats per 10 ms toward none, at most 0.1 s)"
+        ),
+        "{accurate}"
+    );
+    let lag = explain("[stages.locate]\npreset = \"accurate\"\nfit_lag_max_s = 0.05\nfit_lag_prior = 2\n").unwrap();
+    assert!(lag.contains("(prior 2 nats per 10 ms toward none, at most 0.05 s)"), "{lag}");
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_lag_max_s = 0.5\n").is_err());
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_lag_prior = -1\n").is_err());
+    let lead = explain(
+        "[stages.locate]\npreset = \"accurate\"\nfit_lag_estimate = false\nfit_lead_s = 0.02\nfit_velocity_frames = 6\n",
+    )
+    .unwrap();
     assert!(lead.contains("lag lead 0.02 s along the velocity of the last 6 positions"), "{lead}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_lead_s = 2\n").is_err());
     assert!(accurate.contains("motion prior 0.8 × the speed bound, innovations gated at 1.2 σ"), "{accurate}");

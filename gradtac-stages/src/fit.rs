@@ -118,11 +118,17 @@
 //! contact starts without lead. For a discrete first-order lag at frame period `Δt` the
 //! steady delay is `Δt·e^{−Δt/τ}/(1 − e^{−Δt/τ}) ≈ τ − Δt/2`, which a lead of that size removes
 //! exactly on a straight track (test `lead_undoes_a_first_order_lag_of_a_moving_contact`).
-//! `τ̂` is a fixed setting, not estimated online: at a constant velocity a lagged field is, to
-//! first order in `v·τ / w`, the same field shifted, so neither the position track nor the
-//! electrodes' pattern says what `τ` is without knowing how the contact really moved
-//! (`docs/tradeoff.md`). Default 0 (no lead); the `accurate` preset keeps 0 — the tuning
-//! members' lags (10–30 ms) do not pay for it.
+//! `fit_lead_s` is a fixed setting: at a constant velocity a lagged field is, to first order
+//! in `v·τ / w`, the same field shifted, so neither the position track nor the electrodes'
+//! pattern *during the slide* says what `τ` is. Default 0 (no lead).
+//!
+//! **`fit_lag_estimate = true`** (the `accurate` preset) estimates `τ` online instead, from
+//! how each press onset turns its corners ([`crate::lag`]: a lagged-ramp fit per onset,
+//! evidence summed over presses, prior at 0, bounded by `fit_lag_max_s`), and undoes it on
+//! the electrodes before the fit — each window's mean change gets the first-order lag's
+//! exact inverse, `β/(1 − β)·(x[k] − x[k−W])/W` — rather than moving the point along a
+//! velocity; `fit_lead_s` is then not used. Before the sensor's first press onset nothing
+//! changes.
 //!
 //! # Units
 //! Positions and spread mm, amplitude input units (raw counts), times ns; `fit_lead_s` s.
@@ -144,6 +150,7 @@
 //! | `fit_model_error` | trusts the kernel: strongest electrodes dominate | spreads trust; less precise |
 //! | `window_frames` | immediate, noisier | smoother, more delay |
 //! | `fit_lead_s` | a moving contact reported `v·τ` behind (fluid lag) | ahead of it when `τ` is shorter; velocity noise × lead added |
+//! | `fit_lag_estimate` | off: the fluid lag stays in the field (`v·τ` behind) | the lag undone on the electrodes once a press was seen; frame noise × `β/(1−β)/W` added; a smooth press reads as lag (over-sharpened) |
 //! | `fit_velocity_frames` | velocity follows turns, noisier | steadier, lags on circles and turns |
 //! | `fit_motion_prior` | quieter track, lags fast motion | follows each fit, jumps between regions |
 //! | `fit_innovation_sigmas` | jumps wait longer to be believed (0 = no gate) | believes jumps sooner |
@@ -510,8 +517,10 @@ pub struct Fit {
     lead: Lead,
     /// The motion prior's state (`fit_motion_prior`).
     prior: MotionPrior,
-    /// The gains' self-calibration (`fit_gain_memory` > 0).
+    /// The gains' self-calibration (`fit_gain_keys` > 0).
     cal: GainCal,
+    /// The online lag estimate (`fit_lag_estimate`), when on.
+    lag: Option<crate::lag::LagEstimator>,
 }
 
 impl Fit {
@@ -531,7 +540,23 @@ impl Fit {
             lead: Lead::new(cfg.fit_velocity_frames as usize),
             prior: MotionPrior::default(),
             cal: GainCal::new(layout.positions()),
+            lag: cfg.fit_lag_estimate.then(|| crate::lag::LagEstimator::new(cfg.fit_lag_prior, cfg.fit_lag_max_s)),
         })
+    }
+
+    /// The online lag estimator (`fit_lag_estimate`), when on.
+    pub fn lag(&self) -> Option<&crate::lag::LagEstimator> {
+        self.lag.as_ref()
+    }
+
+    /// The lead (s) the fitted position gets: `fit_lead_s`, or 0 when `fit_lag_estimate` is on
+    /// (the estimated lag is then undone on the electrodes, before the fit).
+    pub fn lead_s(&self) -> f64 {
+        if self.lag.is_some() {
+            0.0
+        } else {
+            self.det.config().fit_lead_s
+        }
     }
 
     /// The change detector (calibrated noise and baselines).
@@ -557,7 +582,7 @@ impl Fit {
         &self.gain
     }
 
-    /// The per-frame gain step (`fit_gain_memory = 0`): each electrode the model says moved by
+    /// The per-frame gain step (`fit_gain_keys = 0`): each electrode the model says moved by
     /// more than 10 σ moves its gain toward the ratio measured there by `rate`; then the gains
     /// are rescaled to a mean magnitude of 1.
     fn step_gains(&mut self, rate: f64, amp: f64) {
@@ -742,6 +767,9 @@ impl Stage for Fit {
 
     fn push(&mut self, f: TaxelFrame, out: &mut Vec<ContourFrame>) -> Result<()> {
         let ch = self.det.push(&f, STAGE)?;
+        if let Some(lag) = &mut self.lag {
+            lag.push(f.time, &f.values, self.det.baseline(), self.det.noise(), self.det.change());
+        }
         let outcome = if ch.calibrating {
             ContourOutcome::NoContact(NoContact::NoData)
         } else if !ch.contact {
@@ -749,6 +777,9 @@ impl Stage for Fit {
         } else {
             let mut d = std::mem::take(&mut self.d);
             self.det.signed_changes(&mut d);
+            if let Some(lag) = &self.lag {
+                lag.sharpen(&mut d, self.det.config().window_frames as usize);
+            }
             if !self.det.config().fit_signed {
                 d.iter_mut().for_each(|v| *v = v.abs());
             }
@@ -756,8 +787,9 @@ impl Stage for Fit {
             match self.fit(&f.values) {
                 None => ContourOutcome::NoContact(NoContact::NoData),
                 Some((p, summary, at_edge)) => {
+                    let lead_s = self.lead_s();
                     let cfg = self.det.config();
-                    let p = self.lead.push(ch.end, p, cfg.fit_lead_s, cfg.max_speed_mm_s);
+                    let p = self.lead.push(ch.end, p, lead_s, cfg.max_speed_mm_s);
                     let b = self.geo.bounds;
                     let p = [p[0].clamp(b[0], b[1]), p[1].clamp(b[2], b[3])];
                     let mass = 1.0 / summary.sigma_mm.max(1e-3).powi(2);
@@ -806,6 +838,9 @@ impl Stage for Fit {
         self.warm = None;
         self.gain.iter_mut().for_each(|g| *g = 1.0);
         self.cal.clear();
+        if let Some(l) = &mut self.lag {
+            l.reset();
+        }
     }
 
     fn delay(&self) -> Delay {
@@ -943,7 +978,7 @@ impl MotionPrior {
     }
 }
 
-// ---- gains: self-calibration (`fit_gain_memory` > 0)
+// ---- gains: self-calibration (`fit_gain_keys` > 0)
 
 /// Smallest gain magnitude the self-calibration reports (its log is taken).
 const GAIN_MIN: f64 = 0.05;

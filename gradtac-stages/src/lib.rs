@@ -29,6 +29,7 @@ pub mod fit;
 pub mod force;
 pub mod force_model;
 pub mod interpolate;
+pub mod lag;
 pub mod limits;
 pub mod locate;
 pub mod normalise;

@@ -306,6 +306,18 @@ pub struct LocateConfig {
     /// `fit`: frames (2–100) of the current contact over which the velocity `v̂` is the
     /// least-squares slope of the fitted positions. Default 8.
     pub fit_velocity_frames: u32,
+    /// `fit`: estimate the sensor's fluid lag online and undo it on the electrodes before the
+    /// fit (`true`; `fit_lead_s` is then not used): each press's onset is fitted by a lagged
+    /// ramp with a corner, the evidence accumulates over presses with a prior at τ = 0, and
+    /// each window's mean change gets the first-order lag's inverse ([`crate::lag`]). Default
+    /// `false`; the `accurate` preset turns it on (`docs/tradeoff.md`, round 4).
+    pub fit_lag_estimate: bool,
+    /// `fit`: the estimated lag's bound (s, 0–0.1). Default 0.1.
+    pub fit_lag_max_s: f64,
+    /// `fit`: the estimate's prior toward no lag, in nats of log-likelihood per 10 ms of `τ`
+    /// (≥ 0, ≤ 1000): a press must favour a lag by more than this to move the estimate.
+    /// Default 0.5.
+    pub fit_lag_prior: f64,
     /// `fit`: the motion prior's process noise, as a multiple of `max_speed_mm_s · Δt` (≥ 0,
     /// ≤ 100; 0 = off; off too without a speed bound): each frame's fitted position is a
     /// measurement (variance `sigma_mm²`) of a contact that moves by a random walk of that
@@ -356,6 +368,9 @@ struct LocateToml {
     fit_signed: Option<bool>,
     fit_lead_s: Option<f64>,
     fit_velocity_frames: Option<u32>,
+    fit_lag_estimate: Option<bool>,
+    fit_lag_max_s: Option<f64>,
+    fit_lag_prior: Option<f64>,
     fit_motion_prior: Option<f64>,
     fit_innovation_sigmas: Option<f64>,
     baseline: Option<std::path::PathBuf>,
@@ -390,6 +405,9 @@ impl From<LocateToml> for LocateConfig {
             fit_signed,
             fit_lead_s,
             fit_velocity_frames,
+            fit_lag_estimate,
+            fit_lag_max_s,
+            fit_lag_prior,
             fit_motion_prior,
             fit_innovation_sigmas
         );
@@ -439,6 +457,9 @@ impl LocateConfig {
                 fit_gain_spacing_mm: 0.5,
                 fit_gain_prior: 0.3,
                 fit_lead_s: 0.0,
+                // the lag estimated online and undone on the electrodes: it recovers the tuning
+                // members' τ (10–30 ms) to ≈ 8 ms and does not cost them accuracy (round 4)
+                fit_lag_estimate: true,
                 fit_model_error: 0.3,
                 fit_signed: false,
                 fit_motion_prior: 0.8,
@@ -475,6 +496,9 @@ impl LocateConfig {
             fit_signed: false,
             fit_lead_s: 0.0,
             fit_velocity_frames: 8,
+            fit_lag_estimate: false,
+            fit_lag_max_s: 0.1,
+            fit_lag_prior: 0.5,
             fit_motion_prior: 0.8,
             fit_innovation_sigmas: 1.2,
             baseline: None,
@@ -540,6 +564,12 @@ impl LocateConfig {
         }
         if !(self.fit_lead_s.is_finite() && (0.0..=1.0).contains(&self.fit_lead_s)) {
             return bad(format!("`fit_lead_s` = {} must be in [0, 1] s", self.fit_lead_s));
+        }
+        if !(self.fit_lag_max_s.is_finite() && (0.0..=0.1).contains(&self.fit_lag_max_s)) {
+            return bad(format!("`fit_lag_max_s` = {} must be in [0, 0.1] s", self.fit_lag_max_s));
+        }
+        if !(self.fit_lag_prior.is_finite() && (0.0..=1000.0).contains(&self.fit_lag_prior)) {
+            return bad(format!("`fit_lag_prior` = {} must be in [0, 1000]", self.fit_lag_prior));
         }
         if !(2..=100).contains(&self.fit_velocity_frames) {
             return bad(format!("`fit_velocity_frames` = {} must be in 2..=100", self.fit_velocity_frames));
@@ -1366,6 +1396,9 @@ mod tests {
             LocateConfig { fit_lead_s: -0.01, ..Default::default() },
             LocateConfig { fit_lead_s: f64::INFINITY, ..Default::default() },
             LocateConfig { fit_velocity_frames: 1, ..Default::default() },
+            LocateConfig { fit_lag_max_s: 0.2, ..Default::default() },
+            LocateConfig { fit_lag_max_s: f64::NAN, ..Default::default() },
+            LocateConfig { fit_lag_prior: -1.0, ..Default::default() },
             LocateConfig { fit_velocity_frames: 101, ..Default::default() },
             LocateConfig { fit_motion_prior: -0.5, ..Default::default() },
             LocateConfig { fit_motion_prior: f64::INFINITY, ..Default::default() },
