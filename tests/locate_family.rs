@@ -363,13 +363,19 @@ fn explain_shows_the_fit_and_the_preset_values() {
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_keys = 5000\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_spacing_mm = 0\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_prior = -1\n").is_err());
+    // the lag estimate is off in the preset (tuning did not choose it); a scene turns it on
+    assert!(accurate.contains("lag lead 0 s along the velocity"), "{accurate}");
+    let on = explain("[stages.locate]\npreset = \"accurate\"\nfit_lag_estimate = true\n").unwrap();
     assert!(
-        accurate.contains(
+        on.contains(
             "fluid lag estimated online from each press onset (prior 0.5 nats per 10 ms toward none, at most 0.1 s)"
         ),
-        "{accurate}"
+        "{on}"
     );
-    let lag = explain("[stages.locate]\npreset = \"accurate\"\nfit_lag_max_s = 0.05\nfit_lag_prior = 2\n").unwrap();
+    let lag = explain(
+        "[stages.locate]\npreset = \"accurate\"\nfit_lag_estimate = true\nfit_lag_max_s = 0.05\nfit_lag_prior = 2\n",
+    )
+    .unwrap();
     assert!(lag.contains("(prior 2 nats per 10 ms toward none, at most 0.05 s)"), "{lag}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_lag_max_s = 0.5\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_lag_prior = -1\n").is_err());

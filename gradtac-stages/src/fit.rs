@@ -122,7 +122,7 @@
 //! in `v·τ / w`, the same field shifted, so neither the position track nor the electrodes'
 //! pattern *during the slide* says what `τ` is. Default 0 (no lead).
 //!
-//! **`fit_lag_estimate = true`** (the `accurate` preset) estimates `τ` online instead, from
+//! **`fit_lag_estimate = true`** (off by default, also in the `accurate` preset) estimates `τ` online instead, from
 //! how each press onset turns its corners ([`crate::lag`]: a lagged-ramp fit per onset,
 //! evidence summed over presses, prior at 0, bounded by `fit_lag_max_s`), and undoes it on
 //! the electrodes before the fit — each window's mean change gets the first-order lag's
