@@ -1127,7 +1127,7 @@ impl GainCal {
     }
 
     /// The gains from the keys: `(Σ w Δ m + prior) / (Σ w m² + prior)` per electrode
-    /// (magnitudes in [[`GAIN_MIN`], 1/[`GAIN_MIN`]]; non-negative unless `signed`), then their
+    /// (magnitudes in [0.05, 20]; non-negative unless `signed`), then their
     /// log-magnitudes less their mean and linear trend across the layout.
     pub fn gains(&mut self, prior: f64, signed: bool, gain: &mut [f64]) {
         let n = gain.len().min(self.sdm.len());

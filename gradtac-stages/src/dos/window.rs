@@ -106,7 +106,7 @@ impl WindowInputs {
     }
 }
 
-/// The window model's inputs (see the [module docs](self)).
+/// The window model's inputs (see the [module docs](crate::dos)).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WindowInputs {
