@@ -4,6 +4,7 @@
 //! # Methods
 //! | method | input | model |
 //! |---|---|---|
+//! | `placed` (default) | `S₁`, `S₂` below, each divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`: the layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of the electrode positions `pⱼ`), `w` = [`DEFAULT_PLACE_WIDTH_MM`] | `F = e^c · (S₁/R)^p · (S₂/R)^q`: least squares on `ln F` (3 numbers, `w` and the layout's positions stored with them): a press at a place few electrodes see is not read as light ([`place_response`]) |
 //! | `total` | the total change `S₁ = Σ|Δᵢ|` and its root-sum-square `S₂ = √ΣΔᵢ²` (counts) | `F = e^c · S₁^p · S₂^q`: least squares on `ln F` (3 numbers, blind to which taxels moved and to their signs) |
 //! | `ridge` | the change detector's signed baseline-relative changes `Δᵢ = x̄ᵢ − x₀ᵢ` (counts) of every taxel | `F = b + Σ wᵢ Δᵢ`, ridge on standardised changes (the cheapest baseline) |
 //! | `area` | the contact location's contour area (mm²; the paper's feature) | a monotone curve ([`ForceModel`]) |
@@ -37,7 +38,8 @@
 //!
 //! # File
 //! [`ForceFile`] is validated on read ([`ForceFile::validate`]): format tag and version,
-//! taxel count within bounds and equal to the weights', finite numbers, a valid curve with at
+//! taxel count within bounds and equal to the weights' (and to a `placed` model's positions;
+//! its width within [`PLACE_WIDTH_RANGE_MM`]), finite numbers, a valid curve with at
 //! most [`MAX_KNOTS`] knots.
 
 use crate::force::{ForceEstimate, ForceMethod, ForceModel, ForceSample};
