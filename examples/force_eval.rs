@@ -181,7 +181,14 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                 .into_iter()
                 .map(|f| {
                     let ch = det.push(&f, "force").unwrap();
-                    let r = place_response(layout.positions(), det.change(), PLACED_W_MM[k]);
+                    // exploration: FORCE_EVAL_PLACE_POW=k weighs the centroid by |Δ|^k (2 = the product's)
+                    let r = match std::env::var("FORCE_EVAL_PLACE_POW").ok().and_then(|s| s.parse::<f64>().ok()) {
+                        Some(pw) => {
+                            let wts: Vec<f64> = det.change().iter().map(|d| d.abs().powf(pw / 2.0)).collect();
+                            place_response(layout.positions(), &wts, PLACED_W_MM[k])
+                        }
+                        None => place_response(layout.positions(), det.change(), PLACED_W_MM[k]),
+                    };
                     let change = det.change().iter().map(|d| d / r).collect();
                     Row {
                         t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
