@@ -34,15 +34,18 @@ use gradtac::stages::contour::{ContourFrame, ContourOutcome};
 use gradtac::stages::events::Events;
 use gradtac::stages::fit::Fit;
 use gradtac::stages::force::ForceMethod;
-use gradtac::stages::force_model::{calibrate, force_detector, force_detector_s29, CalibrationMethod, GaugeSample};
-use gradtac::stages::locate::{ChangeDetector, LocateConfig, LocateMethod};
+use gradtac::stages::force_model::{
+    calibrate, force_detector, force_detector_s29, place_response, CalibrationMethod, GaugeSample,
+    DEFAULT_PLACE_WIDTH_MM,
+};
+use gradtac::stages::locate::{ChangeDetector, LocateConfig, LocateMethod, Preset};
 use gradtac::stages::normalise::Normalise;
 use gradtac::stages::peak::SurfaceContour;
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::SavGol;
 use gradtac::stages::sim_force::{ForceRecording, ForceSession, Segment};
 use gradtac::stages::window::Window;
-use gradtac::stream::{Layout, StageExt};
+use gradtac::stream::{Layout, Stage, StageExt};
 use std::time::Instant;
 
 const TUNE: std::ops::Range<u64> = 0..8;
@@ -67,7 +70,22 @@ enum Source {
     Total,
     /// `total` on the session-29 force detector (drift model without holds).
     TotalS29,
+    /// The contact fit's amplitude under the `accurate` preset (per-electrode gains learned
+    /// online from the presses themselves, no force labels).
+    AmplitudeAccurate,
+    /// The `accurate` fit's amplitude × spread² (the response's volume).
+    VolumeAccurate,
+    /// `total` on the changes divided by the `accurate` fit's online gains.
+    TotalGains,
+    /// Exploration of the `placed` width: `total` on the changes divided by the layout's
+    /// response at the contact's place for width `PLACED_W_MM[k]`.
+    TotalPlaced(usize),
+    /// The `placed` law (the default of `gradtac calibrate force`).
+    Placed,
 }
+
+/// Widths (mm) of the place normalisation tried on the tuning members.
+const PLACED_W_MM: [f64; 4] = [1.0, 1.5, 2.0, 2.5];
 
 impl Source {
     /// Short name for `--only`.
@@ -83,6 +101,14 @@ impl Source {
             Source::Amplitude => "amplitude",
             Source::Total => "total",
             Source::TotalS29 => "total_s29",
+            Source::AmplitudeAccurate => "amplitude_accurate",
+            Source::VolumeAccurate => "volume_accurate",
+            Source::TotalGains => "total_gains",
+            Source::TotalPlaced(0) => "total_placed_a",
+            Source::TotalPlaced(1) => "total_placed_b",
+            Source::TotalPlaced(2) => "total_placed_c",
+            Source::TotalPlaced(_) => "total_placed_d",
+            Source::Placed => "placed",
         }
     }
 
@@ -95,6 +121,13 @@ impl Source {
             Source::Amplitude => "the contact fit's amplitude (fit chain)".into(),
             Source::Total => "power law in the total change, `total`".into(),
             Source::TotalS29 => "total, session-29 gate (drift model without holds; last session's default)".into(),
+            Source::AmplitudeAccurate => "the contact fit's amplitude, `accurate` preset (gains learned online)".into(),
+            Source::VolumeAccurate => "the `accurate` fit's amplitude × spread²".into(),
+            Source::TotalGains => "total on the changes ÷ the `accurate` fit's online gains".into(),
+            Source::TotalPlaced(k) => {
+                format!("total ÷ the layout's response at the contact (w = {} mm)", PLACED_W_MM[k])
+            }
+            Source::Placed => "**`placed`: total ÷ the layout's response at the contact (default)**".into(),
         }
     }
 }
@@ -112,7 +145,70 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
     let n = frames.len() as f64;
     let t0 = Instant::now();
     let rows: Vec<Row> = match source {
-        Source::Changes | Source::Total | Source::ChangesPrevious | Source::TotalPrevious | Source::TotalS29 => {
+        Source::TotalGains => {
+            let mut det = force_detector(24, &LocateConfig::default()).unwrap();
+            let mut fit = Fit::try_new(&LocateConfig::preset(Preset::Accurate), &layout).unwrap();
+            let mut sink = Vec::new();
+            frames
+                .into_iter()
+                .map(|f| {
+                    let ch = det.push(&f, "force").unwrap();
+                    fit.push(f, &mut sink).unwrap();
+                    sink.clear();
+                    if std::env::var_os("FORCE_EVAL_GAINS").is_some()
+                        && ch.end.as_secs_f64() > 45.0
+                        && ch.end.as_secs_f64() < 45.011
+                    {
+                        eprintln!("gains {:?}", fit.gains().iter().map(|g| format!("{g:.2}")).collect::<Vec<_>>());
+                    }
+                    let change = det.change().iter().zip(fit.gains()).map(|(d, g)| d / g.abs().max(0.1)).collect();
+                    Row {
+                        t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
+                        sample: GaugeSample {
+                            change,
+                            contact: ch.contact,
+                            area_mm2: None,
+                            amplitude: None,
+                            force_n: 0.0,
+                        },
+                    }
+                })
+                .collect()
+        }
+        Source::TotalPlaced(k) => {
+            let mut det = force_detector(24, &LocateConfig::default()).unwrap();
+            frames
+                .into_iter()
+                .map(|f| {
+                    let ch = det.push(&f, "force").unwrap();
+                    // exploration: FORCE_EVAL_PLACE_POW=k weighs the centroid by |Δ|^k (2 = the product's)
+                    let r = match std::env::var("FORCE_EVAL_PLACE_POW").ok().and_then(|s| s.parse::<f64>().ok()) {
+                        Some(pw) => {
+                            let wts: Vec<f64> = det.change().iter().map(|d| d.abs().powf(pw / 2.0)).collect();
+                            place_response(layout.positions(), &wts, PLACED_W_MM[k])
+                        }
+                        None => place_response(layout.positions(), det.change(), PLACED_W_MM[k]),
+                    };
+                    let change = det.change().iter().map(|d| d / r).collect();
+                    Row {
+                        t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
+                        sample: GaugeSample {
+                            change,
+                            contact: ch.contact,
+                            area_mm2: None,
+                            amplitude: None,
+                            force_n: 0.0,
+                        },
+                    }
+                })
+                .collect()
+        }
+        Source::Placed
+        | Source::Changes
+        | Source::Total
+        | Source::ChangesPrevious
+        | Source::TotalPrevious
+        | Source::TotalS29 => {
             // what the force stage runs: its own detector with the drift model
             let mut det = if matches!(source, Source::ChangesPrevious | Source::TotalPrevious) {
                 ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().follow_all_when_untouched()
@@ -145,12 +241,17 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                 })
                 .collect()
         }
-        Source::Area(_) | Source::Amplitude => {
+        Source::Area(_) | Source::Amplitude | Source::AmplitudeAccurate | Source::VolumeAccurate => {
             let method = match source {
                 Source::Area(m) => m,
                 _ => LocateMethod::Fit,
             };
-            let mut st = StageSettings { locate: LocateConfig { method, ..Default::default() }, ..Default::default() };
+            let locate = if matches!(source, Source::AmplitudeAccurate | Source::VolumeAccurate) {
+                LocateConfig::preset(Preset::Accurate)
+            } else {
+                LocateConfig { method, ..Default::default() }
+            };
+            let mut st = StageSettings { locate, ..Default::default() };
             // the scene's event-chain defaults follow the method (raw_contour keeps the stages' own)
             st.apply_event_chain(|_| false);
             let contours: Vec<ContourFrame> = match method {
@@ -174,7 +275,16 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                 .into_iter()
                 .map(|cf| {
                     let (area, amplitude) = match &cf.outcome {
-                        ContourOutcome::Contact(c) => (Some(c.area_mm2), c.fit.as_ref().map(|f| f.amplitude)),
+                        ContourOutcome::Contact(c) => (
+                            Some(c.area_mm2),
+                            c.fit.as_ref().map(|f| {
+                                if source == Source::VolumeAccurate {
+                                    f.amplitude * f.spread_mm * f.spread_mm
+                                } else {
+                                    f.amplitude
+                                }
+                            }),
+                        ),
                         ContourOutcome::NoContact(_) => (None, None),
                     };
                     Row {
@@ -346,7 +456,21 @@ fn main() {
             .collect()
     };
     let (tune, test) = (members(tune), members(test));
-    let sources = [
+    if std::env::var_os("FORCE_EVAL_GAINS").is_some() {
+        for m in &tune {
+            eprintln!(
+                "seed {} true {:?} kernel {:?} w {:.2}",
+                m.session.seed,
+                m.session.physics.gain.iter().map(|g| format!("{g:.2}")).collect::<Vec<_>>(),
+                m.session.physics.kernel,
+                m.session.physics.width_mm
+            );
+        }
+    }
+    // the table's rows; with `--only` also the exploration rows (the `placed` width, the
+    // `accurate` fit's gains and amplitude: docs/force.md)
+    let mut sources = vec![
+        Source::Placed,
         Source::Total,
         Source::Amplitude,
         Source::Changes,
@@ -357,6 +481,17 @@ fn main() {
         Source::Area(LocateMethod::RawContour),
         Source::Area(LocateMethod::Events),
     ];
+    if only.is_some() {
+        sources.extend([
+            Source::TotalPlaced(0),
+            Source::TotalPlaced(1),
+            Source::TotalPlaced(2),
+            Source::TotalPlaced(3),
+            Source::TotalGains,
+            Source::AmplitudeAccurate,
+            Source::VolumeAccurate,
+        ]);
+    }
     let lambdas = [0.0, 1e-4, 1e-3, 1e-2, 1e-1, 1.0];
     let curves = [ForceMethod::Linear, ForceMethod::PowerLaw, ForceMethod::Exponential, ForceMethod::Isotonic];
     println!("| method | setting (chosen on tuning) | tuning worst | held-out worst MAPE | held-out mean | untouched > 0.5 N | µs/frame |");
@@ -380,10 +515,13 @@ fn main() {
             Source::Area(_) => {
                 curves.iter().map(|&c| (CalibrationMethod::Area, 0.0, c, format!("{c:?} curve"))).collect()
             }
-            Source::Total | Source::TotalPrevious | Source::TotalS29 => {
+            Source::Placed => {
+                vec![(CalibrationMethod::Placed, 0.0, ForceMethod::Linear, format!("w = {DEFAULT_PLACE_WIDTH_MM} mm"))]
+            }
+            Source::Total | Source::TotalPrevious | Source::TotalS29 | Source::TotalGains | Source::TotalPlaced(_) => {
                 vec![(CalibrationMethod::Total, 0.0, ForceMethod::Linear, "S₁^p S₂^q".into())]
             }
-            Source::Amplitude => {
+            Source::Amplitude | Source::AmplitudeAccurate | Source::VolumeAccurate => {
                 curves.iter().map(|&c| (CalibrationMethod::Amplitude, 0.0, c, format!("{c:?} curve"))).collect()
             }
         };
@@ -404,27 +542,29 @@ fn main() {
             us.get(us.len() / 2).copied().unwrap_or(f64::NAN)
         );
         // the previous detector is a reference row, not something the force stage can run
-        if !matches!(source, Source::ChangesPrevious | Source::TotalPrevious | Source::TotalS29)
-            && best.as_ref().is_none_or(|b| chosen.0.worst < b.0)
+        if !matches!(
+            source,
+            Source::ChangesPrevious | Source::TotalPrevious | Source::TotalS29 | Source::TotalPlaced(_)
+        ) && best.as_ref().is_none_or(|b| chosen.0.worst < b.0)
         {
             best = Some((chosen.0.worst, source.name()));
         }
-        if source == Source::Total {
+        if source == Source::Placed {
             total = Some(held);
         }
     }
     if let Some((w, name)) = best {
         println!("\nbest on the tuning members (worst member {w:.1} %): {name}");
     }
-    // CI floors (--quick, measured with the force gate 2026-11-27: 64.7 % worst, 28.1 % mean,
-    // 11.9 % untouched — held-out seed 100 keeps contacts into its rests, 95 of its 200
-    // untouched frames; the session-29 gate measured 79.2 / 32.5 / 4.4 %): the default
-    // method must keep its held-out figures
+    // CI floors (--quick; the default method `placed` must keep its held-out figures; measured
+    // 2026-11-27 session 30: 55.7 % worst, 34.1 % mean, 12.6 % untouched — `total` measured
+    // 64.7 / 28.1 / 11.9 %: `placed` is better on the worst member, worse on the mean; held-out
+    // seed 100 keeps contacts into its rests)
     if quick {
-        let t = total.expect("the total row ran");
-        let ok = t.worst <= 75.0 && t.mean <= 35.0 && t.untouched <= 15.0;
+        let t = total.expect("the placed row ran");
+        let ok = t.worst <= 65.0 && t.mean <= 35.0 && t.untouched <= 15.0;
         println!(
-            "floors (total, held out): worst {:.1} % ≤ 75, mean {:.1} % ≤ 35, untouched {:.2} % ≤ 15: {}",
+            "floors (placed, held out): worst {:.1} % ≤ 65, mean {:.1} % ≤ 35, untouched {:.2} % ≤ 15: {}",
             t.worst,
             t.mean,
             t.untouched,

@@ -770,7 +770,7 @@ pub fn calibrate_force(
     let frames;
     let centre = |s: gradtac_stream::Timestamp, e: gradtac_stream::Timestamp| s.0 + (e.0 - s.0) / 2;
     match opts.method {
-        CalibrationMethod::Total | CalibrationMethod::Ridge => {
+        CalibrationMethod::Placed | CalibrationMethod::Total | CalibrationMethod::Ridge => {
             // the force stage's own detector, so the model sees the changes it will be given
             let mut det = force_model::force_detector(layout.len(), &scene.stages.locate)?;
             if let Some(t) = &scene.loaded.tare {

@@ -524,8 +524,16 @@ impl SensorChain {
             }
             Tap::Force if self.change_force.is_some() => {
                 let f = self.change_force.as_ref().expect("checked");
-                let what = match f.model().method() {
-                    gradtac_stages::force_model::CalibrationMethod::Total => "a power law in the total change of the",
+                let placed;
+                let what = match f.model() {
+                    gradtac_stages::force_model::CalibratedForce::Placed { width_mm, .. } => {
+                        placed = format!(
+                            "a power law in the total change ÷ the layout's response at the contact (w = {width_mm} mm) \
+                             of the"
+                        );
+                        placed.as_str()
+                    }
+                    gradtac_stages::force_model::CalibratedForce::Total { .. } => "a power law in the total change of the",
                     _ => "ridge on the",
                 };
                 let d = f.detector().drift_model().copied().unwrap_or_default();

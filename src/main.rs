@@ -241,7 +241,8 @@ enum CalibrateWhat {
         /// The sensor (default: the scene's only one).
         #[arg(long)]
         sensor: Option<String>,
-        /// The method: total (a power law in the total baseline-relative change), ridge (on the
+        /// The method: placed (a power law in the total baseline-relative change divided by the
+        /// layout's response at the contact's place), total (the same without the division), ridge (on the
         /// 24 changes), area (contour area of the scene's contact location) or amplitude (the
         /// contact fit's, with method = "fit").
         #[arg(long, default_value = gradtac::stages::force_model::DEFAULT_METHOD.name())]

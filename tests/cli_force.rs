@@ -75,13 +75,17 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
         .arg(&model)
         .output()
         .unwrap());
-    assert!(text.contains("calibrated total force on"), "{text}");
+    assert!(text.contains("calibrated placed force on"), "{text}");
     // a second session of the same sensor (other noise), through the bare default chain
     let test = ForceSession { noise_stream: 9, ..ForceSession::presses(700, 6) }.simulate();
     write_csv(&dir.path().join("test.csv"), &test);
     let run = scene(dir.path(), "run.toml", "test.csv", "[stages.force]\nmodel = \"force.json\"\n", "force");
     let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
-    assert!(explain.contains("a power law in the total change of the 24 signed changes"), "{explain}");
+    assert!(
+        explain
+            .contains("a power law in the total change ÷ the layout's response at the contact (w = 2.5 mm) of the 24"),
+        "{explain}"
+    );
     assert!(explain.contains("drift model: settle 0.2 s"), "{explain}");
     assert!(!explain.contains("centroid"), "the force alone needs no contact location: {explain}");
     ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
@@ -116,8 +120,10 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
     // examples/force_eval.rs's business)
     let mape = 100.0 * errs.iter().sum::<f64>() / errs.len() as f64;
     eprintln!("MAPE {mape:.1} % above 0.5 N");
-    // docs/force.md: the calibrated models do not reach the 10 % the issue asks (here 31.4 %
-    // with `total` and the gate, 72 % with the session-29 drift model); pinned with a margin
+    // docs/force.md: the calibrated models do not reach the 10 % the issue asks (here 41.2 %
+    // with `placed`, the default since session 30 — it trades accuracy at the calibrated places
+    // for transfer to other places; 31.4 % with `total` and the gate, 72 % with the session-29
+    // drift model); pinned with a small margin
     assert!(mape < 45.0, "MAPE {mape:.1} % on the same sensor's next session");
     let pressed = (0..f.len()).filter(|&k| test.force[k.saturating_sub(4)] > 2.0);
     let (n, with) = pressed.fold((0, 0), |(n, w), k| (n + 1, w + usize::from(f[k].is_some())));
@@ -154,7 +160,7 @@ fn a_gauge_file_matched_by_time_and_clear_refusals() {
         "--force-time-unit",
         "ms",
     ]));
-    assert!(text.contains("calibrated total force"), "{text}");
+    assert!(text.contains("calibrated placed force"), "{text}");
     let file = gradtac::scene::read_force_file(&model).unwrap();
     assert_eq!(file.taxels, 24);
     // a missing column, and an output that is the recording, are refused

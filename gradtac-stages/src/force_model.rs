@@ -4,6 +4,7 @@
 //! # Methods
 //! | method | input | model |
 //! |---|---|---|
+//! | `placed` (default) | `S₁`, `S₂` below, each divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`: the layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of the electrode positions `pⱼ`), `w` = [`DEFAULT_PLACE_WIDTH_MM`] | `F = e^c · (S₁/R)^p · (S₂/R)^q`: least squares on `ln F` (3 numbers, `w` and the layout's positions stored with them): a press at a place few electrodes see is not read as light ([`place_response`]) |
 //! | `total` | the total change `S₁ = Σ|Δᵢ|` and its root-sum-square `S₂ = √ΣΔᵢ²` (counts) | `F = e^c · S₁^p · S₂^q`: least squares on `ln F` (3 numbers, blind to which taxels moved and to their signs) |
 //! | `ridge` | the change detector's signed baseline-relative changes `Δᵢ = x̄ᵢ − x₀ᵢ` (counts) of every taxel | `F = b + Σ wᵢ Δᵢ`, ridge on standardised changes (the cheapest baseline) |
 //! | `area` | the contact location's contour area (mm²; the paper's feature) | a monotone curve ([`ForceModel`]) |
@@ -37,7 +38,8 @@
 //!
 //! # File
 //! [`ForceFile`] is validated on read ([`ForceFile::validate`]): format tag and version,
-//! taxel count within bounds and equal to the weights', finite numbers, a valid curve with at
+//! taxel count within bounds and equal to the weights' (and to a `placed` model's positions;
+//! its width within [`PLACE_WIDTH_RANGE_MM`]), finite numbers, a valid curve with at
 //! most [`MAX_KNOTS`] knots.
 
 use crate::force::{ForceEstimate, ForceMethod, ForceModel, ForceSample};
@@ -50,10 +52,11 @@ const STAGE: &str = "force";
 
 /// The `format` tag of a force model file.
 pub const FORCE_FORMAT: &str = "gradtac-force";
-/// The newest version this build reads (and writes, for a `total` model): version 2 added the
-/// `total` method; `ridge`, `area` and `amplitude` models are still written as version 1, so
-/// builds that predate `total` keep reading them. Every version up to this one is read.
-pub const FORCE_VERSION: u32 = 2;
+/// The newest version this build reads (and writes, for a `placed` model): version 2 added the
+/// `total` method, version 3 the `placed` method; `total` models are still written as
+/// version 2 and `ridge`, `area` and `amplitude` models as version 1, so older builds keep
+/// reading them. Every version up to this one is read.
+pub const FORCE_VERSION: u32 = 3;
 /// Most taxels a model may hold.
 pub const MAX_TAXELS: usize = 65_536;
 /// Most knots of an isotonic curve in a file.
@@ -63,6 +66,8 @@ pub const MAX_KNOTS: usize = 100_000;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CalibrationMethod {
+    /// A power law in the total change divided by the layout's response at the contact's place.
+    Placed,
     /// A power law in the total change.
     Total,
     /// Ridge on the signed changes.
@@ -77,6 +82,7 @@ impl CalibrationMethod {
     /// The name on the command line and in files.
     pub fn name(self) -> &'static str {
         match self {
+            CalibrationMethod::Placed => "placed",
             CalibrationMethod::Total => "total",
             CalibrationMethod::Ridge => "ridge",
             CalibrationMethod::Area => "area",
@@ -85,12 +91,17 @@ impl CalibrationMethod {
     }
 
     /// Every method.
-    pub const ALL: [CalibrationMethod; 4] =
-        [CalibrationMethod::Total, CalibrationMethod::Ridge, CalibrationMethod::Area, CalibrationMethod::Amplitude];
+    pub const ALL: [CalibrationMethod; 5] = [
+        CalibrationMethod::Placed,
+        CalibrationMethod::Total,
+        CalibrationMethod::Ridge,
+        CalibrationMethod::Area,
+        CalibrationMethod::Amplitude,
+    ];
 
     /// Whether it reads the change detector's changes (raw frames) rather than contours.
     pub fn reads_changes(self) -> bool {
-        matches!(self, CalibrationMethod::Total | CalibrationMethod::Ridge)
+        matches!(self, CalibrationMethod::Placed | CalibrationMethod::Total | CalibrationMethod::Ridge)
     }
 
     /// Parse a name.
@@ -101,7 +112,12 @@ impl CalibrationMethod {
 
 /// What `gradtac calibrate force` fits without `--method` (the best held-out row of
 /// `docs/force.md`).
-pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Total;
+pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Placed;
+/// The width (mm) of the `placed` method's nominal response, chosen on the tuning members
+/// (`examples/force_eval.rs`, `docs/force.md`).
+pub const DEFAULT_PLACE_WIDTH_MM: f64 = 2.5;
+/// Bounds of a `placed` model's width (mm).
+pub const PLACE_WIDTH_RANGE_MM: std::ops::RangeInclusive<f64> = 0.1..=1000.0;
 /// The ridge penalty (relative to the standardised features' scale) chosen on the tuning
 /// members (`examples/force_eval.rs`).
 pub const DEFAULT_RIDGE_LAMBDA: f64 = 0.1;
@@ -112,6 +128,22 @@ pub const DEFAULT_AREA_CURVE: ForceMethod = ForceMethod::PowerLaw;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "method", rename_all = "snake_case", deny_unknown_fields)]
 pub enum CalibratedForce {
+    /// The `total` law on the changes divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`, the
+    /// layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of
+    /// the electrode positions `pⱼ`): `F = exp(c + p · ln(S₁/R) + q · ln(S₂/R))`, so a press
+    /// at a place few electrodes see is not read as a light one ([`place_response`]).
+    Placed {
+        /// `c`: ln of the force at `S₁/R = S₂/R = 1` count.
+        log_scale: f64,
+        /// `p`, the exponent of `S₁/R`.
+        sum_exponent: f64,
+        /// `q`, the exponent of `S₂/R`.
+        norm_exponent: f64,
+        /// `w`: the nominal response's width (mm).
+        width_mm: f64,
+        /// The layout's electrode positions (layout plane, mm), one per taxel.
+        positions: Vec<[f64; 2]>,
+    },
     /// `F = exp(log_scale + sum_exponent · ln S₁ + norm_exponent · ln S₂)` with `S₁ = Σ|Δᵢ|`,
     /// `S₂ = √ΣΔᵢ²` (counts); 0 N when nothing changed.
     Total {
@@ -148,6 +180,7 @@ impl CalibratedForce {
     /// Its method.
     pub fn method(&self) -> CalibrationMethod {
         match self {
+            CalibratedForce::Placed { .. } => CalibrationMethod::Placed,
             CalibratedForce::Total { .. } => CalibrationMethod::Total,
             CalibratedForce::Ridge { .. } => CalibrationMethod::Ridge,
             CalibratedForce::Area { .. } => CalibrationMethod::Area,
@@ -173,10 +206,11 @@ impl CalibratedForce {
         self.method().reads_changes()
     }
 
-    /// The file version a model of this method is written with: 2 for `total` (a build that
-    /// reads only version 1 refuses it by its version), 1 for the others.
+    /// The file version a model of this method is written with: 3 for `placed`, 2 for `total`
+    /// (a build that reads only older versions refuses it by its version), 1 for the others.
     pub fn version(&self) -> u32 {
         match self {
+            CalibratedForce::Placed { .. } => 3,
             CalibratedForce::Total { .. } => 2,
             _ => 1,
         }
@@ -185,6 +219,18 @@ impl CalibratedForce {
     /// The prediction for changes `delta` (N, ≥ 0; NaN in, NaN out); `None` for a curve model.
     pub fn predict_changes(&self, delta: &[f64]) -> Option<f64> {
         match self {
+            CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions } => {
+                let (s1, s2) = total_change(delta);
+                if s1.is_nan() {
+                    return Some(f64::NAN);
+                }
+                if s1 <= 0.0 {
+                    return Some(0.0);
+                }
+                let r = place_response(positions, delta, *width_mm).ln();
+                let f = (log_scale + sum_exponent * (s1.ln() - r) + norm_exponent * (s2.ln() - r)).exp();
+                Some(if f.is_nan() { f } else { f.max(0.0) })
+            }
             CalibratedForce::Total { log_scale, sum_exponent, norm_exponent } => {
                 let (s1, s2) = total_change(delta);
                 if s1.is_nan() {
@@ -210,6 +256,26 @@ pub fn total_change(delta: &[f64]) -> (f64, f64) {
     let s1 = delta.iter().map(|d| d.abs()).sum::<f64>();
     let s2 = delta.iter().map(|d| d * d).sum::<f64>().sqrt();
     (s1, s2)
+}
+
+/// The layout's unit-gain response at the contact's place: `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`
+/// with `x̂` the `Δ²`-weighted centroid of the positions `pⱼ` (the `placed` method's
+/// normaliser; ≥ 1e-6). Without a change (or with a non-finite one) it is 1. Positions beyond
+/// `delta`'s length are ignored.
+pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f64 {
+    let (mut sx, mut sy, mut sw) = (0.0, 0.0, 0.0);
+    for (p, d) in positions.iter().zip(delta) {
+        let q = d * d;
+        sx += q * p[0];
+        sy += q * p[1];
+        sw += q;
+    }
+    if !(sw > 0.0 && sw.is_finite() && sx.is_finite() && sy.is_finite()) {
+        return 1.0;
+    }
+    let x = [sx / sw, sy / sw];
+    let k = 1.0 / (2.0 * width_mm * width_mm);
+    positions.iter().map(|p| (-((p[0] - x[0]).powi(2) + (p[1] - x[1]).powi(2)) * k).exp()).sum::<f64>().max(1e-6)
 }
 
 /// The force stage's contact gate ([`DriftModel`] with holds; chosen on the tuning members of
@@ -305,6 +371,24 @@ impl ForceFile {
             return Err(invalid(format!("{} taxels (want 1..={MAX_TAXELS})", self.taxels)));
         }
         match &self.model {
+            CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions } => {
+                if ![log_scale, sum_exponent, norm_exponent].iter().all(|x| x.is_finite()) {
+                    return Err(invalid("a placed-law parameter is not finite".into()));
+                }
+                if !PLACE_WIDTH_RANGE_MM.contains(width_mm) {
+                    return Err(invalid(format!(
+                        "width_mm {width_mm} (want {}..={} mm)",
+                        PLACE_WIDTH_RANGE_MM.start(),
+                        PLACE_WIDTH_RANGE_MM.end()
+                    )));
+                }
+                if positions.len() != self.taxels {
+                    return Err(invalid(format!("{} taxels but {} positions", self.taxels, positions.len())));
+                }
+                if !positions.iter().flatten().all(|x| x.is_finite() && x.abs() <= 1e6) {
+                    return Err(invalid("a position is not finite (or beyond 1e6 mm)".into()));
+                }
+            }
             CalibratedForce::Total { log_scale, sum_exponent, norm_exponent } => {
                 if ![log_scale, sum_exponent, norm_exponent].iter().all(|x| x.is_finite()) {
                     return Err(invalid("a total-change parameter is not finite".into()));
@@ -506,6 +590,26 @@ pub fn calibrate(
         }
     }
     let model = match method {
+        CalibrationMethod::Placed => {
+            let positions = layout.positions().to_vec();
+            let w = DEFAULT_PLACE_WIDTH_MM;
+            let mut acc = RidgeAccumulator::new(2);
+            for s in &used {
+                let (s1, s2) = total_change(&s.change);
+                if s1 > 0.0 {
+                    let r = place_response(&positions, &s.change, w).ln();
+                    acc.push(&[s1.ln() - r, s2.ln() - r], s.force_n.ln());
+                }
+            }
+            if acc.count() < 10 {
+                return Err(invalid(format!(
+                    "{} frames in contact moved the taxels; at least 10 are needed",
+                    acc.count()
+                )));
+            }
+            let (c, w2) = acc.solve(0.0).ok_or_else(|| invalid("the placed-law fit is singular".into()))?;
+            CalibratedForce::Placed { log_scale: c, sum_exponent: w2[0], norm_exponent: w2[1], width_mm: w, positions }
+        }
         CalibrationMethod::Total => {
             let mut acc = RidgeAccumulator::new(2);
             for s in &used {
@@ -682,6 +786,96 @@ mod tests {
     }
 
     #[test]
+    fn placed_recovers_its_own_law_exactly() {
+        let layout = Layout::biotac_sp();
+        let mut s = power_law_samples();
+        for x in &mut s {
+            let (s1, s2) = total_change(&x.change);
+            let r = place_response(layout.positions(), &x.change, DEFAULT_PLACE_WIDTH_MM).ln();
+            x.force_n = (-2.0 + 0.7 * (s1.ln() - r) + 0.2 * (s2.ln() - r)).exp();
+        }
+        let file = calibrate(&s, CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
+        assert_eq!(file.version, 3, "a placed file is version 3");
+        let CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, ref positions } = file.model
+        else {
+            panic!()
+        };
+        assert!((log_scale + 2.0).abs() < 1e-9 && (sum_exponent - 0.7).abs() < 1e-9, "{log_scale} {sum_exponent}");
+        assert!((norm_exponent - 0.2).abs() < 1e-9 && width_mm == DEFAULT_PLACE_WIDTH_MM);
+        assert_eq!(positions.as_slice(), layout.positions());
+        assert!(file.calibration.in_sample_mape_pct < 1e-6);
+        for x in &s {
+            let p = file.model.predict_sample(x).unwrap();
+            assert!((p - x.force_n).abs() < 1e-9 * x.force_n, "{p} {}", x.force_n);
+        }
+        // the file round-trips; no change is no force; NaN in, NaN out
+        let json = serde_json::to_string(&file).unwrap();
+        assert_eq!(serde_json::from_str::<ForceFile>(&json).unwrap(), file);
+        assert_eq!(file.model.predict_changes(&[0.0; 24]), Some(0.0));
+        assert!(file.model.predict_changes(&[f64::NAN; 24]).unwrap().is_nan());
+        // validation: width, positions
+        let bad = |m: CalibratedForce| ForceFile { model: m, ..file.clone() }.validate().is_err();
+        let placed = |w: f64, p: Vec<[f64; 2]>| CalibratedForce::Placed {
+            log_scale: 0.0,
+            sum_exponent: 1.0,
+            norm_exponent: 0.0,
+            width_mm: w,
+            positions: p,
+        };
+        let pos = layout.positions().to_vec();
+        assert!(!bad(placed(2.5, pos.clone())));
+        assert!(bad(placed(0.0, pos.clone())) && bad(placed(f64::NAN, pos.clone())) && bad(placed(1e9, pos.clone())));
+        assert!(bad(placed(2.5, pos[..23].to_vec())));
+        let mut inf = pos.clone();
+        inf[3][1] = f64::INFINITY;
+        assert!(bad(placed(2.5, inf)));
+    }
+
+    /// A Gaussian press of amplitude `a` and width `w` at `x` on `positions`.
+    fn gaussian_press(positions: &[[f64; 2]], x: [f64; 2], a: f64, w: f64) -> Vec<f64> {
+        positions
+            .iter()
+            .map(|p| -a * (-((p[0] - x[0]).powi(2) + (p[1] - x[1]).powi(2)) / (2.0 * w * w)).exp())
+            .collect()
+    }
+
+    #[test]
+    fn place_normalisation_is_exact_where_the_press_is_symmetric() {
+        // a square grid of 4 mm pitch; a press on an electrode (strongly coupled) and one at the
+        // centre of a cell (between four electrodes, weakly coupled): same force, same amplitude
+        let grid = |xs: &[f64]| -> Vec<[f64; 2]> { xs.iter().flat_map(|&y| xs.iter().map(move |&x| [x, y])).collect() };
+        let on = grid(&[-4.0, 0.0, 4.0]); // pressed at (0, 0), an electrode
+        let between = grid(&[-6.0, -2.0, 2.0, 6.0]); // pressed at (0, 0), between electrodes
+        let w = 1.5;
+        let (a_on, a_between) =
+            (gaussian_press(&on, [0.0, 0.0], 100.0, w), gaussian_press(&between, [0.0, 0.0], 100.0, w));
+        let (s_on, s_between) = (total_change(&a_on).0, total_change(&a_between).0);
+        assert!(s_on > 1.2 * s_between, "the electrode sees more: {s_on} {s_between}");
+        // S₁ / R(x̂) is the amplitude itself at both places (the centroid is the place)
+        for (pos, d) in [(&on, &a_on), (&between, &a_between)] {
+            let r = place_response(pos, d, w);
+            assert!((total_change(d).0 / r - 100.0).abs() < 1e-9, "{}", total_change(d).0 / r);
+        }
+        // so a `placed` model (p = 1, q = 0) reads the same force at both places
+        let model = |p: &Vec<[f64; 2]>| CalibratedForce::Placed {
+            log_scale: (0.05f64).ln(),
+            sum_exponent: 1.0,
+            norm_exponent: 0.0,
+            width_mm: w,
+            positions: p.clone(),
+        };
+        let f_on = model(&on).predict_changes(&a_on).unwrap();
+        let f_between = model(&between).predict_changes(&a_between).unwrap();
+        assert!((f_on - 5.0).abs() < 1e-9 && (f_between - 5.0).abs() < 1e-9, "{f_on} {f_between}");
+        // an all-zero change: the normaliser is 1, not a division by zero
+        assert_eq!(place_response(&on, &[0.0; 9], w), 1.0);
+        assert_eq!(place_response(&on, &[f64::NAN; 9], w), 1.0);
+        // a far place still gives a finite, positive normaliser
+        let far = gaussian_press(&on, [1e5, 0.0], 1.0, w);
+        assert!(place_response(&on, &far, w) >= 1e-6);
+    }
+
+    #[test]
     fn total_recovers_a_power_law_exactly() {
         let s = power_law_samples();
         let file = calibrate(&s, CalibrationMethod::Total, 0.0, ForceMethod::Linear, &Layout::biotac_sp()).unwrap();
@@ -710,7 +904,8 @@ mod tests {
         let e = calibrate(&s, CalibrationMethod::Total, 0.0, ForceMethod::Linear, &Layout::biotac_sp()).unwrap_err();
         assert!(e.to_string().contains("moved"), "{e}");
         assert_eq!(CalibrationMethod::parse("total"), Some(CalibrationMethod::Total));
-        assert_eq!(DEFAULT_METHOD, CalibrationMethod::Total);
+        assert_eq!(DEFAULT_METHOD, CalibrationMethod::Placed);
+        assert_eq!(CalibrationMethod::parse("placed"), Some(CalibrationMethod::Placed));
     }
 
     #[test]
@@ -836,7 +1031,7 @@ mod tests {
         let total =
             calibrate(&power_law_samples(), CalibrationMethod::Total, 0.0, ForceMethod::Linear, &Layout::biotac_sp())
                 .unwrap();
-        assert_eq!(total.version, 2);
+        assert_eq!(total.version, 2, "a total file stays readable by builds before `placed`");
         let ridge =
             calibrate(&power_law_samples(), CalibrationMethod::Ridge, 0.1, ForceMethod::Linear, &Layout::biotac_sp())
                 .unwrap();
