@@ -273,11 +273,7 @@ impl Stage for Delta2 {
 
 /// A scene's stage settings under `method = "events"` with `chain` and no other key.
 fn scene_settings(chain: EventChain) -> StageSettings {
-    let mut st = StageSettings::default();
-    st.locate.method = LocateMethod::Events;
-    st.locate.event_chain = chain;
-    st.apply_event_chain(|_| false);
-    st
+    StageSettings::for_method(LocateMethod::Events, chain)
 }
 
 /// Run one setting on one recording: track points and µs/frame.

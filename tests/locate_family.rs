@@ -182,8 +182,7 @@ fn tripled_noise_gives_the_same_event_track() {
 fn press_release_track(rec: &FamilyRecording) -> Vec<TrackPoint> {
     use gradtac::stages::events::Polarity;
     use gradtac::stages::window::WindowKind;
-    let mut st = StageSettings::default();
-    st.locate.method = LocateMethod::Events;
+    let st = StageSettings::for_method(LocateMethod::Events, gradtac::stages::locate::EventChain::PressRelease);
     assert!(st.normalise.bypass && st.events.polarity == Polarity::PressRelease);
     assert_eq!((st.window.kind, st.surface.grid.nx), (WindowKind::Cumulative, 32));
     assert_eq!((st.contour.min_peak, st.contour.min_area_mm2), (6.0, 60.0));
@@ -303,6 +302,9 @@ fn explain_prints_the_event_polarity_and_a_cumulative_window() {
         format!("{:?}", code),
         format!("{:?}", StageSettings { locate: code.locate.clone(), ..raw.stages.clone() })
     );
+    // or built for the method in one call
+    let one = StageSettings::for_method(LocateMethod::RawContour, code.locate.event_chain);
+    assert_eq!(format!("{:?}", one), format!("{:?}", code));
     // a normalise output (or table) keeps the normalisation: its events read normalised values
     let normalised =
         bare.text.replace("tap = \"track\"\npath = \"t.parquet\"", "tap = \"normalise\"\npath = \"n.parquet\"");
