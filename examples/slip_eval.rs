@@ -173,10 +173,12 @@ impl Summary {
 const HEADER: &str = "| | stable | long. up | long. down | rot. cw | rot. ccw | all right | onset \\|err\\| median (ms) | mean signed (ms) | \\|err\\| p90 (ms) | decided after onset, median (ms) | false alarms / min still |\n|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// The demo's recording (`gradtac demo`: another simulator, neither a tuning nor a held-out
-/// member) as frames, with the track points each frame makes.
+/// member) as frames in the order the demo's scene runs them (ties by the scene's sensor
+/// order, `gradtac::demo::frames_in_scene_order`: the slip onset depends on it), with the
+/// track points each frame makes.
 fn demo_frames() -> (Vec<gradtac::stream::TaxelFrame>, Vec<Vec<TrackPoint>>) {
     let rec = gradtac::demo::simulate(gradtac::demo::DEMO_SEED).expect("demo simulates");
-    let frames: Vec<gradtac::stream::TaxelFrame> = rec.frames.into_iter().map(|f| f.frame).collect();
+    let frames = gradtac::demo::frames_in_scene_order(&rec);
     let tracks = track_points_per_frame(&frames).expect("valid");
     (frames, tracks)
 }

@@ -44,7 +44,7 @@
 //! rows of what a `method = "events"` scene runs (`event_chain` default and `paper`);
 //! `--fit-only` (the fit, centroid and Δ² rows only: the round-4 rows of docs/tradeoff.md).
 
-use gradtac::chain::{effective_contour, effective_events};
+use gradtac::chain::event_track_stages;
 use gradtac::scene::StageSettings;
 use gradtac::stages::centroid::Centroid;
 use gradtac::stages::contour::{Contour, ContourConfig, ContourFrame, ContourOutcome, NoContact};
@@ -52,8 +52,6 @@ use gradtac::stages::events::{Events, EventsConfig, Polarity, Threshold};
 use gradtac::stages::fit::Fit;
 use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac::stages::locate::{CentroidWeights, ChangeDetector, EventChain, LocateConfig, LocateMethod, Preset};
-use gradtac::stages::normalise::Normalise;
-use gradtac::stages::peak::SurfaceContour;
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
 use gradtac::stages::sim_family::{FamilyRecording, KernelShape, Member, PathKind, PhysicsSet, Similarity, CORE_MM};
@@ -275,11 +273,7 @@ impl Stage for Delta2 {
 
 /// A scene's stage settings under `method = "events"` with `chain` and no other key.
 fn scene_settings(chain: EventChain) -> StageSettings {
-    let mut st = StageSettings::default();
-    st.locate.method = LocateMethod::Events;
-    st.locate.event_chain = chain;
-    st.apply_event_chain(|_| false);
-    st
+    StageSettings::for_method(LocateMethod::Events, chain)
 }
 
 /// Run one setting on one recording: track points and µs/frame.
@@ -306,17 +300,8 @@ fn run(
     let t0 = Instant::now();
     let pts = match s {
         Setting::SceneEvents(chain) => {
-            let st = scene_settings(*chain);
-            let n = layout.len();
-            Normalise::try_new(n, &st.normalise)
-                .unwrap()
-                .then(SavGol::try_with_rate(n, st.savgol.clone(), 100.0).unwrap())
-                .then(Events::try_new(n, effective_events(&st)).unwrap())
-                .then(Window::try_new(&st.window).unwrap())
-                .then(SurfaceContour::try_new(&st.surface, &effective_contour(&st), layout).unwrap())
-                .then(Track::try_new(&st.track).unwrap())
-                .run_all(frames)
-                .unwrap()
+            // what the scene runs (`gradtac::chain::event_track_stages`)
+            event_track_stages(&scene_settings(*chain), layout, Some(100.0)).unwrap().run_all(frames).unwrap()
         }
         Setting::Centroid { .. } => {
             Centroid::try_new(&s.locate().unwrap(), layout).unwrap().then(track()).run_all(frames).unwrap()

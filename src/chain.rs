@@ -148,6 +148,52 @@ pub fn effective_contour(st: &StageSettings) -> ContourConfig {
     }
 }
 
+/// The Savitzky–Golay stage a scene builds: rate-aware when the source has a rate.
+fn savgol_stage(st: &StageSettings, n: usize, rate_hz: Option<f64>) -> Result<SavGol, gradtac_stages::Error> {
+    match rate_hz {
+        Some(r) => SavGol::try_with_rate(n, st.savgol.clone(), r),
+        None => SavGol::try_new(n, st.savgol.clone()),
+    }
+}
+
+/// The stages a `[stages.locate] method = "events"` scene runs for one sensor up to its
+/// track, composed into one [`Stage`]: normalise (bypassed under the default `event_chain`)
+/// → Savitzky–Golay → events (threshold from [`effective_events`]) → window → surface and
+/// maximal contour (fused, as a scene fuses them when no output taps the surface; contour
+/// settings from [`effective_contour`]) → track. Every stage is built from `st` exactly as
+/// [`SensorChain::build`] builds it (a test checks that the track points equal a scene run's),
+/// so code that scores or benchmarks "what a scene runs" calls this rather than composing the
+/// stages by hand. `rate_hz` is the source's rate (`None`: Savitzky–Golay settings in frames).
+///
+/// `st` is taken as resolved: a struct built in code whose `locate.method` or
+/// `locate.event_chain` was changed after [`StageSettings::default`] needs
+/// [`StageSettings::apply_event_chain`] first, as a scene's parse does. Fails on invalid
+/// settings, and when `st.locate.method` is not `events` (the other methods locate contact
+/// through other stages; a scene runs those).
+pub fn event_track_stages(
+    st: &StageSettings,
+    layout: &gradtac_stream::Layout,
+    rate_hz: Option<f64>,
+) -> Result<impl Stage<In = TaxelFrame, Out = TrackPoint, Error = gradtac_stream::Error>, Error> {
+    use gradtac_stream::StageExt;
+    if st.locate.method != LocateMethod::Events {
+        return Err(Error::Scene {
+            path: std::path::PathBuf::from("<event_track_stages>"),
+            reason: format!(
+                "the event stages locate contact under [stages.locate] method = \"events\", not {:?}",
+                st.locate.method.name()
+            ),
+        });
+    }
+    let n = layout.len();
+    Ok(Normalise::try_new(n, &st.normalise)?
+        .then(savgol_stage(st, n, rate_hz)?)
+        .then(Events::try_new(n, effective_events(st))?)
+        .then(Window::try_new(&st.window)?)
+        .then(SurfaceContour::try_new(&st.surface, &effective_contour(st), layout)?)
+        .then(Track::try_new(&st.track)?))
+}
+
 impl SensorChain {
     /// Build the stages `plan` says the sensor runs, validating their settings.
     pub fn build(scene: &Scene, plan: &SensorPlan) -> Result<SensorChain, Error> {
@@ -220,12 +266,7 @@ impl SensorChain {
             sensor: SensorId::new(&plan.name),
             taps,
             normalise: runs(Tap::Normalise).then(|| Normalise::try_new(n, &st.normalise)).transpose()?,
-            savgol: runs(Tap::Savgol)
-                .then(|| match rate {
-                    Some(r) => SavGol::try_with_rate(n, st.savgol.clone(), r),
-                    None => SavGol::try_new(n, st.savgol.clone()),
-                })
-                .transpose()?,
+            savgol: runs(Tap::Savgol).then(|| savgol_stage(st, n, rate)).transpose()?,
             events: runs(Tap::Events).then(|| Events::try_new(n, effective_events(st))).transpose()?,
             window: (runs(Tap::Window) && method != LocateMethod::RawContour)
                 .then(|| Window::try_new(&st.window))
@@ -744,5 +785,63 @@ impl SensorChain {
         }
         // the points stay for the runner's slip stage (take_points), cleared on the next call
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use arrow_array::{Array, Float64Array, RecordBatch};
+    use gradtac_stream::StageExt;
+
+    fn xs(batches: &[RecordBatch]) -> Vec<(f64, f64)> {
+        let col = |b: &RecordBatch, name: &str| {
+            let a = b.column_by_name(name).unwrap().as_any().downcast_ref::<Float64Array>().unwrap().clone();
+            (0..a.len()).map(move |i| if a.is_null(i) { f64::NAN } else { a.value(i) }).collect::<Vec<_>>()
+        };
+        batches.iter().flat_map(|b| col(b, "x_mm").into_iter().zip(col(b, "y_mm"))).collect()
+    }
+
+    /// [`event_track_stages`] is what a `method = "events"` scene runs: the same track points,
+    /// to the bit, as the scene's runner (a one-sensor pipeline tapping `track`) on the demo's
+    /// first finger, for the default chain and the `paper` chain.
+    #[test]
+    fn the_event_stages_equal_a_scene_run() {
+        use gradtac_stages::locate::EventChain;
+        let rec = crate::demo::simulate(crate::demo::DEMO_SEED).unwrap();
+        let frames: Vec<TaxelFrame> =
+            rec.frames.iter().map(|f| f.frame.clone()).filter(|f| f.sensor.as_str() == "ff").collect();
+        let layout = gradtac_stream::Layout::biotac_sp();
+        for (chain, text) in [
+            (EventChain::PressRelease, "[locate]\nmethod = \"events\"\n"),
+            (EventChain::Paper, "[locate]\nmethod = \"events\"\nevent_chain = \"paper\"\n"),
+        ] {
+            let mut st = StageSettings::default();
+            st.locate.method = LocateMethod::Events;
+            st.locate.event_chain = chain;
+            st.apply_event_chain(|_| false);
+            let ours = event_track_stages(&st, &layout, Some(100.0)).unwrap().run_all(frames.clone()).unwrap();
+            let settings: toml::Table = toml::from_str(text).unwrap();
+            let mut p = crate::memory::Pipeline::new("biotac-sp", "track", &settings, Some(100.0), "ff").unwrap();
+            let mut batches = Vec::new();
+            for f in &frames {
+                p.push(f.time, f.values.clone()).unwrap();
+                batches.push(p.take().unwrap());
+            }
+            batches.push(p.finish().unwrap());
+            let scene = xs(&batches);
+            let ours: Vec<(f64, f64)> = ours.iter().map(|q| (q.x_mm, q.y_mm)).collect();
+            assert_eq!(ours.len(), scene.len(), "{chain:?}");
+            assert!(ours.iter().any(|q| q.0.is_finite()), "{chain:?}: some contact");
+            for (k, (a, b)) in ours.iter().zip(&scene).enumerate() {
+                assert!(
+                    a.0.to_bits() == b.0.to_bits() && a.1.to_bits() == b.1.to_bits()
+                        || a.0.is_nan() && b.0.is_nan() && a.1.is_nan() && b.1.is_nan(),
+                    "{chain:?} point {k}: {a:?} vs {b:?}"
+                );
+            }
+        }
+        let centroid = StageSettings::default();
+        assert!(event_track_stages(&centroid, &layout, Some(100.0)).is_err());
     }
 }

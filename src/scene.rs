@@ -537,6 +537,19 @@ pub const EVENT_CHAIN_KEYS: [(&str, &str); 8] = [
 ];
 
 impl StageSettings {
+    /// The settings of a scene whose only `[stages.*]` keys are `[stages.locate] method` and
+    /// `event_chain`: every stage's defaults, with the event chain's values resolved for that
+    /// method and chain. Code that wants a method other than the default's starts here rather
+    /// than changing `locate.method` on [`StageSettings::default`] (whose chain values were
+    /// resolved for the centroid, and which `raw_contour` does not share).
+    pub fn for_method(method: LocateMethod, chain: EventChain) -> StageSettings {
+        let mut st = StageSettings::default();
+        st.locate.method = method;
+        st.locate.event_chain = chain;
+        st.apply_event_chain(|_| false);
+        st
+    }
+
     /// Give the event chain's keys that `set(&(table, key))` says the scene did not set the
     /// values of `[stages.locate] event_chain` ([`EventChain`]):
     /// `[stages.normalise] bypass` (only when the scene has no `[stages.normalise]` table and no
@@ -548,7 +561,8 @@ impl StageSettings {
     /// the stages' defaults. [`Scene::from_toml`] calls it with the
     /// keys its text sets; code that builds settings calls it with `|_| false`, as
     /// [`StageSettings::default`] does (for the centroid), and again after changing
-    /// `locate.method` or `locate.event_chain`.
+    /// `locate.method` or `locate.event_chain` — or starts from
+    /// [`StageSettings::for_method`], which does both.
     pub fn apply_event_chain(&mut self, set: impl Fn(&(&str, &str)) -> bool) {
         let chain = self.locate.event_chain;
         let [normalise, polarity, kind, frames, duration, nx, peak, area] = EVENT_CHAIN_KEYS.map(|k| set(&k));
@@ -939,6 +953,29 @@ calibrate_frames = 20
 tap = "normalise"
 path = "out/normalised.parquet"
 "#;
+
+    /// `for_method` is what a scene with only `method` and `event_chain` parses to, for every
+    /// method and chain (the trap it avoids: `raw_contour` on the default's chain values).
+    #[test]
+    fn for_method_equals_the_scene_with_only_those_keys() {
+        use gradtac_stages::locate::{EventChain, LocateMethod};
+        for method in [LocateMethod::Centroid, LocateMethod::Events, LocateMethod::RawContour, LocateMethod::Fit] {
+            for chain in [EventChain::PressRelease, EventChain::Paper] {
+                let text = format!(
+                    "[[sensor]]\nname = \"ff\"\nsource = {{ csv = \"x.csv\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\
+                     [stages.locate]\nmethod = \"{}\"\nevent_chain = \"{}\"\n\
+                     [[output]]\ntap = \"track\"\npath = \"t.parquet\"\n",
+                    method.name(),
+                    chain.name()
+                );
+                let scene = Scene::from_toml(&text, ".", Path::new("s.toml")).unwrap();
+                let code = StageSettings::for_method(method, chain);
+                assert_eq!(format!("{:?}", code), format!("{:?}", scene.stages), "{method:?} {chain:?}");
+            }
+        }
+        let raw = StageSettings::for_method(LocateMethod::RawContour, EventChain::PressRelease);
+        assert_eq!((raw.surface.grid.nx, raw.contour.min_area_mm2), (64, 1.0));
+    }
 
     #[test]
     fn the_issue_example_parses() {

@@ -180,25 +180,14 @@ fn tripled_noise_gives_the_same_event_track() {
 /// on its tuning members (32×32, min area 60 mm², min peak 6 events); built from the scene's
 /// default settings through the scene's stages.
 fn press_release_track(rec: &FamilyRecording) -> Vec<TrackPoint> {
-    use gradtac::chain::{effective_contour, effective_events};
     use gradtac::stages::events::Polarity;
-    use gradtac::stages::normalise::Normalise;
-    use gradtac::stages::peak::SurfaceContour;
     use gradtac::stages::window::WindowKind;
-    let mut st = StageSettings::default();
-    st.locate.method = LocateMethod::Events;
+    let st = StageSettings::for_method(LocateMethod::Events, gradtac::stages::locate::EventChain::PressRelease);
     assert!(st.normalise.bypass && st.events.polarity == Polarity::PressRelease);
     assert_eq!((st.window.kind, st.surface.grid.nx), (WindowKind::Cumulative, 32));
     assert_eq!((st.contour.min_peak, st.contour.min_area_mm2), (6.0, 60.0));
-    let layout = Layout::biotac_sp();
-    let n = layout.len();
-    Normalise::try_new(n, &st.normalise)
+    gradtac::chain::event_track_stages(&st, &Layout::biotac_sp(), Some(100.0))
         .unwrap()
-        .then(SavGol::try_with_rate(n, st.savgol.clone(), 100.0).unwrap())
-        .then(Events::try_new(n, effective_events(&st)).unwrap())
-        .then(Window::try_new(&st.window).unwrap())
-        .then(SurfaceContour::try_new(&st.surface, &effective_contour(&st), &layout).unwrap())
-        .then(Track::try_new(&st.track).unwrap())
         .run_all(rec.frames.clone())
         .unwrap()
 }
@@ -313,6 +302,9 @@ fn explain_prints_the_event_polarity_and_a_cumulative_window() {
         format!("{:?}", code),
         format!("{:?}", StageSettings { locate: code.locate.clone(), ..raw.stages.clone() })
     );
+    // or built for the method in one call
+    let one = StageSettings::for_method(LocateMethod::RawContour, code.locate.event_chain);
+    assert_eq!(format!("{:?}", one), format!("{:?}", code));
     // a normalise output (or table) keeps the normalisation: its events read normalised values
     let normalised =
         bare.text.replace("tap = \"track\"\npath = \"t.parquet\"", "tap = \"normalise\"\npath = \"n.parquet\"");

@@ -101,11 +101,14 @@
 //! (per shape: median |error| / mean signed, ms.) Exponential kernel (held-out physics): 48 /
 //! −6 ms against 50 / −6. By property (default): grip still ramping 44 / −7, load rising
 //! 42 / +3, one finger first 53 / +27, none of the three 32 / −14, slower than 4 mm/s
-//! 55 / −14 ms. The demo's recording: `gradtac demo` prints **−0.074 s**; `slip_eval`'s
-//! in-process replay of the same recording gives −0.050 s (previous default −0.020 s there;
-//! why the CLI's run through the CSV and the scene runner differs from the replay with the fit
-//! position was not investigated). The demo is the old simulator, neither tuning nor held out,
-//! and was not a criterion this round.
+//! 55 / −14 ms. The demo's recording: `gradtac demo` prints **−0.074 s**, and so does
+//! `slip_eval`'s in-process replay (previous default −0.020 s). The replay used to give
+//! −0.050 s because it fed the two fingers' same-time frames in the simulator's order (thumb
+//! first) while the scene's runner breaks ties by the scene's sensor order (first finger
+//! first): this stage decides at the first input that completes its condition, and the onset
+//! fit then reads one finger's history one point longer in one order than in the other
+//! (`gradtac::demo` has the measurement). The demo is the old simulator, neither tuning nor
+//! held out, and was not a criterion this round.
 //!
 //! Against the targets (per start shape median |error| ≤ 30 ms and mean signed within ±10 ms):
 //! **not met.** Every shape's median falls (step 52 → 42, linear 46 → 43, smooth 47 → 40 ms),
