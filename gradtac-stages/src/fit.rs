@@ -403,6 +403,15 @@ fn kern(r2: f64, lw: f64, a: f64, q: f64, fold: bool) -> (f64, f64, f64, f64) {
 fn kernel(r2: f64, lw: f64, a: f64, q: f64) -> (f64, f64, f64, f64) {
     let w2 = (2.0 * lw).exp();
     let m2 = LOBE_RATIO * LOBE_RATIO;
+    if q >= SHAPE_MAX {
+        // the Gaussian lobes, evaluated exactly as before the shape exponent (bit for bit)
+        let e1 = (-r2 / (2.0 * w2)).exp();
+        let e2 = (-r2 / (2.0 * m2 * w2)).exp();
+        let k = (1.0 + a) * e1 - a * e2;
+        let dr2 = -(1.0 + a) * e1 / (2.0 * w2) + a * e2 / (2.0 * m2 * w2);
+        let dlw = (1.0 + a) * e1 * r2 / w2 - a * e2 * r2 / (m2 * w2);
+        return (k, dr2, dlw, e1 - e2);
+    }
     let (u1, u2) = (r2 / w2, r2 / (m2 * w2));
     let (e1, d1) = lobe(u1, q);
     let (e2, d2) = lobe(u2, q);
@@ -1624,8 +1633,9 @@ mod tests {
             let (e1, e2) = ((-r2 / (2.0 * w2)).exp(), (-r2 / (2.0 * m2 * w2)).exp());
             let k = kernel(r2, lw, a, 2.0);
             assert_eq!(k.0, (1.0 + a) * e1 - a * e2);
-            assert!((k.1 - (-(1.0 + a) * e1 / (2.0 * w2) + a * e2 / (2.0 * m2 * w2))).abs() < 1e-15);
-            assert!((k.2 - ((1.0 + a) * e1 * r2 / w2 - a * e2 * r2 / (m2 * w2))).abs() < 1e-12);
+            assert_eq!(k.1, -(1.0 + a) * e1 / (2.0 * w2) + a * e2 / (2.0 * m2 * w2));
+            assert_eq!(k.2, (1.0 + a) * e1 * r2 / w2 - a * e2 * r2 / (m2 * w2));
+            assert_eq!(k.3, e1 - e2);
             // every shape: analytic derivatives against central differences
             for q in [1.0, 1.3, 1.7, 2.0] {
                 let r2 = r2.max(0.5);
