@@ -13,13 +13,14 @@
 //! one term of the member's physics kept: `gains`, `lag`, `kernel`, `drift`, `noise`, `knee`;
 //! `none` keeps none); `--without TERM` (the member's physics with that term made ideal);
 //! `--heldout` (score the held-out members, seeds 100–115 × 4 kinds, `PhysicsSet::HeldOut`,
-//! instead: for a final candidate only, never for a choice).
+//! instead: for a final candidate only, never for a choice); `--verbose` (each member's
+//! kernel, learned shape exponent `q̂` and error).
 
 use gradtac::stages::fit::Fit;
 use gradtac::stages::locate::LocateConfig;
 use gradtac::stages::sim_family::{KernelShape, Member, PathKind, Physics, PhysicsSet};
 use gradtac::stages::track::{ContactState, Track, TrackConfig};
-use gradtac::stream::{Layout, StageExt};
+use gradtac::stream::{Layout, Stage, StageExt};
 use std::collections::HashMap;
 
 fn ideal(p: &mut Physics, term: &str, keep: bool) {
@@ -49,6 +50,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut seeds = 8u64;
     let mut heldout = false;
+    let mut verbose = false;
     let mut only: Option<String> = None;
     let mut without: Option<String> = None;
     let mut toml = String::from("preset = \"accurate\"\n");
@@ -57,6 +59,7 @@ fn main() {
         match a.as_str() {
             "--seeds" => seeds = it.next().and_then(|v| v.parse().ok()).expect("--seeds N"),
             "--heldout" => heldout = true,
+            "--verbose" => verbose = true,
             "--only" => only = it.next().cloned(),
             "--without" => without = it.next().cloned(),
             line => {
@@ -85,11 +88,15 @@ fn main() {
             ideal(&mut p, t, true);
         }
         let rec = p.simulate(m.seed);
-        let pts = Fit::try_new(&cfg, &layout)
-            .unwrap()
-            .then(Track::try_new(&TrackConfig::default()).unwrap())
-            .run_all(rec.frames.clone())
-            .unwrap();
+        // the fit pushed by hand so that its learned kernel shape can be read before `finish`
+        let mut fit = Fit::try_new(&cfg, &layout).unwrap();
+        let mut contours = Vec::new();
+        for f in rec.frames.iter().cloned() {
+            fit.push(f, &mut contours).unwrap();
+        }
+        let shape = fit.shape();
+        fit.finish(&mut contours).unwrap();
+        let pts = Track::try_new(&TrackConfig::default()).unwrap().run_all(contours).unwrap();
         let (t0, t1) = rec.moving_s;
         let mut errs = Vec::new();
         for q in &pts {
@@ -115,6 +122,15 @@ fn main() {
         } else {
             errs.iter().sum::<f64>() / errs.len() as f64
         };
+        if verbose {
+            println!(
+                "  seed {:3} {:10} kernel {:12} q̂ {shape:.2} | {:.4}",
+                m.seed,
+                m.kind.name(),
+                rec.physics.kernel.name(),
+                mean / width
+            );
+        }
         by_kind.entry(m.kind).or_default().push(mean / width);
     }
     let mut worst = (0.0, "");

@@ -118,6 +118,9 @@ struct FitSetting {
     /// Gains' self-calibration: key frames (`fit_gain_keys`; 0 = the per-frame step), with
     /// the `accurate` preset's spacing and prior.
     keys: u32,
+    /// The kernel folded to `|K|` and its shape exponent learned per sensor
+    /// (`fit_fold_lobe`, `fit_shape_rate` 0.05; stop 30).
+    shape: bool,
 }
 
 impl Setting {
@@ -146,9 +149,10 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, lag, continuity, keys }) => format!(
-                "window {window}, ≤ {iterations} iterations, {}, {}, model error {model_error}, contact {contact} σ, {}, smooth {smooth}, {}, {}",
+            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, lag, continuity, keys, shape }) => format!(
+                "window {window}, ≤ {iterations} iterations, {}{}, {}, model error {model_error}, contact {contact} σ, {}, smooth {smooth}, {}, {}",
                 if *signed { "signed" } else { "magnitudes" },
+                if *shape { ", kernel folded, shape learned (0.05)" } else { "" },
                 if *keys > 0 && *gain_rate > 0.0 { format!("gains self-calibrated ({keys} keys)") } else { format!("gain rate {gain_rate}") },
                 if *lag { "lag estimated online".to_string() } else { format!("lead {} ms", lead * 1e3) },
                 speed(*v),
@@ -213,7 +217,10 @@ impl Setting {
                 lag,
                 continuity,
                 keys,
+                shape,
             }) => Some(LocateConfig {
+                fit_fold_lobe: shape,
+                fit_shape_rate: if shape { 0.05 } else { 0.0 },
                 fit_gain_keys: keys,
                 fit_gain_spacing_mm: LocateConfig::preset(Preset::Accurate).fit_gain_spacing_mm,
                 fit_gain_prior: LocateConfig::preset(Preset::Accurate).fit_gain_prior,
@@ -575,6 +582,7 @@ fn main() {
             lag: false,
             continuity,
             keys: 0,
+            shape: false,
         })
     };
     for window in [1u32, 5] {
@@ -624,6 +632,16 @@ fn main() {
                 f.lag = lag;
                 settings.push(Setting::Fit(f));
             }
+        }
+    }
+    // stop 30: the kernel folded to |K| and its shape exponent learned (`fit_fold_lobe`,
+    // `fit_shape_rate`), on the `accurate` preset's point (window 9, self-calibrated gains,
+    // motion prior) and without the self-calibration
+    for k in [keys, 0] {
+        if let Setting::Fit(mut f) = fit(9, 3, 0.1, 0.3, false, 10.0, 0.0, true) {
+            f.keys = k;
+            f.shape = true;
+            settings.push(Setting::Fit(f));
         }
     }
     for grid in [16usize, 32] {
@@ -891,8 +909,8 @@ fn main() {
     }
     let la = LocateConfig::preset(Preset::Accurate);
     let lib_accurate = rows.iter().find(|r| {
-        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys })
-            if keys == la.fit_gain_keys && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys, shape })
+            if keys == la.fit_gain_keys && shape == (la.fit_fold_lobe && la.fit_shape_rate > 0.0) && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
                 && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
                 && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
     });

@@ -487,9 +487,18 @@ impl SensorChain {
                         l.fit_lead_s, l.fit_velocity_frames
                     )
                 };
+                let shape = format!(
+                    "kernel {}{}",
+                    if l.fit_shape_rate > 0.0 {
+                        format!("shape exponent q (2 Gaussian … 1 exponential) learned per sensor at rate {}", l.fit_shape_rate)
+                    } else {
+                        "Gaussian lobes (fit_shape_rate 0)".to_string()
+                    },
+                    if l.fit_fold_lobe && !l.fit_signed { ", folded to |K| (fit_fold_lobe)" } else { "" }
+                );
                 format!(
                     "model fit (preset {}): robust Levenberg–Marquardt, ≤ {} iterations, on the 3-D electrode cores when the \
-                     layout is the BioTac SP; spread, amplitude, far lobe; {gains}; model error {} of the \
+                     layout is the BioTac SP; spread, amplitude, far lobe; {shape}; {gains}; model error {} of the \
                      largest change; electrodes at the rails [{}, {}] left out; reports residual and σ (mm) per point; \
                      {lag}; {prior}; position memory {} frames, {speed} ({})",
                     l.preset.name(),

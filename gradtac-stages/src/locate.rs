@@ -285,6 +285,16 @@ pub struct LocateConfig {
     /// `fit`: self-calibration's pull toward unit gains (≥ 0, ≤ 1e6), in key frames of a full
     /// response (an electrode at the key's largest change counts ≈ 1). Default 1.
     pub fit_gain_prior: f64,
+    /// `fit`: how fast the kernel's shape exponent `q` is learned (0–1 per clean fit; 0 = off,
+    /// the Gaussian `q = 2`): each lobe is `exp(−(ρ/w)^q/q)`, `q` in [1, 2] (1 the
+    /// exponential), one value per sensor, moved by this fraction toward each clean frame's
+    /// best `q` ([`crate::fit`], *Kernel shape*). Default 0.
+    pub fit_shape_rate: f64,
+    /// `fit`: with the magnitude fit (`fit_signed = false`), fit the kernel's magnitude `|K|`
+    /// too (`true`), so a far ring that moves the other way — whose changes arrive as
+    /// magnitudes — is modelled as the data see it ([`crate::fit`], *Kernel shape*). Default
+    /// `false`.
+    pub fit_fold_lobe: bool,
     /// `fit`: model error as a fraction of the frame's largest change, added in quadrature to
     /// each electrode's measured noise (≥ 0, ≤ 1): how much the response may differ from the
     /// fitted kernel before an electrode stops counting fully. Default 0.3.
@@ -363,6 +373,8 @@ struct LocateToml {
     fit_gain_keys: Option<u32>,
     fit_gain_spacing_mm: Option<f64>,
     fit_gain_prior: Option<f64>,
+    fit_shape_rate: Option<f64>,
+    fit_fold_lobe: Option<bool>,
     fit_model_error: Option<f64>,
     fit_rails: Option<[f64; 2]>,
     fit_signed: Option<bool>,
@@ -400,6 +412,8 @@ impl From<LocateToml> for LocateConfig {
             fit_gain_keys,
             fit_gain_spacing_mm,
             fit_gain_prior,
+            fit_shape_rate,
+            fit_fold_lobe,
             fit_model_error,
             fit_rails,
             fit_signed,
@@ -492,6 +506,8 @@ impl LocateConfig {
             fit_gain_keys: 0,
             fit_gain_spacing_mm: 1.0,
             fit_gain_prior: 1.0,
+            fit_shape_rate: 0.0,
+            fit_fold_lobe: false,
             fit_model_error: 0.3,
             fit_rails: [0.0, 4095.0],
             fit_signed: false,
@@ -559,6 +575,9 @@ impl LocateConfig {
         }
         if !(self.fit_gain_prior.is_finite() && (0.0..=1e6).contains(&self.fit_gain_prior)) {
             return bad(format!("`fit_gain_prior` = {} must be in [0, 1e6]", self.fit_gain_prior));
+        }
+        if !(self.fit_shape_rate.is_finite() && (0.0..=1.0).contains(&self.fit_shape_rate)) {
+            return bad(format!("`fit_shape_rate` = {} must be in [0, 1] (0 = off)", self.fit_shape_rate));
         }
         if !(self.fit_model_error.is_finite() && (0.0..=1.0).contains(&self.fit_model_error)) {
             return bad(format!("`fit_model_error` = {} must be in [0, 1]", self.fit_model_error));
@@ -1400,6 +1419,8 @@ mod tests {
             LocateConfig { fit_lag_max_s: 0.2, ..Default::default() },
             LocateConfig { fit_lag_max_s: f64::NAN, ..Default::default() },
             LocateConfig { fit_lag_prior: -1.0, ..Default::default() },
+            LocateConfig { fit_shape_rate: 1.5, ..Default::default() },
+            LocateConfig { fit_shape_rate: f64::NAN, ..Default::default() },
             LocateConfig { fit_velocity_frames: 101, ..Default::default() },
             LocateConfig { fit_motion_prior: -0.5, ..Default::default() },
             LocateConfig { fit_motion_prior: f64::INFINITY, ..Default::default() },
