@@ -38,7 +38,7 @@ use gradtac::stages::force_model::{
     calibrate, force_detector, force_detector_s29, place_response, CalibrationMethod, GaugeSample,
     DEFAULT_PLACE_WIDTH_MM,
 };
-use gradtac::stages::locate::{ChangeDetector, LocateConfig, LocateMethod, Preset};
+use gradtac::stages::locate::{ChangeDetector, Changes, LocateConfig, LocateMethod, Preset};
 use gradtac::stages::normalise::Normalise;
 use gradtac::stages::peak::SurfaceContour;
 use gradtac::stages::raw_contour::RawChange;
@@ -138,6 +138,16 @@ struct Row {
     sample: GaugeSample,
 }
 
+impl Row {
+    /// A change detector's frame: its baseline-relative changes (possibly rescaled) and contact flag.
+    fn of_change(ch: &Changes, change: Vec<f64>) -> Row {
+        Row {
+            t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
+            sample: GaugeSample { change, contact: ch.contact, area_mm2: None, amplitude: None, force_n: 0.0 },
+        }
+    }
+}
+
 /// Features of every output of the method's chain, and µs per frame.
 fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
     let layout = Layout::biotac_sp();
@@ -162,16 +172,7 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                         eprintln!("gains {:?}", fit.gains().iter().map(|g| format!("{g:.2}")).collect::<Vec<_>>());
                     }
                     let change = det.change().iter().zip(fit.gains()).map(|(d, g)| d / g.abs().max(0.1)).collect();
-                    Row {
-                        t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
-                        sample: GaugeSample {
-                            change,
-                            contact: ch.contact,
-                            area_mm2: None,
-                            amplitude: None,
-                            force_n: 0.0,
-                        },
-                    }
+                    Row::of_change(&ch, change)
                 })
                 .collect()
         }
@@ -190,16 +191,7 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                         None => place_response(layout.positions(), det.change(), PLACED_W_MM[k]),
                     };
                     let change = det.change().iter().map(|d| d / r).collect();
-                    Row {
-                        t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
-                        sample: GaugeSample {
-                            change,
-                            contact: ch.contact,
-                            area_mm2: None,
-                            amplitude: None,
-                            force_n: 0.0,
-                        },
-                    }
+                    Row::of_change(&ch, change)
                 })
                 .collect()
         }
@@ -228,16 +220,7 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                 .into_iter()
                 .map(|f| {
                     let ch = det.push(&f, "force").unwrap();
-                    Row {
-                        t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
-                        sample: GaugeSample {
-                            change: det.change().to_vec(),
-                            contact: ch.contact,
-                            area_mm2: None,
-                            amplitude: None,
-                            force_n: 0.0,
-                        },
-                    }
+                    Row::of_change(&ch, det.change().to_vec())
                 })
                 .collect()
         }
