@@ -422,65 +422,25 @@ pub fn fit(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &TrainConfig) -
     let d = cfg.net.inputs(taxels);
     let Prepared { classes, mean, scale, xs, ys, mut p, .. } = prepare(samples, d, cfg.net.hidden, cfg.seed)?;
     let n = samples.len() as f64;
-    let (h, c) = (cfg.net.hidden, classes.len());
-    // parameters flattened: w1 (h×d), b1 (h), w2 (c×h), b2 (c)
-    let (o_b1, o_w2, o_b2) = (h * d, h * d + h, h * d + h + c * h);
-    let total = o_b2 + c;
-    let (mut m1, mut m2) = (vec![0.0; total], vec![0.0; total]);
-    let (beta1, beta2, eps) = (0.9f64, 0.999f64, 1e-8);
-    let mut g = vec![0.0; total];
-    let mut hid = vec![0.0; h];
-    let mut dh = vec![0.0; h];
+    let mut opt = Optimiser::new(d, cfg.net.hidden, classes.len());
     for step in 1..=cfg.epochs {
-        g.iter_mut().for_each(|v| *v = 0.0);
+        opt.zero_grad();
         for (x, &y) in xs.iter().zip(&ys) {
-            for k in 0..h {
-                let row = &p[k * d..(k + 1) * d];
-                hid[k] = (p[o_b1 + k] + dot(row, x)).clamp(-MAX_PRE, MAX_PRE).tanh();
-            }
-            let logits: Vec<f64> =
-                (0..c).map(|k| p[o_b2 + k] + dot(&p[o_w2 + k * h..o_w2 + (k + 1) * h], &hid)).collect();
-            let prob = softmax(&logits);
-            dh.iter_mut().for_each(|v| *v = 0.0);
-            for k in 0..c {
-                let e = (prob[k] - f64::from(u8::from(k == y))) / n;
-                g[o_b2 + k] += e;
-                for j in 0..h {
-                    g[o_w2 + k * h + j] += e * hid[j];
-                    dh[j] += e * p[o_w2 + k * h + j];
-                }
-            }
-            for k in 0..h {
-                let e = dh[k] * (1.0 - hid[k] * hid[k]);
-                g[o_b1 + k] += e;
-                let row = &mut g[k * d..(k + 1) * d];
-                for (r, v) in row.iter_mut().zip(x) {
-                    *r += e * v;
-                }
-            }
+            opt.accumulate(&p, x, y, n);
         }
-        for (i, gi) in g.iter_mut().enumerate() {
-            if i < o_b1 || (o_w2..o_b2).contains(&i) {
-                *gi += 2.0 * cfg.l2 * p[i];
-            }
-        }
-        let (b1t, b2t) = (1.0 - beta1.powi(step as i32), 1.0 - beta2.powi(step as i32));
-        for i in 0..total {
-            m1[i] = beta1 * m1[i] + (1.0 - beta1) * g[i];
-            m2[i] = beta2 * m2[i] + (1.0 - beta2) * g[i] * g[i];
-            p[i] -= cfg.learning_rate * (m1[i] / b1t) / ((m2[i] / b2t).sqrt() + eps);
-        }
+        opt.step(&mut p, cfg.l2, cfg.learning_rate, step as i32);
     }
+    let (w1, b1, w2, b2) = opt.unpack(&p);
     let net = DosNet {
         config: cfg.net.clone(),
         taxels,
         classes,
         input_mean: mean,
         input_scale: scale,
-        w1: (0..h).map(|k| p[k * d..(k + 1) * d].to_vec()).collect(),
-        b1: p[o_b1..o_w2].to_vec(),
-        w2: (0..c).map(|k| p[o_w2 + k * h..o_w2 + (k + 1) * h].to_vec()).collect(),
-        b2: p[o_b2..].to_vec(),
+        w1,
+        b1,
+        w2,
+        b2,
         recordings: samples.len(),
     };
     net.validate()?;
@@ -488,6 +448,116 @@ pub fn fit(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &TrainConfig) -
 }
 
 const MAX_PRE: f64 = 40.0;
+
+/// The one-hidden-layer network's full-batch or mini-batch training step that both trainers
+/// share ([`fit`] and the window trainer's `fit_windows`): the gradient of the mean
+/// cross-entropy over the flattened parameters of [`Prepared::p`] (tanh hidden units,
+/// pre-activations clamped to ±40), L2 weight decay on the weights (not the biases) and an Adam
+/// step (β₁ 0.9, β₂ 0.999, ε 1e-8), with its moments and scratch buffers.
+pub(super) struct Optimiser {
+    d: usize,
+    h: usize,
+    c: usize,
+    m1: Vec<f64>,
+    m2: Vec<f64>,
+    g: Vec<f64>,
+    hid: Vec<f64>,
+    dh: Vec<f64>,
+}
+
+impl Optimiser {
+    const BETA1: f64 = 0.9;
+    const BETA2: f64 = 0.999;
+    const EPS: f64 = 1e-8;
+
+    /// For `d` inputs, `h` hidden units and `c` classes.
+    pub fn new(d: usize, h: usize, c: usize) -> Optimiser {
+        let total = h * d + h + c * h + c;
+        Optimiser {
+            d,
+            h,
+            c,
+            m1: vec![0.0; total],
+            m2: vec![0.0; total],
+            g: vec![0.0; total],
+            hid: vec![0.0; h],
+            dh: vec![0.0; h],
+        }
+    }
+
+    /// Offsets of `b1`, `w2` and `b2` in the flattened parameters (`w1` starts at 0).
+    fn offsets(&self) -> (usize, usize, usize) {
+        let (d, h, c) = (self.d, self.h, self.c);
+        (h * d, h * d + h, h * d + h + c * h)
+    }
+
+    /// Start a new batch's gradient.
+    pub fn zero_grad(&mut self) {
+        self.g.iter_mut().for_each(|v| *v = 0.0);
+    }
+
+    /// Add one standardised sample's cross-entropy gradient, divided by `n` (the batch size).
+    pub fn accumulate(&mut self, p: &[f64], x: &[f64], y: usize, n: f64) {
+        let (d, h, c) = (self.d, self.h, self.c);
+        let (o_b1, o_w2, o_b2) = self.offsets();
+        let (g, hid, dh) = (&mut self.g, &mut self.hid, &mut self.dh);
+        for k in 0..h {
+            hid[k] = (p[o_b1 + k] + dot(&p[k * d..(k + 1) * d], x)).clamp(-MAX_PRE, MAX_PRE).tanh();
+        }
+        let logits: Vec<f64> =
+            (0..c).map(|k| p[o_b2 + k] + dot(&p[o_w2 + k * h..o_w2 + (k + 1) * h], &hid[..])).collect();
+        let prob = softmax(&logits);
+        dh.iter_mut().for_each(|v| *v = 0.0);
+        for k in 0..c {
+            let e = (prob[k] - f64::from(u8::from(k == y))) / n;
+            g[o_b2 + k] += e;
+            for j in 0..h {
+                g[o_w2 + k * h + j] += e * hid[j];
+                dh[j] += e * p[o_w2 + k * h + j];
+            }
+        }
+        for k in 0..h {
+            let e = dh[k] * (1.0 - hid[k] * hid[k]);
+            g[o_b1 + k] += e;
+            for (r, v) in g[k * d..(k + 1) * d].iter_mut().zip(x) {
+                *r += e * v;
+            }
+        }
+    }
+
+    /// Weight decay `l2` on the weights, then Adam step number `step` (from 1) at `learning_rate`.
+    // four arrays indexed alike read most clearly by index
+    #[allow(clippy::needless_range_loop)]
+    pub fn step(&mut self, p: &mut [f64], l2: f64, learning_rate: f64, step: i32) {
+        let (o_b1, o_w2, o_b2) = self.offsets();
+        let (beta1, beta2) = (Self::BETA1, Self::BETA2);
+        for (i, gi) in self.g.iter_mut().enumerate() {
+            if i < o_b1 || (o_w2..o_b2).contains(&i) {
+                *gi += 2.0 * l2 * p[i];
+            }
+        }
+        let (b1t, b2t) = (1.0 - beta1.powi(step), 1.0 - beta2.powi(step));
+        for i in 0..self.g.len() {
+            let gi = self.g[i];
+            self.m1[i] = beta1 * self.m1[i] + (1.0 - beta1) * gi;
+            self.m2[i] = beta2 * self.m2[i] + (1.0 - beta2) * gi * gi;
+            p[i] -= learning_rate * (self.m1[i] / b1t) / ((self.m2[i] / b2t).sqrt() + Self::EPS);
+        }
+    }
+
+    /// The flattened parameters as `(w1, b1, w2, b2)`.
+    #[allow(clippy::type_complexity)]
+    pub fn unpack(&self, p: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>, Vec<Vec<f64>>, Vec<f64>) {
+        let (d, h, c) = (self.d, self.h, self.c);
+        let (o_b1, o_w2, o_b2) = self.offsets();
+        (
+            (0..h).map(|k| p[k * d..(k + 1) * d].to_vec()).collect(),
+            p[o_b1..o_w2].to_vec(),
+            (0..c).map(|k| p[o_w2 + k * h..o_w2 + (k + 1) * h].to_vec()).collect(),
+            p[o_b2..].to_vec(),
+        )
+    }
+}
 
 /// A recording's training representations: itself first, then its mirror image and copies.
 pub type Versions = Vec<(DosClass, Vec<f64>)>;

@@ -20,8 +20,6 @@
 //! [`WindowTrainConfig::learning_rate`]) on the mean cross-entropy plus `l2 · Σ w²` over the
 //! weight matrices, Xavier-uniform initial weights; deterministic for a seed.
 
-use super::dense::dot;
-use super::net::softmax;
 use super::train::{self, mirror_permutation, permute, Augment, SplitMix, TrainRecording};
 use super::*;
 
@@ -227,14 +225,7 @@ fn fit_one(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &WindowTrainCon
     let train::Prepared { classes, mean, scale, xs, ys, mut p, mut rng } =
         train::prepare(samples, d, cfg.net.hidden, cfg.seed)?;
     let n = samples.len();
-    let (h, c) = (cfg.net.hidden, classes.len());
-    let (o_b1, o_w2, o_b2) = (h * d, h * d + h, h * d + h + c * h);
-    let total = o_b2 + c;
-    let (mut m1, mut m2) = (vec![0.0; total], vec![0.0; total]);
-    let (beta1, beta2, eps) = (0.9f64, 0.999f64, 1e-8);
-    let mut g = vec![0.0; total];
-    let mut hid = vec![0.0; h];
-    let mut dh = vec![0.0; h];
+    let mut opt = train::Optimiser::new(d, cfg.net.hidden, classes.len());
     let mut order: Vec<usize> = (0..n).collect();
     let mut step = 0i32;
     for _ in 0..cfg.epochs {
@@ -245,55 +236,24 @@ fn fit_one(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &WindowTrainCon
         for chunk in order.chunks(cfg.batch) {
             step = step.saturating_add(1);
             let bn = chunk.len() as f64;
-            g.iter_mut().for_each(|v| *v = 0.0);
+            opt.zero_grad();
             for &s in chunk {
-                let (x, y) = (&xs[s], ys[s]);
-                for k in 0..h {
-                    hid[k] = (p[o_b1 + k] + dot(&p[k * d..(k + 1) * d], x)).clamp(-40.0, 40.0).tanh();
-                }
-                let logits: Vec<f64> =
-                    (0..c).map(|k| p[o_b2 + k] + dot(&p[o_w2 + k * h..o_w2 + (k + 1) * h], &hid)).collect();
-                let prob = softmax(&logits);
-                dh.iter_mut().for_each(|v| *v = 0.0);
-                for k in 0..c {
-                    let e = (prob[k] - f64::from(u8::from(k == y))) / bn;
-                    g[o_b2 + k] += e;
-                    for j in 0..h {
-                        g[o_w2 + k * h + j] += e * hid[j];
-                        dh[j] += e * p[o_w2 + k * h + j];
-                    }
-                }
-                for k in 0..h {
-                    let e = dh[k] * (1.0 - hid[k] * hid[k]);
-                    g[o_b1 + k] += e;
-                    for (r, v) in g[k * d..(k + 1) * d].iter_mut().zip(x) {
-                        *r += e * v;
-                    }
-                }
+                opt.accumulate(&p, &xs[s], ys[s], bn);
             }
-            for (i, gi) in g.iter_mut().enumerate() {
-                if i < o_b1 || (o_w2..o_b2).contains(&i) {
-                    *gi += 2.0 * cfg.l2 * p[i];
-                }
-            }
-            let (b1t, b2t) = (1.0 - beta1.powi(step), 1.0 - beta2.powi(step));
-            for i in 0..total {
-                m1[i] = beta1 * m1[i] + (1.0 - beta1) * g[i];
-                m2[i] = beta2 * m2[i] + (1.0 - beta2) * g[i] * g[i];
-                p[i] -= cfg.learning_rate * (m1[i] / b1t) / ((m2[i] / b2t).sqrt() + eps);
-            }
+            opt.step(&mut p, cfg.l2, cfg.learning_rate, step);
         }
     }
+    let (w1, b1, w2, b2) = opt.unpack(&p);
     let net = DosWindowNet {
         config: cfg.net.clone(),
         taxels,
         classes,
         input_mean: mean,
         input_scale: scale,
-        w1: (0..h).map(|k| p[k * d..(k + 1) * d].to_vec()).collect(),
-        b1: p[o_b1..o_w2].to_vec(),
-        w2: (0..c).map(|k| p[o_w2 + k * h..o_w2 + (k + 1) * h].to_vec()).collect(),
-        b2: p[o_b2..].to_vec(),
+        w1,
+        b1,
+        w2,
+        b2,
         recordings: 0,
     };
     net.validate()?;
