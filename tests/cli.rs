@@ -655,16 +655,20 @@ fn calibrate_cross_validates_and_takes_settings() {
     let settings = dir.path().join("settings.toml");
     fs::write(&settings, "drift_lags = [20, 40]\nfeatures = [\"drift_level\", \"drift_x\", \"drift_y\"]\n").unwrap();
     let model_path = dir.path().join("model.json");
-    let out = gradtac()
-        .args(["calibrate", "--cross-validate", "--gaussian", "--shrinkage", "0.25", "--settings"])
-        .arg(&settings)
-        .arg(&train)
-        .arg("--out")
-        .arg(&model_path)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let text = String::from_utf8(out.stdout).unwrap();
+    // `gradtac calibrate FLAGS --gaussian --shrinkage 0.25 --settings … TRAIN --out model.json`: its stdout
+    let calibrate = |flag: &str| {
+        let out = gradtac()
+            .args(["calibrate", flag, "--gaussian", "--shrinkage", "0.25", "--settings"])
+            .arg(&settings)
+            .arg(&train)
+            .arg("--out")
+            .arg(&model_path)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let text = calibrate("--cross-validate");
     assert!(text.contains("leave-one-group-out accuracy"), "{text}");
     // the held-out figures of the design choice (no BioTacSP-DoS object sets here: no cross-set)
     assert!(
@@ -694,16 +698,7 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert_eq!(student, model.clone().with_window(None).unwrap());
     assert_eq!(gradtac::calibrate::calibrate_dos(&train, &layout, &opts).unwrap().0, model, "deterministic");
     // --no-window: the Student-t model alone, as before the window part existed
-    let out = gradtac()
-        .args(["calibrate", "--no-window", "--gaussian", "--shrinkage", "0.25", "--settings"])
-        .arg(&settings)
-        .arg(&train)
-        .arg("--out")
-        .arg(&model_path)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = calibrate("--no-window");
     assert!(text.contains("calibrated on 12 recordings: 4 classes, 3 features, 24 parameters"), "{text}");
     assert!(!text.contains("window part"), "{text}");
     assert_eq!(gradtac::calibrate::read_model(&model_path).unwrap(), student);
