@@ -234,9 +234,8 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
             } else {
                 LocateConfig { method, ..Default::default() }
             };
-            let mut st = StageSettings { locate, ..Default::default() };
-            // the scene's event-chain defaults follow the method (raw_contour keeps the stages' own)
-            st.apply_event_chain(|_| false);
+            // resolved: the scene's event-chain defaults follow the method (raw_contour keeps the stages' own)
+            let st = StageSettings { locate, ..Default::default() }.resolved();
             let contours: Vec<ContourFrame> = match method {
                 LocateMethod::Centroid => Centroid::try_new(&st.locate, &layout).unwrap().run_all(frames).unwrap(),
                 LocateMethod::Fit => Fit::try_new(&st.locate, &layout).unwrap().run_all(frames).unwrap(),

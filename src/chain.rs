@@ -127,8 +127,10 @@ fn describe_detector(l: &gradtac_stages::locate::LocateConfig) -> String {
 
 /// The event settings in effect: under `[stages.locate] method = "events"` with
 /// `event_tau_sigmas > 0` the threshold is measured from each taxel's noise
-/// ([`Threshold::Noise`]) over the locate calibration's frames.
+/// ([`Threshold::Noise`]) over the locate calibration's frames. `st` is read resolved
+/// ([`StageSettings::resolved`]), as every builder reads it.
 pub fn effective_events(st: &StageSettings) -> gradtac_stages::events::EventsConfig {
+    let st = &st.resolved();
     let l = &st.locate;
     match l.method {
         LocateMethod::Events if l.event_tau_sigmas > 0.0 => gradtac_stages::events::EventsConfig {
@@ -140,8 +142,10 @@ pub fn effective_events(st: &StageSettings) -> gradtac_stages::events::EventsCon
 }
 
 /// The contour settings in effect: `raw_contour` surfaces are relative changes that are 0
-/// without a contact (the change detector decides), so their contour takes any peak.
+/// without a contact (the change detector decides), so their contour takes any peak. `st` is
+/// read resolved ([`StageSettings::resolved`]).
 pub fn effective_contour(st: &StageSettings) -> ContourConfig {
+    let st = &st.resolved();
     match st.locate.method {
         LocateMethod::RawContour => ContourConfig { min_peak: 0.0, ..st.contour.clone() },
         _ => st.contour.clone(),
@@ -157,24 +161,35 @@ fn savgol_stage(st: &StageSettings, n: usize, rate_hz: Option<f64>) -> Result<Sa
 }
 
 /// The stages a `[stages.locate] method = "events"` scene runs for one sensor up to its
-/// track, composed into one [`Stage`]: normalise (bypassed under the default `event_chain`)
-/// → Savitzky–Golay → events (threshold from [`effective_events`]) → window → surface and
-/// maximal contour (fused, as a scene fuses them when no output taps the surface; contour
-/// settings from [`effective_contour`]) → track. Every stage is built from `st` exactly as
-/// [`SensorChain::build`] builds it (a test checks that the track points equal a scene run's),
-/// so code that scores or benchmarks "what a scene runs" calls this rather than composing the
-/// stages by hand. `rate_hz` is the source's rate (`None`: Savitzky–Golay settings in frames).
+/// track, composed into one [`Stage`]: [`event_contour_stages`] → track. Every stage is built
+/// from `st` exactly as [`SensorChain::build`] builds it (a test checks that the track points
+/// equal a scene run's), so code that scores or benchmarks "what a scene runs" calls this
+/// rather than composing the stages by hand. `rate_hz` is the source's rate (`None`:
+/// Savitzky–Golay settings in frames).
 ///
-/// `st` is taken as resolved: a struct built in code whose `locate.method` or
-/// `locate.event_chain` was changed after [`StageSettings::default`] needs
-/// [`StageSettings::apply_event_chain`] first, as a scene's parse does. Fails on invalid
-/// settings, and when `st.locate.method` is not `events` (the other methods locate contact
-/// through other stages; a scene runs those).
+/// The event chain's keys are read from [`StageSettings::resolved`]: settings built in code
+/// with `locate.method = Events` (and any `event_chain`) get the values a scene with that
+/// method and chain parses to. Fails on invalid settings, and when `st.locate.method` is not
+/// `events` (the other methods locate contact through other stages; a scene runs those).
 pub fn event_track_stages(
     st: &StageSettings,
     layout: &gradtac_stream::Layout,
     rate_hz: Option<f64>,
 ) -> Result<impl Stage<In = TaxelFrame, Out = TrackPoint, Error = gradtac_stream::Error>, Error> {
+    use gradtac_stream::StageExt;
+    Ok(event_contour_stages(st, layout, rate_hz)?.then(Track::try_new(&st.track)?))
+}
+
+/// [`event_track_stages`] without the track: normalise (bypassed under the default
+/// `event_chain`) → Savitzky–Golay → events (threshold from [`effective_events`]) → window →
+/// surface and maximal contour (fused, as a scene fuses them when no output taps the surface;
+/// contour settings from [`effective_contour`]): raw frames in, contours out. The same
+/// settings, resolution and errors as [`event_track_stages`].
+pub fn event_contour_stages(
+    st: &StageSettings,
+    layout: &gradtac_stream::Layout,
+    rate_hz: Option<f64>,
+) -> Result<impl Stage<In = TaxelFrame, Out = ContourFrame, Error = gradtac_stream::Error>, Error> {
     use gradtac_stream::StageExt;
     if st.locate.method != LocateMethod::Events {
         return Err(Error::Scene {
@@ -185,19 +200,19 @@ pub fn event_track_stages(
             ),
         });
     }
+    let st = &st.resolved();
     let n = layout.len();
     Ok(Normalise::try_new(n, &st.normalise)?
         .then(savgol_stage(st, n, rate_hz)?)
         .then(Events::try_new(n, effective_events(st))?)
         .then(Window::try_new(&st.window)?)
-        .then(SurfaceContour::try_new(&st.surface, &effective_contour(st), layout)?)
-        .then(Track::try_new(&st.track)?))
+        .then(SurfaceContour::try_new(&st.surface, &effective_contour(st), layout)?))
 }
 
 impl SensorChain {
     /// Build the stages `plan` says the sensor runs, validating their settings.
     pub fn build(scene: &Scene, plan: &SensorPlan) -> Result<SensorChain, Error> {
-        let st = &scene.stages;
+        let st = &scene.stages.resolved();
         let n = plan.layout.len();
         let runs = |t| plan.runs(t);
         let method = st.locate.method;
@@ -399,8 +414,10 @@ impl SensorChain {
         self.normalise.as_ref().map_or(0, Normalise::startup_frames)
     }
 
-    /// One line on what a stage does with its settings (`gradtac explain`).
+    /// One line on what a stage does with its settings (`gradtac explain`); `st` is read
+    /// resolved ([`StageSettings::resolved`]), as [`SensorChain::build`] reads it.
     pub fn describe(&self, tap: Tap, st: &StageSettings) -> String {
+        let st = &st.resolved();
         match tap {
             Tap::Source => "read frames".into(),
             Tap::Normalise if st.normalise.bypass => "bypassed: raw values pass through".into(),
@@ -825,10 +842,10 @@ mod tests {
             (EventChain::PressRelease, "[locate]\nmethod = \"events\"\n"),
             (EventChain::Paper, "[locate]\nmethod = \"events\"\nevent_chain = \"paper\"\n"),
         ] {
+            // set on the defaults, nothing else: the stages resolve the chain for the method
             let mut st = StageSettings::default();
             st.locate.method = LocateMethod::Events;
             st.locate.event_chain = chain;
-            st.apply_event_chain(|_| false);
             let ours = event_track_stages(&st, &layout, Some(100.0)).unwrap().run_all(frames.clone()).unwrap();
             let settings: toml::Table = toml::from_str(text).unwrap();
             let mut p = crate::memory::Pipeline::new("biotac-sp", "track", &settings, Some(100.0), "ff").unwrap();

@@ -267,7 +267,7 @@ fn draw_plots(
     let mut written = Vec::new();
 
     // surfaces at a few instants around the slip
-    let grid = Grid::from_config(&scene.stages.surface.grid, &layout)?;
+    let grid = Grid::from_config(&scene.stages.resolved().surface.grid, &layout)?;
     let surfaces = read_surfaces(&dir.join("out/surfaces.parquet"), "ff")?;
     let panels: Vec<SurfacePanel> = [0.6, 1.05, 1.2, 1.35]
         .iter()

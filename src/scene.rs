@@ -455,8 +455,15 @@ impl SourceSpec {
 /// Stage settings, one table per stage (`[stages.<tap>]`); a missing table means the stage's
 /// defaults, except for the event chain's six keys, which take the values of
 /// `[stages.locate] event_chain` ([`EventChain`]; `press_release` by default) when the scene
-/// leaves them unset ([`StageSettings::apply_event_chain`]). Each table is the stage's own
-/// configuration struct, documented with the stage.
+/// leaves them unset. Each table is the stage's own configuration struct, documented with the
+/// stage.
+///
+/// The event chain's values follow `locate.method` and `locate.event_chain` wherever the
+/// settings are used: every builder ([`crate::SensorChain::build`],
+/// [`crate::chain::event_track_stages`], `explain`, the calibrations) reads
+/// [`StageSettings::resolved`]. So code may change the method or the chain at any time, e.g.
+/// `StageSettings { locate, ..Default::default() }`, and builds the stages a scene with that
+/// method and chain parses to (see [`EventChainKeys`] for which keys follow).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StageSettings {
@@ -497,10 +504,15 @@ pub struct StageSettings {
     /// One-fingertip slip direction ([`DosSettings`]; required by the dos tap).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dos: Option<DosSettings>,
+    /// Bookkeeping, not a setting: which of the event chain's keys the scene set itself, and
+    /// which method and chain the others hold the values of ([`EventChainKeys`]). Leave it to
+    /// `..Default::default()` or the scene's parse.
+    #[serde(skip)]
+    pub chain_keys: EventChainKeys,
 }
 
 /// The settings of a scene with no `[stages.*]` table: every stage's defaults, with the event
-/// chain's keys from the default [`EventChain`] (`press_release`).
+/// chain's keys from the default [`EventChain`] (`press_release`) for the default method.
 impl Default for StageSettings {
     fn default() -> Self {
         let mut st = StageSettings {
@@ -516,15 +528,15 @@ impl Default for StageSettings {
             servo: Default::default(),
             slip: Default::default(),
             dos: None,
+            chain_keys: EventChainKeys::default(),
         };
-        st.apply_event_chain(|_| false);
+        st.resolve();
         st
     }
 }
 
 /// The event-chain keys a scene may set (`[stages.<table>] <key>`; an empty key: the table
-/// itself, or for `normalise` also an output tapping it), checked by
-/// [`StageSettings::apply_event_chain`]'s `set`.
+/// itself, or for `normalise` also an output tapping it), in [`EventChainKeys`]' order.
 pub const EVENT_CHAIN_KEYS: [(&str, &str); 8] = [
     ("normalise", ""),
     ("events", "polarity"),
@@ -536,57 +548,90 @@ pub const EVENT_CHAIN_KEYS: [(&str, &str); 8] = [
     ("contour", "min_area_mm2"),
 ];
 
+/// Which of the event chain's keys follow `[stages.locate] event_chain` ([`EventChain`]) and
+/// `method` (the [`StageSettings::chain_keys`] bookkeeping).
+///
+/// The keys: `[stages.normalise] bypass` (set when the scene has a `[stages.normalise]` table
+/// or a `normalise` output), `[stages.events] polarity`, `[stages.window] kind` (set also by a
+/// window `frames` / `duration_ms`: a size alone asks for the stages' sized `sliding` window),
+/// `[stages.surface] grid.nx`, `[stages.contour] min_peak` and `min_area_mm2` — the last four
+/// under `method = "raw_contour"` the stages' own defaults (the `paper` chain's values), since
+/// that method's window, surface and contour are the raw change's.
+///
+/// A key follows the chain unless the scene set it, or code changed it from the value the
+/// chain gave it: [`StageSettings::resolved`] gives every key that still holds the chain's
+/// value for the method and chain last resolved the value for the current ones. (So a key
+/// that code sets to exactly the value the chain had given it still follows the chain.)
+/// `Default` is the state of freshly deserialised tables (the stages' own defaults, nothing
+/// set); [`StageSettings::default`] and [`Scene::from_toml`] resolve from there. Its `Debug`
+/// prints no state: settings with the same values print the same.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct EventChainKeys {
+    /// The chain the unset keys hold the values of, and whether for `raw_contour`.
+    holds: (EventChain, bool),
+    /// Per [`EVENT_CHAIN_KEYS`] entry: the scene sets it.
+    set: [bool; 8],
+}
+
+impl Default for EventChainKeys {
+    fn default() -> Self {
+        EventChainKeys { holds: (EventChain::Paper, false), set: [false; 8] }
+    }
+}
+
+impl std::fmt::Debug for EventChainKeys {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("EventChainKeys { .. }")
+    }
+}
+
 impl StageSettings {
     /// The settings of a scene whose only `[stages.*]` keys are `[stages.locate] method` and
     /// `event_chain`: every stage's defaults, with the event chain's values resolved for that
-    /// method and chain. Code that wants a method other than the default's starts here rather
-    /// than changing `locate.method` on [`StageSettings::default`] (whose chain values were
-    /// resolved for the centroid, and which `raw_contour` does not share).
+    /// method and chain (the same as setting both on [`StageSettings::default`], resolved).
     pub fn for_method(method: LocateMethod, chain: EventChain) -> StageSettings {
         let mut st = StageSettings::default();
         st.locate.method = method;
         st.locate.event_chain = chain;
-        st.apply_event_chain(|_| false);
+        st.resolve();
         st
     }
 
-    /// Give the event chain's keys that `set(&(table, key))` says the scene did not set the
-    /// values of `[stages.locate] event_chain` ([`EventChain`]):
-    /// `[stages.normalise] bypass` (only when the scene has no `[stages.normalise]` table and no
-    /// `normalise` output), `[stages.events] polarity`,
-    /// `[stages.window] kind` (only when the window has no `frames` / `duration_ms` either: a
-    /// size alone asks for the stages' sized `sliding` window), `[stages.surface] grid.nx`,
-    /// `[stages.contour] min_peak` and `min_area_mm2` — the last four not under
-    /// `method = "raw_contour"`, whose window, surface and contour are the raw change's and keep
-    /// the stages' defaults. [`Scene::from_toml`] calls it with the
-    /// keys its text sets; code that builds settings calls it with `|_| false`, as
-    /// [`StageSettings::default`] does (for the centroid), and again after changing
-    /// `locate.method` or `locate.event_chain` — or starts from
-    /// [`StageSettings::for_method`], which does both.
-    pub fn apply_event_chain(&mut self, set: impl Fn(&(&str, &str)) -> bool) {
-        let chain = self.locate.event_chain;
-        let [normalise, polarity, kind, frames, duration, nx, peak, area] = EVENT_CHAIN_KEYS.map(|k| set(&k));
-        if !normalise {
-            self.normalise.bypass = chain.normalise_bypass();
+    /// The settings in effect: the event chain's keys that follow the chain
+    /// ([`EventChainKeys`]) given its values for the current `locate.method` and
+    /// `locate.event_chain`; every other value as it is. What every builder and `explain`
+    /// read; the fields of a parsed scene or of [`StageSettings::default`] are already
+    /// resolved until code changes the method or the chain.
+    pub fn resolved(&self) -> StageSettings {
+        let mut st = self.clone();
+        st.resolve();
+        st
+    }
+
+    /// [`StageSettings::resolved`] in place.
+    fn resolve(&mut self) {
+        let now = (self.locate.event_chain, self.locate.method == LocateMethod::RawContour);
+        let was = self.chain_keys.holds;
+        if was == now {
+            return;
         }
-        if !polarity {
-            self.events.polarity = chain.polarity();
-        }
+        let [normalise, polarity, kind, frames, duration, nx, peak, area] = self.chain_keys.set;
         // raw_contour's window, surface and contour are the raw change's, not the event chain's:
         // they keep the stages' own defaults (the `paper` chain's values)
-        let chain = if self.locate.method == LocateMethod::RawContour { EventChain::Paper } else { chain };
-        if !(kind || frames || duration) {
-            self.window.kind = chain.window_kind();
+        let spatial = |(chain, raw): (EventChain, bool)| if raw { EventChain::Paper } else { chain };
+        let (old, new, old_s, new_s) = (was.0, now.0, spatial(was), spatial(now));
+        fn follow<T: PartialEq>(set: bool, key: &mut T, old: T, new: T) {
+            if !set && *key == old {
+                *key = new;
+            }
         }
-        if !nx {
-            self.surface.grid.nx = chain.grid_nx();
-        }
-        if !peak {
-            self.contour.min_peak = chain.min_peak();
-        }
-        if !area {
-            self.contour.min_area_mm2 = chain.min_area_mm2();
-        }
+        follow(normalise, &mut self.normalise.bypass, old.normalise_bypass(), new.normalise_bypass());
+        follow(polarity, &mut self.events.polarity, old.polarity(), new.polarity());
+        follow(kind || frames || duration, &mut self.window.kind, old_s.window_kind(), new_s.window_kind());
+        follow(nx, &mut self.surface.grid.nx, old_s.grid_nx(), new_s.grid_nx());
+        follow(peak, &mut self.contour.min_peak, old_s.min_peak(), new_s.min_peak());
+        follow(area, &mut self.contour.min_area_mm2, old_s.min_area_mm2(), new_s.min_area_mm2());
+        self.chain_keys.holds = now;
     }
 }
 
@@ -656,9 +701,9 @@ impl Scene {
         let mut scene: Scene = toml::from_str(text).map_err(|e| parse_error(text, origin, &e))?;
         let top = toml::from_str::<toml::Table>(text).ok();
         let taps_normalise = scene.outputs.iter().any(|o| o.tap == "normalise");
-        scene
-            .stages
-            .apply_event_chain(|k| sets_stage_key(top.as_ref(), k) || (*k == ("normalise", "") && taps_normalise));
+        scene.stages.chain_keys.set =
+            EVENT_CHAIN_KEYS.map(|k| sets_stage_key(top.as_ref(), &k) || (k == ("normalise", "") && taps_normalise));
+        scene.stages.resolve();
         scene.base_dir = base_dir.into();
         scene.text = text.to_string();
         scene.origin = origin.to_path_buf();
@@ -953,6 +998,99 @@ calibrate_frames = 20
 tap = "normalise"
 path = "out/normalised.parquet"
 "#;
+
+    /// A scene of one fingertip tapping `events`, `surface` and `track` (every event-chain key
+    /// in use under every method), with the given `[stages.*]` text.
+    fn chain_scene(stages: &str) -> Scene {
+        let text = format!(
+            "[[sensor]]\nname = \"ff\"\nsource = {{ csv = \"x.csv\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\
+             {stages}[[output]]\ntap = \"events\"\npath = \"e.parquet\"\n[[output]]\ntap = \"surface\"\n\
+             path = \"s.parquet\"\n[[output]]\ntap = \"track\"\npath = \"t.parquet\"\n"
+        );
+        Scene::from_toml(&text, ".", Path::new("s.toml")).unwrap()
+    }
+
+    /// No trap: `locate.method` and `locate.event_chain` set on [`StageSettings::default`]
+    /// (nothing else, no call after) build what a scene with that method and chain parses to —
+    /// the same resolved settings and the same `explain` text of the built plan (every
+    /// effective value, the chain named) — for every method × chain, and back again.
+    #[test]
+    fn a_method_set_on_the_defaults_builds_what_the_scene_parses_to() {
+        use gradtac_stages::locate::{EventChain, LocateMethod};
+        let methods = [LocateMethod::Centroid, LocateMethod::Events, LocateMethod::RawContour, LocateMethod::Fit];
+        let explain = |scene: &Scene| crate::Plan::new(scene).unwrap().explain(scene);
+        for method in methods {
+            for chain in [EventChain::PressRelease, EventChain::Paper] {
+                let what = format!("{method:?} {chain:?}");
+                let parsed = chain_scene(&format!(
+                    "[stages.locate]\nmethod = \"{}\"\nevent_chain = \"{}\"\n",
+                    method.name(),
+                    chain.name()
+                ));
+                let mut code = StageSettings::default();
+                code.locate.method = method;
+                code.locate.event_chain = chain;
+                assert_eq!(format!("{:?}", code.resolved()), format!("{:?}", parsed.stages), "{what}");
+                let mut scene = chain_scene("");
+                scene.stages = code.clone();
+                let text = explain(&scene);
+                assert_eq!(text, explain(&parsed), "{what}");
+                assert!(text.contains(&format!("event chain {}", chain.name())), "{what}: {text}");
+                // the struct-update form, and a detour through every other method and chain
+                let locate = LocateConfig { method, event_chain: chain, ..Default::default() };
+                let update = StageSettings { locate, ..Default::default() };
+                assert_eq!(format!("{:?}", update.resolved()), format!("{:?}", parsed.stages), "{what}");
+                for other in methods {
+                    let mut detour = code.clone();
+                    detour.locate.method = other;
+                    detour.locate.event_chain = EventChain::Paper;
+                    detour = detour.resolved();
+                    detour.locate.method = method;
+                    detour.locate.event_chain = chain;
+                    assert_eq!(format!("{:?}", detour.resolved()), format!("{:?}", parsed.stages), "{what} {other:?}");
+                }
+            }
+        }
+    }
+
+    /// A key set in code, or by the scene, stays whatever the method and chain become; the
+    /// keys nobody set follow.
+    #[test]
+    fn keys_set_in_code_or_by_the_scene_do_not_follow_the_chain() {
+        use gradtac_stages::locate::{EventChain, LocateMethod};
+        let mut code = StageSettings::default();
+        code.contour.min_peak = 3.0;
+        code.locate.method = LocateMethod::Events;
+        code.locate.event_chain = EventChain::Paper;
+        let r = code.resolved();
+        assert_eq!((r.contour.min_peak, r.contour.min_area_mm2, r.surface.grid.nx), (3.0, 1.0, 64));
+        // the scene sets min_peak to the default chain's own value: it stays under `paper`
+        let mut scene = chain_scene("[stages.locate]\nmethod = \"events\"\n[stages.contour]\nmin_peak = 6\n");
+        scene.stages.locate.event_chain = EventChain::Paper;
+        let r = scene.stages.resolved();
+        assert_eq!((r.contour.min_peak, r.contour.min_area_mm2, r.surface.grid.nx), (6.0, 1.0, 64));
+        assert!(crate::Plan::new(&scene).unwrap().explain(&scene).contains("min peak 6, min area 1 mm²"));
+        // a window given a size by the scene keeps the stages' sized sliding window
+        let mut scene = chain_scene(
+            "[stages.locate]\nmethod = \"events\"\nevent_chain = \"paper\"\n[stages.window]\nframes = 20\n",
+        );
+        scene.stages.locate.event_chain = EventChain::PressRelease;
+        assert_eq!(scene.stages.resolved().window.kind, gradtac_stages::window::WindowKind::Sliding);
+    }
+
+    /// Deserialised tables hold the stages' own defaults, which must be the `paper` chain's
+    /// values: the state [`EventChainKeys::default`] says they hold.
+    #[test]
+    fn the_stages_defaults_are_the_paper_chain() {
+        use gradtac_stages::locate::EventChain;
+        let p = EventChain::Paper;
+        assert_eq!(NormaliseConfig::default().bypass, p.normalise_bypass());
+        assert_eq!(EventsConfig::default().polarity, p.polarity());
+        assert_eq!(WindowConfig::default().kind, p.window_kind());
+        assert_eq!(InterpolateConfig::default().grid.nx, p.grid_nx());
+        assert_eq!(ContourConfig::default().min_peak, p.min_peak());
+        assert_eq!(ContourConfig::default().min_area_mm2, p.min_area_mm2());
+    }
 
     /// `for_method` is what a scene with only `method` and `event_chain` parses to, for every
     /// method and chain (the trap it avoids: `raw_contour` on the default's chain values).

@@ -277,10 +277,8 @@ impl Sinks {
                 Tap::Events => OutputSink::Events(open(&path, taxels, o, time, dest)?),
                 Tap::Window => OutputSink::Windows(open(&path, taxels, o, time, dest)?),
                 Tap::Surface => {
-                    let grids = users
-                        .iter()
-                        .map(|l| Grid::from_config(&scene.stages.surface.grid, l))
-                        .collect::<Result<Vec<_>, _>>()?;
+                    let grid = scene.stages.resolved().surface.grid;
+                    let grids = users.iter().map(|l| Grid::from_config(&grid, l)).collect::<Result<Vec<_>, _>>()?;
                     if grids.iter().any(|g| g != &grids[0]) {
                         return Err(bad(format!(
                             "output #{}: the sensors' layouts give different surface grids; give each its own output",

@@ -293,11 +293,11 @@ fn explain_prints_the_event_polarity_and_a_cumulative_window() {
     let raw = Scene::from_toml(&raw, dir, Path::new("s.toml")).unwrap();
     assert_eq!((raw.stages.surface.grid.nx, raw.stages.contour.min_area_mm2), (64, 1.0));
     assert_eq!(raw.stages.window.kind, gradtac::stages::window::WindowKind::Sliding);
-    // settings built in code: re-applied after the method changes, the same
+    // settings built in code: resolved for the method wherever they are read, the same
     let mut code = StageSettings::default();
     assert_eq!((code.surface.grid.nx, code.contour.min_area_mm2), (32, 60.0));
     code.locate.method = LocateMethod::RawContour;
-    code.apply_event_chain(|_| false);
+    let code = code.resolved();
     assert_eq!(
         format!("{:?}", code),
         format!("{:?}", StageSettings { locate: code.locate.clone(), ..raw.stages.clone() })
