@@ -689,10 +689,8 @@ type ContourFront = Box<dyn FnMut(TaxelFrame, &mut Vec<ContourFrame>) -> Result<
 fn contour_front(scene: &crate::Scene, layout: &Layout, rate_hz: Option<f64>) -> Result<ContourFront, Error> {
     use gradtac_stages::locate::LocateMethod;
     use gradtac_stream::{Stage, StageExt};
-    let st = &scene.stages;
+    let st = &scene.stages.resolved();
     let n = layout.len();
-    let fused =
-        || gradtac_stages::peak::SurfaceContour::try_new(&st.surface, &crate::chain::effective_contour(st), layout);
     let tare = scene.loaded.tare.clone();
     fn boxed<S>(mut s: S) -> ContourFront
     where
@@ -714,7 +712,8 @@ fn contour_front(scene: &crate::Scene, layout: &Layout, rate_hz: Option<f64>) ->
             if let Some(t) = &tare {
                 r = r.with_tare(t)?;
             }
-            boxed(r.then(fused()?))
+            let contour = crate::chain::effective_contour(st);
+            boxed(r.then(gradtac_stages::peak::SurfaceContour::try_new(&st.surface, &contour, layout)?))
         }
         LocateMethod::Fit => {
             let mut f = gradtac_stages::fit::Fit::try_new(&st.locate, layout)?;
@@ -723,19 +722,7 @@ fn contour_front(scene: &crate::Scene, layout: &Layout, rate_hz: Option<f64>) ->
             }
             boxed(f)
         }
-        LocateMethod::Events => {
-            let sg = match rate_hz {
-                Some(r) => gradtac_stages::savgol::SavGol::try_with_rate(n, st.savgol.clone(), r)?,
-                None => gradtac_stages::savgol::SavGol::try_new(n, st.savgol.clone())?,
-            };
-            boxed(
-                gradtac_stages::normalise::Normalise::try_new(n, &st.normalise)?
-                    .then(sg)
-                    .then(gradtac_stages::events::Events::try_new(n, crate::chain::effective_events(st))?)
-                    .then(gradtac_stages::window::Window::try_new(&st.window)?)
-                    .then(fused()?),
-            )
-        }
+        LocateMethod::Events => boxed(crate::chain::event_contour_stages(st, layout, rate_hz)?),
     })
 }
 
