@@ -11,24 +11,28 @@
 //! The chains are the ones `gradtac run` builds for a scene of two fingertips on a CAN bus
 //! with the two-finger `slip` output and no stage settings but the contact-location method:
 //! [`Runner`] over [`Plan::new`] of that scene, so whatever a scene runs by default is what is
-//! timed (routing between stages and the outputs' sinks included). Three scenes:
+//! timed (routing between stages and the outputs' sinks included). Four scenes:
 //! - `slip`: the slip output alone, all defaults. The slip's default evidence is the raw
 //!   frames' change pattern (`slip_pattern`), so the plan builds source → slip and nothing
-//!   else: the fastest path from a CAN frame to a slip decision.
+//!   else: the fastest path from a CAN frame to a slip decision. Its default onset position
+//!   (`[stages.slip] onset_position = "fit"`) fits the contact model to each finger's change
+//!   pattern on every frame in contact: the price of the onset's accuracy.
+//! - `slip (energy)`: the same with `onset_position = "energy"` (the change pattern's own
+//!   energy-weighted point, O(taxels) per frame): the difference against `slip` is what the
+//!   default's per-frame fit costs on the live path.
 //! - `centroid+track`: also a `track` output, default locator (`method = "centroid"`): taxel
 //!   centroid → track runs beside the slip.
-//! - `slip (linear)`: the slip output alone with the onset fit of before the widened grasp
-//!   family (`onset_starts = "linear"`: sudden and linear starts only): the cost of the
-//!   default's smooth starts is the difference of the decision frames against `slip`.
 //! - `events+track`: also a `track` output with `[stages.locate] method = "events"`, the
-//!   natural-neighbour event chain — normalise → Savitzky–Golay → events → window → surface
-//!   (64 × 64) and maximal contour (fused) → track — beside the slip.
+//!   natural-neighbour event chain of the default `event_chain = "press_release"` — (normalise
+//!   bypassed) → Savitzky–Golay → press/release events → cumulative window → surface (32 × 32)
+//!   and maximal contour (fused) → track — beside the slip. A cumulative window never
+//!   empties, so the surface and contour run on every frame.
 //!
 //! The hand is the simulator's two-finger grasp that slips (thumb `th`, first finger `ff`),
 //! tiled in time to the requested length. The CAN frames are encoded up front (that is the
 //! hand's work); the timed part is, per CAN frame that completes a fingertip's set, decoding
 //! it and pushing the taxel frame through the runner (that finger's chain and the slip
-//! stage): the time from the CAN frame's arrival to the slip decision it allows. The two
+//! stage): the time from the CAN frame's arrival to the slip decision it allows. The four
 //! scenes run alternately in blocks of 1,000 taxel frames, so all meet the same machine
 //! load.
 //!
@@ -39,6 +43,14 @@
 //! hand's, and a decision costs more than a frame.) Machines are noisy: run it several times
 //! and take medians. `GRADTAC_LATENCY_DUMP=<prefix>` writes each variant's latencies (ns, in
 //! frame order) to `<prefix>-<method>.txt`.
+//!
+//! Measured (median of 3 runs under `nice -n 10`, load average ≈ 9 on 2 cores, 2026-11-27;
+//! the table and the earlier figures in the repository's `docs/tradeoff.md`), p50 / p99 of all
+//! frames: `slip` 6.0 / 33.1 µs, `slip (energy)` 1.0 / 1.3 µs, `centroid+track` 6.5 / 33.5 µs,
+//! `events+track` 11.1 / 43.5 µs; a deciding frame about 80 µs p50 in every scene (88 µs
+//! with the events chain). So the default onset position's per-frame fit costs 5 µs at p50
+//! and about 32 µs at p99 on every frame. At that load the p99.9 and max columns (milliseconds)
+//! are the scheduler, not the pipeline.
 //!
 //! Run: `cargo run --release --example latency [taxel_frames]` (default 100,000).
 
@@ -57,9 +69,9 @@ const PERIOD_NS: i64 = 10_000_000;
 const WARMUP: usize = 2_000;
 const BLOCK: usize = 1_000;
 
-/// The slip output with the onset fit of before the widened family (linear starts only): the
-/// `slip (linear)` scene, for the cost of the default's smooth starts.
-const HINGE: &str = "[stages.slip]\nonset_starts = \"linear\"\nonset_lead_s = 0.03\n";
+/// The slip output with the onset dated from the change pattern's own point rather than a
+/// per-frame model fit: the `slip (energy)` scene, for the cost of the default's fit.
+const ENERGY: &str = "[stages.slip]\nonset_position = \"energy\"\n";
 
 /// The scene `gradtac run` would read: two fingertips on a CAN bus, the slip output (first),
 /// with `track` also the track output, and the contact-location method.
@@ -69,7 +81,7 @@ fn scene_text(method: &str, track: bool, slip: &str) -> String {
     } else {
         String::new()
     };
-    let hinge = if slip.is_empty() { "" } else { "-hinge" };
+    let variant = if slip.is_empty() { "" } else { "-energy" };
     format!(
         r#"
 [[bus]]
@@ -89,7 +101,7 @@ method = "{method}"
 {slip}
 [[output]]
 tap = "slip"
-path = "out/slip-{method}-{track}{hinge}.parquet"
+path = "out/slip-{method}-{track}{variant}.parquet"
 {track_output}"#
     )
 }
@@ -237,7 +249,7 @@ fn main() -> Result<(), BoxError> {
     std::fs::write(dir.join("hand.log"), "")?;
     let mut loops = [
         Loop::new("slip", "centroid", false, "", &dir, &codec, wanted)?,
-        Loop::new("slip (linear)", "centroid", false, HINGE, &dir, &codec, wanted)?,
+        Loop::new("slip (energy)", "centroid", false, ENERGY, &dir, &codec, wanted)?,
         Loop::new("centroid+track", "centroid", true, "", &dir, &codec, wanted)?,
         Loop::new("events+track", "events", true, "", &dir, &codec, wanted)?,
     ];
