@@ -459,7 +459,7 @@ impl SourceSpec {
 /// stage.
 ///
 /// The event chain's values follow `locate.method` and `locate.event_chain` wherever the
-/// settings are used: every builder ([`crate::SensorChain::build`],
+/// settings are used: every builder ([`crate::chain::SensorChain::build`],
 /// [`crate::chain::event_track_stages`], `explain`, the calibrations) reads
 /// [`StageSettings::resolved`]. So code may change the method or the chain at any time, e.g.
 /// `StageSettings { locate, ..Default::default() }`, and builds the stages a scene with that
