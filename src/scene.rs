@@ -1013,7 +1013,8 @@ path = "out/normalised.parquet"
     /// No trap: `locate.method` and `locate.event_chain` set on [`StageSettings::default`]
     /// (nothing else, no call after) build what a scene with that method and chain parses to —
     /// the same resolved settings and the same `explain` text of the built plan (every
-    /// effective value, the chain named) — for every method × chain, and back again.
+    /// effective value, the chain named) — for every method × chain, and back again; and
+    /// [`StageSettings::for_method`] is those settings.
     #[test]
     fn a_method_set_on_the_defaults_builds_what_the_scene_parses_to() {
         use gradtac_stages::locate::{EventChain, LocateMethod};
@@ -1031,6 +1032,8 @@ path = "out/normalised.parquet"
                 code.locate.method = method;
                 code.locate.event_chain = chain;
                 assert_eq!(format!("{:?}", code.resolved()), format!("{:?}", parsed.stages), "{what}");
+                let one = StageSettings::for_method(method, chain);
+                assert_eq!(format!("{:?}", one), format!("{:?}", parsed.stages), "{what}");
                 let mut scene = chain_scene("");
                 scene.stages = code.clone();
                 let text = explain(&scene);
@@ -1051,6 +1054,9 @@ path = "out/normalised.parquet"
                 }
             }
         }
+        // raw_contour keeps the stages' own window, surface and contour under either chain
+        let raw = StageSettings::for_method(LocateMethod::RawContour, EventChain::PressRelease);
+        assert_eq!((raw.surface.grid.nx, raw.contour.min_area_mm2), (64, 1.0));
     }
 
     /// A key set in code, or by the scene, stays whatever the method and chain become; the
@@ -1090,29 +1096,6 @@ path = "out/normalised.parquet"
         assert_eq!(InterpolateConfig::default().grid.nx, p.grid_nx());
         assert_eq!(ContourConfig::default().min_peak, p.min_peak());
         assert_eq!(ContourConfig::default().min_area_mm2, p.min_area_mm2());
-    }
-
-    /// `for_method` is what a scene with only `method` and `event_chain` parses to, for every
-    /// method and chain (the trap it avoids: `raw_contour` on the default's chain values).
-    #[test]
-    fn for_method_equals_the_scene_with_only_those_keys() {
-        use gradtac_stages::locate::{EventChain, LocateMethod};
-        for method in [LocateMethod::Centroid, LocateMethod::Events, LocateMethod::RawContour, LocateMethod::Fit] {
-            for chain in [EventChain::PressRelease, EventChain::Paper] {
-                let text = format!(
-                    "[[sensor]]\nname = \"ff\"\nsource = {{ csv = \"x.csv\", columns = \"ff_e{{1..24}}\", rate_hz = 100.0 }}\n\
-                     [stages.locate]\nmethod = \"{}\"\nevent_chain = \"{}\"\n\
-                     [[output]]\ntap = \"track\"\npath = \"t.parquet\"\n",
-                    method.name(),
-                    chain.name()
-                );
-                let scene = Scene::from_toml(&text, ".", Path::new("s.toml")).unwrap();
-                let code = StageSettings::for_method(method, chain);
-                assert_eq!(format!("{:?}", code), format!("{:?}", scene.stages), "{method:?} {chain:?}");
-            }
-        }
-        let raw = StageSettings::for_method(LocateMethod::RawContour, EventChain::PressRelease);
-        assert_eq!((raw.surface.grid.nx, raw.contour.min_area_mm2), (64, 1.0));
     }
 
     #[test]
