@@ -15,27 +15,26 @@
 //!    the widened grasp family (smooth starts tried, lead 0.045 s) printed −0.035 s; the
 //!    next onset fit (cubic starts, a drift before the onset, the fingers weighted by their
 //!    fits' clarity, lead 0.03 s) −0.020 s; the current one, which reads a per-frame model
-//!    fit's contact point (lead 0.025 s), prints −0.074 s (over 500 held-out grasps of the
-//!    widened model family the median onset error is 42 ms, mean signed −1 ms, against 49 ms
-//!    and −3 ms for the one before and 160 ms for the track-velocity rule —
-//!    `gradtac_stages::slip`).
+//!    fit's contact point (lead 0.025 s), printed −0.074 s, and since stop 31, when the slip
+//!    stage stopped depending on the order of same-time inputs, it prints **−0.051 s**
+//!    (over 500 held-out grasps of the widened model family the median onset error is 43 ms,
+//!    mean signed −1 ms, against 50 ms and −2 ms for the energy-position estimate and 160 ms
+//!    for the track-velocity rule — `gradtac_stages::slip`).
 //!
-//!    **Why `slip_eval` used to print −0.050 s for the same grasp.** Not the CSV: its counts
-//!    are integers written exactly, and its rate-timed rows carry the simulator's timestamps
-//!    to the nanosecond (both checked frame by frame). The difference is the order of the two
-//!    fingers' frames *at the same timestamp*. The simulator interleaves each time step as
-//!    thumb, then first finger; the scene's runner merges its sources by time and breaks ties
-//!    by the scene's sensor order (`ff` first). The slip stage decides at the first input
-//!    that completes its condition, and the onset fit then reads both fingers' position
-//!    histories as they are at that moment — so on the deciding step one finger has one
-//!    point more in one order than in the other. On this grasp that one point moves the
-//!    fitted onset by 24 ms (thumb first: onset 0.950 s; first finger first: 0.926 s; the
-//!    decision itself, at 1.190 s, and the class are the same). [`frames_in_scene_order`]
-//!    gives the frames in the runner's order; `slip_eval` replays those since stop 30, and a
-//!    test checks that the scene run over the CSV and the slip stage fed those frames in
-//!    memory give identical slip events. The stage's sensitivity to the tie order is a
-//!    property of `gradtac_stages::slip` (deciding only once every input of a time step is
-//!    in would remove it, at the cost of re-measuring every slip figure).
+//!    **Why `slip_eval` once printed −0.050 s where the demo printed −0.074 s.** Not the CSV:
+//!    its counts are integers written exactly, and its rate-timed rows carry the simulator's
+//!    timestamps to the nanosecond (both checked frame by frame). The difference was the
+//!    order of the two fingers' frames *at the same timestamp*. The simulator interleaves each
+//!    time step as thumb, then first finger; the scene's runner merges its sources by time and
+//!    breaks ties by the scene's sensor order (`ff` first). The slip stage used to decide at
+//!    the first input that completed its condition, and the onset fit then read both
+//!    fingers' position histories as they were at that moment — so on the deciding step one
+//!    finger had one point more in one order than in the other, 24 ms of onset on this grasp.
+//!    The stage now decides a time step once every input of it is in
+//!    (`gradtac_stages::slip::Slip::push_input`, "Same-time inputs"), and both orders give
+//!    −0.051 s: the test below checks that the scene run over the CSV, the stage fed the
+//!    frames in the scene's order ([`frames_in_scene_order`]) and in the simulator's order
+//!    give identical slip events.
 //! 3. The demo reads the tracks and slip events back and compares them with the truth:
 //!    contact localisation error (mm and fraction of sensor width) and slip class and onset.
 
@@ -166,8 +165,9 @@ pub fn simulate(seed: u64) -> Result<Recording, Error> {
 /// The recording's frames in the order the demo's scene hands them to its stages: by time,
 /// ties broken by the scene's sensor order (`ff`, then `th`), as the runner's merge of the
 /// two CSV sources does. The simulator interleaves each time step the other way round
-/// (thumb first), and the slip stage's onset depends on that tie order (see the module
-/// docs); replays that mean to reproduce `gradtac demo` use this order.
+/// (thumb first); until stop 31 the slip stage's onset depended on that tie order (see the
+/// module docs), and it no longer does — replays that mean to reproduce every stage of
+/// `gradtac demo` input for input still use this order.
 pub fn frames_in_scene_order(rec: &Recording) -> Vec<gradtac_stream::TaxelFrame> {
     let rank = |f: &gradtac_stream::TaxelFrame| {
         SCENE_SENSORS.iter().position(|s| f.sensor.as_str() == *s).unwrap_or(usize::MAX)
@@ -441,8 +441,8 @@ mod tests {
 
     /// The demo's CLI path (the scene over `recording.csv`, read back from Parquet) and the
     /// slip stage fed the same frames in memory, in the scene's order, give the same events;
-    /// the simulator's own order (thumb first) dates the onset differently — the cause of the
-    /// −0.074 s / −0.050 s gap the module docs explain.
+    /// so does the simulator's own order (thumb first), which until stop 31 dated the onset
+    /// 24 ms differently (the module docs).
     #[test]
     fn the_scene_run_and_the_in_memory_stage_agree_on_the_demo_grasp() {
         let dir = tempfile::tempdir().unwrap();
@@ -466,12 +466,10 @@ mod tests {
         assert!(in_memory.iter().any(|e| e.class == DEMO_SLIP), "{in_memory:?}");
         assert_eq!(cli, in_memory);
 
-        // the simulator's order: same decision and class, another onset
+        // the simulator's order (thumb first at each time step): the same events, onset
+        // included — the slip stage decides once every input of a time step is in
         let sim_order: Vec<_> = rec.frames.iter().map(|f| f.frame.clone()).collect();
-        let other = replay(&sim_order);
-        let first = |ev: &[SlipEvent]| ev.iter().find(|e| e.class.is_slip()).cloned().unwrap();
-        let (a, b) = (first(&in_memory), first(&other));
-        assert_eq!((a.class, a.time), (b.class, b.time));
-        assert_ne!(a.onset, b.onset, "the tie order no longer matters: update the module docs");
+        assert_ne!(sim_order, frames, "the two orders differ");
+        assert_eq!(replay(&sim_order), in_memory);
     }
 }

@@ -357,13 +357,15 @@ pub const ONSET_FIT_CONTACT_SIGMAS: f64 = 4.0;
 /// The model fit behind `onset_position = "fit"`: the locator's defaults (magnitudes, 3
 /// iterations per frame warm-started, unit gains, the BioTac SP's rails) with the pattern's
 /// calibration and averaging, so its point describes the same frames as the pattern's, and a
-/// contact test of [`ONSET_FIT_CONTACT_SIGMAS`]. Its position memory and motion prior are not
-/// read (the raw fitted point is).
+/// contact test of [`ONSET_FIT_CONTACT_SIGMAS`], and the fluid lag estimated and undone when
+/// `onset_fit_lag` is set. Its position memory and motion prior are not read (the raw fitted
+/// point is).
 pub fn onset_fit_config(cfg: &SlipConfig) -> LocateConfig {
     LocateConfig {
         calibrate_frames: cfg.pattern_calibrate_frames,
         window_frames: cfg.pattern_window_frames,
         contact_sigmas: ONSET_FIT_CONTACT_SIGMAS,
+        fit_lag_estimate: cfg.onset_fit_lag,
         ..Default::default()
     }
 }
