@@ -212,7 +212,11 @@ pub fn run(
     println!("\n(all held-out figures of the window model: {secs:.0} s on this machine)");
     println!("\nchoices per outer fold (nested, then the cross-set trainings):");
     for (g, k, inner) in nested.chosen.iter().chain(splits.iter().flat_map(|s| s.1.chosen.iter())) {
-        println!("- {g}: candidate {k} (inner {:.1} % per window)", 100.0 * inner);
+        if inner.is_nan() {
+            println!("- {g}: candidate {k} (the only one, no choice)");
+        } else {
+            println!("- {g}: candidate {k} (inner {:.1} % per window)", 100.0 * inner);
+        }
     }
 
     let marks = [25usize, 50, 100, 200];
