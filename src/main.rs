@@ -623,11 +623,17 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         } else {
             let tally: Vec<String> =
                 choice.weight_tally.iter().map(|(a, ok, n)| format!("a = {a}: {ok}/{n}")).collect();
+            let candidate = if choice.candidate_accuracy.is_nan() {
+                format!("candidate {} (the only one, no choice)", choice.candidate)
+            } else {
+                format!(
+                    "candidate {} (leave-one-object-out {:.1} % per window)",
+                    choice.candidate,
+                    100.0 * choice.candidate_accuracy
+                )
+            };
             sayln!(
-                "window part: candidate {} (leave-one-object-out {:.1} % per window); weight by leave-one-object-out per \
-                 recording ({}): a = {} ({:.1} s)",
-                choice.candidate,
-                100.0 * choice.candidate_accuracy,
+                "window part: {candidate}; weight by leave-one-object-out per recording ({}): a = {} ({:.1} s)",
                 tally.join(", "),
                 choice.weight,
                 t.elapsed().as_secs_f64()

@@ -559,7 +559,7 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         // explain shows the model's window part and its weight
         let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
-        assert!(text.contains("Student t + window net (5-frame windows, 16 hidden), weight a = 0.75"), "{text}");
+        assert!(text.contains("Student t + window net (5-frame windows, 96 hidden), weight a = 0.75"), "{text}");
         let file = fs::File::open(dir.path().join(format!("out/{class}.parquet"))).unwrap();
         let batch = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap().next().unwrap().unwrap();
         assert_eq!(batch.num_rows(), 1, "one decision per recording");

@@ -94,6 +94,14 @@ pub struct WindowTrainConfig {
     /// hidden units, the same arithmetic at inference) (1..=16, `members × hidden` ≤ 256).
     /// Default 1.
     pub members: usize,
+    /// Make the network mirror-symmetric by construction: after the fit, every member is merged
+    /// with its own mirror image ([`mirrored_net`]: the inputs permuted by the layout's mirror
+    /// permutation, the outputs by [`DosClass::mirrored`]), so a recording mirrored on the layout
+    /// gets exactly the mirrored posterior (up to rounding). One network of `2 × members ×
+    /// hidden` units (≤ 256) at inference. Needs a layout symmetric about `y = 0` and every
+    /// class's mirror among the classes. Default off.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub mirror_average: bool,
 }
 
 impl Default for WindowTrainConfig {
@@ -107,6 +115,7 @@ impl Default for WindowTrainConfig {
             seed: 1,
             augment: WindowAugment::default(),
             members: 1,
+            mirror_average: false,
         }
     }
 }
@@ -120,10 +129,13 @@ impl WindowTrainConfig {
         if !(1..=100_000).contains(&self.batch) {
             return Err(invalid(format!("batch {} must be in 1..=100000", self.batch)));
         }
-        if !(1..=16).contains(&self.members) || self.members * self.net.hidden > MAX_HIDDEN {
+        let copies = if self.mirror_average { 2 } else { 1 };
+        if !(1..=16).contains(&self.members) || copies * self.members * self.net.hidden > MAX_HIDDEN {
             return Err(invalid(format!(
-                "members {} must be in 1..=16 with members × hidden ({}) ≤ {MAX_HIDDEN}",
-                self.members, self.net.hidden
+                "members {} must be in 1..=16 with members × hidden ({}){} ≤ {MAX_HIDDEN}",
+                self.members,
+                self.net.hidden,
+                if self.mirror_average { " × 2 (mirror_average)" } else { "" }
             )));
         }
         Ok(())
@@ -203,20 +215,72 @@ pub fn window_samples(recs: &[TrainRecording], layout: &Layout, cfg: &WindowTrai
         .collect()
 }
 
-/// Fit the window network on samples (each [`WindowNetConfig::inputs`] values; see the
-/// [module docs](self)): [`WindowTrainConfig::members`] networks of seeds `seed, seed + 1, …`,
-/// merged ([`merge_members`]). The model's classes are those present, in [`DosClass::ALL`] order.
-pub fn fit_windows(samples: &[(DosClass, Vec<f64>)], taxels: usize, cfg: &WindowTrainConfig) -> Result<DosWindowNet> {
+/// Fit the window network on samples (each [`WindowNetConfig::inputs`] values for the
+/// layout's taxels; see the [module docs](self)): [`WindowTrainConfig::members`] networks of
+/// seeds `seed, seed + 1, …`, merged ([`merge_members`]), each with its mirror image when
+/// [`WindowTrainConfig::mirror_average`]. The model's classes are those present, in
+/// [`DosClass::ALL`] order.
+pub fn fit_windows(samples: &[(DosClass, Vec<f64>)], layout: &Layout, cfg: &WindowTrainConfig) -> Result<DosWindowNet> {
     cfg.validate()?;
-    if cfg.members == 1 {
+    let taxels = layout.len();
+    let perm = if cfg.mirror_average {
+        Some(mirror_permutation(layout).ok_or_else(|| invalid("mirror_average needs a layout symmetric about y = 0"))?)
+    } else {
+        None
+    };
+    if cfg.members == 1 && perm.is_none() {
         return fit_one(samples, taxels, cfg);
     }
-    let nets = (0..cfg.members as u64)
-        .map(|k| {
-            fit_one(samples, taxels, &WindowTrainConfig { seed: cfg.seed.wrapping_add(k), members: 1, ..cfg.clone() })
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let mut nets = Vec::with_capacity(2 * cfg.members);
+    for k in 0..cfg.members as u64 {
+        let net =
+            fit_one(samples, taxels, &WindowTrainConfig { seed: cfg.seed.wrapping_add(k), members: 1, ..cfg.clone() })?;
+        if let Some(p) = &perm {
+            let m = mirrored_net(&net, p)?;
+            nets.push(net);
+            nets.push(m);
+        } else {
+            nets.push(net);
+        }
+    }
     merge_members(&nets)
+}
+
+/// The mirror image of `net` under the layout permutation `perm` (taxel `i` ↔ `perm[i]`, an
+/// involution, e.g. [`mirror_permutation`]): the network that gives a window the posterior
+/// `net` gives the mirrored window, with every class mirrored ([`DosClass::mirrored`]). Every
+/// block of per-taxel inputs (level pattern, pattern since the start, change across the window)
+/// is permuted — the window representation of mirrored frames is the permuted representation,
+/// because its sums and spread do not depend on the taxels' order — and so are the input
+/// standardisation, the first layer's columns and the output rows. Fails when `perm` is not an
+/// involution of the net's taxels or a class's mirror is not among the net's classes.
+pub fn mirrored_net(net: &DosWindowNet, perm: &[usize]) -> Result<DosWindowNet> {
+    let n = net.taxels;
+    if perm.len() != n || (0..n).any(|i| perm[i] >= n || perm[perm[i]] != i) {
+        return Err(invalid(format!("a mirror permutation of {n} taxels must be an involution of 0..{n}")));
+    }
+    let d = net.input_mean.len();
+    let src: Vec<usize> = (0..d).map(|j| (j / n) * n + perm[j % n]).collect();
+    let out_src = net
+        .classes
+        .iter()
+        .map(|c| net.classes.iter().position(|x| *x == c.mirrored()))
+        .collect::<Option<Vec<usize>>>()
+        .ok_or_else(|| invalid("mirroring a window network needs every class's mirror among its classes"))?;
+    let m = DosWindowNet {
+        config: net.config.clone(),
+        taxels: n,
+        classes: net.classes.clone(),
+        input_mean: src.iter().map(|&j| net.input_mean[j]).collect(),
+        input_scale: src.iter().map(|&j| net.input_scale[j]).collect(),
+        w1: net.w1.iter().map(|row| src.iter().map(|&j| row[j]).collect()).collect(),
+        b1: net.b1.clone(),
+        w2: out_src.iter().map(|&c| net.w2[c].clone()).collect(),
+        b2: out_src.iter().map(|&c| net.b2[c]).collect(),
+        recordings: net.recordings,
+    };
+    m.validate()?;
+    Ok(m)
 }
 
 /// One network ([`fit_windows`] with one member).
@@ -322,11 +386,11 @@ pub fn merge_members(nets: &[DosWindowNet]) -> Result<DosWindowNet> {
 pub fn fit_on(
     samples: &[WindowSamples],
     train: &[usize],
-    taxels: usize,
+    layout: &Layout,
     cfg: &WindowTrainConfig,
 ) -> Result<DosWindowNet> {
     let s: Vec<(DosClass, Vec<f64>)> = train.iter().flat_map(|&i| samples[i].iter().cloned()).collect();
-    let mut net = fit_windows(&s, taxels, cfg)?;
+    let mut net = fit_windows(&s, layout, cfg)?;
     net.recordings = train.len();
     Ok(net)
 }
@@ -407,7 +471,7 @@ pub fn inner_scores(
         for g in &groups {
             let train: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group != *g).collect();
             let test: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group == *g).collect();
-            let net = fit_on(samples[k], &train, layout.len(), cfg)?;
+            let net = fit_on(samples[k], &train, layout, cfg)?;
             for s in score(&net, recs, &test, layout)? {
                 w = (w.0 + s.0, w.1 + s.1);
                 r = (r.0 + usize::from(s.2), r.1 + 1);
@@ -451,7 +515,7 @@ pub fn train_test_window(
 ) -> Result<(WindowHeldOut, DosWindowNet)> {
     let (k, acc) =
         if candidates.len() == 1 { (0, f64::NAN) } else { choose_window(recs, samples, train, layout, candidates)? };
-    let net = fit_on(samples[k], train, layout.len(), &candidates[k])?;
+    let net = fit_on(samples[k], train, layout, &candidates[k])?;
     let scores = score(&net, recs, test, layout)?.into_iter().zip(test).map(|((ok, n, v), &i)| (i, ok, n, v)).collect();
     Ok((WindowHeldOut { scores, chosen: vec![(name.to_string(), k, acc)] }, net))
 }

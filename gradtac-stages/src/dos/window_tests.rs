@@ -295,14 +295,14 @@ mod training {
         let cfg = WindowTrainConfig { epochs: 10, ..Default::default() };
         let samples = window_samples(&recs, &layout, &cfg).unwrap();
         let all: Vec<usize> = (0..recs.len()).collect();
-        let net = fit_on(&samples, &all, 24, &cfg).unwrap();
-        assert_eq!(net, fit_on(&samples, &all, 24, &cfg).unwrap(), "deterministic for a seed");
+        let net = fit_on(&samples, &all, &layout, &cfg).unwrap();
+        assert_eq!(net, fit_on(&samples, &all, &layout, &cfg).unwrap(), "deterministic for a seed");
         let s = score(&net, &recs, &all, &layout).unwrap();
         let right = s.iter().filter(|x| x.2).count();
         assert!(right * 2 > recs.len(), "{right}/{}", recs.len());
         let back: DosWindowNet = serde_json::from_str(&serde_json::to_string(&net).unwrap()).unwrap();
         assert_eq!(back, net);
-        assert!(fit_windows(&[(DosClass::N, vec![0.0; 48])], 24, &cfg).is_err());
+        assert!(fit_windows(&[(DosClass::N, vec![0.0; 48])], &layout, &cfg).is_err());
         assert!(WindowTrainConfig { epochs: 0, ..Default::default() }.validate().is_err());
         assert!(WindowTrainConfig { batch: 0, ..Default::default() }.validate().is_err());
     }
@@ -327,7 +327,7 @@ mod training {
         let members: Vec<DosWindowNet> = (0..3u64)
             .map(|k| {
                 let c = WindowTrainConfig { seed: 1 + k, members: 1, ..cfg.clone() };
-                fit_on(&window_samples(&recs, &layout, &c).unwrap(), &all, 24, &c).unwrap()
+                fit_on(&window_samples(&recs, &layout, &c).unwrap(), &all, &layout, &c).unwrap()
             })
             .collect();
         assert_ne!(members[0].input_mean, members[1].input_mean);
@@ -348,12 +348,12 @@ mod training {
         let samples = window_samples(&recs, &layout, &same).unwrap();
         let one: Vec<DosWindowNet> = (0..3u64)
             .map(|k| {
-                fit_on(&samples, &all, 24, &WindowTrainConfig { seed: 1 + k, members: 1, ..same.clone() }).unwrap()
+                fit_on(&samples, &all, &layout, &WindowTrainConfig { seed: 1 + k, members: 1, ..same.clone() }).unwrap()
             })
             .collect();
         let mut want = merge_members(&one).unwrap();
         want.recordings = all.len();
-        assert_eq!(fit_on(&samples, &all, 24, &same).unwrap(), want);
+        assert_eq!(fit_on(&samples, &all, &layout, &same).unwrap(), want);
         // refused: nothing, mixed representations, too many hidden units
         assert!(merge_members(&[]).is_err());
         let mut other = members[1].clone();
@@ -408,6 +408,82 @@ mod training {
         assert!(accs[..k].iter().all(|a| *a < acc), "ties go to the earlier");
         let one: Vec<usize> = idx.iter().copied().filter(|&i| recs[i].group == "obj0").collect();
         assert!(inner_scores(&recs, &views, &one, &layout, &cands).is_err());
+    }
+
+    #[test]
+    fn the_mirror_average_gives_a_mirrored_window_the_mirrored_posterior() {
+        use super::super::train::permute;
+        let layout = Layout::biotac_sp();
+        let p = mirror_permutation(&layout).unwrap();
+        let mut recs = Vec::new();
+        for (k, class) in DosClass::ALL.into_iter().enumerate() {
+            for j in 0..2u64 {
+                recs.push(TrainRecording {
+                    class,
+                    group: format!("obj{j}"),
+                    frames: counts(class, 500 + 7 * j + k as u64),
+                });
+            }
+        }
+        let all: Vec<usize> = (0..recs.len()).collect();
+        for kind in [WindowInputs::Levels, WindowInputs::Both] {
+            let net = WindowNetConfig { inputs: kind, hidden: 4, ..Default::default() };
+            let plain = WindowTrainConfig { net, epochs: 3, members: 2, ..Default::default() };
+            let sym = WindowTrainConfig { mirror_average: true, ..plain.clone() };
+            let samples = window_samples(&recs, &layout, &plain).unwrap();
+            let a = fit_on(&samples, &all, &layout, &plain).unwrap();
+            let b = fit_on(&samples, &all, &layout, &sym).unwrap();
+            assert_eq!(b.config.hidden, 2 * a.config.hidden);
+            // the plain ensemble is not symmetric; the mirror average is, to rounding
+            let m = mirrored_net(&a, &p).unwrap();
+            let mut plain_gap: f64 = 0.0;
+            for r in &recs[..6] {
+                let x = inputs(&r.frames, &b.config);
+                let xm = inputs(&permute(&r.frames, &p), &b.config);
+                for (w, wm) in x.iter().zip(&xm) {
+                    let (l, lm) = (b.logits(w).unwrap(), b.logits(wm).unwrap());
+                    for (c, class) in b.classes.iter().enumerate() {
+                        let cm = b.classes.iter().position(|x| *x == class.mirrored()).unwrap();
+                        assert!((l[c] - lm[cm]).abs() < 1e-9 * (1.0 + l[c].abs()), "{} vs {}", l[c], lm[cm]);
+                    }
+                    // the mirrored net on the mirrored window is the net on the window, mirrored
+                    let (la, lma) = (a.logits(w).unwrap(), m.logits(wm).unwrap());
+                    for (c, class) in a.classes.iter().enumerate() {
+                        let cm = a.classes.iter().position(|x| *x == class.mirrored()).unwrap();
+                        assert!((la[cm] - lma[c]).abs() < 1e-9 * (1.0 + la[cm].abs()), "{} vs {}", la[cm], lma[c]);
+                        plain_gap = plain_gap.max((la[c] - a.logits(wm).unwrap()[cm]).abs());
+                    }
+                    // and the average is the mean of the two
+                    let mb = m.logits(w).unwrap();
+                    for c in 0..l.len() {
+                        assert!((l[c] - (la[c] + mb[c]) / 2.0).abs() < 1e-9 * (1.0 + l[c].abs()));
+                    }
+                }
+            }
+            assert!(plain_gap > 1e-6, "the plain ensemble is not symmetric by construction");
+        }
+        // refused: a permutation that is not an involution, a class without its mirror, too wide
+        let cfg = WindowTrainConfig { epochs: 1, ..Default::default() };
+        let net = fit_on(&window_samples(&recs, &layout, &cfg).unwrap(), &all, &layout, &cfg).unwrap();
+        let mut bad = p.clone();
+        bad.swap(0, 1);
+        assert!(mirrored_net(&net, &bad).is_err());
+        assert!(mirrored_net(&net, &p[..23]).is_err());
+        let only_e: Vec<TrainRecording> =
+            recs.iter().filter(|r| r.class == DosClass::E || r.class == DosClass::N).cloned().collect();
+        let one = WindowTrainConfig {
+            augment: WindowAugment { mirror: false, copies: 0, ..Default::default() },
+            ..cfg.clone()
+        };
+        let s = window_samples(&only_e, &layout, &one).unwrap();
+        let idx: Vec<usize> = (0..only_e.len()).collect();
+        let e_only = fit_on(&s, &idx, &layout, &one).unwrap();
+        assert!(mirrored_net(&e_only, &p).is_err());
+        let wide = WindowNetConfig { hidden: 32, ..Default::default() };
+        assert!(WindowTrainConfig { net: wide.clone(), members: 4, ..Default::default() }.validate().is_ok());
+        assert!(WindowTrainConfig { net: wide, members: 5, mirror_average: true, ..Default::default() }
+            .validate()
+            .is_err());
     }
 
     /// Fitted numbers of a network of `d` inputs, `h` hidden units and `c` classes.
