@@ -114,11 +114,13 @@
 //! way no fit is clean, so no key frame is taken (tuning worst kind 0.080). With
 //! `fit_polarity_votes = N` the magnitude fit learns each electrode's **pressing polarity**
 //! `pᵢ` instead and keeps the ring's sign where it can:
-//! - **votes**: after a clean fit (as the gains' learners use) whose spread is ≤ 5 mm and far
-//!   lobe `|a|` ≤ 0.6 (a fit at the family's extremes is a fit through a ring), each electrode
-//!   under the core (kernel ≥ 0.5) whose change exceeds both 10 σ and half the frame's
-//!   largest change votes the sign of its change (net votes held within ±2N). At ±N it has a
-//!   polarity; once 3 have one, their majority `M` is the sensor's.
+//! - **votes**: after a fit of a single region whose cost is under 0.15 of the no-contact
+//!   cost (the gains take only fits under 0.05; a magnitude fit under a ring rarely gets
+//!   there), whose spread is ≤ 5 mm and far lobe `|a|` ≤ 0.6 (a fit at the family's extremes
+//!   is a fit through a ring), each electrode under the core (kernel ≥ 0.5) whose change
+//!   exceeds both 10 σ and half the frame's largest change votes the sign of its change (net
+//!   votes held within ±2N). At ±N it has a polarity; once 3 have one, their majority `M` is
+//!   the sensor's.
 //! - **what the fit sees**: `pᵢ·Δᵢ` for a decided electrode (positive under the core,
 //!   negative in the ring); for an undecided one `M·Δᵢ` when it is not below
 //!   `−max(3 σᵢ, 0.05·max|Δ|)`; below that its magnitude when `|Δᵢ|` ≥ 0.35 × the frame's largest
@@ -130,22 +132,26 @@
 //! - **key frames** keep the signed changes and are re-signed when a polarity or the majority
 //!   changes; `reset` forgets the votes; [`Fit::polarity`] reads the applied polarities.
 //!
-//! **Measured: it does not pay, and is not in the preset** (stop 31, `examples/fit_probe.rs`,
-//! the `accurate` settings plus `fit_polarity_votes`, tuning members seeds 0–7 × 4 kinds):
-//! full sensor worst kind 0.033 at N = 3, 10 and 30 (0.032 without); kernel term alone 0.021
-//! against 0.020. Held out (seeds 100–115 × 4 kinds, held-out physics; scored once, not used
-//! for the choice) 0.040 against 0.041. Votes from magnitude fits under a ring decided false polarities until the spread,
-//! lobe and share guards above (0.15–0.20 on two difference-of-Gaussians members before them);
-//! with them no false polarity on the tuning members, but most difference-of-Gaussians members
-//! never give a clean magnitude fit, so nothing is decided there and the bias stays; where
-//! polarities are decided the member improves (0.007–0.014 → 0.000–0.008), while leaving
-//! out the ambiguous electrodes costs the other terms (gains 0.022 → 0.024, noise 0.003 →
-//! 0.006, drift 0.005 → 0.006). A still contact decides nothing (unit test). On the real
-//! recordings (`locate_dos`, all 167) it is quieter: 2.6 % of frame pairs at the speed bound
-//! against 3.2 %, 97.0 % of contact frames above noise either way; the edge-slide test
-//! passes with it (< 1.5 mm). Cost (criterion, `fit_polarity` rows, load ≈ 5): 140 k frames/s
-//! simulated against 175 k for the preset, 185 k real either way. The next step is polarity from
-//! motion — an electrode's change as the contact passes over it — or a ring the magnitude fit
+//! **Measured: it does not pay enough, and is not in the preset** (stop 31,
+//! `examples/fit_probe.rs`, the `accurate` settings plus `fit_polarity_votes`, tuning members
+//! seeds 0–7 × 4 kinds; worst kind): full sensor 0.0320 / 0.0318 / 0.0315 at N = 3 / 10 / 30
+//! against 0.0316 without (tuning means 0.0300 / 0.0300 / 0.0294 against 0.0288); the kernel
+//! term alone 0.019 against 0.020 at N = 10. N = 30 is lower by 0.0001 with a higher mean:
+//! below what 32 members resolve, so the preset was not switched (`docs/tradeoff.md`, round 5).
+//! Held out (seeds 100–115 × 4 kinds, held-out physics; not used for the choice): 0.039 at
+//! N = 10 and at N = 30, against 0.041. Votes from magnitude fits under a ring decided false
+//! polarities until the spread, lobe and share guards above (two difference-of-Gaussians
+//! members went to 0.15–0.20 before them); with them no false polarity on the tuning members,
+//! but on most difference-of-Gaussians members the magnitude fit never gets good enough, so
+//! nothing is decided there and the bias stays. Where polarities are decided the member
+//! improves (0.007–0.014 → 0.000–0.008), while leaving out the ambiguous electrodes costs the
+//! other terms (N = 10: gains 0.022 → 0.024, noise 0.003 → 0.006, drift 0.005 → 0.007). A
+//! still contact decides nothing (unit test). On the real recordings (`locate_dos`, all 167)
+//! it is quieter: 2.6 % of frame pairs at the speed bound at N = 10 (2.7 % at N = 30) against
+//! 3.2 %, 97.0 % of contact frames above noise either way; the edge-slide test passes with it
+//! (< 1.5 mm). Cost (criterion, `fit_polarity` rows, load ≈ 5): 140 k frames/s simulated
+//! against 175 k for the preset, 185 k real either way. The next step is polarity from
+//! motion (an electrode's change as the contact passes over it), or a ring the magnitude fit
 //! can rule out before it votes.
 //!
 //! # Reported per point ([`FitSummary`] in [`MaxContour::fit`])
@@ -303,6 +309,8 @@ const RING_MIN: f64 = 0.3;
 const CORE_KERNEL: f64 = 0.5;
 /// Share of the frame's largest change an electrode's change needs to vote for its polarity.
 const POL_VOTE_SHARE: f64 = 0.5;
+/// Largest cost (fraction of the no-contact cost) of a frame that votes for polarities.
+const POL_VOTE_COST: f64 = 0.15;
 /// Largest fitted spread (mm) of a frame that votes for polarities.
 const POL_VOTE_MAX_SPREAD_MM: f64 = 5.0;
 /// Largest fitted far-lobe weight magnitude of a frame that votes for polarities.
@@ -1148,7 +1156,12 @@ impl Fit {
         }
         // polarity votes need a plausible single contact: a spread or far lobe at the family's
         // extremes is a fit through a far ring, whose "core" electrodes are in the ring
-        if self.polarity_on() && clean && w_mm <= POL_VOTE_MAX_SPREAD_MM && th[4].abs() <= POL_VOTE_MAX_LOBE {
+        if self.polarity_on()
+            && best.cost < POL_VOTE_COST * null
+            && !second_region
+            && w_mm <= POL_VOTE_MAX_SPREAD_MM
+            && th[4].abs() <= POL_VOTE_MAX_LOBE
+        {
             self.vote_polarity();
         }
         self.warm = Some(th);
