@@ -14,7 +14,8 @@
 //! `none` keeps none); `--without TERM` (the member's physics with that term made ideal);
 //! `--heldout` (score the held-out members, seeds 100–115 × 4 kinds, `PhysicsSet::HeldOut`,
 //! instead: for a final candidate only, never for a choice); `--verbose` (each member's
-//! kernel, learned shape exponent `q̂` and error).
+//! kernel, learned shape exponent `q̂`, polarities decided right / wrong / undecided, and
+//! error).
 
 use gradtac::stages::fit::Fit;
 use gradtac::stages::locate::LocateConfig;
@@ -95,6 +96,17 @@ fn main() {
             fit.push(f, &mut contours).unwrap();
         }
         let shape = fit.shape();
+        // polarity learning (`fit_polarity_votes`): decided polarities that agree with the
+        // truth's signs / that disagree (up to the overall sign), and the undecided
+        let pol = fit.polarity();
+        let agree = pol.iter().zip(&p.gain).filter(|(q, g)| **q != 0.0 && q.signum() == -g.signum()).count();
+        let against = pol.iter().zip(&p.gain).filter(|(q, g)| **q != 0.0 && q.signum() == g.signum()).count();
+        let polarity = format!(
+            "polarity {} / {} / {} unset",
+            agree.max(against),
+            agree.min(against),
+            pol.iter().filter(|q| **q == 0.0).count()
+        );
         fit.finish(&mut contours).unwrap();
         let pts = Track::try_new(&TrackConfig::default()).unwrap().run_all(contours).unwrap();
         let (t0, t1) = rec.moving_s;
@@ -124,7 +136,7 @@ fn main() {
         };
         if verbose {
             println!(
-                "  seed {:3} {:10} kernel {:12} q̂ {shape:.2} | {:.4}",
+                "  seed {:3} {:10} kernel {:12} q̂ {shape:.2} {polarity} | {:.4}",
                 m.seed,
                 m.kind.name(),
                 rec.physics.kernel.name(),

@@ -121,6 +121,8 @@ struct FitSetting {
     /// The kernel folded to `|K|` and its shape exponent learned per sensor
     /// (`fit_fold_lobe`, `fit_shape_rate` 0.05; stop 30).
     shape: bool,
+    /// Polarity learning (`fit_polarity_votes`; 0 = off; round 5).
+    polarity: u32,
 }
 
 impl Setting {
@@ -149,9 +151,15 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, lag, continuity, keys, shape }) => format!(
+            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, lag, continuity, keys, shape, polarity }) => format!(
                 "window {window}, ≤ {iterations} iterations, {}{}, {}, model error {model_error}, contact {contact} σ, {}, smooth {smooth}, {}, {}",
-                if *signed { "signed" } else { "magnitudes" },
+                if *signed {
+                    "signed".to_string()
+                } else if *polarity > 0 {
+                    format!("polarity learned ({polarity} votes)")
+                } else {
+                    "magnitudes".to_string()
+                },
                 if *shape { ", kernel folded, shape learned (0.05)" } else { "" },
                 if *keys > 0 && *gain_rate > 0.0 { format!("gains self-calibrated ({keys} keys)") } else { format!("gain rate {gain_rate}") },
                 if *lag { "lag estimated online".to_string() } else { format!("lead {} ms", lead * 1e3) },
@@ -218,7 +226,9 @@ impl Setting {
                 continuity,
                 keys,
                 shape,
+                polarity,
             }) => Some(LocateConfig {
+                fit_polarity_votes: polarity,
                 fit_fold_lobe: shape,
                 fit_shape_rate: if shape { 0.05 } else { 0.0 },
                 fit_gain_keys: keys,
@@ -583,6 +593,7 @@ fn main() {
             continuity,
             keys: 0,
             shape: false,
+            polarity: 0,
         })
     };
     for window in [1u32, 5] {
@@ -641,6 +652,15 @@ fn main() {
         if let Setting::Fit(mut f) = fit(9, 3, 0.1, 0.3, false, 10.0, 0.0, true) {
             f.keys = k;
             f.shape = true;
+            settings.push(Setting::Fit(f));
+        }
+    }
+    // round 5: polarity learned and the far ring's sign kept (`fit_polarity_votes`), on the
+    // `accurate` preset's point
+    for votes in [3u32, 10] {
+        if let Setting::Fit(mut f) = fit(9, 3, 0.1, 0.3, false, 10.0, 0.0, true) {
+            f.keys = keys;
+            f.polarity = votes;
             settings.push(Setting::Fit(f));
         }
     }
@@ -909,8 +929,8 @@ fn main() {
     }
     let la = LocateConfig::preset(Preset::Accurate);
     let lib_accurate = rows.iter().find(|r| {
-        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys, shape })
-            if keys == la.fit_gain_keys && shape == (la.fit_fold_lobe && la.fit_shape_rate > 0.0) && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys, shape, polarity })
+            if keys == la.fit_gain_keys && polarity == la.fit_polarity_votes && shape == (la.fit_fold_lobe && la.fit_shape_rate > 0.0) && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
                 && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
                 && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
     });

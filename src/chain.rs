@@ -513,9 +513,20 @@ impl SensorChain {
                     },
                     if l.fit_fold_lobe && !l.fit_signed { ", folded to |K| (fit_fold_lobe)" } else { "" }
                 );
+                let changes = if l.fit_signed {
+                    "the signed changes (fit_signed)".to_string()
+                } else if l.fit_polarity_votes > 0 {
+                    format!(
+                        "each electrode's polarity learned from {} net votes under a clean fit's core, the far ring's \
+                         sign kept (fit_polarity_votes)",
+                        l.fit_polarity_votes
+                    )
+                } else {
+                    "the changes' magnitudes |Δ| (fit_polarity_votes 0)".to_string()
+                };
                 format!(
                     "model fit (preset {}): robust Levenberg–Marquardt, ≤ {} iterations, on the 3-D electrode cores when the \
-                     layout is the BioTac SP; spread, amplitude, far lobe; {shape}; {gains}; model error {} of the \
+                     layout is the BioTac SP; spread, amplitude, far lobe; fits {changes}; {shape}; {gains}; model error {} of the \
                      largest change; electrodes at the rails [{}, {}] left out; reports residual and σ (mm) per point; \
                      {lag}; {prior}; position memory {} frames, {speed} ({})",
                     l.preset.name(),

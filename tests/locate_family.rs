@@ -355,6 +355,11 @@ fn explain_shows_the_fit_and_the_preset_values() {
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_keys = 5000\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_spacing_mm = 0\n").is_err());
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_gain_prior = -1\n").is_err());
+    // polarity learning (round 5): off in the preset, shown when a scene turns it on
+    assert!(accurate.contains("fits the changes' magnitudes |Δ| (fit_polarity_votes 0)"), "{accurate}");
+    let pol = explain("[stages.locate]\npreset = \"accurate\"\nfit_polarity_votes = 10\n").unwrap();
+    assert!(pol.contains("polarity learned from 10 net votes"), "{pol}");
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_polarity_votes = 5000\n").is_err());
     // the lag estimate is off in the preset (tuning did not choose it); a scene turns it on
     assert!(accurate.contains("lag lead 0 s along the velocity"), "{accurate}");
     let on = explain("[stages.locate]\npreset = \"accurate\"\nfit_lag_estimate = true\n").unwrap();

@@ -12,7 +12,8 @@
 //!   contour (min area 60 mm²) → track) or `events_noise` (the same with the events method's
 //!   default noise-adaptive τ = `event_tau_sigmas` σ, calibrated over `calibrate_frames`).
 //!   `fit` is the model fit (`[stages.locate] method = "fit"` with the `accurate` preset's
-//!   settings and the method forced to `fit`) → track.
+//!   settings and the method forced to `fit`) → track; `fit_polarity` the same with
+//!   `fit_polarity_votes = 10` (an option, not in the preset).
 //! - After the criterion groups, per-frame latency percentiles (p50, p99) of the default chain
 //!   and of the fit pushed one frame at a time, printed (not asserted).
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -68,8 +69,13 @@ fn centroid_chain(
 
 fn fit_chain(
     l: &Layout,
+    polarity_votes: u32,
 ) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint, Error = gradtac_stream::Error> {
-    let cfg = LocateConfig { method: LocateMethod::Fit, ..LocateConfig::preset(Preset::Accurate) };
+    let cfg = LocateConfig {
+        method: LocateMethod::Fit,
+        fit_polarity_votes: polarity_votes,
+        ..LocateConfig::preset(Preset::Accurate)
+    };
     Fit::try_new(&cfg, l).unwrap().then(Track::try_new(&TrackConfig::default()).unwrap())
 }
 
@@ -104,7 +110,10 @@ fn bench(c: &mut Criterion) {
             b.iter(|| black_box(centroid_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
         });
         g.bench_with_input(BenchmarkId::new("fit", name), frames, |b, f| {
-            b.iter(|| black_box(fit_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
+            b.iter(|| black_box(fit_chain(&l, 0).run_all(f.iter().cloned()).unwrap().len()))
+        });
+        g.bench_with_input(BenchmarkId::new("fit_polarity", name), frames, |b, f| {
+            b.iter(|| black_box(fit_chain(&l, 10).run_all(f.iter().cloned()).unwrap().len()))
         });
         g.bench_with_input(BenchmarkId::new("events", name), frames, |b, f| {
             b.iter(|| black_box(events_chain(&l, Threshold::Uniform(0.001)).run_all(f.iter().cloned()).unwrap().len()))
@@ -120,7 +129,8 @@ fn bench(c: &mut Criterion) {
     // asserted)
     for (name, frames) in &recs {
         latency("centroid", name, frames, || centroid_chain(&l));
-        latency("fit", name, frames, || fit_chain(&l));
+        latency("fit", name, frames, || fit_chain(&l, 0));
+        latency("fit_polarity", name, frames, || fit_chain(&l, 10));
     }
 }
 

@@ -106,6 +106,54 @@
 //! shape alone (no fold) gave 0.032 at every rate tried (0.005–0.2): the exponential members
 //! are not where the kernel term is.
 //!
+//! # Polarity (`fit_polarity_votes`; off by default and in `accurate`)
+//! The magnitude fit sees a far ring that moves the other way (a difference of Gaussians, a
+//! Mexican hat) as a positive change, which biases the position; the fully signed fit
+//! (`fit_signed`) keeps the ring's sign but needs every electrode's polarity, and its
+//! self-calibrated signed gains never learn them: with up to 30 % of the electrodes the other
+//! way no fit is clean, so no key frame is taken (tuning worst kind 0.080). With
+//! `fit_polarity_votes = N` the magnitude fit learns each electrode's **pressing polarity**
+//! `pᵢ` instead and keeps the ring's sign where it can:
+//! - **votes**: after a fit of a single region whose cost is under 0.15 of the no-contact
+//!   cost (the gains take only fits under 0.05; a magnitude fit under a ring rarely gets
+//!   there), whose spread is ≤ 5 mm and far lobe `|a|` ≤ 0.6 (a fit at the family's extremes
+//!   is a fit through a ring), each electrode under the core (kernel ≥ 0.5) whose change
+//!   exceeds both 10 σ and half the frame's largest change votes the sign of its change (net
+//!   votes held within ±2N). At ±N it has a polarity; once 3 have one, their majority `M` is
+//!   the sensor's.
+//! - **what the fit sees**: `pᵢ·Δᵢ` for a decided electrode (positive under the core,
+//!   negative in the ring); for an undecided one `M·Δᵢ` when it is not below
+//!   `−max(3 σᵢ, 0.05·max|Δ|)`; below that its magnitude when `|Δᵢ|` ≥ 0.35 × the frame's largest
+//!   change (too strong for a ring: the other polarity), else it is **left out** of the frame
+//!   (a ring or the other polarity: ambiguous). With fewer than 12 electrodes left the left-out
+//!   ones count as magnitudes. Before a majority exists every undecided electrode is `|Δᵢ|`
+//!   (the magnitude fit). The amplitude is held positive (pressing units), so a negative
+//!   contact whose core sits on left-out electrodes is not a solution.
+//! - **key frames** keep the signed changes and are re-signed when a polarity or the majority
+//!   changes; `reset` forgets the votes; [`Fit::polarity`] reads the applied polarities.
+//!
+//! **Measured: it does not pay enough, and is not in the preset** (stop 31,
+//! `examples/fit_probe.rs`, the `accurate` settings plus `fit_polarity_votes`, tuning members
+//! seeds 0–7 × 4 kinds; worst kind): full sensor 0.0320 / 0.0318 / 0.0315 at N = 3 / 10 / 30
+//! against 0.0316 without (tuning means 0.0300 / 0.0300 / 0.0294 against 0.0288); the kernel
+//! term alone 0.019 against 0.020 at N = 10. N = 30 is lower by 0.0001 with a higher mean:
+//! below what 32 members resolve, so the preset was not switched (`docs/tradeoff.md`, round 5).
+//! Held out (seeds 100–115 × 4 kinds, held-out physics; not used for the choice): 0.039 at
+//! N = 10 and at N = 30, against 0.041. Votes from magnitude fits under a ring decided false
+//! polarities until the spread, lobe and share guards above (two difference-of-Gaussians
+//! members went to 0.15–0.20 before them); with them no false polarity on the tuning members,
+//! but on most difference-of-Gaussians members the magnitude fit never gets good enough, so
+//! nothing is decided there and the bias stays. Where polarities are decided the member
+//! improves (0.007–0.014 → 0.000–0.008), while leaving out the ambiguous electrodes costs the
+//! other terms (N = 10: gains 0.022 → 0.024, noise 0.003 → 0.006, drift 0.005 → 0.007). A
+//! still contact decides nothing (unit test). On the real recordings (`locate_dos`, all 167)
+//! it is quieter: 2.6 % of frame pairs at the speed bound at N = 10 (2.7 % at N = 30) against
+//! 3.2 %, 97.0 % of contact frames above noise either way; the edge-slide test passes with it
+//! (< 1.5 mm). Cost (criterion, `fit_polarity` rows, load ≈ 5): 140 k frames/s simulated
+//! against 175 k for the preset, 185 k real either way. The next step is polarity from
+//! motion (an electrode's change as the contact passes over it), or a ring the magnitude fit
+//! can rule out before it votes.
+//!
 //! # Reported per point ([`FitSummary`] in [`MaxContour::fit`])
 //! amplitude `|A|`, spread `w`, far-lobe weight `a`, the **relative residual**
 //! `‖Δ − model‖ / ‖Δ‖` over the electrodes used, the **position uncertainty** `sigma_mm` (the
@@ -197,6 +245,7 @@
 //! | `fit_gain_spacing_mm` | keys crowd where the contact dwells | fewer keys, the pad sampled coarsely |
 //! | `fit_shape_rate` | 0: the Gaussian (or difference of Gaussians) only | the shape follows each clean frame, noisier; three one-step re-fits per clean frame |
 //! | `fit_fold_lobe` | a far ring that moves the other way is an outlier to the model | the ring fitted as magnitudes; more local minima (ring fits; far lobe ≤ 0.6) |
+//! | `fit_polarity_votes` | 0: magnitudes, the ring read as the contact; few: a polarity decided on few frames | fewer false polarities, decided later; the ring's electrodes left out until decided (measured: no gain, *Polarity*) |
 //! | `fit_gain_prior` | gains follow the keys: best when the kernel fits (gains alone: 0.018 of the width at 0.03) | gains held near 1: other model errors (kernel shape, lag) leak less into them (full sensor: 0.032 at 0.3, 0.036 at 0.03) |
 //!
 //! # Error budget
@@ -256,6 +305,55 @@ const FOLD_LOBE_MAX: f64 = 0.6;
 /// With the folded kernel, a fit whose unfolded kernel at the strongest electrode is below
 /// this explains it by its far ring (chosen on the tuning members: 0.3 against 0, 0.2, 0.5).
 const RING_MIN: f64 = 0.3;
+/// Kernel value at or above which an electrode is under the contact's core (polarity votes).
+const CORE_KERNEL: f64 = 0.5;
+/// Share of the frame's largest change an electrode's change needs to vote for its polarity.
+const POL_VOTE_SHARE: f64 = 0.5;
+/// Largest cost (fraction of the no-contact cost) of a frame that votes for polarities.
+const POL_VOTE_COST: f64 = 0.15;
+/// Largest fitted spread (mm) of a frame that votes for polarities.
+const POL_VOTE_MAX_SPREAD_MM: f64 = 5.0;
+/// Largest fitted far-lobe weight magnitude of a frame that votes for polarities.
+const POL_VOTE_MAX_LOBE: f64 = 0.6;
+/// Fewest electrodes the polarity's exclusions leave in a frame's fit; with fewer, the excluded
+/// ones are fitted as magnitudes.
+const POL_MIN_KEPT: usize = 2 * MIN_USED;
+/// Fewest decided electrodes before the undecided ones take their majority polarity.
+const POL_MAJORITY_MIN: usize = 3;
+/// An undecided electrode whose change, in the majority polarity, is below minus this many σ
+/// is left out of the frame's fit (a far ring or an electrode of the other polarity).
+const POL_SKIP_SIGMAS: f64 = 3.0;
+
+/// A change against the majority polarity smaller than this share of the frame's largest change
+/// is kept (with its sign) whatever its σ: too small to bias the fit, and a noise-free sensor
+/// keeps its far electrodes.
+const POL_SKIP_SHARE: f64 = 0.05;
+/// A change against the majority polarity at or above this fraction of the frame's largest
+/// change cannot be a far ring (the family's deepest ring is ≈ 0.3 of the peak): it is taken
+/// as an electrode of the other polarity (its magnitude).
+const POL_RING_MAX: f64 = 0.35;
+
+/// One electrode's change as the polarity-learning fit sees it: `p·s` for a decided polarity
+/// `p`; for an undecided one `m·s` in the majority polarity `m` — or, when that is below
+/// `−thr`, its magnitude if `|s|` is at least `big` (too strong for a ring), else `None`
+/// (left out: a ring or the other polarity); `|s|` when there is no majority yet.
+#[inline]
+fn polarise(s: f64, p: f64, m: f64, thr: f64, big: f64) -> Option<f64> {
+    if p != 0.0 {
+        Some(p * s)
+    } else if m == 0.0 {
+        Some(s.abs())
+    } else {
+        let v = m * s;
+        if v >= -thr {
+            Some(v)
+        } else if s.abs() >= big {
+            Some(s.abs())
+        } else {
+            None
+        }
+    }
+}
 /// Fewest electrodes a fit needs.
 const MIN_USED: usize = NP + 1;
 
@@ -481,6 +579,8 @@ struct Problem<'a> {
     q: f64,
     /// The model folded to `|K|` (`fit_fold_lobe` on the magnitude fit).
     fold: bool,
+    /// The amplitude held positive (`fit_polarity_votes`: the changes are in pressing units).
+    positive: bool,
 }
 
 /// A converged (or stopped) fit.
@@ -502,6 +602,9 @@ impl Problem<'_> {
         th[0] = x;
         th[1] = y;
         th[2] = th[2].clamp(LW_MIN, LW_MAX);
+        if self.positive {
+            th[3] = th[3].max(0.0);
+        }
         th[4] = th[4].clamp(LOBE_MIN, if self.fold { FOLD_LOBE_MAX } else { LOBE_MAX });
         edge
     }
@@ -634,6 +737,21 @@ pub struct Fit {
     shape: f64,
     /// The kernel folded to `|K|` (`fit_fold_lobe` and not `fit_signed`).
     fold: bool,
+    /// Polarity learning (`fit_polarity_votes`, see *Polarity*): the frame's signed changes,
+    /// each electrode's net core votes and the polarity applied (±1, 0 = magnitude).
+    sd: Vec<f64>,
+    votes: Vec<f64>,
+    pol: Vec<f64>,
+    /// The decided electrodes' majority polarity (0 until [`POL_MAJORITY_MIN`] are decided).
+    majority: f64,
+    /// Electrodes left out of this frame's fit by their polarity, and each one's threshold
+    /// ([`POL_SKIP_SIGMAS`] σ).
+    skip: Vec<bool>,
+    thr: Vec<f64>,
+    /// [`POL_RING_MAX`] × the frame's largest change.
+    big: f64,
+    /// Inverse scales before the polarity's exclusions (kept with a key frame).
+    inv_full: Vec<f64>,
 }
 
 impl Fit {
@@ -656,6 +774,14 @@ impl Fit {
             lag: cfg.fit_lag_estimate.then(|| crate::lag::LagEstimator::new(cfg.fit_lag_prior, cfg.fit_lag_max_s)),
             shape: SHAPE_MAX,
             fold: cfg.fit_fold_lobe && !cfg.fit_signed,
+            sd: Vec::with_capacity(n),
+            votes: vec![0.0; n],
+            pol: vec![0.0; n],
+            majority: 0.0,
+            skip: vec![false; n],
+            thr: vec![0.0; n],
+            big: 0.0,
+            inv_full: vec![0.0; n],
         })
     }
 
@@ -671,8 +797,15 @@ impl Fit {
     /// by `rate`.
     fn step_shape(&mut self, rate: f64, th: &[f64; NP]) {
         let q = self.shape;
-        let prob =
-            |q: f64| Problem { geo: &self.geo, d: &self.d, inv_s: &self.inv_s, gain: &self.gain, q, fold: self.fold };
+        let prob = |q: f64| Problem {
+            geo: &self.geo,
+            d: &self.d,
+            inv_s: &self.inv_s,
+            gain: &self.gain,
+            q,
+            fold: self.fold,
+            positive: self.positive(),
+        };
         let (qm, qp) = ((q - SHAPE_STEP).max(SHAPE_MIN), (q + SHAPE_STEP).min(SHAPE_MAX));
         let c = |q: f64| prob(q).solve(*th, 1).cost;
         let (cm, c0, cp) = (c(qm), c(q), c(qp));
@@ -706,6 +839,64 @@ impl Fit {
         };
         let target = target.clamp(SHAPE_MIN, SHAPE_MAX);
         self.shape = (q + rate * (target - q)).clamp(SHAPE_MIN, SHAPE_MAX);
+    }
+
+    /// Each electrode's pressing polarity as the fit applies it (`fit_polarity_votes`): +1 or
+    /// −1, 0 = its magnitude `|Δᵢ|` (polarity learning off, or nothing learned yet).
+    pub fn polarity(&self) -> &[f64] {
+        &self.pol
+    }
+
+    /// Whether polarity learning is on (`fit_polarity_votes` > 0 with the magnitude fit).
+    fn polarity_on(&self) -> bool {
+        let cfg = self.det.config();
+        cfg.fit_polarity_votes > 0 && !cfg.fit_signed
+    }
+
+    /// Whether the amplitude is held positive: with polarity learning the changes are in
+    /// pressing units, so a negative amplitude (its core on electrodes left out, its far ring
+    /// explaining the rest) is not a contact.
+    fn positive(&self) -> bool {
+        self.polarity_on()
+    }
+
+    /// One frame's polarity votes after a single-region fit (`self.kk` the kernel there, for
+    /// every electrode): every electrode under the core (kernel ≥ 0.5) that changed by more
+    /// than 10 σ votes the sign of its change; an electrode whose net vote reaches
+    /// `fit_polarity_votes` has that polarity; once [`POL_MAJORITY_MIN`] have one, the others
+    /// take their majority. The key frames are re-signed when anything changed.
+    fn vote_polarity(&mut self) {
+        let need = self.det.config().fit_polarity_votes as f64;
+        let sigma = self.det.noise();
+        let n = self.sd.len().min(self.votes.len());
+        // a far ring reaches ≈ 0.3 of the peak: only changes over half the frame's largest vote
+        let strong = POL_VOTE_SHARE * self.big / POL_RING_MAX;
+        for i in 0..n {
+            if self.inv_full[i] != 0.0 && self.kk[i] >= CORE_KERNEL && self.sd[i].abs() > (10.0 * sigma[i]).max(strong)
+            {
+                self.votes[i] = (self.votes[i] + self.sd[i].signum()).clamp(-2.0 * need, 2.0 * need);
+            }
+        }
+        let decided = |v: f64| if v.abs() >= need { v.signum() } else { 0.0 };
+        let mut changed = false;
+        let (mut net, mut count) = (0.0, 0usize);
+        for i in 0..n {
+            let p = decided(self.votes[i]);
+            net += p;
+            count += usize::from(p != 0.0);
+            if p != self.pol[i] {
+                self.pol[i] = p;
+                changed = true;
+            }
+        }
+        let majority = if count >= POL_MAJORITY_MIN { net.signum() } else { 0.0 };
+        if majority != self.majority {
+            self.majority = majority;
+            changed = true;
+        }
+        if changed {
+            self.cal.repolarise(&self.pol, self.majority);
+        }
     }
 
     /// The online lag estimator (`fit_lag_estimate`), when on.
@@ -800,12 +991,21 @@ impl Fit {
         let eps = cfg.fit_model_error * dmax;
         let mut strongest = (0usize, f64::NEG_INFINITY);
         let (mut cx, mut cy, mut cw) = (0.0, 0.0, 0.0);
+        let mut used = 0usize;
         for i in 0..n {
             if raw[i] <= lo || raw[i] >= hi {
                 self.inv_s[i] = 0.0;
+                self.inv_full[i] = 0.0;
                 continue;
             }
             let s = (sigma[i] * sigma[i] + eps * eps).sqrt();
+            self.inv_full[i] = 1.0 / s;
+            if self.skip[i] {
+                // left out by its polarity (`fit_polarity_votes`)
+                self.inv_s[i] = 0.0;
+                continue;
+            }
+            used += 1;
             self.inv_s[i] = 1.0 / s;
             let z = self.d[i].abs() / sigma[i];
             if z > strongest.1 {
@@ -818,6 +1018,9 @@ impl Fit {
                 cw += w;
             }
         }
+        if used < MIN_USED {
+            return None;
+        }
         let k = strongest.0;
         let prob = Problem {
             geo: &self.geo,
@@ -826,6 +1029,7 @@ impl Fit {
             gain: &self.gain,
             q: self.shape,
             fold: self.fold,
+            positive: self.positive(),
         };
         let a0 = self.d[k] / if self.gain[k].abs() > 0.2 { self.gain[k] } else { 1.0 };
         let cold = |p: [f64; 2], w: f64, a: f64| [p[0], p[1], w.ln(), a, 0.0];
@@ -880,13 +1084,13 @@ impl Fit {
         let (mut rss, mut dss, mut used) = (0.0, 0.0, 0usize);
         let (mut far, mut far_strong, mut outliers) = (0, 0, 0);
         for i in 0..n {
+            let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
+            let kk = kern(r2, th[2], th[4], self.shape, self.fold).0;
+            self.kk[i] = kk;
             if self.inv_s[i] == 0.0 {
                 continue;
             }
-            let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let kk = kern(r2, th[2], th[4], self.shape, self.fold).0;
             let m = self.gain[i] * th[3] * kk;
-            self.kk[i] = kk;
             let r = self.d[i] - m;
             rss += r * r;
             dss += self.d[i] * self.d[i];
@@ -939,8 +1143,9 @@ impl Fit {
             if cfg.fit_gain_keys > 0 {
                 let eps = cfg.fit_model_error.max(0.05);
                 let (spacing, cap) = (cfg.fit_gain_spacing_mm, cfg.fit_gain_keys as usize);
-                self.cal.offer(&th, &self.kk, &self.d, &self.inv_s, eps, (spacing, cap));
-                self.cal.refit(&self.geo, &self.gain, (self.shape, self.fold), GAIN_REFITS, 1);
+                let pol = self.polarity_on().then_some((&self.sd[..], &self.thr[..], self.big, &self.inv_full[..]));
+                self.cal.offer(&th, &self.kk, (&self.d, pol), &self.inv_s, eps, (spacing, cap));
+                self.cal.refit(&self.geo, &self.gain, (self.shape, self.fold, self.positive()), GAIN_REFITS, 1);
                 self.cal.gains(cfg.fit_gain_prior, cfg.fit_signed, &mut self.gain);
             } else {
                 self.step_gains(rate, th[3]);
@@ -948,6 +1153,16 @@ impl Fit {
         }
         if shape_rate > 0.0 && clean {
             self.step_shape(shape_rate, &th);
+        }
+        // polarity votes need a plausible single contact: a spread or far lobe at the family's
+        // extremes is a fit through a far ring, whose "core" electrodes are in the ring
+        if self.polarity_on()
+            && best.cost < POL_VOTE_COST * null
+            && !second_region
+            && w_mm <= POL_VOTE_MAX_SPREAD_MM
+            && th[4].abs() <= POL_VOTE_MAX_LOBE
+        {
+            self.vote_polarity();
         }
         self.warm = Some(th);
         Some(([th[0], th[1]], summary, best.at_edge))
@@ -974,7 +1189,28 @@ impl Stage for Fit {
             if let Some(lag) = &self.lag {
                 lag.sharpen(&mut d, self.det.config().window_frames as usize);
             }
-            if !self.det.config().fit_signed {
+            if self.polarity_on() {
+                self.sd.clear();
+                self.sd.extend_from_slice(&d);
+                let sigma = self.det.noise();
+                self.big = POL_RING_MAX * d.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+                let majority = self.majority;
+                for i in 0..d.len() {
+                    self.thr[i] = (POL_SKIP_SIGMAS * sigma[i]).max(POL_SKIP_SHARE * self.big / POL_RING_MAX);
+                    let v = polarise(d[i], self.pol[i], majority, self.thr[i], self.big);
+                    self.skip[i] = v.is_none();
+                    d[i] = v.unwrap_or(0.0);
+                }
+                // too few left for a fit that is not a guess: the left-out ones count as magnitudes
+                if self.skip.iter().filter(|&&k| !k).count() < POL_MIN_KEPT {
+                    for i in 0..d.len() {
+                        if self.skip[i] {
+                            self.skip[i] = false;
+                            d[i] = self.sd[i].abs();
+                        }
+                    }
+                }
+            } else if !self.det.config().fit_signed {
                 d.iter_mut().for_each(|v| *v = v.abs());
             }
             self.d = d;
@@ -1033,6 +1269,10 @@ impl Stage for Fit {
         self.gain.iter_mut().for_each(|g| *g = 1.0);
         self.cal.clear();
         self.shape = SHAPE_MAX;
+        self.votes.iter_mut().for_each(|v| *v = 0.0);
+        self.pol.iter_mut().for_each(|v| *v = 0.0);
+        self.majority = 0.0;
+        self.skip.iter_mut().for_each(|v| *v = false);
         if let Some(l) = &mut self.lag {
             l.reset();
         }
@@ -1180,11 +1420,22 @@ const GAIN_MIN: f64 = 0.05;
 /// Key frames re-fitted per frame (one Levenberg–Marquardt step each).
 const GAIN_REFITS: usize = 2;
 
+/// What a key frame keeps for polarity learning (`fit_polarity_votes`): the signed changes,
+/// each electrode's exclusion threshold, [`POL_RING_MAX`] × the frame's largest change, and
+/// the inverse scales before exclusions.
+type KeyPolarity<'a> = (&'a [f64], &'a [f64], f64, &'a [f64]);
+
 /// One remembered frame of the gains' self-calibration: its changes, inverse scales (0 = left
 /// out), model-error fraction, fitted parameters and the kernel there.
 #[derive(Clone, Debug)]
 struct Key {
     d: Vec<f64>,
+    /// Polarity learning on (empty otherwise): the signed changes, each electrode's
+    /// exclusion threshold and inverse scale before exclusions, to re-sign `d` and `inv_s`.
+    sd: Vec<f64>,
+    thr: Vec<f64>,
+    big: f64,
+    inv_full: Vec<f64>,
     inv_s: Vec<f64>,
     eps: f64,
     th: [f64; NP],
@@ -1265,7 +1516,15 @@ impl GainCal {
     /// fraction `eps`, key limits `(spacing, cap)`): within `spacing` mm of a key it replaces that key if its amplitude is
     /// over 1.1 × the key's (else it is dropped); farther from every key it becomes a new key
     /// (the oldest replaced once `cap` are held).
-    fn offer(&mut self, th: &[f64; NP], kk: &[f64], d: &[f64], inv_s: &[f64], eps: f64, (spacing, cap): (f64, usize)) {
+    fn offer(
+        &mut self,
+        th: &[f64; NP],
+        kk: &[f64],
+        (d, pol): (&[f64], Option<KeyPolarity<'_>>),
+        inv_s: &[f64],
+        eps: f64,
+        (spacing, cap): (f64, usize),
+    ) {
         if cap == 0 {
             return;
         }
@@ -1283,7 +1542,17 @@ impl GainCal {
             Some(k) if th[3].abs() > 1.1 * self.keys[k].th[3].abs() => k,
             Some(_) => return,
             None if self.keys.len() < cap => {
-                self.keys.push(Key { d: Vec::new(), inv_s: Vec::new(), eps, th: *th, kk: Vec::new() });
+                self.keys.push(Key {
+                    d: Vec::new(),
+                    sd: Vec::new(),
+                    thr: Vec::new(),
+                    big: 0.0,
+                    inv_full: Vec::new(),
+                    inv_s: Vec::new(),
+                    eps,
+                    th: *th,
+                    kk: Vec::new(),
+                });
                 self.keys.len() - 1
             }
             None => {
@@ -1295,6 +1564,14 @@ impl GainCal {
         let key = &mut self.keys[slot];
         key.d.clear();
         key.d.extend_from_slice(d);
+        let (sd, thr, big, inv_full) = pol.unwrap_or((&[], &[], 0.0, &[]));
+        key.big = big;
+        key.sd.clear();
+        key.sd.extend_from_slice(sd);
+        key.thr.clear();
+        key.thr.extend_from_slice(thr);
+        key.inv_full.clear();
+        key.inv_full.extend_from_slice(inv_full);
         key.inv_s.clear();
         key.inv_s.extend_from_slice(inv_s);
         key.kk.clear();
@@ -1304,13 +1581,20 @@ impl GainCal {
     }
 
     /// Re-fit `count` keys (round robin) with `gain`, `iterations` Levenberg–Marquardt steps each.
-    fn refit(&mut self, geo: &Geometry, gain: &[f64], (q, fold): (f64, bool), count: usize, iterations: u32) {
+    fn refit(
+        &mut self,
+        geo: &Geometry,
+        gain: &[f64],
+        (q, fold, positive): (f64, bool, bool),
+        count: usize,
+        iterations: u32,
+    ) {
         let m = self.keys.len();
         for _ in 0..count.min(m) {
             let k = self.next_refit % m;
             self.next_refit = k + 1;
             let key = &mut self.keys[k];
-            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, fold };
+            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, fold, positive };
             let s = prob.solve(key.th, iterations);
             key.th = s.th;
             let (sp, _, _) = geo.skin(s.th[0], s.th[1]);
@@ -1352,6 +1636,26 @@ impl GainCal {
             gain[i] *= l[i].exp();
         }
         self.l = l;
+    }
+
+    /// Re-sign every key's changes (and exclusions) with the polarities `pol` (±1; 0 =
+    /// undecided) and the majority `majority` ([`polarise`]), from the signed changes kept
+    /// with it.
+    fn repolarise(&mut self, pol: &[f64], majority: f64) {
+        for key in &mut self.keys {
+            for i in 0..key.sd.len().min(pol.len()) {
+                match polarise(key.sd[i], pol[i], majority, key.thr[i], key.big) {
+                    Some(v) => {
+                        key.d[i] = v;
+                        key.inv_s[i] = key.inv_full[i];
+                    }
+                    None => {
+                        key.d[i] = 0.0;
+                        key.inv_s[i] = 0.0;
+                    }
+                }
+            }
+        }
     }
 
     /// Forget every key.
@@ -1987,6 +2291,10 @@ mod tests {
                 .collect::<Vec<f64>>()
         };
         let (e_on, e_off) = (err(&on), err(&off));
+        // polarity learning (`fit_polarity_votes`, off in the preset) keeps the bound too
+        let e_pol = err(&LocateConfig { fit_polarity_votes: 10, ..on.clone() });
+        let max_pol = e_pol.iter().copied().fold(0.0, f64::max);
+        assert!(max_pol < 1.5, "polarity learning: max {max_pol:.2} mm");
         let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
         let max = |e: &[f64]| e.iter().copied().fold(0.0, f64::max);
         // the prior lags a fit that wobbles while the contact moves at two thirds of the bound
@@ -1999,6 +2307,93 @@ mod tests {
             mean(&e_off),
             max(&e_off)
         );
+    }
+
+    /// The `accurate` preset with polarity learning (`fit_polarity_votes`), fixed unit gains.
+    fn polarity(votes: u32) -> LocateConfig {
+        LocateConfig {
+            fit_polarity_votes: votes,
+            fit_gain_rate: 0.0,
+            ..LocateConfig::preset(crate::locate::Preset::Accurate)
+        }
+    }
+
+    #[test]
+    fn the_signed_fit_recovers_a_difference_of_gaussians_from_its_own_model() {
+        // noise-free, the family's deepest far ring (a = 0.5) and a value that falls under
+        // pressure on every electrode: the signed fit (`fit_signed`) keeps the ring's sign
+        let layout = Layout::biotac_sp();
+        let geo = Geometry::for_layout(&layout);
+        for (at, w) in [(8usize, 3.5), (15, 4.0), (3, 3.0), (20, 2.5)] {
+            let q = layout.positions()[at];
+            let p = [q[0] + 0.7, q[1] - 0.4];
+            let contact = geo.model([p[0], p[1], w, -300.0, 0.5], &[1.0; 24]);
+            let out = Fit::try_new(&signed(), &layout).unwrap().run_all(press(contact, 80)).unwrap();
+            let m = last(&out);
+            let e = (m.peak_mm[0] - p[0]).hypot(m.peak_mm[1] - p[1]);
+            assert!(e < 0.05, "at {at}: {e:.3} mm ({:?})", m.fit);
+            assert!((m.fit.unwrap().lobe - 0.5).abs() < 0.01, "{:?}", m.fit);
+        }
+    }
+
+    #[test]
+    fn polarity_learning_decides_no_false_polarity_and_stays_with_the_magnitudes_on_a_still_ring() {
+        // noise-free: a still contact whose far ring moves the other way (a = 0.4), on a sensor
+        // whose electrodes fall under pressure (gain −1) but for two of the other polarity (+1)
+        // beside it
+        let layout = Layout::biotac_sp();
+        let geo = Geometry::for_layout(&layout);
+        let (mut sum, mut sum_mag, mut decided, mut report) = (0.0, 0.0, 0, String::new());
+        for (at, w, flipped) in [(8usize, 3.5, [7usize, 9]), (15, 4.0, [14, 16]), (3, 3.0, [2, 4])] {
+            let q = layout.positions()[at];
+            let p = [q[0] + 0.7, q[1] - 0.4];
+            let mut gain = vec![-1.0; 24];
+            flipped.iter().for_each(|&i| gain[i] = 1.0);
+            let contact = geo.model([p[0], p[1], w, 300.0, 0.4], &gain);
+            let run = |cfg: &LocateConfig| {
+                let mut fit = Fit::try_new(cfg, &layout).unwrap();
+                let out = push_all(&mut fit, press(contact.clone(), 120));
+                let m = out.last().unwrap().outcome.contact();
+                let m = m.unwrap_or_else(|| panic!("no contact at {at} ({:?})", out.last().unwrap().outcome));
+                ((m.peak_mm[0] - p[0]).hypot(m.peak_mm[1] - p[1]), fit.polarity().to_vec())
+            };
+            let (e, pol) = run(&polarity(3));
+            let (e_mag, _) = run(&polarity(0));
+            // the decided electrodes read the truth's polarity
+            for i in 0..24 {
+                assert!(pol[i] == 0.0 || pol[i] == gain[i].signum(), "electrode {i}: {pol:?} against {gain:?}");
+            }
+            decided += usize::from(pol.iter().any(|&p| p != 0.0));
+            sum += e;
+            sum_mag += e_mag;
+            report.push_str(&format!("at {at}: {e:.3} mm against {e_mag:.3} mm with magnitudes; "));
+        }
+        // measured, not what was hoped for (docs/tradeoff.md, round 5): a still contact gives the
+        // magnitude fit no clean frame, so nothing is decided and the fit stays within 0.05 mm
+        // of the magnitudes' (which the ring biases by 0.1–2.6 mm here; the signed fit with
+        // known signs recovers it to 0.05 mm, test above)
+        assert!((sum - sum_mag).abs() < 0.05 && decided <= 3, "{decided} decided; {report}");
+    }
+
+    #[test]
+    fn polarity_learning_keeps_constant_input_without_contact_and_is_reset() {
+        let layout = Layout::biotac_sp();
+        let mut fit = Fit::try_new(&polarity(3), &layout).unwrap();
+        let out = push_all(&mut fit, frames(80, |_| vec![2000.0; 24]));
+        assert!(out.iter().all(|o| o.outcome.contact().is_none()));
+        assert!(fit.polarity().iter().all(|&p| p == 0.0));
+        // a press decides some polarities; reset forgets them
+        let mut fit = Fit::try_new(&polarity(3), &layout).unwrap();
+        let p = layout.positions()[8];
+        let contact = fit.geometry().model([p[0], p[1], 3.5, -300.0, 0.2], &[1.0; 24]);
+        push_all(&mut fit, press(contact, 80));
+        assert!(fit.polarity().iter().any(|&p| p == -1.0), "{:?}", fit.polarity());
+        fit.reset();
+        assert!(fit.polarity().iter().all(|&p| p == 0.0));
+        // arbitrary finite input never panics
+        let wild = frames(60, |k| (0..24).map(|i| ((k * 7919 + i as u64 * 104_729) % 9000) as f64 - 2000.0).collect());
+        let out = fit.run_all(wild).unwrap();
+        assert_eq!(out.len(), 60);
     }
 
     #[test]

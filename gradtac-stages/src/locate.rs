@@ -307,6 +307,14 @@ pub struct LocateConfig {
     /// magnitudes an electrode whose value rises under pressure while most fall (the family
     /// draws up to 30 % of them) fits like the rest, at the price of the far lobe's sign.
     pub fit_signed: bool,
+    /// `fit`: with the magnitude fit (`fit_signed = false`), learn each electrode's pressing
+    /// polarity and keep the far ring's sign (0 = off, the magnitudes `|Δᵢ|`; 1–1000): an
+    /// electrode whose change under a fitted contact's core (kernel ≥ 0.5, beyond 10 σ) has
+    /// had one sign in this many more frames than the other has that polarity `pᵢ`, and the
+    /// fit then sees `pᵢ·Δᵢ` — positive under the core, negative in a far ring that moves the
+    /// other way — instead of `|Δᵢ|`; electrodes not yet seen under a core take the majority
+    /// polarity of those that were ([`crate::fit`], *Polarity*). Default 0.
+    pub fit_polarity_votes: u32,
     /// `fit`: lag compensation (s, 0–1; 0 = none): the fitted position is moved ahead along the
     /// contact's velocity by this time, `p + fit_lead_s · v̂`, undoing the `v·τ` a first-order
     /// fluid lag of time constant `τ ≈ fit_lead_s` puts behind a moving contact
@@ -378,6 +386,7 @@ struct LocateToml {
     fit_model_error: Option<f64>,
     fit_rails: Option<[f64; 2]>,
     fit_signed: Option<bool>,
+    fit_polarity_votes: Option<u32>,
     fit_lead_s: Option<f64>,
     fit_velocity_frames: Option<u32>,
     fit_lag_estimate: Option<bool>,
@@ -417,6 +426,7 @@ impl From<LocateToml> for LocateConfig {
             fit_model_error,
             fit_rails,
             fit_signed,
+            fit_polarity_votes,
             fit_lead_s,
             fit_velocity_frames,
             fit_lag_estimate,
@@ -511,6 +521,7 @@ impl LocateConfig {
             fit_model_error: 0.3,
             fit_rails: [0.0, 4095.0],
             fit_signed: false,
+            fit_polarity_votes: 0,
             fit_lead_s: 0.0,
             fit_velocity_frames: 8,
             fit_lag_estimate: false,
@@ -578,6 +589,9 @@ impl LocateConfig {
         }
         if !(self.fit_shape_rate.is_finite() && (0.0..=1.0).contains(&self.fit_shape_rate)) {
             return bad(format!("`fit_shape_rate` = {} must be in [0, 1] (0 = off)", self.fit_shape_rate));
+        }
+        if self.fit_polarity_votes > 1000 {
+            return bad(format!("`fit_polarity_votes` = {} must be in 0..=1000 (0 = off)", self.fit_polarity_votes));
         }
         if !(self.fit_model_error.is_finite() && (0.0..=1.0).contains(&self.fit_model_error)) {
             return bad(format!("`fit_model_error` = {} must be in [0, 1]", self.fit_model_error));
