@@ -14,6 +14,7 @@
 //! cargo run --release --example slip_eval -- check       # and the CI floors (scripts/slip_eval.sh)
 //! cargo run --release --example slip_eval -- trade       # also the decision latency trade
 //! cargo run --release --example slip_eval -- tune onset  # the onset search on the tuning seeds
+//! cargo run --release --example slip_eval -- tune fingers  # how the fingers' change points combine (stop 31b)
 //! cargo run --release --example slip_eval -- tune horizon  # each tuning slip re-dated 0–1 s after its decision
 //! cargo run --release --example slip_eval -- onsetdiag   # each tuning slip's signed error and properties
 //! cargo run --release --example slip_eval -- onsetdump   # each tuning slip's position histories at its decision
@@ -379,6 +380,10 @@ fn main() {
     }
     if tune && std::env::args().any(|a| a == "horizon") {
         tune_horizon(&tuning);
+        return;
+    }
+    if tune && std::env::args().any(|a| a == "fingers") {
+        tune_fingers(&tuning, &demo);
         return;
     }
     if tune && std::env::args().any(|a| a == "onset") {
@@ -826,6 +831,99 @@ fn tune_onset(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<Vec
             per,
             d.0,
             d.1
+        );
+    }
+}
+
+/// How the fingers' change points combine (`onset_fingers`, stop 31b), on the tuning members
+/// only, the other onset settings at the defaults: `mean`, `earliest`, `weighted` and
+/// `clear_earliest` with gates 0.1–1, each with its own lead (its tuning mean signed error
+/// without one, to 5 ms); and `clear_earliest` gate 0.5 under the other starts and models
+/// (the joint check). Rule stated before the run (round 3's): ranked by the worst start
+/// shape's median |error|, then its |mean signed|; a rule other than the default is adopted
+/// only if it ranks first. The one-finger-first slice (`finger_lag_s > 0`) and the demo are
+/// printed, not ranked on.
+fn tune_fingers(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<Vec<TrackPoint>>)) {
+    let d = SlipConfig::default();
+    let mut grid: Vec<SlipConfig> = [OnsetFingers::Mean, OnsetFingers::Earliest, OnsetFingers::Weighted]
+        .into_iter()
+        .map(|onset_fingers| SlipConfig { onset_fingers, ..d.clone() })
+        .collect();
+    for onset_finger_gate in [0.1, 0.2, 0.35, 0.5, 0.75, 1.0] {
+        grid.push(SlipConfig { onset_fingers: OnsetFingers::ClearEarliest, onset_finger_gate, ..d.clone() });
+    }
+    for (onset_model, onset_starts) in [
+        (OnsetModel::Hinge, OnsetStarts::LinearCubic),
+        (OnsetModel::RampHinge, OnsetStarts::LinearSmooth),
+        (OnsetModel::RampHinge, OnsetStarts::Linear),
+    ] {
+        for onset_fingers in [OnsetFingers::Weighted, OnsetFingers::ClearEarliest] {
+            grid.push(SlipConfig { onset_fingers, onset_model, onset_starts, ..d.clone() });
+        }
+    }
+    let mut rows = Vec::new();
+    for cfg in grid {
+        let cfg = SlipConfig { onset_lead_s: 0.0, ..cfg };
+        let scores: Vec<GraspScore> = tuning.iter().map(|c| run(c, &cfg)).collect();
+        let signed: Vec<f64> =
+            scores.iter().filter(|r| r.right() && r.truth.class.is_slip()).map(|r| r.onset_error_s).collect();
+        let lead = (mean(&signed) * 200.0).round() / 200.0;
+        let cfg = SlipConfig { onset_lead_s: lead, ..cfg };
+        let slice = |keep: &dyn Fn(&Case) -> bool| {
+            let sc: Vec<GraspScore> = tuning
+                .iter()
+                .zip(&scores)
+                .filter(|(c, _)| c.truth.class.is_slip() && keep(c))
+                .map(|(_, r)| GraspScore { onset_error_s: r.onset_error_s - lead, ..*r })
+                .collect();
+            let mut s = summarise(&sc);
+            (pct(&mut s.onset, 0.5), mean(&s.signed))
+        };
+        let (mut worst_med, mut worst_mean) = (0.0f64, 0.0f64);
+        let mut per = String::new();
+        for shape in StartShape::FAMILY {
+            let (med, mn) = slice(&|c: &Case| c.truth.start == shape);
+            worst_med = worst_med.max(med);
+            worst_mean = worst_mean.max(mn.abs());
+            per.push_str(&format!(" {} {:.0}/{:+.0}", shape.name(), med * 1e3, mn * 1e3));
+        }
+        let (fm, fs) = slice(&|c: &Case| c.truth.finger_lag_s > 0.0);
+        let (nm, ns) = slice(&|c: &Case| c.truth.finger_lag_s == 0.0);
+        let (am, as_) = slice(&|_: &Case| true);
+        per.push_str(&format!(
+            " | one finger first {:.0}/{:+.0}, together {:.0}/{:+.0}, all {:.0}/{:+.0}",
+            fm * 1e3,
+            fs * 1e3,
+            nm * 1e3,
+            ns * 1e3,
+            am * 1e3,
+            as_ * 1e3
+        ));
+        let dm = demo_onset(demo, &cfg);
+        rows.push((worst_med, worst_mean, cfg, per, dm));
+    }
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    println!(
+        "finger-combination search on {} tuning grasps (ranked by the worst start shape's median |error|, then |mean signed|)",
+        tuning.len()
+    );
+    for (med, mn, cfg, per, dm) in rows {
+        println!(
+            "worst median {:.0} ms, worst |mean| {:.0} ms | {} {} {}{} lead {:+.3} | median/mean (ms):{} | demo {:?} {:+.3} s",
+            med * 1e3,
+            mn * 1e3,
+            cfg.onset_model.name(),
+            cfg.onset_starts.name(),
+            cfg.onset_fingers.name(),
+            if cfg.onset_fingers == OnsetFingers::ClearEarliest {
+                format!(" gate {}", cfg.onset_finger_gate)
+            } else {
+                String::new()
+            },
+            cfg.onset_lead_s,
+            per,
+            dm.0,
+            dm.1
         );
     }
 }

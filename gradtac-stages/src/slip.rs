@@ -718,6 +718,13 @@ pub enum OnsetFingers {
     /// finger whose point barely moves, or wanders, counts less than one that moves cleanly.
     #[default]
     Weighted,
+    /// The earliest change point among the fingers whose fit is clear enough: weight
+    /// (`(C − E)/E`, as `weighted`) at least `onset_finger_gate` × the clearest finger's. The
+    /// simulator's truth (and a slip that starts on one finger) is the first finger's start,
+    /// which a mean dates between the two; the gate keeps a finger whose fit barely stands out
+    /// of its residual from pulling the onset early. Gate 0 is `earliest`, gate 1 the clearest
+    /// finger alone.
+    ClearEarliest,
 }
 
 impl OnsetFingers {
@@ -727,6 +734,7 @@ impl OnsetFingers {
             OnsetFingers::Mean => "mean",
             OnsetFingers::Earliest => "earliest",
             OnsetFingers::Weighted => "weighted",
+            OnsetFingers::ClearEarliest => "clear_earliest",
         }
     }
 }
@@ -799,6 +807,10 @@ pub struct SlipConfig {
     /// `displacement`: how the fingers' change points combine ([`OnsetFingers`]). Default
     /// `weighted`.
     pub onset_fingers: OnsetFingers,
+    /// `onset_fingers = "clear_earliest"`: a finger's change point competes for the earliest
+    /// only when its fit weight is at least this fraction (0–1) of the clearest finger's.
+    /// Default 0.5.
+    pub onset_finger_gate: f64,
     /// `displacement`: the starts the change-point fit tries ([`OnsetStarts`]). Default
     /// `linear_cubic`.
     pub onset_starts: OnsetStarts,
@@ -865,6 +877,7 @@ impl Default for SlipConfig {
             onset_lead_s: 0.025,
             onset_model: OnsetModel::RampHinge,
             onset_fingers: OnsetFingers::Weighted,
+            onset_finger_gate: 0.5,
             onset_starts: OnsetStarts::LinearCubic,
             onset_position: OnsetPosition::Fit,
             onset_fit_lag: false,
@@ -913,7 +926,10 @@ impl SlipConfig {
                 self.settle_s,
                 self.onset_model.name(),
                 self.onset_starts.name(),
-                self.onset_fingers.name(),
+                match self.onset_fingers {
+                    OnsetFingers::ClearEarliest => format!("clear_earliest (gate {})", self.onset_finger_gate),
+                    f => f.name().to_string(),
+                },
                 match self.onset_position {
                     OnsetPosition::Fit => {
                         let lc = crate::slip_pattern::onset_fit_config(self);
@@ -1109,6 +1125,9 @@ impl Slip {
         if !(cfg.onset_lead_s.is_finite() && cfg.onset_lead_s.abs() <= span) {
             return bad(format!("`onset_lead_s` = {} must be finite and within ±{span} s", cfg.onset_lead_s));
         }
+        if !(0.0..=1.0).contains(&cfg.onset_finger_gate) {
+            return bad(format!("`onset_finger_gate` = {} must be within 0 and 1", cfg.onset_finger_gate));
+        }
         if cfg.history_s > MAX_HISTORY_S {
             return bad(format!("`history_s` = {} must be at most {MAX_HISTORY_S} s", cfg.history_s));
         }
@@ -1247,13 +1266,18 @@ impl Slip {
         let mut n = 0.0;
         let (mut wsum, mut wn) = (0.0, 0.0);
         let mut earliest = i64::MAX;
+        // (change point, fit weight) per moving finger (two at most)
+        let mut fits = [(0i64, 0.0f64); 2];
         for f in &self.fingers {
             if let Some((_, path)) = f.evidence(self.cfg.evidence).filter(|e| e.0.abs() >= 0.5) {
                 if let Some((t, _, sse)) = change_point(&path.onset_history, drift, self.cfg.onset_starts) {
+                    let w = fit_weight(&path.onset_history, sse);
+                    if (n as usize) < fits.len() {
+                        fits[n as usize] = (t, w);
+                    }
                     sum += t as f64;
                     n += 1.0;
                     earliest = earliest.min(t);
-                    let w = fit_weight(&path.onset_history, sse);
                     wsum += w * t as f64;
                     wn += w;
                 }
@@ -1266,6 +1290,9 @@ impl Slip {
             OnsetFingers::Weighted if wn > 0.0 && (wsum / wn).is_finite() => (wsum / wn).round() as i64,
             OnsetFingers::Mean | OnsetFingers::Weighted => (sum / n).round() as i64,
             OnsetFingers::Earliest => earliest,
+            OnsetFingers::ClearEarliest => {
+                clear_earliest(&fits[..(n as usize).min(fits.len())], self.cfg.onset_finger_gate)
+            }
         };
         let t = t - (self.cfg.onset_lead_s * 1e9).round() as i64;
         Timestamp(t.min(fallback.0))
@@ -1481,6 +1508,15 @@ fn fit_weight(h: &VecDeque<(i64, f64)>, sse: f64) -> f64 {
         return 0.0;
     }
     ((c - e) / e).max(0.0)
+}
+
+/// [`OnsetFingers::ClearEarliest`]: the earliest change point among `fits` (change point,
+/// fit weight) whose weight is at least `gate` × the largest (every one when no weight is
+/// positive or finite). `fits` is not empty.
+fn clear_earliest(fits: &[(i64, f64)], gate: f64) -> i64 {
+    let top = fits.iter().map(|f| f.1).filter(|w| w.is_finite()).fold(0.0, f64::max);
+    let floor = if top > 0.0 { gate * top } else { f64::NEG_INFINITY };
+    fits.iter().filter(|f| !(f.1 < floor)).map(|f| f.0).min().unwrap_or(i64::MAX)
 }
 
 /// Tails of at most this many points are summed directly in [`change_point`].
