@@ -1578,7 +1578,7 @@ fn fit_weight(h: &VecDeque<(i64, f64)>, sse: f64) -> f64 {
 fn clear_earliest(fits: &[(i64, f64)], gate: f64) -> i64 {
     let top = fits.iter().map(|f| f.1).filter(|w| w.is_finite()).fold(0.0, f64::max);
     let floor = if top > 0.0 { gate * top } else { f64::NEG_INFINITY };
-    fits.iter().filter(|f| !(f.1 < floor)).map(|f| f.0).min().unwrap_or(i64::MAX)
+    fits.iter().filter(|f| f.1.is_nan() || f.1 >= floor).map(|f| f.0).min().unwrap_or(i64::MAX)
 }
 
 /// Tails of at most this many points are summed directly in [`change_point`].
