@@ -863,7 +863,8 @@ fn tune_fingers(tuning: &[Case], demo: &(Vec<gradtac::stream::TaxelFrame>, Vec<V
         (OnsetModel::RampHinge, OnsetStarts::Linear),
     ] {
         for onset_fingers in [OnsetFingers::Weighted, OnsetFingers::ClearEarliest] {
-            grid.push(SlipConfig { onset_fingers, onset_model, onset_starts, ..d.clone() });
+            // gate 0.5: the default when the rule was run (the run is reproduced as it was)
+            grid.push(SlipConfig { onset_fingers, onset_model, onset_starts, onset_finger_gate: 0.5, ..d.clone() });
         }
     }
     let mut rows = Vec::new();
