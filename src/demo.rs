@@ -16,10 +16,12 @@
 //!    next onset fit (cubic starts, a drift before the onset, the fingers weighted by their
 //!    fits' clarity, lead 0.03 s) −0.020 s; the current one, which reads a per-frame model
 //!    fit's contact point (lead 0.025 s), printed −0.074 s, and since stop 31, when the slip
-//!    stage stopped depending on the order of same-time inputs, it prints **−0.051 s**
-//!    (over 500 held-out grasps of the widened model family the median onset error is 43 ms,
-//!    mean signed −1 ms, against 50 ms and −2 ms for the energy-position estimate and 160 ms
-//!    for the track-velocity rule — `gradtac_stages::slip`).
+//!    stage stopped depending on the order of same-time inputs, −0.051 s; since stop 31b,
+//!    which dates a slip at the earliest clear finger (`onset_fingers = "clear_earliest"`,
+//!    lead 0.010 s, chosen on the tuning members), it prints **−0.080 s** (over 500 held-out
+//!    grasps of the widened model family the median onset error is 45 ms, mean signed −5 ms,
+//!    against 43 / −1 ms for stop 31's `weighted`, 50 ms and −2 ms for the energy-position
+//!    estimate and 160 ms for the track-velocity rule — `gradtac_stages::slip`).
 //!
 //!    **Why `slip_eval` once printed −0.050 s where the demo printed −0.074 s.** Not the CSV:
 //!    its counts are integers written exactly, and its rate-timed rows carry the simulator's
@@ -32,7 +34,7 @@
 //!    finger had one point more in one order than in the other, 24 ms of onset on this grasp.
 //!    The stage now decides a time step once every input of it is in
 //!    (`gradtac_stages::slip::Slip::push_input`, "Same-time inputs"), and both orders give
-//!    −0.051 s: the test below checks that the scene run over the CSV, the stage fed the
+//!    the same onset: the test below checks that the scene run over the CSV, the stage fed the
 //!    frames in the scene's order ([`frames_in_scene_order`]) and in the simulator's order
 //!    give identical slip events.
 //! 3. The demo reads the tracks and slip events back and compares them with the truth:
