@@ -443,8 +443,9 @@
 //! on a synthetic turning and shifting blob, not by an inner score, and fixed before the second
 //! inner run (the only one of the fixed feature). Overlap: the inner folds are disjoint from the
 //! cross-set test objects but overlap the nested protocol's outer test objects. Not measured:
-//! the held-out figures and the per-frame cost of a motion net (two moment sums over the taxels
-//! per 5-frame window, ≈ 10·n operations, beside the net's ≈ 5 500 multiply-adds). The
+//! the held-out figures. Cost (`cargo run --release --example window_motion_cost`, synthetic
+//! frames, a 96-unit net, the loaded 2-core machine): p99 3.78 µs per frame with the motion
+//! inputs against 3.28 µs without (median 0.13 / 0.12 µs). The
 //! inside-solids gain is the strongest signal any window candidate has shown on that view; a
 //! next stop that wants it held out must state its own rule before scoring it.
 //!
