@@ -63,6 +63,11 @@ pub struct CalibrateOptions {
     /// weight of the combination) to the model ([`calibrate_window_part`]; default on;
     /// `gradtac calibrate --no-window` turns it off).
     pub window: bool,
+    /// Give the window net the motion inputs about the contact's own centre
+    /// ([`gradtac_stages::dos::WindowNetConfig::motion`]; default off: measured on the inner
+    /// folds only, it did not meet the rule stated for adopting it — the `dos` module docs;
+    /// `gradtac calibrate --window-motion` turns it on).
+    pub window_motion: bool,
 }
 
 impl Default for CalibrateOptions {
@@ -75,6 +80,7 @@ impl Default for CalibrateOptions {
             student_t_dof: Some(DosModel::DEFAULT_STUDENT_T_DOF),
             mirror: true,
             window: true,
+            window_motion: false,
         }
     }
 }
@@ -316,7 +322,10 @@ pub fn calibrate_window_part(
         .into());
     }
     let tr = train_recordings(recs);
-    let cands = window_candidates();
+    let mut cands = window_candidates();
+    for c in &mut cands {
+        c.net.motion = opts.window_motion;
+    }
     let all: Vec<usize> = (0..tr.len()).collect();
     let groups: std::collections::BTreeSet<&str> = tr.iter().map(|r| r.group.as_str()).collect();
     if groups.len() < 2 {

@@ -38,7 +38,9 @@ const MAX_TRAIN_S: f64 = 120.0;
 /// objects when there is more than one: the ones `gradtac calibrate` uses
 /// ([`gradtac::calibrate::window_candidates`]: one, three mirror-averaged networks trained on
 /// mirror images and one random copy; `--window-candidates` with
-/// `examples/dos_eval_parts/previous_default.json` gives the previous default's two).
+/// `examples/dos_eval_parts/previous_default.json` gives the previous default's two;
+/// `examples/dos_eval_parts/motion_candidates.json` the default beside it with the opt-in motion
+/// inputs, for `--window-inner`: see the `dos` module docs).
 pub fn candidates() -> Vec<WindowTrainConfig> {
     gradtac::calibrate::window_candidates()
 }

@@ -1,6 +1,5 @@
 //! [`DosClassifier`]: the `dos` stage, raw frames in, [`DosDecision`]s out.
 
-use super::window::WindowInputs;
 use super::*;
 
 /// One slip-direction decision of the [`DosClassifier`] stage.
@@ -142,7 +141,7 @@ impl DosClassifier {
         let replay = self.extractor.clone();
         let vote = self.vote.clone();
         let single = match &self.model.window {
-            Some(w) => Some(WindowExtractor::try_new(&w.net.config, w.net.taxels)?),
+            Some(_) => vote.as_ref().map(|v| v.fresh_extractor()),
             None => None,
         };
         self.sliding = Some(Sliding {
@@ -216,7 +215,7 @@ impl DosClassifier {
             let f = w.net.config.frames;
             // a net measured against the span's start sees the replayed window's own first
             // frames as its reference, which moves with the window: nothing is kept
-            let own_reference = w.net.config.inputs != WindowInputs::Levels;
+            let own_reference = w.net.config.needs_reference();
             if own_reference {
                 sl.cache.clear();
             } else {

@@ -590,7 +590,12 @@ fn tiny_window_net() -> DosWindowNet {
 /// [`tiny_window_net`] on `inputs` (reference of 7 frames: the first net window's reference is
 /// partial, the second's complete).
 fn tiny_window_net_of(inputs: WindowInputs) -> DosWindowNet {
-    let config = WindowNetConfig { frames: 5, hidden: 2, inputs, reference_frames: 7 };
+    tiny_window_net_with(inputs, false)
+}
+
+/// [`tiny_window_net_of`], with the motion inputs when `motion`.
+fn tiny_window_net_with(inputs: WindowInputs, motion: bool) -> DosWindowNet {
+    let config = WindowNetConfig { frames: 5, hidden: 2, inputs, reference_frames: 7, motion };
     let d = config.inputs(24);
     DosWindowNet {
         config,
@@ -691,6 +696,8 @@ fn the_stage_decides_by_the_combined_score_over_the_frames_each_decision_covers(
     for inputs in [WindowInputs::Levels, WindowInputs::SinceStart, WindowInputs::Both] {
         stage_decides_by_the_combined_score(tiny_window_net_of(inputs));
     }
+    // the motion inputs need the span's reference as the pattern since the start does
+    stage_decides_by_the_combined_score(tiny_window_net_with(WindowInputs::Levels, true));
 }
 
 /// The stage's decisions with `net` as its window part are the combination of the Student-t

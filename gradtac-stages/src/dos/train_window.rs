@@ -143,8 +143,8 @@ impl WindowTrainConfig {
 }
 
 /// The representations of every non-overlapping window of `frames`.
-pub fn windows_of(frames: &[Vec<f64>], net: &WindowNetConfig, taxels: usize) -> Result<Vec<Vec<f64>>> {
-    let mut x = WindowExtractor::try_new(net, taxels)?;
+pub fn windows_of(frames: &[Vec<f64>], net: &WindowNetConfig, layout: &Layout) -> Result<Vec<Vec<f64>>> {
+    let mut x = WindowExtractor::try_new_on(net, layout)?;
     let mut out = Vec::with_capacity(frames.len() / net.frames);
     for f in frames {
         if x.push(f)? {
@@ -208,7 +208,7 @@ pub fn window_samples(recs: &[TrainRecording], layout: &Layout, cfg: &WindowTrai
             let mut rng = SplitMix::new(cfg.seed.wrapping_add(1_000_003 * i as u64));
             let mut out = Vec::new();
             for (c, f) in versions(r.class, &r.frames, layout, &cfg.augment, &mut rng)? {
-                out.extend(windows_of(&f, &cfg.net, layout.len())?.into_iter().map(|x| (c, x)));
+                out.extend(windows_of(&f, &cfg.net, layout)?.into_iter().map(|x| (c, x)));
             }
             Ok(out)
         })
@@ -260,7 +260,12 @@ pub fn mirrored_net(net: &DosWindowNet, perm: &[usize]) -> Result<DosWindowNet> 
         return Err(invalid(format!("a mirror permutation of {n} taxels must be an involution of 0..{n}")));
     }
     let d = net.input_mean.len();
-    let src: Vec<usize> = (0..d).map(|j| (j / n) * n + perm[j % n]).collect();
+    // the per-taxel blocks are permuted; the motion inputs stay in place and change sign as the
+    // reflection across y = 0 changes them (MOTION_MIRROR_SIGNS)
+    let per_taxel = net.config.taxel_blocks() * n;
+    let src: Vec<usize> = (0..d).map(|j| if j < per_taxel { (j / n) * n + perm[j % n] } else { j }).collect();
+    let sign: Vec<f64> =
+        (0..d).map(|j| if j < per_taxel { 1.0 } else { super::window::MOTION_MIRROR_SIGNS[j - per_taxel] }).collect();
     let out_src = net
         .classes
         .iter()
@@ -271,9 +276,9 @@ pub fn mirrored_net(net: &DosWindowNet, perm: &[usize]) -> Result<DosWindowNet> 
         config: net.config.clone(),
         taxels: n,
         classes: net.classes.clone(),
-        input_mean: src.iter().map(|&j| net.input_mean[j]).collect(),
+        input_mean: src.iter().zip(&sign).map(|(&j, g)| g * net.input_mean[j]).collect(),
         input_scale: src.iter().map(|&j| net.input_scale[j]).collect(),
-        w1: net.w1.iter().map(|row| src.iter().map(|&j| row[j]).collect()).collect(),
+        w1: net.w1.iter().map(|row| src.iter().zip(&sign).map(|(&j, g)| g * row[j]).collect()).collect(),
         b1: net.b1.clone(),
         w2: out_src.iter().map(|&c| net.w2[c].clone()).collect(),
         b2: out_src.iter().map(|&c| net.b2[c]).collect(),

@@ -45,6 +45,23 @@
 //! every decision recomputes all of its net windows (p99 230 µs per frame at 250 frames, hop
 //! 10, five members; one decision per span: p99 5 µs).
 //!
+//! ## Motion inputs about the contact's own centre ([`WindowNetConfig::motion`], opt-in)
+//! Four more inputs aimed at the rotation–translation confusion (see the `dos` module docs for
+//! the measurement). With `w_i` the window's deviation `dev_i` on the side of its largest
+//! deviation (the loaded taxels; others 0), the contact's centre `c = Σ w_i p_i / Σ w_i`, its
+//! second moments `C` about `c`, `tr = Cxx + Cyy` and `z = (Cxx − Cyy) + 2i·Cxy` (the principal
+//! axis as a double angle); the same of the span's reference (its first `reference_frames`
+//! frames, as for [`WindowInputs::SinceStart`]) give `c_r`, `tr_r`, `z_r`. The inputs are the
+//! centre's drift `(c − c_r)/√tr_r` (two values, in contact radii), the turn of the principal
+//! axis `rot = Im(z·z̄_r)/(tr·tr_r)` (the sine of twice the turn times both anisotropies, in
+//! −1..=1, zero for a round contact) and the rotation's share `|rot|/(|rot| + |drift| + 0.01)`.
+//! A ratio of moments: the contact's size and one gain and offset common to all taxels cancel
+//! (tested to rounding). The positions are made exactly symmetric about `y = 0` when they are
+//! within 0.1 mm, so a mirrored window's motion inputs are exactly the mirrored ones (signs
+//! [`MOTION_MIRROR_SIGNS`]) and the mirror average stays exact. Causal: only the span's first
+//! frames and the current window. Cost: two weighted moment sums over the taxels per window
+//! (≈ 10·n operations) and the reference sums of the first `reference_frames` frames.
+//!
 //! An ensemble of networks over seeds is one network here: the trainer merges them by
 //! averaging their logits into one hidden layer of `members × hidden` units
 //! (`train_window::merge_members`, `WindowTrainConfig::members`), so inference and the file
@@ -86,11 +103,25 @@ pub struct WindowNetConfig {
     /// (1..=1000). Default 10 (0.1 s at 100 Hz; not written when it is the default).
     #[serde(skip_serializing_if = "is_default_reference")]
     pub reference_frames: usize,
+    /// Add the four **motion inputs** of the contact about its own tracked centre since the
+    /// span's start ([`MOTION_INPUTS`]; see [`WindowExtractor::input`]): the centre's drift
+    /// (two values, in contact radii), the rotation of the pattern's principal axis (a signed
+    /// value in −1..=1 that vanishes for a round pattern) and the share of rotation in the
+    /// motion. Needs the layout's taxel positions. Default off (not written when off).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub motion: bool,
 }
+
+/// Number of motion inputs ([`WindowNetConfig::motion`]).
+pub const MOTION_INPUTS: usize = 4;
+
+/// The sign each motion input takes under the layout's reflection across `y = 0`
+/// (drift x, drift y, rotation, rotation share).
+pub const MOTION_MIRROR_SIGNS: [f64; MOTION_INPUTS] = [1.0, -1.0, -1.0, 1.0];
 
 impl Default for WindowNetConfig {
     fn default() -> Self {
-        WindowNetConfig { frames: 5, hidden: 16, inputs: WindowInputs::Levels, reference_frames: 10 }
+        WindowNetConfig { frames: 5, hidden: 16, inputs: WindowInputs::Levels, reference_frames: 10, motion: false }
     }
 }
 
@@ -145,12 +176,23 @@ impl WindowNetConfig {
     }
 
     /// Number of network inputs for `taxels` taxels: `2·taxels` (`3·taxels` for
-    /// [`WindowInputs::Both`]).
+    /// [`WindowInputs::Both`]), [`MOTION_INPUTS`] more with [`motion`](Self::motion).
     pub fn inputs(&self, taxels: usize) -> usize {
+        self.taxel_blocks() * taxels + if self.motion { MOTION_INPUTS } else { 0 }
+    }
+
+    /// Number of per-taxel input blocks (2, or 3 for [`WindowInputs::Both`]).
+    pub fn taxel_blocks(&self) -> usize {
         match self.inputs {
-            WindowInputs::Levels | WindowInputs::SinceStart => 2 * taxels,
-            WindowInputs::Both => 3 * taxels,
+            WindowInputs::Levels | WindowInputs::SinceStart => 2,
+            WindowInputs::Both => 3,
         }
+    }
+
+    /// Whether the representation needs the span's own reference (the first
+    /// [`reference_frames`](Self::reference_frames) frames).
+    pub fn needs_reference(&self) -> bool {
+        self.inputs != WindowInputs::Levels || self.motion
     }
 }
 
@@ -169,6 +211,10 @@ pub struct WindowExtractor {
     taxels: usize,
     inputs: WindowInputs,
     reference_frames: usize,
+    /// Taxel positions for the motion inputs (empty without them).
+    positions: Vec<[f64; 2]>,
+    /// Whether the reference is gathered ([`WindowNetConfig::needs_reference`]).
+    needs_reference: bool,
     /// Ring of the last `frames` frames (scaled by [`SCALE`]).
     ring: Vec<Vec<f64>>,
     /// Sum of the span's first `reference_frames` frames (scaled), per taxel.
@@ -183,8 +229,25 @@ pub struct WindowExtractor {
 }
 
 impl WindowExtractor {
-    /// An extractor of `config`'s windows for `taxels` taxels (1..=4096).
+    /// An extractor of `config`'s windows for `taxels` taxels (1..=4096). A configuration with
+    /// [`WindowNetConfig::motion`] needs the taxel positions: [`try_new_on`](Self::try_new_on).
     pub fn try_new(config: &WindowNetConfig, taxels: usize) -> Result<Self> {
+        if config.motion {
+            return Err(invalid("the motion inputs need the layout's taxel positions (try_new_on)"));
+        }
+        Self::with_positions(config, taxels, Vec::new())
+    }
+
+    /// An extractor of `config`'s windows for `layout`'s taxels (1..=4096).
+    pub fn try_new_on(config: &WindowNetConfig, layout: &Layout) -> Result<Self> {
+        let positions = if config.motion { symmetrised(layout.positions()) } else { Vec::new() };
+        if positions.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(invalid("the motion inputs need finite taxel positions"));
+        }
+        Self::with_positions(config, layout.len(), positions)
+    }
+
+    fn with_positions(config: &WindowNetConfig, taxels: usize, positions: Vec<[f64; 2]>) -> Result<Self> {
         config.validate()?;
         if !(1..=MAX_NET_TAXELS).contains(&taxels) {
             return Err(invalid(format!("taxels {taxels} must be in 1..={MAX_NET_TAXELS}")));
@@ -194,6 +257,8 @@ impl WindowExtractor {
             taxels,
             inputs: config.inputs,
             reference_frames: config.reference_frames,
+            positions,
+            needs_reference: config.needs_reference(),
             ring: vec![vec![0.0; taxels]; config.frames],
             reference: vec![0.0; taxels],
             reference_count: 0,
@@ -209,7 +274,8 @@ impl WindowExtractor {
 
     /// Number of values of [`input`](Self::input).
     pub fn config_inputs(&self) -> usize {
-        WindowNetConfig { inputs: self.inputs, ..WindowNetConfig::default() }.inputs(self.taxels)
+        WindowNetConfig { inputs: self.inputs, motion: !self.positions.is_empty(), ..WindowNetConfig::default() }
+            .inputs(self.taxels)
     }
 
     /// Push one frame of raw values (one per taxel, finite). Returns whether a non-overlapping
@@ -225,10 +291,7 @@ impl WindowExtractor {
         for (r, v) in self.ring[slot].iter_mut().zip(values) {
             *r = v * SCALE;
         }
-        if self.inputs != WindowInputs::Levels
-            && !self.reference_fixed
-            && self.reference_count < self.reference_frames as u64
-        {
+        if self.needs_reference && !self.reference_fixed && self.reference_count < self.reference_frames as u64 {
             for (r, v) in self.reference.iter_mut().zip(values) {
                 *r += v * SCALE;
             }
@@ -321,8 +384,91 @@ impl WindowExtractor {
         for i in 0..n {
             out[at + i] = tidy(nff * (self.ring[newest][i] - self.ring[oldest][i]) / s);
         }
+        if !self.positions.is_empty() && self.reference_count > 0 {
+            let m = motion(&self.positions, &dev, &self.reference);
+            for (o, v) in out[at + n..].iter_mut().zip(m) {
+                *o = tidy(v);
+            }
+        }
         Some(out)
     }
+}
+
+/// `positions` made exactly symmetric about `y = 0` when they are within 0.1 mm (each taxel and
+/// its mirror taxel moved to the mean of the two), so that the motion inputs of mirrored frames
+/// are exactly the mirrored motion inputs (the mirror average relies on it); otherwise as
+/// given.
+fn symmetrised(positions: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let mirror: Option<Vec<usize>> = positions
+        .iter()
+        .map(|a| positions.iter().position(|b| (a[0] - b[0]).abs() < 0.1 && (a[1] + b[1]).abs() < 0.1))
+        .collect();
+    match mirror {
+        Some(m) if (0..m.len()).all(|i| m[m[i]] == i) => positions
+            .iter()
+            .zip(&m)
+            .map(|(a, &j)| [(a[0] + positions[j][0]) / 2.0, (a[1] - positions[j][1]) / 2.0])
+            .collect(),
+        _ => positions.to_vec(),
+    }
+}
+
+/// Motion below which the rotation's share is damped toward zero (in contact radii and
+/// anisotropy units; fixed, not tuned): noise on a still contact gives no share.
+const MOTION_FLOOR: f64 = 0.01;
+
+/// The contact's centre, spread and orientation of a pattern across taxels, weighted by each
+/// taxel's deviation from the mean level on the side of the largest deviation (the loaded
+/// taxels, whatever the sensor's polarity; the others weigh 0): (centre, trace of the second
+/// moments, `(Cxx − Cyy, 2·Cxy)` — the principal axis as a double angle). `None` for a flat
+/// pattern.
+fn moments(positions: &[[f64; 2]], dev: &[f64]) -> Option<([f64; 2], f64, [f64; 2])> {
+    let top = dev.iter().copied().fold(0.0f64, |a, d| if d.abs() > a.abs() { d } else { a });
+    let side = top.signum();
+    let weight = |d: f64| (side * d).max(0.0);
+    let total: f64 = dev.iter().map(|&d| weight(d)).sum();
+    if !(total > 0.0 && total.is_finite()) {
+        return None;
+    }
+    let mut c = [0.0; 2];
+    for (p, d) in positions.iter().zip(dev) {
+        let w = weight(*d) / total;
+        c[0] += w * p[0];
+        c[1] += w * p[1];
+    }
+    let (mut xx, mut yy, mut xy) = (0.0, 0.0, 0.0);
+    for (p, d) in positions.iter().zip(dev) {
+        let w = weight(*d) / total;
+        let (x, y) = (p[0] - c[0], p[1] - c[1]);
+        xx += w * x * x;
+        yy += w * y * y;
+        xy += w * x * y;
+    }
+    Some((c, xx + yy, [xx - yy, 2.0 * xy]))
+}
+
+/// The motion inputs ([`WindowNetConfig::motion`]) of a window's level deviations `dev` against
+/// the span's reference sums `reference` (any common scale): the drift of the weighted centre
+/// since the reference in reference contact radii (`√` of the trace of the second moments; x,
+/// y), the rotation of the principal axis `Im(z·z̄_r) / (tr·tr_r)` with `z = Cxx − Cyy + 2i·Cxy`
+/// (the sine of twice the turn times both anisotropies: in −1..=1, zero for a round
+/// pattern; size and overall level cancel), and the rotation's share of the motion
+/// `|rot| / (|rot| + |drift| + 0.01)` ([`MOTION_FLOOR`]: near zero when neither moved).
+fn motion(positions: &[[f64; 2]], dev: &[f64], reference: &[f64]) -> [f64; MOTION_INPUTS] {
+    let n = reference.len() as f64;
+    let rt: f64 = reference.iter().sum();
+    let rdev: Vec<f64> = reference.iter().map(|r| n * r - rt).collect();
+    let (Some((c, tr, z)), Some((cr, trr, zr))) = (moments(positions, dev), moments(positions, &rdev)) else {
+        return [0.0; MOTION_INPUTS];
+    };
+    if !(tr > 0.0 && trr > 0.0) {
+        return [0.0; MOTION_INPUTS];
+    }
+    let radius = trr.sqrt();
+    let drift = [(c[0] - cr[0]) / radius, (c[1] - cr[1]) / radius];
+    let rot = (z[1] * zr[0] - z[0] * zr[1]) / (tr * trr);
+    let share = rot.abs() / (rot.abs() + drift[0].hypot(drift[1]) + MOTION_FLOOR);
+    [drift[0], drift[1], rot, share]
 }
 
 /// The window model of slip direction (see the [module docs](crate::dos)): representation settings,
@@ -449,7 +595,7 @@ impl DosWindowNet {
                 layout.len()
             )));
         }
-        WindowExtractor::try_new(&self.config, self.taxels)
+        WindowExtractor::try_new_on(&self.config, layout)
     }
 
     /// A streaming per-span answer of this model on `layout` ([`WindowVote`]).
@@ -564,6 +710,13 @@ impl WindowVoteState {
     /// [`WindowVote::mean_log_posterior`].
     pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
         (self.windows > 0).then(|| self.sum.iter().map(|s| s / self.windows as f64).collect())
+    }
+
+    /// A fresh extractor of this vote's windows (the same settings and layout).
+    pub fn fresh_extractor(&self) -> WindowExtractor {
+        let mut x = self.extractor.clone();
+        x.reset();
+        x
     }
 
     /// Start a new span (a new contact).

@@ -10,7 +10,12 @@ fn counts(class: DosClass, seed: u64) -> Vec<Vec<f64>> {
 }
 
 fn inputs(frames: &[Vec<f64>], cfg: &WindowNetConfig) -> Vec<Vec<f64>> {
-    let mut x = WindowExtractor::try_new(cfg, frames[0].len()).unwrap();
+    let layout = Layout::biotac_sp();
+    let mut x = if frames[0].len() == layout.len() {
+        WindowExtractor::try_new_on(cfg, &layout).unwrap()
+    } else {
+        WindowExtractor::try_new(cfg, frames[0].len()).unwrap()
+    };
     let mut out = Vec::new();
     for f in frames {
         if x.push(f).unwrap() {
@@ -150,6 +155,94 @@ fn the_since_start_pattern_ignores_an_offset_per_taxel_and_levels_inputs_are_as_
 }
 
 /// A small hand-made model (no trainer needed).
+/// A 9 × 9 grid of taxels 1 mm apart, centred on the origin (symmetric about `y = 0`).
+fn grid() -> Layout {
+    let positions: Vec<[f64; 2]> = (0..81).map(|k| [(k % 9) as f64 - 4.0, (k / 9) as f64 - 4.0]).collect();
+    Layout::try_new("grid", (0..81).map(|k| format!("g{k}")).collect(), positions, None).unwrap()
+}
+
+/// Frames of an elongated blob on [`grid`]: 10 frames at the origin and angle 0.5 rad (the
+/// span's reference), then 10 frames at `shift` (mm) and angle `0.5 + turn`; levels
+/// `base + 100·blob`.
+fn blob_frames(shift: [f64; 2], turn: f64, base: f64) -> Vec<Vec<f64>> {
+    let layout = grid();
+    let frame = |d: [f64; 2], angle: f64| -> Vec<f64> {
+        let (s, co) = f64::sin_cos(angle);
+        layout
+            .positions()
+            .iter()
+            .map(|p| {
+                let (x, y) = (p[0] - d[0], p[1] - d[1]);
+                let (u, v) = (co * x + s * y, -s * x + co * y);
+                base + 100.0 * (-(u / 2.5).powi(2) - (v / 1.0).powi(2)).exp()
+            })
+            .collect()
+    };
+    let mut out = vec![frame([0.0; 2], 0.5); 10];
+    out.extend(vec![frame(shift, 0.5 + turn); 10]);
+    out
+}
+
+#[test]
+fn motion_inputs_tell_a_turn_from_a_shift_and_ignore_a_common_gain_and_offset() {
+    let cfg = WindowNetConfig { motion: true, ..Default::default() };
+    let layout = grid();
+    let n = layout.len();
+    assert_eq!(cfg.inputs(n), 2 * n + MOTION_INPUTS);
+    assert!(cfg.needs_reference());
+    // the last window (frames 15..20) against the reference (frames 0..10)
+    let last = |frames: &[Vec<f64>]| -> [f64; MOTION_INPUTS] {
+        let mut x = WindowExtractor::try_new_on(&cfg, &layout).unwrap();
+        let mut out = None;
+        for f in frames {
+            if x.push(f).unwrap() {
+                out = x.input();
+            }
+        }
+        let out = out.unwrap();
+        assert_eq!(out.len(), 2 * n + MOTION_INPUTS);
+        out[2 * n..].try_into().unwrap()
+    };
+    let still = last(&blob_frames([0.0; 2], 0.0, 1000.0));
+    assert!(still.iter().all(|v| v.abs() < 1e-9), "{still:?}");
+    for turn in [0.3f64, -0.3] {
+        let m = last(&blob_frames([0.0; 2], turn, 1000.0));
+        assert_eq!(m[2].signum(), turn.signum(), "{m:?}");
+        assert!(m[3] > 0.6, "a turn is mostly rotation: {m:?}");
+    }
+    for shift in [[0.5, 0.0], [0.0, -0.5], [0.4, 0.4]] {
+        let m = last(&blob_frames(shift, 0.0, 1000.0));
+        assert!(m[0] * shift[0] + m[1] * shift[1] > 0.0, "the drift follows the shift: {m:?}");
+        assert!(m[3] < 0.4, "a shift is mostly translation: {m:?}");
+    }
+    // one gain and one offset common to all taxels change only rounding
+    let a = last(&blob_frames([0.3, 0.2], 0.2, 1000.0));
+    let scaled: Vec<Vec<f64>> =
+        blob_frames([0.3, 0.2], 0.2, 1000.0).iter().map(|f| f.iter().map(|v| 3.0 * v - 77.0).collect()).collect();
+    let b = last(&scaled);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-9, "{a:?} vs {b:?}");
+    }
+    // the reflection across y = 0 changes their signs as MOTION_MIRROR_SIGNS says
+    let mirror: Vec<usize> = (0..n).map(|k| (8 - k / 9) * 9 + k % 9).collect();
+    let flipped: Vec<Vec<f64>> =
+        blob_frames([0.3, 0.2], 0.2, 1000.0).iter().map(|f| mirror.iter().map(|&j| f[j]).collect()).collect();
+    let m = last(&flipped);
+    for k in 0..MOTION_INPUTS {
+        assert!((m[k] - MOTION_MIRROR_SIGNS[k] * a[k]).abs() < 1e-9, "{m:?} vs {a:?}");
+    }
+    // a flat span and the extremes give finite values; without positions, refused
+    assert_eq!(last(&vec![vec![5.0; n]; 20]), [0.0; MOTION_INPUTS]);
+    assert!(last(&blob_frames([0.0; 2], 0.3, 1e300)).iter().all(|v| v.is_finite()));
+    assert!(last(&blob_frames([1e300, 0.0], 0.3, -1e300)).iter().all(|v| v.is_finite()));
+    assert!(WindowExtractor::try_new(&cfg, n).is_err());
+    // not written when off; read back when on
+    let json = serde_json::to_string(&WindowNetConfig::default()).unwrap();
+    assert!(!json.contains("motion"), "{json}");
+    let on: WindowNetConfig = serde_json::from_str(&serde_json::to_string(&cfg).unwrap()).unwrap();
+    assert_eq!(on, cfg);
+}
+
 fn tiny_model() -> DosWindowNet {
     let d = 48;
     DosWindowNet {
@@ -426,8 +519,9 @@ mod training {
             }
         }
         let all: Vec<usize> = (0..recs.len()).collect();
-        for kind in [WindowInputs::Levels, WindowInputs::Both] {
-            let net = WindowNetConfig { inputs: kind, hidden: 4, ..Default::default() };
+        for (kind, motion) in [(WindowInputs::Levels, false), (WindowInputs::Both, false), (WindowInputs::Levels, true)]
+        {
+            let net = WindowNetConfig { inputs: kind, hidden: 4, motion, ..Default::default() };
             let plain = WindowTrainConfig { net, epochs: 3, members: 2, ..Default::default() };
             let sym = WindowTrainConfig { mirror_average: true, ..plain.clone() };
             let samples = window_samples(&recs, &layout, &plain).unwrap();
