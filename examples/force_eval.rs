@@ -35,7 +35,7 @@ use gradtac::stages::events::Events;
 use gradtac::stages::fit::Fit;
 use gradtac::stages::force::ForceMethod;
 use gradtac::stages::force_model::{
-    calibrate, force_detector, force_detector_s29, place_response, CalibrationMethod, GaugeSample,
+    calibrate, force_detector, force_detector_s29, place_response, CalibrationMethod, ForcePredictor, GaugeSample,
     DEFAULT_PLACE_WIDTH_MM,
 };
 use gradtac::stages::locate::{ChangeDetector, Changes, LocateConfig, LocateMethod, Preset};
@@ -82,6 +82,8 @@ enum Source {
     TotalPlaced(usize),
     /// The `placed` law (the default of `gradtac calibrate force`).
     Placed,
+    /// The identified forward model, inverted per frame (`forward`).
+    Forward,
 }
 
 /// Widths (mm) of the place normalisation tried on the tuning members.
@@ -109,6 +111,7 @@ impl Source {
             Source::TotalPlaced(2) => "total_placed_c",
             Source::TotalPlaced(_) => "total_placed_d",
             Source::Placed => "placed",
+            Source::Forward => "forward",
         }
     }
 
@@ -128,6 +131,7 @@ impl Source {
                 format!("total ÷ the layout's response at the contact (w = {} mm)", PLACED_W_MM[k])
             }
             Source::Placed => "**`placed`: total ÷ the layout's response at the contact (default)**".into(),
+            Source::Forward => "`forward`: the identified forward model, inverted per frame".into(),
         }
     }
 }
@@ -143,7 +147,14 @@ impl Row {
     fn of_change(ch: &Changes, change: Vec<f64>) -> Row {
         Row {
             t: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
-            sample: GaugeSample { change, contact: ch.contact, area_mm2: None, amplitude: None, force_n: 0.0 },
+            sample: GaugeSample {
+                change,
+                contact: ch.contact,
+                area_mm2: None,
+                amplitude: None,
+                force_n: 0.0,
+                time_s: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
+            },
         }
     }
 }
@@ -196,6 +207,7 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                 .collect()
         }
         Source::Placed
+        | Source::Forward
         | Source::Changes
         | Source::Total
         | Source::ChangesPrevious
@@ -277,6 +289,7 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                             area_mm2: area,
                             amplitude,
                             force_n: 0.0,
+                            time_s: 0.5 * (cf.start.as_secs_f64() + cf.end.as_secs_f64()),
                         },
                     }
                 })
@@ -298,6 +311,72 @@ fn at(series: &[f64], t: f64) -> f64 {
     }
     let u = x - k as f64;
     series[k] * (1.0 - u) + series[k + 1] * u
+}
+
+/// Exploration (the error's decomposition, `docs/force.md`): `FORCE_EVAL_OFF=gains,kernel,…`
+/// switches those physics terms off (`gains`: |gᵢ| = 1, signs kept; `signs`: every σᵢ = −1;
+/// `kernel`: Gaussian; `lag`: τ = 0.1 ms; `knee`: no saturation; `drift`; `noise` (and the
+/// gauge's); `gamma`: γ = 1; `spread`: s = 0), `FORCE_EVAL_ON=…` switches every term off but
+/// those (an ideal sensor with one term on).
+fn ideal(s: &mut ForceSession) {
+    const TERMS: [&str; 9] = ["gains", "signs", "kernel", "lag", "knee", "drift", "noise", "gamma", "spread"];
+    let list = |v: &str| std::env::var(v).ok().map(|s| s.split(',').map(String::from).collect::<Vec<_>>());
+    let off: Vec<String> = match (list("FORCE_EVAL_OFF"), list("FORCE_EVAL_ON")) {
+        (Some(off), _) => off,
+        (None, Some(on)) => TERMS.iter().filter(|t| !on.iter().any(|o| o == *t)).map(|t| t.to_string()).collect(),
+        (None, None) => return,
+    };
+    let p = &mut s.physics;
+    for t in &off {
+        match t.as_str() {
+            "gains" => p.gain.iter_mut().for_each(|g| *g = g.signum()),
+            "signs" => p.gain.iter_mut().for_each(|g| *g = -g.abs()),
+            "kernel" => p.kernel = gradtac::stages::sim_family::KernelShape::Gaussian,
+            "lag" => p.lag_s = 1e-4,
+            "knee" => p.knee_counts = 1e9,
+            "drift" => {
+                p.drift_slope.iter_mut().for_each(|d| *d = 0.0);
+                p.drift_walk = 0.0;
+            }
+            "noise" => {
+                p.noise_counts = 0.0;
+                s.response.gauge_noise_n = 0.0;
+            }
+            "gamma" => s.response.exponent = 1.0,
+            "spread" => s.response.spread = 0.0,
+            "" => {}
+            other => panic!("FORCE_EVAL_OFF/ON: unknown term {other:?} (one of {TERMS:?})"),
+        }
+    }
+}
+
+/// Exploration: the phase of a press (0 rise, 1 hold, 2 fall; 3 at rest) at time `t` (s).
+fn phase(s: &ForceSession, t: f64) -> usize {
+    let mut t0 = 0.0;
+    for seg in &s.segments {
+        match *seg {
+            Segment::Rest(d) => {
+                if t < t0 + d {
+                    return 3;
+                }
+                t0 += d;
+            }
+            Segment::Press { rise_s, hold_s, fall_s, .. } => {
+                let u = t - t0;
+                if u < rise_s + hold_s + fall_s {
+                    return if u < rise_s {
+                        0
+                    } else if u < rise_s + hold_s {
+                        1
+                    } else {
+                        2
+                    };
+                }
+                t0 += rise_s + hold_s + fall_s;
+            }
+        }
+    }
+    3
 }
 
 /// End (s) of the calibration half: after the rest that follows press `PRESSES / 2`.
@@ -335,13 +414,23 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
         .map(|r| GaugeSample { force_n: at(&m.rec.gauge, r.t), ..r.sample.clone() })
         .collect();
     let Ok(file) = calibrate(&train, method, lambda, curve, &layout) else { return (100.0, 0, 0) };
-    let predict = |s: &GaugeSample| file.model.predict_sample(s);
+    let mut predictor = ForcePredictor::new(&file.model);
+    let t0 = Instant::now();
+    let preds: Vec<Option<f64>> = rows.iter().map(|r| predictor.push(&r.sample)).collect();
+    if std::env::var_os("FORCE_EVAL_DEBUG").is_some() {
+        eprintln!(
+            "seed {} {:?}: model {:.2} µs/frame",
+            m.session.seed,
+            method,
+            t0.elapsed().as_secs_f64() * 1e6 / rows.len().max(1) as f64
+        );
+    }
     let (mut sum, mut n, mut untouched, mut over, mut missed) = (0.0, 0usize, 0u64, 0u64, 0usize);
+    let mut parts = [[0.0f64; 2]; 7];
     let dump = std::env::var("FORCE_EVAL_DUMP").ok().and_then(|s| s.parse::<u64>().ok()) == Some(m.session.seed);
-    for r in rows {
+    for (r, &p) in rows.iter().zip(&preds) {
         if dump {
             let (s1, _) = gradtac::stages::force_model::total_change(&r.sample.change);
-            let p = predict(&r.sample);
             let zmax = r.sample.change.iter().map(|d| d.abs()).fold(0.0, f64::max);
             eprintln!(
                 "{:.2} F {:.2} c {} S1 {:.0} max {:.0} pred {:.2}",
@@ -354,19 +443,52 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
             );
         }
         let f = at(&m.rec.force, r.t);
-        let p = predict(&r.sample);
         let quiet = (0..=50).all(|k| at(&m.rec.force, r.t - k as f64 * 0.01) == 0.0);
         if quiet {
             untouched += 1;
             over += u64::from(p.is_some_and(|p| p > 0.5));
         }
         if r.t >= split && f > 0.5 {
-            sum += p.map_or(1.0, |p| (p - f).abs() / f);
+            let e = p.map_or(1.0, |p| (p - f).abs() / f);
+            sum += e;
             n += 1;
             missed += usize::from(p.is_none());
+            let band = [1.0, 2.0, 5.0, f64::INFINITY].iter().position(|&b| f <= b).unwrap_or(3);
+            let ph = phase(&m.session, r.t).min(2);
+            parts[ph][0] += e;
+            parts[ph][1] += 1.0;
+            parts[3 + band][0] += e;
+            parts[3 + band][1] += 1.0;
         }
     }
+    if std::env::var_os("FORCE_EVAL_PHASES").is_some() {
+        // per member: (error sum, frames) for rise, hold, fall, then 0.5–1, 1–2, 2–5, > 5 N
+        let cells: Vec<String> = parts.iter().map(|c| format!("{:.3}:{}", c[0], c[1])).collect();
+        eprintln!("phases seed {} {:?} {}", m.session.seed, method, cells.join(" "));
+    }
     if std::env::var_os("FORCE_EVAL_DEBUG").is_some() {
+        if let Some((fm, _)) = file.model.forward() {
+            let ph = &m.session.physics;
+            eprintln!(
+                "seed {} forward: τ {:?} γ {:.3} s {:.3} w {:.2} q {:.2} a {:.2}; truth {:?} w {:.2} A {:.1} τ {:.0} ms\n  gains {:?}\n  truth {:?}",
+                m.session.seed,
+                match &file.model {
+                    gradtac::stages::force_model::CalibratedForce::Forward { lag_s, .. } => *lag_s,
+                    _ => 0.0,
+                },
+                fm.exponent,
+                fm.spread,
+                fm.width_mm,
+                fm.shape,
+                fm.lobe,
+                ph.kernel,
+                ph.width_mm,
+                ph.amplitude,
+                ph.lag_s * 1e3,
+                fm.gains.iter().map(|g| format!("{g:.0}")).collect::<Vec<_>>().join(" "),
+                ph.gain.iter().map(|g| format!("{:.0}", g * ph.amplitude * 2.0 * (2.0f64).powf(m.session.response.exponent - 1.0))).collect::<Vec<_>>().join(" ")
+            );
+        }
         eprintln!(
             "seed {} {:?}: in-sample {:.1} % on {} samples, held-out {:.1} % on {n} ({missed} without a force); untouched {over}/{untouched}; {:?}",
             m.session.seed,
@@ -431,7 +553,8 @@ fn main() {
     let members = |seeds: std::ops::Range<u64>| -> Vec<Member> {
         seeds
             .map(|seed| {
-                let session = ForceSession::presses(seed, PRESSES);
+                let mut session = ForceSession::presses(seed, PRESSES);
+                ideal(&mut session);
                 let rec = session.simulate();
                 Member { session, rec }
             })
@@ -452,6 +575,7 @@ fn main() {
     // the table's rows; with `--only` also the exploration rows (the `placed` width, the
     // `accurate` fit's gains and amplitude: docs/force.md)
     let mut sources = vec![
+        Source::Forward,
         Source::Placed,
         Source::Total,
         Source::Amplitude,
@@ -497,6 +621,7 @@ fn main() {
             Source::Area(_) => {
                 curves.iter().map(|&c| (CalibrationMethod::Area, 0.0, c, format!("{c:?} curve"))).collect()
             }
+            Source::Forward => vec![(CalibrationMethod::Forward, 0.0, ForceMethod::Linear, "identified".into())],
             Source::Placed => {
                 vec![(CalibrationMethod::Placed, 0.0, ForceMethod::Linear, format!("w = {DEFAULT_PLACE_WIDTH_MM} mm"))]
             }

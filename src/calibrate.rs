@@ -780,7 +780,10 @@ pub fn calibrate_force(
     let frames;
     let centre = |s: gradtac_stream::Timestamp, e: gradtac_stream::Timestamp| s.0 + (e.0 - s.0) / 2;
     match opts.method {
-        CalibrationMethod::Placed | CalibrationMethod::Total | CalibrationMethod::Ridge => {
+        CalibrationMethod::Forward
+        | CalibrationMethod::Placed
+        | CalibrationMethod::Total
+        | CalibrationMethod::Ridge => {
             // the force stage's own detector, so the model sees the changes it will be given
             let mut det = force_model::force_detector(layout.len(), &scene.stages.locate)?;
             if let Some(t) = &scene.loaded.tare {
@@ -795,6 +798,7 @@ pub fn calibrate_force(
                         area_mm2: None,
                         amplitude: None,
                         force_n,
+                        time_s: centre(ch.start, ch.end) as f64 * 1e-9,
                     });
                 }
                 Ok(true)
@@ -826,6 +830,7 @@ pub fn calibrate_force(
                             area_mm2: area,
                             amplitude,
                             force_n,
+                            time_s: centre(c.start, c.end) as f64 * 1e-9,
                         });
                     }
                 }

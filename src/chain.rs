@@ -604,6 +604,22 @@ impl SensorChain {
                 let f = self.change_force.as_ref().expect("checked");
                 let placed;
                 let what = match f.model() {
+                    gradtac_stages::force_model::CalibratedForce::Forward {
+                        exponent,
+                        spread,
+                        width_mm,
+                        shape,
+                        lobe,
+                        lag_s,
+                        ..
+                    } => {
+                        placed = format!(
+                            "the identified forward model (force exponent {exponent:.3}, spread exponent {spread:.3}, \
+                             width {width_mm:.2} mm, profile q {shape:.2}, lobe {lobe:.2}, per-taxel gains, fluid lag \
+                             {lag_s} s inverted) solved for place and force per frame from the"
+                        );
+                        placed.as_str()
+                    }
                     gradtac_stages::force_model::CalibratedForce::Placed { width_mm, .. } => {
                         placed = format!(
                             "a power law in the total change ÷ the layout's response at the contact (w = {width_mm} mm) \

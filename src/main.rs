@@ -248,8 +248,9 @@ enum CalibrateWhat {
         sensor: Option<String>,
         /// The method: placed (a power law in the total baseline-relative change divided by the
         /// layout's response at the contact's place), total (the same without the division), ridge (on the
-        /// 24 changes), area (contour area of the scene's contact location) or amplitude (the
-        /// contact fit's, with method = "fit").
+        /// 24 changes), area (contour area of the scene's contact location), amplitude (the
+        /// contact fit's, with method = "fit") or forward (the sensor's forward model identified
+        /// from the gauge session and inverted per frame; see docs/force.md for where it fails).
         #[arg(long, default_value = gradtac::stages::force_model::DEFAULT_METHOD.name())]
         method: String,
         /// Where to write the model (JSON).

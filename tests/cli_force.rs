@@ -273,3 +273,44 @@ fn area_and_amplitude_models_run_through_their_location_chain() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("amplitude.json") && err.contains("method = \"fit\""), "{err}");
 }
+
+/// `--method forward` (opt-in, session 31) end to end on member 700: a version-4 file, the
+/// bare scene runs it, `explain` names it, untouched frames report none before the first press.
+#[test]
+fn calibrate_force_forward_writes_version_4_and_a_bare_scene_runs_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = ForceSession::presses(700, 6).simulate();
+    write_csv(&dir.path().join("cal.csv"), &rec);
+    let cal = scene(dir.path(), "cal.toml", "cal.csv", "", "source");
+    let model = dir.path().join("forward.json");
+    let text = ok(gradtac()
+        .args(["calibrate", "force"])
+        .arg(&cal)
+        .args(["--force-column", "force_n", "--method", "forward", "--out"])
+        .arg(&model)
+        .output()
+        .unwrap());
+    assert!(text.contains("calibrated forward force on"), "{text}");
+    let file = gradtac::scene::read_force_file(&model).unwrap();
+    assert_eq!(file.version, 4);
+    let test = ForceSession { noise_stream: 9, ..ForceSession::presses(700, 6) }.simulate();
+    write_csv(&dir.path().join("test.csv"), &test);
+    let run = scene(dir.path(), "run.toml", "test.csv", "[stages.force]\nmodel = \"forward.json\"\n", "force");
+    let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
+    assert!(explain.contains("the identified forward model"), "{explain}");
+    ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
+    let f = forces(&dir.path().join("run.toml.parquet"));
+    assert_eq!(f.len(), test.frames.len());
+    assert!(f[..100].iter().all(Option::is_none), "a force before the first press");
+    let errs: Vec<f64> = (0..f.len())
+        .filter(|&k| test.force[k.saturating_sub(4)] > 0.5)
+        .map(|k| f[k].map_or(1.0, |e| (e - test.force[k - 4]).abs() / test.force[k - 4]))
+        .collect();
+    let mape = 100.0 * errs.iter().sum::<f64>() / errs.len() as f64;
+    eprintln!("forward: MAPE {mape:.1} % above 0.5 N on the same sensor's next session");
+    // measured 108.2 % (placed: 41.2 %): member 700 is a sensor whose contacts have not
+    // returned when its rests end (the first test's untouched frames), the failure that makes
+    // `forward` read several times the force on held-out seed 100 (docs/force.md) — why it is
+    // not the default. Pinned so a change in either direction is seen.
+    assert!(mape < 115.0, "MAPE {mape:.1} %");
+}

@@ -60,6 +60,7 @@ fn ridge_of(seed: u64) -> gradtac::stages::force_model::ForceFile {
                 area_mm2: None,
                 amplitude: None,
                 force_n: rec.gauge[k.round() as usize],
+                time_s: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
             }
         })
         .collect();

@@ -4,7 +4,8 @@
 //! # Methods
 //! | method | input | model |
 //! |---|---|---|
-//! | `placed` (default) | `S₁`, `S₂` below, each divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`: the layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of the electrode positions `pⱼ`), `w` = [`DEFAULT_PLACE_WIDTH_MM`] | `F = e^c · (S₁/R)^p · (S₂/R)^q`: least squares on `ln F` (3 numbers, `w` and the layout's positions stored with them): a press at a place few electrodes see is not read as light ([`place_response`]) |
+//! | `forward` (default) | the signed changes `Δᵢ` | the member's forward model `Δᵢ ≈ gᵢ (F/F₀)^γ K(ρᵢ(x, y); w (F/F₀)^s)` identified from the gauge session (24 signed gains, γ, spread growth, width, far lobe; [`force_ident`](crate::force_ident)), inverted per frame for `(x, y, F)` |
+//! | `placed` | `S₁`, `S₂` below, each divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`: the layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of the electrode positions `pⱼ`), `w` = [`DEFAULT_PLACE_WIDTH_MM`] | `F = e^c · (S₁/R)^p · (S₂/R)^q`: least squares on `ln F` (3 numbers, `w` and the layout's positions stored with them): a press at a place few electrodes see is not read as light ([`place_response`]) |
 //! | `total` | the total change `S₁ = Σ|Δᵢ|` and its root-sum-square `S₂ = √ΣΔᵢ²` (counts) | `F = e^c · S₁^p · S₂^q`: least squares on `ln F` (3 numbers, blind to which taxels moved and to their signs) |
 //! | `ridge` | the change detector's signed baseline-relative changes `Δᵢ = x̄ᵢ − x₀ᵢ` (counts) of every taxel | `F = b + Σ wᵢ Δᵢ`, ridge on standardised changes (the cheapest baseline) |
 //! | `area` | the contact location's contour area (mm²; the paper's feature) | a monotone curve ([`ForceModel`]) |
@@ -43,6 +44,7 @@
 //! most [`MAX_KNOTS`] knots.
 
 use crate::force::{ForceEstimate, ForceMethod, ForceModel, ForceSample};
+use crate::force_ident::{identify, ForwardModel, Geometry};
 use crate::locate::{ChangeDetector, DriftModel, LocateConfig};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Stage, TaxelFrame};
@@ -52,11 +54,12 @@ const STAGE: &str = "force";
 
 /// The `format` tag of a force model file.
 pub const FORCE_FORMAT: &str = "gradtac-force";
-/// The newest version this build reads (and writes, for a `placed` model): version 2 added the
-/// `total` method, version 3 the `placed` method; `total` models are still written as
-/// version 2 and `ridge`, `area` and `amplitude` models as version 1, so older builds keep
-/// reading them. Every version up to this one is read.
-pub const FORCE_VERSION: u32 = 3;
+/// The newest version this build reads (and writes, for a `forward` model): version 2 added the
+/// `total` method, version 3 the `placed` method, version 4 the `forward` method; `placed`
+/// models are still written as version 3, `total` models as version 2 and `ridge`, `area` and
+/// `amplitude` models as version 1, so older builds keep reading them. Every version up to
+/// this one is read.
+pub const FORCE_VERSION: u32 = 4;
 /// Most taxels a model may hold.
 pub const MAX_TAXELS: usize = 65_536;
 /// Most knots of an isotonic curve in a file.
@@ -66,6 +69,9 @@ pub const MAX_KNOTS: usize = 100_000;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CalibrationMethod {
+    /// The member's forward model identified from the gauge session, inverted per frame
+    /// ([`force_ident`](crate::force_ident)).
+    Forward,
     /// A power law in the total change divided by the layout's response at the contact's place.
     Placed,
     /// A power law in the total change.
@@ -82,6 +88,7 @@ impl CalibrationMethod {
     /// The name on the command line and in files.
     pub fn name(self) -> &'static str {
         match self {
+            CalibrationMethod::Forward => "forward",
             CalibrationMethod::Placed => "placed",
             CalibrationMethod::Total => "total",
             CalibrationMethod::Ridge => "ridge",
@@ -91,7 +98,8 @@ impl CalibrationMethod {
     }
 
     /// Every method.
-    pub const ALL: [CalibrationMethod; 5] = [
+    pub const ALL: [CalibrationMethod; 6] = [
+        CalibrationMethod::Forward,
         CalibrationMethod::Placed,
         CalibrationMethod::Total,
         CalibrationMethod::Ridge,
@@ -101,7 +109,13 @@ impl CalibrationMethod {
 
     /// Whether it reads the change detector's changes (raw frames) rather than contours.
     pub fn reads_changes(self) -> bool {
-        matches!(self, CalibrationMethod::Placed | CalibrationMethod::Total | CalibrationMethod::Ridge)
+        matches!(
+            self,
+            CalibrationMethod::Forward
+                | CalibrationMethod::Placed
+                | CalibrationMethod::Total
+                | CalibrationMethod::Ridge
+        )
     }
 
     /// Parse a name.
@@ -128,6 +142,26 @@ pub const DEFAULT_AREA_CURVE: ForceMethod = ForceMethod::PowerLaw;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "method", rename_all = "snake_case", deny_unknown_fields)]
 pub enum CalibratedForce {
+    /// The identified forward model ([`force_ident`](crate::force_ident)):
+    /// `Δᵢ ≈ gᵢ (F/F₀)^γ K(ρᵢ(x, y); w (F/F₀)^s)`, inverted per frame for `(x, y, F)`.
+    Forward {
+        /// `gᵢ`: signed counts at `F₀` = 2 N under the contact, one per taxel.
+        gains: Vec<f64>,
+        /// `γ`.
+        exponent: f64,
+        /// `s`: the kernel width's growth with force.
+        spread: f64,
+        /// `w` (mm) at `F₀`.
+        width_mm: f64,
+        /// `q` (1–2): the kernel's profile, exponential to Gaussian.
+        shape: f64,
+        /// `a`: the far lobe's weight.
+        lobe: f64,
+        /// `τ` (s): the fluid lag inverted on the changes before the model is.
+        lag_s: f64,
+        /// The layout's electrode positions (layout plane, mm), one per taxel.
+        positions: Vec<[f64; 2]>,
+    },
     /// The `total` law on the changes divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`, the
     /// layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of
     /// the electrode positions `pⱼ`): `F = exp(c + p · ln(S₁/R) + q · ln(S₂/R))`, so a press
@@ -180,6 +214,7 @@ impl CalibratedForce {
     /// Its method.
     pub fn method(&self) -> CalibrationMethod {
         match self {
+            CalibratedForce::Forward { .. } => CalibrationMethod::Forward,
             CalibratedForce::Placed { .. } => CalibrationMethod::Placed,
             CalibratedForce::Total { .. } => CalibrationMethod::Total,
             CalibratedForce::Ridge { .. } => CalibrationMethod::Ridge,
@@ -206,19 +241,44 @@ impl CalibratedForce {
         self.method().reads_changes()
     }
 
-    /// The file version a model of this method is written with: 3 for `placed`, 2 for `total`
-    /// (a build that reads only older versions refuses it by its version), 1 for the others.
+    /// The file version a model of this method is written with: 4 for `forward`, 3 for
+    /// `placed`, 2 for `total` (a build that reads only older versions refuses it by its
+    /// version), 1 for the others.
     pub fn version(&self) -> u32 {
         match self {
+            CalibratedForce::Forward { .. } => 4,
             CalibratedForce::Placed { .. } => 3,
             CalibratedForce::Total { .. } => 2,
             _ => 1,
         }
     }
 
+    /// The `forward` model and its geometry (`None` for another method).
+    pub fn forward(&self) -> Option<(ForwardModel, Geometry)> {
+        match self {
+            CalibratedForce::Forward { gains, exponent, spread, width_mm, shape, lobe, positions, .. } => Some((
+                ForwardModel {
+                    gains: gains.clone(),
+                    exponent: *exponent,
+                    spread: *spread,
+                    width_mm: *width_mm,
+                    shape: *shape,
+                    lobe: *lobe,
+                },
+                Geometry::for_positions(positions),
+            )),
+            _ => None,
+        }
+    }
+
     /// The prediction for changes `delta` (N, ≥ 0; NaN in, NaN out); `None` for a curve model.
+    /// (The `forward` model builds its geometry on each call; [`ChangeForce`] keeps it.)
     pub fn predict_changes(&self, delta: &[f64]) -> Option<f64> {
         match self {
+            CalibratedForce::Forward { .. } => {
+                let (m, geo) = self.forward().expect("a forward model");
+                Some(forward_force(&m, &geo, delta))
+            }
             CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions } => {
                 let (s1, s2) = total_change(delta);
                 if s1.is_nan() {
@@ -249,6 +309,63 @@ impl CalibratedForce {
             CalibratedForce::Area { .. } | CalibratedForce::Amplitude { .. } => None,
         }
     }
+}
+
+/// Bounds of a `forward` model's fluid lag (s).
+pub const LAG_RANGE_S: std::ops::RangeInclusive<f64> = 0.0..=0.5;
+
+/// The inverse of a first-order lag `τ` for changes `delta` that follow `prev` by `dt` s:
+/// `Δ*ₖ = Δₖ₋₁ + (Δₖ − Δₖ₋₁)/α`, `α = 1 − e^{−Δt/τ}`; `τ = 0`, a gap over 0.5 s or an unknown
+/// time keep `delta`.
+fn lead(delta: &[f64], prev: &[f64], dt: f64, tau: f64) -> Vec<f64> {
+    if !(tau > 0.0 && dt > 0.0 && dt <= 0.5) || prev.len() != delta.len() {
+        return delta.to_vec();
+    }
+    let alpha = 1.0 - (-dt / tau).exp();
+    delta.iter().zip(prev).map(|(d, p)| p + (d - p) / alpha).collect()
+}
+
+/// A model's predictions frame by frame (the `forward` model's lag inverse needs the previous
+/// frame's changes): what [`ChangeForce`] runs and what `calibrate` scores in sample.
+#[derive(Clone, Debug)]
+pub struct ForcePredictor {
+    model: CalibratedForce,
+    forward: Option<(ForwardModel, Geometry, f64)>,
+    prev: Option<(f64, Vec<f64>)>,
+}
+
+impl ForcePredictor {
+    /// For `model`.
+    pub fn new(model: &CalibratedForce) -> Self {
+        let forward = match model {
+            CalibratedForce::Forward { lag_s, .. } => model.forward().map(|(m, g)| (m, g, *lag_s)),
+            _ => None,
+        };
+        ForcePredictor { model: model.clone(), forward, prev: None }
+    }
+
+    /// The next frame's force (N; `None` without a contact or the model's feature): frames
+    /// must come in time order.
+    pub fn push(&mut self, s: &GaugeSample) -> Option<f64> {
+        let Some((m, geo, tau)) = &self.forward else { return self.model.predict_sample(s) };
+        let led = match &self.prev {
+            Some((t, p)) => lead(&s.change, p, s.time_s - t, *tau),
+            None => s.change.clone(),
+        };
+        self.prev = Some((s.time_s, s.change.clone()));
+        s.contact.then(|| forward_force(m, geo, &led))
+    }
+
+    /// Forget the previous frame (a gap).
+    pub fn reset(&mut self) {
+        self.prev = None;
+    }
+}
+
+/// The `forward` model's force for `delta` (N; NaN for a non-finite change or a wrong length,
+/// 0 without a change).
+pub fn forward_force(model: &ForwardModel, geo: &Geometry, delta: &[f64]) -> f64 {
+    model.invert(geo, delta).map_or(f64::NAN, |p| if delta.iter().all(|d| *d == 0.0) { 0.0 } else { p[2] })
 }
 
 /// The total change of `delta`: `(Σ|Δᵢ|, √ΣΔᵢ²)` — the `total` method's features.
@@ -371,6 +488,34 @@ impl ForceFile {
             return Err(invalid(format!("{} taxels (want 1..={MAX_TAXELS})", self.taxels)));
         }
         match &self.model {
+            CalibratedForce::Forward { gains, positions, lag_s, .. } => {
+                if !LAG_RANGE_S.contains(lag_s) {
+                    return Err(invalid(format!(
+                        "lag_s {lag_s} (want {}..={} s)",
+                        LAG_RANGE_S.start(),
+                        LAG_RANGE_S.end()
+                    )));
+                }
+                if gains.len() != self.taxels || positions.len() != self.taxels {
+                    return Err(invalid(format!(
+                        "{} taxels but {} gains and {} positions",
+                        self.taxels,
+                        gains.len(),
+                        positions.len()
+                    )));
+                }
+                if !positions.iter().flatten().all(|x| x.is_finite() && x.abs() <= 1e6) {
+                    return Err(invalid("a position is not finite (or beyond 1e6 mm)".into()));
+                }
+                let (m, _) = self.model.forward().expect("a forward model");
+                if !m.is_valid() {
+                    return Err(invalid(
+                        "a forward-model parameter is not finite or out of its bounds (gains within 1e9 counts, \
+                         exponent 0.2–1.6, spread −0.3–0.7, width e^−0.7–e^2.5 mm, shape 1–2, lobe −0.7–1.5)"
+                            .into(),
+                    ));
+                }
+            }
             CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions } => {
                 if ![log_scale, sum_exponent, norm_exponent].iter().all(|x| x.is_finite()) {
                     return Err(invalid("a placed-law parameter is not finite".into()));
@@ -557,6 +702,9 @@ pub struct GaugeSample {
     pub area_mm2: Option<f64>,
     /// The contact fit's amplitude, when the location is a fit.
     pub amplitude: Option<f64>,
+    /// Time of the window's centre (s; NaN when unknown): the `forward` model's fluid-lag
+    /// inverse reads the spacing of consecutive samples.
+    pub time_s: f64,
     /// Measured force (N).
     pub force_n: f64,
 }
@@ -590,6 +738,44 @@ pub fn calibrate(
         }
     }
     let model = match method {
+        CalibrationMethod::Forward => {
+            let positions = layout.positions().to_vec();
+            let geo = Geometry::for_positions(&positions);
+            // the fluid lag is not identified (`lag_s` = 0): a grid of lags chosen by in-sample
+            // fit scored a worse tuning worst member (36.5 % against 32.1 %, docs/force.md)
+            let tau = 0.0;
+            let no_model = || {
+                invalid(format!(
+                    "the forward model could not be identified: it needs at least 10 frames in contact with a gauge \
+                     force ≥ {} N that moved the taxels",
+                    crate::force_ident::MIN_FORCE_N
+                ))
+            };
+            // a press is a run of consecutive contact samples
+            let mut press = 0usize;
+            let mut was = false;
+            let mut frames: Vec<(&[f64], f64, usize)> = Vec::new();
+            for s in samples {
+                if s.contact && !was {
+                    press += 1;
+                }
+                was = s.contact;
+                if s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite() {
+                    frames.push((s.change.as_slice(), s.force_n, press));
+                }
+            }
+            let m = identify(&geo, &frames).ok_or_else(no_model)?;
+            CalibratedForce::Forward {
+                gains: m.gains,
+                exponent: m.exponent,
+                spread: m.spread,
+                width_mm: m.width_mm,
+                shape: m.shape,
+                lobe: m.lobe,
+                lag_s: tau,
+                positions,
+            }
+        }
         CalibrationMethod::Placed => {
             let positions = layout.positions().to_vec();
             let w = DEFAULT_PLACE_WIDTH_MM;
@@ -652,11 +838,12 @@ pub fn calibrate(
             }
         }
     };
-    let predict = |s: &GaugeSample| model.predict_sample(s);
-    let scored: Vec<f64> = used
+    let mut predictor = ForcePredictor::new(&model);
+    let scored: Vec<f64> = samples
         .iter()
-        .filter(|s| s.force_n > 0.5)
-        .map(|s| predict(s).map_or(1.0, |p| (p - s.force_n).abs() / s.force_n))
+        .map(|s| (predictor.push(s), s))
+        .filter(|(_, s)| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite() && s.force_n > 0.5)
+        .map(|(p, s)| p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n))
         .collect();
     let lo = used.iter().map(|s| s.force_n).fold(f64::INFINITY, f64::min);
     let hi = used.iter().map(|s| s.force_n).fold(f64::NEG_INFINITY, f64::max);
@@ -683,6 +870,7 @@ pub fn calibrate(
 pub struct ChangeForce {
     det: ChangeDetector,
     model: CalibratedForce,
+    predictor: ForcePredictor,
 }
 
 impl ChangeForce {
@@ -697,7 +885,7 @@ impl ChangeForce {
             )));
         }
         let det = force_detector(file.taxels, locate)?;
-        Ok(ChangeForce { det, model: file.model.clone() })
+        Ok(ChangeForce { det, model: file.model.clone(), predictor: ForcePredictor::new(&file.model) })
     }
 
     /// Measure against a stored untouched baseline.
@@ -724,13 +912,22 @@ impl Stage for ChangeForce {
 
     fn push(&mut self, f: TaxelFrame, out: &mut Vec<ForceEstimate>) -> Result<()> {
         let ch = self.det.push(&f, STAGE)?;
-        let force_n = if ch.contact { self.model.predict_changes(self.det.change()) } else { None };
+        let sample = GaugeSample {
+            change: self.det.change().to_vec(),
+            contact: ch.contact,
+            area_mm2: None,
+            amplitude: None,
+            force_n: f64::NAN,
+            time_s: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
+        };
+        let force_n = self.predictor.push(&sample);
         out.push(ForceEstimate { sensor: f.sensor, time: f.time, seq: f.seq, area_mm2: f64::NAN, force_n });
         Ok(())
     }
 
     fn reset(&mut self) {
         self.det.reset();
+        self.predictor.reset();
     }
 
     fn delay(&self) -> Delay {
@@ -780,7 +977,7 @@ mod tests {
                     .collect();
                 let (s1, s2) = total_change(&change);
                 let force_n = (-3.0 + 0.8 * s1.ln() + 0.3 * s2.ln()).exp();
-                GaugeSample { change, contact: true, area_mm2: None, amplitude: None, force_n }
+                GaugeSample { change, contact: true, area_mm2: None, amplitude: None, force_n, time_s: f64::NAN }
             })
             .collect()
     }
@@ -922,6 +1119,115 @@ mod tests {
         let mut sink = Vec::new();
         let e = s.push(bad, &mut sink).unwrap_err();
         assert!(e.to_string().contains("300") || e.to_string().contains("7"), "{e}");
+    }
+
+    /// Gauge samples drawn from a `forward` model: presses at three places, ramps 0.3..8 N,
+    /// a frame without contact between presses.
+    fn forward_samples() -> Vec<GaugeSample> {
+        let geo = Geometry::for_positions(Layout::biotac_sp().positions());
+        let m =
+            ForwardModel { gains: vec![-60.0; 24], exponent: 0.7, spread: 0.2, width_mm: 3.0, shape: 2.0, lobe: 0.2 };
+        let mut out = Vec::new();
+        for (j, p) in [[-5.0, -3.0], [4.0, 2.0], [0.0, 5.0]].iter().enumerate() {
+            for k in 0..30 {
+                let f = 0.3 + 7.7 * k as f64 / 29.0;
+                let t = (j * 31 + k) as f64 * 0.01;
+                out.push(GaugeSample {
+                    change: m.predict(&geo, p[0], p[1], f),
+                    contact: true,
+                    area_mm2: None,
+                    amplitude: None,
+                    force_n: f,
+                    time_s: t,
+                });
+            }
+            out.push(GaugeSample {
+                change: vec![0.0; 24],
+                contact: false,
+                area_mm2: None,
+                amplitude: None,
+                force_n: 0.0,
+                time_s: (j * 31 + 30) as f64 * 0.01,
+            });
+        }
+        out
+    }
+
+    #[test]
+    fn forward_files_are_version_4_fit_their_own_model_and_survive_garbage() {
+        let layout = Layout::biotac_sp();
+        let file =
+            calibrate(&forward_samples(), CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
+        assert_eq!(file.version, 4);
+        assert!(file.calibration.in_sample_mape_pct < 5.0, "{:?}", file.calibration);
+        let json = serde_json::to_string(&file).unwrap();
+        assert_eq!(serde_json::from_str::<ForceFile>(&json).unwrap(), file);
+        // older versions still load; a newer one is refused by its version
+        let placed =
+            calibrate(&power_law_samples(), CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
+        assert_eq!(placed.version, 3);
+        placed.validate().unwrap();
+        assert!(ForceFile { version: 5, ..file.clone() }.validate().unwrap_err().to_string().contains("version 5"));
+        // out-of-bounds parameters are refused
+        let CalibratedForce::Forward { gains, positions, .. } = file.model.clone() else { panic!() };
+        for bad in [
+            CalibratedForce::Forward {
+                gains: gains.clone(),
+                exponent: f64::NAN,
+                spread: 0.2,
+                width_mm: 3.0,
+                shape: 2.0,
+                lobe: 0.0,
+                lag_s: 0.0,
+                positions: positions.clone(),
+            },
+            CalibratedForce::Forward {
+                gains: gains.clone(),
+                exponent: 0.7,
+                spread: 0.2,
+                width_mm: 3.0,
+                shape: 2.0,
+                lobe: 0.0,
+                lag_s: -1.0,
+                positions: positions.clone(),
+            },
+            CalibratedForce::Forward {
+                gains: gains[..3].to_vec(),
+                exponent: 0.7,
+                spread: 0.2,
+                width_mm: 3.0,
+                shape: 2.0,
+                lobe: 0.0,
+                lag_s: 0.0,
+                positions: positions.clone(),
+            },
+        ] {
+            assert!(ForceFile { model: bad, ..file.clone() }.validate().is_err());
+        }
+        // predictions: NaN in, NaN out; no change, no force; the lag inverse needs a time
+        assert!(file.model.predict_changes(&[f64::NAN; 24]).unwrap().is_nan());
+        assert_eq!(file.model.predict_changes(&[0.0; 24]), Some(0.0));
+        assert!(file.model.predict_changes(&[1.0; 3]).unwrap().is_nan());
+        let mut lagged = file.clone();
+        if let CalibratedForce::Forward { lag_s, .. } = &mut lagged.model {
+            *lag_s = 0.05;
+        }
+        let mut p = ForcePredictor::new(&lagged.model);
+        for s in forward_samples().iter().take(5) {
+            let f = p.push(&GaugeSample { time_s: f64::NAN, ..s.clone() }).unwrap();
+            assert!(f.is_finite());
+        }
+        // the stage: constant input gives no force, NaN is an error naming where, never a panic
+        let mut s = ChangeForce::try_new(&file, &LocateConfig::default()).unwrap();
+        let frame = |k: u64, v: f64| TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v; 24]);
+        let out = s.run_all((0..300).map(|k| frame(k, 2000.0))).unwrap();
+        assert!(out.iter().all(|e| e.force_n.is_none()));
+        let mut bad = frame(300, 2000.0);
+        bad.values[7] = f64::NAN;
+        assert!(s.push(bad, &mut Vec::new()).is_err());
+        let mut huge = frame(301, 1e300);
+        huge.values[3] = -1e300;
+        let _ = s.push(huge, &mut Vec::new());
     }
 
     /// Two taxels at 100 Hz with ±1 count alternating noise; `press(k)` counts are subtracted

@@ -27,6 +27,7 @@ pub mod drift;
 pub mod events;
 pub mod fit;
 pub mod force;
+pub mod force_ident;
 pub mod force_model;
 pub mod interpolate;
 pub mod lag;
