@@ -417,6 +417,7 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     release_moving: 0.0,
     quiet_s: 5.0,
     stale_s: 10.0,
+    release_sigmas: 0.0,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
