@@ -54,13 +54,20 @@ fn main() {
             }
             idx[s] += 1;
         }
-        println!("  press  peak Σ|Δ|  end-of-rest Σ|Δ|  ratio  max z  contact at rest end  returned after");
+        let ss: f64 = det.noise().iter().sum();
+        println!("  Σσᵢ {ss:.0} counts; the return rule's bound is {:.1} × the peak", det_fraction());
+        println!("  press  peak Σ|Δ|  bound  end-of-rest Σ|Δ|  ratio  max z  contact at rest end  no contact after");
+        let (mut blocked, mut stuck) = (0, 0);
         for p in 0..(nseg - 1) / 2 {
             let (press, rest) = (1 + 2 * p, 2 + 2 * p);
             let (t, z, c) = last[rest];
+            let bound = det_fraction() * peak[press];
+            blocked += usize::from(t >= bound);
+            stuck += usize::from(c);
             println!(
-                "  {p:>5}  {:>10.0}  {:>16.0}  {:>5.2}  {:>5.1}  {:>19}  {}",
+                "  {p:>5}  {:>9.0}  {:>5.0}  {:>16.0}  {:>5.2}  {:>5.1}  {:>19}  {}",
                 peak[press],
+                bound,
                 t,
                 t / peak[press].max(1e-9),
                 z,
@@ -68,5 +75,16 @@ fn main() {
                 returned_at[rest].map_or("never".to_string(), |k| format!("{:.2} s", k as f64 * 0.01)),
             );
         }
+        println!("  rests ending above the bound: {blocked} of {}; in contact at their end: {stuck}", (nseg - 1) / 2);
+    }
+}
+
+/// The probed gate's return fraction.
+fn det_fraction() -> f64 {
+    match std::env::var("GATE_DRIFT") {
+        Ok(j) => {
+            serde_json::from_str::<gradtac::stages::locate::DriftModel>(&j).map_or(f64::NAN, |m| m.release_fraction)
+        }
+        Err(_) => gradtac::stages::force_model::FORCE_GATE.release_fraction,
     }
 }

@@ -827,6 +827,11 @@ impl DriftModel {
 /// younger frame instead of allocating without bound).
 const MAX_STEADY_HISTORY: usize = 4096;
 
+/// The noise return ([`DriftModel::release_sigmas`]) waits until the total change moved by less
+/// than this multiple of `Σσᵢ` over the steadiness look-back (about twice the noise of that
+/// difference for a 9-frame window).
+const NOISE_RETURN_MOVE: f64 = 0.1;
+
 /// The drift model's state.
 #[derive(Clone, Debug)]
 struct DriftState {
@@ -893,6 +898,12 @@ impl DriftState {
         while self.history.len() >= 2 && self.history[1].0 .0 <= horizon {
             self.history.pop_front();
         }
+        // the total change of the look-back's oldest window mean against today's baseline
+        let old_total = self
+            .history
+            .front()
+            .filter(|(t, _)| t.0 <= horizon)
+            .map(|(_, old)| old.iter().zip(baseline.iter()).map(|(o, b)| (o - b).abs()).sum::<f64>());
         let steady = self.history.front().is_some_and(|(t, old)| {
             t.0 <= horizon && old.iter().zip(&mean).zip(sigma).all(|((o, x), s)| (x - o).abs() < m.steady_sigmas * s)
         });
@@ -922,7 +933,14 @@ impl DriftState {
             self.in_contact = false;
             self.settling = false;
         }
-        let quiet_total = m.release_sigmas > 0.0 && total < m.release_sigmas * sigma.iter().sum::<f64>();
+        // the noise return: below `release_sigmas · Σσᵢ` and no longer moving (a light press's
+        // rise or fall is steady by the taxel test but still moves its total change: settling
+        // there would absorb the press and teach the slope a false drift)
+        let quiet_total = m.release_sigmas > 0.0 && {
+            let ss = sigma.iter().sum::<f64>();
+            let moved = old_total.map_or(f64::INFINITY, |o| (o - total).abs());
+            total < m.release_sigmas * ss && moved < NOISE_RETURN_MOVE * ss
+        };
         let returning =
             steady && self.in_contact && (self.settling || total < m.release_fraction * self.peak || quiet_total);
         self.settling = holds && returning;
