@@ -506,6 +506,8 @@ struct Cell {
     worst: f64,
     mean: f64,
     untouched: f64,
+    /// Untouched frames above 0.5 N, of all untouched frames.
+    over: (u64, u64),
 }
 
 fn evaluate(
@@ -523,7 +525,7 @@ fn evaluate(
         u += un;
         o += ov;
     }
-    Cell { worst, mean: sum / members.len() as f64, untouched: 100.0 * o as f64 / u.max(1) as f64 }
+    Cell { worst, mean: sum / members.len() as f64, untouched: 100.0 * o as f64 / u.max(1) as f64, over: (o, u) }
 }
 
 fn main() {
@@ -637,6 +639,15 @@ fn main() {
             .map(|s| (evaluate(&tune, &ft, s.0, s.1, s.2), s))
             .min_by(|a, b| a.0.worst.total_cmp(&b.0.worst))
             .unwrap();
+        // the selection rule's eligibility (docs/force.md): untouched frames on the tuning members
+        eprintln!(
+            "{}: tuning worst {:.1} %, mean {:.1} %, untouched above 0.5 N {} of {}",
+            source.name(),
+            chosen.0.worst,
+            chosen.0.mean,
+            chosen.0.over.0,
+            chosen.0.over.1
+        );
         let held = evaluate(&test, &fs, chosen.1 .0, chosen.1 .1, chosen.1 .2);
         println!(
             "| {} | {} | {:.1} % | {:.1} % | {:.1} % | {:.2} % | {:.2} |",

@@ -634,7 +634,7 @@ impl SensorChain {
                 format!(
                     "{what} {} signed changes (model file), no force without contact, every baseline follows \
                      drift while untouched ({}; drift model: settle {} s when steady {} σ over {} s, slope memory {} s \
-                     prior {} s³, release below {} of the contact's peak total change; hold beyond {} σ: baseline \
+                     prior {} s³, release below {} of the contact's peak total change{}; hold beyond {} σ: baseline \
                      frozen{}, following {} s outside excursions, a level steady {} s is the new rest)",
                     f.detector().change().len(),
                     describe_detector(&st.locate),
@@ -644,6 +644,11 @@ impl SensorChain {
                     d.slope_memory_s,
                     d.slope_prior_s3,
                     d.release_fraction,
+                    if d.release_sigmas > 0.0 {
+                        format!(" or, still, below {} Σσ", d.release_sigmas)
+                    } else {
+                        String::new()
+                    },
                     d.hold_sigmas,
                     if d.hold_contact { " and a contact until it returns" } else { "" },
                     d.quiet_s,

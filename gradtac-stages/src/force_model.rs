@@ -404,6 +404,14 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// 10 s is a new resting level. Unlike the session-29 model ([`DriftModel::default`]) a light
 /// press below the contact threshold is not absorbed into the baseline during its hold, so its
 /// lift does not read as a contact that never ends.
+///
+/// Known limit (measured, `docs/force.md` "the force gate's returns"): the return bound is
+/// relative to the peak only, so a residual of a few σ left by a light press on a noisy sensor
+/// (whose window means' noise alone fills `Σ|Δᵢ|` above 0.3 of that peak) is no return and stays
+/// a contact until the stale time; on the tuning members 32 of 80 rests of 0.6 s end in contact
+/// (most on residuals of several σ after firm presses). The noise return
+/// ([`DriftModel::release_sigmas`]) ends such contacts but absorbs light presses during their
+/// rise, and lost on the tuning members: it is off.
 pub const FORCE_GATE: DriftModel = DriftModel {
     steady_s: 0.3,
     steady_sigmas: 2.0,
@@ -417,6 +425,7 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     release_moving: 0.0,
     quiet_s: 5.0,
     stale_s: 10.0,
+    release_sigmas: 0.0,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
@@ -1298,6 +1307,74 @@ mod tests {
         assert!(gate.change()[1].abs() < 1.0, "{:?}", gate.change());
     }
 
+    /// A weak, noisy 24-taxel sensor drifting 2 counts/s (σ ≈ 4.4 counts, like
+    /// `tests/cli_force.rs`'s member 700): `press` counts on taxel 0 at frame `k` (100 Hz).
+    fn weak_drifting(k: u64, press: f64, state: &mut u64) -> TaxelFrame {
+        let t = k as f64 * 0.01;
+        let values = (0..24)
+            .map(|i| {
+                // a sum of four uniforms (xorshift): σ ≈ 4.4 counts
+                let mut n = 0.0;
+                for _ in 0..4 {
+                    *state ^= *state << 13;
+                    *state ^= *state >> 7;
+                    *state ^= *state << 17;
+                    n += (*state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                }
+                let slope = if i % 2 == 0 { 2.0 } else { -1.5 };
+                1000.0 + slope * t + 7.6 * n - if i == 0 { press } else { 0.0 }
+            })
+            .collect();
+        TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, values)
+    }
+
+    /// Frames in contact in the last second of a light press (peak `peak` counts on taxel 0)
+    /// on [`weak_drifting`] that leaves `residual` counts behind, and its hold's frames in
+    /// contact (of 50), under `gate`.
+    fn light_press_on_a_weak_sensor(gate: DriftModel, peak: f64, residual: f64) -> (usize, usize) {
+        // 10 s untouched, then a 2 s rise, 0.5 s hold, 1.5 s fall, 3 s rest
+        let press = |k: u64| match k {
+            0..=999 => 0.0,
+            1000..=1199 => peak * (k - 1000) as f64 / 200.0,
+            1200..=1249 => peak,
+            1250..=1399 => residual + (peak - residual) * (1400 - k) as f64 / 150.0,
+            _ => residual,
+        };
+        let mut det = ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().with_drift_model(gate).unwrap();
+        let (mut state, mut late, mut held) = (0x9e37_79b9_7f4a_7c15u64, 0, 0);
+        for k in 0..1700u64 {
+            let c = det.push(&weak_drifting(k, press(k), &mut state), "t").unwrap();
+            late += usize::from(k >= 1600 && c.contact);
+            held += usize::from((1200..1250).contains(&k) && c.contact);
+        }
+        (late, held)
+    }
+
+    #[test]
+    fn a_light_press_on_a_weak_drifting_sensor_and_the_return_rules() {
+        // (docs/force.md, "The force gate's returns") the gate's return bound, 0.3 of the
+        // press's peak total change Σ|Δᵢ|, sits below what the window means' noise alone adds
+        // to Σ|Δᵢ| on a weak sensor (σ 4.4 counts: ≈ 28 counts over 24 taxels), so a residual
+        // of 4.5 σ left by a light press (60 counts on one taxel) is never a return: the
+        // contact lasts until the stale time. The same residual after a firm press returns.
+        let (late, held) = light_press_on_a_weak_sensor(FORCE_GATE, 60.0, 20.0);
+        assert_eq!(held, 50, "the light press is a contact through its hold");
+        assert_eq!(late, 100, "the known failure: the residual stays a contact ({late} of 100)");
+        let (late, held) = light_press_on_a_weak_sensor(FORCE_GATE, 600.0, 20.0);
+        assert_eq!((late, held), (0, 50), "a firm press's residual returns");
+        // the drift alone (a line the slope follows) leaves no contact behind
+        assert_eq!(light_press_on_a_weak_sensor(FORCE_GATE, 60.0, 0.0), (0, 50));
+        // the noise return (`release_sigmas`) ends that contact, but it also returns during
+        // the light press itself (absorbing it) — why it is measured and off (docs/force.md)
+        let noise = DriftModel { release_sigmas: 0.5, ..FORCE_GATE };
+        let (late, held) = light_press_on_a_weak_sensor(noise, 60.0, 20.0);
+        assert_eq!(late, 0, "the noise return ends the residual's contact");
+        assert!(held < 25, "measured: the light press returns during its rise ({held} of 50 held)");
+        // absorbed during its rise, the press's lift reads as a contact that stays
+        let (late, held) = light_press_on_a_weak_sensor(noise, 60.0, 0.0);
+        assert!(held < 25 && late > 50, "measured: {held} of 50 held, {late} of 100 late");
+    }
+
     #[test]
     fn a_steady_step_becomes_the_resting_level_after_the_stale_time() {
         // an offset step of 30 counts (a temperature jump, not a press) that stays
@@ -1324,6 +1401,8 @@ mod tests {
             DriftModel { release_moving: 1.0, ..FORCE_GATE },
             DriftModel { quiet_s: -0.5, ..FORCE_GATE },
             DriftModel { stale_s: f64::INFINITY, ..FORCE_GATE },
+            DriftModel { release_sigmas: -0.5, ..FORCE_GATE },
+            DriftModel { release_sigmas: f64::NAN, ..FORCE_GATE },
         ] {
             assert!(bad.validate().is_err(), "{bad:?}");
         }

@@ -720,6 +720,7 @@ impl PositionMemory {
 /// | hold | a frame with some taxel beyond `hold_sigmas` σ (or `Σ|Δᵢ|` beyond `hold_total · Σσᵢ`) is *held*: its baseline is frozen (slope only), it is no slope anchor, and with `hold_contact` a contact until its excursion *returns* (steady below `release_fraction` of the excursion's peak; then it settles at `settle_s` until something moves); `release_moving` ends such a contact, steady or not, below that fraction of the peak | off |
 /// | quiet | with `quiet_s`, frames outside an excursion follow at `quiet_s` (steady or not): only a returning excursion settles fast | off |
 /// | stale | a held or contact stretch steady for `stale_s` is a new resting level: the baseline takes it, the slope's anchors start again | off |
+/// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
 /// `force_model::FORCE_GATE`.
@@ -763,6 +764,12 @@ pub struct DriftModel {
     /// Stale time (s, ≥ 0; 0: off): a held or contact stretch that has been steady this long is
     /// a new resting level, not a press: the baseline takes it and any contact ends.
     pub stale_s: f64,
+    /// Noise return (≥ 0; 0: off): an excursion also *returns* (steady) once its total change
+    /// `Σ|Δᵢ|` is below this multiple of `Σσᵢ` — whatever its peak. Without it a light press on
+    /// a weak, noisy sensor, whose peak total change is a few `Σσᵢ`, asks for a return below
+    /// `release_fraction` of that peak, which the noise of the window means alone exceeds:
+    /// the contact never ends and the baseline never settles.
+    pub release_sigmas: f64,
 }
 
 impl Default for DriftModel {
@@ -780,6 +787,7 @@ impl Default for DriftModel {
             release_moving: 0.0,
             quiet_s: 0.0,
             stale_s: 0.0,
+            release_sigmas: 0.0,
         }
     }
 }
@@ -804,7 +812,9 @@ impl DriftModel {
             && self.quiet_s.is_finite()
             && self.quiet_s >= 0.0
             && self.stale_s.is_finite()
-            && self.stale_s >= 0.0;
+            && self.stale_s >= 0.0
+            && self.release_sigmas.is_finite()
+            && self.release_sigmas >= 0.0;
         if ok {
             Ok(())
         } else {
@@ -816,6 +826,11 @@ impl DriftModel {
 /// Most window means the steadiness look-back keeps (a very fast source compares with a
 /// younger frame instead of allocating without bound).
 const MAX_STEADY_HISTORY: usize = 4096;
+
+/// The noise return ([`DriftModel::release_sigmas`]) waits until the total change moved by less
+/// than this multiple of `Σσᵢ` over the steadiness look-back (about twice the noise of that
+/// difference for a 9-frame window).
+const NOISE_RETURN_MOVE: f64 = 0.1;
 
 /// The drift model's state.
 #[derive(Clone, Debug)]
@@ -883,6 +898,12 @@ impl DriftState {
         while self.history.len() >= 2 && self.history[1].0 .0 <= horizon {
             self.history.pop_front();
         }
+        // the total change of the look-back's oldest window mean against today's baseline
+        let old_total = self
+            .history
+            .front()
+            .filter(|(t, _)| t.0 <= horizon)
+            .map(|(_, old)| old.iter().zip(baseline.iter()).map(|(o, b)| (o - b).abs()).sum::<f64>());
         let steady = self.history.front().is_some_and(|(t, old)| {
             t.0 <= horizon && old.iter().zip(&mean).zip(sigma).all(|((o, x), s)| (x - o).abs() < m.steady_sigmas * s)
         });
@@ -912,7 +933,16 @@ impl DriftState {
             self.in_contact = false;
             self.settling = false;
         }
-        let returning = steady && self.in_contact && (self.settling || total < m.release_fraction * self.peak);
+        // the noise return: below `release_sigmas · Σσᵢ` and no longer moving (a light press's
+        // rise or fall is steady by the taxel test but still moves its total change: settling
+        // there would absorb the press and teach the slope a false drift)
+        let quiet_total = m.release_sigmas > 0.0 && {
+            let ss = sigma.iter().sum::<f64>();
+            let moved = old_total.map_or(f64::INFINITY, |o| (o - total).abs());
+            total < m.release_sigmas * ss && moved < NOISE_RETURN_MOVE * ss
+        };
+        let returning =
+            steady && self.in_contact && (self.settling || total < m.release_fraction * self.peak || quiet_total);
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
         if !contact && held && (self.touched || m.hold_contact) {
