@@ -465,6 +465,16 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 let opts = ForceCalibration { sensor: Some(loaded.sensors[index].name.clone()), gauge, method };
                 let (file, report) = gradtac::calibrate::calibrate_force(&loaded, &opts)?;
                 gradtac::calibrate::write_json(&file, &out)?;
+                if method != file.model.method() {
+                    // the `forward` guard (force_model::calibrate): the identification failed
+                    sayln!(
+                        "note: the identified {} model fitted its own calibration frames worse than the {} law, \
+                         so the {} law was written (docs/force.md, the forward guard)",
+                        method.name(),
+                        file.model.method().name(),
+                        file.model.method().name()
+                    );
+                }
                 let c = &file.calibration;
                 sayln!(
                     "calibrated {} force on {} frames in contact ({} read, {} with a gauge reading; {:.2}–{:.2} N): \

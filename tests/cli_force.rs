@@ -274,10 +274,11 @@ fn area_and_amplitude_models_run_through_their_location_chain() {
     assert!(!out.status.success() && err.contains("amplitude.json") && err.contains("method = \"fit\""), "{err}");
 }
 
-/// `--method forward` (opt-in, session 31) end to end on member 700: a version-4 file, the
-/// bare scene runs it, `explain` names it, untouched frames report none before the first press.
+/// `--method forward` end to end on member 700, a sensor whose identification fails: the guard
+/// writes the placed law (a version-3 file) and says so; the bare scene runs it, untouched frames
+/// report none before the first press.
 #[test]
-fn calibrate_force_forward_writes_version_4_and_a_bare_scene_runs_it() {
+fn calibrate_force_forward_falls_back_to_placed_on_member_700_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let rec = ForceSession::presses(700, 6).simulate();
     write_csv(&dir.path().join("cal.csv"), &rec);
@@ -290,14 +291,18 @@ fn calibrate_force_forward_writes_version_4_and_a_bare_scene_runs_it() {
         .arg(&model)
         .output()
         .unwrap());
-    assert!(text.contains("calibrated forward force on"), "{text}");
+    // member 700's identification fails (docs/force.md, "why `forward` fails on member 700":
+    // in-sample 42 % against the placed law's 28 % on force_eval's protocol), so the guard
+    // writes the placed law and says so
+    assert!(text.contains("calibrated placed force on"), "{text}");
+    assert!(text.contains("note: the identified forward model fitted its own calibration frames worse"), "{text}");
     let file = gradtac::scene::read_force_file(&model).unwrap();
-    assert_eq!(file.version, 4);
+    assert_eq!(file.version, 3);
     let test = ForceSession { noise_stream: 9, ..ForceSession::presses(700, 6) }.simulate();
     write_csv(&dir.path().join("test.csv"), &test);
     let run = scene(dir.path(), "run.toml", "test.csv", "[stages.force]\nmodel = \"forward.json\"\n", "force");
     let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
-    assert!(explain.contains("the identified forward model"), "{explain}");
+    assert!(explain.contains("a power law in the total change ÷ the layout's response"), "{explain}");
     ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
     let f = forces(&dir.path().join("run.toml.parquet"));
     assert_eq!(f.len(), test.frames.len());
@@ -308,9 +313,7 @@ fn calibrate_force_forward_writes_version_4_and_a_bare_scene_runs_it() {
         .collect();
     let mape = 100.0 * errs.iter().sum::<f64>() / errs.len() as f64;
     eprintln!("forward: MAPE {mape:.1} % above 0.5 N on the same sensor's next session");
-    // measured 108.2 % (placed: 41.2 %): member 700 is a sensor whose contacts have not
-    // returned when its rests end (the first test's untouched frames), the failure that makes
-    // `forward` read several times the force on held-out seed 100 (docs/force.md) — why it is
-    // not the default. Pinned so a change in either direction is seen.
-    assert!(mape < 115.0, "MAPE {mape:.1} %");
+    // without the guard 108.2 % (the identified model: γ 1.16, w 3.2 mm, 10 of 24 gains of the
+    // wrong sign); with it the placed law's 41.2 % (the first test). Pinned with a small margin.
+    assert!(mape < 45.0, "MAPE {mape:.1} %");
 }

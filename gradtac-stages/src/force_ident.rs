@@ -779,4 +779,23 @@ mod tests {
         // an empty geometry
         assert!(Geometry::for_positions(&[]).is_empty());
     }
+
+    /// A poorly-excited electrode (a gain near 0, or of the wrong sign, as a calibration that
+    /// never pressed near it can leave) under an out-of-range frame: the force stays in
+    /// [`F_RANGE_N`], finite, with no panic.
+    #[test]
+    fn a_poorly_excited_electrode_gives_a_bounded_force() {
+        let geo = Geometry::for_positions(Layout::biotac_sp().positions());
+        for g in [1e-9, 0.0, 3.0, -1e-12] {
+            let mut m = truth();
+            m.gains[7] = g;
+            for scale in [1.0, 1e3, 1e9, -1e9] {
+                let mut d = vec![0.0; 24];
+                d[7] = -60.0 * scale;
+                let p = m.invert(&geo, &d).unwrap();
+                assert!(p.iter().all(|v| v.is_finite()), "{p:?}");
+                assert!(p[2] >= F_RANGE_N[0] && p[2] <= F_RANGE_N[1], "gain {g}, scale {scale}: {p:?}");
+            }
+        }
+    }
 }

@@ -723,7 +723,45 @@ pub const MIN_CALIBRATION_N: f64 = 0.05;
 
 /// Fit `method` on gauge samples (contact frames with at least [`MIN_CALIBRATION_N`]):
 /// ridge with `lambda`, the area curve with `curve`. The error says why a fit is impossible.
+///
+/// **The `forward` guard:** a `forward` calibration also fits the `placed` law on the same
+/// samples and returns the `placed` file instead when the identified model explains its own
+/// calibration frames worse than the two-number law does (in-sample MAPE above 0.5 N higher, or
+/// not finite) — the richer model fitting worse is the sign of a failed identification
+/// (`docs/force.md`, "why `forward` fails on member 700"). No tuned threshold. The returned
+/// file's method says which was written; [`calibrate_unguarded`] skips the guard.
 pub fn calibrate(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+) -> Result<ForceFile> {
+    let file = calibrate_unguarded(samples, method, lambda, curve, layout)?;
+    if method != CalibrationMethod::Forward {
+        return Ok(file);
+    }
+    match calibrate_unguarded(samples, CalibrationMethod::Placed, lambda, curve, layout) {
+        Ok(placed) => Ok(forward_guard(file, placed)),
+        Err(_) => Ok(file),
+    }
+}
+
+/// The `forward` guard's decision (see [`calibrate`]): `forward` unless it fits its own
+/// calibration frames worse than `placed` (or its in-sample figure is not finite).
+#[must_use]
+pub fn forward_guard(forward: ForceFile, placed: ForceFile) -> ForceFile {
+    let f = forward.calibration.in_sample_mape_pct;
+    let p = placed.calibration.in_sample_mape_pct;
+    if f.is_finite() && f <= p {
+        forward
+    } else {
+        placed
+    }
+}
+
+/// [`calibrate`] without the `forward` guard: the method asked for, whatever its fit.
+pub fn calibrate_unguarded(
     samples: &[GaugeSample],
     method: CalibrationMethod,
     lambda: f64,
@@ -1160,6 +1198,35 @@ mod tests {
             });
         }
         out
+    }
+
+    /// The `forward` guard: a `forward` file that fits its own calibration worse than the
+    /// `placed` law (or not at all) is replaced by the `placed` file; one that fits better stays.
+    #[test]
+    fn the_forward_guard_falls_back_to_placed_when_the_identification_fits_worse() {
+        let layout = Layout::biotac_sp();
+        let fwd = calibrate(&forward_samples(), CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
+        assert_eq!(fwd.model.method(), CalibrationMethod::Forward, "its own model: the guard keeps it");
+        let placed =
+            calibrate(&forward_samples(), CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
+        assert!(fwd.calibration.in_sample_mape_pct <= placed.calibration.in_sample_mape_pct);
+        for worse in [placed.calibration.in_sample_mape_pct + 1.0, f64::NAN, f64::INFINITY] {
+            let mut bad = fwd.clone();
+            bad.calibration.in_sample_mape_pct = worse;
+            assert_eq!(forward_guard(bad, placed.clone()), placed, "in-sample {worse}");
+        }
+        // samples of a law the forward model does not describe: whatever is written fits its
+        // own calibration no worse than `placed`, and is valid
+        let s = power_law_samples();
+        let file = calibrate(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
+        let raw = calibrate_unguarded(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout);
+        let placed = calibrate(&s, CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
+        assert!(file.calibration.in_sample_mape_pct <= placed.calibration.in_sample_mape_pct + 1e-9);
+        file.validate().unwrap();
+        if let Ok(raw) = raw {
+            let chose_placed = file.model.method() == CalibrationMethod::Placed;
+            assert_eq!(chose_placed, raw.calibration.in_sample_mape_pct > placed.calibration.in_sample_mape_pct);
+        }
     }
 
     #[test]
