@@ -23,7 +23,7 @@
 //! another runs `total` on the session-29 gate, the drift model without holds), `area` of the default chain
 //! (the centroid's 2-σ weight ellipse), of `raw_contour` and of the paper's `events` chain
 //! (maximal event contour), and the contact fit's amplitude, each through a monotone curve.
-//! With `--quick` the `total` row's held-out figures are checked against floors (CI).
+//! With `--quick` the default (`forward`) row's held-out figures are checked against floors (CI).
 //!
 //! Run: `cargo run --release --example force_eval [-- --quick]`.
 
@@ -51,6 +51,9 @@ use std::time::Instant;
 const TUNE: std::ops::Range<u64> = 0..8;
 const TEST: std::ops::Range<u64> = 100..116;
 const PRESSES: usize = 10;
+/// `--quick`'s held-out floors for the default method (`forward` with its guard): worst member
+/// %, mean %, untouched frames above 0.5 N % (scripts/force_eval.sh gives the measured figures).
+const FLOOR: [f64; 3] = [65.0, 35.0, 15.0];
 
 /// The frames' features under one location method.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,8 +133,10 @@ impl Source {
             Source::TotalPlaced(k) => {
                 format!("total ÷ the layout's response at the contact (w = {} mm)", PLACED_W_MM[k])
             }
-            Source::Placed => "**`placed`: total ÷ the layout's response at the contact (default)**".into(),
-            Source::Forward => "`forward`: the identified forward model, inverted per frame".into(),
+            Source::Placed => "`placed`: total ÷ the layout's response at the contact".into(),
+            Source::Forward => {
+                "**`forward`: the identified forward model, inverted per frame, with its guard (default)**".into()
+            }
         }
     }
 }
@@ -669,25 +674,26 @@ fn main() {
         {
             best = Some((chosen.0.worst, source.name()));
         }
-        if source == Source::Placed {
+        if source == Source::Forward {
             total = Some(held);
         }
     }
     if let Some((w, name)) = best {
         println!("\nbest on the tuning members (worst member {w:.1} %): {name}");
     }
-    // CI floors (--quick; the default method `placed` must keep its held-out figures; measured
-    // 2026-11-27 session 30: 55.7 % worst, 34.1 % mean, 12.6 % untouched — `total` measured
-    // 64.7 / 28.1 / 11.9 %: `placed` is better on the worst member, worse on the mean; held-out
-    // seed 100 keeps contacts into its rests)
+    // CI floors (--quick; the default method `forward` with its guard must keep its held-out
+    // figures on seeds 100-103; measured 2026-11-27 session 31: see scripts/force_eval.sh)
     if quick {
-        let t = total.expect("the placed row ran");
-        let ok = t.worst <= 65.0 && t.mean <= 35.0 && t.untouched <= 15.0;
+        let t = total.expect("the forward row ran");
+        let ok = t.worst <= FLOOR[0] && t.mean <= FLOOR[1] && t.untouched <= FLOOR[2];
         println!(
-            "floors (placed, held out): worst {:.1} % ≤ 65, mean {:.1} % ≤ 35, untouched {:.2} % ≤ 15: {}",
+            "floors (forward, held out): worst {:.1} % ≤ {}, mean {:.1} % ≤ {}, untouched {:.2} % ≤ {}: {}",
             t.worst,
+            FLOOR[0],
             t.mean,
+            FLOOR[1],
             t.untouched,
+            FLOOR[2],
             if ok { "ok" } else { "FAILED" }
         );
         if !ok {

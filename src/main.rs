@@ -246,11 +246,12 @@ enum CalibrateWhat {
         /// The sensor (default: the scene's only one).
         #[arg(long)]
         sensor: Option<String>,
-        /// The method: placed (a power law in the total baseline-relative change divided by the
-        /// layout's response at the contact's place), total (the same without the division), ridge (on the
-        /// 24 changes), area (contour area of the scene's contact location), amplitude (the
-        /// contact fit's, with method = "fit") or forward (the sensor's forward model identified
-        /// from the gauge session and inverted per frame; see docs/force.md for where it fails).
+        /// The method: forward (the sensor's forward model identified from the gauge session and
+        /// inverted per frame; the placed law is written instead, with a note, when the model fits
+        /// its calibration worse — docs/force.md), placed (a power law in the total
+        /// baseline-relative change divided by the layout's response at the contact's place),
+        /// total (the same without the division), ridge (on the 24 changes), area (contour area
+        /// of the scene's contact location) or amplitude (the contact fit's, with method = "fit").
         #[arg(long, default_value = gradtac::stages::force_model::DEFAULT_METHOD.name())]
         method: String,
         /// Where to write the model (JSON).
@@ -438,7 +439,7 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 let method = gradtac::stages::force_model::CalibrationMethod::parse(&method).ok_or_else(|| {
                     gradtac::Error::Scene {
                         path: scene.clone(),
-                        reason: format!("--method {method:?}: total, ridge, area or amplitude"),
+                        reason: format!("--method {method:?}: forward, placed, total, ridge, area or amplitude"),
                     }
                 })?;
                 let loaded = Scene::load(&scene)?;

@@ -4,7 +4,7 @@
 //! # Methods
 //! | method | input | model |
 //! |---|---|---|
-//! | `forward` (default) | the signed changes `Δᵢ` | the member's forward model `Δᵢ ≈ gᵢ (F/F₀)^γ K(ρᵢ(x, y); w (F/F₀)^s)` identified from the gauge session (24 signed gains, γ, spread growth, width, far lobe; [`force_ident`](crate::force_ident)), inverted per frame for `(x, y, F)` |
+//! | `forward` (default; [`calibrate`] falls back to `placed` when the identification fits worse) | the signed changes `Δᵢ` | the member's forward model `Δᵢ ≈ gᵢ (F/F₀)^γ K(ρᵢ(x, y); w (F/F₀)^s)` identified from the gauge session (24 signed gains, γ, spread growth, width, far lobe; [`force_ident`](crate::force_ident)), inverted per frame for `(x, y, F)` |
 //! | `placed` | `S₁`, `S₂` below, each divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`: the layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of the electrode positions `pⱼ`), `w` = [`DEFAULT_PLACE_WIDTH_MM`] | `F = e^c · (S₁/R)^p · (S₂/R)^q`: least squares on `ln F` (3 numbers, `w` and the layout's positions stored with them): a press at a place few electrodes see is not read as light ([`place_response`]) |
 //! | `total` | the total change `S₁ = Σ|Δᵢ|` and its root-sum-square `S₂ = √ΣΔᵢ²` (counts) | `F = e^c · S₁^p · S₂^q`: least squares on `ln F` (3 numbers, blind to which taxels moved and to their signs) |
 //! | `ridge` | the change detector's signed baseline-relative changes `Δᵢ = x̄ᵢ − x₀ᵢ` (counts) of every taxel | `F = b + Σ wᵢ Δᵢ`, ridge on standardised changes (the cheapest baseline) |
@@ -124,9 +124,10 @@ impl CalibrationMethod {
     }
 }
 
-/// What `gradtac calibrate force` fits without `--method` (the best held-out row of
-/// `docs/force.md`).
-pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Placed;
+/// What `gradtac calibrate force` fits without `--method`: `forward` with its guard (the rule's
+/// choice on the tuning members, session 31; `docs/force.md`) — on a sensor whose identification
+/// fails, [`calibrate`] writes the `placed` law instead.
+pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Forward;
 /// The width (mm) of the `placed` method's nominal response, chosen on the tuning members
 /// (`examples/force_eval.rs`, `docs/force.md`).
 pub const DEFAULT_PLACE_WIDTH_MM: f64 = 2.5;
@@ -1148,7 +1149,7 @@ mod tests {
         let e = calibrate(&s, CalibrationMethod::Total, 0.0, ForceMethod::Linear, &Layout::biotac_sp()).unwrap_err();
         assert!(e.to_string().contains("moved"), "{e}");
         assert_eq!(CalibrationMethod::parse("total"), Some(CalibrationMethod::Total));
-        assert_eq!(DEFAULT_METHOD, CalibrationMethod::Placed);
+        assert_eq!(DEFAULT_METHOD, CalibrationMethod::Forward);
         assert_eq!(CalibrationMethod::parse("placed"), Some(CalibrationMethod::Placed));
     }
 
