@@ -355,38 +355,7 @@ fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
 /// Solve the symmetric `k × k` system `a x = b` by Cholesky (row-major; `None` if not
 /// positive definite).
 fn solve_spd(mut a: Vec<f64>, b: &[f64], k: usize) -> Option<Vec<f64>> {
-    for j in 0..k {
-        let mut d = a[j * k + j];
-        for p in 0..j {
-            d -= a[j * k + p] * a[j * k + p];
-        }
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let d = d.sqrt();
-        a[j * k + j] = d;
-        for i in j + 1..k {
-            let mut s = a[i * k + j];
-            for p in 0..j {
-                s -= a[i * k + p] * a[j * k + p];
-            }
-            a[i * k + j] = s / d;
-        }
-    }
-    let mut y = b.to_vec();
-    for i in 0..k {
-        for p in 0..i {
-            y[i] -= a[i * k + p] * y[p];
-        }
-        y[i] /= a[i * k + i];
-    }
-    for i in (0..k).rev() {
-        for p in i + 1..k {
-            y[i] -= a[p * k + i] * y[p];
-        }
-        y[i] /= a[i * k + i];
-    }
-    y.iter().all(|v| v.is_finite()).then_some(y)
+    crate::force_model::cholesky_solve(&mut a, b, k).filter(|y| y.iter().all(|v| v.is_finite()))
 }
 
 /// Identify the forward model from calibration frames `(Δ, F)` (changes in counts, gauge

@@ -652,7 +652,7 @@ impl RidgeAccumulator {
             a[p * k + p] += lambda * m + 1e-12 * m;
             b[p] = (self.sxy[i] - m * mean[i] * my) / sd[i];
         }
-        let beta = cholesky_solve(&mut a, &mut b, k)?;
+        let beta = cholesky_solve(&mut a, &b, k)?;
         let mut w = vec![0.0; n];
         for (p, &i) in live.iter().enumerate() {
             w[i] = beta[p] / sd[i];
@@ -662,8 +662,9 @@ impl RidgeAccumulator {
     }
 }
 
-/// Solve `A x = b` for symmetric positive definite `A` (k × k, row-major; overwritten).
-fn cholesky_solve(a: &mut [f64], b: &mut [f64], k: usize) -> Option<Vec<f64>> {
+/// Solve `A x = b` for symmetric positive definite `A` (k × k, row-major; overwritten) by
+/// Cholesky; `None` if `A` is not positive definite (the result may be non-finite).
+pub(crate) fn cholesky_solve(a: &mut [f64], b: &[f64], k: usize) -> Option<Vec<f64>> {
     for j in 0..k {
         let mut d = a[j * k + j];
         for p in 0..j {
