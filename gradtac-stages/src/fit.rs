@@ -398,14 +398,30 @@ impl Geometry {
     /// The BioTac SP's 3-D geometry when `layout` is the built-in BioTac SP layout, a plane
     /// with cores 3 mm under the taxels otherwise.
     pub fn for_layout(layout: &Layout) -> Geometry {
-        let curved = layout.len() == 24 && layout.positions() == Layout::biotac_sp().positions();
+        let e = layout.extent();
+        Geometry::for_positions(layout.positions(), [e.x_min, e.x_max, e.y_min, e.y_max])
+    }
+
+    /// [`for_layout`](Self::for_layout) for taxel `positions` (mm) and position `bounds`
+    /// (x_min, x_max, y_min, y_max): the BioTac SP's 3-D geometry when `positions` are the
+    /// built-in layout's, a plane with cores 3 mm under the taxels otherwise.
+    pub(crate) fn for_positions(positions: &[[f64; 2]], bounds: [f64; 4]) -> Geometry {
+        let curved = positions.len() == 24 && positions == Layout::biotac_sp().positions();
         let (core, depth2) = if curved {
             (CORE_MM.to_vec(), (0..24).map(|i| dist2(CORE_MM[i], SKIN_MM[i])).collect())
         } else {
-            (layout.positions().iter().map(|p| [p[0], p[1], -3.0]).collect(), vec![9.0; layout.len()])
+            (positions.iter().map(|p| [p[0], p[1], -3.0]).collect(), vec![9.0; positions.len()])
         };
-        let e = layout.extent();
-        Geometry { core, depth2, curved, bounds: [e.x_min, e.x_max, e.y_min, e.y_max] }
+        Geometry { core, depth2, curved, bounds }
+    }
+
+    /// `ρᵢ²` (mm², before any clamp at 0) of every electrode for a contact at `(x, y)`, into
+    /// `out` (one per electrode): the squared core-to-skin-point distance less the core's depth².
+    pub(crate) fn rho2_into(&self, x: f64, y: f64, out: &mut [f64]) {
+        let (sp, _, _) = self.skin(x, y);
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = dist2(self.core[i], sp) - self.depth2[i];
+        }
     }
 
     /// The skin point under `(x, y)` and its derivatives along x and y.

@@ -54,7 +54,6 @@
 //! warm start, so a frame's force does not depend on the frames before it). Cost: ≈ 10–30 µs
 //! per frame in contact (`examples/force_eval.rs`'s µs column).
 
-use crate::sim_family::{CORE_MM, SKIN_L_MM, SKIN_MM, SKIN_R_MM};
 use serde::{Deserialize, Serialize};
 
 /// Reference force `F₀` (N): gains are counts at this force.
@@ -82,32 +81,21 @@ const FIXED: [bool; 5] = [false, false, false, true, false];
 const SHAPE_LO: [f64; 5] = [0.2, -0.3, -0.7, 1.0, -0.7];
 const SHAPE_HI: [f64; 5] = [1.6, 0.7, 2.5, 2.0, 1.5];
 
-/// The electrodes' geometry (see the [module docs](self)).
+/// The electrodes' geometry (see the [module docs](self)): the location fit's
+/// [`fit::Geometry`](crate::fit::Geometry) (cores, depths, skin) with the taxel positions
+/// and the bounds of a place.
 #[derive(Clone, Debug)]
 pub struct Geometry {
-    core: Vec<[f64; 3]>,
-    depth2: Vec<f64>,
-    curved: bool,
+    shape: crate::fit::Geometry,
     positions: Vec<[f64; 2]>,
     /// x_min, x_max, y_min, y_max of a place (the positions' extent grown by 3 mm).
     bounds: [f64; 4],
-}
-
-fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)
 }
 
 impl Geometry {
     /// The BioTac SP's 3-D geometry when `positions` are the built-in BioTac SP layout's, a
     /// plane with cores 3 mm under the taxels otherwise.
     pub fn for_positions(positions: &[[f64; 2]]) -> Geometry {
-        let sp = gradtac_stream::Layout::biotac_sp();
-        let curved = positions == sp.positions();
-        let (core, depth2) = if curved {
-            (CORE_MM.to_vec(), (0..24).map(|i| dist2(CORE_MM[i], SKIN_MM[i])).collect())
-        } else {
-            (positions.iter().map(|p| [p[0], p[1], -3.0]).collect(), vec![9.0; positions.len()])
-        };
         let mut bounds = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
         for p in positions {
             bounds[0] = bounds[0].min(p[0] - 3.0);
@@ -118,30 +106,25 @@ impl Geometry {
         if positions.is_empty() {
             bounds = [0.0; 4];
         }
-        Geometry { core, depth2, curved, positions: positions.to_vec(), bounds }
+        let shape = crate::fit::Geometry::for_positions(positions, bounds);
+        Geometry { shape, positions: positions.to_vec(), bounds }
     }
 
     /// Number of electrodes.
     pub fn len(&self) -> usize {
-        self.core.len()
+        self.shape.len()
     }
 
     /// Whether there are none.
     pub fn is_empty(&self) -> bool {
-        self.core.is_empty()
+        self.shape.is_empty()
     }
 
-    /// `ρᵢ²` (mm²) of every electrode for a contact at `(x, y)` into `out`.
+    /// `ρᵢ²` (mm², at least 0) of every electrode for a contact at `(x, y)` into `out`.
     fn rho2(&self, x: f64, y: f64, out: &mut [f64]) {
-        let sp = if self.curved {
-            let r = SKIN_R_MM * (1.0 - (x / SKIN_L_MM).powi(2)).max(0.1).sqrt();
-            let th = y / r;
-            [x, r * th.sin(), -r * th.cos()]
-        } else {
-            [x, y, 0.0]
-        };
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = (dist2(self.core[i], sp) - self.depth2[i]).max(0.0);
+        self.shape.rho2_into(x, y, out);
+        for o in out.iter_mut() {
+            *o = o.max(0.0);
         }
     }
 
