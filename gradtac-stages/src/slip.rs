@@ -1325,37 +1325,35 @@ impl Slip {
     /// `onset_lead_s`.
     fn fitted_onset(&self, fallback: Timestamp) -> Timestamp {
         let drift = self.cfg.onset_model == OnsetModel::RampHinge;
-        let mut sum = 0.0;
-        let mut n = 0.0;
-        let (mut wsum, mut wn) = (0.0, 0.0);
-        let mut earliest = i64::MAX;
-        // (change point, fit weight) per moving finger (two at most)
+        // (change point, fit weight) per moving finger
         let mut fits = [(0i64, 0.0f64); 2];
+        let mut n = 0;
         for f in &self.fingers {
             if let Some((_, path)) = f.evidence(self.cfg.evidence).filter(|e| e.0.abs() >= 0.5) {
                 if let Some((t, _, sse)) = change_point(&path.onset_history, drift, self.cfg.onset_starts) {
-                    let w = fit_weight(&path.onset_history, sse);
-                    if (n as usize) < fits.len() {
-                        fits[n as usize] = (t, w);
-                    }
-                    sum += t as f64;
-                    n += 1.0;
-                    earliest = earliest.min(t);
-                    wsum += w * t as f64;
-                    wn += w;
+                    fits[n] = (t, fit_weight(&path.onset_history, sse));
+                    n += 1;
                 }
             }
         }
-        if n == 0.0 {
+        let fits = &fits[..n];
+        if fits.is_empty() {
             return fallback;
         }
+        let mean = || (fits.iter().fold(0.0, |s, f| s + f.0 as f64) / n as f64).round() as i64;
         let t = match self.cfg.onset_fingers {
-            OnsetFingers::Weighted if wn > 0.0 && (wsum / wn).is_finite() => (wsum / wn).round() as i64,
-            OnsetFingers::Mean | OnsetFingers::Weighted => (sum / n).round() as i64,
-            OnsetFingers::Earliest => earliest,
-            OnsetFingers::ClearEarliest => {
-                clear_earliest(&fits[..(n as usize).min(fits.len())], self.cfg.onset_finger_gate)
+            OnsetFingers::Weighted => {
+                let wsum = fits.iter().fold(0.0, |s, f| s + f.1 * f.0 as f64);
+                let wn = fits.iter().fold(0.0, |s, f| s + f.1);
+                if wn > 0.0 && (wsum / wn).is_finite() {
+                    (wsum / wn).round() as i64
+                } else {
+                    mean()
+                }
             }
+            OnsetFingers::Mean => mean(),
+            OnsetFingers::Earliest => fits.iter().map(|f| f.0).min().unwrap_or(i64::MAX),
+            OnsetFingers::ClearEarliest => clear_earliest(fits, self.cfg.onset_finger_gate),
         };
         let t = t - (self.cfg.onset_lead_s * 1e9).round() as i64;
         Timestamp(t.min(fallback.0))
