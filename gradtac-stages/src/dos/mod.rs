@@ -397,7 +397,9 @@
 //! windows on the ConvLSTM protocol (still above the ConvLSTM's 82.56 %). The `dos` stage
 //! decides as the combination on 334 of 334 held-out recordings; per frame median 0.23 µs,
 //! p99 4.6 µs (one decision per recording); in the sliding mode (250 frames, hop 10) p99 45 µs
-//! against 35 µs for the Student-t part alone (the net windows are cached, as before).
+//! against 35 µs for the Student-t part alone (the net windows are cached, as before). Since
+//! the sliding mode prepares each decision's replay a share per frame ahead of it
+//! ([`DosClassifier`]), those are 8.5 µs and 6.6 µs (`examples/dos_sliding_cost`).
 //!
 //! After that run (so informed by it, and disclosed) six variants of the chosen candidate were
 //! looked at on the same inner views only, per window inside basic / inside solids: itself

@@ -772,3 +772,52 @@ fn stage_decides_by_the_combined_score(net: DosWindowNet) {
     let got = DosClassifier::try_new(m, &l, None).unwrap().run_all(input[..4].to_vec()).unwrap();
     assert_eq!(got[0].decision, model.classify_vector(&features_of(input[..4].to_vec(), &cfg)).unwrap());
 }
+
+/// The sliding mode prepares each decision's replay (and a net measured against the window's
+/// start) a share per frame ahead of it; a prediction missed (a reset, `finish`, a window not
+/// yet full) replays from scratch. Every decision, for any window, hop, early answers, a reset
+/// anywhere and any net, is what a fresh replay of its frames gives.
+#[test]
+fn sliding_decisions_prepared_ahead_are_fresh_replays_for_any_window_hop_and_reset() {
+    let (cfg, model) = motion_model();
+    let l = Layout::biotac_sp();
+    let input = synthetic(DosClass::Cw, [0.0, 0.0], 0.1, 13);
+    let nets =
+        [None, Some(tiny_window_net_of(WindowInputs::Levels)), Some(tiny_window_net_with(WindowInputs::Both, true))];
+    for net in nets {
+        let m = model.clone().with_window(net.clone().map(|net| DosWindowPart { weight: 0.5, net })).unwrap();
+        for (n, hop) in [(1u64, 1u64), (5, 3), (13, 13), (40, 7), (80, 16), (80, 100), (300, 10)] {
+            for early in [false, true] {
+                for cut in [None, Some(1), Some(37), Some(120)] {
+                    let mut s = DosClassifier::try_new(m.clone(), &l, Some(n)).unwrap().with_hop(hop).unwrap();
+                    if early {
+                        s = s.with_early_decisions().unwrap();
+                    }
+                    let mut out = Vec::new();
+                    let from = cut.unwrap_or(0);
+                    for f in &input[..from] {
+                        s.push(f.clone(), &mut out).unwrap();
+                    }
+                    s.reset();
+                    out.clear();
+                    for f in &input[from..] {
+                        s.push(f.clone(), &mut out).unwrap();
+                    }
+                    s.finish(&mut out).unwrap();
+                    assert!(!out.is_empty());
+                    for d in &out {
+                        let last = d.seq as usize;
+                        let window = &input[(last + 1).saturating_sub(n as usize).max(from)..=last];
+                        let student = model.classify_vector(&features_of(window.to_vec(), &cfg)).unwrap();
+                        let want = match &net {
+                            Some(net) => m.combine(student, vote_over(net, window).as_deref()),
+                            None => student,
+                        };
+                        assert_eq!(d.decision, want, "n {n}, hop {hop}, early {early}, cut {cut:?}, ending at {last}");
+                        assert_eq!(d.frames as usize, window.len());
+                    }
+                }
+            }
+        }
+    }
+}
