@@ -19,8 +19,10 @@
 //! cargo run --release --example slip_eval -- onsetdiag   # each tuning slip's signed error and properties
 //! cargo run --release --example slip_eval -- onsetdump   # each tuning slip's position histories at its decision
 //!                                                        # (input of scripts/onset_probe.rs; DUMP_POSITION=linear:
-//!                                                        # the linear-weight position; DUMP_FIT=1: the model-fit
-//!                                                        # locator's positions over the same span instead)
+//!                                                        # the linear-weight position, =fit: the default's
+//!                                                        # per-frame model-fit position; DUMP_FIT=1: the model-fit
+//!                                                        # locator's positions over the same span instead;
+//!                                                        # DUMP_SEEDS=400: seeds 0..400, below the held-out ones)
 //! cargo run --release --example slip_eval -- tune        # the (earlier) evidence search
 //! cargo run --release --example slip_eval -- tune rule   # then window_s × min_duration_s × dominance
 //! DIAG_SEEDS=400 cargo run --release --example slip_eval -- diag  # the tuning members' misses
@@ -327,9 +329,13 @@ fn main() {
         // every tuning slip's position histories at its first slip decision (default settings,
         // no lead), with the truth: the data the onset estimator is designed on
         // (tuning members only: the held-out ones are never looked at for a choice)
-        let set = tuning;
+        // DUMP_SEEDS: more tuning-side seeds (0..n; never the held-out 1000..1100), as `diag`
+        let n: u64 = std::env::var("DUMP_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(TUNING_SEEDS);
+        let set =
+            if n == TUNING_SEEDS { tuning } else { cases(0..n.min(1000), &GraspFamily::widened(), false, |exp| !exp) };
         let onset_position = match std::env::var("DUMP_POSITION").as_deref() {
             Ok("linear") => OnsetPosition::Linear,
+            Ok("fit") => OnsetPosition::Fit,
             _ => OnsetPosition::Energy,
         };
         let cfg = SlipConfig { onset_lead_s: 0.0, onset_position, ..Default::default() };

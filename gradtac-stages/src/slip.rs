@@ -74,6 +74,98 @@
 //!
 //! The state starts stable, so a grasp that never slips yields no event at all.
 //!
+//! # Measured: both fingers in one likelihood, model averaging, and what the onset target needs (stop 32)
+//! **Question.** Can the onset fit reach the target (per start shape median |error|
+//! ≤ 30 ms, mean signed within ±10 ms) from the position histories it already has, by (a)
+//! pooling the two fingers' evidence in one likelihood with a shared change point and a test
+//! for "one finger first", (b) averaging over starts and change points instead of taking the
+//! best, or (c) correcting the bias by the fitted start? **No; and the measured reason is the
+//! start shape, not the noise.** The defaults are unchanged.
+//!
+//! **How it was measured.** `slip_eval -- onsetdump` with `DUMP_POSITION=fit` dumps the stage's
+//! own onset-position histories (the default model-fit point) at each tuning slip's first
+//! decision, `DUMP_SEEDS=400` over seeds 0..400 (tuning side: the held-out seeds are
+//! 1000..1100); `scripts/onset_probe.rs joint` evaluates the estimators on them. Per finger `k`
+//! and start `s` of the default set, the ramp-null fit's profile log-likelihood
+//! `ℓₖ(c, s) = −nₖ/2 · ln SSEₖ(c, s)` on a common 10 ms grid of change points `c`. The probe's
+//! argmax with `clear_earliest` 0.35 reproduces the stage's default figures (seeds 0..120, 218
+//! slips: 40 / −21, 39 / +4, 36 / +15 ms after the same +8 ms lead, exactly; 0..400: worst
+//! shape 47 / 31 against the stage's 46 / 31, its grid being 10 ms steps). Every row has
+//! its own lead (its mean signed error over all slips). **Protocol, said plainly:** these were
+//! exploratory runs on tuning-side seeds; no ranking rule was written before them. The rule
+//! applied afterwards — a candidate would go into the stage (and to one held-out run) only if
+//! its worst shape's median were ≥ 3 ms lower with no larger worst |mean| on both seed sets —
+//! passes none (the best worst-shape median on 0..400 is 44 ms, against the target's 30), so
+//! nothing was built into the stage and **no held-out seed was scored** (there is no final
+//! candidate).
+//!
+//! Worst shape median / |mean|, then per shape and slice median |error| / mean signed (ms);
+//! seeds 0..400 (723 slips decided right; in brackets the worst on 0..120, 218 slips):
+//!
+//! | estimator | worst | step | linear | smooth | one finger first | together |
+//! |---|---|---|---|---|---|---|
+//! | **default** (per finger argmax, `clear_earliest` 0.35) | **47 / 31** (40 / 21) | 47 / −31 | 41 / +7 | 43 / +25 | 53 / +18 | 37 / −18 |
+//! | (a) shared change point | 50 / 28 (47 / 27) | 50 / −28 | 45 / +2 | 45 / +27 | 60 / +22 | 39 / −21 |
+//! | (a) shared, split when Σ max ℓₖ − max ℓ_shared > 5 | 53 / 23 (54 / 15) | 34 / −23 | 46 / +1 | 53 / +23 | 52 / +14 | 38 / −13 |
+//! | (a) shared, split test P = 20 | 47 / 27 (44 / 33) | 35 / −26 | 40 / −1 | 47 / +27 | 49 / +10 | 36 / −10 |
+//! | (a)+(b) shared, P = 20, posterior mean T = 2 | 45 / 33 (48 / 41) | 36 / −31 | 30 / −0 | 45 / +33 | 39 / +7 | 33 / −7 |
+//! | (a)+(b) shared, P = 20, T = 4 | 44 / 35 (47 / 44) | 38 / −35 | 26 / +1 | 44 / +35 | 40 / +7 | 31 / −6 |
+//! | (b) per finger posterior mean T = 1, `clear_earliest` 0.35 | 46 / 33 (39 / 27) | 46 / −33 | 38 / +5 | 41 / +28 | 51 / +17 | 35 / −16 |
+//! | (b) per finger T = 4 | 51 / 38 (53 / 34) | 51 / −38 | 28 / +7 | 39 / +32 | 46 / +16 | 34 / −15 |
+//! | the start kind pooled over the fingers, separate change points, P = 5 | 66 / 24 (64 / 12) | 36 / −19 | 49 / −5 | 66 / +24 | 59 / +8 | 40 / −8 |
+//! | (c) lead per fitted start kind (5-fold CV over seeds) | 52 / 43 (54 / 36) | 52 / −43 | 29 / +11 | 40 / +33 | 49 / +17 | 38 / −16 |
+//! | fingers within 0.1 s → the shared fit, else default | 44 / 29 (48 / 15) | 43 / −29 | 44 / +5 | 41 / +25 | 56 / +17 | 37 / −16 |
+//!
+//! (Also tried, none better: the shared fit with T = 1–32 and P = 0–20; `earliest` and `mean`
+//! over posterior means; merging within 0.02–0.15 s; the starts of `linear_smooth`, a fine grid
+//! of the family's own linear 0.05–0.3 s and smooth 0.1–0.4 s starts, a 0.05 s linear start
+//! added — `START_SET=smooth|fine|lc05|lc05n`: worst 45–60 ms, step −30 to −44 ms.) What every
+//! estimator keeps is the step–smooth split of the mean: step −19 to −43 ms, smooth +23 to
+//! +38 ms. Averaging (b) *widens* it: where the shapes nearly tie, the posterior spreads over
+//! change points that move the other way for each shape.
+//!
+//! **Two-finger oracles** (told what no estimator has; same histories and grid; seeds 0..400,
+//! in brackets 0..120):
+//!
+//! | told | worst | step | linear | smooth | one finger first | together |
+//! |---|---|---|---|---|---|---|
+//! | the true start (shape and length) and each finger's true start time offset, shared change point | **23 / 3** (26 / 4) | 22 / +0 | 22 / +3 | 23 / −3 | 23 / +0 | 23 / −0 |
+//! | the true start, one change point or two by the split test P = 10 | **31 / 9** (33 / 19) | 25 / +9 | 31 / −3 | 30 / −6 | 38 / +11 | 23 / −11 |
+//! | the true start, shared change point | 45 / 2 (40 / 5) | 45 / +0 | 43 / +2 | 39 / −2 | 48 / +30 | 39 / −29 |
+//! | the true start, per finger, earliest | 36 / 11 (37 / 23) | 28 / +11 | 36 / −4 | 33 / −7 | 39 / +12 | 25 / −11 |
+//! | each finger's offset, not the start (starts of the default set) | 41 / 29 (35 / 23) | 32 / −29 | 36 / +2 | 41 / +27 | 38 / −1 | 36 / +1 |
+//! | the start of the default set nearest the truth (smooth → cubic), split P = 5 | 42 / 42 (44 / 47) | 37 / +32 | 42 / +9 | 39 / −42 | 44 / +12 | 35 / −12 |
+//!
+//! **What this shows.** With both fingers in one likelihood the evidence *is* enough: told the
+//! start, a penalised one-or-two change-point fit is within 1 ms of the target (31 / 9 ms), and
+//! told also the fingers' offsets it is at 23 ms with no bias — the per-finger floor of stop 31
+//! (36–41 ms) was the single finger's, not the data's. What is missing is the **start shape**:
+//! told the offsets but not the start, the step–smooth split stays (−29 / +27 ms), and told the
+//! start but not the offsets the means are right (±2 ms) and only the medians need the split
+//! test. The shape is not identifiable from the positions: for 244 step-start slips the
+//! two-finger likelihood picks a sudden start 59 times (linear 138, cubic 47), the sudden
+//! start's log-likelihood a median 8.3 units below the best — seen through the sensor's fluid
+//! lag and the 3-frame average a step is a soft start; for linear and smooth starts the true
+//! kind is a median 0.2–0.3 units from the best (a coin toss). And the nearest start *of the
+//! set* is not good enough either (last row): the length matters as much as the kind. The
+//! reason is physical: the position's noise is 0.045 mm (median pre-onset residual about a
+//! line; quartiles 0.025–0.093), and a contact with a smooth start of 0.25–0.4 s at the
+//! family's median 7.6 mm/s has moved 0.05 mm only 78–105 ms after its onset (a linear one of
+//! 0.15–0.3 s: 44–62 ms; a step: 7 ms; at 3 mm/s: 111–149, 71–100, 17 ms). The first 50–150 ms
+//! of a soft start are below the noise, so the onset is an extrapolation of the assumed start
+//! back to zero speed, and the assumption is the shape.
+//!
+//! **The tuning set is small.** The default on seeds 0..120 is 40 / 21 ms worst shape, on
+//! 0..400 47 / 31 ms, held out (1000..1100) 48 / 33 ms: 120 seeds (≈ 70 slips per shape) were
+//! optimistic by 7 ms. Stop 31b's 3 ms tuning gain was inside that spread; a next search should
+//! rank on 0..400 (`DIAG_SEEDS` / `DUMP_SEEDS`).
+//!
+//! **What could meet the target** (not done here): an observable that differs between start
+//! shapes — skin stretch before sliding, a break-away vibration — which the simulator does not
+//! model and which was not added; or a truth onset that is observable, such as the first frame
+//! at which the contact has moved a small distance (0.05 mm), which is a change of the issue's
+//! definition, not of the estimator.
+//!
 //! # Measured: how the fingers' change points combine (stop 31b)
 //! **Why.** The simulator's truth onset is the first finger's start ([`crate::sim_grasp`]:
 //! in half the grasps the other finger starts 0.03–0.2 s later), while `weighted` (stop 31's
@@ -205,7 +297,9 @@
 //! position's noise. Averaging the fit's frames more does not move the oracle (windows of 1 /
 //! 3 / 5 / 9 frames: worst shape 41 / 41 / 39 / 39 ms). Reaching the target needs an
 //! observable the simulator does not model (shear stretch before sliding, a break-away
-//! vibration, incipient slip).
+//! vibration, incipient slip). (Stop 32, above, on the stage's own positions: this floor is a
+//! single finger's. Both fingers in one likelihood, told the true start, reach 31 / 9 ms worst
+//! shape; the start shape is still what no estimator identifies.)
 //!
 //! # Measured: the onset position (round 3: the model-fit position, the default)
 //! Same protocol, members and columns as the next section. The previous round found that the
