@@ -22,7 +22,8 @@
 //!                                                        # the linear-weight position, =fit: the default's
 //!                                                        # per-frame model-fit position; DUMP_FIT=1: the model-fit
 //!                                                        # locator's positions over the same span instead;
-//!                                                        # DUMP_SEEDS=400: seeds 0..400, below the held-out ones)
+//!                                                        # DUMP_SEEDS=400: seeds 0..400, below the held-out ones;
+//!                                                        # DUMP_FROM=400 DUMP_SEEDS=800: seeds 400..800)
 //! cargo run --release --example slip_eval -- tune        # the (earlier) evidence search
 //! cargo run --release --example slip_eval -- tune rule   # then window_s × min_duration_s × dominance
 //! DIAG_SEEDS=400 cargo run --release --example slip_eval -- diag  # the tuning members' misses
@@ -331,8 +332,13 @@ fn main() {
         // (tuning members only: the held-out ones are never looked at for a choice)
         // DUMP_SEEDS: more tuning-side seeds (0..n; never the held-out 1000..1100), as `diag`
         let n: u64 = std::env::var("DUMP_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(TUNING_SEEDS);
-        let set =
-            if n == TUNING_SEEDS { tuning } else { cases(0..n.min(1000), &GraspFamily::widened(), false, |exp| !exp) };
+        // DUMP_FROM: the first seed (default 0)
+        let from: u64 = std::env::var("DUMP_FROM").ok().and_then(|s| s.parse().ok()).unwrap_or(0);
+        let set = if n == TUNING_SEEDS && from == 0 {
+            tuning
+        } else {
+            cases(from.min(n)..n.min(1000), &GraspFamily::widened(), false, |exp| !exp)
+        };
         let onset_position = match std::env::var("DUMP_POSITION").as_deref() {
             Ok("linear") => OnsetPosition::Linear,
             Ok("fit") => OnsetPosition::Fit,
