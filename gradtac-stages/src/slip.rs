@@ -171,6 +171,22 @@
 //! of a soft start are below the noise, so the onset is an extrapolation of the assumed start
 //! back to zero speed, and the assumption is the shape.
 //!
+//! **Less noise or no fluid lag does not make the shape identifiable** (diagnostic physics,
+//! never for a choice: `DIAG_NOISE_SCALE` / `DIAG_LAG_SCALE` in `slip_eval`, seeds 0..400;
+//! worst shape median / |mean|, ms). The stage's default: ¼ of the white noise and drift walk
+//! 44 / 29, no fluid lag 42 / 27, both 40 / 24 (normal physics 46 / 31). Told each finger's
+//! offset but not the start: 37 / 31, 39 / 21, 35 / 23 — the step–smooth split of the mean
+//! stays (both: step −21, smooth +23 ms). With both changes and the family's own start shapes
+//! in the fit's set (`START_SET=fine`), a step still scores its sudden start a median 10.4
+//! log-likelihood units below the best (the 3-frame average and the fitted position round it),
+//! and linear and smooth starts stay a coin toss (true kind 0.0–0.4 units from the best);
+//! the best estimator, (a) with P = 20, is 37 / 34. Told the start, the same histories give
+//! 24 / 4 (split P = 10). A smooth start and a linear one with a later change point explain
+//! nearly the same positions: without noise, the least-squares linear start for a smooth one
+//! of 0.1 / 0.2 / 0.3 / 0.4 s is 0.08 / 0.16 / 0.22 / 0.30 s long and starts 10 / 20 / 40 /
+//! 50 ms later. The first frame of non-zero speed of a soft start is not what the positions
+//! pin down.
+//!
 //! **The tuning set is small.** The stage's default, worst shape median / |mean|: seeds 0..120
 //! 40 / 21 ms, 0..400 46 / 31, 400..800 54 / 27, held out (1000..1100) 48 / 33. Sets of this
 //! size differ by 7–14 ms: stop 31b's 3 ms tuning gain was noise, and so would be any gain
