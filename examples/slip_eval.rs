@@ -19,8 +19,13 @@
 //! cargo run --release --example slip_eval -- onsetdiag   # each tuning slip's signed error and properties
 //! cargo run --release --example slip_eval -- onsetdump   # each tuning slip's position histories at its decision
 //!                                                        # (input of scripts/onset_probe.rs; DUMP_POSITION=linear:
-//!                                                        # the linear-weight position; DUMP_FIT=1: the model-fit
-//!                                                        # locator's positions over the same span instead)
+//!                                                        # the linear-weight position, =fit: the default's
+//!                                                        # per-frame model-fit position; DUMP_FIT=1: the model-fit
+//!                                                        # locator's positions over the same span instead;
+//!                                                        # DUMP_SEEDS=400: seeds 0..400, below the held-out ones;
+//!                                                        # DUMP_FROM=400 DUMP_SEEDS=800: seeds 400..800;
+//!                                                        # DIAG_NOISE_SCALE / DIAG_LAG_SCALE: diagnostic
+//!                                                        # physics, never for a choice)
 //! cargo run --release --example slip_eval -- tune        # the (earlier) evidence search
 //! cargo run --release --example slip_eval -- tune rule   # then window_s × min_duration_s × dominance
 //! DIAG_SEEDS=400 cargo run --release --example slip_eval -- diag  # the tuning members' misses
@@ -60,6 +65,22 @@ struct Case {
     tracks: Vec<Vec<TrackPoint>>,
 }
 
+/// Diagnostics only (stop 32, "what the onset target needs"): `DIAG_NOISE_SCALE` scales every
+/// finger's white noise and drift walk, `DIAG_LAG_SCALE` its fluid lag, before simulating. Unset
+/// (always, for every figure that chooses or checks anything) they change nothing.
+fn diag_physics(g: &mut gradtac::stages::sim_grasp::Grasp) {
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    for f in &mut g.fingers {
+        if let Some(x) = env("DIAG_NOISE_SCALE") {
+            f.physics.noise_counts *= x;
+            f.physics.drift_walk *= x;
+        }
+        if let Some(x) = env("DIAG_LAG_SCALE") {
+            f.physics.lag_s *= x;
+        }
+    }
+}
+
 fn cases(
     seeds: std::ops::Range<u64>,
     family: &GraspFamily,
@@ -70,7 +91,8 @@ fn cases(
     let work = |ms: &[GraspMember]| -> Vec<Case> {
         ms.iter()
             .filter_map(|m| {
-                let g = m.draw_in(family);
+                let mut g = m.draw_in(family);
+                diag_physics(&mut g);
                 let exponential = g.fingers.iter().any(|f| matches!(f.physics.kernel, KernelShape::Exponential));
                 if !keep(exponential) {
                     return None;
@@ -327,9 +349,18 @@ fn main() {
         // every tuning slip's position histories at its first slip decision (default settings,
         // no lead), with the truth: the data the onset estimator is designed on
         // (tuning members only: the held-out ones are never looked at for a choice)
-        let set = tuning;
+        // DUMP_SEEDS: more tuning-side seeds (0..n; never the held-out 1000..1100), as `diag`
+        let n: u64 = std::env::var("DUMP_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(TUNING_SEEDS);
+        // DUMP_FROM: the first seed (default 0)
+        let from: u64 = std::env::var("DUMP_FROM").ok().and_then(|s| s.parse().ok()).unwrap_or(0);
+        let set = if n == TUNING_SEEDS && from == 0 {
+            tuning
+        } else {
+            cases(from.min(n)..n.min(1000), &GraspFamily::widened(), false, |exp| !exp)
+        };
         let onset_position = match std::env::var("DUMP_POSITION").as_deref() {
             Ok("linear") => OnsetPosition::Linear,
+            Ok("fit") => OnsetPosition::Fit,
             _ => OnsetPosition::Energy,
         };
         let cfg = SlipConfig { onset_lead_s: 0.0, onset_position, ..Default::default() };

@@ -74,6 +74,131 @@
 //!
 //! The state starts stable, so a grasp that never slips yields no event at all.
 //!
+//! # Measured: both fingers in one likelihood, model averaging, and what the onset target needs (stop 32)
+//! **Question.** Can the onset fit reach the target (per start shape median |error|
+//! ≤ 30 ms, mean signed within ±10 ms) from the position histories it already has, by (a)
+//! pooling the two fingers' evidence in one likelihood with a shared change point and a test
+//! for "one finger first", (b) averaging over starts and change points instead of taking the
+//! best, or (c) correcting the bias by the fitted start? **No; and the measured reason is the
+//! start shape, not the noise.** The defaults are unchanged.
+//!
+//! **How it was measured.** `slip_eval -- onsetdump` with `DUMP_POSITION=fit` dumps the stage's
+//! own onset-position histories (the default model-fit point) at each tuning slip's first
+//! decision, `DUMP_SEEDS=400` over seeds 0..400 (tuning side: the held-out seeds are
+//! 1000..1100); `scripts/onset_probe.rs joint` evaluates the estimators on them. Per finger `k`
+//! and start `s` of the default set, the ramp-null fit's profile log-likelihood
+//! `ℓₖ(c, s) = −nₖ/2 · ln SSEₖ(c, s)` on a common 10 ms grid of change points `c`. The probe's
+//! argmax with `clear_earliest` 0.35 reproduces the stage's default figures (seeds 0..120, 218
+//! slips: 40 / −21, 39 / +4, 36 / +15 ms after the same +8 ms lead, exactly; 0..400: worst
+//! shape 47 / 31 against the stage's 46 / 31; 400..800: 54 / 34 against 54 / 27 — the probe's
+//! grid is 10 ms steps over the span both fingers share, and it does not clamp the onset to the
+//! decision's `first_seen`). Every row has its own lead (its mean signed error over all
+//! slips). **Protocol, said plainly:** these were
+//! exploratory runs on tuning-side seeds; no ranking rule was written before them. The rule
+//! applied afterwards — a candidate would go into the stage (and to one held-out run) only if
+//! its worst shape's median were ≥ 3 ms lower with no larger worst |mean| on both seed sets —
+//! passes none (the best worst-shape median on 0..400 is 44 ms, against the target's 30).
+//!
+//! **Confirmatory run, rule committed first.** A rule — a candidate wins only if it ranks
+//! first (worst shape median, then worst |mean|) and its worst median is ≥ 3 ms below the
+//! default's with no larger worst |mean| — with eight declared estimators
+//! (the rows marked ✓ below and the default), was committed in `scripts/onset_probe.rs`
+//! (`CONFIRM=1`) before its one run on fresh tuning-side seeds 400..800 (`DUMP_FROM=400
+//! DUMP_SEEDS=800`, 673 slips; never looked at before). Worst shape median / |mean| (ms), ranked:
+//! (b) per finger T = 1 51 / 37, **default 54 / 34**, merge within 0.1 s 55 / 34, (a)+(b)
+//! P = 20 T = 4 56 / 41, (a) shared 58 / 34, (a) P = 20 58 / 34, (a)+(b) P = 20 T = 2 58 / 39,
+//! (a) P = 5 65 / 30. The first ranked is 3 ms better on the median but 3 ms worse on the
+//! mean: **no candidate wins**; nothing was built into the stage and **no held-out seed was
+//! scored** (there is no final candidate).
+//!
+//! Worst shape median / |mean|, then per shape and slice median |error| / mean signed (ms);
+//! seeds 0..400 (723 slips decided right; in brackets the worst on 0..120, 218 slips):
+//!
+//! | estimator | worst | step | linear | smooth | one finger first | together |
+//! |---|---|---|---|---|---|---|
+//! | **default** (per finger argmax, `clear_earliest` 0.35) | **47 / 31** (40 / 21) | 47 / −31 | 41 / +7 | 43 / +25 | 53 / +18 | 37 / −18 |
+//! | (a) shared change point ✓ | 50 / 28 (47 / 27) | 50 / −28 | 45 / +2 | 45 / +27 | 60 / +22 | 39 / −21 |
+//! | (a) shared, split when Σ max ℓₖ − max ℓ_shared > 5 ✓ | 53 / 23 (54 / 15) | 34 / −23 | 46 / +1 | 53 / +23 | 52 / +14 | 38 / −13 |
+//! | (a) shared, split test P = 20 ✓ | 47 / 27 (44 / 33) | 35 / −26 | 40 / −1 | 47 / +27 | 49 / +10 | 36 / −10 |
+//! | (a)+(b) shared, P = 20, posterior mean T = 2 ✓ | 45 / 33 (48 / 41) | 36 / −31 | 30 / −0 | 45 / +33 | 39 / +7 | 33 / −7 |
+//! | (a)+(b) shared, P = 20, T = 4 ✓ | 44 / 35 (47 / 44) | 38 / −35 | 26 / +1 | 44 / +35 | 40 / +7 | 31 / −6 |
+//! | (b) per finger posterior mean T = 1, `clear_earliest` 0.35 ✓ | 46 / 33 (39 / 27) | 46 / −33 | 38 / +5 | 41 / +28 | 51 / +17 | 35 / −16 |
+//! | (b) per finger T = 4 | 51 / 38 (53 / 34) | 51 / −38 | 28 / +7 | 39 / +32 | 46 / +16 | 34 / −15 |
+//! | the start kind pooled over the fingers, separate change points, P = 5 | 66 / 24 (64 / 12) | 36 / −19 | 49 / −5 | 66 / +24 | 59 / +8 | 40 / −8 |
+//! | (c) lead per fitted start kind (5-fold CV over seeds) | 52 / 43 (54 / 36) | 52 / −43 | 29 / +11 | 40 / +33 | 49 / +17 | 38 / −16 |
+//! | fingers within 0.1 s → the shared fit, else default ✓ | 44 / 29 (48 / 15) | 43 / −29 | 44 / +5 | 41 / +25 | 56 / +17 | 37 / −16 |
+//!
+//! (Also tried, none better: the shared fit with T = 1–32 and P = 0–20; `earliest` and `mean`
+//! over posterior means; merging within 0.02–0.15 s; the starts of `linear_smooth`, a fine grid
+//! of the family's own linear 0.05–0.3 s and smooth 0.1–0.4 s starts, a 0.05 s linear start
+//! added — `START_SET=smooth|fine|lc05|lc05n`: worst 45–60 ms, step −30 to −44 ms.) What every
+//! estimator keeps is the step–smooth split of the mean: step −19 to −43 ms, smooth +23 to
+//! +38 ms. Averaging (b) *widens* it: where the shapes nearly tie, the posterior spreads over
+//! change points that move the other way for each shape.
+//!
+//! **Two-finger oracles** (told what no estimator has; same histories and grid; seeds 0..400,
+//! in brackets 0..120):
+//!
+//! | told | worst | step | linear | smooth | one finger first | together |
+//! |---|---|---|---|---|---|---|
+//! | the true start (shape and length) and each finger's true start time offset, shared change point | **23 / 3** (26 / 4) | 22 / +0 | 22 / +3 | 23 / −3 | 23 / +0 | 23 / −0 |
+//! | the true start, one change point or two by the split test P = 10 | **31 / 9** (33 / 19) | 25 / +9 | 31 / −3 | 30 / −6 | 38 / +11 | 23 / −11 |
+//! | the true start, shared change point | 45 / 2 (40 / 5) | 45 / +0 | 43 / +2 | 39 / −2 | 48 / +30 | 39 / −29 |
+//! | the true start, per finger, earliest | 36 / 11 (37 / 23) | 28 / +11 | 36 / −4 | 33 / −7 | 39 / +12 | 25 / −11 |
+//! | each finger's offset, not the start (starts of the default set) | 41 / 29 (35 / 23) | 32 / −29 | 36 / +2 | 41 / +27 | 38 / −1 | 36 / +1 |
+//! | the start of the default set nearest the truth (smooth → cubic), split P = 5 | 42 / 42 (44 / 47) | 37 / +32 | 42 / +9 | 39 / −42 | 44 / +12 | 35 / −12 |
+//!
+//! On the confirmatory seeds 400..800 the same oracles give 28 / 1 (start and offsets told),
+//! 37 / 10 (start told, split P = 10: step 24 / +10, linear 31 / −4, smooth 37 / −7), 51 / 2
+//! (start told, shared), 51 / 33 (offsets told, not the start).
+//!
+//! **What this shows.** With both fingers in one likelihood the evidence is nearly enough: told
+//! the start, a penalised one-or-two change-point fit reaches 31 / 9 ms (0..400; 37 / 10 on
+//! 400..800), and told also the fingers' offsets 23–28 ms with no bias — the per-finger
+//! floor of stop 31 (36–41 ms) was the single finger's, not the data's. What is missing is the **start shape**:
+//! told the offsets but not the start, the step–smooth split stays (−29 / +27 ms), and told the
+//! start but not the offsets the means are right (±2 ms) and only the medians need the split
+//! test. The shape is not identifiable from the positions: for 244 step-start slips the
+//! two-finger likelihood picks a sudden start 59 times (linear 138, cubic 47), the sudden
+//! start's log-likelihood a median 8.3 units below the best — seen through the sensor's fluid
+//! lag and the 3-frame average a step is a soft start; for linear and smooth starts the true
+//! kind is a median 0.2–0.3 units from the best (a coin toss). And the nearest start *of the
+//! set* is not good enough either (last row): the length matters as much as the kind. The
+//! reason is physical: the position's noise is 0.045 mm (median pre-onset residual about a
+//! line; quartiles 0.025–0.093), and a contact with a smooth start of 0.25–0.4 s at the
+//! family's median 7.6 mm/s has moved 0.05 mm only 78–105 ms after its onset (a linear one of
+//! 0.15–0.3 s: 44–62 ms; a step: 7 ms; at 3 mm/s: 111–149, 71–100, 17 ms). The first 50–150 ms
+//! of a soft start are below the noise, so the onset is an extrapolation of the assumed start
+//! back to zero speed, and the assumption is the shape.
+//!
+//! **Less noise or no fluid lag does not make the shape identifiable** (diagnostic physics,
+//! never for a choice: `DIAG_NOISE_SCALE` / `DIAG_LAG_SCALE` in `slip_eval`, seeds 0..400;
+//! worst shape median / |mean|, ms). The stage's default: ¼ of the white noise and drift walk
+//! 44 / 29, no fluid lag 42 / 27, both 40 / 24 (normal physics 46 / 31). Told each finger's
+//! offset but not the start: 37 / 31, 39 / 21, 35 / 23 — the step–smooth split of the mean
+//! stays (both: step −21, smooth +23 ms). With both changes and the family's own start shapes
+//! in the fit's set (`START_SET=fine`), a step still scores its sudden start a median 10.4
+//! log-likelihood units below the best (the 3-frame average and the fitted position round it),
+//! and linear and smooth starts stay a coin toss (true kind 0.0–0.4 units from the best);
+//! the best estimator, (a) with P = 20, is 37 / 34. Told the start, the same histories give
+//! 24 / 4 (split P = 10). A smooth start and a linear one with a later change point explain
+//! nearly the same positions: without noise, the least-squares linear start for a smooth one
+//! of 0.1 / 0.2 / 0.3 / 0.4 s is 0.08 / 0.16 / 0.22 / 0.30 s long and starts 10 / 20 / 40 /
+//! 50 ms later. The first frame of non-zero speed of a soft start is not what the positions
+//! pin down.
+//!
+//! **The tuning set is small.** The stage's default, worst shape median / |mean|: seeds 0..120
+//! 40 / 21 ms, 0..400 46 / 31, 400..800 54 / 27, held out (1000..1100) 48 / 33. Sets of this
+//! size differ by 7–14 ms: stop 31b's 3 ms tuning gain was noise, and so would be any gain
+//! this size; a next search should rank on several hundred seeds (`DIAG_SEEDS` /
+//! `DUMP_SEEDS` / `DUMP_FROM`).
+//!
+//! **What could meet the target** (not done here): an observable that differs between start
+//! shapes — skin stretch before sliding, a break-away vibration — which the simulator does not
+//! model and which was not added; or a truth onset that is observable, such as the first frame
+//! at which the contact has moved a small distance (0.05 mm), which is a change of the issue's
+//! definition, not of the estimator.
+//!
 //! # Measured: how the fingers' change points combine (stop 31b)
 //! **Why.** The simulator's truth onset is the first finger's start ([`crate::sim_grasp`]:
 //! in half the grasps the other finger starts 0.03–0.2 s later), while `weighted` (stop 31's
@@ -205,7 +330,9 @@
 //! position's noise. Averaging the fit's frames more does not move the oracle (windows of 1 /
 //! 3 / 5 / 9 frames: worst shape 41 / 41 / 39 / 39 ms). Reaching the target needs an
 //! observable the simulator does not model (shear stretch before sliding, a break-away
-//! vibration, incipient slip).
+//! vibration, incipient slip). (Stop 32, above, on the stage's own positions: this floor is a
+//! single finger's. Both fingers in one likelihood, told the true start, reach 31 / 9 ms worst
+//! shape; the start shape is still what no estimator identifies.)
 //!
 //! # Measured: the onset position (round 3: the model-fit position, the default)
 //! Same protocol, members and columns as the next section. The previous round found that the
