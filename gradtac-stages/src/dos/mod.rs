@@ -449,6 +449,35 @@
 //! inside-solids gain is the strongest signal any window candidate has shown on that view; a
 //! next stop that wants it held out must state its own rule before scoring it.
 //!
+//! **Stop 32: the motion inputs judged by a rule on the inner views, then held out.**
+//! *Selection rule, written and committed before any run of this stop — and after the inner
+//! figures of the two candidates above were seen (they are tuning data; the rule was written
+//! knowing them, so it is not blind to them).* Inner views only: `dos_eval --window-inner`,
+//! leave-one-object-out inside basic (4 folds, 111 recordings) and inside solids (2 folds, 56
+//! recordings); no figure on an object outside the training set of a cross-set protocol is
+//! looked at for the choice.
+//! - Pool: (0) the default (three mirror-averaged members), (1) the default + motion inputs
+//!   (reference 10 frames) — both already scored, figures above, not re-run — and two more,
+//!   each scored once on the inner views
+//!   (`examples/dos_eval_parts/motion_round2_candidates.json`): (2) motion inputs with a
+//!   0.25 s reference span (`reference_frames = 25`), (3) motion inputs with two random
+//!   copies per recording instead of one (more of the copies' layout rotation ≤ 10°, time
+//!   warp, speed, noise, dropout, vibration and per-taxel gain/offset).
+//! - Excluded: a candidate with more than **2** recordings fewer than the default in either
+//!   inner view.
+//! - Winner: the most recordings right summed over both inner views (of 167); ties to the
+//!   higher mean of the two per-window accuracies; then to the earlier in the pool. The default
+//!   stays if nothing beats it.
+//! - The winner, if not the default, is scored held out **once** (`dos_eval --window-only`
+//!   with it as the only window candidate: nested leave-one-object-out, basic → solids,
+//!   solids → basic, the ConvLSTM protocol) and becomes the default of `gradtac calibrate dos`
+//!   — unless that one run puts a target already met under its bound (nested ≥ 85 %,
+//!   basic → solids ≥ 85 %, ConvLSTM protocol ≥ 82.6 %): a guard, not a choice; the
+//!   solids → basic figure is reported whatever it is and decides nothing.
+//! - Disclosed in advance: with motion inputs a window's input also holds a summary of the
+//!   contact's first `reference_frames` frames (the reference of the drift and the turn), so its
+//!   "per 5-frame window" figure is the window plus that reference, not the window alone.
+//!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
 //! per-class variances shrunk toward them, `σ²_{c,j} = λ·σ²_j + (1 − λ)·s²_{c,j}` with
