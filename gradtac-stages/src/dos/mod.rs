@@ -478,6 +478,21 @@
 //!   contact's first `reference_frames` frames (the reference of the drift and the turn), so its
 //!   "per 5-frame window" figure is the window plus that reference, not the window alone.
 //!
+//! *Inner views* (`dos_eval --window-inner --window-candidates
+//! examples/dos_eval_parts/motion_round2_candidates.json`, 18 s on the loaded machine; per
+//! window, per recording in brackets):
+//!
+//! | window candidate | inside basic | inside solids | recordings, both views | mean per window |
+//! |---|---|---|---|---|
+//! | (0) default (stop 31) | 66.0 % (77/111) | 68.4 % (40/56) | 117 | 67.2 % |
+//! | **(1) + motion inputs, reference 10 frames** | **66.8 %** (76/111) | **76.7 %** (44/56) | **120** | **71.8 %** |
+//! | (2) + motion inputs, reference 25 frames | 65.5 % (73/111) | 75.0 % (44/56) | 117 (excluded: −4 inside basic) | 70.2 % |
+//! | (3) + motion inputs, two random copies | 65.1 % (75/111) | 75.9 % (44/56) | 119 | 70.5 % |
+//!
+//! By the rule, **(1) wins** (120 recordings; it loses one inside basic, within the 2 allowed).
+//! Candidate (1) was then scored held out once (`dos_eval --window-only --window-candidates
+//! examples/dos_eval_parts/motion_only.json`, the winner as the only window candidate).
+//!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
 //! per-class variances shrunk toward them, `σ²_{c,j} = λ·σ²_j + (1 − λ)·s²_{c,j}` with
