@@ -77,6 +77,17 @@ pub struct DosClassifier {
     vote: Option<WindowVoteState>,
 }
 
+/// What the sliding mode keeps of one of the net's windows across decisions.
+#[derive(Clone, Debug)]
+enum NetWindow {
+    /// Its log posterior (a net of levels: it depends on the window's own frames only).
+    LogPosterior(Vec<f64>),
+    /// A net of levels and motion inputs: the hidden sums of its level inputs and its level
+    /// deviations (`None`: a flat window), for the motion inputs against each decision's
+    /// reference.
+    Levels { sums: Vec<f64>, dev: Option<Vec<f64>> },
+}
+
 #[derive(Clone, Debug)]
 struct Sliding {
     hop: u64,
@@ -89,9 +100,9 @@ struct Sliding {
     vote: Option<WindowVoteState>,
     /// Frames pushed since the last reset (the index of the next frame).
     total: u64,
-    /// Log posterior of the net's window starting at each frame index, kept across decisions
-    /// (a window's log posterior depends on its own frames only).
-    cache: std::collections::HashMap<u64, Vec<f64>>,
+    /// The net's window starting at each frame index, kept across decisions while it is in
+    /// the window ([`NetWindow`]).
+    cache: std::collections::HashMap<u64, NetWindow>,
     /// Extractor of one window at a time, for the cache.
     single: Option<WindowExtractor>,
 }
@@ -214,33 +225,62 @@ impl DosClassifier {
             let first = sl.total - sl.recent.len() as u64;
             let f = w.net.config.frames;
             // a net measured against the span's start sees the replayed window's own first
-            // frames as its reference, which moves with the window: nothing is kept
-            let own_reference = w.net.config.needs_reference();
+            // frames as its reference, which moves with the window. With the motion inputs
+            // alone (levels otherwise) a net window keeps its level inputs' share of the hidden
+            // sums and its deviations, and only the four motion inputs are recomputed per
+            // decision against the window's reference (bit-identical, tested); with the
+            // pattern since the start nothing is kept
+            let motion_only = w.net.config.motion && w.net.config.inputs == WindowInputs::Levels;
+            let own_reference = w.net.config.needs_reference() && !motion_only;
             if own_reference {
                 sl.cache.clear();
             } else {
                 sl.cache.retain(|&start, _| start >= first);
             }
-            v.reset();
-            for k in 0..sl.recent.len() / f {
+            let windows = sl.recent.len() / f;
+            for k in 0..windows {
                 let start = first + (k * f) as u64;
-                if !sl.cache.contains_key(&start) {
-                    if own_reference {
-                        // the reference a replay from the window's first frame has at this
-                        // net window's end: its first frames up to the reference length
-                        let seen = (k + 1) * f;
-                        single.reset_with_reference(sl.recent.iter().take(seen).map(|fr| fr.values.as_slice()))?;
-                    } else {
-                        single.reset();
-                    }
-                    for j in 0..f {
-                        single.push(&sl.recent[k * f + j].values)?;
-                    }
-                    let x = single.input().ok_or_else(|| invalid("a full window gave no input"))?;
-                    sl.cache.insert(start, w.net.log_posterior(&x)?);
+                if sl.cache.contains_key(&start) {
+                    continue;
                 }
-                if let Some(lp) = sl.cache.get(&start) {
-                    v.add_log_posterior(lp);
+                if own_reference {
+                    // the reference a replay from the window's first frame has at this
+                    // net window's end: its first frames up to the reference length
+                    let seen = (k + 1) * f;
+                    single.reset_with_reference(sl.recent.iter().take(seen).map(|fr| fr.values.as_slice()))?;
+                } else {
+                    single.reset();
+                }
+                for j in 0..f {
+                    single.push(&sl.recent[k * f + j].values)?;
+                }
+                let cached = if motion_only {
+                    let (x, dev) =
+                        single.input_and_deviations().ok_or_else(|| invalid("a full window gave no input"))?;
+                    let sums = w.net.prefix_sums(&x[..x.len() - MOTION_INPUTS])?;
+                    NetWindow::Levels { sums, dev }
+                } else {
+                    let x = single.input().ok_or_else(|| invalid("a full window gave no input"))?;
+                    NetWindow::LogPosterior(w.net.log_posterior(&x)?)
+                };
+                sl.cache.insert(start, cached);
+            }
+            v.reset();
+            let mut reference = 0;
+            for k in 0..windows {
+                match sl.cache.get(&(first + (k * f) as u64)) {
+                    Some(NetWindow::LogPosterior(lp)) => v.add_log_posterior(lp),
+                    Some(NetWindow::Levels { sums, dev }) => {
+                        // the reference a fresh vote has at this net window's end
+                        let seen = ((k + 1) * f).min(w.net.config.reference_frames);
+                        if seen != reference {
+                            single.reset_with_reference(sl.recent.iter().take(seen).map(|fr| fr.values.as_slice()))?;
+                            reference = seen;
+                        }
+                        let m = dev.as_deref().map_or([0.0; MOTION_INPUTS], |d| single.motion_inputs(d));
+                        v.add_log_posterior(&w.net.log_posterior_from_prefix(sums, &m)?);
+                    }
+                    None => {}
                 }
             }
             decision = self.model.combine(decision, v.mean_log_posterior().as_deref());
