@@ -57,7 +57,12 @@ impl HasSensor for DosDecision {
 /// Extra cost: a frame copy and, every 5 frames, one window of the net (p99 per frame 1.9 µs
 /// in all, `dos_eval`); in the sliding mode the vote summed per decision from the net windows'
 /// log posteriors, each computed once and kept until it leaves the window (250 frames, hop 10:
-/// per-frame p99 39 µs instead of 34 µs).
+/// per-frame p99 39 µs instead of 34 µs). A net with the motion inputs (the default since stop
+/// 32) measures them against the replayed window's own first frames, which move with it: each
+/// net window keeps its level inputs' hidden sums and deviations, and every decision
+/// recomputes its motion inputs, `tanh` layer and outputs (bit-identical to a fresh vote;
+/// p99 136 µs per frame at 250 frames, hop 10). With the pattern since the start
+/// (`WindowInputs::SinceStart`, `Both`) nothing is kept.
 ///
 /// [`reset`](Stage::reset) drops the open span (and the sliding window). Delay: `n − 1` frames;
 /// with `None` the decision comes at `finish` and [`Stage::delay`] reports zero (no frame
