@@ -1,5 +1,5 @@
-//! Per-frame cost of the `dos` window net's causal vote with and without the opt-in motion
-//! inputs (`WindowNetConfig::motion`), at the default net's size (96 hidden units: three
+//! Per-frame cost of the `dos` window net's causal vote with and without the motion inputs
+//! (`WindowNetConfig::motion`, the default of `gradtac calibrate` since stop 32), at the default net's size (96 hidden units: three
 //! mirror-averaged members of 16). The cost does not depend on the weights, so the nets here
 //! have fixed made-up weights and the frames are synthetic (no data needed): 200 spans of 300
 //! frames each, one `push` and one `decision` per frame. Prints the median and p99 per frame.
@@ -44,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         cost.sort_by(f64::total_cmp);
         let q = |p: f64| cost[((cost.len() - 1) as f64 * p).round() as usize];
-        let name = if motion { "with the motion inputs" } else { "levels only (the default)" };
+        let name = if motion { "with the motion inputs (the default)" } else { "levels only (stop 31's)" };
         println!("| {name} | {:.2} µs | {:.2} µs |", q(0.5), q(0.99));
     }
     Ok(())

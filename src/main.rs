@@ -209,11 +209,11 @@ struct DosArgs {
     /// trains the net about 20 times: ≈ 30 s on the 167 BioTacSP-DoS development recordings).
     #[arg(long)]
     no_window: bool,
-    /// Give the window net four motion inputs about the contact's own centre (its drift and
-    /// the turn of its principal axis since contact; opt-in: not adopted as the default, see
-    /// the `dos` module docs).
+    /// Leave out the window net's four motion inputs about the contact's own centre (its drift
+    /// and the turn of its principal axis since contact; on by default since stop 32, see the
+    /// `dos` module docs): the window net of stop 31.
     #[arg(long, conflicts_with = "no_window")]
-    window_motion: bool,
+    no_window_motion: bool,
     /// Also train the learned model (`dos::DosNet`, default settings, a few seconds on one
     /// core) on the same recordings and write it as JSON to this file. Measured held out it
     /// does not beat the default model (see `dos_eval`); the scene's `dos` stage runs the
@@ -587,7 +587,7 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         cross_validate,
         no_mirror,
         no_window,
-        window_motion,
+        no_window_motion,
         learned_out,
     } = args;
     let (Some(data), Some(out)) = (data, out) else {
@@ -605,7 +605,7 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         student_t_dof: (!gaussian).then_some(student_t),
         mirror: !no_mirror,
         window: !no_window,
-        window_motion,
+        window_motion: !no_window_motion,
         ..Default::default()
     };
     let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];

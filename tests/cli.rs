@@ -703,14 +703,16 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(!text.contains("window part"), "{text}");
     assert_eq!(gradtac::calibrate::read_model(&model_path).unwrap(), student);
     assert!(!fs::read_to_string(&model_path).unwrap().contains("\"window\""));
-    // --window-motion: the window net with the motion inputs (opt-in), as the library fits it
-    let text = calibrate("--window-motion");
+    // the default window net has the motion inputs; --no-window-motion: stop 31's net without them
+    assert!(part.net.config.motion, "motion inputs by default");
+    assert_eq!(part.net.inputs(), 48 + gradtac::stages::dos::MOTION_INPUTS);
+    let text = calibrate("--no-window-motion");
     assert!(text.contains("window part: candidate"), "{text}");
-    let moving = gradtac::calibrate::read_model(&model_path).unwrap();
-    let net = &moving.window.as_ref().expect("a window part").net;
-    assert!(net.config.motion && !part.net.config.motion);
-    assert_eq!(net.inputs(), 48 + gradtac::stages::dos::MOTION_INPUTS);
-    assert_eq!(moving.clone().with_window(None).unwrap(), student, "only the window part changes");
+    let still = gradtac::calibrate::read_model(&model_path).unwrap();
+    let net = &still.window.as_ref().expect("a window part").net;
+    assert!(!net.config.motion);
+    assert_eq!(net.inputs(), 48);
+    assert_eq!(still.clone().with_window(None).unwrap(), student, "only the window part changes");
     let default = gradtac::calibrate::CalibrateOptions { shrinkage: 0.5, ..opts.clone() };
     assert_ne!(gradtac::calibrate::calibrate_spans(&spans, &default).unwrap().class_variances, model.class_variances);
 

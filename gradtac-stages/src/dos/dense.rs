@@ -68,6 +68,58 @@ impl Dense<'_> {
         check("b2", self.b2, c)
     }
 
+    /// The hidden units' sums `Σ_j w1[h][j]·x_j` over the standardised first `prefix.len()`
+    /// inputs (at most as many as `input_mean`, all finite, or an error), for
+    /// [`logits_from_prefix`](Self::logits_from_prefix).
+    pub fn prefix_sums(&self, prefix: &[f64]) -> Result<Vec<f64>> {
+        if prefix.len() > self.input_mean.len() {
+            return Err(invalid(format!("{} inputs for a model of {}", prefix.len(), self.input_mean.len())));
+        }
+        if let Some(j) = prefix.iter().position(|v| !v.is_finite()) {
+            return Err(invalid(format!("input {j} is {}", prefix[j])));
+        }
+        let x: Vec<f64> =
+            prefix.iter().zip(self.input_mean).zip(self.input_scale).map(|((v, m), s)| (v - m) / s).collect();
+        Ok(self.w1.iter().map(|row| dot(row, &x)).collect())
+    }
+
+    /// The output logits of the input `prefix ++ tail` from `sums`, the
+    /// [`prefix_sums`](Self::prefix_sums) of `prefix`, and the remaining inputs `tail`:
+    /// bit-identical to [`logits`](Self::logits) of the whole input (the sums go on in the same
+    /// order).
+    pub fn logits_from_prefix(&self, sums: &[f64], tail: &[f64]) -> Result<Vec<f64>> {
+        let d = self.input_mean.len();
+        if sums.len() != self.w1.len() || tail.len() > d {
+            return Err(invalid(format!(
+                "{} sums and {} inputs for a model of {} hidden units",
+                sums.len(),
+                tail.len(),
+                self.w1.len()
+            )));
+        }
+        if let Some(j) = tail.iter().position(|v| !v.is_finite()) {
+            return Err(invalid(format!("input {} is {}", d - tail.len() + j, tail[j])));
+        }
+        let at = d - tail.len();
+        let x: Vec<f64> = tail
+            .iter()
+            .zip(&self.input_mean[at..])
+            .zip(&self.input_scale[at..])
+            .map(|((v, m), s)| (v - m) / s)
+            .collect();
+        let h: Vec<f64> = self
+            .w1
+            .iter()
+            .zip(self.b1)
+            .zip(sums)
+            .map(|((row, b), &sum)| {
+                let sum = row[at..].iter().zip(&x).fold(sum, |a, (w, v)| a + w * v);
+                (b + sum).clamp(-MAX_ACT, MAX_ACT).tanh()
+            })
+            .collect();
+        Ok(self.w2.iter().zip(self.b2).map(|(row, b)| b + dot(row, &h)).collect())
+    }
+
     /// The output logits for `input` (as many values as `input_mean`, all finite, or an error).
     pub fn logits(&self, input: &[f64]) -> Result<Vec<f64>> {
         if input.len() != self.input_mean.len() {

@@ -415,7 +415,8 @@
 //! two-object training set can teach, not the rotation–translation confusion of an object the
 //! training set has no counterpart of.
 //!
-//! **Motion inputs about the contact's own centre (stop 32; opt-in, not the default).**
+//! **Motion inputs about the contact's own centre (stop 31's `rot`; opt-in then, the default
+//! since the rule below).**
 //! `WindowNetConfig::motion` adds four causal inputs to the window net (see the `window` module
 //! docs): the drift of the contact's weighted centre since the span's first 0.1 s in contact
 //! radii (x, y), the turn of the contact's principal axis (`Im(z·z̄_r)/(tr·tr_r)`, a ratio of
@@ -450,6 +451,102 @@
 //! inputs against 3.28 µs without (median 0.13 / 0.12 µs). The
 //! inside-solids gain is the strongest signal any window candidate has shown on that view; a
 //! next stop that wants it held out must state its own rule before scoring it.
+//!
+//! **Stop 32: the motion inputs judged by a rule on the inner views, then held out.**
+//! *Selection rule, written and committed before any run of this stop — and after the inner
+//! figures of the two candidates above were seen (they are tuning data; the rule was written
+//! knowing them, so it is not blind to them).* Inner views only: `dos_eval --window-inner`,
+//! leave-one-object-out inside basic (4 folds, 111 recordings) and inside solids (2 folds, 56
+//! recordings); no figure on an object outside the training set of a cross-set protocol is
+//! looked at for the choice.
+//! - Pool: (0) the default (three mirror-averaged members), (1) the default + motion inputs
+//!   (reference 10 frames) — both already scored, figures above, not re-run — and two more,
+//!   each scored once on the inner views
+//!   (`examples/dos_eval_parts/motion_round2_candidates.json`): (2) motion inputs with a
+//!   0.25 s reference span (`reference_frames = 25`), (3) motion inputs with two random
+//!   copies per recording instead of one (more of the copies' layout rotation ≤ 10°, time
+//!   warp, speed, noise, dropout, vibration and per-taxel gain/offset).
+//! - Excluded: a candidate with more than **2** recordings fewer than the default in either
+//!   inner view.
+//! - Winner: the most recordings right summed over both inner views (of 167); ties to the
+//!   higher mean of the two per-window accuracies; then to the earlier in the pool. The default
+//!   stays if nothing beats it.
+//! - The winner, if not the default, is scored held out **once** (`dos_eval --window-only`
+//!   with it as the only window candidate: nested leave-one-object-out, basic → solids,
+//!   solids → basic, the ConvLSTM protocol) and becomes the default of `gradtac calibrate dos`
+//!   — unless that one run puts a target already met under its bound (nested ≥ 85 %,
+//!   basic → solids ≥ 85 %, ConvLSTM protocol ≥ 82.6 %): a guard, not a choice; the
+//!   solids → basic figure is reported whatever it is and decides nothing.
+//! - Disclosed in advance: with motion inputs a window's input also holds a summary of the
+//!   contact's first `reference_frames` frames (the reference of the drift and the turn), so its
+//!   "per 5-frame window" figure is the window plus that reference, not the window alone.
+//!
+//! *Inner views* (`dos_eval --window-inner --window-candidates
+//! examples/dos_eval_parts/motion_round2_candidates.json`, 18 s on the loaded machine; per
+//! window, per recording in brackets):
+//!
+//! | window candidate | inside basic | inside solids | recordings, both views | mean per window |
+//! |---|---|---|---|---|
+//! | (0) default (stop 31) | 66.0 % (77/111) | 68.4 % (40/56) | 117 | 67.2 % |
+//! | **(1) + motion inputs, reference 10 frames** | **66.8 %** (76/111) | **76.7 %** (44/56) | **120** | **71.8 %** |
+//! | (2) + motion inputs, reference 25 frames | 65.5 % (73/111) | 75.0 % (44/56) | 117 (excluded: −4 inside basic) | 70.2 % |
+//! | (3) + motion inputs, two random copies | 65.1 % (75/111) | 75.9 % (44/56) | 119 | 70.5 % |
+//!
+//! By the rule, **(1) wins** (120 recordings; it loses one inside basic, within the 2 allowed).
+//! Candidate (1) was then scored held out once (`dos_eval --window-only --window-candidates
+//! examples/dos_eval_parts/motion_only.json`, the winner as the only window candidate).
+//!
+//! **Held out, scored once — the default of `gradtac calibrate dos` since stop 32** (the weight
+//! `a` chosen inside every fold's training objects exactly as before; one window candidate, so
+//! no window choice per fold; 4 min 5 s for the whole `--window-only` run on the loaded
+//! machine):
+//!
+//! | per recording unless marked | nested leave-one-object-out | basic → solids | **solids → basic** | ConvLSTM protocol (basic → solids, per 5-frame window) |
+//! |---|---|---|---|---|
+//! | **combination with the motion ensemble (default)** | **88.6 %** (148/167) | **94.6 %** (53/56) | **78.4 %** (87/111) | 86.6 % (2 664/3 076) ² |
+//! | combination with stop 31's ensemble (no motion inputs) | 91.6 % (153/167) | 92.9 % (52/56) | 79.3 % (88/111) | 85.9 % (2 643/3 076) |
+//! | motion ensemble alone, vote | 83.2 % (139/167) | 89.3 % (50/56) | 72.1 % (80/111) | with history 88.3 % (2 716/3 076) |
+//! | stop 31's ensemble alone, vote | 79.0 % | 87.5 % | 69.4 % | with history 86.7 % |
+//! | motion ensemble, per 5-frame window | 78.5 % (7 201/9 170) | 86.6 % | 70.0 % (4 267/6 094) | — |
+//! | Student-t design alone (the baseline of this table) | 80.2 % | 85.7 % | 66.7 % | 29.1 % |
+//!
+//! ² The window and, as the motion inputs' reference, the contact's first 0.1 s (declared in
+//! the rule above): not the window alone. The window-alone figure of the published protocol
+//! is stop 31's 85.9 %.
+//!
+//! Weights chosen: 0.75 in five of the six nested folds, 0.5 for hd and in both cross-set
+//! trainings. Early answers of the combination at 1 s into contact: basic → solids 89.3 %
+//! (50/56), solids → basic 77.5 % (86/111) (stop 31: 83.9 % / 76.6 %); the vote alone at 1 s
+//! 87.5 % / 71.2 %. Solids → basic per test object: case 64.3 % (18/28), hd 85.7 % (24/28),
+//! pen 81.5 % (22/27), sponge 82.1 % (23/28); errors true → decided `cw→aw` 6, `aw→cw` 3,
+//! `n→cw` 2, `s→aw` 2, `t→s` 2 and nine single ones: 7 of 24 decide a rotation for a
+//! translation (11 of 23 before), 9 the wrong rotation sense (6 before). The motion inputs moved
+//! errors from rotation-for-translation to rotation-sense, and lost 5 recordings nested and 1
+//! solids → basic while gaining 1 basic → solids and 8 windows per window on the ConvLSTM
+//! protocol: **held out it is not better than stop 31's default**; it is the default because
+//! the rule stated beforehand picked it and its guard (no met target lost) held — no held-out
+//! figure was used to choose. `gradtac calibrate --no-window-motion` gives stop 31's net.
+//!
+//! *Not reached: solids → basic ≥ 85 %* (78.4 %); the other targets still hold (nested 88.6 %,
+//! basic → solids 94.6 %, ConvLSTM protocol 86.6 % ≥ 82.6 %). The inner view inside solids
+//! (+8.3 points per window, what the solids → basic training sees) did not carry over to the
+//! basic test objects: learned on two solid objects, the drift and the turn of a contact do not
+//! look the same on the case. Cost: one decision per recording through the `dos` stage p99
+//! 5.38 µs per frame (median 0.25 µs; 92 330 frames); the vote alone p99 5.03 µs;
+//! `window_motion_cost` (synthetic, 96 hidden) p99 3.88 µs against 3.35 µs without motion.
+//! **The sliding mode (250 frames, hop 10) is p99 136 µs per frame with the motion inputs**
+//! (45 µs with stop 31's net; the Student-t part alone 36 µs, already over 20 µs): the
+//! reference moves with the replayed window, so every decision recomputes the motion inputs of
+//! all its ~50 net windows. The stage keeps each net window's level-input hidden sums and
+//! deviations across decisions and recomputes only the four motion inputs, the `tanh` layer and
+//! the outputs (bit-identical decisions, tested; 238 µs p99 before that cache, measured in the
+//! held-out run above). Training on all 167 recordings: 3.7–6.1 s (one fit; 5 871
+//! parameters); `gradtac calibrate dos` on them 20 s (release, load ≈ 5 on the 2-core machine;
+//! chose `a` = 0.5: 139 / 144 / 151 / 149 / 139 of 167 for a = 0 / 0.25 / 0.5 / 0.75 / 1,
+//! in-sample for that choice; two runs byte-identical). The whole `dos_eval` (CI's step) passes
+//! its floors in 5 min 3 s (the window part's held-out figures 26 s). Back to back on the same
+//! loaded machine, `dos_eval --window-only` took 169 s with this default against 164 s with stop
+//! 31's (re-run as a timing check, the same figures as before: 91.6 / 92.9 / 79.3 %).
 //!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and

@@ -62,9 +62,14 @@ impl HasSensor for DosDecision {
 /// Extra cost: a frame copy and, every 5 frames, one window of the net (p99 per frame 1.9 µs
 /// in all, `dos_eval`); in the sliding mode the vote summed per decision from the net windows'
 /// log posteriors, each computed once and kept until it leaves the window (250 frames, hop 10:
-/// per-frame p99 8.5 µs instead of 6.6 µs for the Student-t model alone); a net measured
-/// against the window's start is recomputed for every decision's window, ahead of it as the
-/// replay is.
+/// per-frame p99 8.5 µs instead of 6.6 µs for the Student-t model alone, with stop 31's net of
+/// levels). A net with the motion inputs (the default since stop 32) measures them against the
+/// replayed window's own first frames, which move with it: each net window keeps its level
+/// inputs' hidden sums and deviations, and each decision's window recomputes its motion
+/// inputs, `tanh` layer and outputs — ahead of the decision, a share per frame, as the replay
+/// is (bit-identical to a fresh vote, tested). With the pattern since the start
+/// (`WindowInputs::SinceStart`, `Both`) nothing is kept and every net window is recomputed
+/// ahead.
 ///
 /// [`reset`](Stage::reset) drops the open span (and the sliding window). Delay: `n − 1` frames;
 /// with `None` the decision comes at `finish` and [`Stage::delay`] reports zero (no frame
@@ -84,6 +89,17 @@ pub struct DosClassifier {
     vote: Option<WindowVoteState>,
 }
 
+/// What the sliding mode keeps of one of the net's windows across decisions.
+#[derive(Clone, Debug)]
+enum NetWindow {
+    /// Its log posterior (a net of levels: it depends on the window's own frames only).
+    LogPosterior(Vec<f64>),
+    /// A net of levels and motion inputs: the hidden sums of its level inputs and its level
+    /// deviations (`None`: a flat window), for the motion inputs against each decision's
+    /// reference.
+    Levels { sums: Vec<f64>, dev: Option<Vec<f64>> },
+}
+
 #[derive(Clone, Debug)]
 struct Sliding {
     hop: u64,
@@ -96,9 +112,9 @@ struct Sliding {
     vote: Option<WindowVoteState>,
     /// Frames pushed since the last reset (the index of the next frame).
     total: u64,
-    /// Log posterior of the net's window starting at each frame index, kept across decisions
-    /// (a window's log posterior depends on its own frames only).
-    cache: std::collections::HashMap<u64, Vec<f64>>,
+    /// The net's window starting at each frame index, kept across decisions while it is in
+    /// the window ([`NetWindow`]).
+    cache: std::collections::HashMap<u64, NetWindow>,
     /// Extractor of one window at a time, for the cache.
     single: Option<WindowExtractor>,
     /// The next decision's window, prepared ahead (see [`Ahead`]).
@@ -244,30 +260,22 @@ impl DosClassifier {
         let mut decision = self.model.classify_vector(&features)?;
         if let (Some(v), Some(w), Some(single)) = (&mut sl.vote, &self.model.window, &mut sl.single) {
             // the vote over the window's non-overlapping net windows from its first frame, as
-            // a fresh recording; each net window's log posterior computed once across decisions
+            // a fresh recording ([`net_window`]); those prepared ahead for this window first
             let f = w.net.config.frames;
-            // a net measured against the span's start sees the replayed window's own first
-            // frames as its reference, which moves with the window: nothing is kept
-            let own_reference = w.net.config.needs_reference();
-            if own_reference {
+            let kind = WindowKind::of(&w.net);
+            if kind == WindowKind::OwnReference {
                 sl.cache.clear();
-                if prepared {
-                    for (k, lp) in ahead.windows.into_iter().enumerate() {
-                        sl.cache.insert(first + (k * f) as u64, lp);
-                    }
-                }
             } else {
                 sl.cache.retain(|&start, _| start >= first);
             }
+            let ready = if prepared { ahead.windows } else { Vec::new() };
             v.reset();
             for k in 0..sl.recent.len() / f {
-                let start = first + (k * f) as u64;
-                if !sl.cache.contains_key(&start) {
-                    let lp = net_window(&w.net, single, &sl.recent, 0, k, own_reference)?;
-                    sl.cache.insert(start, lp);
-                }
-                if let Some(lp) = sl.cache.get(&start) {
-                    v.add_log_posterior(lp);
+                match ready.get(k) {
+                    Some(lp) => v.add_log_posterior(lp),
+                    None => {
+                        v.add_log_posterior(&net_window(&w.net, kind, single, &mut sl.cache, &sl.recent, first, 0, k)?)
+                    }
                 }
             }
             decision = self.model.combine(decision, v.mean_log_posterior().as_deref());
@@ -296,8 +304,8 @@ impl DosClassifier {
     }
 
     /// A share of the next decision's replay (and, with a net measured against the window's
-    /// start, of its net windows): what is known of the predicted window, spread over the
-    /// frames still to come before it.
+    /// own first frames, of its net windows): what is known of the predicted window, spread
+    /// over the frames still to come before it.
     fn work_ahead(&mut self, n: u64) -> Result<()> {
         let Some(sl) = &mut self.sliding else { return Ok(()) };
         let len = sl.recent.len() as u64;
@@ -320,7 +328,8 @@ impl DosClassifier {
             sl.ahead.pushed += 1;
         }
         if let (Some(w), Some(single)) = (&self.model.window, &mut sl.single) {
-            if w.net.config.needs_reference() {
+            let kind = WindowKind::of(&w.net);
+            if kind != WindowKind::Levels {
                 let f = w.net.config.frames as u64;
                 // net windows of the predicted window whose frames are all in, and the number
                 // the decision will use
@@ -329,7 +338,8 @@ impl DosClassifier {
                 let known = complete.min(used).saturating_sub(sl.ahead.windows.len() as u64);
                 for _ in 0..known.div_ceil(m) {
                     let k = sl.ahead.windows.len();
-                    let lp = net_window(&w.net, single, &sl.recent, (first - offset) as usize, k, true)?;
+                    let at = (first - offset) as usize;
+                    let lp = net_window(&w.net, kind, single, &mut sl.cache, &sl.recent, first, at, k)?;
                     sl.ahead.windows.push(lp);
                 }
             }
@@ -338,29 +348,84 @@ impl DosClassifier {
     }
 }
 
+/// How the sliding mode computes a net window's log posterior.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum WindowKind {
+    /// A net of levels: the log posterior depends on the net window's own frames only, and is
+    /// kept across decisions.
+    Levels,
+    /// Levels and the motion inputs: those measure against the replayed window's own first
+    /// frames, which move with it; the level inputs' hidden sums and the deviations are kept
+    /// across decisions, the motion inputs, `tanh` layer and outputs recomputed per window.
+    Motion,
+    /// The pattern since the start (`WindowInputs::SinceStart`, `Both`): nothing is kept.
+    OwnReference,
+}
+
+impl WindowKind {
+    fn of(net: &DosWindowNet) -> Self {
+        match (net.config.inputs == WindowInputs::Levels, net.config.motion) {
+            (true, false) => WindowKind::Levels,
+            (true, true) => WindowKind::Motion,
+            (false, _) => WindowKind::OwnReference,
+        }
+    }
+}
+
 /// The log posterior of net window `k` (frames `k·f..(k+1)·f`) of the window `frames[at..]`
-/// replayed as a fresh recording; `own_reference`: the net measures against the replay's first
-/// frames, as a replay from the window's first frame has them at this net window's end.
+/// (whose first frame has index `first`) replayed as a fresh recording: a net measured against
+/// the replay's first frames sees them as a replay from the window's first frame has them at
+/// this net window's end. What does not depend on the window's start is kept in `cache`, by
+/// the net window's first frame index.
+#[allow(clippy::too_many_arguments)]
 fn net_window(
     net: &DosWindowNet,
+    kind: WindowKind,
     single: &mut WindowExtractor,
+    cache: &mut std::collections::HashMap<u64, NetWindow>,
     frames: &std::collections::VecDeque<TaxelFrame>,
+    first: u64,
     at: usize,
     k: usize,
-    own_reference: bool,
 ) -> Result<Vec<f64>> {
     let f = net.config.frames;
-    if own_reference {
-        let seen = (k + 1) * f;
-        single.reset_with_reference(frames.range(at..).take(seen).map(|fr| fr.values.as_slice()))?;
-    } else {
-        single.reset();
+    let key = first + (k * f) as u64;
+    let window = || frames.range(at + k * f..at + (k + 1) * f).map(|fr| fr.values.as_slice());
+    let reference = |seen: usize| frames.range(at..).take(seen).map(|fr| fr.values.as_slice());
+    match kind {
+        WindowKind::OwnReference => {
+            single.reset_with_reference(reference((k + 1) * f))?;
+            for v in window() {
+                single.push(v)?;
+            }
+            let x = single.input().ok_or_else(|| invalid("a full window gave no input"))?;
+            net.log_posterior(&x)
+        }
+        WindowKind::Levels | WindowKind::Motion if !cache.contains_key(&key) => {
+            single.reset();
+            for v in window() {
+                single.push(v)?;
+            }
+            let cached = if kind == WindowKind::Motion {
+                let (x, dev) = single.input_and_deviations().ok_or_else(|| invalid("a full window gave no input"))?;
+                NetWindow::Levels { sums: net.prefix_sums(&x[..x.len() - MOTION_INPUTS])?, dev }
+            } else {
+                let x = single.input().ok_or_else(|| invalid("a full window gave no input"))?;
+                NetWindow::LogPosterior(net.log_posterior(&x)?)
+            };
+            cache.insert(key, cached);
+            net_window(net, kind, single, cache, frames, first, at, k)
+        }
+        WindowKind::Levels | WindowKind::Motion => match &cache[&key] {
+            NetWindow::LogPosterior(lp) => Ok(lp.clone()),
+            NetWindow::Levels { sums, dev } => {
+                // the reference a fresh vote has at this net window's end
+                single.reset_with_reference(reference(((k + 1) * f).min(net.config.reference_frames)))?;
+                let m = dev.as_deref().map_or([0.0; MOTION_INPUTS], |d| single.motion_inputs(d));
+                net.log_posterior_from_prefix(sums, &m)
+            }
+        },
     }
-    for j in 0..f {
-        single.push(&frames[at + k * f + j].values)?;
-    }
-    let x = single.input().ok_or_else(|| invalid("a full window gave no input"))?;
-    net.log_posterior(&x)
 }
 
 impl Stage for DosClassifier {

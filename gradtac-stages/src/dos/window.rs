@@ -45,7 +45,7 @@
 //! every decision recomputes all of its net windows (p99 230 µs per frame at 250 frames, hop
 //! 10, five members; one decision per span: p99 5 µs).
 //!
-//! ## Motion inputs about the contact's own centre ([`WindowNetConfig::motion`], opt-in)
+//! ## Motion inputs about the contact's own centre ([`WindowNetConfig::motion`], calibrate's default)
 //! Four more inputs aimed at the rotation–translation confusion (see the `dos` module docs for
 //! the measurement). With `w_i` the window's deviation `dev_i` on the side of its largest
 //! deviation (the loaded taxels; others 0), the contact's centre `c = Σ w_i p_i / Σ w_i`, its
@@ -107,7 +107,8 @@ pub struct WindowNetConfig {
     /// span's start ([`MOTION_INPUTS`]; see [`WindowExtractor::input`]): the centre's drift
     /// (two values, in contact radii), the rotation of the pattern's principal axis (a signed
     /// value in −1..=1 that vanishes for a round pattern) and the share of rotation in the
-    /// motion. Needs the layout's taxel positions. Default off (not written when off).
+    /// motion. Needs the layout's taxel positions. Default off here (not written when off, so
+    /// older model files read unchanged); `gradtac calibrate` turns it on since stop 32.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub motion: bool,
 }
@@ -344,18 +345,8 @@ impl WindowExtractor {
         let (n, f) = (self.taxels, self.frames);
         let newest = ((self.count - 1) % f as u64) as usize;
         let oldest = (self.count % f as u64) as usize;
-        let mut sums = vec![0.0; n];
-        // chronological order, so that the sums do not depend on where the ring starts
-        for k in 0..f {
-            let row = &self.ring[(oldest + k) % f];
-            for (s, v) in sums.iter_mut().zip(row) {
-                *s += v;
-            }
-        }
-        let total: f64 = sums.iter().sum();
+        let (sums, dev, s) = self.window_sums();
         let nf = n as f64;
-        let dev: Vec<f64> = sums.iter().map(|s| nf * s - total).collect();
-        let s = (dev.iter().map(|d| d * d).sum::<f64>() / nf).sqrt();
         let mut out = vec![0.0; self.config_inputs()];
         if !(s > 0.0 && s.is_finite()) {
             return Some(out);
@@ -385,12 +376,56 @@ impl WindowExtractor {
             out[at + i] = tidy(nff * (self.ring[newest][i] - self.ring[oldest][i]) / s);
         }
         if !self.positions.is_empty() && self.reference_count > 0 {
-            let m = motion(&self.positions, &dev, &self.reference);
-            for (o, v) in out[at + n..].iter_mut().zip(m) {
-                *o = tidy(v);
-            }
+            out[at + n..].copy_from_slice(&self.motion_inputs(&dev));
         }
         Some(out)
+    }
+
+    /// [`input`](Self::input) without the motion inputs (their places zero), and the window's
+    /// level deviations `dev_i = n·S_i − T` they are computed from (`None` for a flat pattern,
+    /// whose inputs are all zero, the motion inputs too): with
+    /// [`motion_inputs`](Self::motion_inputs) against a reference given later, the same values
+    /// as `input` (for a replay that moves only the reference: the `dos` stage's sliding mode).
+    pub fn input_and_deviations(&self) -> Option<(Vec<f64>, Option<Vec<f64>>)> {
+        let mut out = self.input()?;
+        let motion = !self.positions.is_empty();
+        if motion {
+            let at = out.len() - MOTION_INPUTS;
+            out[at..].iter_mut().for_each(|v| *v = 0.0);
+        }
+        let (_, dev, s) = self.window_sums();
+        Some((out, (s > 0.0 && s.is_finite()).then_some(dev)))
+    }
+
+    /// The window's sums per taxel `S_i`, deviations `dev_i = n·S_i − T` and their spread `s`
+    /// (see the [module docs](crate::dos)); the ring summed in chronological order, so that the
+    /// sums do not depend on where the ring starts.
+    fn window_sums(&self) -> (Vec<f64>, Vec<f64>, f64) {
+        let (n, f) = (self.taxels, self.frames);
+        let oldest = (self.count % f as u64) as usize;
+        let mut sums = vec![0.0; n];
+        for k in 0..f {
+            for (s, v) in sums.iter_mut().zip(&self.ring[(oldest + k) % f]) {
+                *s += v;
+            }
+        }
+        let total: f64 = sums.iter().sum();
+        let nf = n as f64;
+        let dev: Vec<f64> = sums.iter().map(|s| nf * s - total).collect();
+        let s = (dev.iter().map(|d| d * d).sum::<f64>() / nf).sqrt();
+        (sums, dev, s)
+    }
+
+    /// The motion inputs ([`WindowNetConfig::motion`]) of a window's level deviations `dev`
+    /// (from [`input_and_deviations`](Self::input_and_deviations)) against this extractor's
+    /// current reference (e.g. set by [`reset_with_reference`](Self::reset_with_reference)),
+    /// as [`input`](Self::input) gives them; zeros without the motion inputs or a reference.
+    pub fn motion_inputs(&self, dev: &[f64]) -> [f64; MOTION_INPUTS] {
+        if self.positions.is_empty() || self.reference_count == 0 || dev.len() != self.taxels {
+            return [0.0; MOTION_INPUTS];
+        }
+        let tidy = |v: f64| if v.is_finite() { v.clamp(-MAX_CHANGE, MAX_CHANGE) } else { 0.0 };
+        motion(&self.positions, dev, &self.reference).map(tidy)
     }
 }
 
@@ -577,6 +612,21 @@ impl DosWindowNet {
     /// The log posterior of one window's representation (net class order).
     pub fn log_posterior(&self, input: &[f64]) -> Result<Vec<f64>> {
         Ok(log_softmax(&self.logits(input)?))
+    }
+
+    /// The hidden units' sums over the first `prefix.len()` inputs of a window's
+    /// representation, for [`log_posterior_from_prefix`](Self::log_posterior_from_prefix): a
+    /// replay that changes only the last inputs (the motion inputs, against a new reference)
+    /// keeps them.
+    pub fn prefix_sums(&self, prefix: &[f64]) -> Result<Vec<f64>> {
+        self.dense().prefix_sums(prefix)
+    }
+
+    /// The log posterior of the representation `prefix ++ tail` from the
+    /// [`prefix_sums`](Self::prefix_sums) of `prefix`: bit-identical to
+    /// [`log_posterior`](Self::log_posterior) of the whole representation.
+    pub fn log_posterior_from_prefix(&self, sums: &[f64], tail: &[f64]) -> Result<Vec<f64>> {
+        Ok(log_softmax(&self.dense().logits_from_prefix(sums, tail)?))
     }
 
     /// Classify one window's representation.

@@ -585,3 +585,64 @@ mod training {
         2 * d + h * d + h + c * h + c
     }
 }
+
+#[test]
+fn the_motion_inputs_split_off_the_level_inputs_bit_for_bit() {
+    // what the `dos` stage's sliding mode keeps across decisions: the level inputs' hidden sums
+    // and the deviations; the motion inputs recomputed against a reference given afterwards
+    let cfg = WindowNetConfig { motion: true, hidden: 3, ..Default::default() };
+    let layout = grid();
+    let n = layout.len();
+    let d = cfg.inputs(n);
+    let net = DosWindowNet {
+        config: cfg.clone(),
+        taxels: n,
+        classes: DosClass::ALL.to_vec(),
+        input_mean: (0..d).map(|j| 0.01 * (j % 7) as f64).collect(),
+        input_scale: (0..d).map(|j| 0.5 + 0.1 * (j % 5) as f64).collect(),
+        w1: (0..3).map(|h| (0..d).map(|j| 0.03 * ((h * 5 + j * 3) % 11) as f64 - 0.15).collect()).collect(),
+        b1: vec![0.1, -0.2, 0.05],
+        w2: (0..7).map(|k| (0..3).map(|h| 0.2 * ((k + 2 * h) % 5) as f64 - 0.4).collect()).collect(),
+        b2: (0..7).map(|k| 0.01 * k as f64).collect(),
+        recordings: 1,
+    };
+    net.validate().unwrap();
+    for (frames, flat) in [(blob_frames([0.3, -0.2], 0.25, 1000.0), false), (vec![vec![5.0; n]; 20], true)] {
+        let mut whole = WindowExtractor::try_new_on(&cfg, &layout).unwrap();
+        let mut single = WindowExtractor::try_new_on(&cfg, &layout).unwrap();
+        for (t, f) in frames.iter().enumerate() {
+            if !whole.push(f).unwrap() {
+                continue;
+            }
+            let x = whole.input().unwrap();
+            // the window's frames alone, then the reference a fresh span has at its end
+            single.reset();
+            for g in &frames[t + 1 - cfg.frames..=t] {
+                single.push(g).unwrap();
+            }
+            let (levels, dev) = single.input_and_deviations().unwrap();
+            assert_eq!(dev.is_none(), flat);
+            assert_eq!(levels[..d - MOTION_INPUTS], x[..d - MOTION_INPUTS]);
+            assert!(levels[d - MOTION_INPUTS..].iter().all(|&v| v == 0.0));
+            let seen = (t + 1).min(cfg.reference_frames);
+            single.reset_with_reference(frames[..seen].iter().map(|f| f.as_slice())).unwrap();
+            let m = dev.as_deref().map_or([0.0; MOTION_INPUTS], |dev| single.motion_inputs(dev));
+            assert_eq!(m[..], x[d - MOTION_INPUTS..], "frame {t}");
+            if !flat && t >= 10 {
+                // the blob moved after the reference's 10 frames
+                assert!(m.iter().any(|&v| v != 0.0), "frame {t}");
+            }
+            let sums = net.prefix_sums(&levels[..d - MOTION_INPUTS]).unwrap();
+            let lp = net.log_posterior_from_prefix(&sums, &m).unwrap();
+            assert_eq!(lp, net.log_posterior(&x).unwrap(), "bit for bit, frame {t}");
+        }
+    }
+    // wrong sizes and non-finite inputs are errors, not panics
+    assert!(net.prefix_sums(&vec![0.0; d + 1]).is_err());
+    assert!(net.prefix_sums(&[f64::NAN]).is_err());
+    assert!(net.log_posterior_from_prefix(&[0.0; 2], &[0.0; 4]).is_err());
+    assert!(net.log_posterior_from_prefix(&[0.0; 3], &vec![0.0; d + 1]).is_err());
+    assert!(net.log_posterior_from_prefix(&[0.0; 3], &[f64::INFINITY]).is_err());
+    let plain = WindowExtractor::try_new(&WindowNetConfig::default(), n).unwrap();
+    assert_eq!(plain.motion_inputs(&vec![1.0; n]), [0.0; MOTION_INPUTS]);
+}
