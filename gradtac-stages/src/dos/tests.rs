@@ -782,8 +782,12 @@ fn sliding_decisions_prepared_ahead_are_fresh_replays_for_any_window_hop_and_res
     let (cfg, model) = motion_model();
     let l = Layout::biotac_sp();
     let input = synthetic(DosClass::Cw, [0.0, 0.0], 0.1, 13);
-    let nets =
-        [None, Some(tiny_window_net_of(WindowInputs::Levels)), Some(tiny_window_net_with(WindowInputs::Both, true))];
+    let nets = [
+        None,
+        Some(tiny_window_net_of(WindowInputs::Levels)),
+        Some(tiny_window_net_with(WindowInputs::Levels, true)),
+        Some(tiny_window_net_with(WindowInputs::Both, true)),
+    ];
     for net in nets {
         let m = model.clone().with_window(net.clone().map(|net| DosWindowPart { weight: 0.5, net })).unwrap();
         for (n, hop) in [(1u64, 1u64), (5, 3), (13, 13), (40, 7), (80, 16), (80, 100), (300, 10)] {
