@@ -534,13 +534,18 @@
 //! look the same on the case. Cost: one decision per recording through the `dos` stage p99
 //! 5.38 µs per frame (median 0.25 µs; 92 330 frames); the vote alone p99 5.03 µs;
 //! `window_motion_cost` (synthetic, 96 hidden) p99 3.88 µs against 3.35 µs without motion.
-//! **The sliding mode (250 frames, hop 10) is p99 136 µs per frame with the motion inputs**
-//! (45 µs with stop 31's net; the Student-t part alone 36 µs, already over 20 µs): the
-//! reference moves with the replayed window, so every decision recomputes the motion inputs of
-//! all its ~50 net windows. The stage keeps each net window's level-input hidden sums and
-//! deviations across decisions and recomputes only the four motion inputs, the `tanh` layer and
-//! the outputs (bit-identical decisions, tested; 238 µs p99 before that cache, measured in the
-//! held-out run above). Training on all 167 recordings: 3.7–6.1 s (one fit; 5 871
+//! **The sliding mode (250 frames, hop 10)** was p99 136 µs per frame with the motion inputs
+//! when each decision frame did its whole window (45 µs with stop 31's net; the Student-t part
+//! alone 36 µs, already over 20 µs): the reference moves with the replayed window, so every
+//! decision recomputes the motion inputs of all its ~50 net windows. The stage keeps each net
+//! window's level-input hidden sums and deviations across decisions and recomputes only the
+//! four motion inputs, the `tanh` layer and the outputs (238 µs p99 before that cache, measured
+//! in the held-out run above); and it does that work, and the Student-t replay, a share per
+//! frame ahead of each decision ([`DosClassifier`]): **p99 20.4–20.8 µs per frame** with the
+//! window part, 6.2–6.3 µs Student-t alone (`examples/dos_sliding_cost` on the 167 development
+//! recordings, two runs at load ≈ 4; the model from `gradtac calibrate dos`). With early
+//! answers every 5 frames the work per frame doubles: p99 36.6 µs (12.2 µs Student-t alone).
+//! Decisions bit-identical throughout (tested). Training on all 167 recordings: 3.7–6.1 s (one fit; 5 871
 //! parameters); `gradtac calibrate dos` on them 20 s (release, load ≈ 5 on the 2-core machine;
 //! chose `a` = 0.5: 139 / 144 / 151 / 149 / 139 of 167 for a = 0 / 0.25 / 0.5 / 0.75 / 1,
 //! in-sample for that choice; two runs byte-identical). The whole `dos_eval` (CI's step) passes
