@@ -768,6 +768,17 @@ pub struct Fit {
     big: f64,
     /// Inverse scales before the polarity's exclusions (kept with a key frame).
     inv_full: Vec<f64>,
+    /// The learned bias correction (`fit_learned_correction`), when on.
+    learned: Option<Box<crate::fit_learned::Correction>>,
+    /// Record the learned correction's inputs of every fitted frame ([`Fit::record_inputs`]).
+    record: bool,
+    /// The last fitted frame's inputs ([`crate::fit_learned::INPUTS`]) and raw position
+    /// (before the correction), when recorded or corrected.
+    feat: Vec<f64>,
+    last_input: Option<[f64; 2]>,
+    /// The raw (uncorrected) positions of the current contact, for the correction's velocity
+    /// input (remembered through [`Lead::push`] with a vanishing lead).
+    raw_lead: Lead,
 }
 
 impl Fit {
@@ -798,7 +809,37 @@ impl Fit {
             thr: vec![0.0; n],
             big: 0.0,
             inv_full: vec![0.0; n],
+            learned: if cfg.fit_learned_correction {
+                if !Geometry::for_layout(layout).curved {
+                    return Err(Error::InvalidConfig {
+                        stage: STAGE,
+                        reason: "`fit_learned_correction` needs the built-in BioTac SP layout (its weights were \
+                                 trained on it)"
+                            .into(),
+                    });
+                }
+                Some(Box::new(crate::fit_learned::Correction::builtin()?))
+            } else {
+                None
+            },
+            record: false,
+            feat: vec![0.0; crate::fit_learned::INPUTS],
+            last_input: None,
+            raw_lead: Lead::new(cfg.fit_velocity_frames as usize),
         })
+    }
+
+    /// Record the learned correction's inputs of every fitted frame (for training,
+    /// `examples/train_fit_correction.rs`); read them with [`last_input`](Self::last_input).
+    pub fn record_inputs(&mut self, on: bool) {
+        self.record = on;
+    }
+
+    /// The last pushed frame's learned-correction inputs ([`crate::fit_learned::INPUTS`]) and
+    /// the fit's raw position (mm, before the correction, lead and smoothing), when that frame
+    /// was fitted and inputs were recorded or the correction is on.
+    pub fn last_input(&self) -> Option<(&[f64], [f64; 2])> {
+        self.last_input.map(|p| (&self.feat[..], p))
     }
 
     /// The kernel's shape exponent `q` learned so far (`fit_shape_rate`; 2 = Gaussian, 1 =
@@ -1181,7 +1222,32 @@ impl Fit {
             self.vote_polarity();
         }
         self.warm = Some(th);
-        Some(([th[0], th[1]], summary, best.at_edge))
+        let mut p = [th[0], th[1]];
+        if self.record || self.learned.is_some() {
+            let inv_s = &self.inv_s;
+            let ok = crate::fit_learned::inputs(
+                p,
+                self.geo.bounds,
+                th[2],
+                th[4],
+                residual,
+                self.raw_lead.velocity(),
+                th[3],
+                &self.d,
+                &self.gain,
+                &self.kk,
+                |i| inv_s[i] != 0.0,
+                &mut self.feat,
+            );
+            if ok {
+                self.last_input = Some(p);
+                if let Some(c) = &mut self.learned {
+                    let v = c.apply(&self.feat);
+                    p = [p[0] + v[0], p[1] + v[1]];
+                }
+            }
+        }
+        Some((p, summary, best.at_edge))
     }
 }
 
@@ -1192,6 +1258,7 @@ impl Stage for Fit {
 
     fn push(&mut self, f: TaxelFrame, out: &mut Vec<ContourFrame>) -> Result<()> {
         let ch = self.det.push(&f, STAGE)?;
+        self.last_input = None;
         if let Some(lag) = &mut self.lag {
             lag.push(f.time, &f.values, self.det.baseline(), self.det.noise(), self.det.change());
         }
@@ -1233,6 +1300,10 @@ impl Stage for Fit {
             match self.fit(&f.values) {
                 None => ContourOutcome::NoContact(NoContact::NoData),
                 Some((p, summary, at_edge)) => {
+                    if let Some(raw) = self.last_input {
+                        // remembered, not moved (a lead of the smallest positive time)
+                        self.raw_lead.push(ch.end, raw, f64::MIN_POSITIVE, 0.0);
+                    }
                     let lead_s = self.lead_s();
                     let cfg = self.det.config();
                     let p = self.lead.push(ch.end, p, lead_s, cfg.max_speed_mm_s);
@@ -1269,6 +1340,7 @@ impl Stage for Fit {
         if outcome.contact().is_none() {
             self.memory.clear();
             self.lead.clear();
+            self.raw_lead.clear();
             self.prior.clear();
             self.warm = None;
         }
@@ -1280,6 +1352,8 @@ impl Stage for Fit {
         self.det.reset();
         self.memory.clear();
         self.lead.clear();
+        self.raw_lead.clear();
+        self.last_input = None;
         self.prior.clear();
         self.warm = None;
         self.gain.iter_mut().for_each(|g| *g = 1.0);
@@ -2440,5 +2514,102 @@ mod tests {
         assert_eq!(prior.state, before);
         prior.clear();
         assert!(prior.state.is_none());
+    }
+    /// The `accurate` preset with the learned bias correction (`fit_learned_correction`).
+    fn learned() -> LocateConfig {
+        LocateConfig { fit_learned_correction: true, ..LocateConfig::preset(crate::locate::Preset::Accurate) }
+    }
+
+    /// Mean distance (mm) of the fit's contact points from the truth at their middle time, on a
+    /// family recording.
+    fn family_error(cfg: &LocateConfig, rec: &crate::sim_family::FamilyRecording) -> (f64, usize) {
+        let mut fit = Fit::try_new(cfg, &Layout::biotac_sp()).unwrap();
+        let out = push_all(&mut fit, rec.frames.clone());
+        let (mut sum, mut n) = (0.0, 0usize);
+        for c in &out {
+            if let Some(m) = c.outcome.contact() {
+                let mid = 0.5 * (c.start.as_secs_f64() + c.end.as_secs_f64());
+                if let Some(t) = rec.truth_at(mid) {
+                    sum += (m.centroid_mm[0] - t[0]).hypot(m.centroid_mm[1] - t[1]);
+                    n += 1;
+                }
+            }
+        }
+        (sum / n.max(1) as f64, n)
+    }
+
+    #[test]
+    fn the_learned_correction_is_refused_on_another_layout_and_its_weights_load() {
+        assert!(Fit::try_new(&learned(), &grid()).is_err());
+        assert!(Fit::try_new(&learned(), &Layout::biotac_sp()).is_ok());
+    }
+
+    /// A contact from the correction's training distribution (tuning physics, a training-range
+    /// seed) is located at least as well as without it, and well.
+    #[test]
+    fn the_learned_correction_recovers_a_contact_from_its_training_distribution() {
+        use crate::sim_family::{Member, PathKind, PhysicsSet};
+        let (mut with, mut without) = (0.0, 0.0);
+        for (k, kind) in PathKind::ALL.into_iter().enumerate() {
+            let m = Member { seed: 10_000 + k as u64, kind };
+            let rec = m.physics_in(PhysicsSet::Tuning).simulate(m.seed);
+            let (e1, n1) = family_error(&learned(), &rec);
+            let (e0, n0) = family_error(&LocateConfig::preset(crate::locate::Preset::Accurate), &rec);
+            assert!(n1 > 50 && n1 == n0, "{n1} {n0}");
+            with += e1 / 4.0;
+            without += e0 / 4.0;
+        }
+        assert!(with < 1.5 && with <= without + 0.02, "with {with:.3} mm, without {without:.3} mm");
+    }
+
+    #[test]
+    fn the_learned_correction_keeps_constant_input_without_contact_and_survives_wild_input() {
+        let mut fit = Fit::try_new(&learned(), &Layout::biotac_sp()).unwrap();
+        let out = push_all(&mut fit, frames(200, |_| (0..24).map(base).collect()));
+        assert!(out.iter().all(|c| c.outcome.contact().is_none()));
+        // NaN / inf: an error naming the taxel, never a panic; wild finite values: finite points
+        let mut fit = Fit::try_new(&learned(), &Layout::biotac_sp()).unwrap();
+        let mut sink = Vec::new();
+        for f in frames(40, |_| (0..24).map(base).collect()) {
+            fit.push(f, &mut sink).unwrap();
+        }
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let mut v: Vec<f64> = (0..24).map(base).collect();
+            v[5] = bad;
+            assert!(fit.push(TaxelFrame::new("ff".into(), Timestamp::at_rate(41, 100.0), 41, v), &mut sink).is_err());
+        }
+        let mut rng = 1u64;
+        for k in 42..400u64 {
+            let v: Vec<f64> = (0..24)
+                .map(|_| {
+                    rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    [0.0, 4095.0, 1e12, -1e12, (rng >> 40) as f64][(rng >> 61) as usize % 5]
+                })
+                .collect();
+            let _ = fit.push(TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, v), &mut sink);
+        }
+        for c in &sink {
+            if let Some(m) = c.outcome.contact() {
+                assert!(m.centroid_mm[0].is_finite() && m.centroid_mm[1].is_finite());
+            }
+        }
+    }
+
+    /// The correction keeps state (the raw positions' velocity): pushing in chunks gives the
+    /// same points as one run.
+    #[test]
+    fn the_learned_correction_is_chunking_invariant() {
+        use crate::sim_family::{Member, PathKind, PhysicsSet};
+        let m = Member { seed: 10_007, kind: PathKind::Circle };
+        let rec = m.physics_in(PhysicsSet::Tuning).simulate(m.seed);
+        let mut whole = Fit::try_new(&learned(), &Layout::biotac_sp()).unwrap();
+        let mut a = push_all(&mut whole, rec.frames.clone());
+        whole.finish(&mut a).unwrap();
+        for cut in [1usize, 7, 64] {
+            let mut fit = Fit::try_new(&learned(), &Layout::biotac_sp()).unwrap();
+            let mut b = crate::test_util::push_in_chunks(&rec.frames, cut, |f, o| fit.push(f.clone(), o));
+            fit.finish(&mut b).unwrap();
+            assert_eq!(a, b, "cut {cut}");
+        }
     }
 }

@@ -315,6 +315,12 @@ pub struct LocateConfig {
     /// other way — instead of `|Δᵢ|`; electrodes not yet seen under a core take the majority
     /// polarity of those that were ([`crate::fit`], *Polarity*). Default 0.
     pub fit_polarity_votes: u32,
+    /// `fit`: add the learned correction of the fit's position bias ([`crate::fit_learned`]):
+    /// a ridge regression on random features of the amplitude-normalised, gain-corrected
+    /// changes and the fit's residual pattern, trained on simulated frames of the family's
+    /// tuning physics only (`examples/train_fit_correction.rs`). The built-in BioTac SP layout
+    /// only (refused on any other). Default `false`.
+    pub fit_learned_correction: bool,
     /// `fit`: lag compensation (s, 0–1; 0 = none): the fitted position is moved ahead along the
     /// contact's velocity by this time, `p + fit_lead_s · v̂`, undoing the `v·τ` a first-order
     /// fluid lag of time constant `τ ≈ fit_lead_s` puts behind a moving contact
@@ -387,6 +393,7 @@ struct LocateToml {
     fit_rails: Option<[f64; 2]>,
     fit_signed: Option<bool>,
     fit_polarity_votes: Option<u32>,
+    fit_learned_correction: Option<bool>,
     fit_lead_s: Option<f64>,
     fit_velocity_frames: Option<u32>,
     fit_lag_estimate: Option<bool>,
@@ -427,6 +434,7 @@ impl From<LocateToml> for LocateConfig {
             fit_rails,
             fit_signed,
             fit_polarity_votes,
+            fit_learned_correction,
             fit_lead_s,
             fit_velocity_frames,
             fit_lag_estimate,
@@ -522,6 +530,7 @@ impl LocateConfig {
             fit_rails: [0.0, 4095.0],
             fit_signed: false,
             fit_polarity_votes: 0,
+            fit_learned_correction: false,
             fit_lead_s: 0.0,
             fit_velocity_frames: 8,
             fit_lag_estimate: false,
