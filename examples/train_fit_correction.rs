@@ -29,7 +29,8 @@ use std::time::Instant;
 type Samples = (Vec<Vec<f64>>, Vec<[f64; 2]>, Vec<[f64; 2]>);
 
 fn samples(seeds: std::ops::Range<u64>, every: usize, lagged: bool, layout: &Layout) -> Samples {
-    let cfg = LocateConfig::preset(Preset::Accurate);
+    // the `accurate` fit without the correction: the samples never depend on the weights
+    let cfg = LocateConfig { fit_learned_correction: false, ..LocateConfig::preset(Preset::Accurate) };
     let (mut xs, mut ys, mut us) = (Vec::new(), Vec::new(), Vec::new());
     for m in Member::grid(seeds) {
         let rec = m.physics_in(PhysicsSet::Tuning).simulate(m.seed);

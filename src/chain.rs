@@ -527,7 +527,7 @@ impl SensorChain {
                 let learned = if l.fit_learned_correction {
                     format!(
                         "learned bias correction on (fit_learned_correction: ridge on {} random features of the normalised \
-                         changes and residual pattern, trained on simulated tuning physics only, ≤ {} mm)",
+                         changes and residual pattern, trained on simulated tuning physics only, ≤ {} mm; BioTac SP layout only)",
                         gradtac_stages::fit_learned::RANDOM,
                         gradtac_stages::fit_learned::MAX_CORRECTION_MM
                     )

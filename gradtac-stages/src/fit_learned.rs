@@ -35,8 +35,7 @@
 //! left to the fit's own terms, the correction learns the static bias only.
 //!
 //! # Limits
-//! Trained on the built-in BioTac SP layout: on any other layout the option is refused at
-//! construction. A learned model knows only the physics it was shown; `docs/tradeoff.md`
+//! Trained on the built-in BioTac SP layout: on any other layout the fit does not apply it. A learned model knows only the physics it was shown; `docs/tradeoff.md`
 //! (round 6) reports it on held-out physics (the Mexican hat, longer lags) and on the real
 //! recordings (`examples/locate_dos.rs`). Cost: one `RANDOM × INPUTS` product and `RANDOM`
 //! cosines per fitted frame.
