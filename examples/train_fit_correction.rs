@@ -14,8 +14,11 @@
 //! corrected distance on the validation recordings (training-distribution data, no family
 //! member); then written.
 //!
-//! Run: `cargo run --release --example train_fit_correction [-- --train N --val M --dry]`
-//! (N, M seeds; defaults 2000 and 200; `--dry` prints without writing).
+//! Run: `cargo run --release --example train_fit_correction [-- --train N --val M --dry --check]`
+//! (N, M seeds; defaults 2000 and 200; `--dry` prints without writing; `--check` compares the
+//! result with the committed file instead of writing it, every number within 1e-6 of the
+//! largest weight, and fails otherwise — `scripts/fit_learned_check.sh`, in CI). ≈ 100 s on
+//! one core after the build.
 
 use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{self, Correction};
@@ -123,8 +126,32 @@ fn main() {
         t.lambda,
         v
     );
-    if !dry {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/gradtac-stages/src/fit_learned_weights.rs");
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/gradtac-stages/src/fit_learned_weights.rs");
+    if args.iter().any(|a| a == "--check") {
+        let committed = std::fs::read_to_string(path).expect("the committed weights file");
+        let fresh = t.to_rust(&prov);
+        let nums = |src: &str, name: &str| -> Vec<f64> {
+            let line = src.lines().find(|l| l.contains(&format!("const {name}:"))).unwrap_or("");
+            let body = line.find("= [").and_then(|a| line.rfind(']').map(|b| &line[a + 3..b])).unwrap_or("");
+            body.split(", ").filter_map(|v| v.parse().ok()).collect()
+        };
+        let top = t.w.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs())).max(1.0);
+        let mut worst = 0.0f64;
+        let mut same = true;
+        for name in ["MEAN", "SCALE", "WX", "WY"] {
+            let (a, b) = (nums(&committed, name), nums(&fresh, name));
+            same &= a.len() == b.len();
+            for (x, y) in a.iter().zip(&b) {
+                worst = worst.max((x - y).abs() / top);
+            }
+        }
+        println!("check against {path}: largest difference {worst:.3e} of the largest weight ({top:.3e})");
+        if !same || worst > 1e-6 {
+            eprintln!("train_fit_correction: the committed weights are not what this example produces");
+            std::process::exit(1);
+        }
+        println!("check passed");
+    } else if !dry {
         std::fs::write(path, t.to_rust(&prov)).expect("write the weights file");
         println!("wrote {path}");
     }
