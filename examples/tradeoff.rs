@@ -123,6 +123,8 @@ struct FitSetting {
     shape: bool,
     /// Polarity learning (`fit_polarity_votes`; 0 = off; round 5).
     polarity: u32,
+    /// The learned bias correction (`fit_learned_correction`; round 6).
+    learned: bool,
 }
 
 impl Setting {
@@ -151,8 +153,8 @@ impl Setting {
                 speed(*v)
             ),
             Setting::Delta2 { window } => format!("window {window}, contact 10 σ, weights Δ² (counts²)"),
-            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, lag, continuity, keys, shape, polarity }) => format!(
-                "window {window}, ≤ {iterations} iterations, {}{}, {}, model error {model_error}, contact {contact} σ, {}, smooth {smooth}, {}, {}",
+            Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed: v, contact, lead, lag, continuity, keys, shape, polarity, learned }) => format!(
+                "window {window}, ≤ {iterations} iterations, {}{}{}, {}, model error {model_error}, contact {contact} σ, {}, smooth {smooth}, {}, {}",
                 if *signed {
                     "signed".to_string()
                 } else if *polarity > 0 {
@@ -161,6 +163,7 @@ impl Setting {
                     "magnitudes".to_string()
                 },
                 if *shape { ", kernel folded, shape learned (0.05)" } else { "" },
+                if *learned { ", learned bias correction" } else { "" },
                 if *keys > 0 && *gain_rate > 0.0 { format!("gains self-calibrated ({keys} keys)") } else { format!("gain rate {gain_rate}") },
                 if *lag { "lag estimated online".to_string() } else { format!("lead {} ms", lead * 1e3) },
                 speed(*v),
@@ -227,8 +230,10 @@ impl Setting {
                 keys,
                 shape,
                 polarity,
+                learned,
             }) => Some(LocateConfig {
                 fit_polarity_votes: polarity,
+                fit_learned_correction: learned,
                 fit_fold_lobe: shape,
                 fit_shape_rate: if shape { 0.05 } else { 0.0 },
                 fit_gain_keys: keys,
@@ -594,6 +599,7 @@ fn main() {
             keys: 0,
             shape: false,
             polarity: 0,
+            learned: false,
         })
     };
     for window in [1u32, 5] {
@@ -663,6 +669,13 @@ fn main() {
             f.polarity = votes;
             settings.push(Setting::Fit(f));
         }
+    }
+    // round 6: the learned bias correction (`fit_learned_correction`), on the `accurate`
+    // preset's point
+    if let Setting::Fit(mut f) = fit(9, 3, 0.1, 0.3, false, 10.0, 0.0, true) {
+        f.keys = keys;
+        f.learned = true;
+        settings.push(Setting::Fit(f));
     }
     for grid in [16usize, 32] {
         for window in [5u32, 9] {
@@ -929,8 +942,8 @@ fn main() {
     }
     let la = LocateConfig::preset(Preset::Accurate);
     let lib_accurate = rows.iter().find(|r| {
-        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys, shape, polarity })
-            if keys == la.fit_gain_keys && polarity == la.fit_polarity_votes && shape == (la.fit_fold_lobe && la.fit_shape_rate > 0.0) && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys, shape, polarity, learned })
+            if keys == la.fit_gain_keys && polarity == la.fit_polarity_votes && learned == la.fit_learned_correction && shape == (la.fit_fold_lobe && la.fit_shape_rate > 0.0) && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
                 && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
                 && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
     });

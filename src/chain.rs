@@ -524,9 +524,19 @@ impl SensorChain {
                 } else {
                     "the changes' magnitudes |Δ| (fit_polarity_votes 0)".to_string()
                 };
+                let learned = if l.fit_learned_correction {
+                    format!(
+                        "learned bias correction on (fit_learned_correction: ridge on {} random features of the normalised \
+                         changes and residual pattern, trained on simulated tuning physics only, ≤ {} mm; BioTac SP layout only)",
+                        gradtac_stages::fit_learned::RANDOM,
+                        gradtac_stages::fit_learned::MAX_CORRECTION_MM
+                    )
+                } else {
+                    "no learned bias correction (fit_learned_correction false)".to_string()
+                };
                 format!(
                     "model fit (preset {}): robust Levenberg–Marquardt, ≤ {} iterations, on the 3-D electrode cores when the \
-                     layout is the BioTac SP; spread, amplitude, far lobe; fits {changes}; {shape}; {gains}; model error {} of the \
+                     layout is the BioTac SP; spread, amplitude, far lobe; fits {changes}; {shape}; {gains}; {learned}; model error {} of the \
                      largest change; electrodes at the rails [{}, {}] left out; reports residual and σ (mm) per point; \
                      {lag}; {prior}; position memory {} frames, {speed} ({})",
                     l.preset.name(),

@@ -360,6 +360,10 @@ fn explain_shows_the_fit_and_the_preset_values() {
     let pol = explain("[stages.locate]\npreset = \"accurate\"\nfit_polarity_votes = 10\n").unwrap();
     assert!(pol.contains("polarity learned from 10 net votes"), "{pol}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_polarity_votes = 5000\n").is_err());
+    // the learned bias correction (round 6): on in the preset, shown; a scene turns it off
+    assert!(accurate.contains("learned bias correction on (fit_learned_correction"), "{accurate}");
+    let off = explain("[stages.locate]\npreset = \"accurate\"\nfit_learned_correction = false\n").unwrap();
+    assert!(off.contains("no learned bias correction (fit_learned_correction false)"), "{off}");
     // the lag estimate is off in the preset (tuning did not choose it); a scene turns it on
     assert!(accurate.contains("lag lead 0 s along the velocity"), "{accurate}");
     let on = explain("[stages.locate]\npreset = \"accurate\"\nfit_lag_estimate = true\n").unwrap();

@@ -13,7 +13,8 @@
 //!   default noise-adaptive τ = `event_tau_sigmas` σ, calibrated over `calibrate_frames`).
 //!   `fit` is the model fit (`[stages.locate] method = "fit"` with the `accurate` preset's
 //!   settings and the method forced to `fit`) → track; `fit_polarity` the same with
-//!   `fit_polarity_votes = 10` (an option, not in the preset).
+//!   `fit_polarity_votes = 10` (an option, not in the preset); `fit_unlearned` the preset
+//!   with `fit_learned_correction = false` (the preset before round 6).
 //! - After the criterion groups, per-frame latency percentiles (p50, p99) of the default chain
 //!   and of the fit pushed one frame at a time, printed (not asserted).
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -70,10 +71,12 @@ fn centroid_chain(
 fn fit_chain(
     l: &Layout,
     polarity_votes: u32,
+    learned: bool,
 ) -> impl Stage<In = TaxelFrame, Out = gradtac_stages::track::TrackPoint, Error = gradtac_stream::Error> {
     let cfg = LocateConfig {
         method: LocateMethod::Fit,
         fit_polarity_votes: polarity_votes,
+        fit_learned_correction: learned,
         ..LocateConfig::preset(Preset::Accurate)
     };
     Fit::try_new(&cfg, l).unwrap().then(Track::try_new(&TrackConfig::default()).unwrap())
@@ -110,10 +113,13 @@ fn bench(c: &mut Criterion) {
             b.iter(|| black_box(centroid_chain(&l).run_all(f.iter().cloned()).unwrap().len()))
         });
         g.bench_with_input(BenchmarkId::new("fit", name), frames, |b, f| {
-            b.iter(|| black_box(fit_chain(&l, 0).run_all(f.iter().cloned()).unwrap().len()))
+            b.iter(|| black_box(fit_chain(&l, 0, true).run_all(f.iter().cloned()).unwrap().len()))
         });
         g.bench_with_input(BenchmarkId::new("fit_polarity", name), frames, |b, f| {
-            b.iter(|| black_box(fit_chain(&l, 10).run_all(f.iter().cloned()).unwrap().len()))
+            b.iter(|| black_box(fit_chain(&l, 10, true).run_all(f.iter().cloned()).unwrap().len()))
+        });
+        g.bench_with_input(BenchmarkId::new("fit_unlearned", name), frames, |b, f| {
+            b.iter(|| black_box(fit_chain(&l, 0, false).run_all(f.iter().cloned()).unwrap().len()))
         });
         g.bench_with_input(BenchmarkId::new("events", name), frames, |b, f| {
             b.iter(|| black_box(events_chain(&l, Threshold::Uniform(0.001)).run_all(f.iter().cloned()).unwrap().len()))
@@ -129,8 +135,9 @@ fn bench(c: &mut Criterion) {
     // asserted)
     for (name, frames) in &recs {
         latency("centroid", name, frames, || centroid_chain(&l));
-        latency("fit", name, frames, || fit_chain(&l, 0));
-        latency("fit_polarity", name, frames, || fit_chain(&l, 10));
+        latency("fit", name, frames, || fit_chain(&l, 0, true));
+        latency("fit_polarity", name, frames, || fit_chain(&l, 10, true));
+        latency("fit_unlearned", name, frames, || fit_chain(&l, 0, false));
     }
 }
 

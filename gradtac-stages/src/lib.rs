@@ -26,6 +26,7 @@ pub mod dos_select;
 pub mod drift;
 pub mod events;
 pub mod fit;
+pub mod fit_learned;
 pub mod force;
 pub mod force_ident;
 pub mod force_model;

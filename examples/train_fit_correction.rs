@@ -1,0 +1,159 @@
+//! Trains the model fit's learned bias correction (`[stages.locate] fit_learned_correction`,
+//! `gradtac_stages::fit_learned`) and writes its weights file
+//! `gradtac-stages/src/fit_learned_weights.rs`, deterministically.
+//!
+//! Data: simulated recordings of `sim_family`'s **tuning** physics only (`PhysicsSet::Tuning`:
+//! no Mexican hat, lags ≤ 30 ms) — training seeds 10 000.. and validation seeds 20 000..
+//! (× 4 trajectory kinds), disjoint from the tuning members (0–7) and the held-out members
+//! (100–115), which this example never simulates. Each recording runs through the `accurate`
+//! fit (correction off, inputs recorded); a fitted frame's sample is its inputs and the truth
+//! at the frame's middle time less the member's fluid lag, minus the fit's raw position. Every
+//! 8th fitted frame is kept (`--every`).
+//!
+//! Choice: the random features' bandwidths and the ridge penalty with the lowest mean
+//! corrected distance on the validation recordings (training-distribution data, no family
+//! member); then written.
+//!
+//! Run: `cargo run --release --example train_fit_correction [-- --train N --val M --dry --check]`
+//! (N, M seeds; defaults 2000 and 200; `--dry` prints without writing; `--check` compares the
+//! result with the committed file instead of writing it, every number within 1e-6 of the
+//! largest weight, and fails otherwise — `scripts/fit_learned_check.sh`, in CI). ≈ 100 s on
+//! one core after the build.
+
+use gradtac::stages::fit::Fit;
+use gradtac::stages::fit_learned::{self, Correction};
+use gradtac::stages::locate::{LocateConfig, Preset};
+use gradtac::stages::sim_family::{Member, PhysicsSet};
+use gradtac::stream::{Layout, Stage};
+use std::time::Instant;
+
+/// Inputs, targets and the score's truth (at the middle time, not less the lag), each minus the
+/// raw position.
+type Samples = (Vec<Vec<f64>>, Vec<[f64; 2]>, Vec<[f64; 2]>);
+
+fn samples(seeds: std::ops::Range<u64>, every: usize, lagged: bool, layout: &Layout) -> Samples {
+    // the `accurate` fit without the correction: the samples never depend on the weights
+    let cfg = LocateConfig { fit_learned_correction: false, ..LocateConfig::preset(Preset::Accurate) };
+    let (mut xs, mut ys, mut us) = (Vec::new(), Vec::new(), Vec::new());
+    for m in Member::grid(seeds) {
+        let rec = m.physics_in(PhysicsSet::Tuning).simulate(m.seed);
+        let mut fit = Fit::try_new(&cfg, layout).expect("the accurate preset");
+        fit.record_inputs(true);
+        let mut out = Vec::new();
+        let mut k = 0usize;
+        for f in rec.frames.iter().cloned() {
+            out.clear();
+            fit.push(f, &mut out).expect("simulated frames are finite");
+            let (Some((x, p)), Some(c)) = (fit.last_input(), out.last()) else { continue };
+            let mid = 0.5 * (c.start.as_secs_f64() + c.end.as_secs_f64());
+            let shift = if lagged { rec.physics.lag_s } else { 0.0 };
+            let Some(t) = rec.truth_at(mid - shift) else { continue };
+            let Some(u) = rec.truth_at(mid) else { continue };
+            k += 1;
+            if k % every == 0 {
+                xs.push(x.to_vec());
+                ys.push([t[0] - p[0], t[1] - p[1]]);
+                us.push([u[0] - p[0], u[1] - p[1]]);
+            }
+        }
+    }
+    (xs, ys, us)
+}
+
+fn mean_dist(c: Option<&mut Correction>, xs: &[Vec<f64>], ys: &[[f64; 2]]) -> f64 {
+    let mut c = c;
+    let mut s = 0.0;
+    for (x, y) in xs.iter().zip(ys) {
+        let v = c.as_mut().map_or([0.0, 0.0], |c| c.apply(x));
+        s += (y[0] - v[0]).hypot(y[1] - v[1]);
+    }
+    s / xs.len().max(1) as f64
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let arg = |name: &str, d: u64| {
+        args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(d)
+    };
+    let (n_train, n_val) = (arg("--train", 2000), arg("--val", 200));
+    let dry = args.iter().any(|a| a == "--dry");
+    let layout = Layout::biotac_sp();
+    let t0 = Instant::now();
+    let every = arg("--every", 8) as usize;
+    // `--lagged`: targets at the middle time less the member's lag (the static bias only);
+    // otherwise at the middle time (the score's truth: the correction may learn the lag too)
+    let lagged = args.iter().any(|a| a == "--lagged");
+    let (xt, yt, _) = samples(10_000..10_000 + n_train, every.max(1), lagged, &layout);
+    let (xv, _, yv) = samples(20_000..20_000 + n_val, every.max(1), lagged, &layout);
+    println!(
+        "samples: {} training ({} seeds × 4), {} validation ({} seeds × 4); simulated and fitted in {:.1} s",
+        xt.len(),
+        n_train,
+        xv.len(),
+        n_val,
+        t0.elapsed().as_secs_f64()
+    );
+    println!("validation mean distance without correction: {:.4} mm", mean_dist(None, &xv, &yv));
+    let lambdas = [1e-6, 1e-5];
+    let mut best: Option<(f64, fit_learned::Trained)> = None;
+    for bw in [[0.125, 0.125], [0.25, 0.25]] {
+        let t1 = Instant::now();
+        for t in fit_learned::train_path(&xt, &yt, &lambdas, bw).into_iter().flatten() {
+            let mut c = Correction::try_new(t.clone()).expect("finite weights");
+            let v = mean_dist(Some(&mut c), &xv, &yv);
+            let tr = mean_dist(Some(&mut c), &xt, &yt);
+            println!(
+                "bandwidth {:?} lambda {:e}: validation {v:.4} mm, training {tr:.4} mm ({:.1} s)",
+                bw,
+                t.lambda,
+                t1.elapsed().as_secs_f64()
+            );
+            if best.as_ref().is_none_or(|b| v < b.0) {
+                best = Some((v, t));
+            }
+        }
+    }
+    let (v, t) = best.expect("at least one fit");
+    println!("chosen: bandwidth {:?} lambda {:e}, validation {v:.4} mm", t.bandwidth, t.lambda);
+    let prov = format!(
+        "Training: sim_family tuning physics, seeds 10000..{} and validation seeds 20000..{} (× 4 kinds);\n\
+         {} training / {} validation frames; chosen bandwidth {:?}, lambda {:e} (validation mean distance {:.4} mm).",
+        10_000 + n_train,
+        20_000 + n_val,
+        xt.len(),
+        xv.len(),
+        t.bandwidth,
+        t.lambda,
+        v
+    );
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/gradtac-stages/src/fit_learned_weights.rs");
+    if args.iter().any(|a| a == "--check") {
+        let committed = std::fs::read_to_string(path).expect("the committed weights file");
+        let fresh = t.to_rust(&prov);
+        let nums = |src: &str, name: &str| -> Vec<f64> {
+            let line = src.lines().find(|l| l.contains(&format!("const {name}:"))).unwrap_or("");
+            let body = line.find("= [").and_then(|a| line.rfind(']').map(|b| &line[a + 3..b])).unwrap_or("");
+            body.split(", ").filter_map(|v| v.parse().ok()).collect()
+        };
+        let top = t.w.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs())).max(1.0);
+        let mut worst = 0.0f64;
+        let mut same = true;
+        for name in ["MEAN", "SCALE", "WX", "WY"] {
+            let (a, b) = (nums(&committed, name), nums(&fresh, name));
+            same &= a.len() == b.len();
+            for (x, y) in a.iter().zip(&b) {
+                worst = worst.max((x - y).abs() / top);
+            }
+        }
+        println!("check against {path}: largest difference {worst:.3e} of the largest weight ({top:.3e})");
+        if !same || worst > 1e-6 {
+            eprintln!("train_fit_correction: the committed weights are not what this example produces");
+            std::process::exit(1);
+        }
+        println!("check passed");
+    } else if !dry {
+        std::fs::write(path, t.to_rust(&prov)).expect("write the weights file");
+        println!("wrote {path}");
+    }
+    println!("total {:.1} s", t0.elapsed().as_secs_f64());
+}

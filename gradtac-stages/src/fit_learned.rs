@@ -1,0 +1,449 @@
+//! A learned correction of the model fit's position bias (`[stages.locate]
+//! fit_learned_correction = true`, issue #22, round 6).
+//!
+//! # What it does
+//! The fit ([`crate::fit`]) explains the electrodes' changes by one kernel shape; on a sensor
+//! whose response is another shape (a difference of Gaussians, an exponential) its position is
+//! biased by an amount that depends on where the contact sits between electrodes and on the
+//! shape — the one-term budget of `docs/tradeoff.md` puts 0.020 of the width's 0.032 there.
+//! This module learns that bias: per fitted frame, a fixed vector of [`INPUTS`] numbers —
+//!
+//! - the fitted position, scaled to `[−1, 1]` over the layout's extent (2);
+//! - the fitted log-spread, far-lobe weight and relative residual (3);
+//! - the velocity (÷ 30 mm/s) of the fit's last raw positions in this contact (least squares
+//!   over `fit_velocity_frames`, before the current frame; 0 at a contact's start) (2);
+//! - the **amplitude-normalised, gain-corrected changes** `nᵢ = (Δᵢ/gᵢ) / maxⱼ|Δⱼ/gⱼ|` (24);
+//! - the **residual pattern** `nᵢ − Â·Kᵢ` (the fit's kernel at the solution, amplitude in the
+//!   same units) (24);
+//!
+//! (each clamped to ±3, electrodes left out of the fit at 0) — is standardised and mapped to a
+//! correction `(δx, δy)` mm by ridge regression on `1 + INPUTS + RANDOM` terms: a constant,
+//! the inputs, and [`RANDOM`] random cosine features `√(2/R)·cos(ωₖ·z + bₖ)` whose
+//! frequencies are drawn from a fixed seed ([`SEED`]; position dimensions at bandwidth
+//! `bandwidth[0]`, the others at `bandwidth[1] / √(INPUTS − 2)`). The correction is clamped
+//! to [`MAX_CORRECTION_MM`] and added to the fit's raw position, before the lag lead, the
+//! motion prior and the position memory (which see the corrected point). The fit itself —
+//! its warm start, gains and shape learning — never sees the correction.
+//!
+//! # Training (what it was tuned on)
+//! `examples/train_fit_correction.rs` writes the weights file `fit_learned_weights.rs`
+//! deterministically: simulated recordings of [`sim_family`](crate::sim_family)'s **tuning**
+//! physics only (no Mexican hat, lags ≤ 30 ms) at seeds 10 000+ (training) and 20 000+
+//! (validation for the ridge's λ and bandwidths), disjoint from the tuning members (seeds 0–7)
+//! and the held-out members (100–115). The target of a frame is the truth at the frame's
+//! middle time less the member's fluid lag, minus the fit's raw position: the lag lead is
+//! left to the fit's own terms, the correction learns the static bias only.
+//!
+//! # Limits
+//! Trained on the built-in BioTac SP layout: on any other layout the fit does not apply it. A learned model knows only the physics it was shown; `docs/tradeoff.md`
+//! (round 6) reports it on held-out physics (the Mexican hat, longer lags) and on the real
+//! recordings (`examples/locate_dos.rs`). Cost: one `RANDOM × INPUTS` product and `RANDOM`
+//! cosines per fitted frame.
+
+use crate::{Error, Result};
+
+/// SplitMix64 for the random features (the same generator as `dos::train::SplitMix`, which is
+/// behind the `train` feature; inference needs these draws without it).
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn new(seed: u64) -> Self {
+        SplitMix(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.uniform()
+    }
+    fn normal(&mut self) -> f64 {
+        let u = 1.0 - self.uniform();
+        let v = self.uniform();
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
+/// Number of inputs per frame (see the module docs).
+pub const INPUTS: usize = 7 + 2 * 24;
+/// Number of random cosine features.
+pub const RANDOM: usize = 256;
+/// Number of regression terms: a constant, the inputs, the cosines.
+pub const TERMS: usize = 1 + INPUTS + RANDOM;
+/// Seed of the random features' frequencies and phases.
+pub const SEED: u64 = 0x22_6C_65_61_72_6E;
+/// Largest correction applied (mm).
+pub const MAX_CORRECTION_MM: f64 = 2.0;
+
+mod weights {
+    include!("fit_learned_weights.rs");
+}
+
+/// The trained weights as the generated file holds them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Trained {
+    /// Input means (standardisation).
+    pub mean: Vec<f64>,
+    /// Input standard deviations (standardisation; > 0).
+    pub scale: Vec<f64>,
+    /// Bandwidths of the random features: position dimensions, the rest.
+    pub bandwidth: [f64; 2],
+    /// Ridge weights per axis (x, y), [`TERMS`] each.
+    pub w: [Vec<f64>; 2],
+    /// The ridge penalty the weights were fitted with (reported only).
+    pub lambda: f64,
+}
+
+impl Trained {
+    /// The weights shipped in the library (`fit_learned_weights.rs`).
+    pub fn builtin() -> Trained {
+        Trained {
+            mean: weights::MEAN.to_vec(),
+            scale: weights::SCALE.to_vec(),
+            bandwidth: weights::BANDWIDTH,
+            w: [weights::WX.to_vec(), weights::WY.to_vec()],
+            lambda: weights::LAMBDA,
+        }
+    }
+
+    /// Rust source of the weights file (what the training example writes).
+    pub fn to_rust(&self, provenance: &str) -> String {
+        let arr = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(", ");
+        let mut s = String::new();
+        s.push_str("// @generated by `cargo run --release --example train_fit_correction` — do not edit.\n");
+        for l in provenance.lines() {
+            s.push_str(&format!("// {l}\n"));
+        }
+        s.push_str(&format!("pub(super) const LAMBDA: f64 = {:e};\n", self.lambda));
+        s.push_str(&format!(
+            "pub(super) const BANDWIDTH: [f64; 2] = [{:e}, {:e}];\n",
+            self.bandwidth[0], self.bandwidth[1]
+        ));
+        s.push_str(&format!("pub(super) const MEAN: [f64; {}] = [{}];\n", self.mean.len(), arr(&self.mean)));
+        s.push_str(&format!("pub(super) const SCALE: [f64; {}] = [{}];\n", self.scale.len(), arr(&self.scale)));
+        s.push_str(&format!("pub(super) const WX: [f64; {}] = [{}];\n", self.w[0].len(), arr(&self.w[0])));
+        s.push_str(&format!("pub(super) const WY: [f64; {}] = [{}];\n", self.w[1].len(), arr(&self.w[1])));
+        s
+    }
+}
+
+/// The correction at inference: the trained weights and the random features' frequencies.
+#[derive(Clone, Debug)]
+pub struct Correction {
+    t: Trained,
+    /// `RANDOM × INPUTS` frequencies, row-major, and `RANDOM` phases.
+    omega: Vec<f64>,
+    phase: Vec<f64>,
+    z: Vec<f64>,
+}
+
+impl Correction {
+    /// The correction from trained weights; an error when their sizes or values are not usable.
+    pub fn try_new(t: Trained) -> Result<Correction> {
+        let ok = t.mean.len() == INPUTS
+            && t.scale.len() == INPUTS
+            && t.w.iter().all(|w| w.len() == TERMS && w.iter().all(|v| v.is_finite()))
+            && t.mean.iter().all(|v| v.is_finite())
+            && t.scale.iter().all(|v| v.is_finite() && *v > 0.0)
+            && t.bandwidth.iter().all(|v| v.is_finite() && *v >= 0.0);
+        if !ok {
+            return Err(Error::InvalidConfig {
+                stage: "locate",
+                reason: "the learned correction's weights have the wrong sizes or non-finite values".into(),
+            });
+        }
+        let (omega, phase) = frequencies(t.bandwidth);
+        Ok(Correction { t, omega, phase, z: vec![0.0; INPUTS] })
+    }
+
+    /// The library's shipped correction.
+    pub fn builtin() -> Result<Correction> {
+        Correction::try_new(Trained::builtin())
+    }
+
+    /// The weights.
+    pub fn trained(&self) -> &Trained {
+        &self.t
+    }
+
+    /// The correction (mm, clamped to [`MAX_CORRECTION_MM`]) for one frame's inputs `x`
+    /// ([`INPUTS`] values from [`inputs`]); `[0, 0]` when anything is not finite.
+    pub fn apply(&mut self, x: &[f64]) -> [f64; 2] {
+        if x.len() != INPUTS {
+            return [0.0, 0.0];
+        }
+        for (i, z) in self.z.iter_mut().enumerate() {
+            *z = (x[i] - self.t.mean[i]) / self.t.scale[i];
+        }
+        let (wx, wy) = (&self.t.w[0], &self.t.w[1]);
+        let (mut cx, mut cy) = (wx[0], wy[0]);
+        for i in 0..INPUTS {
+            cx += wx[1 + i] * self.z[i];
+            cy += wy[1 + i] * self.z[i];
+        }
+        let norm = (2.0 / RANDOM as f64).sqrt();
+        for k in 0..RANDOM {
+            let row = &self.omega[k * INPUTS..(k + 1) * INPUTS];
+            let mut a = self.phase[k];
+            for (o, z) in row.iter().zip(&self.z) {
+                a += o * z;
+            }
+            let f = norm * a.cos();
+            cx += wx[1 + INPUTS + k] * f;
+            cy += wy[1 + INPUTS + k] * f;
+        }
+        let m = cx.hypot(cy);
+        if !m.is_finite() {
+            return [0.0, 0.0];
+        }
+        if m > MAX_CORRECTION_MM {
+            let s = MAX_CORRECTION_MM / m;
+            [cx * s, cy * s]
+        } else {
+            [cx, cy]
+        }
+    }
+}
+
+/// The random features' frequencies (`RANDOM × INPUTS`, row-major) and phases, from [`SEED`].
+fn frequencies(bandwidth: [f64; 2]) -> (Vec<f64>, Vec<f64>) {
+    let mut rng = SplitMix::new(SEED);
+    let other = bandwidth[1] / ((INPUTS - 2) as f64).sqrt();
+    let mut omega = vec![0.0; RANDOM * INPUTS];
+    let mut phase = vec![0.0; RANDOM];
+    for k in 0..RANDOM {
+        for i in 0..INPUTS {
+            omega[k * INPUTS + i] = rng.normal() * if i < 2 { bandwidth[0] } else { other };
+        }
+        phase[k] = rng.range(0.0, std::f64::consts::TAU);
+    }
+    (omega, phase)
+}
+
+/// The regression terms of standardised inputs `z` into `out` ([`TERMS`] values).
+fn terms(z: &[f64], omega: &[f64], phase: &[f64], out: &mut [f64]) {
+    out[0] = 1.0;
+    out[1..1 + INPUTS].copy_from_slice(z);
+    let norm = (2.0 / RANDOM as f64).sqrt();
+    for k in 0..RANDOM {
+        let a = phase[k] + omega[k * INPUTS..(k + 1) * INPUTS].iter().zip(z).map(|(o, z)| o * z).sum::<f64>();
+        out[1 + INPUTS + k] = norm * a.cos();
+    }
+}
+
+/// One fitted frame's inputs into `out` ([`INPUTS`] values, see the module docs): fitted
+/// position `pos` within `bounds` (x_min, x_max, y_min, y_max), log-spread `ln_w`, far lobe
+/// `lobe`, relative residual, the raw positions' velocity `vel` (mm/s), amplitude `amp` (gain
+/// units), and per electrode the change
+/// `d`, gain `gain`, kernel at the solution `kk` and whether it was `used`. `false` (and
+/// `out` untouched in part) when the sizes are not the BioTac SP's or nothing is finite.
+#[allow(clippy::too_many_arguments)]
+pub fn inputs(
+    pos: [f64; 2],
+    bounds: [f64; 4],
+    ln_w: f64,
+    lobe: f64,
+    residual: f64,
+    vel: [f64; 2],
+    amp: f64,
+    d: &[f64],
+    gain: &[f64],
+    kk: &[f64],
+    used: impl Fn(usize) -> bool,
+    out: &mut [f64],
+) -> bool {
+    let n = 24;
+    if d.len() != n || gain.len() != n || kk.len() != n || out.len() != INPUTS {
+        return false;
+    }
+    let c = |v: f64| if v.is_finite() { v.clamp(-3.0, 3.0) } else { 0.0 };
+    let scale = |v: f64, lo: f64, hi: f64| if hi > lo { 2.0 * (v - lo) / (hi - lo) - 1.0 } else { 0.0 };
+    out[0] = c(scale(pos[0], bounds[0], bounds[1]));
+    out[1] = c(scale(pos[1], bounds[2], bounds[3]));
+    out[2] = c(ln_w);
+    out[3] = c(lobe);
+    out[4] = c(residual);
+    out[5] = c(vel[0] / 30.0);
+    out[6] = c(vel[1] / 30.0);
+    let corrected = |i: usize| d[i] / if gain[i].abs() > 0.2 { gain[i].abs() } else { 1.0 };
+    let mut top: f64 = 0.0;
+    for i in 0..n {
+        if used(i) {
+            top = top.max(corrected(i).abs());
+        }
+    }
+    if !(top.is_finite() && top > 0.0) {
+        return false;
+    }
+    let a = amp.abs() / top;
+    for i in 0..n {
+        let (v, r) = if used(i) {
+            let v = corrected(i) / top;
+            (v, v - a * kk[i])
+        } else {
+            (0.0, 0.0)
+        };
+        out[7 + i] = c(v);
+        out[7 + n + i] = c(r);
+    }
+    true
+}
+
+/// Ridge regression of targets `y` (mm, per sample) on the terms of inputs `x` (per sample,
+/// [`INPUTS`] each) with penalty `lambda` (per sample, on standardised terms) and random
+/// features at `bandwidth`: the trained weights, or `None` if the system is singular.
+pub fn train(x: &[Vec<f64>], y: &[[f64; 2]], lambda: f64, bandwidth: [f64; 2]) -> Option<Trained> {
+    train_path(x, y, &[lambda], bandwidth).pop().flatten()
+}
+
+/// [`train`] at every penalty of `lambdas` (one pass over the samples): one entry per penalty.
+pub fn train_path(x: &[Vec<f64>], y: &[[f64; 2]], lambdas: &[f64], bandwidth: [f64; 2]) -> Vec<Option<Trained>> {
+    let m = x.len();
+    if m == 0 || y.len() != m || x.iter().any(|s| s.len() != INPUTS) {
+        return lambdas.iter().map(|_| None).collect();
+    }
+    let mut mean = vec![0.0; INPUTS];
+    for s in x {
+        for i in 0..INPUTS {
+            mean[i] += s[i] / m as f64;
+        }
+    }
+    let mut scale = vec![0.0; INPUTS];
+    for s in x {
+        for i in 0..INPUTS {
+            scale[i] += (s[i] - mean[i]).powi(2) / m as f64;
+        }
+    }
+    scale.iter_mut().for_each(|v| *v = v.sqrt().max(1e-6));
+    let (omega, phase) = frequencies(bandwidth);
+    let t = TERMS;
+    let mut a = vec![0.0; t * t];
+    let mut b = [vec![0.0; t], vec![0.0; t]];
+    let mut z = vec![0.0; INPUTS];
+    let mut f = vec![0.0; t];
+    for (s, yy) in x.iter().zip(y) {
+        for i in 0..INPUTS {
+            z[i] = (s[i] - mean[i]) / scale[i];
+        }
+        terms(&z, &omega, &phase, &mut f);
+        for p in 0..t {
+            let fp = f[p];
+            let row = &mut a[p * t..p * t + p + 1];
+            for (q, r) in row.iter_mut().enumerate() {
+                *r += fp * f[q];
+            }
+            b[0][p] += fp * yy[0];
+            b[1][p] += fp * yy[1];
+        }
+    }
+    for p in 0..t {
+        for q in 0..p {
+            a[q * t + p] = a[p * t + q];
+        }
+    }
+    lambdas
+        .iter()
+        .map(|&lambda| {
+            let mut a = a.clone();
+            // the constant is not penalised
+            for p in 0..t {
+                a[p * t + p] += if p > 0 { lambda * m as f64 } else { 1e-9 * m as f64 };
+            }
+            let wx = crate::force_model::cholesky_solve(&mut a.clone(), &b[0], t)?;
+            let wy = crate::force_model::cholesky_solve(&mut a, &b[1], t)?;
+            Some(Trained { mean: mean.clone(), scale: scale.clone(), bandwidth, w: [wx, wy], lambda })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(rng: &mut SplitMix) -> Vec<f64> {
+        (0..INPUTS).map(|_| rng.normal()).collect()
+    }
+
+    #[test]
+    fn builtin_weights_load_and_non_finite_inputs_give_no_correction() {
+        let mut c = Correction::builtin().unwrap();
+        let mut x = vec![0.0; INPUTS];
+        x[3] = f64::NAN;
+        let v = c.apply(&x);
+        assert!(v[0].is_finite() && v[1].is_finite());
+        assert_eq!(c.apply(&[f64::INFINITY; INPUTS]), [0.0, 0.0]);
+        assert_eq!(c.apply(&[1.0; 3]), [0.0, 0.0]);
+        for s in 0..50 {
+            let mut rng = SplitMix::new(s);
+            let x: Vec<f64> = (0..INPUTS).map(|_| 1e6 * rng.normal()).collect();
+            let v = c.apply(&x);
+            assert!(v[0].hypot(v[1]) <= MAX_CORRECTION_MM + 1e-12);
+        }
+    }
+
+    #[test]
+    fn ridge_recovers_a_smooth_function_and_round_trips_through_the_file_format() {
+        let mut rng = SplitMix::new(7);
+        let f = |x: &[f64]| [0.3 * x[0] - 0.2 * x[5], 0.4 * (1.5 * x[1]).sin()];
+        let xs: Vec<Vec<f64>> = (0..3000).map(|_| sample(&mut rng)).collect();
+        let ys: Vec<[f64; 2]> = xs.iter().map(|x| f(x)).collect();
+        let t = train(&xs, &ys, 1e-5, [1.5, 0.5]).unwrap();
+        let mut c = Correction::try_new(t.clone()).unwrap();
+        let (mut err, mut sig) = (0.0, 0.0);
+        for _ in 0..200 {
+            let x = sample(&mut rng);
+            let (p, q) = (c.apply(&x), f(&x));
+            err += ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)) / 200.0;
+            sig += (q[0].powi(2) + q[1].powi(2)) / 200.0;
+        }
+        // the linear part exactly, the sine well: a fifth of the target's size left at most
+        assert!(err.sqrt() < 0.2 * sig.sqrt(), "rms {} of {}", err.sqrt(), sig.sqrt());
+        // the text format parses back to the same numbers
+        let src = t.to_rust("test");
+        let nums = |name: &str| -> Vec<f64> {
+            let l = src.lines().find(|l| l.contains(&format!("const {name}:"))).unwrap();
+            let body = &l[l.find("= [").unwrap() + 3..l.rfind(']').unwrap()];
+            body.split(", ").map(|v| v.parse().unwrap()).collect()
+        };
+        assert_eq!(nums("WX"), t.w[0]);
+        assert_eq!(nums("MEAN"), t.mean);
+    }
+
+    #[test]
+    fn bad_weights_are_refused() {
+        let mut t = Trained::builtin();
+        t.w[0].pop();
+        assert!(Correction::try_new(t).is_err());
+        let mut t = Trained::builtin();
+        t.scale[0] = 0.0;
+        assert!(Correction::try_new(t).is_err());
+    }
+
+    #[test]
+    fn inputs_are_bounded_and_refuse_other_sizes() {
+        let mut out = vec![0.0; INPUTS];
+        let d: Vec<f64> = (0..24).map(|i| i as f64 * 10.0).collect();
+        let g = vec![1.0; 24];
+        let kk = vec![0.5; 24];
+        assert!(inputs(
+            [0.0, 0.0],
+            [-10.0, 10.0, -5.0, 5.0],
+            1.0,
+            0.1,
+            0.2,
+            [3.0, -1.0],
+            230.0,
+            &d,
+            &g,
+            &kk,
+            |_| true,
+            &mut out
+        ));
+        assert!(out.iter().all(|v| v.is_finite() && v.abs() <= 3.0));
+        assert!(!inputs([0.0, 0.0], [0.0; 4], 0.0, 0.0, 0.0, [0.0; 2], 1.0, &d[..5], &g, &kk, |_| true, &mut out));
+        assert!(!inputs([0.0, 0.0], [0.0; 4], 0.0, 0.0, 0.0, [0.0; 2], 1.0, &[0.0; 24], &g, &kk, |_| true, &mut out));
+    }
+}
