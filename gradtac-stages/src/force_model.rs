@@ -44,7 +44,7 @@
 //! most [`MAX_KNOTS`] knots.
 
 use crate::force::{ForceEstimate, ForceMethod, ForceModel, ForceSample};
-use crate::force_ident::{identify, ForwardModel, Geometry};
+use crate::force_ident::{identify_with, ForwardModel, Geometry, Starts};
 use crate::locate::{ChangeDetector, DriftModel, LocateConfig};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Stage, TaxelFrame};
@@ -723,6 +723,33 @@ pub struct GaugeSample {
 /// Smallest gauge force a calibration sample needs (N): lighter frames are not used.
 pub const MIN_CALIBRATION_N: f64 = 0.05;
 
+/// How a `forward` calibration decides between the identified model and the `placed` law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ForwardGuard {
+    /// `placed` when the identified model's in-sample MAPE above 0.5 N is higher (session 31).
+    InSample,
+    /// `placed` when the identified model predicts held-aside presses worse: each contact run
+    /// (a press) of the calibration is predicted by both methods fitted without it, and the
+    /// pooled MAPE above 0.5 N of those predictions decides (fewer than 3 runs with a frame above
+    /// 0.5 N: the in-sample decision).
+    HeldAside,
+}
+
+/// The `forward` calibration's settings: where the identification starts and its guard.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ForwardSettings {
+    /// The identification's starts.
+    pub starts: Starts,
+    /// The guard.
+    pub guard: ForwardGuard,
+}
+
+impl Default for ForwardSettings {
+    fn default() -> Self {
+        ForwardSettings { starts: Starts::Single, guard: ForwardGuard::InSample }
+    }
+}
+
 /// Fit `method` on gauge samples (contact frames with at least [`MIN_CALIBRATION_N`]):
 /// ridge with `lambda`, the area curve with `curve`. The error says why a fit is impossible.
 ///
@@ -731,7 +758,8 @@ pub const MIN_CALIBRATION_N: f64 = 0.05;
 /// calibration frames worse than the two-number law does (in-sample MAPE above 0.5 N higher, or
 /// not finite) — the richer model fitting worse is the sign of a failed identification
 /// (`docs/force.md`, "why `forward` fails on member 700"). No tuned threshold. The returned
-/// file's method says which was written; [`calibrate_unguarded`] skips the guard.
+/// file's method says which was written; [`calibrate_unguarded`] skips the guard. With the
+/// [default settings](ForwardSettings::default); [`calibrate_with`] takes others.
 pub fn calibrate(
     samples: &[GaugeSample],
     method: CalibrationMethod,
@@ -739,14 +767,75 @@ pub fn calibrate(
     curve: ForceMethod,
     layout: &gradtac_stream::Layout,
 ) -> Result<ForceFile> {
-    let file = calibrate_unguarded(samples, method, lambda, curve, layout)?;
+    calibrate_with(samples, method, lambda, curve, layout, ForwardSettings::default())
+}
+
+/// [`calibrate`] with the `forward` settings `fwd` (its starts and guard).
+pub fn calibrate_with(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+    fwd: ForwardSettings,
+) -> Result<ForceFile> {
+    let file = calibrate_unguarded_with(samples, method, lambda, curve, layout, fwd.starts)?;
     if method != CalibrationMethod::Forward {
         return Ok(file);
     }
-    match calibrate_unguarded(samples, CalibrationMethod::Placed, lambda, curve, layout) {
-        Ok(placed) => Ok(forward_guard(file, placed)),
-        Err(_) => Ok(file),
+    let Ok(placed) = calibrate_unguarded(samples, CalibrationMethod::Placed, lambda, curve, layout) else {
+        return Ok(file);
+    };
+    if fwd.guard == ForwardGuard::HeldAside {
+        let aside = |m| held_aside_mape_pct(samples, m, lambda, curve, layout, fwd.starts);
+        if let (Some(f), Some(p)) = (aside(CalibrationMethod::Forward), aside(CalibrationMethod::Placed)) {
+            return Ok(if f.is_finite() && f <= p { file } else { placed });
+        }
     }
+    Ok(forward_guard(file, placed))
+}
+
+/// The pooled MAPE above 0.5 N (%) of `method` on each contact run (a press) of `samples`
+/// predicted by `method` fitted on the other runs (a run it cannot be fitted without counts
+/// 100 % per frame); `None` when fewer than 3 runs have a contact frame above 0.5 N.
+pub fn held_aside_mape_pct(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+    starts: Starts,
+) -> Option<f64> {
+    let scored = |s: &GaugeSample| s.contact && s.force_n.is_finite() && s.force_n > 0.5;
+    // each sample's run (0: no contact)
+    let (mut runs, mut run, mut was) = (Vec::with_capacity(samples.len()), 0usize, false);
+    for s in samples {
+        if s.contact && !was {
+            run += 1;
+        }
+        was = s.contact;
+        runs.push(if s.contact { run } else { 0 });
+    }
+    let pressed: Vec<usize> =
+        (1..=run).filter(|&r| samples.iter().zip(&runs).any(|(s, &k)| k == r && scored(s))).collect();
+    if pressed.len() < 3 {
+        return None;
+    }
+    let (mut sum, mut n) = (0.0, 0usize);
+    for &r in &pressed {
+        let train: Vec<GaugeSample> =
+            samples.iter().zip(&runs).filter(|(_, &k)| k != r).map(|(s, _)| s.clone()).collect();
+        let fitted = calibrate_unguarded_with(&train, method, lambda, curve, layout, starts).ok();
+        let mut predictor = fitted.as_ref().map(|f| ForcePredictor::new(&f.model));
+        for (s, _) in samples.iter().zip(&runs).filter(|(_, &k)| k == r) {
+            let p = predictor.as_mut().and_then(|p| p.push(s)).filter(|v| v.is_finite());
+            if scored(s) {
+                sum += p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n);
+                n += 1;
+            }
+        }
+    }
+    Some(100.0 * sum / n.max(1) as f64)
 }
 
 /// The `forward` guard's decision (see [`calibrate`]): `forward` unless it fits its own
@@ -769,6 +858,18 @@ pub fn calibrate_unguarded(
     lambda: f64,
     curve: ForceMethod,
     layout: &gradtac_stream::Layout,
+) -> Result<ForceFile> {
+    calibrate_unguarded_with(samples, method, lambda, curve, layout, ForwardSettings::default().starts)
+}
+
+/// [`calibrate_unguarded`] with the `forward` identification's `starts`.
+pub fn calibrate_unguarded_with(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+    starts: Starts,
 ) -> Result<ForceFile> {
     let used: Vec<&GaugeSample> =
         samples.iter().filter(|s| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()).collect();
@@ -813,7 +914,7 @@ pub fn calibrate_unguarded(
                     frames.push((s.change.as_slice(), s.force_n, press));
                 }
             }
-            let m = identify(&geo, &frames).ok_or_else(no_model)?;
+            let m = identify_with(&geo, &frames, starts).ok_or_else(no_model)?;
             CalibratedForce::Forward {
                 gains: m.gains,
                 exponent: m.exponent,
