@@ -728,7 +728,8 @@ mod tests {
     #[test]
     fn multi_start_identifies_a_narrow_kernel() {
         let geo = Geometry::for_positions(Layout::biotac_sp().positions());
-        let gains: Vec<f64> = (0..24).map(|i| if i == 4 { 39.0 } else { -50.0 - 20.0 * ((i as f64) * 1.3).sin() }).collect();
+        let gains: Vec<f64> =
+            (0..24).map(|i| if i == 4 { 39.0 } else { -50.0 - 20.0 * ((i as f64) * 1.3).sin() }).collect();
         let t = ForwardModel { gains, exponent: 0.57, spread: 0.22, width_mm: 1.6, shape: 2.0, lobe: 0.4 };
         let places = [[-6.5, -3.0], [4.0, 2.5], [1.0, -1.0], [-2.5, 5.5], [7.0, -4.0]];
         let data = frames(&t, &geo, &places);

@@ -746,7 +746,7 @@ pub struct ForwardSettings {
 
 impl Default for ForwardSettings {
     fn default() -> Self {
-        ForwardSettings { starts: Starts::Single, guard: ForwardGuard::InSample }
+        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside }
     }
 }
 
