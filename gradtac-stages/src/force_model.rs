@@ -825,8 +825,8 @@ pub fn held_aside_mape_pct(
     for &r in &pressed {
         let train: Vec<GaugeSample> =
             samples.iter().zip(&runs).filter(|(_, &k)| k != r).map(|(s, _)| s.clone()).collect();
-        let fitted = calibrate_unguarded_with(&train, method, lambda, curve, layout, starts).ok();
-        let mut predictor = fitted.as_ref().map(|f| ForcePredictor::new(&f.model));
+        let fitted = fit_model(&train, method, lambda, curve, layout, starts).ok();
+        let mut predictor = fitted.as_ref().map(ForcePredictor::new);
         for (s, _) in samples.iter().zip(&runs).filter(|(_, &k)| k == r) {
             let p = predictor.as_mut().and_then(|p| p.push(s)).filter(|v| v.is_finite());
             if scored(s) {
@@ -871,6 +871,45 @@ pub fn calibrate_unguarded_with(
     layout: &gradtac_stream::Layout,
     starts: Starts,
 ) -> Result<ForceFile> {
+    let model = fit_model(samples, method, lambda, curve, layout, starts)?;
+    let used: Vec<&GaugeSample> =
+        samples.iter().filter(|s| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()).collect();
+    let n = layout.len();
+    let mut predictor = ForcePredictor::new(&model);
+    let scored: Vec<f64> = samples
+        .iter()
+        .map(|s| (predictor.push(s), s))
+        .filter(|(_, s)| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite() && s.force_n > 0.5)
+        .map(|(p, s)| p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n))
+        .collect();
+    let lo = used.iter().map(|s| s.force_n).fold(f64::INFINITY, f64::min);
+    let hi = used.iter().map(|s| s.force_n).fold(f64::NEG_INFINITY, f64::max);
+    let file = ForceFile {
+        format: FORCE_FORMAT.into(),
+        version: model.version(),
+        layout: layout.name().to_string(),
+        taxels: n,
+        model,
+        calibration: CalibrationInfo {
+            samples: used.len() as u64,
+            force_range_n: [lo, hi],
+            in_sample_mape_pct: 100.0 * scored.iter().sum::<f64>() / scored.len().max(1) as f64,
+        },
+    };
+    file.validate()?;
+    Ok(file)
+}
+
+/// The model of `method` fitted on `samples` (see [`calibrate_unguarded_with`]), without the
+/// in-sample score.
+fn fit_model(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+    starts: Starts,
+) -> Result<CalibratedForce> {
     let used: Vec<&GaugeSample> =
         samples.iter().filter(|s| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()).collect();
     if used.len() < 10 {
@@ -988,29 +1027,7 @@ pub fn calibrate_unguarded_with(
             }
         }
     };
-    let mut predictor = ForcePredictor::new(&model);
-    let scored: Vec<f64> = samples
-        .iter()
-        .map(|s| (predictor.push(s), s))
-        .filter(|(_, s)| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite() && s.force_n > 0.5)
-        .map(|(p, s)| p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n))
-        .collect();
-    let lo = used.iter().map(|s| s.force_n).fold(f64::INFINITY, f64::min);
-    let hi = used.iter().map(|s| s.force_n).fold(f64::NEG_INFINITY, f64::max);
-    let file = ForceFile {
-        format: FORCE_FORMAT.into(),
-        version: model.version(),
-        layout: layout.name().to_string(),
-        taxels: n,
-        model,
-        calibration: CalibrationInfo {
-            samples: used.len() as u64,
-            force_range_n: [lo, hi],
-            in_sample_mape_pct: 100.0 * scored.iter().sum::<f64>() / scored.len().max(1) as f64,
-        },
-    };
-    file.validate()?;
-    Ok(file)
+    Ok(model)
 }
 
 /// Force from the changes (see the [module docs](self)): raw frames in, one
@@ -1318,11 +1335,20 @@ mod tests {
             bad.calibration.in_sample_mape_pct = worse;
             assert_eq!(forward_guard(bad, placed.clone()), placed, "in-sample {worse}");
         }
-        // samples of a law the forward model does not describe: whatever is written fits its
-        // own calibration no worse than `placed`, and is valid
+        // samples of a law the forward model does not describe: with the in-sample guard whatever
+        // is written fits its own calibration no worse than `placed`, and is valid
         let s = power_law_samples();
-        let file = calibrate(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
-        let raw = calibrate_unguarded(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout);
+        let in_sample = ForwardSettings { guard: ForwardGuard::InSample, ..ForwardSettings::default() };
+        let file =
+            calibrate_with(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout, in_sample).unwrap();
+        let raw = calibrate_unguarded_with(
+            &s,
+            CalibrationMethod::Forward,
+            0.0,
+            ForceMethod::Linear,
+            &layout,
+            in_sample.starts,
+        );
         let placed = calibrate(&s, CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
         assert!(file.calibration.in_sample_mape_pct <= placed.calibration.in_sample_mape_pct + 1e-9);
         file.validate().unwrap();
@@ -1330,6 +1356,49 @@ mod tests {
             let chose_placed = file.model.method() == CalibrationMethod::Placed;
             assert_eq!(chose_placed, raw.calibration.in_sample_mape_pct > placed.calibration.in_sample_mape_pct);
         }
+    }
+
+    /// The held-aside-press guard (the default since session 32): each contact run is
+    /// predicted by both methods fitted without it; `forward` stays when its pooled error is no
+    /// higher; with fewer than 3 runs above 0.5 N the in-sample guard decides.
+    #[test]
+    fn the_held_aside_guard_predicts_each_press_from_the_others() {
+        let layout = Layout::biotac_sp();
+        let fwd = ForwardSettings::default();
+        assert_eq!(fwd, ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside });
+        let aside = |s: &[GaugeSample], m| held_aside_mape_pct(s, m, 0.0, ForceMethod::Linear, &layout, fwd.starts);
+        // its own model, three presses at three places: the forward model predicts a press it
+        // never saw (the third place's electrodes keep the prior gain, here the true one)
+        let s = forward_samples();
+        let (f, p) = (aside(&s, CalibrationMethod::Forward).unwrap(), aside(&s, CalibrationMethod::Placed).unwrap());
+        assert!(f < 5.0 && f < p, "held aside: forward {f} %, placed {p} %");
+        let file = calibrate(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
+        assert_eq!(file.model.method(), CalibrationMethod::Forward);
+        // a law the forward model does not describe: the written file is the one with the lower
+        // held-aside error
+        let s: Vec<GaugeSample> = forward_samples()
+            .into_iter()
+            .map(|mut g| {
+                g.force_n = 0.1 * g.force_n * g.force_n + 0.3 * g.force_n.sqrt();
+                g
+            })
+            .collect();
+        let file = calibrate(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
+        file.validate().unwrap();
+        let (f, p) = (aside(&s, CalibrationMethod::Forward).unwrap(), aside(&s, CalibrationMethod::Placed).unwrap());
+        assert!(f.is_finite() && p.is_finite());
+        assert_eq!(file.model.method() == CalibrationMethod::Placed, f > p, "forward {f} %, placed {p} %");
+        // two presses: no held-aside figure, the in-sample guard's file
+        let two: Vec<GaugeSample> = forward_samples().into_iter().take(62).collect();
+        assert!(aside(&two, CalibrationMethod::Forward).is_none());
+        let in_sample = ForwardSettings { guard: ForwardGuard::InSample, ..fwd };
+        assert_eq!(
+            calibrate(&two, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap(),
+            calibrate_with(&two, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout, in_sample).unwrap()
+        );
+        // a run the method cannot be fitted without counts 100 % per frame, never a panic
+        let few: Vec<GaugeSample> = forward_samples().into_iter().take(40).collect();
+        assert!(aside(&few, CalibrationMethod::Forward).is_none_or(|v| v.is_finite()));
     }
 
     #[test]
