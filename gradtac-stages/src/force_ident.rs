@@ -36,6 +36,11 @@
 //! 3. the five shape numbers: Levenberg–Marquardt (forward-difference Jacobian) with the gains
 //!    and places fixed.
 //!
+//! The shape fit starts from `(γ, s, w)` = (0.75, 0.2, 3 mm) ([`Starts::Single`], session 31)
+//! or from each of [`MULTI_STARTS`], keeping the lowest final cost ([`Starts::Multi`], what
+//! `gradtac calibrate force` uses since session 32: chosen on the tuning members by a rule
+//! stated first; held out it scored the same worst member as one start — `docs/force.md`).
+//!
 //! Each frame's residuals are weighted by `1/max(max|Δ|, 5)²`, so every frame counts by its
 //! *relative* error (what MAPE measures), not its size in counts. At most [`MAX_FRAMES`]
 //! frames (evenly subsampled) of at least [`MIN_FORCE_N`] are used. Held fixed: the profile
