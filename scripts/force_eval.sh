@@ -5,8 +5,8 @@
 # member ≤ 58 %, mean ≤ 34 %, untouched frames above 0.5 N ≤ 13 %; measured session 32: 55.7 %,
 # 32.6 %, 11.88 % — seeds 100 and 102 fall back to the placed law; held-out seed 100 keeps
 # contacts into its rests; session 31: 55.7 %, 33.8 %, 12.1 % under floors 65 / 35 / 15).
-# ≈ 2 min after the release build the other checks made (the default's calibration runs 36
-# identifications; session 31's one took ≈ 5 s in all).
+# ≈ 53 s after the release build the other checks made, on a loaded machine (the default's
+# calibration runs 36 identifications; with session 31's one it took ≈ 5 s in all).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 echo "== force calibration, held-out places of held-out members (quick)"
