@@ -754,12 +754,15 @@ impl Default for ForwardSettings {
 /// ridge with `lambda`, the area curve with `curve`. The error says why a fit is impossible.
 ///
 /// **The `forward` guard:** a `forward` calibration also fits the `placed` law on the same
-/// samples and returns the `placed` file instead when the identified model explains its own
-/// calibration frames worse than the two-number law does (in-sample MAPE above 0.5 N higher, or
-/// not finite) — the richer model fitting worse is the sign of a failed identification
-/// (`docs/force.md`, "why `forward` fails on member 700"). No tuned threshold. The returned
-/// file's method says which was written; [`calibrate_unguarded`] skips the guard. With the
-/// [default settings](ForwardSettings::default); [`calibrate_with`] takes others.
+/// samples and returns the `placed` file instead when the identified model predicts the
+/// calibration's contact runs (presses), each held aside and predicted by both methods fitted
+/// on the others, worse than the two-number law does ([`ForwardGuard::HeldAside`], the default
+/// since session 32; with fewer than 3 runs above 0.5 N, or with [`ForwardGuard::InSample`]:
+/// when it explains its own calibration frames worse, session 31's guard). No tuned threshold.
+/// The identification starts from [`Starts::Multi`] by default. The returned file's method says
+/// which was written; [`calibrate_unguarded`] skips the guard. With the
+/// [default settings](ForwardSettings::default); [`calibrate_with`] takes others
+/// (`docs/force.md`, sessions 31 and 32).
 pub fn calibrate(
     samples: &[GaugeSample],
     method: CalibrationMethod,
