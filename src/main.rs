@@ -469,8 +469,9 @@ fn execute(cmd: Command) -> Result<ExitCode, gradtac::Error> {
                 if method != file.model.method() {
                     // the `forward` guard (force_model::calibrate): the identification failed
                     sayln!(
-                        "note: the identified {} model fitted its own calibration frames worse than the {} law, \
-                         so the {} law was written (docs/force.md, the forward guard)",
+                        "note: the identified {} model predicted the calibration's presses, each held aside, worse \
+                         than the {} law (with fewer than 3 presses: fitted its own frames worse), so the {} law was \
+                         written (docs/force.md, the forward guard)",
                         method.name(),
                         file.model.method().name(),
                         file.model.method().name()

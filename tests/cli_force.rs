@@ -85,32 +85,19 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
         .arg(&model)
         .output()
         .unwrap());
-    // the default method is `forward` (session 31); member 700's identification fails, so its
-    // guard writes the placed law and says so (the last test)
-    assert!(text.contains("calibrated placed force on"), "{text}");
-    assert!(text.contains("note: the identified forward model fitted its own calibration frames worse"), "{text}");
-    // without the guard 108.2 % below (the identified model: γ 1.16, w 3.2 mm, 11 of 24 gains of
-    // the wrong sign); with it a version-3 placed file, the same bytes as `--method forward` writes
-    assert_eq!(gradtac::scene::read_force_file(&model).unwrap().version, 3);
-    let explicit = dir.path().join("forward.json");
-    ok(gradtac()
-        .args(["calibrate", "force"])
-        .arg(&cal)
-        .args(["--force-column", "force_n", "--method", "forward", "--out"])
-        .arg(&explicit)
-        .output()
-        .unwrap());
-    assert_eq!(std::fs::read(&explicit).unwrap(), std::fs::read(&model).unwrap());
+    // the default method is `forward` (session 31) with the multi-start identification and the
+    // held-aside-press guard (session 32): on member 700 the forward model predicts each
+    // calibration press held aside better than the placed law, so a version-4 forward file is
+    // written (session 31's single start failed here — γ 1.16, w 3.2 mm, 11 of 24 gains of the
+    // wrong sign — and its in-sample guard wrote the placed law)
+    assert!(text.contains("calibrated forward force on") && !text.contains("note:"), "{text}");
+    assert_eq!(gradtac::scene::read_force_file(&model).unwrap().version, 4);
     // a second session of the same sensor (other noise), through the bare default chain
     let test = ForceSession { noise_stream: 9, ..ForceSession::presses(700, 6) }.simulate();
     write_csv(&dir.path().join("test.csv"), &test);
     let run = scene(dir.path(), "run.toml", "test.csv", "[stages.force]\nmodel = \"force.json\"\n", "force");
     let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
-    assert!(
-        explain
-            .contains("a power law in the total change ÷ the layout's response at the contact (w = 2.5 mm) of the 24"),
-        "{explain}"
-    );
+    assert!(explain.contains("the identified forward model"), "{explain}");
     assert!(explain.contains("drift model: settle 0.2 s"), "{explain}");
     assert!(!explain.contains("centroid"), "the force alone needs no contact location: {explain}");
     ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
@@ -135,22 +122,23 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
     // (docs/force.md, "Untouched frames"): with the session-29 drift model its second press
     // (3 N) was absorbed into the baseline during its hold and its lift read as a contact that
     // did not end (51 of 162 untouched frames above 0.5 N). The gate's holds
-    // (`force_model::FORCE_GATE`) keep that press out of the baseline; measured 38 of 162 now,
+    // (`force_model::FORCE_GATE`) keep that press out of the baseline; measured 38 of 162 with
+    // the placed law (session 31's default here), 18 of 162 with the forward model (session 32),
     // the rest being contacts that have not yet returned (steady below 0.3 of their peak)
     // when the 0.6 s rests end. The issue's 2 % is not met; this pins the figure so a change
     // in either direction is seen.
     eprintln!("{over} of {quiet} untouched frames above 0.5 N");
-    assert!(over as f64 <= 0.25 * quiet as f64, "{over} of {quiet} untouched frames above 0.5 N");
+    assert!(over as f64 <= 0.15 * quiet as f64, "{over} of {quiet} untouched frames above 0.5 N");
     // the same sensor's next session at the same places (the held-out places are
     // examples/force_eval.rs's business)
     let mape = 100.0 * errs.iter().sum::<f64>() / errs.len() as f64;
     eprintln!("MAPE {mape:.1} % above 0.5 N");
-    // docs/force.md: the calibrated models do not reach the 10 % the issue asks (here 41.2 %
-    // with `placed`, which the default `forward` falls back to on this member — 108.2 % without
-    // that guard; `placed` trades accuracy at the calibrated places for transfer to other places;
-    // 31.4 % with `total` and the gate, 72 % with the session-29 drift model); pinned with a
-    // small margin
-    assert!(mape < 45.0, "MAPE {mape:.1} % on the same sensor's next session");
+    // docs/force.md: the calibrated models do not reach the 10 % the issue asks (here 35.7 %
+    // with the session-32 default's forward model; 41.2 % with `placed`, session 31's fallback
+    // on this member; 108.2 % with session 31's single-start identification unguarded; 31.4 %
+    // with `total` and the gate, 72 % with the session-29 drift model); pinned with a small
+    // margin
+    assert!(mape < 40.0, "MAPE {mape:.1} % on the same sensor's next session");
     let pressed = (0..f.len()).filter(|&k| test.force[k.saturating_sub(4)] > 2.0);
     let (n, with) = pressed.fold((0, 0), |(n, w), k| (n + 1, w + usize::from(f[k].is_some())));
     // the gate holds a press from 2 σ on, so no press above 2 N goes unreported: measured 1640
@@ -186,7 +174,13 @@ fn a_gauge_file_matched_by_time_and_clear_refusals() {
         "--force-time-unit",
         "ms",
     ]));
+    // member 701 (4 presses): its forward model predicts the presses held aside worse than the
+    // placed law (session 32's guard), so the placed law is written and the CLI says why
     assert!(text.contains("calibrated placed force"), "{text}");
+    assert!(
+        text.contains("note: the identified forward model predicted the calibration's presses, each held aside"),
+        "{text}"
+    );
     let file = gradtac::scene::read_force_file(&model).unwrap();
     assert_eq!(file.taxels, 24);
     // a missing column, and an output that is the recording, are refused

@@ -44,7 +44,7 @@
 //! most [`MAX_KNOTS`] knots.
 
 use crate::force::{ForceEstimate, ForceMethod, ForceModel, ForceSample};
-use crate::force_ident::{identify, ForwardModel, Geometry};
+use crate::force_ident::{identify_with, ForwardModel, Geometry, Starts};
 use crate::locate::{ChangeDetector, DriftModel, LocateConfig};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Stage, TaxelFrame};
@@ -723,15 +723,46 @@ pub struct GaugeSample {
 /// Smallest gauge force a calibration sample needs (N): lighter frames are not used.
 pub const MIN_CALIBRATION_N: f64 = 0.05;
 
+/// How a `forward` calibration decides between the identified model and the `placed` law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ForwardGuard {
+    /// `placed` when the identified model's in-sample MAPE above 0.5 N is higher (session 31).
+    InSample,
+    /// `placed` when the identified model predicts held-aside presses worse: each contact run
+    /// (a press) of the calibration is predicted by both methods fitted without it, and the
+    /// pooled MAPE above 0.5 N of those predictions decides (fewer than 3 runs with a frame above
+    /// 0.5 N: the in-sample decision).
+    HeldAside,
+}
+
+/// The `forward` calibration's settings: where the identification starts and its guard.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ForwardSettings {
+    /// The identification's starts.
+    pub starts: Starts,
+    /// The guard.
+    pub guard: ForwardGuard,
+}
+
+impl Default for ForwardSettings {
+    fn default() -> Self {
+        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside }
+    }
+}
+
 /// Fit `method` on gauge samples (contact frames with at least [`MIN_CALIBRATION_N`]):
 /// ridge with `lambda`, the area curve with `curve`. The error says why a fit is impossible.
 ///
 /// **The `forward` guard:** a `forward` calibration also fits the `placed` law on the same
-/// samples and returns the `placed` file instead when the identified model explains its own
-/// calibration frames worse than the two-number law does (in-sample MAPE above 0.5 N higher, or
-/// not finite) — the richer model fitting worse is the sign of a failed identification
-/// (`docs/force.md`, "why `forward` fails on member 700"). No tuned threshold. The returned
-/// file's method says which was written; [`calibrate_unguarded`] skips the guard.
+/// samples and returns the `placed` file instead when the identified model predicts the
+/// calibration's contact runs (presses), each held aside and predicted by both methods fitted
+/// on the others, worse than the two-number law does ([`ForwardGuard::HeldAside`], the default
+/// since session 32; with fewer than 3 runs above 0.5 N, or with [`ForwardGuard::InSample`]:
+/// when it explains its own calibration frames worse, session 31's guard). No tuned threshold.
+/// The identification starts from [`Starts::Multi`] by default. The returned file's method says
+/// which was written; [`calibrate_unguarded`] skips the guard. With the
+/// [default settings](ForwardSettings::default); [`calibrate_with`] takes others
+/// (`docs/force.md`, sessions 31 and 32).
 pub fn calibrate(
     samples: &[GaugeSample],
     method: CalibrationMethod,
@@ -739,14 +770,75 @@ pub fn calibrate(
     curve: ForceMethod,
     layout: &gradtac_stream::Layout,
 ) -> Result<ForceFile> {
-    let file = calibrate_unguarded(samples, method, lambda, curve, layout)?;
+    calibrate_with(samples, method, lambda, curve, layout, ForwardSettings::default())
+}
+
+/// [`calibrate`] with the `forward` settings `fwd` (its starts and guard).
+pub fn calibrate_with(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+    fwd: ForwardSettings,
+) -> Result<ForceFile> {
+    let file = calibrate_unguarded_with(samples, method, lambda, curve, layout, fwd.starts)?;
     if method != CalibrationMethod::Forward {
         return Ok(file);
     }
-    match calibrate_unguarded(samples, CalibrationMethod::Placed, lambda, curve, layout) {
-        Ok(placed) => Ok(forward_guard(file, placed)),
-        Err(_) => Ok(file),
+    let Ok(placed) = calibrate_unguarded(samples, CalibrationMethod::Placed, lambda, curve, layout) else {
+        return Ok(file);
+    };
+    if fwd.guard == ForwardGuard::HeldAside {
+        let aside = |m| held_aside_mape_pct(samples, m, lambda, curve, layout, fwd.starts);
+        if let (Some(f), Some(p)) = (aside(CalibrationMethod::Forward), aside(CalibrationMethod::Placed)) {
+            return Ok(if f.is_finite() && f <= p { file } else { placed });
+        }
     }
+    Ok(forward_guard(file, placed))
+}
+
+/// The pooled MAPE above 0.5 N (%) of `method` on each contact run (a press) of `samples`
+/// predicted by `method` fitted on the other runs (a run it cannot be fitted without counts
+/// 100 % per frame); `None` when fewer than 3 runs have a contact frame above 0.5 N.
+pub fn held_aside_mape_pct(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+    starts: Starts,
+) -> Option<f64> {
+    let scored = |s: &GaugeSample| s.contact && s.force_n.is_finite() && s.force_n > 0.5;
+    // each sample's run (0: no contact)
+    let (mut runs, mut run, mut was) = (Vec::with_capacity(samples.len()), 0usize, false);
+    for s in samples {
+        if s.contact && !was {
+            run += 1;
+        }
+        was = s.contact;
+        runs.push(if s.contact { run } else { 0 });
+    }
+    let pressed: Vec<usize> =
+        (1..=run).filter(|&r| samples.iter().zip(&runs).any(|(s, &k)| k == r && scored(s))).collect();
+    if pressed.len() < 3 {
+        return None;
+    }
+    let (mut sum, mut n) = (0.0, 0usize);
+    for &r in &pressed {
+        let train: Vec<GaugeSample> =
+            samples.iter().zip(&runs).filter(|(_, &k)| k != r).map(|(s, _)| s.clone()).collect();
+        let fitted = fit_model(&train, method, lambda, curve, layout, starts).ok();
+        let mut predictor = fitted.as_ref().map(ForcePredictor::new);
+        for (s, _) in samples.iter().zip(&runs).filter(|(_, &k)| k == r) {
+            let p = predictor.as_mut().and_then(|p| p.push(s)).filter(|v| v.is_finite());
+            if scored(s) {
+                sum += p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n);
+                n += 1;
+            }
+        }
+    }
+    Some(100.0 * sum / n.max(1) as f64)
 }
 
 /// The `forward` guard's decision (see [`calibrate`]): `forward` unless it fits its own
@@ -770,6 +862,57 @@ pub fn calibrate_unguarded(
     curve: ForceMethod,
     layout: &gradtac_stream::Layout,
 ) -> Result<ForceFile> {
+    calibrate_unguarded_with(samples, method, lambda, curve, layout, ForwardSettings::default().starts)
+}
+
+/// [`calibrate_unguarded`] with the `forward` identification's `starts`.
+pub fn calibrate_unguarded_with(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+    starts: Starts,
+) -> Result<ForceFile> {
+    let model = fit_model(samples, method, lambda, curve, layout, starts)?;
+    let used: Vec<&GaugeSample> =
+        samples.iter().filter(|s| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()).collect();
+    let n = layout.len();
+    let mut predictor = ForcePredictor::new(&model);
+    let scored: Vec<f64> = samples
+        .iter()
+        .map(|s| (predictor.push(s), s))
+        .filter(|(_, s)| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite() && s.force_n > 0.5)
+        .map(|(p, s)| p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n))
+        .collect();
+    let lo = used.iter().map(|s| s.force_n).fold(f64::INFINITY, f64::min);
+    let hi = used.iter().map(|s| s.force_n).fold(f64::NEG_INFINITY, f64::max);
+    let file = ForceFile {
+        format: FORCE_FORMAT.into(),
+        version: model.version(),
+        layout: layout.name().to_string(),
+        taxels: n,
+        model,
+        calibration: CalibrationInfo {
+            samples: used.len() as u64,
+            force_range_n: [lo, hi],
+            in_sample_mape_pct: 100.0 * scored.iter().sum::<f64>() / scored.len().max(1) as f64,
+        },
+    };
+    file.validate()?;
+    Ok(file)
+}
+
+/// The model of `method` fitted on `samples` (see [`calibrate_unguarded_with`]), without the
+/// in-sample score.
+fn fit_model(
+    samples: &[GaugeSample],
+    method: CalibrationMethod,
+    lambda: f64,
+    curve: ForceMethod,
+    layout: &gradtac_stream::Layout,
+    starts: Starts,
+) -> Result<CalibratedForce> {
     let used: Vec<&GaugeSample> =
         samples.iter().filter(|s| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()).collect();
     if used.len() < 10 {
@@ -813,7 +956,7 @@ pub fn calibrate_unguarded(
                     frames.push((s.change.as_slice(), s.force_n, press));
                 }
             }
-            let m = identify(&geo, &frames).ok_or_else(no_model)?;
+            let m = identify_with(&geo, &frames, starts).ok_or_else(no_model)?;
             CalibratedForce::Forward {
                 gains: m.gains,
                 exponent: m.exponent,
@@ -887,29 +1030,7 @@ pub fn calibrate_unguarded(
             }
         }
     };
-    let mut predictor = ForcePredictor::new(&model);
-    let scored: Vec<f64> = samples
-        .iter()
-        .map(|s| (predictor.push(s), s))
-        .filter(|(_, s)| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite() && s.force_n > 0.5)
-        .map(|(p, s)| p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n))
-        .collect();
-    let lo = used.iter().map(|s| s.force_n).fold(f64::INFINITY, f64::min);
-    let hi = used.iter().map(|s| s.force_n).fold(f64::NEG_INFINITY, f64::max);
-    let file = ForceFile {
-        format: FORCE_FORMAT.into(),
-        version: model.version(),
-        layout: layout.name().to_string(),
-        taxels: n,
-        model,
-        calibration: CalibrationInfo {
-            samples: used.len() as u64,
-            force_range_n: [lo, hi],
-            in_sample_mape_pct: 100.0 * scored.iter().sum::<f64>() / scored.len().max(1) as f64,
-        },
-    };
-    file.validate()?;
-    Ok(file)
+    Ok(model)
 }
 
 /// Force from the changes (see the [module docs](self)): raw frames in, one
@@ -1217,11 +1338,20 @@ mod tests {
             bad.calibration.in_sample_mape_pct = worse;
             assert_eq!(forward_guard(bad, placed.clone()), placed, "in-sample {worse}");
         }
-        // samples of a law the forward model does not describe: whatever is written fits its
-        // own calibration no worse than `placed`, and is valid
+        // samples of a law the forward model does not describe: with the in-sample guard whatever
+        // is written fits its own calibration no worse than `placed`, and is valid
         let s = power_law_samples();
-        let file = calibrate(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
-        let raw = calibrate_unguarded(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout);
+        let in_sample = ForwardSettings { guard: ForwardGuard::InSample, ..ForwardSettings::default() };
+        let file =
+            calibrate_with(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout, in_sample).unwrap();
+        let raw = calibrate_unguarded_with(
+            &s,
+            CalibrationMethod::Forward,
+            0.0,
+            ForceMethod::Linear,
+            &layout,
+            in_sample.starts,
+        );
         let placed = calibrate(&s, CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
         assert!(file.calibration.in_sample_mape_pct <= placed.calibration.in_sample_mape_pct + 1e-9);
         file.validate().unwrap();
@@ -1229,6 +1359,49 @@ mod tests {
             let chose_placed = file.model.method() == CalibrationMethod::Placed;
             assert_eq!(chose_placed, raw.calibration.in_sample_mape_pct > placed.calibration.in_sample_mape_pct);
         }
+    }
+
+    /// The held-aside-press guard (the default since session 32): each contact run is
+    /// predicted by both methods fitted without it; `forward` stays when its pooled error is no
+    /// higher; with fewer than 3 runs above 0.5 N the in-sample guard decides.
+    #[test]
+    fn the_held_aside_guard_predicts_each_press_from_the_others() {
+        let layout = Layout::biotac_sp();
+        let fwd = ForwardSettings::default();
+        assert_eq!(fwd, ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside });
+        let aside = |s: &[GaugeSample], m| held_aside_mape_pct(s, m, 0.0, ForceMethod::Linear, &layout, fwd.starts);
+        // its own model, three presses at three places: the forward model predicts a press it
+        // never saw (the third place's electrodes keep the prior gain, here the true one)
+        let s = forward_samples();
+        let (f, p) = (aside(&s, CalibrationMethod::Forward).unwrap(), aside(&s, CalibrationMethod::Placed).unwrap());
+        assert!(f < 5.0 && f < p, "held aside: forward {f} %, placed {p} %");
+        let file = calibrate(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
+        assert_eq!(file.model.method(), CalibrationMethod::Forward);
+        // a law the forward model does not describe: the written file is the one with the lower
+        // held-aside error
+        let s: Vec<GaugeSample> = forward_samples()
+            .into_iter()
+            .map(|mut g| {
+                g.force_n = 0.1 * g.force_n * g.force_n + 0.3 * g.force_n.sqrt();
+                g
+            })
+            .collect();
+        let file = calibrate(&s, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
+        file.validate().unwrap();
+        let (f, p) = (aside(&s, CalibrationMethod::Forward).unwrap(), aside(&s, CalibrationMethod::Placed).unwrap());
+        assert!(f.is_finite() && p.is_finite());
+        assert_eq!(file.model.method() == CalibrationMethod::Placed, f > p, "forward {f} %, placed {p} %");
+        // two presses: no held-aside figure, the in-sample guard's file
+        let two: Vec<GaugeSample> = forward_samples().into_iter().take(62).collect();
+        assert!(aside(&two, CalibrationMethod::Forward).is_none());
+        let in_sample = ForwardSettings { guard: ForwardGuard::InSample, ..fwd };
+        assert_eq!(
+            calibrate(&two, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap(),
+            calibrate_with(&two, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout, in_sample).unwrap()
+        );
+        // a run the method cannot be fitted without counts 100 % per frame, never a panic
+        let few: Vec<GaugeSample> = forward_samples().into_iter().take(40).collect();
+        assert!(aside(&few, CalibrationMethod::Forward).is_none_or(|v| v.is_finite()));
     }
 
     #[test]
