@@ -62,6 +62,8 @@ use std::time::Instant;
 mod headline;
 #[path = "dos_eval_parts/learned.rs"]
 mod learned;
+#[path = "dos_eval_parts/sliding_cost.rs"]
+mod sliding_cost;
 #[path = "dos_eval_parts/window.rs"]
 mod window;
 

@@ -9,12 +9,13 @@
 //! `MODEL.json` is a `gradtac calibrate dos` model (with its window part), `DIR` the labelled
 //! recordings (`DIR/<class>/<name>.csv`, e.g. the BioTacSP-DoS development recordings).
 
+#[path = "dos_eval_parts/sliding_cost.rs"]
+mod sliding_cost;
+
 use gradtac::calibrate::{read_model, read_recordings, CalibrateOptions};
-use gradtac::stages::dos::{DosClassifier, DosModel};
-use gradtac::stream::{Layout, SensorId, Stage, TaxelFrame, Timestamp};
+use gradtac::stream::Layout;
 use std::error::Error;
 use std::path::PathBuf;
-use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn Error>> {
     let mut args = std::env::args().skip(1);
@@ -43,43 +44,11 @@ fn main() -> Result<(), Box<dyn Error>> {
     println!("|---|---|---|---|---|");
     let alone = model.clone().with_window(None)?;
     for (name, m) in [("Student-t + window part", &model), ("Student-t alone", &alone)] {
-        let mut cost = cost_of(m, &recs, &layout, n, hop, early)?;
+        let mut cost = sliding_cost::push_costs(m, recs.iter().map(|r| r.frames.as_slice()), &layout, (n, hop, early))?;
         let mean = cost.iter().sum::<f64>() / cost.len().max(1) as f64;
         cost.sort_by(f64::total_cmp);
         let q = |p: f64| cost[((cost.len() - 1) as f64 * p).round() as usize];
         println!("| {name} | {:.2} | {:.2} | {:.0} | {mean:.2} |", q(0.5), q(0.99), q(1.0));
     }
     Ok(())
-}
-
-/// Each frame's `push` time (µs) over every recording, one fresh stage per recording.
-fn cost_of(
-    model: &DosModel,
-    recs: &[gradtac::calibrate::Recording],
-    layout: &Layout,
-    n: u64,
-    hop: u64,
-    early: bool,
-) -> Result<Vec<f64>, Box<dyn Error>> {
-    let mut cost = Vec::new();
-    let mut out = Vec::new();
-    for r in recs {
-        let mut stage = DosClassifier::try_new(model.clone(), layout, Some(n))?.with_hop(hop)?;
-        if early {
-            stage = stage.with_early_decisions()?;
-        }
-        for (seq, v) in r.frames.iter().enumerate() {
-            let f = TaxelFrame::new(
-                SensorId::new("ff"),
-                Timestamp::from_nanos(seq as i64 * 10_000_000),
-                seq as u64,
-                v.clone(),
-            );
-            let t = Instant::now();
-            stage.push(f, &mut out)?;
-            cost.push(t.elapsed().as_secs_f64() * 1e6);
-            out.clear();
-        }
-    }
-    Ok(cost)
 }

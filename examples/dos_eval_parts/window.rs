@@ -391,26 +391,7 @@ fn sliding_cost(
     test: &[usize],
     layout: &Layout,
 ) -> Result<Vec<f64>, Box<dyn Error>> {
-    use gradtac::stages::dos::DosClassifier;
-    use gradtac::stream::{SensorId, Stage, TaxelFrame, Timestamp};
-    let mut cost = Vec::new();
-    let mut out = Vec::new();
-    for &i in test {
-        let mut stage = DosClassifier::try_new(model.clone(), layout, Some(250))?.with_hop(10)?;
-        for (seq, v) in tr[i].frames.iter().enumerate() {
-            let f = TaxelFrame::new(
-                SensorId::new("ff"),
-                Timestamp::from_nanos(seq as i64 * 10_000_000),
-                seq as u64,
-                v.clone(),
-            );
-            let t = Instant::now();
-            stage.push(f, &mut out)?;
-            cost.push(t.elapsed().as_secs_f64() * 1e6);
-            out.clear();
-        }
-    }
-    Ok(cost)
+    crate::sliding_cost::push_costs(model, test.iter().map(|&i| tr[i].frames.as_slice()), layout, (250, 10, false))
 }
 
 /// The scene's path for one outer fold: the Student-t candidate `tcand` and the window candidate
