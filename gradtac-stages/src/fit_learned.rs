@@ -40,32 +40,8 @@
 //! recordings (`examples/locate_dos.rs`). Cost: one `RANDOM × INPUTS` product and `RANDOM`
 //! cosines per fitted frame.
 
+use crate::splitmix::SplitMix;
 use crate::{Error, Result};
-
-/// SplitMix64 for the random features (the same generator as `dos::train::SplitMix`, which is
-/// behind the `train` feature; inference needs these draws without it).
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn new(seed: u64) -> Self {
-        SplitMix(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.uniform()
-    }
-    fn normal(&mut self) -> f64 {
-        let u = 1.0 - self.uniform();
-        let v = self.uniform();
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
 
 /// Number of inputs per frame (see the module docs).
 pub const INPUTS: usize = 7 + 2 * 24;

@@ -45,6 +45,7 @@ pub mod sim_force;
 pub mod sim_grasp;
 pub mod slip;
 pub mod slip_pattern;
+pub mod splitmix;
 pub mod tare;
 pub mod track;
 pub mod window;
