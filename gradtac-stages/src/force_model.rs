@@ -798,6 +798,22 @@ pub fn calibrate_with(
     Ok(forward_guard(file, placed))
 }
 
+/// Whether a sample is used for a calibration: a contact frame of a finite gauge force of at
+/// least [`MIN_CALIBRATION_N`].
+fn used_for_calibration(s: &GaugeSample) -> bool {
+    s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()
+}
+
+/// Whether a calibration sample is scored: a contact frame of a finite gauge force above 0.5 N.
+fn scored(s: &GaugeSample) -> bool {
+    s.contact && s.force_n.is_finite() && s.force_n > 0.5
+}
+
+/// A scored sample's relative error for the prediction `p` (none: 1, i.e. 100 %).
+fn relative_error(p: Option<f64>, s: &GaugeSample) -> f64 {
+    p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n)
+}
+
 /// The pooled MAPE above 0.5 N (%) of `method` on each contact run (a press) of `samples`
 /// predicted by `method` fitted on the other runs (a run it cannot be fitted without counts
 /// 100 % per frame); `None` when fewer than 3 runs have a contact frame above 0.5 N.
@@ -809,7 +825,6 @@ pub fn held_aside_mape_pct(
     layout: &gradtac_stream::Layout,
     starts: Starts,
 ) -> Option<f64> {
-    let scored = |s: &GaugeSample| s.contact && s.force_n.is_finite() && s.force_n > 0.5;
     // each sample's run (0: no contact)
     let (mut runs, mut run, mut was) = (Vec::with_capacity(samples.len()), 0usize, false);
     for s in samples {
@@ -833,7 +848,7 @@ pub fn held_aside_mape_pct(
         for (s, _) in samples.iter().zip(&runs).filter(|(_, &k)| k == r) {
             let p = predictor.as_mut().and_then(|p| p.push(s)).filter(|v| v.is_finite());
             if scored(s) {
-                sum += p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n);
+                sum += relative_error(p, s);
                 n += 1;
             }
         }
@@ -875,15 +890,14 @@ pub fn calibrate_unguarded_with(
     starts: Starts,
 ) -> Result<ForceFile> {
     let model = fit_model(samples, method, lambda, curve, layout, starts)?;
-    let used: Vec<&GaugeSample> =
-        samples.iter().filter(|s| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()).collect();
+    let used: Vec<&GaugeSample> = samples.iter().filter(|s| used_for_calibration(s)).collect();
     let n = layout.len();
     let mut predictor = ForcePredictor::new(&model);
     let scored: Vec<f64> = samples
         .iter()
         .map(|s| (predictor.push(s), s))
-        .filter(|(_, s)| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite() && s.force_n > 0.5)
-        .map(|(p, s)| p.map_or(1.0, |p| (p - s.force_n).abs() / s.force_n))
+        .filter(|(_, s)| scored(s))
+        .map(|(p, s)| relative_error(p, s))
         .collect();
     let lo = used.iter().map(|s| s.force_n).fold(f64::INFINITY, f64::min);
     let hi = used.iter().map(|s| s.force_n).fold(f64::NEG_INFINITY, f64::max);
@@ -913,8 +927,7 @@ fn fit_model(
     layout: &gradtac_stream::Layout,
     starts: Starts,
 ) -> Result<CalibratedForce> {
-    let used: Vec<&GaugeSample> =
-        samples.iter().filter(|s| s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite()).collect();
+    let used: Vec<&GaugeSample> = samples.iter().filter(|s| used_for_calibration(s)).collect();
     if used.len() < 10 {
         return Err(invalid(format!(
             "{} frames in contact with a gauge force ≥ {MIN_CALIBRATION_N} N (of {}); at least 10 are needed — \
@@ -952,7 +965,7 @@ fn fit_model(
                     press += 1;
                 }
                 was = s.contact;
-                if s.contact && s.force_n >= MIN_CALIBRATION_N && s.force_n.is_finite() {
+                if used_for_calibration(s) {
                     frames.push((s.change.as_slice(), s.force_n, press));
                 }
             }
