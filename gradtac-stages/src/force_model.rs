@@ -427,6 +427,8 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     quiet_s: 5.0,
     stale_s: 10.0,
     release_sigmas: 0.0,
+    release_excess: 0.0,
+    release_flat_s: 0.0,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
