@@ -1576,22 +1576,112 @@ mod tests {
     /// on [`weak_drifting`] that leaves `residual` counts behind, and its hold's frames in
     /// contact (of 50), under `gate`.
     fn light_press_on_a_weak_sensor(gate: DriftModel, peak: f64, residual: f64) -> (usize, usize) {
-        // 10 s untouched, then a 2 s rise, 0.5 s hold, 1.5 s fall, 3 s rest
-        let press = |k: u64| match k {
-            0..=999 => 0.0,
-            1000..=1199 => peak * (k - 1000) as f64 / 200.0,
-            1200..=1249 => peak,
-            1250..=1399 => residual + (peak - residual) * (1400 - k) as f64 / 150.0,
-            _ => residual,
+        slow_press_on_a_weak_sensor(gate, peak, residual, 200)
+    }
+
+    /// [`light_press_on_a_weak_sensor`] with a rise of `rise` frames (100 Hz): 10 s untouched,
+    /// the rise, 0.5 s hold, 1.5 s fall, 3 s rest; (frames in contact in the last second, of
+    /// 100; hold frames in contact, of 50).
+    fn slow_press_on_a_weak_sensor(gate: DriftModel, peak: f64, residual: f64, rise: u64) -> (usize, usize) {
+        let (top, down) = (1000 + rise, 1050 + rise);
+        let press = |k: u64| {
+            if k < 1000 {
+                0.0
+            } else if k < top {
+                peak * (k - 1000) as f64 / rise as f64
+            } else if k < down {
+                peak
+            } else if k < down + 150 {
+                residual + (peak - residual) * (down + 150 - k) as f64 / 150.0
+            } else {
+                residual
+            }
         };
         let mut det = ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().with_drift_model(gate).unwrap();
         let (mut state, mut late, mut held) = (0x9e37_79b9_7f4a_7c15u64, 0, 0);
-        for k in 0..1700u64 {
+        for k in 0..down + 450 {
             let c = det.push(&weak_drifting(k, press(k), &mut state), "t").unwrap();
-            late += usize::from(k >= 1600 && c.contact);
-            held += usize::from((1200..1250).contains(&k) && c.contact);
+            late += usize::from(k >= down + 350 && c.contact);
+            held += usize::from((top..down).contains(&k) && c.contact);
         }
         (late, held)
+    }
+
+    /// The shape-return candidates of docs/force.md (session 32, second round): (g1)–(g4).
+    fn shape_gates() -> [DriftModel; 4] {
+        [(0.3, 0.0), (0.3, 0.5), (0.5, 0.0), (0.5, 0.5)].map(|(e, f)| DriftModel {
+            release_excess: e,
+            release_flat_s: f,
+            ..FORCE_GATE
+        })
+    }
+
+    #[test]
+    fn the_shape_return_does_not_absorb_a_slow_light_press() {
+        // a light press (60 counts on one taxel of a σ 4.4 sensor drifting ±2 counts/s) rising
+        // over 2 s and over 6 s: the shape return must not fire while it rises or holds (the
+        // noise return did, 'a_light_press_on_a_weak_drifting_sensor_and_the_return_rules'),
+        // and its lift leaves no contact behind
+        for gate in shape_gates() {
+            for rise in [200, 600] {
+                let (late, held) = slow_press_on_a_weak_sensor(gate, 60.0, 0.0, rise);
+                assert_eq!((late, held), (0, 50), "{gate:?}, rise {rise} frames");
+            }
+            // a firm press too
+            assert_eq!(slow_press_on_a_weak_sensor(gate, 600.0, 0.0, 200), (0, 50), "{gate:?}");
+        }
+    }
+
+    #[test]
+    fn the_shape_return_releases_a_flat_residual_after_a_press() {
+        // a light press that leaves 12 counts (2.7 σ, a fifth of its peak) behind: the current
+        // gate keeps it a contact until the stale time; every shape return ends it
+        assert_eq!(light_press_on_a_weak_sensor(FORCE_GATE, 60.0, 12.0).0, 100);
+        for gate in shape_gates() {
+            let (late, held) = light_press_on_a_weak_sensor(gate, 60.0, 12.0);
+            assert_eq!((late, held), (0, 50), "{gate:?}");
+        }
+        // 20 counts (a third of the peak): above the 0.3 candidates' bound, below the 0.5 ones'
+        for gate in shape_gates() {
+            let (late, held) = light_press_on_a_weak_sensor(gate, 60.0, 20.0);
+            assert_eq!(held, 50, "{gate:?}");
+            assert_eq!(late, if gate.release_excess >= 0.5 { 0 } else { 100 }, "{gate:?}");
+        }
+    }
+
+    #[test]
+    fn the_shape_return_never_panics_on_non_finite_or_huge_frames() {
+        for gate in shape_gates() {
+            let mut det =
+                ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().with_drift_model(gate).unwrap();
+            let mut state = 7u64;
+            for k in 0..400u64 {
+                let mut f = weak_drifting(k, if (200..260).contains(&k) { 80.0 } else { 0.0 }, &mut state);
+                match k % 97 {
+                    13 => f.values[3] = f64::NAN,
+                    29 => f.values[5] = f64::INFINITY,
+                    41 => f.values[7] = f64::NEG_INFINITY,
+                    _ => {}
+                }
+                let r = det.push(&f, "t");
+                assert_eq!(r.is_err(), f.values.iter().any(|v| !v.is_finite()), "frame {k}");
+            }
+            // huge finite values (window sums and Σ|Δᵢ| overflow to ±∞ or NaN), then ordinary
+            // frames again: an answer or an error for each, never a panic
+            for k in 400..460u64 {
+                let v = [f64::MAX, -f64::MAX, 1e300, -1e300][(k % 4) as usize];
+                let f = if k < 420 {
+                    TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v; 24])
+                } else {
+                    weak_drifting(k, 0.0, &mut state)
+                };
+                let _ = det.push(&f, "t");
+            }
+        }
+        assert!(DriftModel { release_excess: 1.0, ..FORCE_GATE }.validate().is_err());
+        assert!(DriftModel { release_excess: f64::NAN, ..FORCE_GATE }.validate().is_err());
+        assert!(DriftModel { release_flat_s: -0.1, ..FORCE_GATE }.validate().is_err());
+        assert!(DriftModel { release_flat_s: f64::INFINITY, ..FORCE_GATE }.validate().is_err());
     }
 
     #[test]
