@@ -429,6 +429,7 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     release_sigmas: 0.0,
     release_excess: 0.0,
     release_flat_s: 0.0,
+    release_flat_range: true,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector

@@ -796,6 +796,10 @@ pub struct DriftModel {
     /// Flatness look-back of the shape return (s), in [0, 60]; 0: the steadiness look-back
     /// `steady_s`.
     pub release_flat_s: f64,
+    /// The shape return's flatness test: `true`, the range (largest − smallest) of `Σ|Δᵢ|`
+    /// over the look-back; `false`, the difference between its first and last value (as the
+    /// noise return's guard). Both bounded by 0.1 `Σσᵢ`.
+    pub release_flat_range: bool,
 }
 
 impl Default for DriftModel {
@@ -816,6 +820,7 @@ impl Default for DriftModel {
             release_sigmas: 0.0,
             release_excess: 0.0,
             release_flat_s: 0.0,
+            release_flat_range: true,
         }
     }
 }
@@ -932,12 +937,19 @@ impl DriftState {
         }
         self.totals.push_back((time, total));
         let full = self.totals.front().is_some_and(|(t, _)| t.0 <= horizon);
-        let (lo, hi) =
-            self.totals.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, x)| (lo.min(*x), hi.max(*x)));
+        let moved = if m.release_flat_range {
+            let (lo, hi) = self
+                .totals
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, x)| (lo.min(*x), hi.max(*x)));
+            hi - lo
+        } else {
+            self.totals.front().map_or(f64::INFINITY, |(_, x)| (total - x).abs())
+        };
         let ss: f64 = sigma.iter().sum();
         let floor = self.floor.unwrap_or(0.0);
         let (now, top) = (total - floor, self.peak - floor);
-        full && hi - lo < NOISE_RETURN_MOVE * ss && top > 0.0 && now <= m.release_excess * top
+        full && moved < NOISE_RETURN_MOVE * ss && top > 0.0 && now <= m.release_excess * top
     }
 
     /// After a frame's changes: steadiness, release, following and the slope's anchors.
