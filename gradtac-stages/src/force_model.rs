@@ -430,6 +430,7 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     release_excess: 0.0,
     release_flat_s: 0.0,
     release_flat_range: true,
+    settle_rise_guard: false,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
