@@ -413,6 +413,15 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// (most on residuals of several σ after firm presses). The noise return
 /// ([`DriftModel::release_sigmas`]) ends such contacts but absorbs light presses during their
 /// rise, and lost on the tuning members: it is off.
+///
+/// Since session 32 (second round) the gate also has the *shape return*
+/// ([`DriftModel::release_excess`] 0.5, flatness as the range of `Σ|Δᵢ|` over 0.3 s): an
+/// excursion that is steady, flat, and has fallen to half its peak's change above the
+/// untouched floor returns — a press rising or held sits near its peak, so it is not absorbed.
+/// Chosen by the rule of `docs/force.md` on the tuning members (worst of 14 members 67.5 →
+/// 40.1 %). Known limit: on a weak, noisy sensor (σ 4.4 counts over 24 taxels) the range of
+/// `Σ|Δᵢ|` over 0.3 s exceeds 0.1 `Σσᵢ` by noise alone, so a light press's residual there still
+/// stays a contact until the stale time.
 pub const FORCE_GATE: DriftModel = DriftModel {
     steady_s: 0.3,
     steady_sigmas: 2.0,
@@ -427,7 +436,7 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     quiet_s: 5.0,
     stale_s: 10.0,
     release_sigmas: 0.0,
-    release_excess: 0.0,
+    release_excess: 0.5,
     release_flat_s: 0.0,
     release_flat_range: true,
     settle_rise_guard: false,
@@ -1609,46 +1618,88 @@ mod tests {
         (late, held)
     }
 
-    /// The shape-return candidates of docs/force.md (session 32, second round): (g1)–(g4).
-    fn shape_gates() -> [DriftModel; 4] {
-        [(0.3, 0.0), (0.3, 0.5), (0.5, 0.0), (0.5, 0.5)].map(|(e, f)| DriftModel {
-            release_excess: e,
-            release_flat_s: f,
-            ..FORCE_GATE
-        })
+    /// The shape-return candidates of docs/force.md (session 32, second round): (g1)–(g10)
+    /// but (g0), the gate without it.
+    fn shape_gates() -> Vec<DriftModel> {
+        let mut gates = Vec::new();
+        for (range, guard) in [(true, false), (false, false), (false, true)] {
+            for (e, f) in [(0.3, 0.0), (0.3, 0.5), (0.5, 0.0), (0.5, 0.5)] {
+                if guard && f > 0.0 {
+                    continue;
+                }
+                gates.push(DriftModel {
+                    release_excess: e,
+                    release_flat_s: f,
+                    release_flat_range: range,
+                    settle_rise_guard: guard,
+                    ..FORCE_GATE
+                });
+            }
+        }
+        gates
     }
 
     #[test]
     fn the_shape_return_does_not_absorb_a_slow_light_press() {
         // a light press (60 counts on one taxel of a σ 4.4 sensor drifting ±2 counts/s) rising
-        // over 2 s and over 6 s: the shape return must not fire while it rises or holds (the
-        // noise return did, 'a_light_press_on_a_weak_drifting_sensor_and_the_return_rules'),
+        // over 2 s and over 6 s: the gate's shape return must not fire while it rises or holds
+        // (the noise return did, 'a_light_press_on_a_weak_drifting_sensor_and_the_return_rules'),
         // and its lift leaves no contact behind
-        for gate in shape_gates() {
-            for rise in [200, 600] {
-                let (late, held) = slow_press_on_a_weak_sensor(gate, 60.0, 0.0, rise);
-                assert_eq!((late, held), (0, 50), "{gate:?}, rise {rise} frames");
-            }
-            // a firm press too
-            assert_eq!(slow_press_on_a_weak_sensor(gate, 600.0, 0.0, 200), (0, 50), "{gate:?}");
+        assert!(FORCE_GATE.release_excess > 0.0 && FORCE_GATE.release_flat_range);
+        for rise in [200, 600] {
+            let (late, held) = slow_press_on_a_weak_sensor(FORCE_GATE, 60.0, 0.0, rise);
+            assert_eq!((late, held), (0, 50), "rise {rise} frames");
         }
+        // a firm press too
+        assert_eq!(slow_press_on_a_weak_sensor(FORCE_GATE, 600.0, 0.0, 200), (0, 50));
+        // measured: with flatness as an end-to-end difference (candidates g5-g8) the 6 s rise is
+        // settled into the baseline and its lift reads as a contact that stays
+        let ends = DriftModel { release_flat_range: false, ..FORCE_GATE };
+        let (late, held) = slow_press_on_a_weak_sensor(ends, 60.0, 0.0, 600);
+        assert!(late > 50 && held < 25, "{late} late, {held} held");
     }
 
     #[test]
     fn the_shape_return_releases_a_flat_residual_after_a_press() {
-        // a light press that leaves 12 counts (2.7 σ, a fifth of its peak) behind: the current
-        // gate keeps it a contact until the stale time; every shape return ends it
-        assert_eq!(light_press_on_a_weak_sensor(FORCE_GATE, 60.0, 12.0).0, 100);
-        for gate in shape_gates() {
-            let (late, held) = light_press_on_a_weak_sensor(gate, 60.0, 12.0);
-            assert_eq!((late, held), (0, 50), "{gate:?}");
-        }
-        // 20 counts (a third of the peak): above the 0.3 candidates' bound, below the 0.5 ones'
-        for gate in shape_gates() {
-            let (late, held) = light_press_on_a_weak_sensor(gate, 60.0, 20.0);
-            assert_eq!(held, 50, "{gate:?}");
-            assert_eq!(late, if gate.release_excess >= 0.5 { 0 } else { 100 }, "{gate:?}");
-        }
+        // a 200-count press that drops to 80 counts and stays there (a residual at 0.4 of its
+        // peak: the peak return, 0.3, never fires): without the shape return it is a contact
+        // until the stale time (10 s); with it, it returns once flat and the baseline takes it
+        let press = |k: u64| match k {
+            0..=299 => 0.0,
+            300..=549 => 200.0,
+            _ => 80.0,
+        };
+        let run = |gate: DriftModel| {
+            let mut det = ChangeDetector::try_new(2, &LocateConfig::default()).unwrap().with_drift_model(gate).unwrap();
+            let (mut held, mut rest, mut late) = (0, 0, 0);
+            for k in 0..1000u64 {
+                // noise of period 9 frames (the detector's window): σ ≈ 1.3 counts per frame,
+                // window means without noise, so the residual's Σ|Δᵢ| is flat
+                let e = ((k % 9) as f64 - 4.0) * 0.5;
+                let f = TaxelFrame::new(
+                    "ff".into(),
+                    Timestamp::at_rate(k, 100.0),
+                    k,
+                    vec![1000.0 + e, 2000.0 - press(k) - e],
+                );
+                let c = det.push(&f, "t").unwrap();
+                held += usize::from((330..550).contains(&k) && c.contact);
+                rest += usize::from((620..690).contains(&k) && c.contact);
+                late += usize::from(k >= 900 && c.contact);
+            }
+            (held, rest, late)
+        };
+        assert_eq!(
+            run(DriftModel { release_excess: 0.0, ..FORCE_GATE }),
+            (220, 70, 100),
+            "without it the residual stays"
+        );
+        let (held, rest, late) = run(FORCE_GATE);
+        assert_eq!((held, rest), (220, 0), "the residual returned within 0.7 s of the drop");
+        // measured defect, pinned (docs/force.md): the slope's anchors take the settled residual
+        // step as drift (the stale rule restarts them, the shape return does not), so the
+        // baseline runs off and a contact comes back; a fix makes this 0
+        assert_eq!(late, 100, "the slope learned the step: {late} of 100 late frames in contact");
     }
 
     #[test]
@@ -1693,9 +1744,14 @@ mod tests {
         // to Σ|Δᵢ| on a weak sensor (σ 4.4 counts: ≈ 28 counts over 24 taxels), so a residual
         // of 4.5 σ left by a light press (60 counts on one taxel) is never a return: the
         // contact lasts until the stale time. The same residual after a firm press returns.
+        // The shape return (in FORCE_GATE since session 32's second round) does not fix this
+        // case: on this noisy sensor the range of Σ|Δᵢ| over 0.3 s exceeds 0.1 Σσᵢ by noise
+        // alone, so the residual is never flat (measured: 98 of 100; 100 without it).
         let (late, held) = light_press_on_a_weak_sensor(FORCE_GATE, 60.0, 20.0);
         assert_eq!(held, 50, "the light press is a contact through its hold");
-        assert_eq!(late, 100, "the known failure: the residual stays a contact ({late} of 100)");
+        assert!(late >= 90, "the known failure: the residual stays a contact ({late} of 100)");
+        let no_shape = DriftModel { release_excess: 0.0, ..FORCE_GATE };
+        assert_eq!(light_press_on_a_weak_sensor(no_shape, 60.0, 20.0), (100, 50));
         let (late, held) = light_press_on_a_weak_sensor(FORCE_GATE, 600.0, 20.0);
         assert_eq!((late, held), (0, 50), "a firm press's residual returns");
         // the drift alone (a line the slope follows) leaves no contact behind
