@@ -1645,7 +1645,7 @@ mod tests {
         // over 2 s and over 6 s: the gate's shape return must not fire while it rises or holds
         // (the noise return did, 'a_light_press_on_a_weak_drifting_sensor_and_the_return_rules'),
         // and its lift leaves no contact behind
-        assert!(FORCE_GATE.release_excess > 0.0 && FORCE_GATE.release_flat_range);
+        const _: () = assert!(FORCE_GATE.release_excess > 0.0 && FORCE_GATE.release_flat_range);
         for rise in [200, 600] {
             let (late, held) = slow_press_on_a_weak_sensor(FORCE_GATE, 60.0, 0.0, rise);
             assert_eq!((late, held), (0, 50), "rise {rise} frames");
