@@ -654,10 +654,19 @@ impl SensorChain {
                     d.slope_memory_s,
                     d.slope_prior_s3,
                     d.release_fraction,
-                    if d.release_sigmas > 0.0 {
-                        format!(" or, still, below {} Σσ", d.release_sigmas)
-                    } else {
-                        String::new()
+                    {
+                        let mut more = String::new();
+                        if d.release_sigmas > 0.0 {
+                            more += &format!(" or, still, below {} Σσ", d.release_sigmas);
+                        }
+                        if d.release_excess > 0.0 {
+                            more += &format!(
+                                " or, flat {} s, at most {} of the peak above the untouched floor",
+                                if d.release_flat_s > 0.0 { d.release_flat_s } else { d.steady_s },
+                                d.release_excess
+                            );
+                        }
+                        more
                     },
                     d.hold_sigmas,
                     if d.hold_contact { " and a contact until it returns" } else { "" },

@@ -413,6 +413,15 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// (most on residuals of several σ after firm presses). The noise return
 /// ([`DriftModel::release_sigmas`]) ends such contacts but absorbs light presses during their
 /// rise, and lost on the tuning members: it is off.
+///
+/// Since session 32 (second round) the gate also has the *shape return*
+/// ([`DriftModel::release_excess`] 0.5, flatness as the range of `Σ|Δᵢ|` over 0.3 s): an
+/// excursion that is steady, flat, and has fallen to half its peak's change above the
+/// untouched floor returns — a press rising or held sits near its peak, so it is not absorbed.
+/// Chosen by the rule of `docs/force.md` on the tuning members (worst of 14 members 67.5 →
+/// 40.1 %). Known limit: on a weak, noisy sensor (σ 4.4 counts over 24 taxels) the range of
+/// `Σ|Δᵢ|` over 0.3 s exceeds 0.1 `Σσᵢ` by noise alone, so a light press's residual there still
+/// stays a contact until the stale time.
 pub const FORCE_GATE: DriftModel = DriftModel {
     steady_s: 0.3,
     steady_sigmas: 2.0,
@@ -427,6 +436,10 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     quiet_s: 5.0,
     stale_s: 10.0,
     release_sigmas: 0.0,
+    release_excess: 0.5,
+    release_flat_s: 0.0,
+    release_flat_range: true,
+    settle_rise_guard: false,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
@@ -1587,22 +1600,154 @@ mod tests {
     /// on [`weak_drifting`] that leaves `residual` counts behind, and its hold's frames in
     /// contact (of 50), under `gate`.
     fn light_press_on_a_weak_sensor(gate: DriftModel, peak: f64, residual: f64) -> (usize, usize) {
-        // 10 s untouched, then a 2 s rise, 0.5 s hold, 1.5 s fall, 3 s rest
-        let press = |k: u64| match k {
-            0..=999 => 0.0,
-            1000..=1199 => peak * (k - 1000) as f64 / 200.0,
-            1200..=1249 => peak,
-            1250..=1399 => residual + (peak - residual) * (1400 - k) as f64 / 150.0,
-            _ => residual,
+        slow_press_on_a_weak_sensor(gate, peak, residual, 200)
+    }
+
+    /// [`light_press_on_a_weak_sensor`] with a rise of `rise` frames (100 Hz): 10 s untouched,
+    /// the rise, 0.5 s hold, 1.5 s fall, 3 s rest; (frames in contact in the last second, of
+    /// 100; hold frames in contact, of 50).
+    fn slow_press_on_a_weak_sensor(gate: DriftModel, peak: f64, residual: f64, rise: u64) -> (usize, usize) {
+        let (top, down) = (1000 + rise, 1050 + rise);
+        let press = |k: u64| {
+            if k < 1000 {
+                0.0
+            } else if k < top {
+                peak * (k - 1000) as f64 / rise as f64
+            } else if k < down {
+                peak
+            } else if k < down + 150 {
+                residual + (peak - residual) * (down + 150 - k) as f64 / 150.0
+            } else {
+                residual
+            }
         };
         let mut det = ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().with_drift_model(gate).unwrap();
         let (mut state, mut late, mut held) = (0x9e37_79b9_7f4a_7c15u64, 0, 0);
-        for k in 0..1700u64 {
+        for k in 0..down + 450 {
             let c = det.push(&weak_drifting(k, press(k), &mut state), "t").unwrap();
-            late += usize::from(k >= 1600 && c.contact);
-            held += usize::from((1200..1250).contains(&k) && c.contact);
+            late += usize::from(k >= down + 350 && c.contact);
+            held += usize::from((top..down).contains(&k) && c.contact);
         }
         (late, held)
+    }
+
+    /// The shape-return candidates of docs/force.md (session 32, second round): (g1)–(g10)
+    /// but (g0), the gate without it.
+    fn shape_gates() -> Vec<DriftModel> {
+        let mut gates = Vec::new();
+        for (range, guard) in [(true, false), (false, false), (false, true)] {
+            for (e, f) in [(0.3, 0.0), (0.3, 0.5), (0.5, 0.0), (0.5, 0.5)] {
+                if guard && f > 0.0 {
+                    continue;
+                }
+                gates.push(DriftModel {
+                    release_excess: e,
+                    release_flat_s: f,
+                    release_flat_range: range,
+                    settle_rise_guard: guard,
+                    ..FORCE_GATE
+                });
+            }
+        }
+        gates
+    }
+
+    #[test]
+    fn the_shape_return_does_not_absorb_a_slow_light_press() {
+        // a light press (60 counts on one taxel of a σ 4.4 sensor drifting ±2 counts/s) rising
+        // over 2 s and over 6 s: the gate's shape return must not fire while it rises or holds
+        // (the noise return did, 'a_light_press_on_a_weak_drifting_sensor_and_the_return_rules'),
+        // and its lift leaves no contact behind
+        const _: () = assert!(FORCE_GATE.release_excess > 0.0 && FORCE_GATE.release_flat_range);
+        for rise in [200, 600] {
+            let (late, held) = slow_press_on_a_weak_sensor(FORCE_GATE, 60.0, 0.0, rise);
+            assert_eq!((late, held), (0, 50), "rise {rise} frames");
+        }
+        // a firm press too
+        assert_eq!(slow_press_on_a_weak_sensor(FORCE_GATE, 600.0, 0.0, 200), (0, 50));
+        // measured: with flatness as an end-to-end difference (candidates g5-g8) the 6 s rise is
+        // settled into the baseline and its lift reads as a contact that stays
+        let ends = DriftModel { release_flat_range: false, ..FORCE_GATE };
+        let (late, held) = slow_press_on_a_weak_sensor(ends, 60.0, 0.0, 600);
+        assert!(late > 50 && held < 25, "{late} late, {held} held");
+    }
+
+    #[test]
+    fn the_shape_return_releases_a_flat_residual_after_a_press() {
+        // a 200-count press that drops to 80 counts and stays there (a residual at 0.4 of its
+        // peak: the peak return, 0.3, never fires): without the shape return it is a contact
+        // until the stale time (10 s); with it, it returns once flat and the baseline takes it
+        let press = |k: u64| match k {
+            0..=299 => 0.0,
+            300..=549 => 200.0,
+            _ => 80.0,
+        };
+        let run = |gate: DriftModel| {
+            let mut det = ChangeDetector::try_new(2, &LocateConfig::default()).unwrap().with_drift_model(gate).unwrap();
+            let (mut held, mut rest, mut late) = (0, 0, 0);
+            for k in 0..1000u64 {
+                // noise of period 9 frames (the detector's window): σ ≈ 1.3 counts per frame,
+                // window means without noise, so the residual's Σ|Δᵢ| is flat
+                let e = ((k % 9) as f64 - 4.0) * 0.5;
+                let f = TaxelFrame::new(
+                    "ff".into(),
+                    Timestamp::at_rate(k, 100.0),
+                    k,
+                    vec![1000.0 + e, 2000.0 - press(k) - e],
+                );
+                let c = det.push(&f, "t").unwrap();
+                held += usize::from((330..550).contains(&k) && c.contact);
+                rest += usize::from((620..690).contains(&k) && c.contact);
+                late += usize::from(k >= 900 && c.contact);
+            }
+            (held, rest, late)
+        };
+        assert_eq!(
+            run(DriftModel { release_excess: 0.0, ..FORCE_GATE }),
+            (220, 70, 100),
+            "without it the residual stays"
+        );
+        let (held, rest, late) = run(FORCE_GATE);
+        assert_eq!((held, rest), (220, 0), "the residual returned within 0.7 s of the drop");
+        // measured defect, pinned (docs/force.md): the slope's anchors take the settled residual
+        // step as drift (the stale rule restarts them, the shape return does not), so the
+        // baseline runs off and a contact comes back; a fix makes this 0
+        assert_eq!(late, 100, "the slope learned the step: {late} of 100 late frames in contact");
+    }
+
+    #[test]
+    fn the_shape_return_never_panics_on_non_finite_or_huge_frames() {
+        for gate in shape_gates() {
+            let mut det =
+                ChangeDetector::try_new(24, &LocateConfig::default()).unwrap().with_drift_model(gate).unwrap();
+            let mut state = 7u64;
+            for k in 0..400u64 {
+                let mut f = weak_drifting(k, if (200..260).contains(&k) { 80.0 } else { 0.0 }, &mut state);
+                match k % 97 {
+                    13 => f.values[3] = f64::NAN,
+                    29 => f.values[5] = f64::INFINITY,
+                    41 => f.values[7] = f64::NEG_INFINITY,
+                    _ => {}
+                }
+                let r = det.push(&f, "t");
+                assert_eq!(r.is_err(), f.values.iter().any(|v| !v.is_finite()), "frame {k}");
+            }
+            // huge finite values (window sums and Σ|Δᵢ| overflow to ±∞ or NaN), then ordinary
+            // frames again: an answer or an error for each, never a panic
+            for k in 400..460u64 {
+                let v = [f64::MAX, -f64::MAX, 1e300, -1e300][(k % 4) as usize];
+                let f = if k < 420 {
+                    TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v; 24])
+                } else {
+                    weak_drifting(k, 0.0, &mut state)
+                };
+                let _ = det.push(&f, "t");
+            }
+        }
+        assert!(DriftModel { release_excess: 1.0, ..FORCE_GATE }.validate().is_err());
+        assert!(DriftModel { release_excess: f64::NAN, ..FORCE_GATE }.validate().is_err());
+        assert!(DriftModel { release_flat_s: -0.1, ..FORCE_GATE }.validate().is_err());
+        assert!(DriftModel { release_flat_s: f64::INFINITY, ..FORCE_GATE }.validate().is_err());
     }
 
     #[test]
@@ -1612,9 +1757,14 @@ mod tests {
         // to Σ|Δᵢ| on a weak sensor (σ 4.4 counts: ≈ 28 counts over 24 taxels), so a residual
         // of 4.5 σ left by a light press (60 counts on one taxel) is never a return: the
         // contact lasts until the stale time. The same residual after a firm press returns.
+        // The shape return (in FORCE_GATE since session 32's second round) does not fix this
+        // case: on this noisy sensor the range of Σ|Δᵢ| over 0.3 s exceeds 0.1 Σσᵢ by noise
+        // alone, so the residual is never flat (measured: 98 of 100; 100 without it).
         let (late, held) = light_press_on_a_weak_sensor(FORCE_GATE, 60.0, 20.0);
         assert_eq!(held, 50, "the light press is a contact through its hold");
-        assert_eq!(late, 100, "the known failure: the residual stays a contact ({late} of 100)");
+        assert!(late >= 90, "the known failure: the residual stays a contact ({late} of 100)");
+        let no_shape = DriftModel { release_excess: 0.0, ..FORCE_GATE };
+        assert_eq!(light_press_on_a_weak_sensor(no_shape, 60.0, 20.0), (100, 50));
         let (late, held) = light_press_on_a_weak_sensor(FORCE_GATE, 600.0, 20.0);
         assert_eq!((late, held), (0, 50), "a firm press's residual returns");
         // the drift alone (a line the slope follows) leaves no contact behind

@@ -734,6 +734,7 @@ impl PositionMemory {
 /// | quiet | with `quiet_s`, frames outside an excursion follow at `quiet_s` (steady or not): only a returning excursion settles fast | off |
 /// | stale | a held or contact stretch steady for `stale_s` is a new resting level: the baseline takes it, the slope's anchors start again | off |
 /// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
+/// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
 /// `force_model::FORCE_GATE`.
@@ -783,6 +784,27 @@ pub struct DriftModel {
     /// `release_fraction` of that peak, which the noise of the window means alone exceeds:
     /// the contact never ends and the baseline never settles.
     pub release_sigmas: f64,
+    /// Shape return (a fraction in [0, 1); 0: off): an excursion also *returns* once it is
+    /// steady, its total change `Σ|Δᵢ|` has moved by less than 0.1 `Σσᵢ` over the last
+    /// `release_flat_s`, and `Σ|Δᵢ|` above the untouched floor (the running mean of `Σ|Δᵢ|`
+    /// over frames outside excursions, 1 s time constant — the window means' noise and what
+    /// the baseline does not follow) has fallen to at most this fraction of the excursion's
+    /// peak above that floor. Unlike the peak return (`release_fraction`, on `Σ|Δᵢ|` itself)
+    /// it is not blocked by the floor on a weak, noisy sensor; unlike the noise return it does
+    /// not fire while a light press rises or holds (its total is then near its peak).
+    pub release_excess: f64,
+    /// Flatness look-back of the shape return (s), in [0, 60]; 0: the steadiness look-back
+    /// `steady_s`.
+    pub release_flat_s: f64,
+    /// The shape return's flatness test: `true`, the range (largest − smallest) of `Σ|Δᵢ|`
+    /// over the look-back; `false`, the difference between its first and last value (as the
+    /// noise return's guard). Both bounded by 0.1 `Σσᵢ`.
+    pub release_flat_range: bool,
+    /// Rise guard of a returned excursion: while it settles, a total change `Σ|Δᵢ|` that rose
+    /// by more than 0.1 `Σσᵢ` over the steadiness look-back (against today's baseline) starts a
+    /// new excursion — a light press rising slower than the per-taxel steadiness test is not
+    /// settled into the baseline.
+    pub settle_rise_guard: bool,
 }
 
 impl Default for DriftModel {
@@ -801,6 +823,10 @@ impl Default for DriftModel {
             quiet_s: 0.0,
             stale_s: 0.0,
             release_sigmas: 0.0,
+            release_excess: 0.0,
+            release_flat_s: 0.0,
+            release_flat_range: true,
+            settle_rise_guard: false,
         }
     }
 }
@@ -827,7 +853,9 @@ impl DriftModel {
             && self.stale_s.is_finite()
             && self.stale_s >= 0.0
             && self.release_sigmas.is_finite()
-            && self.release_sigmas >= 0.0;
+            && self.release_sigmas >= 0.0
+            && (0.0..1.0).contains(&self.release_excess)
+            && (0.0..=60.0).contains(&self.release_flat_s);
         if ok {
             Ok(())
         } else {
@@ -844,6 +872,10 @@ const MAX_STEADY_HISTORY: usize = 4096;
 /// than this multiple of `Σσᵢ` over the steadiness look-back (about twice the noise of that
 /// difference for a 9-frame window).
 const NOISE_RETURN_MOVE: f64 = 0.1;
+
+/// Time constant (s) of the untouched floor of the total change the shape return
+/// ([`DriftModel::release_excess`]) measures against.
+const FLOOR_S: f64 = 1.0;
 
 /// The drift model's state.
 #[derive(Clone, Debug)]
@@ -868,6 +900,11 @@ struct DriftState {
     touched: bool,
     /// The current excursion returned and has been steady since (holds only).
     settling: bool,
+    /// Recent total changes `Σ|Δᵢ|` (time, total), oldest first, for the shape return.
+    totals: VecDeque<(Timestamp, f64)>,
+    /// Running mean of `Σ|Δᵢ|` outside excursions (the shape return's floor); `None` before
+    /// the first such frame.
+    floor: Option<f64>,
 }
 
 impl DriftState {
@@ -887,7 +924,38 @@ impl DriftState {
             stale_since: None,
             touched: false,
             settling: false,
+            totals: VecDeque::new(),
+            floor: None,
         }
+    }
+
+    /// The shape return's test for a frame of total change `total` (and records it): flat over
+    /// the look-back, and fallen to `release_excess` of the peak above the untouched floor.
+    fn shape_return(&mut self, time: Timestamp, total: f64, sigma: &[f64]) -> bool {
+        let m = self.model;
+        let look = if m.release_flat_s > 0.0 { m.release_flat_s } else { m.steady_s };
+        let horizon = time.0 - (look * 1e9).round() as i64;
+        while self.totals.len() >= 2 && self.totals[1].0 .0 <= horizon {
+            self.totals.pop_front();
+        }
+        if self.totals.len() >= MAX_STEADY_HISTORY {
+            self.totals.pop_front();
+        }
+        self.totals.push_back((time, total));
+        let full = self.totals.front().is_some_and(|(t, _)| t.0 <= horizon);
+        let moved = if m.release_flat_range {
+            let (lo, hi) = self
+                .totals
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, x)| (lo.min(*x), hi.max(*x)));
+            hi - lo
+        } else {
+            self.totals.front().map_or(f64::INFINITY, |(_, x)| (total - x).abs())
+        };
+        let ss: f64 = sigma.iter().sum();
+        let floor = self.floor.unwrap_or(0.0);
+        let (now, top) = (total - floor, self.peak - floor);
+        full && moved < NOISE_RETURN_MOVE * ss && top > 0.0 && now <= m.release_excess * top
     }
 
     /// After a frame's changes: steadiness, release, following and the slope's anchors.
@@ -905,7 +973,7 @@ impl DriftState {
         mut contact: bool,
         beta: f64,
     ) -> bool {
-        let m = &self.model;
+        let m = self.model;
         let mean: Vec<f64> = sum.iter().map(|s| s / k).collect();
         let horizon = time.0 - (m.steady_s * 1e9).round() as i64;
         while self.history.len() >= 2 && self.history[1].0 .0 <= horizon {
@@ -930,7 +998,9 @@ impl DriftState {
         let holds = m.hold_sigmas > 0.0 || m.hold_total > 0.0;
         // an excursion: from the first held (or contact) frame until none is; its peak total
         // change tells a hold (near the peak) from a return (well below it)
-        if self.settling && !steady {
+        let rising =
+            m.settle_rise_guard && old_total.is_some_and(|o| total - o > NOISE_RETURN_MOVE * sigma.iter().sum::<f64>());
+        if self.settling && (!steady || rising) {
             // movement after a return: a new excursion starts here
             self.settling = false;
             self.in_contact = false;
@@ -946,6 +1016,11 @@ impl DriftState {
             self.in_contact = false;
             self.settling = false;
         }
+        if m.release_excess > 0.0 && !self.in_contact && total.is_finite() {
+            let a = 1.0 - (-dt / FLOOR_S).exp();
+            let f = self.floor.get_or_insert(total);
+            *f += a * (total - *f);
+        }
         // the noise return: below `release_sigmas · Σσᵢ` and no longer moving (a light press's
         // rise or fall is steady by the taxel test but still moves its total change: settling
         // there would absorb the press and teach the slope a false drift)
@@ -954,8 +1029,12 @@ impl DriftState {
             let moved = old_total.map_or(f64::INFINITY, |o| (o - total).abs());
             total < m.release_sigmas * ss && moved < NOISE_RETURN_MOVE * ss
         };
-        let returning =
-            steady && self.in_contact && (self.settling || total < m.release_fraction * self.peak || quiet_total);
+        // the shape return: flat over `release_flat_s`, and fallen to `release_excess` of the
+        // peak above the untouched floor (a press rising or held sits near its peak)
+        let shape_return = m.release_excess > 0.0 && self.shape_return(time, total, sigma);
+        let returning = steady
+            && self.in_contact
+            && (self.settling || total < m.release_fraction * self.peak || quiet_total || shape_return);
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
         if !contact && held && (self.touched || m.hold_contact) {
