@@ -800,11 +800,6 @@ pub struct DriftModel {
     /// over the look-back; `false`, the difference between its first and last value (as the
     /// noise return's guard). Both bounded by 0.1 `Σσᵢ`.
     pub release_flat_range: bool,
-    /// Rise guard of a returned excursion: while it settles, a total change `Σ|Δᵢ|` that rose
-    /// by more than 0.1 `Σσᵢ` over the steadiness look-back (against today's baseline) starts a
-    /// new excursion — a light press rising slower than the per-taxel steadiness test is not
-    /// settled into the baseline.
-    pub settle_rise_guard: bool,
 }
 
 impl Default for DriftModel {
@@ -826,7 +821,6 @@ impl Default for DriftModel {
             release_excess: 0.0,
             release_flat_s: 0.0,
             release_flat_range: true,
-            settle_rise_guard: false,
         }
     }
 }
@@ -998,9 +992,7 @@ impl DriftState {
         let holds = m.hold_sigmas > 0.0 || m.hold_total > 0.0;
         // an excursion: from the first held (or contact) frame until none is; its peak total
         // change tells a hold (near the peak) from a return (well below it)
-        let rising =
-            m.settle_rise_guard && old_total.is_some_and(|o| total - o > NOISE_RETURN_MOVE * sigma.iter().sum::<f64>());
-        if self.settling && (!steady || rising) {
+        if self.settling && !steady {
             // movement after a return: a new excursion starts here
             self.settling = false;
             self.in_contact = false;
