@@ -99,6 +99,8 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
     let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
     assert!(explain.contains("the identified forward model"), "{explain}");
     assert!(explain.contains("drift model: settle 0.2 s"), "{explain}");
+    // the gate's shape return, with its flatness test
+    assert!(explain.contains("(range), at most 0.5 of the peak above the untouched floor"), "{explain}");
     assert!(!explain.contains("centroid"), "the force alone needs no contact location: {explain}");
     ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
     let f = forces(&dir.path().join("run.toml.parquet"));
