@@ -1509,7 +1509,11 @@ mod tests {
     /// Two taxels at 100 Hz with ±1 count alternating noise; `press(k)` counts are subtracted
     /// from taxel 1 at frame `k`.
     fn two_taxels(k: u64, press: f64) -> TaxelFrame {
-        let e = if k % 2 == 0 { 1.0 } else { -1.0 };
+        two_taxels_with_noise(k, press, if k % 2 == 0 { 1.0 } else { -1.0 })
+    }
+
+    /// [`two_taxels`] with the noise `e` (added to taxel 0, subtracted from taxel 1) at frame `k`.
+    fn two_taxels_with_noise(k: u64, press: f64, e: f64) -> TaxelFrame {
         TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![1000.0 + e, 2000.0 - press - e])
     }
 
@@ -1683,14 +1687,7 @@ mod tests {
             for k in 0..1000u64 {
                 // noise of period 9 frames (the detector's window): σ ≈ 1.3 counts per frame,
                 // window means without noise, so the residual's Σ|Δᵢ| is flat
-                let e = ((k % 9) as f64 - 4.0) * 0.5;
-                let f = TaxelFrame::new(
-                    "ff".into(),
-                    Timestamp::at_rate(k, 100.0),
-                    k,
-                    vec![1000.0 + e, 2000.0 - press(k) - e],
-                );
-                let c = det.push(&f, "t").unwrap();
+                let c = det.push(&two_taxels_with_noise(k, press(k), ((k % 9) as f64 - 4.0) * 0.5), "t").unwrap();
                 held += usize::from((330..550).contains(&k) && c.contact);
                 rest += usize::from((620..690).contains(&k) && c.contact);
                 late += usize::from(k >= 900 && c.contact);
