@@ -1,7 +1,7 @@
-//! Per-frame cost of the `dos` stage in the sliding mode, shared by `dos_eval` (its window
-//! part's cost line) and `dos_sliding_cost`.
+//! Per-frame cost of the `dos` stage, shared by `dos_eval` (its window part's cost lines) and
+//! `dos_sliding_cost`.
 
-use gradtac::stages::dos::{DosClassifier, DosModel};
+use gradtac::stages::dos::{DosClassifier, DosDecision, DosModel};
 use gradtac::stream::{Layout, SensorId, Stage, TaxelFrame, Timestamp};
 use std::error::Error;
 use std::time::Instant;
@@ -23,17 +23,24 @@ pub fn push_costs<'a>(
             stage = stage.with_early_decisions()?;
         }
         for (seq, v) in frames.iter().enumerate() {
-            let f = TaxelFrame::new(
-                SensorId::new("ff"),
-                Timestamp::from_nanos(seq as i64 * 10_000_000),
-                seq as u64,
-                v.clone(),
-            );
-            let t = Instant::now();
-            stage.push(f, &mut out)?;
-            cost.push(t.elapsed().as_secs_f64() * 1e6);
+            cost.push(push_timed(&mut stage, seq, v, &mut out)?);
             out.clear();
         }
     }
     Ok(cost)
+}
+
+/// Push frame `seq` (raw values `v`, 100 Hz, sensor `ff`) into `stage`, its decisions onto
+/// `out`; the push's time in µs (the frame's construction outside it).
+pub fn push_timed(
+    stage: &mut DosClassifier,
+    seq: usize,
+    v: &[f64],
+    out: &mut Vec<DosDecision>,
+) -> Result<f64, Box<dyn Error>> {
+    let f =
+        TaxelFrame::new(SensorId::new("ff"), Timestamp::from_nanos(seq as i64 * 10_000_000), seq as u64, v.to_vec());
+    let t = Instant::now();
+    stage.push(f, out)?;
+    Ok(t.elapsed().as_secs_f64() * 1e6)
 }

@@ -412,7 +412,7 @@ fn stage_fold(
     a: f64,
 ) -> Result<StageFold, Box<dyn Error>> {
     use gradtac::stages::dos::{DosClassifier, DosWindowPart};
-    use gradtac::stream::{SensorId, Stage, TaxelFrame, Timestamp};
+    use gradtac::stream::Stage;
     let (model, net) = fit_pair(tables, tcand, samples, wcfg, train, layout)?;
     let model = model.with_window(Some(DosWindowPart { weight: a, net }))?;
     let (mut ok, mut classes, mut cost) = (0, Vec::new(), Vec::new());
@@ -421,15 +421,7 @@ fn stage_fold(
         let mut stage = DosClassifier::try_new(model.clone(), layout, None)?;
         out.clear();
         for (seq, v) in tr[i].frames.iter().enumerate() {
-            let f = TaxelFrame::new(
-                SensorId::new("ff"),
-                Timestamp::from_nanos(seq as i64 * 10_000_000),
-                seq as u64,
-                v.clone(),
-            );
-            let t = Instant::now();
-            stage.push(f, &mut out)?;
-            cost.push(t.elapsed().as_secs_f64() * 1e6);
+            cost.push(crate::sliding_cost::push_timed(&mut stage, seq, v, &mut out)?);
         }
         stage.finish(&mut out)?;
         let d = out.last().ok_or("the stage gave no decision")?.decision.class;
