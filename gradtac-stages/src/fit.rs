@@ -808,9 +808,16 @@ impl Fit {
     /// A fit stage for `layout` (the config is validated).
     pub fn try_new(cfg: &LocateConfig, layout: &Layout) -> Result<Self> {
         let n = layout.len();
+        let geo = Geometry::for_layout(layout);
+        // trained on the BioTac SP's geometry: on any other layout the correction is not applied
+        let learned = if cfg.fit_learned_correction && geo.curved {
+            Some(Box::new(crate::fit_learned::Correction::builtin()?))
+        } else {
+            None
+        };
         Ok(Fit {
             det: ChangeDetector::try_new(n, cfg)?,
-            geo: Geometry::for_layout(layout),
+            geo,
             positions: layout.positions().to_vec(),
             gain: vec![1.0; n],
             d: Vec::with_capacity(n),
@@ -832,12 +839,7 @@ impl Fit {
             thr: vec![0.0; n],
             big: 0.0,
             inv_full: vec![0.0; n],
-            // trained on the BioTac SP's geometry: on any other layout it is not applied
-            learned: if cfg.fit_learned_correction && Geometry::for_layout(layout).curved {
-                Some(Box::new(crate::fit_learned::Correction::builtin()?))
-            } else {
-                None
-            },
+            learned,
             record: false,
             feat: vec![0.0; crate::fit_learned::INPUTS],
             last_input: None,
