@@ -247,9 +247,11 @@ enum CalibrateWhat {
         #[arg(long)]
         sensor: Option<String>,
         /// The method: forward (the sensor's forward model identified from the gauge session and
-        /// inverted per frame; the placed law is written instead, with a note, when the model fits
-        /// its calibration worse — docs/force.md), placed (a power law in the total
-        /// baseline-relative change divided by the layout's response at the contact's place),
+        /// inverted per frame; the placed law is written instead, with a note, when the model
+        /// predicts each calibration press, fitted without it, worse than the placed law does —
+        /// with fewer than 3 presses, when it fits its calibration worse; docs/force.md), placed
+        /// (a power law in the total baseline-relative change divided by the layout's response
+        /// at the contact's place),
         /// total (the same without the division), ridge (on the 24 changes), area (contour area
         /// of the scene's contact location) or amplitude (the contact fit's, with method = "fit").
         #[arg(long, default_value = gradtac::stages::force_model::DEFAULT_METHOD.name())]
