@@ -6,7 +6,9 @@
 //!
 //! - `sim/grasp`: simulating a 2 s two-finger grasp (2 × 200 frames of 24 taxels);
 //! - `slip/points`: the slip classifier over that grasp's 400 track points;
-//! - `force/<method>`: predicting 4096 areas with each fitted model;
+//! - `force/<method>`: predicting 4096 areas with each fitted model; `force/forward-invert`:
+//!   the `forward` model (`force_ident`) inverted for 256 noisy frames, one `(x, y, F)`
+//!   solve each (what `[stages.force]` with a `forward` file pays per contact frame);
 //! - `servo/points`: the servo over the 400 track points;
 //! - `dos/extract-*`: the one-fingertip slip-direction feature extractor over the grasp's first
 //!   sensor (200 frames) with the default features, every feature, every feature with surface
@@ -27,12 +29,13 @@
 //! | `force/PowerLaw` | 52.3 µs | 12.8 ns |
 //! | `force/Exponential` | 29.8 µs | 7.3 ns |
 //! | `force/Isotonic` (≈ 200 knots) | 42.0 µs | 10.2 ns |
+//! | `force/forward-invert` (256 frames; measured 2026-11-27 with the machine loaded ≈ 5, where `force/Linear` took 43 µs) | 14.3 ms | 56 µs per frame |
 //! | `chain/grasp` (400 frames) | 3.17 ms | 7.9 µs per frame (≈ 1/1260 of the 10 ms frame period) |
 //! | `dos/extract-default` (200 frames, events + drift map) | 56.7 µs | 0.28 µs per frame |
 //! | `dos/extract-all-taxels` (every feature) | 60.6 µs | 0.30 µs per frame |
 //! | `dos/extract-all-surface` (every feature, 32 × 32 surfaces per track window) | 129 µs | 0.65 µs per frame |
 //! | `dos/drift-map` (200 frames, lags 30/60/120) | 28.0 µs | 0.14 µs per frame |
-//! | `dos/classify` (one decision, 7 classes × 9 features, Student t) | 347 ns | |
+//! | `dos/classify` (one decision, 7 classes × the then 9 default features, Student t; 667 ns loaded with today's 7) | 347 ns | |
 //! | `dos/sliding-100-hop-10` (200 frames: 11 decisions over 100-frame windows) | 295 µs | 1.5 µs per frame, 27 µs per decision |
 //!
 //! The task stages cost nothing next to the chain before them: slip adds < 0.5 % to a frame.
@@ -44,6 +47,8 @@ use gradtac_stages::dos::{
 use gradtac_stages::drift::DriftMap;
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
 use gradtac_stages::force::{ForceMethod, ForceModel, ForceSample};
+use gradtac_stages::force_ident::{ForwardModel, Geometry};
+use gradtac_stages::force_model::forward_force;
 use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac_stages::savgol::{SavGol, SavGolConfig};
 use gradtac_stages::servo::{Servo, ServoConfig};
@@ -124,6 +129,35 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
 
+    // The `forward` force model inverted per frame: 256 presses of 0.3–9 N at places over the
+    // pad, each the model's own changes plus ±2 counts of deterministic noise.
+    let geo = Geometry::for_positions(layout.positions());
+    let gains = (0..24)
+        .map(|i| -80.0 * (1.0 + 0.3 * (i as f64 * 1.7).sin()) * if [4, 11, 19].contains(&i) { -1.0 } else { 1.0 });
+    let model =
+        ForwardModel { gains: gains.collect(), exponent: 0.7, spread: 0.25, width_mm: 3.2, shape: 2.0, lobe: 0.3 };
+    let deltas: Vec<Vec<f64>> = (0..256)
+        .map(|k| {
+            let (x, y, f) = (
+                -5.0 + 10.0 * ((k * 37) % 256) as f64 / 255.0,
+                -8.0 + (k % 16) as f64,
+                0.3 + 8.7 * (k % 29) as f64 / 28.0,
+            );
+            model
+                .predict(&geo, x, y, f)
+                .iter()
+                .enumerate()
+                .map(|(i, d)| d + 2.0 * ((i * 7 + k * 13) as f64).sin())
+                .collect()
+        })
+        .collect();
+    let mut g = c.benchmark_group("force");
+    g.throughput(Throughput::Elements(deltas.len() as u64));
+    g.bench_function("forward-invert", |b| {
+        b.iter(|| deltas.iter().map(|d| forward_force(&model, &geo, black_box(d))).sum::<f64>())
+    });
+    g.finish();
+
     // One fingertip's raw frames (the grasp's first sensor) through the slip-direction
     // extractor, and one decision.
     let ff: Vec<TaxelFrame> = frames.iter().filter(|f| f.sensor == frames[0].sensor).cloned().collect();
@@ -161,8 +195,10 @@ fn bench(c: &mut Criterion) {
             BatchSize::SmallInput,
         )
     });
+    // one value per default feature (the model refuses any other count)
+    let nf = DosFeatureConfig::default().features.len();
     let samples: Vec<(DosClass, Vec<f64>)> = (0..70)
-        .map(|k| (DosClass::ALL[k % 7], (0..9).map(|j| ((k * 7 + j * 3) % 11) as f64 + (k % 7) as f64).collect()))
+        .map(|k| (DosClass::ALL[k % 7], (0..nf).map(|j| ((k * 7 + j * 3) % 11) as f64 + (k % 7) as f64).collect()))
         .collect();
     let model = DosModel::calibrate(DosFeatureConfig::default(), &samples).unwrap();
     g.bench_function("sliding-100-hop-10", |b| {
@@ -176,7 +212,7 @@ fn bench(c: &mut Criterion) {
         )
     });
     g.throughput(Throughput::Elements(1));
-    let probe: Vec<f64> = (0..9).map(|j| j as f64 * 0.7).collect();
+    let probe: Vec<f64> = (0..nf).map(|j| j as f64 * 0.7).collect();
     g.bench_function("classify", |b| b.iter(|| black_box(model.classify(black_box(&probe)).unwrap())));
     g.finish();
 
