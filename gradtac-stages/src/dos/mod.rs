@@ -662,7 +662,10 @@ mod stage;
 #[cfg(feature = "train")]
 pub mod train;
 #[cfg(feature = "train")]
+pub mod train_trees;
+#[cfg(feature = "train")]
 pub mod train_window;
+mod trees;
 mod window;
 
 pub use classes::*;
@@ -672,6 +675,7 @@ pub use features::*;
 pub use model::*;
 pub use net::*;
 pub use stage::*;
+pub use trees::*;
 pub use window::*;
 
 const STAGE: &str = "dos";
