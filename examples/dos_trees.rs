@@ -16,6 +16,9 @@ use std::error::Error;
 use std::path::PathBuf;
 use std::time::Instant;
 
+#[path = "dos_eval_parts/trees_held_out.rs"]
+mod held_out;
+
 fn pct((ok, n): (usize, usize)) -> String {
     format!("{:.1} % ({ok}/{n})", 100.0 * ok as f64 / n.max(1) as f64)
 }
@@ -28,12 +31,16 @@ fn main() -> Result<(), Box<dyn Error>> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let mut dir = root.join("../shared/data/biotacsp-dos");
     let mut cands_path = root.join("examples/dos_eval_parts/trees_candidates.json");
+    let mut held: Option<PathBuf> = None;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--candidates" => cands_path = args.next().ok_or("--candidates needs a JSON file")?.into(),
+            "--held-out" => {
+                held = Some(args.next().ok_or("--held-out needs a JSON file of one TreeTrainConfig")?.into())
+            }
             "-h" | "--help" => {
-                println!("usage: dos_trees [DATA_DIR] [--candidates FILE.json]");
+                println!("usage: dos_trees [DATA_DIR] [--candidates FILE.json] [--held-out CANDIDATE.json]");
                 return Ok(());
             }
             other => dir = PathBuf::from(other),
@@ -48,6 +55,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         c.validate()?;
     }
     let layout = Layout::biotac_sp();
+    if let Some(p) = held {
+        let c: TreeTrainConfig = serde_json::from_str(&std::fs::read_to_string(p)?)?;
+        c.validate()?;
+        return held_out::run(&dir, &layout, &c);
+    }
     let recs = gradtac::calibrate::read_recordings(&dir, &CalibrateOptions::default())?;
     let tr = train_recordings(&recs);
     let of = |set: &str| -> Vec<usize> { (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect() };
