@@ -32,15 +32,19 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut dir = root.join("../shared/data/biotacsp-dos");
     let mut cands_path = root.join("examples/dos_eval_parts/trees_candidates.json");
     let mut held: Option<PathBuf> = None;
+    let mut cost_only = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--candidates" => cands_path = args.next().ok_or("--candidates needs a JSON file")?.into(),
+            "--cost-only" => cost_only = true,
             "--held-out" => {
                 held = Some(args.next().ok_or("--held-out needs a JSON file of one TreeTrainConfig")?.into())
             }
             "-h" | "--help" => {
-                println!("usage: dos_trees [DATA_DIR] [--candidates FILE.json] [--held-out CANDIDATE.json]");
+                println!(
+                    "usage: dos_trees [DATA_DIR] [--candidates FILE.json] [--cost-only] [--held-out CANDIDATE.json]"
+                );
                 return Ok(());
             }
             other => dir = PathBuf::from(other),
@@ -64,6 +68,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     let tr = train_recordings(&recs);
     let of = |set: &str| -> Vec<usize> { (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect() };
     let (basic, solids) = (of("basic"), of("solids"));
+    if cost_only {
+        return costs(&tr, &layout, &cands);
+    }
     let mut rows: Vec<(String, InnerScore, InnerScore)> = Vec::new();
     let t = Instant::now();
     let wc = gradtac::calibrate::window_candidates();
@@ -113,16 +120,24 @@ fn main() -> Result<(), Box<dyn Error>> {
         "rule's pick: {}",
         if best == 0 { "the current default (no tree model scored held out)".into() } else { format!("T{best}") }
     );
-    // cost: a fit on all recordings, and the causal vote's per-frame cost
+    costs(&tr, &layout, &cands)
+}
+
+/// Each candidate's fit on all recordings and its causal vote's per-frame cost (every push timed).
+fn costs(
+    tr: &[gradtac::stages::dos::train::TrainRecording],
+    layout: &Layout,
+    cands: &[TreeTrainConfig],
+) -> Result<(), Box<dyn Error>> {
     let all: Vec<usize> = (0..tr.len()).collect();
     for (k, c) in cands.iter().enumerate() {
         let t = Instant::now();
-        let samples = tree_samples(&tr, &layout, c)?;
-        let m = fit_on(&samples, &all, &layout, c)?;
+        let samples = tree_samples(tr, layout, c)?;
+        let m = fit_on(&samples, &all, layout, c)?;
         let fit_s = t.elapsed().as_secs_f64();
-        let mut v = m.vote(&layout)?;
+        let mut v = m.vote(layout)?;
         let mut cost = Vec::new();
-        for r in &tr {
+        for r in tr {
             v.reset();
             for f in &r.frames {
                 let t = Instant::now();
@@ -133,11 +148,12 @@ fn main() -> Result<(), Box<dyn Error>> {
         }
         cost.sort_by(f64::total_cmp);
         let q = |p: f64| cost[((cost.len() - 1) as f64 * p).round() as usize];
+        // the window frames alone: each is one window's inputs and two walks of every tree
         println!(
             "T{}: fit on all {} recordings (with augmentation) {fit_s:.1} s; {} trees, {} nodes; causal vote per frame median {:.2} µs, p99 {:.2} µs ({} frames)",
             k + 1,
             tr.len(),
-            m.trees.len(),
+            m.trees().len(),
             m.nodes(),
             q(0.5),
             q(0.99),

@@ -91,8 +91,8 @@ impl Ctx<'_> {
                 for f in self.tr[i].frames.iter().take(span) {
                     vote.push(f)?;
                 }
-                let w = vote.mean_log_posterior().unwrap_or_else(|| vec![0.0; m.1.classes.len()]);
-                Ok((log_over_all(&m.0.classes, &lp), log_over_all(&m.1.classes, &w)))
+                let w = vote.mean_log_posterior().unwrap_or_else(|| vec![0.0; m.1.classes().len()]);
+                Ok((log_over_all(&m.0.classes, &lp), log_over_all(m.1.classes(), &w)))
             })
             .collect()
     }

@@ -691,4 +691,6 @@ use tests::support as tests_support;
 #[cfg(test)]
 mod net_tests;
 #[cfg(test)]
+mod trees_tests;
+#[cfg(test)]
 mod window_tests;

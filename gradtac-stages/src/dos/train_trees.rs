@@ -208,7 +208,7 @@ pub fn fit_trees(samples: &[(DosClass, Vec<f64>)], layout: &Layout, cfg: &TreeTr
     } else {
         None
     };
-    DosTrees::try_new(DosTrees { inputs: cfg.inputs.clone(), taxels, classes, base, trees, mirror, recordings: 0 })
+    DosTrees::try_new(cfg.inputs.clone(), taxels, classes, base, trees, mirror, 0)
 }
 
 /// A tree and the bin of each internal node's split.

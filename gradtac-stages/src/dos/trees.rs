@@ -273,25 +273,49 @@ impl Tree {
 }
 
 /// The tree model of slip direction (see the [module docs](self)). Serialises to JSON (serde),
-/// validated when read.
+/// validated when read or built ([`try_new`](Self::try_new)); read-only after that (the walk
+/// uses a compact copy of the trees made then).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, try_from = "RawDosTrees")]
 pub struct DosTrees {
     /// Representation.
-    pub inputs: TreeInputs,
+    pub(super) inputs: TreeInputs,
     /// Taxels of the sensor the model was trained for.
-    pub taxels: usize,
+    pub(super) taxels: usize,
     /// The classes, in output order.
-    pub classes: Vec<DosClass>,
+    pub(super) classes: Vec<DosClass>,
     /// Initial logit per class.
-    pub base: Vec<f64>,
+    pub(super) base: Vec<f64>,
     /// The trees, class `t mod classes` for tree `t`.
-    pub trees: Vec<Tree>,
+    pub(super) trees: Vec<Tree>,
     /// The layout's mirror permutation of the taxels: average with the mirror image (`None`:
     /// no averaging).
-    pub mirror: Option<Vec<usize>>,
+    pub(super) mirror: Option<Vec<usize>>,
     /// Labelled recordings it was trained on (information only).
-    pub recordings: usize,
+    pub(super) recordings: usize,
+    /// The walk's compact form, made by `try_new`.
+    #[serde(skip)]
+    compiled: Compiled,
+}
+
+/// One node of the compact form: children as absolute indices (0: a leaf; no root is a child).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Node {
+    threshold: f64,
+    value: f64,
+    feature: u32,
+    left: u32,
+    right: u32,
+}
+
+/// The compact form of a validated model: every tree's nodes in one array, its roots, the input
+/// mirror map and each class's mirror's index.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Compiled {
+    nodes: Vec<Node>,
+    roots: Vec<u32>,
+    mirror_map: Vec<(u32, f64)>,
+    mirror_class: Vec<usize>,
 }
 
 #[derive(Deserialize)]
@@ -310,28 +334,86 @@ struct RawDosTrees {
 impl TryFrom<RawDosTrees> for DosTrees {
     type Error = Error;
     fn try_from(r: RawDosTrees) -> Result<Self> {
-        DosTrees::try_new(DosTrees {
-            inputs: r.inputs,
-            taxels: r.taxels,
-            classes: r.classes,
-            base: r.base,
-            trees: r.trees,
-            mirror: r.mirror,
-            recordings: r.recordings,
-        })
+        DosTrees::try_new(r.inputs, r.taxels, r.classes, r.base, r.trees, r.mirror, r.recordings)
     }
 }
 
 impl DosTrees {
-    /// Validate `model` and return it.
-    pub fn try_new(model: DosTrees) -> Result<Self> {
-        model.validate()?;
-        Ok(model)
+    /// A model of these parts (see the fields' docs), validated ([`validate`](Self::validate)).
+    pub fn try_new(
+        inputs: TreeInputs,
+        taxels: usize,
+        classes: Vec<DosClass>,
+        base: Vec<f64>,
+        trees: Vec<Tree>,
+        mirror: Option<Vec<usize>>,
+        recordings: usize,
+    ) -> Result<Self> {
+        let mut m =
+            DosTrees { inputs, taxels, classes, base, trees, mirror, recordings, compiled: Compiled::default() };
+        m.validate()?;
+        let mut c = Compiled::default();
+        for t in &m.trees {
+            let at = c.nodes.len() as u32;
+            c.roots.push(at);
+            for i in 0..t.left.len() {
+                let (l, r) = if t.left[i] == 0 { (0, 0) } else { (at + t.left[i] as u32, at + t.right[i] as u32) };
+                c.nodes.push(Node {
+                    threshold: t.threshold[i],
+                    value: t.value[i],
+                    feature: t.feature[i] as u32,
+                    left: l,
+                    right: r,
+                });
+            }
+        }
+        if let Some(p) = &m.mirror {
+            c.mirror_map = m.inputs.mirror_map(p).into_iter().map(|(j, s)| (j as u32, s)).collect();
+            c.mirror_class =
+                m.classes.iter().map(|cl| m.classes.iter().position(|d| *d == cl.mirrored()).unwrap_or(0)).collect();
+        }
+        m.compiled = c;
+        Ok(m)
     }
 
     /// Number of inputs.
-    pub fn inputs(&self) -> usize {
+    pub fn input_count(&self) -> usize {
         self.inputs.inputs(self.taxels)
+    }
+
+    /// The representation.
+    pub fn inputs(&self) -> &TreeInputs {
+        &self.inputs
+    }
+
+    /// Taxels of the sensor the model was trained for.
+    pub fn taxels(&self) -> usize {
+        self.taxels
+    }
+
+    /// The classes, in output order.
+    pub fn classes(&self) -> &[DosClass] {
+        &self.classes
+    }
+
+    /// Initial logit per class.
+    pub fn base(&self) -> &[f64] {
+        &self.base
+    }
+
+    /// The trees (class `t mod classes` for tree `t`).
+    pub fn trees(&self) -> &[Tree] {
+        &self.trees
+    }
+
+    /// The mirror permutation, when the model averages with the mirror image.
+    pub fn mirror(&self) -> Option<&[usize]> {
+        self.mirror.as_deref()
+    }
+
+    /// Labelled recordings it was trained on (information only).
+    pub fn recordings(&self) -> usize {
+        self.recordings
     }
 
     /// Number of tree nodes.
@@ -358,7 +440,14 @@ impl DosTrees {
                 self.trees.len()
             )));
         }
-        let inputs = self.inputs();
+        let inputs = self.input_count();
+        if inputs > u32::MAX as usize / 2 {
+            return Err(invalid("too many inputs"));
+        }
+        let nodes = self.nodes();
+        if nodes > u32::MAX as usize / 2 {
+            return Err(invalid("too many tree nodes"));
+        }
         for (t, tree) in self.trees.iter().enumerate() {
             tree.validate(inputs).map_err(|e| invalid(format!("tree {t}: {e}")))?;
         }
@@ -375,32 +464,59 @@ impl DosTrees {
     }
 
     fn raw_logits(&self, x: &[f64]) -> Vec<f64> {
+        const LANES: usize = 4;
         let k = self.classes.len();
+        let nodes = &self.compiled.nodes;
+        let roots = &self.compiled.roots;
         let mut out = self.base.clone();
-        for (t, tree) in self.trees.iter().enumerate() {
-            out[t % k] += tree.eval(x);
+        // LANES trees walked side by side (independent loads overlap); each class's values are
+        // still added in tree order. Children are after their parent: every walk ends.
+        let mut t = 0;
+        while t + LANES <= roots.len() {
+            let mut at = [0usize; LANES];
+            for (a, r) in at.iter_mut().zip(&roots[t..t + LANES]) {
+                *a = *r as usize;
+            }
+            loop {
+                let mut moved = false;
+                for a in at.iter_mut() {
+                    let n = &nodes[*a];
+                    if n.left != 0 {
+                        *a = if x[n.feature as usize] <= n.threshold { n.left } else { n.right } as usize;
+                        moved = true;
+                    }
+                }
+                if !moved {
+                    break;
+                }
+            }
+            for (j, a) in at.iter().enumerate() {
+                out[(t + j) % k] += nodes[*a].value;
+            }
+            t += LANES;
+        }
+        for (t, &root) in roots.iter().enumerate().skip(t) {
+            let mut n = &nodes[root as usize];
+            while n.left != 0 {
+                n = &nodes[if x[n.feature as usize] <= n.threshold { n.left } else { n.right } as usize];
+            }
+            out[t % k] += n.value;
         }
         out
     }
 
     /// The logits of one window's input vector ([`TreeExtractor::push`]).
     pub fn logits(&self, x: &[f64]) -> Result<Vec<f64>> {
-        if x.len() != self.inputs() {
-            return Err(invalid(format!("{} inputs for a tree model of {}", x.len(), self.inputs())));
+        if x.len() != self.input_count() {
+            return Err(invalid(format!("{} inputs for a tree model of {}", x.len(), self.input_count())));
         }
         let own = self.raw_logits(x);
-        let Some(p) = &self.mirror else { return Ok(own) };
-        let m: Vec<f64> = self.inputs.mirror_map(p).iter().map(|&(j, s)| s * x[j]).collect();
+        if self.mirror.is_none() {
+            return Ok(own);
+        }
+        let m: Vec<f64> = self.compiled.mirror_map.iter().map(|&(j, s)| s * x[j as usize]).collect();
         let mirrored = self.raw_logits(&m);
-        Ok(self
-            .classes
-            .iter()
-            .enumerate()
-            .map(|(c, class)| {
-                let mc = self.classes.iter().position(|d| *d == class.mirrored()).unwrap_or(c);
-                0.5 * (own[c] + mirrored[mc])
-            })
-            .collect())
+        Ok(own.iter().zip(&self.compiled.mirror_class).map(|(o, &mc)| 0.5 * (o + mirrored[mc])).collect())
     }
 
     /// The log posterior of one window (model class order).
