@@ -1,6 +1,6 @@
 //! Training of the tree model [`DosTrees`] (cargo feature `train`; inference needs none of this):
 //! a small hand-written histogram gradient-boosting trainer with the softmax loss, on the window
-//! model's augmented recordings ([`train_window::versions`](super::train_window::versions)).
+//! model's augmented recordings ([`train_window::versions`]).
 //!
 //! # Why hand-written
 //! The pure-Rust crates checked (crates.io, stop 33): `gbdt` 0.1.3 (Apache-2.0; its losses are

@@ -53,7 +53,7 @@ pub const MAX_TREES: usize = 100_000;
 /// Largest lag (and slope length), in windows.
 pub const MAX_TREE_LAG: usize = 1000;
 
-/// The tree model's representation (see the [module docs](self)).
+/// The tree model's representation (see the [`dos` module docs](crate::dos) and the `trees` source file).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TreeInputs {
@@ -206,7 +206,7 @@ impl TreeExtractor {
     }
 }
 
-/// One regression tree as arrays (see the [module docs](self)): node `i` is a leaf when
+/// One regression tree as arrays (see the [`dos` module docs](crate::dos) and the `trees` source file): node `i` is a leaf when
 /// `left[i] == 0`, else it sends `x[feature[i]] ≤ threshold[i]` to `left[i]`, the rest to
 /// `right[i]`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -272,7 +272,7 @@ impl Tree {
     }
 }
 
-/// The tree model of slip direction (see the [module docs](self)). Serialises to JSON (serde),
+/// The tree model of slip direction (see the [`dos` module docs](crate::dos) and the `trees` source file). Serialises to JSON (serde),
 /// validated when read or built ([`try_new`](Self::try_new)); read-only after that (the walk
 /// uses a compact copy of the trees made then).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
