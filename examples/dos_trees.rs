@@ -18,6 +18,9 @@ use std::time::Instant;
 
 #[path = "dos_eval_parts/trees_held_out.rs"]
 mod held_out;
+#[path = "dos_eval_parts/sliding_cost.rs"]
+#[allow(dead_code)]
+mod sliding_cost;
 
 fn pct((ok, n): (usize, usize)) -> String {
     format!("{:.1} % ({ok}/{n})", 100.0 * ok as f64 / n.max(1) as f64)
@@ -69,7 +72,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     let of = |set: &str| -> Vec<usize> { (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect() };
     let (basic, solids) = (of("basic"), of("solids"));
     if cost_only {
-        return costs(&tr, &layout, &cands);
+        costs(&tr, &layout, &cands)?;
+        return stage_cost(&dir, &layout, &tr);
     }
     let mut rows: Vec<(String, InnerScore, InnerScore)> = Vec::new();
     let t = Instant::now();
@@ -121,6 +125,44 @@ fn main() -> Result<(), Box<dyn Error>> {
         if best == 0 { "the current default (no tree model scored held out)".into() } else { format!("T{best}") }
     );
     costs(&tr, &layout, &cands)
+}
+
+/// `gradtac calibrate dos --window-trees`'s procedure on all recordings (its time), and the
+/// `dos` stage on that model, one decision per recording: every push timed.
+fn stage_cost(
+    dir: &std::path::Path,
+    layout: &Layout,
+    tr: &[gradtac::stages::dos::train::TrainRecording],
+) -> Result<(), Box<dyn Error>> {
+    use gradtac::stages::dos::DosClassifier;
+    use gradtac::stream::Stage;
+    let opts = CalibrateOptions { window_trees: true, ..CalibrateOptions::default() };
+    let t = Instant::now();
+    let (model, n) = gradtac::calibrate::calibrate_dos(dir, layout, &opts)?;
+    let calib_s = t.elapsed().as_secs_f64();
+    let part = model.trees.as_ref().ok_or("no tree part")?;
+    let (mut cost, mut out, mut ok) = (Vec::new(), Vec::new(), 0);
+    for r in tr {
+        let mut stage = DosClassifier::try_new(model.clone(), layout, None)?;
+        out.clear();
+        for (seq, v) in r.frames.iter().enumerate() {
+            cost.push(sliding_cost::push_timed(&mut stage, seq, v, &mut out)?);
+        }
+        stage.finish(&mut out)?;
+        ok += usize::from(out.last().is_some_and(|d| d.decision.class == r.class));
+    }
+    cost.sort_by(f64::total_cmp);
+    let q = |p: f64| cost[((cost.len() - 1) as f64 * p).round() as usize];
+    println!(
+        "calibrate dos --window-trees on {n} recordings: {calib_s:.1} s (weight a = {}); the dos stage, one decision per \
+         recording, per frame median {:.2} µs, p99 {:.2} µs, max {:.0} µs ({} frames; in-sample decisions {ok}/{n})",
+        part.weight,
+        q(0.5),
+        q(0.99),
+        q(1.0),
+        cost.len()
+    );
+    Ok(())
 }
 
 /// Each candidate's fit on all recordings and its causal vote's per-frame cost (every push timed).

@@ -87,6 +87,9 @@ pub struct DosClassifier {
     /// With the model's window part: the causal vote over the span's windows (tumbling spans
     /// and one decision per segment; the sliding mode replays its window through `Sliding::vote`).
     vote: Option<WindowVoteState>,
+    /// With the model's tree part: the causal vote of its trees over the span's windows
+    /// (tumbling spans and one decision per segment; the sliding mode refuses a tree part).
+    tree_vote: Option<TreeVoteState>,
 }
 
 /// What the sliding mode keeps of one of the net's windows across decisions.
@@ -163,7 +166,16 @@ impl DosClassifier {
             })?),
             None => None,
         };
-        Ok(DosClassifier { model, extractor, decision_frames, span: None, sliding: None, vote })
+        let tree_vote = match &model.trees {
+            Some(t) => Some(TreeVoteState::try_new(&t.trees, layout).map_err(|e| match e {
+                Error::InvalidConfig { stage, reason } => {
+                    Error::InvalidConfig { stage, reason: format!("trees.trees of the model: {reason}") }
+                }
+                other => other,
+            })?),
+            None => None,
+        };
+        Ok(DosClassifier { model, extractor, decision_frames, span: None, sliding: None, vote, tree_vote })
     }
 
     /// Sliding decisions: one every `hop` frames (≥ 1) over the last `decision_frames` frames,
@@ -174,6 +186,12 @@ impl DosClassifier {
         };
         if hop == 0 {
             return Err(invalid("hop must be ≥ 1 frame"));
+        }
+        if self.model.trees.is_some() {
+            return Err(invalid(
+                "the sliding mode does not run a model's tree part (not built yet): use tumbling spans or one \
+                 decision per segment, or a model with a window net",
+            ));
         }
         if hop > crate::limits::MAX_DOS_FRAMES {
             return Err(invalid(format!(
@@ -230,6 +248,10 @@ impl DosClassifier {
             let features = self.extractor.features();
             let mut decision = self.model.classify_vector(&features)?;
             if let Some(v) = &mut self.vote {
+                decision = self.model.combine(decision, v.mean_log_posterior().as_deref());
+                v.reset();
+            }
+            if let Some(v) = &mut self.tree_vote {
                 decision = self.model.combine(decision, v.mean_log_posterior().as_deref());
                 v.reset();
             }
@@ -445,7 +467,14 @@ impl Stage for DosClassifier {
                 self.extractor.push(frame)?;
                 v.push(&w.net, &values)?;
             }
-            _ => self.extractor.push(frame)?,
+            _ => match (&mut self.tree_vote, &self.model.trees) {
+                (Some(v), Some(t)) => {
+                    let values = frame.values.clone();
+                    self.extractor.push(frame)?;
+                    v.push(&t.trees, &values)?;
+                }
+                _ => self.extractor.push(frame)?,
+            },
         }
         match &mut self.span {
             Some(s) => {
@@ -478,6 +507,9 @@ impl Stage for DosClassifier {
         self.extractor.reset();
         self.span = None;
         if let Some(v) = &mut self.vote {
+            v.reset();
+        }
+        if let Some(v) = &mut self.tree_vote {
             v.reset();
         }
         if let Some(sl) = &mut self.sliding {

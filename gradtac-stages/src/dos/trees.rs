@@ -543,7 +543,7 @@ impl DosTrees {
 
     /// A streaming per-span answer on `layout` ([`TreeVote`]).
     pub fn vote(&self, layout: &Layout) -> Result<TreeVote<'_>> {
-        Ok(TreeVote { model: self, extractor: self.extractor(layout)?, sum: vec![0.0; self.classes.len()], windows: 0 })
+        Ok(TreeVote { model: self, state: TreeVoteState::try_new(self, layout)? })
     }
 }
 
@@ -552,21 +552,60 @@ impl DosTrees {
 #[derive(Clone, Debug)]
 pub struct TreeVote<'a> {
     model: &'a DosTrees,
-    extractor: TreeExtractor,
-    sum: Vec<f64>,
-    windows: u64,
+    state: TreeVoteState,
 }
 
 impl TreeVote<'_> {
     /// Push one raw frame; when it completes a window, that window's decision (alone).
     pub fn push(&mut self, values: &[f64]) -> Result<Option<Decision>> {
+        self.state.push(self.model, values)
+    }
+
+    /// Completed windows in the vote.
+    pub fn windows(&self) -> u64 {
+        self.state.windows
+    }
+
+    /// The vote's decision so far (`None` before the first window).
+    pub fn decision(&self) -> Option<Decision> {
+        self.state.decision(self.model)
+    }
+
+    /// The mean log posterior per window so far (model class order).
+    pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
+        self.state.mean_log_posterior()
+    }
+
+    /// Start a new span.
+    pub fn reset(&mut self) {
+        self.state.reset();
+    }
+}
+
+/// The state of a [`TreeVote`] without the borrow of its model (the `dos` stage keeps both):
+/// every call takes the model the state was made for.
+#[derive(Clone, Debug)]
+pub struct TreeVoteState {
+    extractor: TreeExtractor,
+    sum: Vec<f64>,
+    windows: u64,
+}
+
+impl TreeVoteState {
+    /// An empty vote of `model` on `layout` (the model's taxel count).
+    pub fn try_new(model: &DosTrees, layout: &Layout) -> Result<Self> {
+        Ok(TreeVoteState { extractor: model.extractor(layout)?, sum: vec![0.0; model.classes.len()], windows: 0 })
+    }
+
+    /// [`TreeVote::push`] with `model`.
+    pub fn push(&mut self, model: &DosTrees, values: &[f64]) -> Result<Option<Decision>> {
         let Some(x) = self.extractor.push(values)? else { return Ok(None) };
-        let logits = self.model.logits(&x)?;
+        let logits = model.logits(&x)?;
         for (s, l) in self.sum.iter_mut().zip(log_softmax(&logits)) {
             *s += l;
         }
         self.windows += 1;
-        Ok(Some(decision(&self.model.classes, softmax(&logits))))
+        Ok(Some(decision(&model.classes, softmax(&logits))))
     }
 
     /// Completed windows in the vote.
@@ -574,12 +613,12 @@ impl TreeVote<'_> {
         self.windows
     }
 
-    /// The vote's decision so far (`None` before the first window).
-    pub fn decision(&self) -> Option<Decision> {
-        (self.windows > 0).then(|| decision(&self.model.classes, softmax(&self.sum)))
+    /// [`TreeVote::decision`] with `model`.
+    pub fn decision(&self, model: &DosTrees) -> Option<Decision> {
+        (self.windows > 0).then(|| decision(&model.classes, softmax(&self.sum)))
     }
 
-    /// The mean log posterior per window so far (model class order).
+    /// [`TreeVote::mean_log_posterior`].
     pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
         (self.windows > 0).then(|| self.sum.iter().map(|s| s / self.windows as f64).collect())
     }
