@@ -611,13 +611,18 @@
 //! qualifies as the default. Solids → basic ≥ 85 % is still not reached (79.3 %; the trees alone
 //! reach 83.8 % there, but the rule scores the combination, and that observation chose nothing).
 //!
-//! **Not yet the default**: the `dos` stage, `gradtac calibrate dos` and `dos_eval`'s floors still
-//! run the window net; wiring the tree part into the model file, the stage's three modes and the
-//! calibration is the next step. Cost measured so far (`dos_trees --cost-only`, the vote alone
-//! through [`TreeVote`], every push timed, 46 165 frames, release, load ≈ 9 on 2 cores): median
-//! 0.04 µs, **p99 17.5–17.9 µs per frame** (a window frame: its 148 inputs and 2 × 560 tree walks,
-//! four trees walked side by side), against the bound of 20 µs; the combination adds the Student-t
-//! extraction (≈ 0.3 µs per frame).
+//! **Not yet the default; an option.** A model file may carry a tree part ([`DosTreesPart`]:
+//! the trees and the weight `a`; exclusive with the window net's [`DosWindowPart`]), which
+//! `gradtac calibrate dos --window-trees` writes (the same procedure as the net's: `a` by
+//! leave-one-object-out per recording, then the trees fitted on all; **27 s** on the 167
+//! recordings, release, load ≈ 5.6 on 2 cores; it chose `a` = 0.5) and the `dos` stage runs with
+//! one decision per segment or tumbling spans: **p99 17.9 µs per frame** one decision per
+//! recording (median 0.26 µs; `dos_trees --cost-only`; the vote alone p99 17.5–17.9 µs, fit on all
+//! 3.3–5.0 s). By its rule the trees qualify as the default (every met target held, the cost
+//! under 20 µs), but the stage's **sliding mode refuses a tree part** (its replay of ~50 windows
+//! per decision through 1 120 tree walks each is not built, and would be far over 20 µs without
+//! the work-ahead the net has), and `dos_eval`'s CI floors follow the net; so the default stays
+//! the window net until the sliding mode runs the trees — a decision left to the lead.
 //!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
@@ -704,6 +709,7 @@
 //! | mirror augmentation | off: the model may learn a side preference of the training data | on (default): symmetric model, twice the samples, same parameter count |
 //! | drift scale | `log`: the previous default, gain-invariant only | `linear` (default): gain- and offset-invariant, same accuracy |
 //! | hop ([`DosClassifier::with_hop`]) | an answer every few frames; one `decision_frames` extraction each | fewer answers, less CPU |
+//! | window part | the net ([`DosWindowPart`], default): every mode incl. sliding, p99 5.4 µs one decision | trees ([`DosTreesPart`], `--window-trees`): held out +1 nested / −2 basic → solids / +1 solids → basic recordings, +3.4 points on the ConvLSTM protocol; p99 17.9 µs; no sliding mode |
 
 use crate::contour::{ContourConfig, Levels, MaxContour, MaxContourFinder, Saddle};
 use crate::drift::{DriftMap, DriftScale};

@@ -71,6 +71,17 @@ impl HasSensor for DosDecision {
 /// (`WindowInputs::SinceStart`, `Both`) nothing is kept and every net window is recomputed
 /// ahead.
 ///
+/// With the model's **tree part** instead ([`DosModel::trees`], a [`DosTrees`] vote; stop 33,
+/// `gradtac calibrate dos --window-trees`) the decision combines the same way with the trees'
+/// causal vote over the span's 5-frame windows (inputs: the window, the contact's first 0.1 s,
+/// the level pattern 0.3 s and 1 s earlier, the last 0.3 s of changes; units as the window
+/// net's, dimensionless). One decision per segment and tumbling spans only: the sliding mode
+/// refuses a tree part (`with_hop` fails), since its replay would walk every tree of ~50 windows
+/// per decision (not built). Extra cost: every 5 frames one window's 148 inputs and 2 × 560 tree
+/// walks; one decision per recording p99 17.9 µs per frame (median 0.26 µs; `examples/dos_trees
+/// --cost-only`, 46 165 frames, load ≈ 5.6 on 2 cores). No extra delay: a window counts once its
+/// fifth frame is in.
+///
 /// [`reset`](Stage::reset) drops the open span (and the sliding window). Delay: `n − 1` frames;
 /// with `None` the decision comes at `finish` and [`Stage::delay`] reports zero (no frame
 /// count describes it).
