@@ -68,6 +68,12 @@ pub struct CalibrateOptions {
     /// the rule stated on the inner folds, then scored held out — the `dos` module docs;
     /// `gradtac calibrate --no-window-motion` turns it off, giving stop 31's window net).
     pub window_motion: bool,
+    /// Write the window part as gradient-boosted trees ([`gradtac_stages::dos::DosTreesPart`],
+    /// [`calibrate_trees_part`]) instead of the window net (default off; `gradtac calibrate dos
+    /// --window-trees`). The tree model won its rule on the inner views and held out every met
+    /// target (stop 33, the `dos` module docs); the `dos` stage runs it in one decision per
+    /// segment and in tumbling spans, not yet in the sliding mode.
+    pub window_trees: bool,
 }
 
 impl Default for CalibrateOptions {
@@ -81,6 +87,7 @@ impl Default for CalibrateOptions {
             mirror: true,
             window: true,
             window_motion: true,
+            window_trees: false,
         }
     }
 }
@@ -245,6 +252,10 @@ pub fn calibrate_dos(dir: &Path, layout: &Layout, opts: &CalibrateOptions) -> Re
         return Ok((model, spans.len()));
     }
     let recs = read_recordings(dir, opts)?;
+    if opts.window_trees {
+        let (part, _) = calibrate_trees_part(&spans, &recs, layout, opts)?;
+        return Ok((model.with_trees(Some(part))?, spans.len()));
+    }
     let (part, _) = calibrate_window_part(&spans, &recs, layout, opts)?;
     Ok((model.with_window(Some(part))?, spans.len()))
 }
@@ -386,6 +397,73 @@ pub fn calibrate_window_part(
     net.recordings = tr.len();
     let part = DosWindowPart { weight: best.0, net };
     Ok((part, WindowChoice { candidate: k, candidate_accuracy: acc, weight_tally: tally, weight: best.0 }))
+}
+
+/// The tree part of the model `gradtac calibrate dos --window-trees` writes: the procedure of
+/// [`calibrate_window_part`] with the tree model (`train_trees::TreeTrainConfig::default()`, the
+/// rule's winner T1 of stop 33) in place of the net: the weight `a` ∈ [`WINDOW_WEIGHTS`] with
+/// the most recordings right by leave-one-object-out (the Student-t model and the trees refitted
+/// without each object), then the trees fitted on every recording; with fewer than two objects
+/// `a` = [`FALLBACK_WINDOW_WEIGHT`]. One fit per object and one on all (7 on the 167 development
+/// recordings, ≈ 3–10 s each). The returned choice's `candidate` is 0.
+pub fn calibrate_trees_part(
+    spans: &[LabelledSpan],
+    recs: &[Recording],
+    layout: &Layout,
+    opts: &CalibrateOptions,
+) -> Result<(gradtac_stages::dos::DosTreesPart, WindowChoice), Error> {
+    use gradtac_stages::dos::train_trees::{self, TreeTrainConfig};
+    use gradtac_stages::dos::DosTreesPart;
+    if spans.len() != recs.len() || spans.iter().zip(recs).any(|(s, r)| s.class != r.class || s.group != r.object) {
+        return Err(gradtac_stages::Error::InvalidConfig {
+            stage: "dos",
+            reason: "the labelled spans and the recordings do not match (same directory, same order)".into(),
+        }
+        .into());
+    }
+    let tr = train_recordings(recs);
+    let cfg = TreeTrainConfig::default();
+    let samples = train_trees::tree_samples(&tr, layout, &cfg)?;
+    let all: Vec<usize> = (0..tr.len()).collect();
+    let groups: std::collections::BTreeSet<&str> = tr.iter().map(|r| r.group.as_str()).collect();
+    let mut tally: Vec<(f64, usize, usize)> = WINDOW_WEIGHTS.iter().map(|&a| (a, 0, 0)).collect();
+    let mut weight = FALLBACK_WINDOW_WEIGHT;
+    if groups.len() >= 2 {
+        for g in &groups {
+            let train: Vec<usize> = all.iter().copied().filter(|&i| tr[i].group != *g).collect();
+            let test: Vec<usize> = all.iter().copied().filter(|&i| tr[i].group == *g).collect();
+            let part_spans: Vec<LabelledSpan> = train.iter().map(|&i| spans[i].clone()).collect();
+            let model = calibrate_spans(&part_spans, opts)?;
+            let trees = train_trees::fit_on(&samples, &train, layout, &cfg)?;
+            let mut vote = trees.vote(layout)?;
+            for &i in &test {
+                let student = model.classify_vector(&spans[i].features)?;
+                vote.reset();
+                for f in &tr[i].frames {
+                    vote.push(f)?;
+                }
+                let w = vote.mean_log_posterior();
+                for t in tally.iter_mut() {
+                    let m = model.clone().with_trees(Some(DosTreesPart { weight: t.0, trees: trees.clone() }))?;
+                    let d = m.combine(student.clone(), w.as_deref());
+                    t.1 += usize::from(d.class == tr[i].class);
+                    t.2 += 1;
+                }
+            }
+        }
+        let mut best = (WINDOW_WEIGHTS[0], 0usize);
+        for &(a, ok, _) in &tally {
+            if ok > best.1 {
+                best = (a, ok);
+            }
+        }
+        weight = best.0;
+    } else {
+        tally.clear();
+    }
+    let trees = train_trees::fit_on(&samples, &all, layout, &cfg)?;
+    let part = DosTreesPart { weight, trees };
+    Ok((part, WindowChoice { candidate: 0, candidate_accuracy: f64::NAN, weight_tally: tally, weight }))
 }
 
 /// Read a model file written by [`write_model`] (JSON), validated.

@@ -696,12 +696,19 @@ impl SensorChain {
                     "slip direction, {} classes, {} parameters, {}, {}",
                     c.model().classes.len(),
                     c.model().parameter_count(),
-                    match &c.model().window {
-                        Some(w) => format!(
+                    match (&c.model().window, &c.model().trees) {
+                        (Some(w), _) => format!(
                             "Student t + window net ({}-frame windows, {} hidden), weight a = {}",
                             w.net.config.frames, w.net.config.hidden, w.weight
                         ),
-                        None => "Student t alone (no window part)".to_string(),
+                        (None, Some(t)) => format!(
+                            "Student t + gradient-boosted trees ({}-frame windows, {} inputs, {} trees), weight a = {}",
+                            t.trees.inputs().window.frames,
+                            t.trees.input_count(),
+                            t.trees.trees().len(),
+                            t.weight
+                        ),
+                        (None, None) => "Student t alone (no window part)".to_string(),
                     },
                     match (d.decision_frames, d.hop_frames) {
                         (None, _) => "one decision per recording".to_string(),

@@ -214,6 +214,12 @@ struct DosArgs {
     /// `dos` module docs): the window net of stop 31.
     #[arg(long, conflicts_with = "no_window")]
     no_window_motion: bool,
+    /// Write the window part as gradient-boosted trees over a per-taxel time representation
+    /// of the contact (`dos::DosTrees`; stop 33's rule winner, see the `dos` module docs)
+    /// instead of the window net. The `dos` stage runs it with one decision per segment or
+    /// tumbling spans; its sliding mode refuses it.
+    #[arg(long, conflicts_with_all = ["no_window", "no_window_motion"])]
+    window_trees: bool,
     /// Also train the learned model (`dos::DosNet`, default settings, a few seconds on one
     /// core) on the same recordings and write it as JSON to this file. Measured held out it
     /// does not beat the default model (see `dos_eval`); the scene's `dos` stage runs the
@@ -591,6 +597,7 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         no_mirror,
         no_window,
         no_window_motion,
+        window_trees,
         learned_out,
     } = args;
     let (Some(data), Some(out)) = (data, out) else {
@@ -609,6 +616,7 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         mirror: !no_mirror,
         window: !no_window,
         window_motion: !no_window_motion,
+        window_trees,
         ..Default::default()
     };
     let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];
@@ -632,7 +640,21 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         sayln!();
     }
     let mut model = gradtac::calibrate::calibrate_spans(&spans, &opts)?;
-    if opts.window {
+    if opts.window && opts.window_trees {
+        let t = std::time::Instant::now();
+        let recs = gradtac::calibrate::read_recordings(&data, &opts)?;
+        let (part, choice) = gradtac::calibrate::calibrate_trees_part(&spans, &recs, &layout, &opts)?;
+        let tally: Vec<String> = choice.weight_tally.iter().map(|(a, ok, n)| format!("a = {a}: {ok}/{n}")).collect();
+        sayln!(
+            "tree part ({} trees, {} nodes): weight by leave-one-object-out per recording ({}): a = {} ({:.1} s)",
+            part.trees.trees().len(),
+            part.trees.nodes(),
+            if tally.is_empty() { "fewer than two objects, no choice".to_string() } else { tally.join(", ") },
+            choice.weight,
+            t.elapsed().as_secs_f64()
+        );
+        model = model.with_trees(Some(part))?;
+    } else if opts.window {
         let t = std::time::Instant::now();
         let recs = gradtac::calibrate::read_recordings(&data, &opts)?;
         let (part, choice) = gradtac::calibrate::calibrate_window_part(&spans, &recs, &layout, &opts)?;

@@ -713,6 +713,15 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(!net.config.motion);
     assert_eq!(net.inputs(), 48);
     assert_eq!(still.clone().with_window(None).unwrap(), student, "only the window part changes");
+    // --window-trees: a tree part instead of the net, its weight by leave-one-object-out
+    let text = calibrate("--window-trees");
+    assert!(text.contains("tree part (") && text.contains("a = 0.75: "), "{text}");
+    let trees = gradtac::calibrate::read_model(&model_path).unwrap();
+    assert!(trees.window.is_none());
+    let part = trees.trees.clone().expect("a tree part");
+    assert!(gradtac::calibrate::WINDOW_WEIGHTS.contains(&part.weight), "{}", part.weight);
+    assert_eq!((part.trees.taxels(), part.trees.recordings()), (24, 12));
+    assert_eq!(trees.with_trees(None).unwrap(), student, "only the window part changes");
     let default = gradtac::calibrate::CalibrateOptions { shrinkage: 0.5, ..opts.clone() };
     assert_ne!(gradtac::calibrate::calibrate_spans(&spans, &default).unwrap().class_variances, model.class_variances);
 

@@ -44,6 +44,37 @@ pub struct DosModel {
     /// written): the Student-t model alone, exactly as before.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub window: Option<DosWindowPart>,
+    /// The tree part ([`DosTreesPart`], stop 33): like the window part, with a [`DosTrees`]
+    /// vote instead of the net's; a model has at most one of the two. `None` (or absent in the
+    /// file, and then not written): as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trees: Option<DosTreesPart>,
+}
+
+/// The tree part of a [`DosModel`]: a [`DosTrees`] window model and the weight `a` of the
+/// combined score `a·ln p_t + (1 − a)·(mean ln p per window of the trees' vote)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DosTreesPart {
+    /// Weight `a` of the Student-t log posterior, in `[0, 1]`.
+    pub weight: f64,
+    /// The tree model (validated when read).
+    pub trees: DosTrees,
+}
+
+impl DosTreesPart {
+    /// Checks the weight and the trees; the error names the field.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.weight.is_finite() && (0.0..=1.0).contains(&self.weight)) {
+            return Err(invalid(format!("trees.weight {} must lie in [0, 1]", self.weight)));
+        }
+        self.trees.validate().map_err(|e| match e {
+            Error::InvalidConfig { stage, reason } => {
+                Error::InvalidConfig { stage, reason: format!("trees.trees: {reason}") }
+            }
+            other => other,
+        })
+    }
 }
 
 /// The window part of a [`DosModel`]: a [`DosWindowNet`] and the weight `a` of the combined
@@ -140,6 +171,8 @@ struct RawModel {
     student_t_dof: Option<f64>,
     #[serde(default)]
     window: Option<DosWindowPart>,
+    #[serde(default)]
+    trees: Option<DosTreesPart>,
 }
 
 impl TryFrom<RawModel> for DosModel {
@@ -154,6 +187,7 @@ impl TryFrom<RawModel> for DosModel {
             recordings: r.recordings,
             student_t_dof: r.student_t_dof,
             window: r.window,
+            trees: r.trees,
         };
         m.validate()?;
         Ok(m)
@@ -297,6 +331,7 @@ impl DosModel {
             recordings: samples.len(),
             student_t_dof: Some(Self::DEFAULT_STUDENT_T_DOF),
             window: None,
+            trees: None,
         };
         m.validate()?;
         Ok(m)
@@ -349,7 +384,20 @@ impl DosModel {
         if let Some(w) = &self.window {
             w.validate()?;
         }
+        if let Some(t) = &self.trees {
+            if self.window.is_some() {
+                return Err(invalid("a model has a window part or a tree part, not both"));
+            }
+            t.validate()?;
+        }
         Ok(())
+    }
+
+    /// The same model with a tree part (validated; needs no window part), or without one.
+    pub fn with_trees(mut self, trees: Option<DosTreesPart>) -> Result<Self> {
+        self.trees = trees;
+        self.validate()?;
+        Ok(self)
     }
 
     /// The same model with a window part (validated), or without one (`None`).
@@ -365,8 +413,13 @@ impl DosModel {
     /// `softmax(score)`, `distances` `−2·score`. `student` unchanged when the model has no
     /// window part or the vote has no completed window yet.
     pub fn combine(&self, student: Decision, window_log_p: Option<&[f64]>) -> Decision {
-        let (Some(part), Some(w)) = (&self.window, window_log_p) else { return student };
-        let s = combined_scores(&self.classes, &student.posterior, &part.net.classes, w, part.weight);
+        let (weight, classes) = match (&self.window, &self.trees) {
+            (Some(p), _) => (p.weight, p.net.classes.as_slice()),
+            (None, Some(t)) => (t.weight, t.trees.classes()),
+            (None, None) => return student,
+        };
+        let Some(w) = window_log_p else { return student };
+        let s = combined_scores(&self.classes, &student.posterior, classes, w, weight);
         let mut best = 0;
         for (k, v) in s.iter().enumerate() {
             if *v > s[best] {
@@ -385,10 +438,13 @@ impl DosModel {
 
     /// Number of fitted numbers the decision uses: `2 × classes × features` with per-class
     /// variances (means and variances per class), `(classes + 1) × features` without; plus,
-    /// with a window part, the net's [`DosWindowNet::parameter_count`] and the weight.
+    /// with a window part, the net's [`DosWindowNet::parameter_count`] and the weight; with a
+    /// tree part, its nodes, its base logits and the weight.
     pub fn parameter_count(&self) -> usize {
         let rows = if self.class_variances.is_empty() { self.classes.len() + 1 } else { 2 * self.classes.len() };
-        rows * self.config.features.len() + self.window.as_ref().map_or(0, |w| w.net.parameter_count() + 1)
+        rows * self.config.features.len()
+            + self.window.as_ref().map_or(0, |w| w.net.parameter_count() + 1)
+            + self.trees.as_ref().map_or(0, |t| t.trees.nodes() + t.trees.classes().len() + 1)
     }
 
     /// Classify one feature vector (the model's features, in order).

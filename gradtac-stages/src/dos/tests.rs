@@ -825,3 +825,75 @@ fn sliding_decisions_prepared_ahead_are_fresh_replays_for_any_window_hop_and_res
         }
     }
 }
+
+/// A hand-made tree model of every class: one stump per class on a different input.
+fn stump_trees(l: &Layout) -> DosTrees {
+    let inputs = TreeInputs::default();
+    let d = inputs.inputs(l.len());
+    let trees: Vec<Tree> = (0..7)
+        .map(|c| Tree {
+            feature: vec![(c * 13) % d, 0, 0],
+            threshold: vec![0.1 * c as f64 - 0.3, 0.0, 0.0],
+            left: vec![1, 0, 0],
+            right: vec![2, 0, 0],
+            value: vec![0.0, -0.5 + 0.1 * c as f64, 0.4],
+        })
+        .collect();
+    let p = l.positions();
+    let mirror: Vec<usize> = p
+        .iter()
+        .map(|a| p.iter().position(|b| (a[0] - b[0]).abs() < 0.1 && (a[1] + b[1]).abs() < 0.1).unwrap())
+        .collect();
+    DosTrees::try_new(inputs, l.len(), DosClass::ALL.to_vec(), vec![0.0; 7], trees, Some(mirror), 0).unwrap()
+}
+
+#[test]
+fn the_stage_runs_a_tree_part_and_chunking_does_not_matter() {
+    let (cfg, model) = motion_model();
+    let l = Layout::biotac_sp();
+    let trees = stump_trees(&l);
+    let model = model.with_trees(Some(DosTreesPart { weight: 0.5, trees: trees.clone() })).unwrap();
+    let input = synthetic(DosClass::E, [0.0, 0.0], 0.1, 9);
+    // one decision per segment: the Student-t decision combined with the trees' vote
+    let out = DosClassifier::try_new(model.clone(), &l, None).unwrap().run_all(input.clone()).unwrap();
+    assert_eq!(out.len(), 1);
+    let mut vote = trees.vote(&l).unwrap();
+    for f in &input {
+        vote.push(&f.values).unwrap();
+    }
+    let student = model.classify_vector(&features_of(input.clone(), &cfg)).unwrap();
+    let want = model.combine(student.clone(), vote.mean_log_posterior().as_deref());
+    assert_eq!(out[0].decision, want);
+    assert_ne!(want.posterior, student.posterior, "the tree part takes part");
+    // tumbling spans: any chunking gives the same decisions; each span starts a fresh vote
+    let mut spans = DosClassifier::try_new(model.clone(), &l, Some(64)).unwrap();
+    let all = spans.run_all(input.clone()).unwrap();
+    assert_eq!(all.len(), 4);
+    for cut in [1, 5, 63, 64, 65, 199] {
+        let mut s = DosClassifier::try_new(model.clone(), &l, Some(64)).unwrap();
+        let mut out = crate::test_util::push_in_chunks(&input, cut, |f, part| s.push(f.clone(), part));
+        s.finish(&mut out).unwrap();
+        assert_eq!(out, all, "chunks of {cut}");
+    }
+    // the model file round-trips; the sliding mode and a second part are refused
+    let back: DosModel = serde_json::from_str(&serde_json::to_string(&model).unwrap()).unwrap();
+    assert_eq!(back, model);
+    assert!(DosClassifier::try_new(model.clone(), &l, Some(64)).unwrap().with_hop(8).is_err());
+    let mut bad = serde_json::to_value(&model).unwrap();
+    bad["trees"]["weight"] = serde_json::json!(1.5);
+    assert!(serde_json::from_value::<DosModel>(bad).is_err());
+    // a mirrored recording gets the mirrored class from the tree part alone (weight 0)
+    let alone = model.clone().with_trees(Some(DosTreesPart { weight: 0.0, trees: trees.clone() })).unwrap();
+    let perm = trees.mirror().unwrap().to_vec();
+    let mirrored: Vec<TaxelFrame> = input
+        .iter()
+        .map(|f| TaxelFrame::new(f.sensor.clone(), f.time, f.seq, perm.iter().map(|&j| f.values[j]).collect()))
+        .collect();
+    // each tumbling span starts a fresh vote (the tree part alone: as a fresh run of the span)
+    let spans = DosClassifier::try_new(alone.clone(), &l, Some(64)).unwrap().run_all(input.clone()).unwrap();
+    let second = DosClassifier::try_new(alone.clone(), &l, None).unwrap().run_all(input[64..128].to_vec()).unwrap();
+    assert_eq!(second[0].decision, spans[1].decision);
+    let a = DosClassifier::try_new(alone.clone(), &l, None).unwrap().run_all(input).unwrap();
+    let b = DosClassifier::try_new(alone, &l, None).unwrap().run_all(mirrored).unwrap();
+    assert_eq!(b[0].decision.class, a[0].decision.class.mirrored());
+}

@@ -655,14 +655,14 @@ impl DosWindowNet {
 }
 
 /// `l − ln Σ exp l` per logit.
-fn log_softmax(logits: &[f64]) -> Vec<f64> {
+pub(super) fn log_softmax(logits: &[f64]) -> Vec<f64> {
     let top = logits.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let lse = top + logits.iter().map(|l| (l - top).exp()).sum::<f64>().ln();
     logits.iter().map(|l| l - lse).collect()
 }
 
 /// The decision of a posterior (argmax, ties: the first in model order).
-fn decision(classes: &[DosClass], posterior: Vec<f64>) -> Decision {
+pub(super) fn decision(classes: &[DosClass], posterior: Vec<f64>) -> Decision {
     let mut best = 0;
     for (k, &p) in posterior.iter().enumerate() {
         if p > posterior[best] {

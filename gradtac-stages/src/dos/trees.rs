@@ -1,0 +1,632 @@
+//! Gradient-boosted trees over a per-taxel time representation of the contact ([`DosTrees`]): a
+//! window model of slip direction like [`DosWindowNet`], whose classifier is a softmax ensemble of
+//! regression trees — a plain tree walk at inference, no dependency; the trainer
+//! (`train_trees`, cargo feature `train`) is hand-written and never linked by a robot.
+//!
+//! # Representation ([`TreeExtractor`], causal)
+//! Every non-overlapping window of [`TreeInputs::window`]`.frames` frames (5 = 50 ms) gives:
+//! - the window model's inputs ([`WindowExtractor::input`] of [`TreeInputs::window`]: the level
+//!   pattern across taxels, the pattern since the contact's first 0.1 s, the change across the
+//!   window, the motion inputs — as configured);
+//! - for every lag `L` of [`TreeInputs::lags`] (in windows): each taxel's level pattern now minus
+//!   its level pattern `L` windows earlier (the span's first window while the span is younger),
+//!   `n` values per lag: how the shear pattern moved over 0.3 s, 1 s, …;
+//! - with [`TreeInputs::slope_windows`] `k > 0`: the mean of the change across the window over
+//!   the last `k` windows (fewer while younger), `n` values: a windowed slope per taxel.
+//!
+//! Units: the level pattern's (deviation across taxels over their spread: dimensionless), so
+//! exactly as invariant as the window model's inputs (one gain and offset common to all taxels).
+//!
+//! # Decision
+//! `logits_c = base_c + Σ_t value_t(x)` over the trees of class `c` (tree `t` belongs to class
+//! `t mod classes`), each tree walked from its root: at node `i`, `x[feature_i] ≤ threshold_i`
+//! goes to `left_i`, anything else (larger, or NaN) to `right_i`; `left_i = 0` marks a leaf.
+//! With [`DosTrees::mirror`] (a taxel permutation, the layout's reflection) the logits are the
+//! mean of the input's and of its mirror image's, classes mirrored ([`DosClass::mirrored`]): a
+//! mirrored recording gets exactly the mirrored posterior. Per recording (or since contact on a
+//! stream) [`TreeVote`] sums the windows' log posteriors, as [`WindowVote`] does.
+//!
+//! # Validation (on load, [`DosTrees::validate`])
+//! Every tree's arrays have one length (1..=[`MAX_TREE_NODES`]); a child index is larger than its
+//! parent's and inside the tree (so every walk ends within the tree's length); a feature index is
+//! below the representation's input count; thresholds, leaf values and the base are finite; the
+//! depth is at most [`MAX_TREE_DEPTH`]; the tree count is a multiple of the classes and at most
+//! [`MAX_TREES`]; a mirror is an involution of the taxels with every class's mirror present.
+//!
+//! # Cost
+//! Per frame: the window extractor's copy of the frame; per window: its inputs, `n` subtractions
+//! per lag, the slope's running sum, and one root-to-leaf walk per tree (≤ depth comparisons),
+//! twice with the mirror. With 80 rounds × 7 classes of depth 4: ≈ 2 240 comparisons per window
+//! (4 480 mirrored).
+
+use super::net::softmax;
+use super::window::{decision, log_softmax};
+use super::*;
+use std::collections::VecDeque;
+
+/// Deepest tree [`DosTrees`] accepts.
+pub const MAX_TREE_DEPTH: usize = 16;
+/// Most nodes of one tree.
+pub const MAX_TREE_NODES: usize = 1 << 17;
+/// Most trees of one model.
+pub const MAX_TREES: usize = 100_000;
+/// Largest lag (and slope length), in windows.
+pub const MAX_TREE_LAG: usize = 1000;
+
+/// The tree model's representation (see the [`dos` module docs](crate::dos) and the `trees` source file).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TreeInputs {
+    /// The window representation (its `hidden` is not used).
+    pub window: WindowNetConfig,
+    /// Lags in windows of the level pattern's change (each 1..=[`MAX_TREE_LAG`]; needs the
+    /// level pattern: window inputs `levels` or `both`).
+    pub lags: Vec<usize>,
+    /// Windows of the mean change across the window (0: none; ≤ [`MAX_TREE_LAG`]).
+    pub slope_windows: usize,
+}
+
+impl Default for TreeInputs {
+    /// The rich representation: window inputs `both` with motion, lags 6 and 20 windows (0.3 s,
+    /// 1 s), slope over 6 windows.
+    fn default() -> Self {
+        TreeInputs {
+            window: WindowNetConfig { inputs: WindowInputs::Both, motion: true, ..WindowNetConfig::default() },
+            lags: vec![6, 20],
+            slope_windows: 6,
+        }
+    }
+}
+
+impl TreeInputs {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<()> {
+        self.window.validate()?;
+        if self.lags.len() > 16 || self.lags.iter().any(|l| !(1..=MAX_TREE_LAG).contains(l)) {
+            return Err(invalid(format!("tree lags {:?}: at most 16, each in 1..={MAX_TREE_LAG}", self.lags)));
+        }
+        if !self.lags.is_empty() && self.window.inputs == WindowInputs::SinceStart {
+            return Err(invalid("tree lags need the level pattern (window inputs levels or both)"));
+        }
+        if self.slope_windows > MAX_TREE_LAG {
+            return Err(invalid(format!("slope windows {} must be ≤ {MAX_TREE_LAG}", self.slope_windows)));
+        }
+        Ok(())
+    }
+
+    /// Number of inputs for `taxels` taxels.
+    pub fn inputs(&self, taxels: usize) -> usize {
+        self.window.inputs(taxels) + (self.lags.len() + usize::from(self.slope_windows > 0)) * taxels
+    }
+
+    /// The mirror image of an input vector under the taxel permutation `perm` (an involution):
+    /// `out[j] = sign_j · x[source_j]` for the `(source_j, sign_j)` this returns.
+    pub fn mirror_map(&self, perm: &[usize]) -> Vec<(usize, f64)> {
+        let n = perm.len();
+        let mut out = Vec::with_capacity(self.inputs(n));
+        let per_taxel = |out: &mut Vec<(usize, f64)>, at: usize| out.extend(perm.iter().map(|&p| (at + p, 1.0)));
+        let blocks = self.window.taxel_blocks();
+        for b in 0..blocks {
+            per_taxel(&mut out, b * n);
+        }
+        let mut at = blocks * n;
+        if self.window.motion {
+            out.extend(MOTION_MIRROR_SIGNS.iter().enumerate().map(|(k, &s)| (at + k, s)));
+            at += MOTION_INPUTS;
+        }
+        for _ in 0..self.lags.len() + usize::from(self.slope_windows > 0) {
+            per_taxel(&mut out, at);
+            at += n;
+        }
+        out
+    }
+}
+
+/// The streaming representation of [`DosTrees`]: push raw frames; a completed window gives its
+/// input vector. A plain state machine; [`reset`](Self::reset) starts a new span.
+#[derive(Clone, Debug)]
+pub struct TreeExtractor {
+    window: WindowExtractor,
+    lags: Vec<usize>,
+    slope_windows: usize,
+    taxels: usize,
+    /// Where the change across the window starts in the window inputs.
+    change_at: usize,
+    /// Whether the level pattern is the first block.
+    levels: bool,
+    /// The last `max lag + 1` windows' level patterns (front: oldest kept; the span's first while
+    /// younger).
+    history: VecDeque<Vec<f64>>,
+    /// The last `slope_windows` windows' change across the window.
+    changes: VecDeque<Vec<f64>>,
+}
+
+impl TreeExtractor {
+    /// An extractor of `inputs` for `layout`'s taxels.
+    pub fn try_new_on(inputs: &TreeInputs, layout: &Layout) -> Result<Self> {
+        inputs.validate()?;
+        let window = WindowExtractor::try_new_on(&inputs.window, layout)?;
+        let n = layout.len();
+        Ok(TreeExtractor {
+            window,
+            lags: inputs.lags.clone(),
+            slope_windows: inputs.slope_windows,
+            taxels: n,
+            change_at: (inputs.window.taxel_blocks() - 1) * n,
+            levels: inputs.window.inputs != WindowInputs::SinceStart,
+            history: VecDeque::new(),
+            changes: VecDeque::new(),
+        })
+    }
+
+    /// Push one frame (one finite value per taxel); when it completes a window, that window's
+    /// input vector.
+    pub fn push(&mut self, values: &[f64]) -> Result<Option<Vec<f64>>> {
+        if !self.window.push(values)? {
+            return Ok(None);
+        }
+        let Some(mut x) = self.window.input() else { return Ok(None) };
+        let n = self.taxels;
+        if !self.lags.is_empty() && self.levels {
+            let keep = self.lags.iter().copied().max().unwrap_or(0) + 1;
+            if self.history.len() == keep {
+                self.history.pop_front();
+            }
+            self.history.push_back(x[..n].to_vec());
+        }
+        let change: Vec<f64> = x[self.change_at..self.change_at + n].to_vec();
+        let mut extra = Vec::with_capacity((self.lags.len() + 1) * n);
+        for &lag in &self.lags {
+            let len = self.history.len();
+            let then = &self.history[if len > lag { len - 1 - lag } else { 0 }];
+            extra.extend(x[..n].iter().zip(then).map(|(a, b)| a - b));
+        }
+        if self.slope_windows > 0 {
+            if self.changes.len() == self.slope_windows {
+                self.changes.pop_front();
+            }
+            self.changes.push_back(change);
+            // summed afresh from the kept windows (in order): no drift of a running sum
+            let k = self.changes.len() as f64;
+            let mut mean = vec![0.0; n];
+            for c in &self.changes {
+                mean.iter_mut().zip(c).for_each(|(m, v)| *m += v);
+            }
+            extra.extend(mean.iter().map(|m| m / k));
+        }
+        x.extend(extra);
+        Ok(Some(x))
+    }
+
+    /// Start a new span.
+    pub fn reset(&mut self) {
+        self.window.reset();
+        self.history.clear();
+        self.changes.clear();
+    }
+}
+
+/// One regression tree as arrays (see the [`dos` module docs](crate::dos) and the `trees` source file): node `i` is a leaf when
+/// `left[i] == 0`, else it sends `x[feature[i]] ≤ threshold[i]` to `left[i]`, the rest to
+/// `right[i]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tree {
+    /// Input index per node (unused at leaves).
+    pub feature: Vec<usize>,
+    /// Threshold per node (unused at leaves).
+    pub threshold: Vec<f64>,
+    /// Left child per node (0 at a leaf).
+    pub left: Vec<usize>,
+    /// Right child per node.
+    pub right: Vec<usize>,
+    /// Leaf value per node (unused at internal nodes).
+    pub value: Vec<f64>,
+}
+
+impl Tree {
+    /// Checks shape, indices, depth and values against `inputs` inputs.
+    pub fn validate(&self, inputs: usize) -> Result<()> {
+        let len = self.left.len();
+        if !(1..=MAX_TREE_NODES).contains(&len)
+            || [self.feature.len(), self.threshold.len(), self.right.len(), self.value.len()].iter().any(|&l| l != len)
+        {
+            return Err(invalid(format!("a tree's arrays must share one length in 1..={MAX_TREE_NODES}")));
+        }
+        let mut depth = vec![0usize; len];
+        for i in 0..len {
+            if !self.value[i].is_finite() {
+                return Err(invalid(format!("tree node {i}: leaf value {} is not finite", self.value[i])));
+            }
+            if self.left[i] == 0 {
+                continue;
+            }
+            let (l, r) = (self.left[i], self.right[i]);
+            if l <= i || r <= i || l >= len || r >= len {
+                return Err(invalid(format!("tree node {i}: children {l}, {r} must be after it and below {len}")));
+            }
+            if self.feature[i] >= inputs {
+                return Err(invalid(format!("tree node {i}: input {} of {inputs}", self.feature[i])));
+            }
+            if !self.threshold[i].is_finite() {
+                return Err(invalid(format!("tree node {i}: threshold {} is not finite", self.threshold[i])));
+            }
+            let d = depth[i] + 1;
+            if d > MAX_TREE_DEPTH {
+                return Err(invalid(format!("tree deeper than {MAX_TREE_DEPTH}")));
+            }
+            depth[l] = depth[l].max(d);
+            depth[r] = depth[r].max(d);
+        }
+        Ok(())
+    }
+
+    /// The leaf value for `x` (validated tree; `x` at least as long as the inputs).
+    pub fn eval(&self, x: &[f64]) -> f64 {
+        let mut i = 0;
+        // children are after their parent, so this ends within the tree's length
+        while self.left[i] != 0 {
+            i = if x[self.feature[i]] <= self.threshold[i] { self.left[i] } else { self.right[i] };
+        }
+        self.value[i]
+    }
+}
+
+/// The tree model of slip direction (see the [`dos` module docs](crate::dos) and the `trees` source file). Serialises to JSON (serde),
+/// validated when read or built ([`try_new`](Self::try_new)); read-only after that (the walk
+/// uses a compact copy of the trees made then).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, try_from = "RawDosTrees")]
+pub struct DosTrees {
+    /// Representation.
+    pub(super) inputs: TreeInputs,
+    /// Taxels of the sensor the model was trained for.
+    pub(super) taxels: usize,
+    /// The classes, in output order.
+    pub(super) classes: Vec<DosClass>,
+    /// Initial logit per class.
+    pub(super) base: Vec<f64>,
+    /// The trees, class `t mod classes` for tree `t`.
+    pub(super) trees: Vec<Tree>,
+    /// The layout's mirror permutation of the taxels: average with the mirror image (`None`:
+    /// no averaging).
+    pub(super) mirror: Option<Vec<usize>>,
+    /// Labelled recordings it was trained on (information only).
+    pub(super) recordings: usize,
+    /// The walk's compact form, made by `try_new`.
+    #[serde(skip)]
+    compiled: Compiled,
+}
+
+/// One node of the compact form: children as absolute indices (0: a leaf; no root is a child).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Node {
+    threshold: f64,
+    value: f64,
+    feature: u32,
+    left: u32,
+    right: u32,
+}
+
+/// The compact form of a validated model: every tree's nodes in one array, its roots, the input
+/// mirror map and each class's mirror's index.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Compiled {
+    nodes: Vec<Node>,
+    roots: Vec<u32>,
+    mirror_map: Vec<(u32, f64)>,
+    mirror_class: Vec<usize>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDosTrees {
+    inputs: TreeInputs,
+    taxels: usize,
+    classes: Vec<DosClass>,
+    base: Vec<f64>,
+    trees: Vec<Tree>,
+    mirror: Option<Vec<usize>>,
+    #[serde(default)]
+    recordings: usize,
+}
+
+impl TryFrom<RawDosTrees> for DosTrees {
+    type Error = Error;
+    fn try_from(r: RawDosTrees) -> Result<Self> {
+        DosTrees::try_new(r.inputs, r.taxels, r.classes, r.base, r.trees, r.mirror, r.recordings)
+    }
+}
+
+impl DosTrees {
+    /// A model of these parts (see the fields' docs), validated ([`validate`](Self::validate)).
+    pub fn try_new(
+        inputs: TreeInputs,
+        taxels: usize,
+        classes: Vec<DosClass>,
+        base: Vec<f64>,
+        trees: Vec<Tree>,
+        mirror: Option<Vec<usize>>,
+        recordings: usize,
+    ) -> Result<Self> {
+        let mut m =
+            DosTrees { inputs, taxels, classes, base, trees, mirror, recordings, compiled: Compiled::default() };
+        m.validate()?;
+        let mut c = Compiled::default();
+        for t in &m.trees {
+            let at = c.nodes.len() as u32;
+            c.roots.push(at);
+            for i in 0..t.left.len() {
+                let (l, r) = if t.left[i] == 0 { (0, 0) } else { (at + t.left[i] as u32, at + t.right[i] as u32) };
+                c.nodes.push(Node {
+                    threshold: t.threshold[i],
+                    value: t.value[i],
+                    feature: t.feature[i] as u32,
+                    left: l,
+                    right: r,
+                });
+            }
+        }
+        if let Some(p) = &m.mirror {
+            c.mirror_map = m.inputs.mirror_map(p).into_iter().map(|(j, s)| (j as u32, s)).collect();
+            c.mirror_class =
+                m.classes.iter().map(|cl| m.classes.iter().position(|d| *d == cl.mirrored()).unwrap_or(0)).collect();
+        }
+        m.compiled = c;
+        Ok(m)
+    }
+
+    /// Number of inputs.
+    pub fn input_count(&self) -> usize {
+        self.inputs.inputs(self.taxels)
+    }
+
+    /// The representation.
+    pub fn inputs(&self) -> &TreeInputs {
+        &self.inputs
+    }
+
+    /// Taxels of the sensor the model was trained for.
+    pub fn taxels(&self) -> usize {
+        self.taxels
+    }
+
+    /// The classes, in output order.
+    pub fn classes(&self) -> &[DosClass] {
+        &self.classes
+    }
+
+    /// Initial logit per class.
+    pub fn base(&self) -> &[f64] {
+        &self.base
+    }
+
+    /// The trees (class `t mod classes` for tree `t`).
+    pub fn trees(&self) -> &[Tree] {
+        &self.trees
+    }
+
+    /// The mirror permutation, when the model averages with the mirror image.
+    pub fn mirror(&self) -> Option<&[usize]> {
+        self.mirror.as_deref()
+    }
+
+    /// Labelled recordings it was trained on (information only).
+    pub fn recordings(&self) -> usize {
+        self.recordings
+    }
+
+    /// Number of tree nodes.
+    pub fn nodes(&self) -> usize {
+        self.trees.iter().map(|t| t.left.len()).sum()
+    }
+
+    /// Checks shapes, indices, depths and values (done on deserialisation).
+    pub fn validate(&self) -> Result<()> {
+        self.inputs.validate()?;
+        if !(3..=MAX_NET_TAXELS).contains(&self.taxels) {
+            return Err(invalid(format!("taxels {} must be in 3..={MAX_NET_TAXELS}", self.taxels)));
+        }
+        let k = self.classes.len();
+        if k == 0 || (0..k).any(|i| self.classes[..i].contains(&self.classes[i])) {
+            return Err(invalid("the tree model's classes must be distinct and not empty"));
+        }
+        if self.base.len() != k || self.base.iter().any(|b| !b.is_finite()) {
+            return Err(invalid(format!("the tree model's base must be {k} finite values")));
+        }
+        if self.trees.len() % k != 0 || self.trees.len() > MAX_TREES {
+            return Err(invalid(format!(
+                "{} trees: a multiple of the {k} classes, at most {MAX_TREES}",
+                self.trees.len()
+            )));
+        }
+        let inputs = self.input_count();
+        if inputs > u32::MAX as usize / 2 {
+            return Err(invalid("too many inputs"));
+        }
+        let nodes = self.nodes();
+        if nodes > u32::MAX as usize / 2 {
+            return Err(invalid("too many tree nodes"));
+        }
+        for (t, tree) in self.trees.iter().enumerate() {
+            tree.validate(inputs).map_err(|e| invalid(format!("tree {t}: {e}")))?;
+        }
+        if let Some(p) = &self.mirror {
+            let n = self.taxels;
+            if p.len() != n || (0..n).any(|i| p[i] >= n || p[p[i]] != i) {
+                return Err(invalid(format!("the mirror must be an involution of the {n} taxels")));
+            }
+            if self.classes.iter().any(|c| !self.classes.contains(&c.mirrored())) {
+                return Err(invalid("mirror averaging needs every class's mirror among the classes"));
+            }
+        }
+        Ok(())
+    }
+
+    fn raw_logits(&self, x: &[f64]) -> Vec<f64> {
+        const LANES: usize = 4;
+        let k = self.classes.len();
+        let nodes = &self.compiled.nodes;
+        let roots = &self.compiled.roots;
+        let mut out = self.base.clone();
+        // LANES trees walked side by side (independent loads overlap); each class's values are
+        // still added in tree order. Children are after their parent: every walk ends.
+        let mut t = 0;
+        while t + LANES <= roots.len() {
+            let mut at = [0usize; LANES];
+            for (a, r) in at.iter_mut().zip(&roots[t..t + LANES]) {
+                *a = *r as usize;
+            }
+            loop {
+                let mut moved = false;
+                for a in at.iter_mut() {
+                    let n = &nodes[*a];
+                    if n.left != 0 {
+                        *a = if x[n.feature as usize] <= n.threshold { n.left } else { n.right } as usize;
+                        moved = true;
+                    }
+                }
+                if !moved {
+                    break;
+                }
+            }
+            for (j, a) in at.iter().enumerate() {
+                out[(t + j) % k] += nodes[*a].value;
+            }
+            t += LANES;
+        }
+        for (t, &root) in roots.iter().enumerate().skip(t) {
+            let mut n = &nodes[root as usize];
+            while n.left != 0 {
+                n = &nodes[if x[n.feature as usize] <= n.threshold { n.left } else { n.right } as usize];
+            }
+            out[t % k] += n.value;
+        }
+        out
+    }
+
+    /// The logits of one window's input vector ([`TreeExtractor::push`]).
+    pub fn logits(&self, x: &[f64]) -> Result<Vec<f64>> {
+        if x.len() != self.input_count() {
+            return Err(invalid(format!("{} inputs for a tree model of {}", x.len(), self.input_count())));
+        }
+        let own = self.raw_logits(x);
+        if self.mirror.is_none() {
+            return Ok(own);
+        }
+        let m: Vec<f64> = self.compiled.mirror_map.iter().map(|&(j, s)| s * x[j as usize]).collect();
+        let mirrored = self.raw_logits(&m);
+        Ok(own.iter().zip(&self.compiled.mirror_class).map(|(o, &mc)| 0.5 * (o + mirrored[mc])).collect())
+    }
+
+    /// The log posterior of one window (model class order).
+    pub fn log_posterior(&self, x: &[f64]) -> Result<Vec<f64>> {
+        Ok(log_softmax(&self.logits(x)?))
+    }
+
+    /// Classify one window's input vector.
+    pub fn classify(&self, x: &[f64]) -> Result<Decision> {
+        Ok(decision(&self.classes, softmax(&self.logits(x)?)))
+    }
+
+    /// An extractor of this model's inputs on `layout` (the model's taxel count).
+    pub fn extractor(&self, layout: &Layout) -> Result<TreeExtractor> {
+        if layout.len() != self.taxels {
+            return Err(invalid(format!(
+                "the model was trained for {} taxels, the layout has {}",
+                self.taxels,
+                layout.len()
+            )));
+        }
+        TreeExtractor::try_new_on(&self.inputs, layout)
+    }
+
+    /// A streaming per-span answer on `layout` ([`TreeVote`]).
+    pub fn vote(&self, layout: &Layout) -> Result<TreeVote<'_>> {
+        Ok(TreeVote { model: self, state: TreeVoteState::try_new(self, layout)? })
+    }
+}
+
+/// The causal per-span answer of a [`DosTrees`]: the sum of the log posteriors of every completed
+/// window since the last [`reset`](Self::reset).
+#[derive(Clone, Debug)]
+pub struct TreeVote<'a> {
+    model: &'a DosTrees,
+    state: TreeVoteState,
+}
+
+impl TreeVote<'_> {
+    /// Push one raw frame; when it completes a window, that window's decision (alone).
+    pub fn push(&mut self, values: &[f64]) -> Result<Option<Decision>> {
+        self.state.push(self.model, values)
+    }
+
+    /// Completed windows in the vote.
+    pub fn windows(&self) -> u64 {
+        self.state.windows
+    }
+
+    /// The vote's decision so far (`None` before the first window).
+    pub fn decision(&self) -> Option<Decision> {
+        self.state.decision(self.model)
+    }
+
+    /// The mean log posterior per window so far (model class order).
+    pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
+        self.state.mean_log_posterior()
+    }
+
+    /// Start a new span.
+    pub fn reset(&mut self) {
+        self.state.reset();
+    }
+}
+
+/// The state of a [`TreeVote`] without the borrow of its model (the `dos` stage keeps both):
+/// every call takes the model the state was made for.
+#[derive(Clone, Debug)]
+pub struct TreeVoteState {
+    extractor: TreeExtractor,
+    sum: Vec<f64>,
+    windows: u64,
+}
+
+impl TreeVoteState {
+    /// An empty vote of `model` on `layout` (the model's taxel count).
+    pub fn try_new(model: &DosTrees, layout: &Layout) -> Result<Self> {
+        Ok(TreeVoteState { extractor: model.extractor(layout)?, sum: vec![0.0; model.classes.len()], windows: 0 })
+    }
+
+    /// [`TreeVote::push`] with `model`.
+    pub fn push(&mut self, model: &DosTrees, values: &[f64]) -> Result<Option<Decision>> {
+        let Some(x) = self.extractor.push(values)? else { return Ok(None) };
+        let logits = model.logits(&x)?;
+        for (s, l) in self.sum.iter_mut().zip(log_softmax(&logits)) {
+            *s += l;
+        }
+        self.windows += 1;
+        Ok(Some(decision(&model.classes, softmax(&logits))))
+    }
+
+    /// Completed windows in the vote.
+    pub fn windows(&self) -> u64 {
+        self.windows
+    }
+
+    /// [`TreeVote::decision`] with `model`.
+    pub fn decision(&self, model: &DosTrees) -> Option<Decision> {
+        (self.windows > 0).then(|| decision(&model.classes, softmax(&self.sum)))
+    }
+
+    /// [`TreeVote::mean_log_posterior`].
+    pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
+        (self.windows > 0).then(|| self.sum.iter().map(|s| s / self.windows as f64).collect())
+    }
+
+    /// Start a new span.
+    pub fn reset(&mut self) {
+        self.extractor.reset();
+        self.sum.iter_mut().for_each(|s| *s = 0.0);
+        self.windows = 0;
+    }
+}

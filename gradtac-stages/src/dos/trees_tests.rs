@@ -1,0 +1,282 @@
+//! Tests of the tree model's inference ([`DosTrees`], [`TreeExtractor`], [`TreeVote`]) and, with
+//! the `train` feature, of its trainer.
+
+use super::tests_support::synthetic_values;
+use super::*;
+use proptest::prelude::*;
+
+fn leaf(v: f64) -> Tree {
+    Tree { feature: vec![0], threshold: vec![0.0], left: vec![0], right: vec![0], value: vec![v] }
+}
+
+/// A stump on input `f` at `thr`: left `a`, right `b`.
+fn stump(f: usize, thr: f64, a: f64, b: f64) -> Tree {
+    Tree {
+        feature: vec![f, 0, 0],
+        threshold: vec![thr, 0.0, 0.0],
+        left: vec![1, 0, 0],
+        right: vec![2, 0, 0],
+        value: vec![0.0, a, b],
+    }
+}
+
+fn small_inputs() -> TreeInputs {
+    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2 }
+}
+
+/// A valid two-class model on the BioTac SP's 24 taxels (no mirror).
+fn two_class() -> DosTrees {
+    DosTrees::try_new(
+        small_inputs(),
+        24,
+        vec![DosClass::N, DosClass::S],
+        vec![0.0, 0.0],
+        vec![stump(0, 0.0, 1.0, -1.0), leaf(0.0)],
+        None,
+        3,
+    )
+    .unwrap()
+}
+
+#[test]
+fn a_valid_model_round_trips_through_json_with_the_same_logits() {
+    let m = two_class();
+    let json = serde_json::to_string(&m).unwrap();
+    let back: DosTrees = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, m);
+    let mut x = vec![0.5; m.input_count()];
+    assert_eq!(m.logits(&x).unwrap(), vec![-1.0, 0.0]);
+    x[0] = -0.5;
+    assert_eq!(back.logits(&x).unwrap(), vec![1.0, 0.0]);
+    x[0] = f64::NAN; // NaN goes right, no panic
+    assert_eq!(back.logits(&x).unwrap(), vec![-1.0, 0.0]);
+    assert!(m.logits(&x[1..]).is_err(), "a wrong input length is an error");
+}
+
+#[test]
+fn malformed_models_are_refused() {
+    let ok = two_class();
+    let inputs = ok.input_count();
+    let with = |f: &dyn Fn(&mut Vec<Tree>)| {
+        let mut t = ok.trees().to_vec();
+        f(&mut t);
+        DosTrees::try_new(small_inputs(), 24, ok.classes().to_vec(), vec![0.0, 0.0], t, None, 0)
+    };
+    type Break = Box<dyn Fn(&mut Vec<Tree>)>;
+    let cases: Vec<(&str, Break)> = vec![
+        ("child before its parent", Box::new(|t| (t[0].left[2], t[0].right[2]) = (1, 1))),
+        ("self loop", Box::new(|t| (t[0].left[1], t[0].right[1]) = (1, 2))),
+        ("root as a right child", Box::new(|t| t[0].right[0] = 0)),
+        ("child out of range", Box::new(|t| t[0].right[0] = 3)),
+        ("input out of range", Box::new(move |t| t[0].feature[0] = inputs)),
+        ("NaN threshold", Box::new(|t| t[0].threshold[0] = f64::NAN)),
+        ("infinite leaf", Box::new(|t| t[0].value[1] = f64::INFINITY)),
+        ("ragged arrays", Box::new(|t| t[0].value.pop().map_or((), |_| ()))),
+        (
+            "empty tree",
+            Box::new(|t| {
+                t[1] = Tree { feature: vec![], threshold: vec![], left: vec![], right: vec![], value: vec![] }
+            }),
+        ),
+        ("tree count not a multiple of the classes", Box::new(|t| t.push(leaf(0.0)))),
+    ];
+    for (name, f) in cases {
+        assert!(with(&*f).is_err(), "{name} accepted");
+    }
+    // too deep: a chain of MAX_TREE_DEPTH + 1 splits
+    let d = MAX_TREE_DEPTH + 1;
+    // splits at even indices, each with a leaf after it
+    let mut t = Tree { feature: vec![], threshold: vec![], left: vec![], right: vec![], value: vec![] };
+    for i in 0..=d {
+        let split = i < d;
+        let at = t.left.len();
+        t.feature.push(0);
+        t.threshold.push(0.0);
+        t.left.push(if split { at + 1 } else { 0 });
+        t.right.push(if split { at + 2 } else { 0 });
+        t.value.push(0.0);
+        if split {
+            t.feature.push(0);
+            t.threshold.push(0.0);
+            t.left.push(0);
+            t.right.push(0);
+            t.value.push(0.0);
+        }
+    }
+    assert!(t.validate(inputs).is_err(), "a tree deeper than the bound is refused");
+    let mut ok_depth = t.clone();
+    ok_depth.left[2 * (d - 1)] = 0; // cut the last split
+    assert!(ok_depth.validate(inputs).is_ok());
+    let classes = ok.classes().to_vec();
+    let trees = ok.trees().to_vec();
+    let m = |classes: Vec<DosClass>, base: Vec<f64>, mirror: Option<Vec<usize>>, taxels: usize| {
+        DosTrees::try_new(small_inputs(), taxels, classes, base, trees.clone(), mirror, 0)
+    };
+    assert!(m(vec![DosClass::N, DosClass::N], vec![0.0; 2], None, 24).is_err(), "duplicate classes");
+    assert!(m(classes.clone(), vec![0.0], None, 24).is_err(), "base of the wrong length");
+    assert!(m(classes.clone(), vec![0.0, f64::NAN], None, 24).is_err(), "NaN base");
+    assert!(m(classes.clone(), vec![0.0; 2], None, 2).is_err(), "too few taxels");
+    let identity: Vec<usize> = (0..24).collect();
+    assert!(m(classes.clone(), vec![0.0; 2], Some(identity.clone()), 24).is_ok(), "n and s are their own mirrors");
+    let mut bad = identity.clone();
+    bad[0] = 1;
+    assert!(m(classes.clone(), vec![0.0; 2], Some(bad), 24).is_err(), "a mirror that is not an involution");
+    assert!(
+        DosTrees::try_new(
+            small_inputs(),
+            24,
+            vec![DosClass::E, DosClass::S],
+            vec![0.0; 2],
+            trees.clone(),
+            Some(identity),
+            0
+        )
+        .is_err(),
+        "mirror averaging without w among the classes"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+    /// Any byte changed in a valid model file: read or refused, never a panic; what is read
+    /// evaluates without a panic.
+    #[test]
+    fn a_mutated_model_file_never_panics(at in 0usize..100_000, byte in any::<u8>(), x in -5.0f64..5.0) {
+        let json = serde_json::to_vec(&two_class()).unwrap();
+        let mut b = json.clone();
+        let i = at % b.len();
+        b[i] = byte;
+        if let Ok(m) = serde_json::from_slice::<DosTrees>(&b) {
+            let v = vec![x; m.input_count()];
+            prop_assert!(m.logits(&v).is_ok());
+            let layout = Layout::biotac_sp();
+            if let Ok(mut vote) = m.vote(&layout) {
+                for f in synthetic_values(DosClass::N, [0.0, 0.0], 0.3, 1).iter().take(30) {
+                    prop_assert!(vote.push(f).is_ok());
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_extractor_is_causal_restarts_on_reset_and_refuses_non_finite_frames() {
+    let layout = Layout::biotac_sp();
+    let inputs = TreeInputs::default();
+    let frames = synthetic_values(DosClass::Cw, [0.0, 0.0], 0.3, 7);
+    let run = |x: &mut TreeExtractor, frames: &[Vec<f64>]| -> Vec<Vec<f64>> {
+        frames.iter().filter_map(|f| x.push(f).unwrap()).collect()
+    };
+    let mut x = TreeExtractor::try_new_on(&inputs, &layout).unwrap();
+    let all = run(&mut x, &frames);
+    assert_eq!(all.len(), frames.len() / 5);
+    assert!(all.iter().all(|v| v.len() == inputs.inputs(24) && v.iter().all(|x| x.is_finite())));
+    // causal: a prefix gives the same windows as the whole
+    let mut y = TreeExtractor::try_new_on(&inputs, &layout).unwrap();
+    let prefix = run(&mut y, &frames[..frames.len() / 2]);
+    assert_eq!(prefix[..], all[..prefix.len()]);
+    // a reset starts afresh, bit for bit
+    y.reset();
+    assert_eq!(run(&mut y, &frames), all);
+    let mut bad = frames[0].clone();
+    bad[3] = f64::NAN;
+    assert!(y.push(&bad).is_err());
+}
+
+/// The layout's reflection across y = 0 as a taxel permutation (as `train::mirror_permutation`).
+fn mirror_of(layout: &Layout) -> Vec<usize> {
+    let p = layout.positions();
+    p.iter().map(|a| p.iter().position(|b| (a[0] - b[0]).abs() < 0.1 && (a[1] + b[1]).abs() < 0.1).unwrap()).collect()
+}
+
+#[test]
+fn the_mirror_map_maps_a_mirrored_recordings_inputs() {
+    let layout = Layout::biotac_sp();
+    let perm = mirror_of(&layout);
+    let inputs = TreeInputs::default();
+    let frames = synthetic_values(DosClass::E, [0.0, 0.0], 0.3, 3);
+    let mirrored: Vec<Vec<f64>> = frames.iter().map(|f| perm.iter().map(|&j| f[j]).collect()).collect();
+    let mut a = TreeExtractor::try_new_on(&inputs, &layout).unwrap();
+    let mut b = TreeExtractor::try_new_on(&inputs, &layout).unwrap();
+    let map = inputs.mirror_map(&perm);
+    for (f, g) in frames.iter().zip(&mirrored) {
+        if let (Some(x), Some(y)) = (a.push(f).unwrap(), b.push(g).unwrap()) {
+            for (j, &(src, sign)) in map.iter().enumerate() {
+                assert!((y[j] - sign * x[src]).abs() <= 1e-9 * (1.0 + x[src].abs()), "input {j}");
+            }
+        }
+    }
+}
+
+#[cfg(feature = "train")]
+mod trained {
+    use super::*;
+    use crate::dos::train_trees::{fit_trees, TreeTrainConfig};
+    use crate::splitmix::SplitMix;
+
+    fn random_inputs(d: usize, rng: &mut SplitMix) -> Vec<f64> {
+        (0..d).map(|_| rng.normal()).collect()
+    }
+
+    #[test]
+    fn trees_learn_a_separable_toy_problem() {
+        let layout = Layout::biotac_sp();
+        let cfg = TreeTrainConfig { mirror_average: false, rounds: 30, ..TreeTrainConfig::default() };
+        let d = cfg.inputs.inputs(layout.len());
+        let label = |x: &[f64]| match (x[3] > 0.0, x[40] > 0.5) {
+            (true, true) => DosClass::N,
+            (true, false) => DosClass::E,
+            (false, true) => DosClass::S,
+            (false, false) => DosClass::T,
+        };
+        let mut rng = SplitMix::new(5);
+        let samples: Vec<(DosClass, Vec<f64>)> = (0..2000)
+            .map(|_| {
+                let x = random_inputs(d, &mut rng);
+                (label(&x), x)
+            })
+            .collect();
+        let m = fit_trees(&samples, &layout, &cfg).unwrap();
+        assert_eq!(m.classes(), &[DosClass::N, DosClass::E, DosClass::S, DosClass::T]);
+        let mut ok = 0;
+        for _ in 0..500 {
+            let x = random_inputs(d, &mut rng);
+            ok += usize::from(m.classify(&x).unwrap().class == label(&x));
+        }
+        assert!(ok >= 490, "{ok} of 500");
+        // the compact, interleaved walk adds exactly what the arrays' plain walk gives, in order
+        for _ in 0..50 {
+            let x = random_inputs(d, &mut rng);
+            let mut want = m.base().to_vec();
+            for (t, tree) in m.trees().iter().enumerate() {
+                let k = want.len();
+                want[t % k] += tree.eval(&x);
+            }
+            assert_eq!(m.logits(&x).unwrap(), want);
+        }
+        // deterministic for a seed
+        assert_eq!(fit_trees(&samples, &layout, &cfg).unwrap(), m);
+    }
+
+    #[test]
+    fn a_mirror_averaged_model_gives_a_mirrored_input_the_mirrored_posterior() {
+        let layout = Layout::biotac_sp();
+        let cfg = TreeTrainConfig { rounds: 10, ..TreeTrainConfig::default() };
+        let d = cfg.inputs.inputs(layout.len());
+        let mut rng = SplitMix::new(9);
+        let samples: Vec<(DosClass, Vec<f64>)> =
+            (0..700).map(|k| (DosClass::ALL[k % 7], random_inputs(d, &mut rng))).collect();
+        let m = fit_trees(&samples, &layout, &cfg).unwrap();
+        let map = m.inputs().mirror_map(m.mirror().unwrap());
+        for _ in 0..50 {
+            let x = random_inputs(d, &mut rng);
+            let y: Vec<f64> = map.iter().map(|&(j, s)| s * x[j]).collect();
+            let (px, py) = (m.classify(&x).unwrap(), m.classify(&y).unwrap());
+            assert_eq!(py.class, px.class.mirrored());
+            for (c, class) in m.classes().iter().enumerate() {
+                let mc = m.classes().iter().position(|k| *k == class.mirrored()).unwrap();
+                assert!((px.posterior[c] - py.posterior[mc]).abs() < 1e-12);
+            }
+        }
+    }
+}
