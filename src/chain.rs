@@ -12,7 +12,7 @@ use gradtac_stages::fit::Fit;
 use gradtac_stages::force::{Force, ForceConfig, ForceEstimate, ForceModel};
 use gradtac_stages::force_model::{CalibratedForce, ChangeForce};
 use gradtac_stages::interpolate::{Interpolate, Surface};
-use gradtac_stages::locate::LocateMethod;
+use gradtac_stages::locate::{LocateMethod, ReturnAnchors};
 use gradtac_stages::normalise::{Bounds, Normalise};
 use gradtac_stages::peak::SurfaceContour;
 use gradtac_stages::raw_contour::RawChange;
@@ -667,6 +667,19 @@ impl SensorChain {
                                 d.release_excess
                             );
                         }
+                        more += match d.return_anchors {
+                            ReturnAnchors::Keep => "; the slope's anchors kept at a return",
+                            ReturnAnchors::RestartAtShapeReturn => {
+                                "; the slope's anchors restarted at a return by the shape alone"
+                            }
+                            ReturnAnchors::ShiftAtShapeReturn => {
+                                "; the slope's anchors shifted to the new level at a return by the shape alone"
+                            }
+                            ReturnAnchors::RestartAtAnyReturn => "; the slope's anchors restarted at every return",
+                            ReturnAnchors::ShiftAtAnyReturn => {
+                                "; the slope's anchors shifted to the new level at every return"
+                            }
+                        };
                         more
                     },
                     d.hold_sigmas,
