@@ -661,9 +661,10 @@ impl SensorChain {
                         }
                         if d.release_excess > 0.0 {
                             more += &format!(
-                                " or, flat {} s ({}), at most {} of the peak above the untouched floor",
+                                " or, flat {} s ({} within {} Σσ), at most {} of the peak above the untouched floor",
                                 if d.release_flat_s > 0.0 { d.release_flat_s } else { d.steady_s },
                                 if d.release_flat_range { "range" } else { "first to last" },
+                                d.release_flat_sigmas,
                                 d.release_excess
                             );
                         }

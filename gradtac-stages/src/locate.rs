@@ -786,8 +786,8 @@ pub struct DriftModel {
     /// the contact never ends and the baseline never settles.
     pub release_sigmas: f64,
     /// Shape return (a fraction in [0, 1); 0: off): an excursion also *returns* once it is
-    /// steady, its total change `Σ|Δᵢ|` has moved by less than 0.1 `Σσᵢ` over the last
-    /// `release_flat_s`, and `Σ|Δᵢ|` above the untouched floor (the running mean of `Σ|Δᵢ|`
+    /// steady, its total change `Σ|Δᵢ|` has moved by less than `release_flat_sigmas` (0.1)
+    /// `Σσᵢ` over the last `release_flat_s`, and `Σ|Δᵢ|` above the untouched floor (the running mean of `Σ|Δᵢ|`
     /// over frames outside excursions, 1 s time constant — the window means' noise and what
     /// the baseline does not follow) has fallen to at most this fraction of the excursion's
     /// peak above that floor. Unlike the peak return (`release_fraction`, on `Σ|Δᵢ|` itself)
@@ -799,8 +799,11 @@ pub struct DriftModel {
     pub release_flat_s: f64,
     /// The shape return's flatness test: `true`, the range (largest − smallest) of `Σ|Δᵢ|`
     /// over the look-back; `false`, the difference between its first and last value (as the
-    /// noise return's guard). Both bounded by 0.1 `Σσᵢ`.
+    /// noise return's guard). Both bounded by `release_flat_sigmas` `Σσᵢ`.
     pub release_flat_range: bool,
+    /// The shape return's flatness bound (a multiple of `Σσᵢ`, in (0, 10]): `Σ|Δᵢ|` must have
+    /// moved by less than this over the look-back. Default 0.1 (the bound of session 32).
+    pub release_flat_sigmas: f64,
     /// What the drift slope's anchors do on the frame an excursion that reached contact first
     /// returns ([`ReturnAnchors`]; default: kept). A return by the shape return leaves a
     /// residual step that the baseline then settles to; anchors from before the step would
@@ -850,6 +853,7 @@ impl Default for DriftModel {
             release_excess: 0.0,
             release_flat_s: 0.0,
             release_flat_range: true,
+            release_flat_sigmas: NOISE_RETURN_MOVE,
             return_anchors: ReturnAnchors::Keep,
         }
     }
@@ -879,7 +883,9 @@ impl DriftModel {
             && self.release_sigmas.is_finite()
             && self.release_sigmas >= 0.0
             && (0.0..1.0).contains(&self.release_excess)
-            && (0.0..=60.0).contains(&self.release_flat_s);
+            && (0.0..=60.0).contains(&self.release_flat_s)
+            && self.release_flat_sigmas > 0.0
+            && self.release_flat_sigmas <= 10.0;
         if ok {
             Ok(())
         } else {
@@ -1014,7 +1020,7 @@ impl DriftState {
         let ss: f64 = sigma.iter().sum();
         let floor = self.floor.unwrap_or(0.0);
         let (now, top) = (total - floor, self.peak - floor);
-        full && moved < NOISE_RETURN_MOVE * ss && top > 0.0 && now <= m.release_excess * top
+        full && moved < m.release_flat_sigmas * ss && top > 0.0 && now <= m.release_excess * top
     }
 
     /// After a frame's changes: steadiness, release, following and the slope's anchors.
