@@ -743,7 +743,15 @@ impl PositionMemory {
 /// The defaults were chosen on the tuning members of `examples/force_eval.rs` (see
 /// `docs/force.md`). Trade-off: a press held perfectly still below `contact_sigmas` is absorbed
 /// at `settle_s` (it never was a contact); a contact held still after falling to less than
-/// half its peak total change ends.
+/// half its peak total change ends. With `return_anchors` shifting (the force gate's since
+/// session 33) a residual that returns is taken as the new untouched level at once (the
+/// baseline settles to it at `settle_s`, 0.2 s); the slope keeps what it learned before, so a
+/// drift that changes rate at that moment is followed only at `quiet_s` until new anchors teach
+/// it; restarting instead forgets the slope and re-learns it over `slope_memory_s` (measured
+/// worse on the tuning members, `docs/force.md`). Delay: a shape return ends a contact no
+/// earlier than the flatness look-back (`release_flat_s`, else `steady_s`: 0.3 s) after the
+/// residual goes flat, and the anchors move on that frame. Units: times in seconds of the
+/// frames' timestamps, changes in the sensor's counts, bounds in σ (or `Σσᵢ`) of one frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DriftModel {
