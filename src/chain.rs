@@ -12,7 +12,7 @@ use gradtac_stages::fit::Fit;
 use gradtac_stages::force::{Force, ForceConfig, ForceEstimate, ForceModel};
 use gradtac_stages::force_model::{CalibratedForce, ChangeForce};
 use gradtac_stages::interpolate::{Interpolate, Surface};
-use gradtac_stages::locate::LocateMethod;
+use gradtac_stages::locate::{LocateMethod, ReturnAnchors};
 use gradtac_stages::normalise::{Bounds, Normalise};
 use gradtac_stages::peak::SurfaceContour;
 use gradtac_stages::raw_contour::RawChange;
@@ -661,12 +661,26 @@ impl SensorChain {
                         }
                         if d.release_excess > 0.0 {
                             more += &format!(
-                                " or, flat {} s ({}), at most {} of the peak above the untouched floor",
+                                " or, flat {} s ({} within {} Σσ), at most {} of the peak above the untouched floor",
                                 if d.release_flat_s > 0.0 { d.release_flat_s } else { d.steady_s },
                                 if d.release_flat_range { "range" } else { "first to last" },
+                                d.release_flat_sigmas,
                                 d.release_excess
                             );
                         }
+                        more += match d.return_anchors {
+                            ReturnAnchors::Keep => "; the slope's anchors kept at a return",
+                            ReturnAnchors::RestartAtShapeReturn => {
+                                "; the slope's anchors restarted at a return by the shape alone"
+                            }
+                            ReturnAnchors::ShiftAtShapeReturn => {
+                                "; the slope's anchors shifted to the new level at a return by the shape alone"
+                            }
+                            ReturnAnchors::RestartAtAnyReturn => "; the slope's anchors restarted at every return",
+                            ReturnAnchors::ShiftAtAnyReturn => {
+                                "; the slope's anchors shifted to the new level at every return"
+                            }
+                        };
                         more
                     },
                     d.hold_sigmas,

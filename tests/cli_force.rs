@@ -100,7 +100,12 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
     assert!(explain.contains("the identified forward model"), "{explain}");
     assert!(explain.contains("drift model: settle 0.2 s"), "{explain}");
     // the gate's shape return, with its flatness test
-    assert!(explain.contains("(range), at most 0.5 of the peak above the untouched floor"), "{explain}");
+    assert!(explain.contains("(range within 0.1 Σσ), at most 0.5 of the peak above the untouched floor"), "{explain}");
+    // and what the slope's anchors do at such a return (session 33)
+    assert!(
+        explain.contains("the slope's anchors shifted to the new level at a return by the shape alone"),
+        "{explain}"
+    );
     assert!(!explain.contains("centroid"), "the force alone needs no contact location: {explain}");
     ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
     let f = forces(&dir.path().join("run.toml.parquet"));

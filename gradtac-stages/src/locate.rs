@@ -734,6 +734,7 @@ impl PositionMemory {
 /// | quiet | with `quiet_s`, frames outside an excursion follow at `quiet_s` (steady or not): only a returning excursion settles fast | off |
 /// | stale | a held or contact stretch steady for `stale_s` is a new resting level: the baseline takes it, the slope's anchors start again | off |
 /// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
+/// | return anchors | with `return_anchors`, on the frame an excursion returns (by the shape return alone, or by any return) the slope's anchors are restarted or shifted to the new level, so the step the return leaves behind is not learned as drift | kept |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -742,7 +743,15 @@ impl PositionMemory {
 /// The defaults were chosen on the tuning members of `examples/force_eval.rs` (see
 /// `docs/force.md`). Trade-off: a press held perfectly still below `contact_sigmas` is absorbed
 /// at `settle_s` (it never was a contact); a contact held still after falling to less than
-/// half its peak total change ends.
+/// half its peak total change ends. With `return_anchors` shifting (the force gate's since
+/// session 33) a residual that returns is taken as the new untouched level at once (the
+/// baseline settles to it at `settle_s`, 0.2 s); the slope keeps what it learned before, so a
+/// drift that changes rate at that moment is followed only at `quiet_s` until new anchors teach
+/// it; restarting instead forgets the slope and re-learns it over `slope_memory_s` (measured
+/// worse on the tuning members, `docs/force.md`). Delay: a shape return ends a contact no
+/// earlier than the flatness look-back (`release_flat_s`, else `steady_s`: 0.3 s) after the
+/// residual goes flat, and the anchors move on that frame. Units: times in seconds of the
+/// frames' timestamps, changes in the sensor's counts, bounds in σ (or `Σσᵢ`) of one frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DriftModel {
@@ -785,8 +794,8 @@ pub struct DriftModel {
     /// the contact never ends and the baseline never settles.
     pub release_sigmas: f64,
     /// Shape return (a fraction in [0, 1); 0: off): an excursion also *returns* once it is
-    /// steady, its total change `Σ|Δᵢ|` has moved by less than 0.1 `Σσᵢ` over the last
-    /// `release_flat_s`, and `Σ|Δᵢ|` above the untouched floor (the running mean of `Σ|Δᵢ|`
+    /// steady, its total change `Σ|Δᵢ|` has moved by less than `release_flat_sigmas` (0.1)
+    /// `Σσᵢ` over the last `release_flat_s`, and `Σ|Δᵢ|` above the untouched floor (the running mean of `Σ|Δᵢ|`
     /// over frames outside excursions, 1 s time constant — the window means' noise and what
     /// the baseline does not follow) has fallen to at most this fraction of the excursion's
     /// peak above that floor. Unlike the peak return (`release_fraction`, on `Σ|Δᵢ|` itself)
@@ -798,8 +807,39 @@ pub struct DriftModel {
     pub release_flat_s: f64,
     /// The shape return's flatness test: `true`, the range (largest − smallest) of `Σ|Δᵢ|`
     /// over the look-back; `false`, the difference between its first and last value (as the
-    /// noise return's guard). Both bounded by 0.1 `Σσᵢ`.
+    /// noise return's guard). Both bounded by `release_flat_sigmas` `Σσᵢ`.
     pub release_flat_range: bool,
+    /// The shape return's flatness bound (a multiple of `Σσᵢ`, in (0, 10]): `Σ|Δᵢ|` must have
+    /// moved by less than this over the look-back. Default 0.1 (the bound of session 32).
+    pub release_flat_sigmas: f64,
+    /// What the drift slope's anchors do on the frame an excursion that reached contact first
+    /// returns ([`ReturnAnchors`]; default: kept). A return by the shape return leaves a
+    /// residual step that the baseline then settles to; anchors from before the step would
+    /// read it as drift.
+    pub return_anchors: ReturnAnchors,
+}
+
+/// What the drift slope's anchors do when an excursion returns
+/// ([`DriftModel::return_anchors`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReturnAnchors {
+    /// Kept: steady frames after the return join the anchors from before it (the session-32
+    /// gate). A residual step is then read as drift over the slope's memory.
+    #[default]
+    Keep,
+    /// At a return by the shape return alone (the peak and noise returns would not fire: a
+    /// residual above `release_fraction` of the peak), the anchors start again, as at the
+    /// stale rule; the slope is learned again from the frames after the step.
+    RestartAtShapeReturn,
+    /// At a return by the shape return alone, every anchor is moved by the step (the frame's
+    /// window mean less the anchors' line at that time): the learned slope is kept and the
+    /// old anchors sit at the new level.
+    ShiftAtShapeReturn,
+    /// At any return of an excursion that reached contact, the anchors start again.
+    RestartAtAnyReturn,
+    /// At any return of an excursion that reached contact, the anchors are shifted.
+    ShiftAtAnyReturn,
 }
 
 impl Default for DriftModel {
@@ -821,6 +861,8 @@ impl Default for DriftModel {
             release_excess: 0.0,
             release_flat_s: 0.0,
             release_flat_range: true,
+            release_flat_sigmas: NOISE_RETURN_MOVE,
+            return_anchors: ReturnAnchors::Keep,
         }
     }
 }
@@ -849,7 +891,9 @@ impl DriftModel {
             && self.release_sigmas.is_finite()
             && self.release_sigmas >= 0.0
             && (0.0..1.0).contains(&self.release_excess)
-            && (0.0..=60.0).contains(&self.release_flat_s);
+            && (0.0..=60.0).contains(&self.release_flat_s)
+            && self.release_flat_sigmas > 0.0
+            && self.release_flat_sigmas <= 10.0;
         if ok {
             Ok(())
         } else {
@@ -923,6 +967,41 @@ impl DriftState {
         }
     }
 
+    /// Start the slope's anchors again (the slope follows from the next anchors).
+    fn restart_anchors(&mut self) {
+        self.w = 0.0;
+        self.st = 0.0;
+        self.stt = 0.0;
+        self.sx.iter_mut().for_each(|x| *x = 0.0);
+        self.stx.iter_mut().for_each(|x| *x = 0.0);
+        self.t0 = None;
+    }
+
+    /// Move every anchor by the step between `mean` (window means at `time`) and the anchors'
+    /// fitted line at `time`: the anchors' centred sums, and so the slope, are unchanged; the
+    /// anchors' level becomes the new one. A non-finite step restarts the anchors instead.
+    fn shift_anchors(&mut self, time: Timestamp, mean: &[f64]) {
+        let Some(t0) = self.t0 else { return };
+        if self.w <= 0.0 {
+            return;
+        }
+        let t = (time.0 - t0.0) as f64 * 1e-9;
+        let tb = self.st / self.w;
+        let mut steps = Vec::with_capacity(mean.len());
+        for ((sx, slope), x) in self.sx.iter().zip(&self.slope).zip(mean) {
+            let line = sx / self.w + slope * (t - tb);
+            steps.push(x - line);
+        }
+        if !steps.iter().all(|c| c.is_finite()) {
+            self.restart_anchors();
+            return;
+        }
+        for ((sx, stx), c) in self.sx.iter_mut().zip(&mut self.stx).zip(&steps) {
+            *sx += self.w * c;
+            *stx += self.st * c;
+        }
+    }
+
     /// The shape return's test for a frame of total change `total` (and records it): flat over
     /// the look-back, and fallen to `release_excess` of the peak above the untouched floor.
     fn shape_return(&mut self, time: Timestamp, total: f64, sigma: &[f64]) -> bool {
@@ -949,7 +1028,7 @@ impl DriftState {
         let ss: f64 = sigma.iter().sum();
         let floor = self.floor.unwrap_or(0.0);
         let (now, top) = (total - floor, self.peak - floor);
-        full && moved < NOISE_RETURN_MOVE * ss && top > 0.0 && now <= m.release_excess * top
+        full && moved < m.release_flat_sigmas * ss && top > 0.0 && now <= m.release_excess * top
     }
 
     /// After a frame's changes: steadiness, release, following and the slope's anchors.
@@ -1024,9 +1103,12 @@ impl DriftState {
         // the shape return: flat over `release_flat_s`, and fallen to `release_excess` of the
         // peak above the untouched floor (a press rising or held sits near its peak)
         let shape_return = m.release_excess > 0.0 && self.shape_return(time, total, sigma);
-        let returning = steady
-            && self.in_contact
-            && (self.settling || total < m.release_fraction * self.peak || quiet_total || shape_return);
+        let peak_return = total < m.release_fraction * self.peak || quiet_total;
+        let returning = steady && self.in_contact && (self.settling || peak_return || shape_return);
+        // the frame this excursion first returns on (not a later settling frame), and whether
+        // the shape return alone made it return (a residual step stays behind)
+        let first_return = returning && !self.settling && (contact || self.touched);
+        let shape_alone = first_return && !peak_return;
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
         if !contact && held && (self.touched || m.hold_contact) {
@@ -1049,12 +1131,7 @@ impl DriftState {
                 self.in_contact = false;
                 self.touched = false;
                 // the slope's anchors before the step would read it as drift: start them again
-                self.w = 0.0;
-                self.st = 0.0;
-                self.stt = 0.0;
-                self.sx.iter_mut().for_each(|x| *x = 0.0);
-                self.stx.iter_mut().for_each(|x| *x = 0.0);
-                self.t0 = None;
+                self.restart_anchors();
                 return false;
             }
         } else {
@@ -1079,6 +1156,13 @@ impl DriftState {
         };
         for (base, x) in baseline.iter_mut().zip(&mean) {
             *base += b * (x - *base);
+        }
+        match m.return_anchors {
+            ReturnAnchors::RestartAtShapeReturn if shape_alone => self.restart_anchors(),
+            ReturnAnchors::RestartAtAnyReturn if first_return => self.restart_anchors(),
+            ReturnAnchors::ShiftAtShapeReturn if shape_alone => self.shift_anchors(time, &mean),
+            ReturnAnchors::ShiftAtAnyReturn if first_return => self.shift_anchors(time, &mean),
+            _ => {}
         }
         if steady && (!held || returning) {
             let t0 = *self.t0.get_or_insert(time);
