@@ -1266,12 +1266,17 @@ impl Fit {
                 &self.kk,
                 |i| inv_s[i] != 0.0,
                 &mut self.feat[..crate::fit_learned::INPUTS],
-            ) && crate::fit_learned::gain_inputs(
-                &self.gain,
-                self.cal.evidence(),
-                prior,
-                &mut self.feat[crate::fit_learned::INPUTS..],
-            );
+            ) && {
+                // the gain inputs only when recorded or read (the shipped weights read 55)
+                let read = self.learned.as_ref().is_some_and(|c| c.inputs() > crate::fit_learned::INPUTS);
+                !(self.record || read)
+                    || crate::fit_learned::gain_inputs(
+                        &self.gain,
+                        self.cal.evidence(),
+                        prior,
+                        &mut self.feat[crate::fit_learned::INPUTS..],
+                    )
+            };
             if ok {
                 self.last_input = Some(p);
                 if let Some(c) = &mut self.learned {
