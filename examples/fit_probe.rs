@@ -15,35 +15,23 @@
 //! `--heldout` (score the held-out members, seeds 100–115 × 4 kinds, `PhysicsSet::HeldOut`,
 //! instead: for a final candidate only, never for a choice); `--verbose` (each member's
 //! kernel, learned shape exponent `q̂`, polarities decided right / wrong / undecided, and
-//! error).
+//! error); `--weights PATH` (the learned correction's weights read from a file in
+//! `train_fit_correction`'s format, e.g. one written with its `--out`, instead of the built-in
+//! ones; the correction is then on whatever the TOML lines say).
 
 use gradtac::stages::fit::Fit;
+use gradtac::stages::fit_learned::{Correction, Trained};
 use gradtac::stages::locate::LocateConfig;
-use gradtac::stages::sim_family::{KernelShape, Member, PathKind, Physics, PhysicsSet};
+use gradtac::stages::sim_family::{Member, PathKind, Physics, PhysicsSet, IDEAL_TERMS};
 use gradtac::stages::track::{ContactState, Track, TrackConfig};
 use gradtac::stream::{Layout, Stage, StageExt};
 use std::collections::HashMap;
 
 fn ideal(p: &mut Physics, term: &str, keep: bool) {
-    let on = |t: &str| (t == term) == keep;
-    if on("gains") {
-        p.gain.iter_mut().for_each(|g| *g = g.signum());
-    }
-    if on("lag") {
-        p.lag_s = 0.001;
-    }
-    if on("kernel") {
-        p.kernel = KernelShape::Gaussian;
-    }
-    if on("drift") {
-        p.drift_slope.iter_mut().for_each(|d| *d = 0.0);
-        p.drift_walk = 0.0;
-    }
-    if on("noise") {
-        p.noise_counts = 0.5;
-    }
-    if on("knee") {
-        p.knee_counts = 1e6;
+    for t in IDEAL_TERMS {
+        if (t == term) == keep {
+            p.idealise(t);
+        }
     }
 }
 
@@ -54,6 +42,7 @@ fn main() {
     let mut verbose = false;
     let mut only: Option<String> = None;
     let mut without: Option<String> = None;
+    let mut weights: Option<Trained> = None;
     let mut toml = String::from("preset = \"accurate\"\n");
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -63,6 +52,11 @@ fn main() {
             "--verbose" => verbose = true,
             "--only" => only = it.next().cloned(),
             "--without" => without = it.next().cloned(),
+            "--weights" => {
+                let path = it.next().expect("--weights PATH");
+                let src = std::fs::read_to_string(path).expect("a weights file");
+                weights = Some(Trained::from_rust(&src).expect("a weights file in train_fit_correction's format"));
+            }
             line => {
                 toml.push_str(line);
                 toml.push('\n');
@@ -91,6 +85,9 @@ fn main() {
         let rec = p.simulate(m.seed);
         // the fit pushed by hand so that its learned kernel shape can be read before `finish`
         let mut fit = Fit::try_new(&cfg, &layout).unwrap();
+        if let Some(w) = &weights {
+            fit = fit.with_correction(Some(Correction::try_new(w.clone()).expect("usable weights")));
+        }
         let mut contours = Vec::new();
         for f in rec.frames.iter().cloned() {
             fit.push(f, &mut contours).unwrap();

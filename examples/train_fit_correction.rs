@@ -19,11 +19,21 @@
 //! result with the committed file instead of writing it, every number within 1e-6 of the
 //! largest weight, and fails otherwise — `scripts/fit_learned_check.sh`, in CI). ≈ 100 s on
 //! one core after the build.
+//!
+//! Round 8's experiment options (none is the default): `--out PATH` writes (or `--check`s)
+//! that file instead; `--locate 'TOML line'` (repeatable) changes the fit the samples come
+//! from (a `[stages.locate]` line on top of `preset = "accurate"`); `--wide` draws every
+//! training and validation recording's physics wider (see `widen`); `--gain-inputs` trains
+//! weights that also read the fit's gain inputs (`fit_learned::GAIN_INPUTS`); `--grid wide`
+//! chooses over bandwidths {0.25, 0.5, 1} × λ {1e-7, 1e-6, 1e-5} instead of round 6's
+//! {0.125, 0.25} × {1e-6, 1e-5}. A file written with
+//! `--out` is scored without rebuilding by `fit_probe --weights PATH`.
 
 use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{self, Correction};
-use gradtac::stages::locate::{LocateConfig, Preset};
-use gradtac::stages::sim_family::{Member, PhysicsSet};
+use gradtac::stages::locate::LocateConfig;
+use gradtac::stages::sim_family::{Member, Physics, PhysicsSet, IDEAL_TERMS};
+use gradtac::stages::splitmix::SplitMix;
 use gradtac::stream::{Layout, Stage};
 use std::time::Instant;
 
@@ -31,13 +41,36 @@ use std::time::Instant;
 /// raw position.
 type Samples = (Vec<Vec<f64>>, Vec<[f64; 2]>, Vec<[f64; 2]>);
 
-fn samples(seeds: std::ops::Range<u64>, every: usize, lagged: bool, layout: &Layout) -> Samples {
-    // the `accurate` fit without the correction: the samples never depend on the weights
-    let cfg = LocateConfig { fit_learned_correction: false, ..LocateConfig::preset(Preset::Accurate) };
+/// `--wide` (round 8, candidate A): a wider draw of the tuning physics. With probability ½ the
+/// member's physics as drawn; otherwise each of the six terms of [`IDEAL_TERMS`] is made ideal
+/// with probability ½, and kept gains have their spread about 1 scaled by a factor in [0, 1].
+/// From a sub-stream of the seed (deterministic); never a Mexican hat nor a lag over 30 ms.
+fn widen(p: &mut Physics, m: &Member) {
+    let mut rng = SplitMix::new(m.seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ (0x5749_4445 + m.kind as u64));
+    if rng.uniform() < 0.5 {
+        return;
+    }
+    for t in IDEAL_TERMS {
+        if rng.uniform() < 0.5 {
+            p.idealise(t);
+        } else if t == "gains" {
+            let s = rng.uniform();
+            p.gain.iter_mut().for_each(|g| *g = g.signum() * (1.0 + s * (g.abs() - 1.0)));
+        }
+    }
+}
+
+fn samples(seeds: std::ops::Range<u64>, every: usize, lagged: bool, layout: &Layout, opts: &Opts) -> Samples {
+    // the fit without the correction: the samples never depend on the weights
+    let cfg = LocateConfig { fit_learned_correction: false, ..opts.cfg.clone() };
     let (mut xs, mut ys, mut us) = (Vec::new(), Vec::new(), Vec::new());
     for m in Member::grid(seeds) {
-        let rec = m.physics_in(PhysicsSet::Tuning).simulate(m.seed);
-        let mut fit = Fit::try_new(&cfg, layout).expect("the accurate preset");
+        let mut p = m.physics_in(PhysicsSet::Tuning);
+        if opts.wide {
+            widen(&mut p, &m);
+        }
+        let rec = p.simulate(m.seed);
+        let mut fit = Fit::try_new(&cfg, layout).expect("valid fit settings");
         fit.record_inputs(true);
         let mut out = Vec::new();
         let mut k = 0usize;
@@ -51,7 +84,9 @@ fn samples(seeds: std::ops::Range<u64>, every: usize, lagged: bool, layout: &Lay
             let Some(u) = rec.truth_at(mid) else { continue };
             k += 1;
             if k % every == 0 {
-                xs.push(x.to_vec());
+                xs.push(
+                    x[..if opts.gain_inputs { fit_learned::INPUTS_WITH_GAINS } else { fit_learned::INPUTS }].to_vec(),
+                );
                 ys.push([t[0] - p[0], t[1] - p[1]]);
                 us.push([u[0] - p[0], u[1] - p[1]]);
             }
@@ -70,8 +105,29 @@ fn mean_dist(c: Option<&mut Correction>, xs: &[Vec<f64>], ys: &[[f64; 2]]) -> f6
     s / xs.len().max(1) as f64
 }
 
+/// Experiment options (round 8): the fit's settings and the wider draw.
+struct Opts {
+    /// The fit the samples come from: `preset = "accurate"` and the `--locate` lines.
+    cfg: LocateConfig,
+    /// `--wide`: [`widen`] every training and validation recording.
+    wide: bool,
+    /// `--gain-inputs` (round 8, candidate C): the weights read the fit's gain inputs too.
+    gain_inputs: bool,
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut toml = String::from("preset = \"accurate\"\n");
+    for (i, a) in args.iter().enumerate() {
+        if a == "--locate" {
+            toml.push_str(args.get(i + 1).expect("--locate 'TOML line'"));
+            toml.push('\n');
+        }
+    }
+    let cfg: LocateConfig = toml::from_str(&toml).expect("a [stages.locate] table");
+    cfg.validate().expect("valid settings");
+    let flag = |name: &str| args.iter().any(|a| a == name);
+    let opts = Opts { cfg, wide: flag("--wide"), gain_inputs: flag("--gain-inputs") };
     let arg = |name: &str, d: u64| {
         args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(d)
     };
@@ -83,8 +139,8 @@ fn main() {
     // `--lagged`: targets at the middle time less the member's lag (the static bias only);
     // otherwise at the middle time (the score's truth: the correction may learn the lag too)
     let lagged = args.iter().any(|a| a == "--lagged");
-    let (xt, yt, _) = samples(10_000..10_000 + n_train, every.max(1), lagged, &layout);
-    let (xv, _, yv) = samples(20_000..20_000 + n_val, every.max(1), lagged, &layout);
+    let (xt, yt, _) = samples(10_000..10_000 + n_train, every.max(1), lagged, &layout, &opts);
+    let (xv, _, yv) = samples(20_000..20_000 + n_val, every.max(1), lagged, &layout, &opts);
     println!(
         "samples: {} training ({} seeds × 4), {} validation ({} seeds × 4); simulated and fitted in {:.1} s",
         xt.len(),
@@ -94,9 +150,15 @@ fn main() {
         t0.elapsed().as_secs_f64()
     );
     println!("validation mean distance without correction: {:.4} mm", mean_dist(None, &xv, &yv));
-    let lambdas = [1e-6, 1e-5];
+    // `--grid wide` (round 8, candidate E): past round 6's corner (0.25, 1e-6)
+    let wide_grid = args.windows(2).any(|w| w[0] == "--grid" && w[1] == "wide");
+    let (lambdas, bandwidths): (Vec<f64>, Vec<[f64; 2]>) = if wide_grid {
+        (vec![1e-7, 1e-6, 1e-5], vec![[0.25, 0.25], [0.5, 0.5], [1.0, 1.0]])
+    } else {
+        (vec![1e-6, 1e-5], vec![[0.125, 0.125], [0.25, 0.25]])
+    };
     let mut best: Option<(f64, fit_learned::Trained)> = None;
-    for bw in [[0.125, 0.125], [0.25, 0.25]] {
+    for bw in bandwidths {
         let t1 = Instant::now();
         for t in fit_learned::train_path(&xt, &yt, &lambdas, bw).into_iter().flatten() {
             let mut c = Correction::try_new(t.clone()).expect("finite weights");
@@ -116,8 +178,9 @@ fn main() {
     let (v, t) = best.expect("at least one fit");
     println!("chosen: bandwidth {:?} lambda {:e}, validation {v:.4} mm", t.bandwidth, t.lambda);
     let prov = format!(
-        "Training: sim_family tuning physics, seeds 10000..{} and validation seeds 20000..{} (× 4 kinds);\n\
+        "Training: sim_family tuning physics{}, seeds 10000..{} and validation seeds 20000..{} (× 4 kinds);\n\
          {} training / {} validation frames; chosen bandwidth {:?}, lambda {:e} (validation mean distance {:.4} mm).",
+        if opts.wide { " (wider draw, --wide)" } else { "" },
         10_000 + n_train,
         20_000 + n_val,
         xt.len(),
@@ -126,7 +189,9 @@ fn main() {
         t.lambda,
         v
     );
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/gradtac-stages/src/fit_learned_weights.rs");
+    let default_path = concat!(env!("CARGO_MANIFEST_DIR"), "/gradtac-stages/src/fit_learned_weights.rs");
+    let out = args.iter().position(|a| a == "--out").and_then(|i| args.get(i + 1));
+    let path = out.map_or(default_path, |s| s.as_str());
     if args.iter().any(|a| a == "--check") {
         let committed = std::fs::read_to_string(path).expect("the committed weights file");
         let fresh = t.to_rust(&prov);

@@ -841,10 +841,18 @@ impl Fit {
             inv_full: vec![0.0; n],
             learned,
             record: false,
-            feat: vec![0.0; crate::fit_learned::INPUTS],
+            feat: vec![0.0; crate::fit_learned::INPUTS_WITH_GAINS],
             last_input: None,
             raw_lead: Lead::new(cfg.fit_velocity_frames as usize),
         })
+    }
+
+    /// Replace the learned bias correction by `c` (`None`: none), e.g. weights read with
+    /// [`Trained::from_rust`](crate::fit_learned::Trained::from_rust) to evaluate them without
+    /// rebuilding; as with `fit_learned_correction`, it is applied only on the BioTac SP layout.
+    pub fn with_correction(mut self, c: Option<crate::fit_learned::Correction>) -> Self {
+        self.learned = c.filter(|_| self.geo.curved).map(Box::new);
+        self
     }
 
     /// Record the learned correction's inputs of every fitted frame (for training,
@@ -853,7 +861,8 @@ impl Fit {
         self.record = on;
     }
 
-    /// The last pushed frame's learned-correction inputs ([`crate::fit_learned::INPUTS`]) and
+    /// The last pushed frame's learned-correction inputs ([`crate::fit_learned::INPUTS`], then
+    /// the [`crate::fit_learned::GAIN_INPUTS`]) and
     /// the fit's raw position (mm, before the correction, lead and smoothing), when that frame
     /// was fitted and inputs were recorded or the correction is on.
     pub fn last_input(&self) -> Option<(&[f64], [f64; 2])> {
@@ -1242,6 +1251,7 @@ impl Fit {
         self.warm = Some(th);
         let mut p = [th[0], th[1]];
         if self.record || self.learned.is_some() {
+            let prior = self.det.config().fit_gain_prior;
             let inv_s = &self.inv_s;
             let ok = crate::fit_learned::inputs(
                 p,
@@ -1255,8 +1265,18 @@ impl Fit {
                 &self.gain,
                 &self.kk,
                 |i| inv_s[i] != 0.0,
-                &mut self.feat,
-            );
+                &mut self.feat[..crate::fit_learned::INPUTS],
+            ) && {
+                // the gain inputs only when recorded or read (the shipped weights read 55)
+                let read = self.learned.as_ref().is_some_and(|c| c.inputs() > crate::fit_learned::INPUTS);
+                !(self.record || read)
+                    || crate::fit_learned::gain_inputs(
+                        &self.gain,
+                        self.cal.evidence(),
+                        prior,
+                        &mut self.feat[crate::fit_learned::INPUTS..],
+                    )
+            };
             if ok {
                 self.last_input = Some(p);
                 if let Some(c) = &mut self.learned {
@@ -1766,8 +1786,15 @@ impl GainCal {
         }
     }
 
+    /// Each electrode's evidence `Σ w m²` over the keys at the last [`GainCal::gains`] (0
+    /// before any; the learned correction's gain inputs).
+    pub fn evidence(&self) -> &[f64] {
+        &self.smm
+    }
+
     /// Forget every key.
     pub fn clear(&mut self) {
+        self.smm.iter_mut().for_each(|v| *v = 0.0);
         self.keys.clear();
         self.next_refit = 0;
         self.next_evict = 0;
@@ -2616,6 +2643,44 @@ mod tests {
                 assert!(m.centroid_mm[0].is_finite() && m.centroid_mm[1].is_finite());
             }
         }
+    }
+
+    /// Weights given at run time (`with_correction`, `fit_probe --weights`) act as the built-in
+    /// ones; `None` is the fit without a correction; another layout ignores them; the recorded
+    /// inputs end with finite, bounded gain inputs (round 8).
+    #[test]
+    fn a_correction_given_at_run_time_acts_as_the_key_and_inputs_hold_the_gains() {
+        use crate::fit_learned::{Correction, GAIN_INPUTS, INPUTS, INPUTS_WITH_GAINS};
+        use crate::sim_family::{Member, PathKind, PhysicsSet};
+        let m = Member { seed: 10_003, kind: PathKind::Diagonal };
+        let rec = m.physics_in(PhysicsSet::Tuning).simulate(m.seed);
+        let off = LocateConfig { fit_learned_correction: false, ..learned() };
+        let run = |fit: &mut Fit| push_all(fit, rec.frames.clone());
+        let key = run(&mut Fit::try_new(&learned(), &Layout::biotac_sp()).unwrap());
+        let given =
+            Fit::try_new(&off, &Layout::biotac_sp()).unwrap().with_correction(Some(Correction::builtin().unwrap()));
+        assert_eq!(run(&mut given.clone()), key);
+        let none = Fit::try_new(&learned(), &Layout::biotac_sp()).unwrap().with_correction(None);
+        assert_eq!(run(&mut none.clone()), run(&mut Fit::try_new(&off, &Layout::biotac_sp()).unwrap()));
+        assert_ne!(run(&mut none.clone()), key);
+        let other = Fit::try_new(&off, &grid()).unwrap().with_correction(Some(Correction::builtin().unwrap()));
+        assert!(other.learned.is_none());
+        let mut fit = Fit::try_new(&off, &Layout::biotac_sp()).unwrap();
+        fit.record_inputs(true);
+        let (mut sink, mut seen, mut learned_gains) = (Vec::new(), 0, false);
+        for f in rec.frames.iter().cloned() {
+            fit.push(f, &mut sink).unwrap();
+            if let Some((x, _)) = fit.last_input() {
+                assert_eq!(x.len(), INPUTS_WITH_GAINS);
+                let g = &x[INPUTS..];
+                assert_eq!(g.len(), GAIN_INPUTS);
+                assert!(g.iter().all(|v| v.is_finite() && v.abs() <= 3.0));
+                assert!(g[24..].iter().all(|v| (0.0..=1.0).contains(v)));
+                learned_gains |= g[24..].iter().any(|v| *v > 0.5);
+                seen += 1;
+            }
+        }
+        assert!(seen > 50 && learned_gains, "{seen} fitted frames; some gain learned past its prior");
     }
 
     /// The correction keeps state (the raw positions' velocity): pushing in chunks gives the

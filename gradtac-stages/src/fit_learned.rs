@@ -16,7 +16,10 @@
 //! - the **residual pattern** `nᵢ − Â·Kᵢ` (the fit's kernel at the solution, amplitude in the
 //!   same units) (24);
 //!
-//! (each clamped to ±3, electrodes left out of the fit at 0) — is standardised and mapped to a
+//! (each clamped to ±3, electrodes left out of the fit at 0). The fit records [`GAIN_INPUTS`]
+//! more after these ([`gain_inputs`]: the learned log-gains and the self-calibration's
+//! shrinkage), which only weights trained with them read (round 8's candidate C; the shipped
+//! weights read the 55 above). The vector is standardised and mapped to a
 //! correction `(δx, δy)` mm by ridge regression on `1 + INPUTS + RANDOM` terms: a constant,
 //! the inputs, and [`RANDOM`] random cosine features `√(2/R)·cos(ωₖ·z + bₖ)` whose
 //! frequencies are drawn from a fixed seed ([`SEED`]; position dimensions at bandwidth
@@ -45,10 +48,27 @@ use crate::{Error, Result};
 
 /// Number of inputs per frame (see the module docs).
 pub const INPUTS: usize = 7 + 2 * 24;
+/// Number of optional inputs telling how far the gains are learned (round 8, candidate C):
+/// per electrode the learned log-gain and the self-calibration's shrinkage
+/// `Σ w m² / (Σ w m² + prior)` ([`gain_inputs`]). Weights trained with them have
+/// [`INPUTS_WITH_GAINS`] means; the shipped weights have [`INPUTS`].
+pub const GAIN_INPUTS: usize = 48;
+/// [`INPUTS`] and the [`GAIN_INPUTS`]: the size of the fit's recorded input vector.
+pub const INPUTS_WITH_GAINS: usize = INPUTS + GAIN_INPUTS;
 /// Number of random cosine features.
 pub const RANDOM: usize = 256;
 /// Number of regression terms: a constant, the inputs, the cosines.
 pub const TERMS: usize = 1 + INPUTS + RANDOM;
+
+/// Number of regression terms for `n` inputs.
+fn terms_for(n: usize) -> usize {
+    1 + n + RANDOM
+}
+
+/// Whether `n` is an input count weights may have ([`INPUTS`] or [`INPUTS_WITH_GAINS`]).
+fn known_inputs(n: usize) -> bool {
+    n == INPUTS || n == INPUTS_WITH_GAINS
+}
 /// Seed of the random features' frequencies and phases.
 pub const SEED: u64 = 0x22_6C_65_61_72_6E;
 /// Largest correction applied (mm).
@@ -67,7 +87,7 @@ pub struct Trained {
     pub scale: Vec<f64>,
     /// Bandwidths of the random features: position dimensions, the rest.
     pub bandwidth: [f64; 2],
-    /// Ridge weights per axis (x, y), [`TERMS`] each.
+    /// Ridge weights per axis (x, y), [`TERMS`] each (`1 + n + RANDOM` for `n` inputs).
     pub w: [Vec<f64>; 2],
     /// The ridge penalty the weights were fitted with (reported only).
     pub lambda: f64,
@@ -106,11 +126,37 @@ impl Trained {
     }
 }
 
+impl Trained {
+    /// The weights from the text of a weights file ([`Trained::to_rust`]'s format); `None`
+    /// when a constant is missing or does not parse. Sizes are checked by
+    /// [`Correction::try_new`], not here.
+    pub fn from_rust(src: &str) -> Option<Trained> {
+        let body = |name: &str| -> Option<&str> {
+            let line = src.lines().find(|l| l.contains(&format!("const {name}:")))?;
+            let rhs = line[line.find('=')? + 1..].trim().trim_end_matches(';').trim();
+            Some(rhs)
+        };
+        let list = |name: &str| -> Option<Vec<f64>> {
+            let b = body(name)?;
+            let inner = b.strip_prefix('[')?.strip_suffix(']')?;
+            inner.split(',').map(|v| v.trim().parse().ok()).collect()
+        };
+        let bw = list("BANDWIDTH")?;
+        Some(Trained {
+            mean: list("MEAN")?,
+            scale: list("SCALE")?,
+            bandwidth: [*bw.first()?, *bw.get(1)?],
+            w: [list("WX")?, list("WY")?],
+            lambda: body("LAMBDA")?.parse().ok()?,
+        })
+    }
+}
+
 /// The correction at inference: the trained weights and the random features' frequencies.
 #[derive(Clone, Debug)]
 pub struct Correction {
     t: Trained,
-    /// `RANDOM × INPUTS` frequencies, row-major, and `RANDOM` phases.
+    /// `RANDOM × n` frequencies (`n` inputs), row-major, and `RANDOM` phases.
     omega: Vec<f64>,
     phase: Vec<f64>,
     z: Vec<f64>,
@@ -119,9 +165,10 @@ pub struct Correction {
 impl Correction {
     /// The correction from trained weights; an error when their sizes or values are not usable.
     pub fn try_new(t: Trained) -> Result<Correction> {
-        let ok = t.mean.len() == INPUTS
-            && t.scale.len() == INPUTS
-            && t.w.iter().all(|w| w.len() == TERMS && w.iter().all(|v| v.is_finite()))
+        let n = t.mean.len();
+        let ok = known_inputs(n)
+            && t.scale.len() == n
+            && t.w.iter().all(|w| w.len() == terms_for(n) && w.iter().all(|v| v.is_finite()))
             && t.mean.iter().all(|v| v.is_finite())
             && t.scale.iter().all(|v| v.is_finite() && *v > 0.0)
             && t.bandwidth.iter().all(|v| v.is_finite() && *v >= 0.0);
@@ -131,8 +178,8 @@ impl Correction {
                 reason: "the learned correction's weights have the wrong sizes or non-finite values".into(),
             });
         }
-        let (omega, phase) = frequencies(t.bandwidth);
-        Ok(Correction { t, omega, phase, z: vec![0.0; INPUTS] })
+        let (omega, phase) = frequencies(t.bandwidth, n);
+        Ok(Correction { t, omega, phase, z: vec![0.0; n] })
     }
 
     /// The library's shipped correction.
@@ -145,10 +192,18 @@ impl Correction {
         &self.t
     }
 
+    /// The number of inputs the weights read ([`INPUTS`] or [`INPUTS_WITH_GAINS`]).
+    pub fn inputs(&self) -> usize {
+        self.z.len()
+    }
+
     /// The correction (mm, clamped to [`MAX_CORRECTION_MM`]) for one frame's inputs `x`
-    /// ([`INPUTS`] values from [`inputs`]); `[0, 0]` when anything is not finite.
+    /// ([`INPUTS`] values from [`inputs`], then the [`GAIN_INPUTS`] from [`gain_inputs`]; the
+    /// weights read the first [`Correction::inputs`]); `[0, 0]` when `x` is shorter or
+    /// anything is not finite.
     pub fn apply(&mut self, x: &[f64]) -> [f64; 2] {
-        if x.len() != INPUTS {
+        let n = self.z.len();
+        if x.len() != INPUTS && x.len() != INPUTS_WITH_GAINS || x.len() < n {
             return [0.0, 0.0];
         }
         for (i, z) in self.z.iter_mut().enumerate() {
@@ -156,20 +211,20 @@ impl Correction {
         }
         let (wx, wy) = (&self.t.w[0], &self.t.w[1]);
         let (mut cx, mut cy) = (wx[0], wy[0]);
-        for i in 0..INPUTS {
+        for i in 0..n {
             cx += wx[1 + i] * self.z[i];
             cy += wy[1 + i] * self.z[i];
         }
         let norm = (2.0 / RANDOM as f64).sqrt();
         for k in 0..RANDOM {
-            let row = &self.omega[k * INPUTS..(k + 1) * INPUTS];
+            let row = &self.omega[k * n..(k + 1) * n];
             let mut a = self.phase[k];
             for (o, z) in row.iter().zip(&self.z) {
                 a += o * z;
             }
             let f = norm * a.cos();
-            cx += wx[1 + INPUTS + k] * f;
-            cy += wy[1 + INPUTS + k] * f;
+            cx += wx[1 + n + k] * f;
+            cy += wy[1 + n + k] * f;
         }
         let m = cx.hypot(cy);
         if !m.is_finite() {
@@ -184,29 +239,31 @@ impl Correction {
     }
 }
 
-/// The random features' frequencies (`RANDOM × INPUTS`, row-major) and phases, from [`SEED`].
-fn frequencies(bandwidth: [f64; 2]) -> (Vec<f64>, Vec<f64>) {
+/// The random features' frequencies (`RANDOM × n`, row-major, for `n` inputs) and phases,
+/// from [`SEED`].
+fn frequencies(bandwidth: [f64; 2], n: usize) -> (Vec<f64>, Vec<f64>) {
     let mut rng = SplitMix::new(SEED);
-    let other = bandwidth[1] / ((INPUTS - 2) as f64).sqrt();
-    let mut omega = vec![0.0; RANDOM * INPUTS];
+    let other = bandwidth[1] / ((n - 2) as f64).sqrt();
+    let mut omega = vec![0.0; RANDOM * n];
     let mut phase = vec![0.0; RANDOM];
     for k in 0..RANDOM {
-        for i in 0..INPUTS {
-            omega[k * INPUTS + i] = rng.normal() * if i < 2 { bandwidth[0] } else { other };
+        for i in 0..n {
+            omega[k * n + i] = rng.normal() * if i < 2 { bandwidth[0] } else { other };
         }
         phase[k] = rng.range(0.0, std::f64::consts::TAU);
     }
     (omega, phase)
 }
 
-/// The regression terms of standardised inputs `z` into `out` ([`TERMS`] values).
+/// The regression terms of standardised inputs `z` (`n` values) into `out` (`1 + n + RANDOM`).
 fn terms(z: &[f64], omega: &[f64], phase: &[f64], out: &mut [f64]) {
+    let n = z.len();
     out[0] = 1.0;
-    out[1..1 + INPUTS].copy_from_slice(z);
+    out[1..1 + n].copy_from_slice(z);
     let norm = (2.0 / RANDOM as f64).sqrt();
     for k in 0..RANDOM {
-        let a = phase[k] + omega[k * INPUTS..(k + 1) * INPUTS].iter().zip(z).map(|(o, z)| o * z).sum::<f64>();
-        out[1 + INPUTS + k] = norm * a.cos();
+        let a = phase[k] + omega[k * n..(k + 1) * n].iter().zip(z).map(|(o, z)| o * z).sum::<f64>();
+        out[1 + n + k] = norm * a.cos();
     }
 }
 
@@ -268,8 +325,27 @@ pub fn inputs(
     true
 }
 
+/// The [`GAIN_INPUTS`] of one fitted frame into `out`: per electrode the learned log-gain
+/// `ln|gᵢ|`, then the self-calibration's shrinkage `eᵢ / (eᵢ + prior)` of its evidence `eᵢ =
+/// Σ w m²` (0 before any key, → 1 when the keys outweigh the prior); each clamped to ±3,
+/// non-finite values at 0. `false` (nothing written) when the sizes are not 24 / 24 /
+/// [`GAIN_INPUTS`].
+pub fn gain_inputs(gain: &[f64], evidence: &[f64], prior: f64, out: &mut [f64]) -> bool {
+    let n = 24;
+    if gain.len() != n || evidence.len() != n || out.len() != GAIN_INPUTS {
+        return false;
+    }
+    let c = |v: f64| if v.is_finite() { v.clamp(-3.0, 3.0) } else { 0.0 };
+    for i in 0..n {
+        out[i] = c(gain[i].abs().ln());
+        let (e, p) = (evidence[i].max(0.0), prior.max(0.0));
+        out[n + i] = if e + p > 0.0 { c(e / (e + p)) } else { 0.0 };
+    }
+    true
+}
+
 /// Ridge regression of targets `y` (mm, per sample) on the terms of inputs `x` (per sample,
-/// [`INPUTS`] each) with penalty `lambda` (per sample, on standardised terms) and random
+/// [`INPUTS`] or [`INPUTS_WITH_GAINS`] each, the same for all) with penalty `lambda` (per sample, on standardised terms) and random
 /// features at `bandwidth`: the trained weights, or `None` if the system is singular.
 pub fn train(x: &[Vec<f64>], y: &[[f64; 2]], lambda: f64, bandwidth: [f64; 2]) -> Option<Trained> {
     train_path(x, y, &[lambda], bandwidth).pop().flatten()
@@ -278,30 +354,31 @@ pub fn train(x: &[Vec<f64>], y: &[[f64; 2]], lambda: f64, bandwidth: [f64; 2]) -
 /// [`train`] at every penalty of `lambdas` (one pass over the samples): one entry per penalty.
 pub fn train_path(x: &[Vec<f64>], y: &[[f64; 2]], lambdas: &[f64], bandwidth: [f64; 2]) -> Vec<Option<Trained>> {
     let m = x.len();
-    if m == 0 || y.len() != m || x.iter().any(|s| s.len() != INPUTS) {
+    let n = x.first().map_or(0, |s| s.len());
+    if m == 0 || y.len() != m || !known_inputs(n) || x.iter().any(|s| s.len() != n) {
         return lambdas.iter().map(|_| None).collect();
     }
-    let mut mean = vec![0.0; INPUTS];
+    let mut mean = vec![0.0; n];
     for s in x {
-        for i in 0..INPUTS {
+        for i in 0..n {
             mean[i] += s[i] / m as f64;
         }
     }
-    let mut scale = vec![0.0; INPUTS];
+    let mut scale = vec![0.0; n];
     for s in x {
-        for i in 0..INPUTS {
+        for i in 0..n {
             scale[i] += (s[i] - mean[i]).powi(2) / m as f64;
         }
     }
     scale.iter_mut().for_each(|v| *v = v.sqrt().max(1e-6));
-    let (omega, phase) = frequencies(bandwidth);
-    let t = TERMS;
+    let (omega, phase) = frequencies(bandwidth, n);
+    let t = terms_for(n);
     let mut a = vec![0.0; t * t];
     let mut b = [vec![0.0; t], vec![0.0; t]];
-    let mut z = vec![0.0; INPUTS];
+    let mut z = vec![0.0; n];
     let mut f = vec![0.0; t];
     for (s, yy) in x.iter().zip(y) {
-        for i in 0..INPUTS {
+        for i in 0..n {
             z[i] = (s[i] - mean[i]) / scale[i];
         }
         terms(&z, &omega, &phase, &mut f);
@@ -386,6 +463,58 @@ mod tests {
         };
         assert_eq!(nums("WX"), t.w[0]);
         assert_eq!(nums("MEAN"), t.mean);
+        assert_eq!(Trained::from_rust(&src), Some(t.clone()));
+        assert_eq!(Trained::from_rust(&src.replace("const WY", "const WZ")), None);
+        assert_eq!(Trained::from_rust(&src.replace("const LAMBDA: f64 = ", "const LAMBDA: f64 = x")), None);
+        // never a panic on other text; non-finite numbers parse but the correction refuses them
+        for bad in ["", "const MEAN:", "const MEAN: [f64; 1] = [", "= ] [ ;", "const WX: = [1, 2"] {
+            assert_eq!(Trained::from_rust(bad), None);
+        }
+        let mut t2 = t.clone();
+        t2.w[0][0] = f64::NAN;
+        let nan = Trained::from_rust(&t2.to_rust("nan")).unwrap();
+        assert!(nan.w[0][0].is_nan() && nan.w[0].len() == t.w[0].len() && Correction::try_new(nan).is_err());
+    }
+
+    #[test]
+    fn gain_inputs_are_bounded_and_weights_with_them_train_and_apply() {
+        let mut out = vec![0.0; GAIN_INPUTS];
+        let mut g = vec![1.0; 24];
+        g[0] = 0.0;
+        g[1] = f64::NAN;
+        g[2] = -2.0;
+        let mut e = vec![0.0; 24];
+        e[3] = 3.0;
+        e[4] = f64::INFINITY;
+        assert!(gain_inputs(&g, &e, 0.3, &mut out));
+        assert!(out.iter().all(|v| v.is_finite() && v.abs() <= 3.0), "{out:?}");
+        // ln 0 and NaN are not finite: 0, as is ∞/∞
+        assert_eq!(out[0], 0.0);
+        assert_eq!(out[1], 0.0);
+        assert_eq!(out[24 + 4], 0.0);
+        assert!((out[2] - 2f64.ln()).abs() < 1e-15);
+        assert!((out[24 + 3] - 3.0 / 3.3).abs() < 1e-15 && out[24 + 5] == 0.0);
+        assert!(gain_inputs(&g, &e, 0.0, &mut out) && out[24 + 5] == 0.0 && out[24 + 3] == 1.0);
+        assert!(!gain_inputs(&g[..3], &e, 0.3, &mut out));
+        // weights over the longer input vector train, load and read its last inputs
+        let mut rng = SplitMix::new(3);
+        let xs: Vec<Vec<f64>> = (0..2000).map(|_| (0..INPUTS_WITH_GAINS).map(|_| rng.normal()).collect()).collect();
+        let ys: Vec<[f64; 2]> = xs.iter().map(|x| [0.3 * x[INPUTS + 5], 0.0]).collect();
+        let t = train(&xs, &ys, 1e-6, [0.25, 0.25]).unwrap();
+        assert_eq!(t.w[0].len(), 1 + INPUTS_WITH_GAINS + RANDOM);
+        let mut c = Correction::try_new(t).unwrap();
+        assert_eq!(c.inputs(), INPUTS_WITH_GAINS);
+        let mut x = vec![0.0; INPUTS_WITH_GAINS];
+        x[INPUTS + 5] = 1.0;
+        assert!((c.apply(&x)[0] - 0.3).abs() < 0.05, "{:?}", c.apply(&x));
+        assert_eq!(c.apply(&x[..INPUTS]), [0.0, 0.0], "too short for these weights");
+        // the shipped weights read the first INPUTS of the longer vector
+        let mut b = Correction::builtin().unwrap();
+        assert_eq!(b.apply(&x), b.apply(&x[..INPUTS]));
+        // mixed sizes are refused
+        let mut mixed = xs[..10].to_vec();
+        mixed[3].truncate(INPUTS);
+        assert!(train(&mixed, &ys[..10], 1e-6, [0.25, 0.25]).is_none());
     }
 
     #[test]

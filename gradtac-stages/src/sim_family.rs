@@ -407,6 +407,9 @@ pub(crate) fn sub_seed(seed: u64, tag: u64) -> u64 {
     (seed ^ tag.wrapping_mul(0x9e37_79b9_7f4a_7c15)).wrapping_mul(0xbf58_476d_1ce4_e5b9) ^ 0x94d0_49bb_1331_11eb
 }
 
+/// The terms [`Physics::idealise`] can make ideal.
+pub const IDEAL_TERMS: [&str; 6] = ["gains", "lag", "kernel", "drift", "noise", "knee"];
+
 /// Start of the movement (s) in every member.
 pub const MOVE_START_S: f64 = 0.9;
 
@@ -495,6 +498,27 @@ impl Physics {
             path,
             kind,
         }
+    }
+
+    /// Make one term of the physics ideal (a diagnostic sensor, never a family member):
+    /// `"gains"` unit gains keeping their signs, `"lag"` a 1 ms lag, `"kernel"` a Gaussian
+    /// kernel, `"drift"` no drift, `"noise"` 0.5 counts of noise, `"knee"` no saturation
+    /// (the terms of [`IDEAL_TERMS`]; `fit_probe --only` / `--without`). `false` for any other
+    /// name (nothing changed).
+    pub fn idealise(&mut self, term: &str) -> bool {
+        match term {
+            "gains" => self.gain.iter_mut().for_each(|g| *g = g.signum()),
+            "lag" => self.lag_s = 0.001,
+            "kernel" => self.kernel = KernelShape::Gaussian,
+            "drift" => {
+                self.drift_slope.iter_mut().for_each(|d| *d = 0.0);
+                self.drift_walk = 0.0;
+            }
+            "noise" => self.noise_counts = 0.5,
+            "knee" => self.knee_counts = 1e6,
+            _ => return false,
+        }
+        true
     }
 
     /// Movement duration (s).
@@ -651,6 +675,22 @@ mod tests {
         let k = KernelShape::MexicanHat { ring: 0.5 };
         assert_eq!(k.eval(0.0, 2.0), 1.0);
         assert!(k.eval(6.0, 2.0) < 0.0);
+    }
+
+    #[test]
+    fn idealise_makes_each_term_ideal_and_refuses_others() {
+        let mut p0 = Physics::draw_in(5, PathKind::Circle, PhysicsSet::Tuning);
+        p0.kernel = KernelShape::Exponential;
+        for t in IDEAL_TERMS {
+            let mut p = p0.clone();
+            assert!(p.idealise(t), "{t}");
+            assert_ne!(p, p0, "{t} changed nothing");
+        }
+        let mut p = p0.clone();
+        IDEAL_TERMS.iter().for_each(|t| assert!(p.idealise(t)));
+        assert!(p.gain.iter().zip(&p0.gain).all(|(g, h)| g.abs() == 1.0 && g.signum() == h.signum()));
+        assert_eq!(p.kernel, KernelShape::Gaussian);
+        assert!(!p.clone().idealise("shear"));
     }
 
     #[test]
