@@ -331,13 +331,7 @@ pub fn calibrate_window_part(
     layout: &Layout,
     opts: &CalibrateOptions,
 ) -> Result<(DosWindowPart, WindowChoice), Error> {
-    if spans.len() != recs.len() || spans.iter().zip(recs).any(|(s, r)| s.class != r.class || s.group != r.object) {
-        return Err(gradtac_stages::Error::InvalidConfig {
-            stage: "dos",
-            reason: "the labelled spans and the recordings do not match (same directory, same order)".into(),
-        }
-        .into());
-    }
+    check_spans_match(spans, recs)?;
     let tr = train_recordings(recs);
     let mut cands = window_candidates();
     for c in &mut cands {
@@ -364,39 +358,19 @@ pub fn calibrate_window_part(
     let views: Vec<&[train_window::WindowSamples]> = samples.iter().map(|s| s.as_slice()).collect();
     let (k, acc) =
         if cands.len() == 1 { (0, f64::NAN) } else { train_window::choose_window(&tr, &views, &all, layout, &cands)? };
-    let mut tally: Vec<(f64, usize, usize)> = WINDOW_WEIGHTS.iter().map(|&a| (a, 0, 0)).collect();
-    for g in &groups {
-        let train: Vec<usize> = all.iter().copied().filter(|&i| tr[i].group != *g).collect();
-        let test: Vec<usize> = all.iter().copied().filter(|&i| tr[i].group == *g).collect();
-        let part_spans: Vec<LabelledSpan> = train.iter().map(|&i| spans[i].clone()).collect();
-        let model = calibrate_spans(&part_spans, opts)?;
-        let net = train_window::fit_on(views[k], &train, layout, &cands[k])?;
-        let mut vote = net.vote(layout)?;
-        for &i in &test {
-            let student = model.classify_vector(&spans[i].features)?;
-            vote.reset();
-            for f in &tr[i].frames {
-                vote.push(f)?;
-            }
-            let w = vote.mean_log_posterior();
-            for t in tally.iter_mut() {
-                let m = model.clone().with_window(Some(DosWindowPart { weight: t.0, net: net.clone() }))?;
-                let d = m.combine(student.clone(), w.as_deref());
-                t.1 += usize::from(d.class == tr[i].class);
-                t.2 += 1;
-            }
-        }
-    }
-    let mut best = (WINDOW_WEIGHTS[0], 0usize);
-    for &(a, ok, _) in &tally {
-        if ok > best.1 {
-            best = (a, ok);
-        }
-    }
+    let (weight, tally) = choose_weight(
+        spans,
+        &tr,
+        &groups,
+        opts,
+        |train| Ok(train_window::fit_on(views[k], train, layout, &cands[k])?),
+        |net, test| Ok(train_window::mean_log_posteriors(&mut net.vote(layout)?, &tr, test)?),
+        |model, weight, net| Ok(model.with_window(Some(DosWindowPart { weight, net: net.clone() }))?),
+    )?;
     let mut net = train_window::fit_on(views[k], &all, layout, &cands[k])?;
     net.recordings = tr.len();
-    let part = DosWindowPart { weight: best.0, net };
-    Ok((part, WindowChoice { candidate: k, candidate_accuracy: acc, weight_tally: tally, weight: best.0 }))
+    let part = DosWindowPart { weight, net };
+    Ok((part, WindowChoice { candidate: k, candidate_accuracy: acc, weight_tally: tally, weight }))
 }
 
 /// The tree part of the model `gradtac calibrate dos --window-trees` writes: the procedure of
@@ -414,6 +388,35 @@ pub fn calibrate_trees_part(
 ) -> Result<(gradtac_stages::dos::DosTreesPart, WindowChoice), Error> {
     use gradtac_stages::dos::train_trees::{self, TreeTrainConfig};
     use gradtac_stages::dos::DosTreesPart;
+    check_spans_match(spans, recs)?;
+    let tr = train_recordings(recs);
+    let cfg = TreeTrainConfig::default();
+    let samples = train_trees::tree_samples(&tr, layout, &cfg)?;
+    let all: Vec<usize> = (0..tr.len()).collect();
+    let groups: std::collections::BTreeSet<&str> = tr.iter().map(|r| r.group.as_str()).collect();
+    let (weight, tally) = if groups.len() >= 2 {
+        choose_weight(
+            spans,
+            &tr,
+            &groups,
+            opts,
+            |train| Ok(train_trees::fit_on(&samples, train, layout, &cfg)?),
+            |trees, test| Ok(train_window::mean_log_posteriors(&mut trees.vote(layout)?, &tr, test)?),
+            |model, weight, trees| Ok(model.with_trees(Some(DosTreesPart { weight, trees: trees.clone() }))?),
+        )?
+    } else {
+        (FALLBACK_WINDOW_WEIGHT, Vec::new())
+    };
+    let trees = train_trees::fit_on(&samples, &all, layout, &cfg)?;
+    let part = DosTreesPart { weight, trees };
+    Ok((part, WindowChoice { candidate: 0, candidate_accuracy: f64::NAN, weight_tally: tally, weight }))
+}
+
+/// Per weight of [`WINDOW_WEIGHTS`]: `(weight, recordings right, recordings decided)`.
+type WeightTally = Vec<(f64, usize, usize)>;
+
+/// Refuse labelled spans that do not match the recordings one for one.
+fn check_spans_match(spans: &[LabelledSpan], recs: &[Recording]) -> Result<(), Error> {
     if spans.len() != recs.len() || spans.iter().zip(recs).any(|(s, r)| s.class != r.class || s.group != r.object) {
         return Err(gradtac_stages::Error::InvalidConfig {
             stage: "dos",
@@ -421,49 +424,48 @@ pub fn calibrate_trees_part(
         }
         .into());
     }
-    let tr = train_recordings(recs);
-    let cfg = TreeTrainConfig::default();
-    let samples = train_trees::tree_samples(&tr, layout, &cfg)?;
+    Ok(())
+}
+
+/// Step 2 of [`calibrate_window_part`] for any window model `M`: for every object of `groups`,
+/// the Student-t model ([`calibrate_spans`]) and `fit` on the other objects' recordings, each of
+/// the object's recordings decided by the combined score for every weight of [`WINDOW_WEIGHTS`]
+/// (`with_part` puts `M` in the model at a weight; `mean_log_posteriors` gives `M`'s vote per
+/// recording). Returns the weight with the most recordings right (the first on a tie) and the
+/// tally `(weight, right, decided)`.
+fn choose_weight<M>(
+    spans: &[LabelledSpan],
+    tr: &[train::TrainRecording],
+    groups: &std::collections::BTreeSet<&str>,
+    opts: &CalibrateOptions,
+    fit: impl Fn(&[usize]) -> Result<M, Error>,
+    mean_log_posteriors: impl Fn(&M, &[usize]) -> Result<Vec<Option<Vec<f64>>>, Error>,
+    with_part: impl Fn(DosModel, f64, &M) -> Result<DosModel, Error>,
+) -> Result<(f64, WeightTally), Error> {
     let all: Vec<usize> = (0..tr.len()).collect();
-    let groups: std::collections::BTreeSet<&str> = tr.iter().map(|r| r.group.as_str()).collect();
     let mut tally: Vec<(f64, usize, usize)> = WINDOW_WEIGHTS.iter().map(|&a| (a, 0, 0)).collect();
-    let mut weight = FALLBACK_WINDOW_WEIGHT;
-    if groups.len() >= 2 {
-        for g in &groups {
-            let train: Vec<usize> = all.iter().copied().filter(|&i| tr[i].group != *g).collect();
-            let test: Vec<usize> = all.iter().copied().filter(|&i| tr[i].group == *g).collect();
-            let part_spans: Vec<LabelledSpan> = train.iter().map(|&i| spans[i].clone()).collect();
-            let model = calibrate_spans(&part_spans, opts)?;
-            let trees = train_trees::fit_on(&samples, &train, layout, &cfg)?;
-            let mut vote = trees.vote(layout)?;
-            for &i in &test {
-                let student = model.classify_vector(&spans[i].features)?;
-                vote.reset();
-                for f in &tr[i].frames {
-                    vote.push(f)?;
-                }
-                let w = vote.mean_log_posterior();
-                for t in tally.iter_mut() {
-                    let m = model.clone().with_trees(Some(DosTreesPart { weight: t.0, trees: trees.clone() }))?;
-                    let d = m.combine(student.clone(), w.as_deref());
-                    t.1 += usize::from(d.class == tr[i].class);
-                    t.2 += 1;
-                }
+    for g in groups {
+        let train: Vec<usize> = all.iter().copied().filter(|&i| tr[i].group != *g).collect();
+        let test: Vec<usize> = all.iter().copied().filter(|&i| tr[i].group == *g).collect();
+        let part_spans: Vec<LabelledSpan> = train.iter().map(|&i| spans[i].clone()).collect();
+        let model = calibrate_spans(&part_spans, opts)?;
+        let part = fit(&train)?;
+        for (&i, w) in test.iter().zip(mean_log_posteriors(&part, &test)?) {
+            let student = model.classify_vector(&spans[i].features)?;
+            for t in tally.iter_mut() {
+                let d = with_part(model.clone(), t.0, &part)?.combine(student.clone(), w.as_deref());
+                t.1 += usize::from(d.class == tr[i].class);
+                t.2 += 1;
             }
         }
-        let mut best = (WINDOW_WEIGHTS[0], 0usize);
-        for &(a, ok, _) in &tally {
-            if ok > best.1 {
-                best = (a, ok);
-            }
-        }
-        weight = best.0;
-    } else {
-        tally.clear();
     }
-    let trees = train_trees::fit_on(&samples, &all, layout, &cfg)?;
-    let part = DosTreesPart { weight, trees };
-    Ok((part, WindowChoice { candidate: 0, candidate_accuracy: f64::NAN, weight_tally: tally, weight }))
+    let mut best = (WINDOW_WEIGHTS[0], 0usize);
+    for &(a, ok, _) in &tally {
+        if ok > best.1 {
+            best = (a, ok);
+        }
+    }
+    Ok((best.0, tally))
 }
 
 /// Read a model file written by [`write_model`] (JSON), validated.

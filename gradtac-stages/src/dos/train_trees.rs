@@ -312,20 +312,7 @@ pub fn score(
     test: &[usize],
     layout: &Layout,
 ) -> Result<Vec<(usize, usize, bool)>> {
-    let mut v = model.vote(layout)?;
-    test.iter()
-        .map(|&i| {
-            v.reset();
-            let (mut ok, mut n) = (0, 0);
-            for f in &recs[i].frames {
-                if let Some(d) = v.push(f)? {
-                    ok += usize::from(d.class == recs[i].class);
-                    n += 1;
-                }
-            }
-            Ok((ok, n, v.decision().is_some_and(|d| d.class == recs[i].class)))
-        })
-        .collect()
+    super::train_window::score_vote(&mut model.vote(layout)?, recs, test)
 }
 
 /// Leave-one-group-out over the recordings `idx`: ((correct windows, windows), (recordings whose
@@ -337,9 +324,7 @@ pub fn inner_score(
     layout: &Layout,
     cfg: &TreeTrainConfig,
 ) -> Result<super::train_window::InnerScore> {
-    let mut groups: Vec<&str> = idx.iter().map(|&i| recs[i].group.as_str()).collect();
-    groups.sort_unstable();
-    groups.dedup();
+    let groups = super::train_window::groups_of(recs, idx);
     if groups.len() < 2 {
         return Err(invalid(format!("leave-one-group-out needs at least two groups, got {}", groups.len())));
     }

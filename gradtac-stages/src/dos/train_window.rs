@@ -407,24 +407,46 @@ pub fn score(
     test: &[usize],
     layout: &Layout,
 ) -> Result<Vec<(usize, usize, bool)>> {
-    let mut v = net.vote(layout)?;
+    score_vote(&mut net.vote(layout)?, recs, test)
+}
+
+/// [`score`] for any window model's vote (restarted for each recording of `test`).
+pub fn score_vote(v: &mut impl SpanVote, recs: &[TrainRecording], test: &[usize]) -> Result<Vec<(usize, usize, bool)>> {
     test.iter()
         .map(|&i| {
-            v.reset();
+            v.restart();
             let (mut ok, mut n) = (0, 0);
             for f in &recs[i].frames {
-                if let Some(d) = v.push(f)? {
+                if let Some(d) = v.push_frame(f)? {
                     ok += usize::from(d.class == recs[i].class);
                     n += 1;
                 }
             }
-            Ok((ok, n, v.decision().is_some_and(|d| d.class == recs[i].class)))
+            Ok((ok, n, v.vote_decision().is_some_and(|d| d.class == recs[i].class)))
+        })
+        .collect()
+}
+
+/// Each recording of `idx`'s mean log posterior per window over all its frames (`None` for one
+/// shorter than a window), the vote restarted for each.
+pub fn mean_log_posteriors(
+    v: &mut impl SpanVote,
+    recs: &[TrainRecording],
+    idx: &[usize],
+) -> Result<Vec<Option<Vec<f64>>>> {
+    idx.iter()
+        .map(|&i| {
+            v.restart();
+            for f in &recs[i].frames {
+                v.push_frame(f)?;
+            }
+            Ok(v.vote_mean_log_posterior())
         })
         .collect()
 }
 
 /// The groups of `idx`, sorted.
-fn groups_of<'a>(recs: &'a [TrainRecording], idx: &[usize]) -> Vec<&'a str> {
+pub(crate) fn groups_of<'a>(recs: &'a [TrainRecording], idx: &[usize]) -> Vec<&'a str> {
     let mut g: Vec<&str> = idx.iter().map(|&i| recs[i].group.as_str()).collect();
     g.sort_unstable();
     g.dedup();

@@ -582,6 +582,21 @@ impl TreeVote<'_> {
     }
 }
 
+impl SpanVote for TreeVote<'_> {
+    fn push_frame(&mut self, values: &[f64]) -> Result<Option<Decision>> {
+        self.push(values)
+    }
+    fn vote_decision(&self) -> Option<Decision> {
+        self.decision()
+    }
+    fn vote_mean_log_posterior(&self) -> Option<Vec<f64>> {
+        self.mean_log_posterior()
+    }
+    fn restart(&mut self) {
+        self.reset();
+    }
+}
+
 /// The state of a [`TreeVote`] without the borrow of its model (the `dos` stage keeps both):
 /// every call takes the model the state was made for.
 #[derive(Clone, Debug)]

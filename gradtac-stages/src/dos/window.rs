@@ -712,6 +712,35 @@ impl WindowVote<'_> {
     }
 }
 
+/// A causal per-span vote of a window model ([`WindowVote`], [`TreeVote`]): what scoring and
+/// calibration need, whichever model votes.
+pub trait SpanVote {
+    /// Push one raw frame; when it completes a window, that window's decision (alone).
+    fn push_frame(&mut self, values: &[f64]) -> Result<Option<Decision>>;
+    /// The vote's decision so far (`None` before the first window).
+    fn vote_decision(&self) -> Option<Decision>;
+    /// The mean log posterior per window so far (model class order; `None` before the first
+    /// window).
+    fn vote_mean_log_posterior(&self) -> Option<Vec<f64>>;
+    /// Start a new span.
+    fn restart(&mut self);
+}
+
+impl SpanVote for WindowVote<'_> {
+    fn push_frame(&mut self, values: &[f64]) -> Result<Option<Decision>> {
+        self.push(values)
+    }
+    fn vote_decision(&self) -> Option<Decision> {
+        self.decision()
+    }
+    fn vote_mean_log_posterior(&self) -> Option<Vec<f64>> {
+        self.mean_log_posterior()
+    }
+    fn restart(&mut self) {
+        self.reset();
+    }
+}
+
 /// The state of a [`WindowVote`] without the borrow of its net, for an owner of the net (the
 /// `dos` stage keeps both): every call takes the net the state was made for.
 #[derive(Clone, Debug)]
