@@ -40,7 +40,7 @@
 //! (4 480 mirrored).
 
 use super::net::softmax;
-use super::window::{decision, log_softmax};
+use super::window::{decision, log_softmax, LogVote};
 use super::*;
 use std::collections::VecDeque;
 
@@ -563,7 +563,7 @@ impl TreeVote<'_> {
 
     /// Completed windows in the vote.
     pub fn windows(&self) -> u64 {
-        self.state.windows
+        self.state.windows()
     }
 
     /// The vote's decision so far (`None` before the first window).
@@ -602,46 +602,41 @@ impl SpanVote for TreeVote<'_> {
 #[derive(Clone, Debug)]
 pub struct TreeVoteState {
     extractor: TreeExtractor,
-    sum: Vec<f64>,
-    windows: u64,
+    votes: LogVote,
 }
 
 impl TreeVoteState {
     /// An empty vote of `model` on `layout` (the model's taxel count).
     pub fn try_new(model: &DosTrees, layout: &Layout) -> Result<Self> {
-        Ok(TreeVoteState { extractor: model.extractor(layout)?, sum: vec![0.0; model.classes.len()], windows: 0 })
+        Ok(TreeVoteState { extractor: model.extractor(layout)?, votes: LogVote::new(model.classes.len()) })
     }
 
     /// [`TreeVote::push`] with `model`.
     pub fn push(&mut self, model: &DosTrees, values: &[f64]) -> Result<Option<Decision>> {
         let Some(x) = self.extractor.push(values)? else { return Ok(None) };
         let logits = model.logits(&x)?;
-        for (s, l) in self.sum.iter_mut().zip(log_softmax(&logits)) {
-            *s += l;
-        }
-        self.windows += 1;
+        self.votes.add(&log_softmax(&logits));
         Ok(Some(decision(&model.classes, softmax(&logits))))
     }
 
     /// Completed windows in the vote.
     pub fn windows(&self) -> u64 {
-        self.windows
+        self.votes.windows()
     }
 
     /// [`TreeVote::decision`] with `model`.
     pub fn decision(&self, model: &DosTrees) -> Option<Decision> {
-        (self.windows > 0).then(|| decision(&model.classes, softmax(&self.sum)))
+        self.votes.decision(&model.classes)
     }
 
     /// [`TreeVote::mean_log_posterior`].
     pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
-        (self.windows > 0).then(|| self.sum.iter().map(|s| s / self.windows as f64).collect())
+        self.votes.mean_log_posterior()
     }
 
     /// Start a new span.
     pub fn reset(&mut self) {
         self.extractor.reset();
-        self.sum.iter_mut().for_each(|s| *s = 0.0);
-        self.windows = 0;
+        self.votes.reset();
     }
 }

@@ -690,7 +690,7 @@ impl WindowVote<'_> {
 
     /// Completed windows in the vote.
     pub fn windows(&self) -> u64 {
-        self.state.windows
+        self.state.windows()
     }
 
     /// The vote's decision so far (`None` before the first window); its posterior is the
@@ -746,14 +746,57 @@ impl SpanVote for WindowVote<'_> {
 #[derive(Clone, Debug)]
 pub struct WindowVoteState {
     extractor: WindowExtractor,
+    votes: LogVote,
+}
+
+/// The running sum of the windows' log posteriors of a vote ([`WindowVoteState`],
+/// [`TreeVoteState`]), in the model's class order.
+#[derive(Clone, Debug)]
+pub(crate) struct LogVote {
     sum: Vec<f64>,
     windows: u64,
+}
+
+impl LogVote {
+    /// An empty vote over `classes` classes.
+    pub(crate) fn new(classes: usize) -> Self {
+        LogVote { sum: vec![0.0; classes], windows: 0 }
+    }
+
+    /// Add one window's log posterior.
+    pub(crate) fn add(&mut self, log_p: &[f64]) {
+        for (s, l) in self.sum.iter_mut().zip(log_p) {
+            *s += l;
+        }
+        self.windows += 1;
+    }
+
+    /// Windows added.
+    pub(crate) fn windows(&self) -> u64 {
+        self.windows
+    }
+
+    /// The normalised product of the windows' posteriors (`None` before the first window).
+    pub(crate) fn decision(&self, classes: &[DosClass]) -> Option<Decision> {
+        (self.windows > 0).then(|| decision(classes, softmax(&self.sum)))
+    }
+
+    /// The mean log posterior per window (`None` before the first window).
+    pub(crate) fn mean_log_posterior(&self) -> Option<Vec<f64>> {
+        (self.windows > 0).then(|| self.sum.iter().map(|s| s / self.windows as f64).collect())
+    }
+
+    /// Forget every window.
+    pub(crate) fn reset(&mut self) {
+        self.sum.iter_mut().for_each(|v| *v = 0.0);
+        self.windows = 0;
+    }
 }
 
 impl WindowVoteState {
     /// An empty vote of `net` on `layout` (which must have the net's taxel count).
     pub fn try_new(net: &DosWindowNet, layout: &Layout) -> Result<Self> {
-        Ok(WindowVoteState { extractor: net.extractor(layout)?, sum: vec![0.0; net.classes.len()], windows: 0 })
+        Ok(WindowVoteState { extractor: net.extractor(layout)?, votes: LogVote::new(net.classes.len()) })
     }
 
     /// [`WindowVote::push`] with `net` (the net this state was made for).
@@ -770,25 +813,22 @@ impl WindowVoteState {
     /// Add one window's log posterior ([`DosWindowNet::log_posterior`], net class order) to the
     /// vote, as [`push`](Self::push) does when a window completes (the same sum, bit for bit).
     pub fn add_log_posterior(&mut self, log_p: &[f64]) {
-        for (s, l) in self.sum.iter_mut().zip(log_p) {
-            *s += l;
-        }
-        self.windows += 1;
+        self.votes.add(log_p);
     }
 
     /// Completed windows in the vote.
     pub fn windows(&self) -> u64 {
-        self.windows
+        self.votes.windows()
     }
 
     /// [`WindowVote::decision`] with `net`.
     pub fn decision(&self, net: &DosWindowNet) -> Option<Decision> {
-        (self.windows > 0).then(|| decision(&net.classes, softmax(&self.sum)))
+        self.votes.decision(&net.classes)
     }
 
     /// [`WindowVote::mean_log_posterior`].
     pub fn mean_log_posterior(&self) -> Option<Vec<f64>> {
-        (self.windows > 0).then(|| self.sum.iter().map(|s| s / self.windows as f64).collect())
+        self.votes.mean_log_posterior()
     }
 
     /// A fresh extractor of this vote's windows (the same settings and layout).
@@ -801,7 +841,6 @@ impl WindowVoteState {
     /// Start a new span (a new contact).
     pub fn reset(&mut self) {
         self.extractor.reset();
-        self.sum.iter_mut().for_each(|v| *v = 0.0);
-        self.windows = 0;
+        self.votes.reset();
     }
 }
