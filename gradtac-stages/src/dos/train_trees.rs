@@ -23,7 +23,7 @@
 
 use super::net::softmax;
 use super::train::{mirror_permutation, SplitMix, TrainRecording};
-use super::train_window::{versions, WindowAugment};
+use super::train_window::WindowAugment;
 use super::*;
 
 /// Settings of a tree-model fit.
@@ -118,17 +118,9 @@ pub fn tree_windows(frames: &[Vec<f64>], inputs: &TreeInputs, layout: &Layout) -
 /// Every recording's training windows under `cfg` (seeded per recording as the window model's).
 pub fn tree_samples(recs: &[TrainRecording], layout: &Layout, cfg: &TreeTrainConfig) -> Result<Vec<TreeSamples>> {
     cfg.validate()?;
-    recs.iter()
-        .enumerate()
-        .map(|(i, r)| {
-            let mut rng = SplitMix::new(cfg.seed.wrapping_add(1_000_003 * i as u64));
-            let mut out = Vec::new();
-            for (c, f) in versions(r.class, &r.frames, layout, &cfg.augment, &mut rng)? {
-                out.extend(tree_windows(&f, &cfg.inputs, layout)?.into_iter().map(|x| (c, x)));
-            }
-            Ok(out)
-        })
-        .collect()
+    super::train_window::augmented_windows(recs, layout, &cfg.augment, cfg.seed, |f| {
+        tree_windows(f, &cfg.inputs, layout)
+    })
 }
 
 /// A node being grown: its rows, index and depth.

@@ -202,13 +202,25 @@ pub type WindowSamples = Vec<(DosClass, Vec<f64>)>;
 /// Every recording's training windows under `cfg` (seeded per recording, so folds share them).
 pub fn window_samples(recs: &[TrainRecording], layout: &Layout, cfg: &WindowTrainConfig) -> Result<Vec<WindowSamples>> {
     cfg.validate()?;
+    augmented_windows(recs, layout, &cfg.augment, cfg.seed, |f| windows_of(f, &cfg.net, layout))
+}
+
+/// Every recording's `windows` of each of its [`versions`] under `augment` (the random draws
+/// seeded per recording from `seed`, so folds share them), with the version's class.
+pub(crate) fn augmented_windows(
+    recs: &[TrainRecording],
+    layout: &Layout,
+    augment: &WindowAugment,
+    seed: u64,
+    windows: impl Fn(&[Vec<f64>]) -> Result<Vec<Vec<f64>>>,
+) -> Result<Vec<WindowSamples>> {
     recs.iter()
         .enumerate()
         .map(|(i, r)| {
-            let mut rng = SplitMix::new(cfg.seed.wrapping_add(1_000_003 * i as u64));
+            let mut rng = SplitMix::new(seed.wrapping_add(1_000_003 * i as u64));
             let mut out = Vec::new();
-            for (c, f) in versions(r.class, &r.frames, layout, &cfg.augment, &mut rng)? {
-                out.extend(windows_of(&f, &cfg.net, layout)?.into_iter().map(|x| (c, x)));
+            for (c, f) in versions(r.class, &r.frames, layout, augment, &mut rng)? {
+                out.extend(windows(&f)?.into_iter().map(|x| (c, x)));
             }
             Ok(out)
         })
