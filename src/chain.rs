@@ -681,6 +681,12 @@ impl SensorChain {
                                 "; the slope's anchors shifted to the new level at every return"
                             }
                         };
+                        if d.quiet_taxel_s > 0.0 {
+                            more += &format!(
+                                "; a taxel within {} σ follows at {} s, also during an excursion",
+                                d.hold_sigmas, d.quiet_taxel_s
+                            );
+                        }
                         more
                     },
                     d.hold_sigmas,

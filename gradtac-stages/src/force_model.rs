@@ -448,6 +448,7 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     release_flat_range: true,
     release_flat_sigmas: 0.1,
     return_anchors: ReturnAnchors::ShiftAtShapeReturn,
+    quiet_taxel_s: 0.0,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
@@ -1522,6 +1523,61 @@ mod tests {
     }
 
     /// [`two_taxels`] with the noise `e` (added to taxel 0, subtracted from taxel 1) at frame `k`.
+    /// Frames of a quiet sensor (σ √2: ±1 alternation) whose taxels 0–3 drift at ±2 counts/s
+    /// while taxel 4 is pressed (a 4 s, 150-count plateau every 4.6 s after 1 s of rest), as
+    /// the stuck tuning-side members 201/212 of `docs/force.md` (session 33, second round).
+    fn drifting_quiet_presses(k: u64) -> (TaxelFrame, bool) {
+        let t = k as f64 / 100.0;
+        let e = if k % 2 == 0 { 1.0 } else { -1.0 };
+        let phase = (t - 1.0).rem_euclid(4.6);
+        let pressed = t >= 1.0 && phase < 4.0;
+        let press = if pressed { 150.0 } else { 0.0 };
+        let v = vec![
+            1000.0 + 2.0 * t + e,
+            2000.0 - 2.0 * t - e,
+            1500.0 + 1.5 * t + e,
+            1800.0 - 1.5 * t - e,
+            2500.0 + press + e,
+        ];
+        (TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, v), pressed)
+    }
+
+    #[test]
+    fn quiet_taxels_follow_their_drift_through_a_press() {
+        // with the current gate the quiet taxels lag their drift (follow_s 2 s: 4 counts at
+        // 2 counts/s, beyond 2 σ), escape, and the rests after the presses stay in contact;
+        // with `quiet_taxel_s` they follow through the presses and every rest is untouched
+        let count = |gate: DriftModel| {
+            let mut det = ChangeDetector::try_new(5, &LocateConfig::default()).unwrap().with_drift_model(gate).unwrap();
+            let (mut rest_contact, mut press_missed) = (0usize, 0usize);
+            for k in 0..4700u64 {
+                let (f, pressed) = drifting_quiet_presses(k);
+                let c = det.push(&f, "t").unwrap();
+                let phase = (k as f64 / 100.0 - 1.0).rem_euclid(4.6);
+                // the last 0.3 s of each rest, and the press's plateau after its first 0.1 s
+                if k >= 100 && !pressed && phase >= 4.3 {
+                    rest_contact += usize::from(c.contact);
+                }
+                if pressed && phase >= 0.1 {
+                    press_missed += usize::from(!c.contact);
+                }
+            }
+            (rest_contact, press_missed)
+        };
+        let (old_rest, old_missed) = count(FORCE_GATE);
+        let (new_rest, new_missed) = count(DriftModel { quiet_taxel_s: 0.3, ..FORCE_GATE });
+        assert_eq!(
+            (new_rest, new_missed),
+            (0, 0),
+            "quiet taxels followed (old gate: {old_rest} rest frames in contact)"
+        );
+        // the defect this setting addresses (measured: 16 of the 300 rest frames in contact)
+        assert!(old_rest >= 10 && old_missed == 0, "the current gate: {old_rest}, {old_missed}");
+        for bad in [-0.1, 61.0, f64::NAN, f64::INFINITY] {
+            assert!(DriftModel { quiet_taxel_s: bad, ..FORCE_GATE }.validate().is_err(), "{bad}");
+        }
+    }
+
     fn two_taxels_with_noise(k: u64, press: f64, e: f64) -> TaxelFrame {
         TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![1000.0 + e, 2000.0 - press - e])
     }

@@ -735,6 +735,7 @@ impl PositionMemory {
 /// | stale | a held or contact stretch steady for `stale_s` is a new resting level: the baseline takes it, the slope's anchors start again | off |
 /// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
 /// | return anchors | with `return_anchors`, on the frame an excursion returns (by the shape return alone, or by any return) the slope's anchors are restarted or shifted to the new level, so the step the return leaves behind is not learned as drift | kept |
+/// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -817,6 +818,14 @@ pub struct DriftModel {
     /// residual step that the baseline then settles to; anchors from before the step would
     /// read it as drift.
     pub return_anchors: ReturnAnchors,
+    /// Per-taxel following of quiet taxels (s, in [0, 60]; 0: off, the default): on every
+    /// frame, also during an excursion, a taxel whose change is within `hold_sigmas` σ follows
+    /// its window mean with this time constant, so drift on the taxels a press does not reach
+    /// is followed through the press (the detector's own follow below the floor, `follow_s`,
+    /// lags a 2 counts/s drift by 4 counts: beyond 2 σ on a quiet sensor). Trade-off: a
+    /// press's tails within `hold_sigmas` σ are absorbed; a press's rise crosses the bound
+    /// within a few frames.
+    pub quiet_taxel_s: f64,
 }
 
 /// What the drift slope's anchors do when an excursion returns
@@ -863,6 +872,7 @@ impl Default for DriftModel {
             release_flat_range: true,
             release_flat_sigmas: NOISE_RETURN_MOVE,
             return_anchors: ReturnAnchors::Keep,
+            quiet_taxel_s: 0.0,
         }
     }
 }
@@ -893,7 +903,8 @@ impl DriftModel {
             && (0.0..1.0).contains(&self.release_excess)
             && (0.0..=60.0).contains(&self.release_flat_s)
             && self.release_flat_sigmas > 0.0
-            && self.release_flat_sigmas <= 10.0;
+            && self.release_flat_sigmas <= 10.0
+            && (0.0..=60.0).contains(&self.quiet_taxel_s);
         if ok {
             Ok(())
         } else {
@@ -1048,6 +1059,15 @@ impl DriftState {
     ) -> bool {
         let m = self.model;
         let mean: Vec<f64> = sum.iter().map(|s| s / k).collect();
+        if m.quiet_taxel_s > 0.0 {
+            // quiet taxels follow their drift on every frame, also through an excursion
+            let b = 1.0 - (-dt / m.quiet_taxel_s).exp();
+            for (((base, x), d), s) in baseline.iter_mut().zip(&mean).zip(delta).zip(sigma) {
+                if d.abs() < m.hold_sigmas * s {
+                    *base += b * (x - *base);
+                }
+            }
+        }
         let horizon = time.0 - (m.steady_s * 1e9).round() as i64;
         while self.history.len() >= 2 && self.history[1].0 .0 <= horizon {
             self.history.pop_front();
