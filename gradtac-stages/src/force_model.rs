@@ -1522,7 +1522,6 @@ mod tests {
         two_taxels_with_noise(k, press, if k % 2 == 0 { 1.0 } else { -1.0 })
     }
 
-    /// [`two_taxels`] with the noise `e` (added to taxel 0, subtracted from taxel 1) at frame `k`.
     /// Frames of a quiet sensor (σ √2: ±1 alternation) whose taxels 0–3 drift at ±2 counts/s
     /// while taxel 4 is pressed (a 4 s, 150-count plateau every 4.6 s after 1 s of rest), as
     /// the stuck tuning-side members 201/212 of `docs/force.md` (session 33, second round).
@@ -1578,6 +1577,7 @@ mod tests {
         }
     }
 
+    /// [`two_taxels`] with the noise `e` (added to taxel 0, subtracted from taxel 1) at frame `k`.
     fn two_taxels_with_noise(k: u64, press: f64, e: f64) -> TaxelFrame {
         TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![1000.0 + e, 2000.0 - press - e])
     }
