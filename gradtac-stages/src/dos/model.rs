@@ -68,12 +68,7 @@ impl DosTreesPart {
         if !(self.weight.is_finite() && (0.0..=1.0).contains(&self.weight)) {
             return Err(invalid(format!("trees.weight {} must lie in [0, 1]", self.weight)));
         }
-        self.trees.validate().map_err(|e| match e {
-            Error::InvalidConfig { stage, reason } => {
-                Error::InvalidConfig { stage, reason: format!("trees.trees: {reason}") }
-            }
-            other => other,
-        })
+        self.trees.validate().map_err(in_field("trees.trees"))
     }
 }
 
@@ -97,12 +92,11 @@ struct RawWindowPart {
     net: super::window::RawWindowNet,
 }
 
-/// `window.net: …` for an invalid net.
-fn in_window_net(e: Error) -> Error {
-    match e {
-        Error::InvalidConfig { stage, reason } => {
-            Error::InvalidConfig { stage, reason: format!("window.net: {reason}") }
-        }
+/// An invalid-configuration error with its reason prefixed by `field` (`window.net: …`): where
+/// in the model file the invalid part is. Other errors pass unchanged.
+pub(crate) fn in_field(field: &'static str) -> impl Fn(Error) -> Error {
+    move |e| match e {
+        Error::InvalidConfig { stage, reason } => Error::InvalidConfig { stage, reason: format!("{field}: {reason}") },
         other => other,
     }
 }
@@ -110,7 +104,8 @@ fn in_window_net(e: Error) -> Error {
 impl TryFrom<RawWindowPart> for DosWindowPart {
     type Error = Error;
     fn try_from(r: RawWindowPart) -> Result<Self> {
-        let part = DosWindowPart { weight: r.weight, net: DosWindowNet::try_from(r.net).map_err(in_window_net)? };
+        let part =
+            DosWindowPart { weight: r.weight, net: DosWindowNet::try_from(r.net).map_err(in_field("window.net"))? };
         part.validate()?;
         Ok(part)
     }
@@ -122,7 +117,7 @@ impl DosWindowPart {
         if !(self.weight.is_finite() && (0.0..=1.0).contains(&self.weight)) {
             return Err(invalid(format!("window.weight {} must lie in [0, 1]", self.weight)));
         }
-        self.net.validate().map_err(in_window_net)
+        self.net.validate().map_err(in_field("window.net"))
     }
 }
 

@@ -169,21 +169,15 @@ impl DosClassifier {
         }
         let extractor = DosFeatureExtractor::try_new(&model.config, layout)?;
         let vote = match &model.window {
-            Some(w) => Some(WindowVoteState::try_new(&w.net, layout).map_err(|e| match e {
-                Error::InvalidConfig { stage, reason } => {
-                    Error::InvalidConfig { stage, reason: format!("window.net of the model: {reason}") }
-                }
-                other => other,
-            })?),
+            Some(w) => Some(
+                WindowVoteState::try_new(&w.net, layout).map_err(super::model::in_field("window.net of the model"))?,
+            ),
             None => None,
         };
         let tree_vote = match &model.trees {
-            Some(t) => Some(TreeVoteState::try_new(&t.trees, layout).map_err(|e| match e {
-                Error::InvalidConfig { stage, reason } => {
-                    Error::InvalidConfig { stage, reason: format!("trees.trees of the model: {reason}") }
-                }
-                other => other,
-            })?),
+            Some(t) => Some(
+                TreeVoteState::try_new(&t.trees, layout).map_err(super::model::in_field("trees.trees of the model"))?,
+            ),
             None => None,
         };
         Ok(DosClassifier { model, extractor, decision_frames, span: None, sliding: None, vote, tree_vote })
