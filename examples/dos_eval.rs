@@ -58,6 +58,8 @@ use std::error::Error;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+#[path = "dos_eval_parts/combination.rs"]
+mod combination;
 #[path = "dos_eval_parts/headline.rs"]
 mod headline;
 #[path = "dos_eval_parts/learned.rs"]

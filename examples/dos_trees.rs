@@ -16,6 +16,8 @@ use std::error::Error;
 use std::path::PathBuf;
 use std::time::Instant;
 
+#[path = "dos_eval_parts/combination.rs"]
+mod combination;
 #[path = "dos_eval_parts/trees_held_out.rs"]
 mod held_out;
 #[path = "dos_eval_parts/sliding_cost.rs"]

@@ -15,22 +15,7 @@ use std::collections::BTreeMap;
 use std::error::Error;
 use std::time::Instant;
 
-const WEIGHTS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
-
-type Pair = ([f64; 7], [f64; 7]);
-
-fn log_over_all(classes: &[DosClass], log_p: &[f64]) -> [f64; 7] {
-    let mut out = [-1e3; 7];
-    for (c, p) in classes.iter().zip(log_p) {
-        out[DosClass::ALL.iter().position(|x| x == c).unwrap_or(0)] = p.max(-1e3);
-    }
-    out
-}
-
-fn combined_class(pair: &Pair, a: f64) -> DosClass {
-    let s: Vec<f64> = pair.0.iter().zip(&pair.1).map(|(t, w)| a * t + (1.0 - a) * w).collect();
-    DosClass::ALL[(0..7).fold(0, |m, k| if s[k] > s[m] { k } else { m })]
-}
+use super::combination::{best_weight, combined_class, log_over_all, Pair};
 
 fn pct((ok, n): (usize, usize)) -> String {
     format!("{:.1} % ({ok}/{n})", 100.0 * ok as f64 / n.max(1) as f64)
@@ -113,14 +98,7 @@ impl Ctx<'_> {
             let p = self.pairs(&m, tk, &b, usize::MAX)?;
             inner.extend(p.into_iter().zip(b.iter().map(|&i| self.tr[i].class)));
         }
-        let mut best = (WEIGHTS[0], 0usize);
-        for a in WEIGHTS {
-            let ok = inner.iter().filter(|(p, c)| combined_class(p, a) == *c).count();
-            if ok > best.1 {
-                best = (a, ok);
-            }
-        }
-        let a = best.0;
+        let a = best_weight(&inner);
         let m = self.fit(tk, train)?;
         let whole = self.pairs(&m, tk, test, usize::MAX)?;
         let at1 = self.pairs(&m, tk, test, 100)?;

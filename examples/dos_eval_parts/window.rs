@@ -15,6 +15,9 @@ use std::collections::BTreeMap;
 use std::error::Error;
 use std::time::Instant;
 
+use super::combination::{best_weight, combined_class, log_over_all, Pair};
+use gradtac::calibrate::WINDOW_WEIGHTS;
+
 /// Floors of the window model's held-out figures, a few recordings (or ~50 windows) under what
 /// was measured with the default candidate (three mirror-averaged members with the motion
 /// inputs, stop 32): per recording nested 83.2 % (139/167), basic → solids 89.3 % (50/56),
@@ -313,24 +316,6 @@ pub fn run(
     Ok(())
 }
 
-/// The combination weights `a` of `a · ln p(Student t) + (1 − a) · (mean ln p per window)`,
-/// chosen by leave-one-object-out inside the training objects (ties: the earlier; 0 is the
-/// window model alone, 1 the Student-t design alone).
-const WEIGHTS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
-
-/// Log posteriors over [`DosClass::ALL`] (−1e3 for a class the model does not know).
-fn log_over_all(classes: &[DosClass], log_p: &[f64]) -> [f64; 7] {
-    let mut out = [-1e3; 7];
-    for (c, p) in classes.iter().zip(log_p) {
-        out[DosClass::ALL.iter().position(|x| x == c).unwrap_or(0)] = p.max(-1e3);
-    }
-    out
-}
-
-/// Per test recording, the two models' log posteriors over [`DosClass::ALL`] after the first
-/// `span` frames: (Student t, window vote's mean per window).
-type Pair = ([f64; 7], [f64; 7]);
-
 /// The Student-t candidate `tcand` (on `tables`) and the window candidate `wcfg`, both fitted
 /// on the `train` recordings.
 fn fit_pair(
@@ -433,19 +418,6 @@ fn stage_fold(
     Ok((ok, classes, cost, sliding))
 }
 
-/// The class the combination with weight `a` decides.
-fn combined_class(pair: &Pair, a: f64) -> DosClass {
-    let s: Vec<f64> = pair.0.iter().zip(&pair.1).map(|(t, w)| a * t + (1.0 - a) * w).collect();
-    DosClass::ALL[(0..7).fold(0, |m, k| if s[k] > s[m] { k } else { m })]
-}
-
-/// Whether the combination with weight `a` decides `class`.
-fn combined_right(pair: &Pair, a: f64, class: DosClass) -> bool {
-    let s: Vec<f64> = pair.0.iter().zip(&pair.1).map(|(t, w)| a * t + (1.0 - a) * w).collect();
-    let best = (0..7).fold(0, |m, k| if s[k] > s[m] { k } else { m });
-    DosClass::ALL[best] == class
-}
-
 /// The combination of the Student-t design and the window model, held out: for every outer
 /// fold, each model's candidate is the one its own procedure chose on that fold's training
 /// objects; the weight is chosen by leave-one-object-out inside the training objects (both
@@ -490,17 +462,10 @@ pub fn combination(
             let p = pair_scores(&tables, &tcands[tk], views[wk], &cands[wk], tr, &a, &b, layout, usize::MAX)?;
             inner.extend(p.into_iter().zip(b.iter().map(|&i| tr[i].class)));
         }
-        let mut best = (WEIGHTS[0], 0usize);
-        for a in WEIGHTS {
-            let ok = inner.iter().filter(|(p, c)| combined_right(p, a, *c)).count();
-            if ok > best.1 {
-                best = (a, ok);
-            }
-        }
-        let a = best.0;
+        let a = best_weight(&inner);
         let whole = pair_scores(&tables, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, usize::MAX)?;
         let at1 = pair_scores(&early, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, 100)?;
-        let count = |ps: &[Pair]| ps.iter().zip(test).filter(|(p, &i)| combined_right(p, a, tr[i].class)).count();
+        let count = |ps: &[Pair]| ps.iter().zip(test).filter(|(p, &i)| combined_class(p, a) == tr[i].class).count();
         let (stage_ok, stage_classes, cost, sliding) =
             stage_fold(&tables, &tcands[tk], views[wk], &cands[wk], tr, train, test, layout, a)?;
         let same = whole.iter().zip(&stage_classes).filter(|(p, c)| combined_class(p, a) == **c).count();
@@ -542,7 +507,7 @@ pub fn combination(
         weights.push(format!("{name} {a}"));
     }
     println!(
-        "| combination a·ln p(Student t) + (1 − a)·(vote's mean ln p per window), a ∈ {WEIGHTS:?} chosen inside the \
+        "| combination a·ln p(Student t) + (1 − a)·(vote's mean ln p per window), a ∈ {WINDOW_WEIGHTS:?} chosen inside the \
          training objects | {} |",
         row.join(" | ")
     );
