@@ -511,7 +511,15 @@ impl SensorChain {
                     } else {
                         "Gaussian lobes (fit_shape_rate 0)".to_string()
                     },
-                    if l.fit_fold_lobe && !l.fit_signed { ", folded to |K| (fit_fold_lobe)" } else { "" }
+                    match (l.fit_fold_lobe && !l.fit_signed, l.fit_fold_guard_mm > 0.0) {
+                        (true, true) => format!(
+                            ", folded to |K| (fit_fold_lobe) only as a refinement of the unfolded fit within {} mm \
+                             (fit_fold_guard_mm)",
+                            l.fit_fold_guard_mm
+                        ),
+                        (true, false) => ", folded to |K| (fit_fold_lobe)".to_string(),
+                        _ => String::new(),
+                    }
                 );
                 let changes = if l.fit_signed {
                     "the signed changes (fit_signed)".to_string()

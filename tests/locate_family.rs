@@ -360,6 +360,12 @@ fn explain_shows_the_fit_and_the_preset_values() {
     let pol = explain("[stages.locate]\npreset = \"accurate\"\nfit_polarity_votes = 10\n").unwrap();
     assert!(pol.contains("polarity learned from 10 net votes"), "{pol}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_polarity_votes = 5000\n").is_err());
+    // the folded kernel's ring-fit guard (round 9): off in the preset, shown when a scene turns it on
+    assert!(!accurate.contains("folded"), "{accurate}");
+    let guard =
+        explain("[stages.locate]\npreset = \"accurate\"\nfit_fold_lobe = true\nfit_fold_guard_mm = 2\n").unwrap();
+    assert!(guard.contains("only as a refinement of the unfolded fit within 2 mm (fit_fold_guard_mm)"), "{guard}");
+    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_fold_guard_mm = 500\n").is_err());
     // the learned bias correction (round 6): on in the preset, shown; a scene turns it off
     assert!(accurate.contains("learned bias correction on (fit_learned_correction"), "{accurate}");
     let off = explain("[stages.locate]\npreset = \"accurate\"\nfit_learned_correction = false\n").unwrap();
