@@ -429,6 +429,14 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// off and brought the contact back), and the slope learned before it is kept. Chosen by the
 /// rule of `docs/force.md` ("Session 33") on the tuning members (worst of 14 members 40.1 →
 /// 36.3 %, untouched frames above 0.5 N 75 → 57 of 2800).
+///
+/// Session 34's drift-shape return ([`DriftModel::drift_shape`] 0.25 with
+/// [`ShapeFit::Magnitude`]) ranked first by the rule of `docs/force.md` ("Session 34") over the
+/// 62 tuning members (worst tied, 151.1 against 150.6 %; mean 22.11 → 18.74 %; untouched
+/// frames above 0.5 N 547 → 367 of 12400) but is **not** in this gate: with it
+/// `tests/cli_force.rs` fails (member 701's calibration writes the `forward` model where the
+/// guard wrote the `placed` law), which the rule's adoption condition forbids. It is an
+/// option, off here.
 pub const FORCE_GATE: DriftModel = DriftModel {
     steady_s: 0.3,
     steady_sigmas: 2.0,
