@@ -736,7 +736,7 @@ impl PositionMemory {
 /// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
 /// | return anchors | with `return_anchors`, on the frame an excursion returns (by the shape return alone, or by any return) the slope's anchors are restarted or shifted to the new level, so the step the return leaves behind is not learned as drift | kept |
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
-/// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of its energy in σ units ([`press_shaped_fraction`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
+/// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -842,7 +842,11 @@ pub struct DriftModel {
     /// still while the baseline lags by more, spread over many taxels, than the press itself
     /// changes is taken as drift (absorbed); a stale offset on a few neighbouring taxels
     /// looks like a press and is not returned by this rule. Cost: on steady excursion frames
-    /// only, `4 n` multiply-adds and `3 n` exponentials.
+    /// only, O(n): four bumps over the taxels (`3 n` exponentials for the signed fit, `6 n`
+    /// for the magnitude fit), no allocation. Measured (session 34, `docs/force.md`): the
+    /// magnitude fit at 0.25 ranks first on the 62 tuning members but is not the force gate's
+    /// (a CLI test pins another calibration outcome); the signed fit takes presses of mixed-sign
+    /// electrodes for drift.
     pub drift_shape: f64,
     /// How the drift-shape return measures a change's shape ([`ShapeFit`]; default: the
     /// signed bump).
