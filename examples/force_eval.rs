@@ -233,6 +233,9 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
                         .unwrap(),
                     Err(_) => force_detector(24, &LocateConfig::default()).unwrap(),
                 }
+                // the layout's positions, as the force stage gives them (the drift model's shape test)
+                .with_positions(layout.positions())
+                .unwrap()
             };
             frames
                 .into_iter()

@@ -871,7 +871,9 @@ pub fn calibrate_force(
         | CalibrationMethod::Total
         | CalibrationMethod::Ridge => {
             // the force stage's own detector, so the model sees the changes it will be given
-            let mut det = force_model::force_detector(layout.len(), &scene.stages.locate)?;
+            // with the layout's positions, as the force stage runs it (the drift model's shape test)
+            let mut det =
+                force_model::force_detector(layout.len(), &scene.stages.locate)?.with_positions(layout.positions())?;
             if let Some(t) = &scene.loaded.tare {
                 det = det.with_tare(t)?;
             }

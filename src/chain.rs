@@ -12,7 +12,7 @@ use gradtac_stages::fit::Fit;
 use gradtac_stages::force::{Force, ForceConfig, ForceEstimate, ForceModel};
 use gradtac_stages::force_model::{CalibratedForce, ChangeForce};
 use gradtac_stages::interpolate::{Interpolate, Surface};
-use gradtac_stages::locate::{LocateMethod, ReturnAnchors};
+use gradtac_stages::locate::{LocateMethod, ReturnAnchors, ShapeFit};
 use gradtac_stages::normalise::{Bounds, Normalise};
 use gradtac_stages::peak::SurfaceContour;
 use gradtac_stages::raw_contour::RawChange;
@@ -234,48 +234,50 @@ impl SensorChain {
                 plan.layout.name()
             )));
         }
-        let (force, change_force) =
-            match (runs(Tap::Force), &st.force) {
-                (false, _) => (None, None),
-                (true, None) => return Err(scene_err(
+        let (force, change_force) = match (runs(Tap::Force), &st.force) {
+            (false, _) => (None, None),
+            (true, None) => {
+                return Err(scene_err(
                     "the force tap needs a calibrated model: [stages.force] model = \"force.json\" (write one with \
                      gradtac calibrate force SCENE --force-column NAME --out force.json) or an inline area curve \
                      model = { method = …, … }"
                         .into(),
-                )),
-                (true, Some(ForceSettings { model: ForceModelSpec::Inline(m), min_area_mm2 })) => {
-                    (Some(Force::try_new(&ForceConfig { model: m.clone(), min_area_mm2: *min_area_mm2 })?), None)
-                }
-                (true, Some(ForceSettings { model: ForceModelSpec::File(p), min_area_mm2 })) => {
-                    let file = scene.loaded.force.as_ref().expect("read by Scene::load");
-                    file.check_layout(&plan.layout)
-                        .map_err(|e| scene_err(format!("[stages.force] model {}: {e}", p.display())))?;
-                    match &file.model {
-                        CalibratedForce::Area { curve } => (
-                            Some(Force::try_new(&ForceConfig { model: curve.clone(), min_area_mm2: *min_area_mm2 })?),
-                            None,
-                        ),
-                        CalibratedForce::Amplitude { curve } => {
-                            if method != LocateMethod::Fit {
-                                return Err(scene_err(format!(
-                                    "[stages.force] model {}: an amplitude model reads the contact fit; set \
+                ))
+            }
+            (true, Some(ForceSettings { model: ForceModelSpec::Inline(m), min_area_mm2 })) => {
+                (Some(Force::try_new(&ForceConfig { model: m.clone(), min_area_mm2: *min_area_mm2 })?), None)
+            }
+            (true, Some(ForceSettings { model: ForceModelSpec::File(p), min_area_mm2 })) => {
+                let file = scene.loaded.force.as_ref().expect("read by Scene::load");
+                file.check_layout(&plan.layout)
+                    .map_err(|e| scene_err(format!("[stages.force] model {}: {e}", p.display())))?;
+                match &file.model {
+                    CalibratedForce::Area { curve } => (
+                        Some(Force::try_new(&ForceConfig { model: curve.clone(), min_area_mm2: *min_area_mm2 })?),
+                        None,
+                    ),
+                    CalibratedForce::Amplitude { curve } => {
+                        if method != LocateMethod::Fit {
+                            return Err(scene_err(format!(
+                                "[stages.force] model {}: an amplitude model reads the contact fit; set \
                                      [stages.locate] method = \"fit\"",
-                                    p.display()
-                                )));
-                            }
-                            let cfg = ForceConfig { model: curve.clone(), min_area_mm2: *min_area_mm2 };
-                            (Some(Force::try_new(&cfg)?.on_fit_amplitude()), None)
+                                p.display()
+                            )));
                         }
-                        _ => {
-                            let mut f = ChangeForce::try_new(file, &st.locate)?;
-                            if let Some(t) = tare {
-                                f = f.with_tare(t)?;
-                            }
-                            (None, Some(f))
+                        let cfg = ForceConfig { model: curve.clone(), min_area_mm2: *min_area_mm2 };
+                        (Some(Force::try_new(&cfg)?.on_fit_amplitude()), None)
+                    }
+                    _ => {
+                        // the layout's positions: the drift model's shape test (`drift_shape`)
+                        let mut f = ChangeForce::try_new(file, &st.locate)?.with_positions(plan.layout.positions())?;
+                        if let Some(t) = tare {
+                            f = f.with_tare(t)?;
                         }
+                        (None, Some(f))
                     }
                 }
-            };
+            }
+        };
         let fuse = contour && taps[Tap::Surface as usize].is_empty();
         Ok(SensorChain {
             sensor: SensorId::new(&plan.name),
@@ -689,6 +691,18 @@ impl SensorChain {
                                 "; the slope's anchors shifted to the new level at every return"
                             }
                         };
+                        if d.drift_shape > 0.0 {
+                            more += &format!(
+                                "; a steady excursion that one smooth bump explains less than {} of ({} fit{}) returns \
+                                 (drift without a press's shape; the slope's anchors kept)",
+                                d.drift_shape,
+                                match d.drift_shape_fit {
+                                    ShapeFit::Signed => "signed",
+                                    ShapeFit::Magnitude => "magnitude",
+                                },
+                                if f.detector().positions().is_some() { "" } else { "; off: no layout positions" }
+                            );
+                        }
                         if d.quiet_taxel_s > 0.0 {
                             more += &format!(
                                 "; a taxel within {} σ follows at {} s, also during an excursion",

@@ -753,6 +753,7 @@ impl PositionMemory {
 /// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
 /// | return anchors | with `return_anchors`, on the frame an excursion returns (by the shape return alone, or by any return) the slope's anchors are restarted or shifted to the new level, so the step the return leaves behind is not learned as drift | kept |
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
+/// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -843,6 +844,44 @@ pub struct DriftModel {
     /// press's tails within `hold_sigmas` σ are absorbed; a press's rise crosses the bound
     /// within a few frames.
     pub quiet_taxel_s: f64,
+    /// The drift-shape return (a fraction in [0, 1); 0: off, the default): a steady
+    /// excursion whose baseline-relative change is *not press-shaped* — one smooth bump
+    /// centred on its largest taxel explains less than this fraction of the change's energy,
+    /// each taxel's change in its own noise σ ([`press_shaped_fraction`]) — *returns*: the
+    /// baseline settles to it (`settle_s`), any contact ends, and the slope's anchors are
+    /// kept (whatever `return_anchors` says), so the steady frames after the step teach the
+    /// slope the drift it had missed. A press moves the taxels around one place together
+    /// (the skin spreads it smoothly over neighbouring electrodes; the fraction is near 1,
+    /// less with electrodes of mixed sign or a far ring), while a stale baseline left by a
+    /// drift that is independent per taxel (a slope and a random walk each) has no shape
+    /// (≈ 0.1–0.3 over 24 taxels). Needs the layout's positions
+    /// ([`ChangeDetector::with_positions`]); without them it is off. Trade-off: a press held
+    /// still while the baseline lags by more, spread over many taxels, than the press itself
+    /// changes is taken as drift (absorbed); a stale offset on a few neighbouring taxels
+    /// looks like a press and is not returned by this rule. Cost: on steady excursion frames
+    /// only, O(n): four bumps over the taxels (`3 n` exponentials for the signed fit, `6 n`
+    /// for the magnitude fit), no allocation. Measured (session 34, `docs/force.md`): the
+    /// magnitude fit at 0.25 ranks first on the 62 tuning members but is not the force gate's
+    /// (a CLI test pins another calibration outcome); the signed fit takes presses of mixed-sign
+    /// electrodes for drift.
+    pub drift_shape: f64,
+    /// How the drift-shape return measures a change's shape ([`ShapeFit`]; default: the
+    /// signed bump).
+    pub drift_shape_fit: ShapeFit,
+}
+
+/// The press-shaped fraction the drift-shape return ([`DriftModel::drift_shape`]) compares
+/// with its bound.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShapeFit {
+    /// One bump fitted to the signed changes `eᵢ` ([`press_shaped_fraction`]): lowered by
+    /// electrodes of mixed sign and by a kernel's far ring.
+    #[default]
+    Signed,
+    /// One bump plus a constant fitted to the magnitudes `|eᵢ|` ([`press_shaped_magnitude`]):
+    /// blind to the electrodes' signs and to a uniform floor.
+    Magnitude,
 }
 
 /// What the drift slope's anchors do when an excursion returns
@@ -890,6 +929,8 @@ impl Default for DriftModel {
             release_flat_sigmas: NOISE_RETURN_MOVE,
             return_anchors: ReturnAnchors::Keep,
             quiet_taxel_s: 0.0,
+            drift_shape: 0.0,
+            drift_shape_fit: ShapeFit::Signed,
         }
     }
 }
@@ -921,7 +962,8 @@ impl DriftModel {
             && (0.0..=60.0).contains(&self.release_flat_s)
             && self.release_flat_sigmas > 0.0
             && self.release_flat_sigmas <= 10.0
-            && (0.0..=60.0).contains(&self.quiet_taxel_s);
+            && (0.0..=60.0).contains(&self.quiet_taxel_s)
+            && (0.0..1.0).contains(&self.drift_shape);
         if ok {
             Ok(())
         } else {
@@ -938,6 +980,112 @@ const MAX_STEADY_HISTORY: usize = 4096;
 /// than this multiple of `Σσᵢ` over the steadiness look-back (about twice the noise of that
 /// difference for a 9-frame window).
 const NOISE_RETURN_MOVE: f64 = 0.1;
+
+/// Widths (mm) of the smooth bumps [`press_shaped_fraction`] tries (besides a single taxel):
+/// the family's kernel widths span 1.5–5 mm and grow with force.
+pub const PRESS_BUMP_WIDTHS_MM: [f64; 3] = [1.5, 3.0, 6.0];
+
+/// The share of a change's energy one smooth bump explains (in [0, 1]): with `eᵢ = Δᵢ/σᵢ`
+/// (`delta` in input units, `sigma` each taxel's noise σ; a taxel with σ ≤ 0 counts as 0),
+/// `max over g of (g·e)² / (|g|² |e|²)` over the bumps `g` centred on the taxel of the largest
+/// `|eᵢ|` at `positions` (mm): that taxel alone, and Gaussians of the widths
+/// [`PRESS_BUMP_WIDTHS_MM`], their sign free. A press is near 1; changes independent per taxel
+/// are near `1/n` plus the largest one's share. Returns 1 (press-shaped: nothing is returned as
+/// drift) for an all-zero change, non-finite values, or mismatched lengths.
+pub fn press_shaped_fraction(delta: &[f64], sigma: &[f64], positions: &[[f64; 2]]) -> f64 {
+    let n = delta.len();
+    if sigma.len() != n || positions.len() != n || n == 0 {
+        return 1.0;
+    }
+    let e = |i: usize| if sigma[i] > 0.0 { delta[i] / sigma[i] } else { 0.0 };
+    let (mut ee, mut p, mut top) = (0.0f64, 0usize, -1.0f64);
+    for i in 0..n {
+        let x = e(i);
+        ee += x * x;
+        if x.abs() > top {
+            (p, top) = (i, x.abs());
+        }
+    }
+    if !(ee.is_finite() && ee > 0.0) {
+        return 1.0;
+    }
+    let mut best = top * top / ee;
+    let c = positions[p];
+    for w in PRESS_BUMP_WIDTHS_MM {
+        let (mut ge, mut gg) = (0.0, 0.0);
+        for (i, q) in positions.iter().enumerate() {
+            let d2 = (q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2);
+            let g = (-d2 / (2.0 * w * w)).exp();
+            ge += g * e(i);
+            gg += g * g;
+        }
+        if gg > 0.0 {
+            best = best.max(ge * ge / (gg * ee));
+        }
+    }
+    if best.is_finite() {
+        best.clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+/// The share of the magnitudes' variance across taxels one smooth bump plus a constant
+/// explains (in [0, 1]): with `aᵢ = |Δᵢ/σᵢ|` (a taxel with σ ≤ 0 counts as 0), the largest
+/// `R²` of the least-squares fit `aᵢ ≈ c + k·gᵢ` over the bumps `g` centred on the taxel of the
+/// largest `aᵢ` at `positions` (mm): that taxel alone, and Gaussians of the widths
+/// [`PRESS_BUMP_WIDTHS_MM`]. Blind to the electrodes' signs (a press moves some electrodes up,
+/// most down) and to a floor common to every taxel. A press is near 1; magnitudes independent
+/// per taxel give the largest one's excess share, ≈ 0.1–0.3 over 24 taxels. Returns 1 (press-
+/// shaped) for constant magnitudes, non-finite values, or mismatched lengths.
+pub fn press_shaped_magnitude(delta: &[f64], sigma: &[f64], positions: &[[f64; 2]]) -> f64 {
+    let n = delta.len();
+    if sigma.len() != n || positions.len() != n || n < 2 {
+        return 1.0;
+    }
+    let a = |i: usize| if sigma[i] > 0.0 { (delta[i] / sigma[i]).abs() } else { 0.0 };
+    let (mut sum, mut p, mut top) = (0.0f64, 0usize, -1.0f64);
+    for i in 0..n {
+        let x = a(i);
+        sum += x;
+        if x > top {
+            (p, top) = (i, x);
+        }
+    }
+    let am = sum / n as f64;
+    let saa: f64 = (0..n).map(|i| (a(i) - am).powi(2)).sum();
+    if !(saa.is_finite() && saa > 0.0) {
+        return 1.0;
+    }
+    let c = positions[p];
+    let r2 = |g: &dyn Fn(usize) -> f64| {
+        let gm = (0..n).map(g).sum::<f64>() / n as f64;
+        let (mut sgg, mut sga) = (0.0, 0.0);
+        for i in 0..n {
+            let dg = g(i) - gm;
+            sgg += dg * dg;
+            sga += dg * (a(i) - am);
+        }
+        if sgg > 0.0 {
+            sga * sga / (sgg * saa)
+        } else {
+            0.0
+        }
+    };
+    let mut best = r2(&|i| f64::from(u8::from(i == p)));
+    for w in PRESS_BUMP_WIDTHS_MM {
+        let g = |i: usize| {
+            let q = positions[i];
+            (-((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2)) / (2.0 * w * w)).exp()
+        };
+        best = best.max(r2(&g));
+    }
+    if best.is_finite() {
+        best.clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
 
 /// Time constant (s) of the untouched floor of the total change the shape return
 /// ([`DriftModel::release_excess`]) measures against.
@@ -1073,6 +1221,7 @@ impl DriftState {
         sigma: &[f64],
         mut contact: bool,
         beta: f64,
+        positions: Option<&[[f64; 2]]>,
     ) -> bool {
         let m = self.model;
         let mean: Vec<f64> = sum.iter().map(|s| s / k).collect();
@@ -1141,11 +1290,24 @@ impl DriftState {
         // peak above the untouched floor (a press rising or held sits near its peak)
         let shape_return = m.release_excess > 0.0 && self.shape_return(time, total, sigma);
         let peak_return = total < m.release_fraction * self.peak || quiet_total;
-        let returning = steady && self.in_contact && (self.settling || peak_return || shape_return);
+        // the drift-shape return: a steady excursion no smooth bump explains is a stale
+        // baseline (drift independent per taxel), not a press
+        let drift_shaped = m.drift_shape > 0.0
+            && steady
+            && self.in_contact
+            && positions.is_some_and(|p| {
+                let f = match m.drift_shape_fit {
+                    ShapeFit::Signed => press_shaped_fraction(delta, sigma, p),
+                    ShapeFit::Magnitude => press_shaped_magnitude(delta, sigma, p),
+                };
+                f < m.drift_shape
+            });
+        let returning = steady && self.in_contact && (self.settling || peak_return || shape_return || drift_shaped);
         // the frame this excursion first returns on (not a later settling frame), and whether
-        // the shape return alone made it return (a residual step stays behind)
+        // the shape return alone made it return (a residual step stays behind; a drift-shaped
+        // step is drift, and the anchors keep it)
         let first_return = returning && !self.settling && (contact || self.touched);
-        let shape_alone = first_return && !peak_return;
+        let shape_alone = first_return && !peak_return && !drift_shaped;
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
         if !contact && held && (self.touched || m.hold_contact) {
@@ -1252,6 +1414,8 @@ pub struct ChangeDetector {
     off_since: Option<Timestamp>,
     mixed_since: Option<Timestamp>,
     mismatch: Option<crate::tare::TareMismatch>,
+    /// Taxel positions (mm) for the drift model's shape test ([`DriftModel::drift_shape`]).
+    positions: Option<Vec<[f64; 2]>>,
 }
 
 impl ChangeDetector {
@@ -1280,6 +1444,7 @@ impl ChangeDetector {
             off_since: None,
             mixed_since: None,
             mismatch: None,
+            positions: None,
         })
     }
 
@@ -1319,6 +1484,28 @@ impl ChangeDetector {
         self.follow_all = true;
         self.drift = Some(DriftState::new(model, self.n));
         Ok(self)
+    }
+
+    /// The taxels' positions (mm, one per taxel, finite) for the drift model's shape test
+    /// ([`DriftModel::drift_shape`]; without them that test is off).
+    pub fn with_positions(mut self, positions: &[[f64; 2]]) -> Result<Self> {
+        if positions.len() != self.n || !positions.iter().flatten().all(|x| x.is_finite()) {
+            return Err(Error::InvalidConfig {
+                stage: STAGE,
+                reason: format!(
+                    "{} positions for {} taxels (want one finite position per taxel)",
+                    positions.len(),
+                    self.n
+                ),
+            });
+        }
+        self.positions = Some(positions.to_vec());
+        Ok(self)
+    }
+
+    /// The taxels' positions for the shape test, when given.
+    pub fn positions(&self) -> Option<&[[f64; 2]]> {
+        self.positions.as_deref()
     }
 
     /// The drift model, when on.
@@ -1513,7 +1700,9 @@ impl ChangeDetector {
             }
         }
         if let Some(d) = &mut self.drift {
-            contact = d.after(f.time, dt, k, &self.sum, &mut self.baseline, &self.delta, &self.sigma, contact, beta);
+            let pos = self.positions.as_deref();
+            contact =
+                d.after(f.time, dt, k, &self.sum, &mut self.baseline, &self.delta, &self.sigma, contact, beta, pos);
             if !contact {
                 self.clear_changes();
             }
@@ -1678,6 +1867,60 @@ mod tests {
             LocateConfig { fit_innovation_sigmas: f64::NAN, ..Default::default() },
         ] {
             assert!(ChangeDetector::try_new(2, &bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn the_press_shaped_fractions() {
+        let layout = gradtac_stream::Layout::biotac_sp();
+        let pos = layout.positions();
+        let sigma = [1.5; 24];
+        let at = |c: usize, w: f64, i: usize| {
+            let d2 = (pos[i][0] - pos[c][0]).powi(2) + (pos[i][1] - pos[c][1]).powi(2);
+            (-d2 / (2.0 * w * w)).exp()
+        };
+        // a press (a smooth bump, any width, any place): near 1 by both fits
+        for c in [0, 9, 17, 23] {
+            for w in [1.0, 2.5, 5.0] {
+                let press: Vec<f64> = (0..24).map(|i| -80.0 * at(c, w, i)).collect();
+                assert!(press_shaped_fraction(&press, &sigma, pos) > 0.9, "taxel {c}, {w} mm");
+                assert!(press_shaped_magnitude(&press, &sigma, pos) > 0.9, "taxel {c}, {w} mm");
+                // electrodes of mixed sign and a floor common to every taxel: the magnitude
+                // fit does not see them, the signed one does
+                let mixed: Vec<f64> =
+                    press.iter().enumerate().map(|(i, x)| if i % 5 == 1 { -x } else { *x } + 6.0).collect();
+                assert!(press_shaped_magnitude(&mixed, &sigma, pos) > 0.8, "taxel {c}, {w} mm");
+            }
+        }
+        // offsets independent per taxel (32 draws of uniform magnitudes and signs): low
+        let mut state = 0x5851_f42d_4c95_7f2du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut signed, mut magnitude) = (0.0, 0.0);
+        for _ in 0..32 {
+            let drift: Vec<f64> = (0..24).map(|_| 20.0 * next() - 10.0).collect();
+            signed += press_shaped_fraction(&drift, &sigma, pos) / 32.0;
+            magnitude += press_shaped_magnitude(&drift, &sigma, pos) / 32.0;
+        }
+        assert!(signed < 0.4 && magnitude < 0.4, "means {signed:.2} {magnitude:.2}");
+        // degenerate input: press-shaped (nothing is returned as drift), never a panic
+        for f in [press_shaped_fraction, press_shaped_magnitude] {
+            assert_eq!(f(&[0.0; 24], &sigma, pos), 1.0);
+            assert_eq!(f(&[3.0; 24], &sigma, &pos[..23]), 1.0);
+            assert_eq!(f(&[], &[], &[]), 1.0);
+            let mut bad = [1.0; 24];
+            bad[4] = f64::NAN;
+            assert_eq!(f(&bad, &sigma, pos), 1.0);
+            bad[4] = f64::INFINITY;
+            assert_eq!(f(&bad, &sigma, pos), 1.0);
+            assert_eq!(f(&[1e300; 24], &[1e-300; 24], pos), 1.0);
+            // a zero σ counts as no change there
+            let z = f(&[5.0; 24], &[0.0; 24], pos);
+            assert_eq!(z, 1.0);
         }
     }
 }
