@@ -457,8 +457,8 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     release_flat_sigmas: 0.1,
     return_anchors: ReturnAnchors::ShiftAtShapeReturn,
     quiet_taxel_s: 0.0,
-    drift_shape: 0.0,
-    drift_shape_fit: ShapeFit::Signed,
+    drift_shape: 0.25,
+    drift_shape_fit: ShapeFit::Magnitude,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
