@@ -40,7 +40,7 @@ impl HasSensor for DosDecision {
 /// |---|---|---|
 /// | `decision_frames = None` | one per segment, at [`finish`](Stage::finish) | the whole recording |
 /// | `decision_frames = Some(n)` | one per `n` frames (tumbling) | the last `n` frames, event references carried over |
-/// | `Some(n)` + [`with_hop`](Self::with_hop)`(h)` | one every `h` frames once `n` have arrived (sliding) | the last `n` frames, **as a fresh recording** |
+/// | `Some(n)` + [`with_hop`](Self::with_hop)`(h)` | one every `h` frames once `n` have arrived (sliding) | the last `n` frames, **as a fresh recording** (a tree part's windows: with the contact's history, below) |
 ///
 /// The sliding mode is the one for a robot: an answer every `h` frames (e.g. 10 = 0.1 s) about
 /// the last `n` (e.g. 250 = 2.5 s; see the latency trade in the [module docs](crate::dos)), each
@@ -221,7 +221,8 @@ impl DosClassifier {
     }
 
     /// Sliding decisions: one every `hop` frames (≥ 1) over the last `decision_frames` frames,
-    /// each extracted as a fresh recording (see the table above). Needs `decision_frames`.
+    /// each extracted as a fresh recording (a tree part: its windows keep the contact's history;
+    /// see the type's docs). Needs `decision_frames`.
     pub fn with_hop(mut self, hop: u64) -> Result<Self> {
         let Some(n) = self.decision_frames else {
             return Err(invalid("a hop needs decision_frames (the window the sliding decisions cover)"));
