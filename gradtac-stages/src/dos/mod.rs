@@ -615,21 +615,22 @@
 //! trees and the weight `a`; exclusive with the window net's [`DosWindowPart`]), which
 //! `gradtac calibrate dos` writes by default (`--window-net` writes the net instead; the same
 //! procedure as the net's: `a` by leave-one-object-out per recording, then the trees fitted on
-//! all; 27–42 s on the 167 recordings, release, load 5–7 on 2 cores; it chose `a` = 0.5, as
+//! all; 21–42 s on the 167 recordings, release, load 3–7 on 2 cores; it chose `a` = 0.5, as
 //! the held-out run's basic → solids fold did) and the `dos` stage runs in every mode. Stop 33
 //! left it an option because the stage's sliding mode refused it (a replay of ~50 windows × 1 120
 //! tree walks per decision); stop 34 built the sliding mode for it — its tree windows are
 //! counted from the contact and each is computed once, not replayed (exact semantics and the
 //! measured agreement with a fresh replay: [`DosClassifier`]) — and halved the walk's cost
 //! (16-byte nodes, `trees` source file). Cost per frame (`examples/dos_sliding_cost`, 46 165
-//! frames, load ≈ 6–7 on 2 cores; one decision per recording stop 33's `dos_trees --cost-only`):
+//! frames, load ≈ 6–7 on 2 cores; the trees' vote alone, one decision per recording: p99 7.0 µs,
+//! stop 33 17.5–17.9 µs):
 //!
 //! | mode | trees: median | p99 | window net (stop 32's default), same run: p99 |
 //! |---|---|---|---|
-//! | sliding, last 250 frames, hop 10 | 0.57 µs | **9.7 µs** | 20.9 µs |
+//! | sliding, last 250 frames, hop 10 | 0.57 µs | **9.7 µs** (load ≈ 3.5: 9.0 µs) | 20.9 µs (load ≈ 3.5: 19.7 µs) |
 //! | sliding, 250 frames, hop 10, early answers | 3.8 µs | 9.7 µs | — |
 //! | sliding, last 100 frames, hop 10 | 2.2 µs | 9.6 µs | — |
-//! | one decision per recording (stop 33, before the compact walk) | 0.26 µs | 17.9 µs | 5.4 µs |
+//! | one decision per recording (`dos_trees --cost-only`, load ≈ 3) | 0.26 µs | 7.7 µs (stop 33: 17.9 µs) | 5.4 µs (stop 32) |
 //!
 //! Reproduced with the default (stop 34): `dos_trees --held-out
 //! examples/dos_eval_parts/trees_t1.json` printed every figure of the table above unchanged

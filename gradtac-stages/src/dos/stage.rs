@@ -100,8 +100,10 @@ impl HasSensor for DosDecision {
 /// (on that frame the replay's share of the Student-t work waits for the next frames); a
 /// decision sums ≤ `n`/5 kept log posteriors. Sliding, 250 frames, hop 10, per frame: p99
 /// 9.7 µs, median 0.57 µs (Student-t alone p99 6.4 µs; the same run's window net p99 20.9 µs;
-/// `examples/dos_sliding_cost`, 46 165 frames, load ≈ 6 on 2 cores); early answers p99 9.7 µs;
-/// 100 frames p99 9.6 µs. No extra delay: a window counts once its fifth frame is in.
+/// `examples/dos_sliding_cost`, 46 165 frames, load ≈ 6 on 2 cores; at load ≈ 3.5 trees 9.0 µs,
+/// net 19.7 µs); early answers p99 9.7 µs;
+/// 100 frames p99 9.6 µs; one decision per recording p99 7.7 µs (median 0.26 µs, `examples/dos_trees
+/// --cost-only`, load ≈ 3). No extra delay: a window counts once its fifth frame is in.
 ///
 /// [`reset`](Stage::reset) drops the open span (and the sliding window). Delay: `n − 1` frames;
 /// with `None` the decision comes at `finish` and [`Stage::delay`] reports zero (no frame
