@@ -59,20 +59,23 @@ pub struct CalibrateOptions {
     /// Calibrate on the recordings and their mirror images across `y = 0`
     /// ([`mirror_augmented`]; default on).
     pub mirror: bool,
-    /// Add the window part ([`DosWindowPart`]: a [`gradtac_stages::dos::DosWindowNet`] and the
-    /// weight of the combination) to the model ([`calibrate_window_part`]; default on;
-    /// `gradtac calibrate --no-window` turns it off).
+    /// Add a window part to the model (default on; `gradtac calibrate --no-window` turns it
+    /// off): the tree part ([`gradtac_stages::dos::DosTreesPart`], [`calibrate_trees_part`];
+    /// the default since stop 34, see [`window_trees`](Self::window_trees)) or the window net
+    /// ([`DosWindowPart`]: a [`gradtac_stages::dos::DosWindowNet`] and the weight of the
+    /// combination, [`calibrate_window_part`]).
     pub window: bool,
-    /// Give the window net the motion inputs about the contact's own centre
-    /// ([`gradtac_stages::dos::WindowNetConfig::motion`]; default on since stop 32: chosen by
-    /// the rule stated on the inner folds, then scored held out — the `dos` module docs;
+    /// Give the window net (with `window_trees` off) the motion inputs about the contact's own
+    /// centre ([`gradtac_stages::dos::WindowNetConfig::motion`]; default on since stop 32: chosen
+    /// by the rule stated on the inner folds, then scored held out — the `dos` module docs;
     /// `gradtac calibrate --no-window-motion` turns it off, giving stop 31's window net).
     pub window_motion: bool,
     /// Write the window part as gradient-boosted trees ([`gradtac_stages::dos::DosTreesPart`],
-    /// [`calibrate_trees_part`]) instead of the window net (default off; `gradtac calibrate dos
-    /// --window-trees`). The tree model won its rule on the inner views and held out every met
-    /// target (stop 33, the `dos` module docs); the `dos` stage runs it in one decision per
-    /// segment and in tumbling spans, not yet in the sliding mode.
+    /// [`calibrate_trees_part`]) rather than the window net. **Default on since stop 34**: the
+    /// tree model won its rule on the inner views and held out kept every met target (stop 33,
+    /// the `dos` module docs); it became the default once the `dos` stage's sliding mode ran it
+    /// within 20 µs per frame. `gradtac calibrate dos --window-net` (or `--no-window-motion`)
+    /// writes the window net instead, stop 32's default.
     pub window_trees: bool,
 }
 
@@ -87,7 +90,7 @@ impl Default for CalibrateOptions {
             mirror: true,
             window: true,
             window_motion: true,
-            window_trees: false,
+            window_trees: true,
         }
     }
 }
@@ -373,7 +376,7 @@ pub fn calibrate_window_part(
     Ok((part, WindowChoice { candidate: k, candidate_accuracy: acc, weight_tally: tally, weight }))
 }
 
-/// The tree part of the model `gradtac calibrate dos --window-trees` writes: the procedure of
+/// The tree part of the model `gradtac calibrate dos` writes by default: the procedure of
 /// [`calibrate_window_part`] with the tree model (`train_trees::TreeTrainConfig::default()`, the
 /// rule's winner T1 of stop 33) in place of the net: the weight `a` ∈ [`WINDOW_WEIGHTS`] with
 /// the most recordings right by leave-one-object-out (the Student-t model and the trees refitted

@@ -759,6 +759,10 @@ impl SensorChain {
                             format!("a decision every {h} frames over the last {n} (early: over all frames until {n})")
                         }
                         (Some(n), Some(h)) => format!("a decision every {h} frames over the last {n}"),
+                    } + if d.hop_frames.is_some() && c.model().trees.is_some() {
+                        " (the trees' windows counted from the contact, each computed once)"
+                    } else {
+                        ""
                     }
                 ),
                 _ => String::new(),

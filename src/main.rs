@@ -204,21 +204,25 @@ struct DosArgs {
     /// Fit on the recordings only, without their mirror images across y = 0.
     #[arg(long)]
     no_mirror: bool,
-    /// Write the Student-t model alone, without the window part (the window net and the
-    /// weight of the combined score, chosen by leave-one-object-out; the default adds it, which
-    /// trains the net about 20 times: ≈ 30 s on the 167 BioTacSP-DoS development recordings).
+    /// Write the Student-t model alone, without the window part (by default the tree part:
+    /// gradient-boosted trees and the weight of the combined score, chosen by
+    /// leave-one-object-out, which fits the trees once per object and once on all: ≈ 30–45 s on
+    /// the 167 BioTacSP-DoS development recordings).
     #[arg(long)]
     no_window: bool,
-    /// Leave out the window net's four motion inputs about the contact's own centre (its drift
-    /// and the turn of its principal axis since contact; on by default since stop 32, see the
-    /// `dos` module docs): the window net of stop 31.
+    /// Write the window part as the window net (`dos::DosWindowNet`, with the motion inputs;
+    /// the default of stop 32) instead of the trees.
+    #[arg(long, conflicts_with = "no_window")]
+    window_net: bool,
+    /// Write the window net without its four motion inputs about the contact's own centre (its
+    /// drift and the turn of its principal axis since contact): the window net of stop 31
+    /// (implies `--window-net`).
     #[arg(long, conflicts_with = "no_window")]
     no_window_motion: bool,
-    /// Write the window part as gradient-boosted trees over a per-taxel time representation
-    /// of the contact (`dos::DosTrees`; stop 33's rule winner, see the `dos` module docs)
-    /// instead of the window net. The `dos` stage runs it with one decision per segment or
-    /// tumbling spans; its sliding mode refuses it.
-    #[arg(long, conflicts_with_all = ["no_window", "no_window_motion"])]
+    /// The window part as gradient-boosted trees over a per-taxel time representation of the
+    /// contact (`dos::DosTrees`; stop 33's rule winner, see the `dos` module docs): the
+    /// default since stop 34 (the flag is kept for scripts that name it).
+    #[arg(long, conflicts_with_all = ["no_window", "no_window_motion", "window_net"])]
     window_trees: bool,
     /// Also train the learned model (`dos::DosNet`, default settings, a few seconds on one
     /// core) on the same recordings and write it as JSON to this file. Measured held out it
@@ -596,10 +600,13 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         cross_validate,
         no_mirror,
         no_window,
+        window_net,
         no_window_motion,
         window_trees,
         learned_out,
     } = args;
+    // the trees are the default; the flag only names it
+    let _ = window_trees;
     let (Some(data), Some(out)) = (data, out) else {
         return Err(gradtac::Error::Scene {
             path: PathBuf::from("gradtac calibrate"),
@@ -616,7 +623,7 @@ fn calibrate_dos(args: DosArgs) -> Result<ExitCode, gradtac::Error> {
         mirror: !no_mirror,
         window: !no_window,
         window_motion: !no_window_motion,
-        window_trees,
+        window_trees: !(window_net || no_window_motion),
         ..Default::default()
     };
     let mut reads: Vec<(&str, &std::path::Path)> = vec![("the data directory", &data)];

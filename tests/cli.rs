@@ -539,10 +539,14 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("calibrated on 12 recordings: 4 classes"), "{text}");
-    // one object ("sim"): no leave-one-object-out choice, the window part with a = 0.75
-    assert!(text.contains("fewer than two objects") && text.contains("a = 0.75"), "{text}");
+    // one object ("sim"): no leave-one-object-out choice, the (default) tree part with a = 0.75
+    assert!(
+        text.contains("tree part (") && text.contains("fewer than two objects") && text.contains("a = 0.75"),
+        "{text}"
+    );
     let model = gradtac::calibrate::read_model(&model_path).unwrap();
-    assert_eq!(model.window.as_ref().map(|w| w.weight), Some(gradtac::calibrate::FALLBACK_WINDOW_WEIGHT));
+    assert!(model.window.is_none());
+    assert_eq!(model.trees.as_ref().map(|w| w.weight), Some(gradtac::calibrate::FALLBACK_WINDOW_WEIGHT));
     let test = dir.path().join("test");
     simulated_labelled(&test, 10..11);
     for class in ["n", "s", "e", "w"] {
@@ -557,9 +561,15 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
         fs::write(&sc, scene).unwrap();
         let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        // explain shows the model's window part and its weight
+        // explain shows the model's window part (the trees by default) and its weight
         let text = String::from_utf8(gradtac().arg("explain").arg(&sc).output().unwrap().stdout).unwrap();
-        assert!(text.contains("Student t + window net (5-frame windows, 96 hidden), weight a = 0.75"), "{text}");
+        let trees = model.trees.as_ref().unwrap().trees.trees().len();
+        assert!(
+            text.contains(&format!(
+                "Student t + gradient-boosted trees (5-frame windows, 148 inputs, {trees} trees), weight a = 0.75"
+            )),
+            "{text}"
+        );
         let file = fs::File::open(dir.path().join(format!("out/{class}.parquet"))).unwrap();
         let batch = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap().next().unwrap().unwrap();
         assert_eq!(batch.num_rows(), 1, "one decision per recording");
@@ -679,15 +689,22 @@ fn calibrate_cross_validates_and_takes_settings() {
         assert!(text.contains(object), "{object}: {text}");
     }
     assert!(text.contains("calibrated on 12 recordings: 4 classes, 3 features, "), "{text}");
-    // the window part, its candidate and weight chosen by leave-one-object-out (three objects)
-    assert!(text.contains("window part: candidate") && text.contains("a = 0.75: "), "{text}");
+    // the tree part (the default since stop 34), its weight chosen by leave-one-object-out
+    // (three objects)
+    assert!(text.contains("tree part (") && text.contains("a = 0.75: "), "{text}");
     let model = gradtac::calibrate::read_model(&model_path).unwrap();
     assert_eq!(model.config.drift_lags, [20, 40]);
     assert_eq!(model.student_t_dof, None, "--gaussian");
-    let part = model.window.clone().expect("a window part by default");
+    assert!(model.window.is_none());
+    let part = model.trees.clone().expect("a tree part by default");
     assert!(gradtac::calibrate::WINDOW_WEIGHTS.contains(&part.weight), "{}", part.weight);
-    assert_eq!((part.net.taxels, part.net.recordings), (24, 12));
-    assert_eq!(model.parameter_count(), 24 + part.net.parameter_count() + 1);
+    assert_eq!((part.trees.taxels(), part.trees.recordings()), (24, 12));
+    assert_eq!(model.parameter_count(), 24 + part.trees.nodes() + 4 + 1);
+    // calibrate's trees are the rule's winner T1, exactly as it was scored held out
+    let t1: gradtac::stages::dos::train_trees::TreeTrainConfig =
+        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t1.json")).unwrap();
+    assert_eq!(t1, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T1 is the default");
+    assert_eq!(part.trees.inputs(), &t1.inputs);
     // the CLI passed every option on: the library, given the same options, fits the same model
     let opts = gradtac::calibrate::CalibrateOptions { shrinkage: 0.25, student_t_dof: None, ..Default::default() }
         .with_settings_file(&settings)
@@ -695,7 +712,7 @@ fn calibrate_cross_validates_and_takes_settings() {
     let layout = gradtac::stream::Layout::biotac_sp();
     let spans = gradtac::calibrate::labelled_spans(&train, &layout, &opts).unwrap();
     let student = gradtac::calibrate::calibrate_spans(&spans, &opts).unwrap();
-    assert_eq!(student, model.clone().with_window(None).unwrap());
+    assert_eq!(student, model.clone().with_trees(None).unwrap());
     assert_eq!(gradtac::calibrate::calibrate_dos(&train, &layout, &opts).unwrap().0, model, "deterministic");
     // --no-window: the Student-t model alone, as before the window part existed
     let text = calibrate("--no-window");
@@ -703,9 +720,17 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(!text.contains("window part"), "{text}");
     assert_eq!(gradtac::calibrate::read_model(&model_path).unwrap(), student);
     assert!(!fs::read_to_string(&model_path).unwrap().contains("\"window\""));
-    // the default window net has the motion inputs; --no-window-motion: stop 31's net without them
-    assert!(part.net.config.motion, "motion inputs by default");
-    assert_eq!(part.net.inputs(), 48 + gradtac::stages::dos::MOTION_INPUTS);
+    // --window-net: the window net with the motion inputs (stop 32's default); --no-window-motion:
+    // stop 31's net without them
+    let text = calibrate("--window-net");
+    assert!(text.contains("window part: candidate") && text.contains("a = 0.75: "), "{text}");
+    let with_net = gradtac::calibrate::read_model(&model_path).unwrap();
+    assert!(with_net.trees.is_none());
+    let net = &with_net.window.as_ref().expect("a window part").net;
+    assert!(net.config.motion, "motion inputs by default");
+    assert_eq!(net.inputs(), 48 + gradtac::stages::dos::MOTION_INPUTS);
+    assert_eq!((net.taxels, net.recordings), (24, 12));
+    assert_eq!(with_net.clone().with_window(None).unwrap(), student, "only the window part changes");
     let text = calibrate("--no-window-motion");
     assert!(text.contains("window part: candidate"), "{text}");
     let still = gradtac::calibrate::read_model(&model_path).unwrap();
@@ -713,15 +738,9 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(!net.config.motion);
     assert_eq!(net.inputs(), 48);
     assert_eq!(still.clone().with_window(None).unwrap(), student, "only the window part changes");
-    // --window-trees: a tree part instead of the net, its weight by leave-one-object-out
-    let text = calibrate("--window-trees");
-    assert!(text.contains("tree part (") && text.contains("a = 0.75: "), "{text}");
-    let trees = gradtac::calibrate::read_model(&model_path).unwrap();
-    assert!(trees.window.is_none());
-    let part = trees.trees.clone().expect("a tree part");
-    assert!(gradtac::calibrate::WINDOW_WEIGHTS.contains(&part.weight), "{}", part.weight);
-    assert_eq!((part.trees.taxels(), part.trees.recordings()), (24, 12));
-    assert_eq!(trees.with_trees(None).unwrap(), student, "only the window part changes");
+    // --window-trees: the default, named
+    calibrate("--window-trees");
+    assert_eq!(gradtac::calibrate::read_model(&model_path).unwrap(), model);
     let default = gradtac::calibrate::CalibrateOptions { shrinkage: 0.5, ..opts.clone() };
     assert_ne!(gradtac::calibrate::calibrate_spans(&spans, &default).unwrap().class_variances, model.class_variances);
 
@@ -766,6 +785,9 @@ fn dos_scene_decides_on_a_sliding_window() {
     let out = gradtac().arg("explain").arg(&sc).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("a decision every 20 frames over the last 60"), "{text}");
+    // the default model's tree part runs in the sliding mode (since stop 34)
+    assert!(model.trees.is_some());
+    assert!(text.contains("gradient-boosted trees") && text.contains("the trees' windows counted from the contact"));
     let out = gradtac().arg("run").arg("--quiet").arg(&sc).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let file = fs::File::open(dir.path().join("out/dos.parquet")).unwrap();

@@ -20,7 +20,8 @@ use gradtac::calibrate::WINDOW_WEIGHTS;
 
 /// Floors of the window model's held-out figures, a few recordings (or ~50 windows) under what
 /// was measured with the default candidate (three mirror-averaged members with the motion
-/// inputs, stop 32): per recording nested 83.2 % (139/167), basic → solids 89.3 % (50/56),
+/// inputs, stop 32; the window part of `gradtac calibrate dos --window-net` since stop 34, when
+/// the trees became the default: their floors are in `trees_default.rs`): per recording nested 83.2 % (139/167), basic → solids 89.3 % (50/56),
 /// solids → basic 72.1 % (80/111); the published protocol per window 86.6 % (the window and the
 /// contact's first 0.1 s as the motion inputs' reference; the floor is the ConvLSTM's 82.56 %)
 /// and 88.3 % with the history (3 076 windows).

@@ -201,7 +201,7 @@
 //! decay 0.001 / 0.01 and six copies 70.7 / 76.6 %, 8 hidden with 0.03 77.2 %, mirror only
 //! 74–77 %; the grid above was fixed after them and the held-out figures were printed once.
 //!
-//! # The window model ([`DosWindowNet`]) and its combination — the default of `gradtac calibrate`
+//! # The window model ([`DosWindowNet`]) and its combination — the default of `gradtac calibrate` until stop 33 (`--window-net` since stop 34)
 //! (since stop 31 with the mirror-averaged ensemble as its window part: see the end of this
 //! section; the tables here are of the single network it replaced)
 //! [`DosWindowNet`] (module `window`) answers from **one 5-frame (50 ms) window** of raw frames,
@@ -496,7 +496,7 @@
 //! Candidate (1) was then scored held out once (`dos_eval --window-only --window-candidates
 //! examples/dos_eval_parts/motion_only.json`, the winner as the only window candidate).
 //!
-//! **Held out, scored once — the default of `gradtac calibrate dos` since stop 32** (the weight
+//! **Held out, scored once — the default of `gradtac calibrate dos` in stops 32–33** (the weight
 //! `a` chosen inside every fold's training objects exactly as before; one window candidate, so
 //! no window choice per fold; 4 min 5 s for the whole `--window-only` run on the loaded
 //! machine):
@@ -553,7 +553,7 @@
 //! loaded machine, `dos_eval --window-only` took 169 s with this default against 164 s with stop
 //! 31's (re-run as a timing check, the same figures as before: 91.6 / 92.9 / 79.3 %).
 //!
-//! # Gradient-boosted trees ([`DosTrees`]) — the rule's winner of stop 33, held out once; not yet the default
+//! # Gradient-boosted trees ([`DosTrees`]) — the rule's winner of stop 33, held out once; the default since stop 34
 //! [`DosTrees`] (module `trees`) is a window model like [`DosWindowNet`] — one answer per
 //! non-overlapping 5-frame window, per recording (or since contact) the causal vote of the
 //! windows' log posteriors ([`TreeVote`]) — whose classifier is a softmax ensemble of regression
@@ -611,18 +611,38 @@
 //! qualifies as the default. Solids → basic ≥ 85 % is still not reached (79.3 %; the trees alone
 //! reach 83.8 % there, but the rule scores the combination, and that observation chose nothing).
 //!
-//! **Not yet the default; an option.** A model file may carry a tree part ([`DosTreesPart`]:
-//! the trees and the weight `a`; exclusive with the window net's [`DosWindowPart`]), which
-//! `gradtac calibrate dos --window-trees` writes (the same procedure as the net's: `a` by
-//! leave-one-object-out per recording, then the trees fitted on all; **27 s** on the 167
-//! recordings, release, load ≈ 5.6 on 2 cores; it chose `a` = 0.5) and the `dos` stage runs with
-//! one decision per segment or tumbling spans: **p99 17.9 µs per frame** one decision per
-//! recording (median 0.26 µs; `dos_trees --cost-only`; the vote alone p99 17.5–17.9 µs, fit on all
-//! 3.3–5.0 s). By its rule the trees qualify as the default (every met target held, the cost
-//! under 20 µs), but the stage's **sliding mode refuses a tree part** (its replay of ~50 windows
-//! per decision through 1 120 tree walks each is not built, and would be far over 20 µs without
-//! the work-ahead the net has), and `dos_eval`'s CI floors follow the net; so the default stays
-//! the window net until the sliding mode runs the trees — a decision left to the lead.
+//! **The default since stop 34.** A model file may carry a tree part ([`DosTreesPart`]: the
+//! trees and the weight `a`; exclusive with the window net's [`DosWindowPart`]), which
+//! `gradtac calibrate dos` writes by default (`--window-net` writes the net instead; the same
+//! procedure as the net's: `a` by leave-one-object-out per recording, then the trees fitted on
+//! all; 21–42 s on the 167 recordings, release, load 3–7 on 2 cores; it chose `a` = 0.5, as
+//! the held-out run's basic → solids fold did) and the `dos` stage runs in every mode. Stop 33
+//! left it an option because the stage's sliding mode refused it (a replay of ~50 windows × 1 120
+//! tree walks per decision); stop 34 built the sliding mode for it — its tree windows are
+//! counted from the contact and each is computed once, not replayed (exact semantics and the
+//! measured agreement with a fresh replay: [`DosClassifier`]) — and halved the walk's cost
+//! (16-byte nodes, `trees` source file). Cost per frame (`examples/dos_sliding_cost`, 46 165
+//! frames, load ≈ 6–7 on 2 cores; the trees' vote alone, one decision per recording: p99 7.0 µs,
+//! stop 33 17.5–17.9 µs):
+//!
+//! | mode | trees: median | p99 | window net (stop 32's default), same run: p99 |
+//! |---|---|---|---|
+//! | sliding, last 250 frames, hop 10 | 0.57 µs | **9.7 µs** (load ≈ 3.5: 9.0 µs) | 20.9 µs (load ≈ 3.5: 19.7 µs) |
+//! | sliding, 250 frames, hop 10, early answers | 3.8 µs | 9.7 µs | — |
+//! | sliding, last 100 frames, hop 10 | 2.2 µs | 9.6 µs | — |
+//! | one decision per recording (`dos_trees --cost-only`, load ≈ 3) | 0.26 µs | 7.7 µs (stop 33: 17.9 µs) | 5.4 µs (stop 32) |
+//!
+//! Reproduced with the default (stop 34): `dos_trees --held-out
+//! examples/dos_eval_parts/trees_t1.json` printed every figure of the table above unchanged
+//! (the walk's new layout is bit-identical); `dos_eval` (CI) runs the default's cross-set splits
+//! and the ConvLSTM protocol with floors 87 / 76 / 87 % (measured 91.1 / 79.3 / 90.0 %;
+//! `--trees-nested` adds the nested figure, floor 86 %, measured 89.2 % — reproduced by
+//! `dos_eval --trees-only --trees-nested`, 367 s at load ≈ 7–8, so ≈ 4–6 min more, not in CI)
+//! and the sliding mode's p99 per frame with the default's parts (bound 20 µs; measured 9.71
+//! µs). The tree section adds 16 s (held-out part alone) to 41 s (with the cost check: a fit
+//! on all recordings and 46 165 timed frames) to `dos_eval`, whose whole run took 6 min 18 s
+//! with the 16 s version (wall, load ≈ 8 on 2 cores; ≈ 6 min 2 s without it). This reproduces
+//! the choice already made by the rule; nothing was chosen on it.
 //!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
@@ -693,6 +713,11 @@
 //! locations of the track windows 0.65 µs (32 × 32 natural neighbour); the drift map keeps the last
 //! `max(drift_lags)` frames (60 × 24 values with the default lags). A decision is `classes × features`
 //! multiply-adds and `classes` logarithms (plus `classes × features` with per-class variances).
+//! With the default tree part: every 5 frames one window's 148 inputs and 2 × 560 tree walks; in
+//! the sliding mode the kept windows' log posteriors (≤ `n`/5 × 7 values) and one sum of them per
+//! decision — p99 9.7 µs per frame at 250 frames, hop 10 (table in the trees section; the
+//! semantics in [`DosClassifier`]). No delay beyond the decision's own: a tree window counts once
+//! its fifth frame is in.
 //!
 //! # Trade-offs
 //! | knob | lower | higher |
@@ -709,7 +734,7 @@
 //! | mirror augmentation | off: the model may learn a side preference of the training data | on (default): symmetric model, twice the samples, same parameter count |
 //! | drift scale | `log`: the previous default, gain-invariant only | `linear` (default): gain- and offset-invariant, same accuracy |
 //! | hop ([`DosClassifier::with_hop`]) | an answer every few frames; one `decision_frames` extraction each | fewer answers, less CPU |
-//! | window part | the net ([`DosWindowPart`], default): every mode incl. sliding, p99 5.4 µs one decision | trees ([`DosTreesPart`], `--window-trees`): held out +1 nested / −2 basic → solids / +1 solids → basic recordings, +3.4 points on the ConvLSTM protocol; p99 17.9 µs; no sliding mode |
+//! | window part | the net ([`DosWindowPart`], `--window-net`): every decision a fresh replay; sliding p99 20.9 µs (loaded) | trees ([`DosTreesPart`], default): held out +1 nested / −2 basic → solids / +1 solids → basic recordings, +3.4 points on the ConvLSTM protocol; sliding p99 9.7 µs, its windows keep the contact's history |
 
 use crate::contour::{ContourConfig, Levels, MaxContour, MaxContourFinder, Saddle};
 use crate::drift::{DriftMap, DriftScale};

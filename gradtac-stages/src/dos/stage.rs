@@ -1,5 +1,6 @@
 //! [`DosClassifier`]: the `dos` stage, raw frames in, [`DosDecision`]s out.
 
+use super::window::LogVote;
 use super::*;
 
 /// One slip-direction decision of the [`DosClassifier`] stage.
@@ -39,7 +40,7 @@ impl HasSensor for DosDecision {
 /// |---|---|---|
 /// | `decision_frames = None` | one per segment, at [`finish`](Stage::finish) | the whole recording |
 /// | `decision_frames = Some(n)` | one per `n` frames (tumbling) | the last `n` frames, event references carried over |
-/// | `Some(n)` + [`with_hop`](Self::with_hop)`(h)` | one every `h` frames once `n` have arrived (sliding) | the last `n` frames, **as a fresh recording** |
+/// | `Some(n)` + [`with_hop`](Self::with_hop)`(h)` | one every `h` frames once `n` have arrived (sliding) | the last `n` frames, **as a fresh recording** (a tree part's windows: with the contact's history, below) |
 ///
 /// The sliding mode is the one for a robot: an answer every `h` frames (e.g. 10 = 0.1 s) about
 /// the last `n` (e.g. 250 = 2.5 s; see the latency trade in the [module docs](crate::dos)), each
@@ -73,14 +74,36 @@ impl HasSensor for DosDecision {
 ///
 /// With the model's **tree part** instead ([`DosModel::trees`], a [`DosTrees`] vote; stop 33,
 /// `gradtac calibrate dos --window-trees`) the decision combines the same way with the trees'
-/// causal vote over the span's 5-frame windows (inputs: the window, the contact's first 0.1 s,
-/// the level pattern 0.3 s and 1 s earlier, the last 0.3 s of changes; units as the window
-/// net's, dimensionless). One decision per segment and tumbling spans only: the sliding mode
-/// refuses a tree part (`with_hop` fails), since its replay would walk every tree of ~50 windows
-/// per decision (not built). Extra cost: every 5 frames one window's 148 inputs and 2 × 560 tree
-/// walks; one decision per recording p99 17.9 µs per frame (median 0.26 µs; `examples/dos_trees
-/// --cost-only`, 46 165 frames, load ≈ 5.6 on 2 cores). No extra delay: a window counts once its
-/// fifth frame is in.
+/// causal vote over 5-frame windows (inputs: the window, the contact's first 0.1 s, the level
+/// pattern 0.3 s and 1 s earlier, the last 0.3 s of changes; units as the window net's,
+/// dimensionless). One decision per segment and tumbling spans: the vote over the span's
+/// windows. **The sliding mode** (stop 34) does not replay the trees: their windows are counted
+/// from the reset (the contact) and each window's inputs are what a vote since the reset gives
+/// it — its log posterior computed once, on the frame that completes it, and kept while it lies
+/// inside the last `n` frames. A decision's tree vote is the mean log posterior of the kept
+/// windows that lie wholly inside its frames; the Student-t part is still the fresh replay.
+/// So, exactly (bit for bit, tested):
+/// - while the decision's frames start at the reset — every early answer, every decision of a
+///   contact shorter than `n` frames — the decision is a fresh recording's of those frames;
+/// - after the window has slid past the reset, the tree windows keep the contact's history:
+///   their reference (the pattern since the start, the motion inputs) is the contact's first
+///   0.1 s, their lags and slope may reach back before the window's first frame (at most 20
+///   windows = 100 frames), and they lie on the contact's 5-frame grid (a fresh recording's
+///   starts at the window's first frame). That is what the held-out ConvLSTM-protocol figure
+///   scores per window (each window with the causal history since contact); a fresh replay
+///   would walk every tree for all ~50 windows per decision (≈ 56 000 walks), far over 20 µs
+///   per frame. Measured on the 167 development recordings (`examples/dos_sliding_cost
+///   --compare-fresh`, a model calibrated on them): with 250 frames and hop 10, 504 of 505 slid
+///   decisions have a fresh recording's class; with 100 frames, 2 921 of 3 010 (97.0 %).
+///
+/// Extra cost: a frame copy, and every 5 frames one window's 148 inputs and 2 × 560 tree walks
+/// (on that frame the replay's share of the Student-t work waits for the next frames); a
+/// decision sums ≤ `n`/5 kept log posteriors. Sliding, 250 frames, hop 10, per frame: p99
+/// 9.7 µs, median 0.57 µs (Student-t alone p99 6.4 µs; the same run's window net p99 20.9 µs;
+/// `examples/dos_sliding_cost`, 46 165 frames, load ≈ 6 on 2 cores; at load ≈ 3.5 trees 9.0 µs,
+/// net 19.7 µs); early answers p99 9.7 µs;
+/// 100 frames p99 9.6 µs; one decision per recording p99 7.7 µs (median 0.26 µs, `examples/dos_trees
+/// --cost-only`, load ≈ 3). No extra delay: a window counts once its fifth frame is in.
 ///
 /// [`reset`](Stage::reset) drops the open span (and the sliding window). Delay: `n − 1` frames;
 /// with `None` the decision comes at `finish` and [`Stage::delay`] reports zero (no frame
@@ -99,7 +122,8 @@ pub struct DosClassifier {
     /// and one decision per segment; the sliding mode replays its window through `Sliding::vote`).
     vote: Option<WindowVoteState>,
     /// With the model's tree part: the causal vote of its trees over the span's windows
-    /// (tumbling spans and one decision per segment; the sliding mode refuses a tree part).
+    /// (tumbling spans and one decision per segment; the sliding mode keeps its own windows,
+    /// `Sliding::trees`).
     tree_vote: Option<TreeVoteState>,
 }
 
@@ -133,6 +157,21 @@ struct Sliding {
     single: Option<WindowExtractor>,
     /// The next decision's window, prepared ahead (see [`Ahead`]).
     ahead: Ahead,
+    /// With the model's tree part: its windows since the reset (see [`SlidingTrees`]).
+    trees: Option<SlidingTrees>,
+}
+
+/// The sliding mode's tree part: the tree model's non-overlapping windows counted from the
+/// reset (the contact), each window's inputs as the stream since the reset gives them (the
+/// vote of the other modes), its log posterior computed once, when its last frame arrives, and
+/// kept while the window lies inside the last `decision_frames` frames. A decision's tree vote
+/// is the mean of the kept windows' log posteriors that lie inside its frames (see
+/// [`DosClassifier`]).
+#[derive(Clone, Debug)]
+struct SlidingTrees {
+    extractor: TreeExtractor,
+    /// `(index of the window's first frame, its log posterior)`, oldest first.
+    windows: std::collections::VecDeque<(u64, Vec<f64>)>,
 }
 
 /// The next decision's work, done a share per frame between decisions, so that no one frame
@@ -184,19 +223,14 @@ impl DosClassifier {
     }
 
     /// Sliding decisions: one every `hop` frames (≥ 1) over the last `decision_frames` frames,
-    /// each extracted as a fresh recording (see the table above). Needs `decision_frames`.
+    /// each extracted as a fresh recording (a tree part: its windows keep the contact's history;
+    /// see the type's docs). Needs `decision_frames`.
     pub fn with_hop(mut self, hop: u64) -> Result<Self> {
         let Some(n) = self.decision_frames else {
             return Err(invalid("a hop needs decision_frames (the window the sliding decisions cover)"));
         };
         if hop == 0 {
             return Err(invalid("hop must be ≥ 1 frame"));
-        }
-        if self.model.trees.is_some() {
-            return Err(invalid(
-                "the sliding mode does not run a model's tree part (not built yet): use tumbling spans or one \
-                 decision per segment, or a model with a window net",
-            ));
         }
         if hop > crate::limits::MAX_DOS_FRAMES {
             return Err(invalid(format!(
@@ -210,6 +244,10 @@ impl DosClassifier {
             Some(_) => vote.as_ref().map(|v| v.fresh_extractor()),
             None => None,
         };
+        let trees = self.tree_vote.as_ref().map(|v| SlidingTrees {
+            extractor: v.fresh_extractor(),
+            windows: std::collections::VecDeque::with_capacity(usize::try_from(n).unwrap_or(0).min(1 << 20) / 2 + 1),
+        });
         self.sliding = Some(Sliding {
             hop,
             early: false,
@@ -221,6 +259,7 @@ impl DosClassifier {
             cache: std::collections::HashMap::new(),
             single,
             ahead: Ahead::default(),
+            trees,
         });
         Ok(self)
     }
@@ -307,6 +346,14 @@ impl DosClassifier {
             }
             decision = self.model.combine(decision, v.mean_log_posterior().as_deref());
         }
+        if let (Some(t), Some(part)) = (&sl.trees, &self.model.trees) {
+            // the kept tree windows inside this decision's frames, oldest first (as a vote adds them)
+            let mut vote = LogVote::new(part.trees.classes().len());
+            for (_, lp) in t.windows.iter().filter(|(at, _)| *at >= first) {
+                vote.add(lp);
+            }
+            decision = self.model.combine(decision, vote.mean_log_posterior().as_deref());
+        }
         out.push(DosDecision { sensor, start, end, seq, frames: features.frames, decision, features });
         sl.since = 0;
         Ok(())
@@ -318,28 +365,51 @@ impl DosClassifier {
         self.extractor.push(frame.clone())?;
         self.extractor.clear_span();
         let Some(sl) = &mut self.sliding else { return Ok(()) };
+        // the tree part's window that this frame completes, if any (its walks are this frame's
+        // work: the replay's share of it moves to the next frames)
+        let mut walked = false;
+        if let (Some(t), Some(part)) = (&mut sl.trees, &self.model.trees) {
+            if let Some(x) = t.extractor.push(&frame.values)? {
+                let f = part.trees.inputs().window.frames as u64;
+                t.windows.push_back((sl.total + 1 - f, part.trees.log_posterior(&x)?));
+                walked = true;
+            }
+        }
         if sl.recent.len() as u64 >= n {
             sl.recent.pop_front();
         }
         sl.recent.push_back(frame);
         sl.since += 1;
         sl.total += 1;
+        if let Some(t) = &mut sl.trees {
+            // no later decision starts before the window's first frame now
+            let first = sl.total - sl.recent.len() as u64;
+            while t.windows.front().is_some_and(|(at, _)| *at < first) {
+                t.windows.pop_front();
+            }
+        }
         if (sl.early || sl.recent.len() as u64 >= n) && sl.since >= sl.hop {
             self.decide_window(out)?;
         }
-        self.work_ahead(n)
+        self.work_ahead(n, walked)
     }
 
     /// A share of the next decision's replay (and, with a net measured against the window's
     /// own first frames, of its net windows): what is known of the predicted window, spread
     /// over the frames still to come before it.
-    fn work_ahead(&mut self, n: u64) -> Result<()> {
+    ///
+    /// On a frame that `walked` a tree window, the replay's share waits for the next frames
+    /// (unless the next frame decides): the two costs do not add up on one frame.
+    fn work_ahead(&mut self, n: u64, walked: bool) -> Result<()> {
         let Some(sl) = &mut self.sliding else { return Ok(()) };
         let len = sl.recent.len() as u64;
         // frames until the next decision, and the window it will cover
         let mut m = sl.hop.saturating_sub(sl.since).max(1);
         if !sl.early {
             m = m.max(n.saturating_sub(len));
+        }
+        if walked && m > 1 {
+            return Ok(());
         }
         let first = sl.total + m - (len + m).min(n);
         if sl.ahead.first != Some(first) {
@@ -504,6 +574,10 @@ impl Stage for DosClassifier {
             sl.total = 0;
             sl.cache.clear();
             sl.ahead = Ahead::default();
+            if let Some(t) = &mut sl.trees {
+                t.extractor.reset();
+                t.windows.clear();
+            }
         }
         self.emit(out)
     }
@@ -523,6 +597,10 @@ impl Stage for DosClassifier {
             sl.total = 0;
             sl.cache.clear();
             sl.ahead = Ahead::default();
+            if let Some(t) = &mut sl.trees {
+                t.extractor.reset();
+                t.windows.clear();
+            }
         }
     }
 

@@ -1,5 +1,6 @@
 //! Tests of the `dos` module.
 
+use super::window::LogVote;
 use super::*;
 use gradtac_stream::StageExt;
 
@@ -875,10 +876,9 @@ fn the_stage_runs_a_tree_part_and_chunking_does_not_matter() {
         s.finish(&mut out).unwrap();
         assert_eq!(out, all, "chunks of {cut}");
     }
-    // the model file round-trips; the sliding mode and a second part are refused
+    // the model file round-trips; a second part is refused
     let back: DosModel = serde_json::from_str(&serde_json::to_string(&model).unwrap()).unwrap();
     assert_eq!(back, model);
-    assert!(DosClassifier::try_new(model.clone(), &l, Some(64)).unwrap().with_hop(8).is_err());
     let mut bad = serde_json::to_value(&model).unwrap();
     bad["trees"]["weight"] = serde_json::json!(1.5);
     assert!(serde_json::from_value::<DosModel>(bad).is_err());
@@ -896,4 +896,129 @@ fn the_stage_runs_a_tree_part_and_chunking_does_not_matter() {
     let a = DosClassifier::try_new(alone.clone(), &l, None).unwrap().run_all(input).unwrap();
     let b = DosClassifier::try_new(alone, &l, None).unwrap().run_all(mirrored).unwrap();
     assert_eq!(b[0].decision.class, a[0].decision.class.mirrored());
+}
+
+/// Every tree window since `from` of `frames` (its first frame's index, its log posterior), as
+/// a vote since `from` computes them.
+fn tree_windows_since(trees: &DosTrees, frames: &[TaxelFrame], from: usize) -> Vec<(usize, Vec<f64>)> {
+    let mut x = trees.extractor(&Layout::biotac_sp()).unwrap();
+    let f = trees.inputs().window.frames;
+    frames[from..]
+        .iter()
+        .enumerate()
+        .filter_map(|(i, fr)| x.push(&fr.values).unwrap().map(|v| (from + i + 1 - f, trees.log_posterior(&v).unwrap())))
+        .collect()
+}
+
+/// The sliding mode with a tree part: every decision, for any window, hop, early answers and a
+/// reset anywhere, combines a fresh replay's Student-t decision over its frames with the mean log
+/// posterior of the tree windows since the reset that lie inside its frames, each as a vote
+/// since the reset computes it (kept across decisions, not replayed) — bit for bit. While the
+/// frames start at the reset (early answers; a contact shorter than the window) that is a fresh
+/// recording of them exactly; after that the windows keep the contact's history, and some
+/// decisions differ from a fresh recording's (the stated approximation, not hidden).
+#[test]
+fn the_sliding_mode_runs_a_tree_part_over_the_windows_since_the_reset() {
+    let (cfg, model) = motion_model();
+    let l = Layout::biotac_sp();
+    let trees = stump_trees(&l);
+    let m = model.clone().with_trees(Some(DosTreesPart { weight: 0.5, trees: trees.clone() })).unwrap();
+    let input = synthetic(DosClass::Cw, [0.0, 0.0], 0.1, 13);
+    let f = trees.inputs().window.frames;
+    let (mut fresh_checked, mut slid, mut differs) = (0, 0, 0);
+    for (n, hop) in [(1u64, 1u64), (5, 3), (13, 13), (40, 7), (80, 16), (80, 100), (300, 10), (50, 10)] {
+        for early in [false, true] {
+            for cut in [None, Some(1), Some(37), Some(120)] {
+                let mut s = DosClassifier::try_new(m.clone(), &l, Some(n)).unwrap().with_hop(hop).unwrap();
+                if early {
+                    s = s.with_early_decisions().unwrap();
+                }
+                let mut out = Vec::new();
+                let from = cut.unwrap_or(0);
+                for fr in &input[..from] {
+                    s.push(fr.clone(), &mut out).unwrap();
+                }
+                s.reset();
+                out.clear();
+                for fr in &input[from..] {
+                    s.push(fr.clone(), &mut out).unwrap();
+                }
+                s.finish(&mut out).unwrap();
+                assert!(!out.is_empty());
+                let since = tree_windows_since(&trees, &input, from);
+                for d in &out {
+                    let last = d.seq as usize;
+                    let first = (last + 1).saturating_sub(n as usize).max(from);
+                    let window = &input[first..=last];
+                    let student = model.classify_vector(&features_of(window.to_vec(), &cfg)).unwrap();
+                    let mut vote = LogVote::new(7);
+                    for (_, lp) in since.iter().filter(|(at, _)| *at >= first && *at + f <= last + 1) {
+                        vote.add(lp);
+                    }
+                    let want = m.combine(student, vote.mean_log_posterior().as_deref());
+                    let at = format!("n {n}, hop {hop}, early {early}, cut {cut:?}, ending at {last}");
+                    assert_eq!(d.decision, want, "{at}");
+                    assert_eq!(d.frames as usize, window.len());
+                    let fresh = DosClassifier::try_new(m.clone(), &l, None).unwrap().run_all(window.to_vec()).unwrap();
+                    if first == from {
+                        assert_eq!(d.decision, fresh[0].decision, "a fresh recording: {at}");
+                        fresh_checked += 1;
+                    } else if window.len() >= 3 * f {
+                        slid += 1;
+                        differs += usize::from(d.decision != fresh[0].decision);
+                    }
+                }
+            }
+        }
+    }
+    assert!(fresh_checked > 100 && slid > 100, "{fresh_checked} fresh, {slid} slid");
+    assert!(differs > 0, "the windows' history since the reset changes some slid decisions");
+}
+
+/// The sliding mode with a tree part: chunking changes nothing; a non-finite frame is an
+/// error that leaves the stage as it was; `reset` (a gap) starts afresh.
+#[test]
+fn the_sliding_tree_part_ignores_chunking_refuses_nan_and_restarts_on_a_gap() {
+    let l = Layout::biotac_sp();
+    let (_, model) = motion_model();
+    let m = model.with_trees(Some(DosTreesPart { weight: 0.25, trees: stump_trees(&l) })).unwrap();
+    let input = synthetic(DosClass::N, [0.0, 0.0], 0.1, 5);
+    let stage = || DosClassifier::try_new(m.clone(), &l, Some(60)).unwrap().with_hop(10).unwrap();
+    let all = stage().run_all(input.clone()).unwrap();
+    assert!(all.len() > 10);
+    for cut in [1, 4, 5, 9, 10, 11, 59, 61, 199] {
+        let mut s = stage();
+        let mut out = crate::test_util::push_in_chunks(&input, cut, |fr, part| s.push(fr.clone(), part));
+        s.finish(&mut out).unwrap();
+        assert_eq!(out, all, "chunks of {cut}");
+    }
+    // a NaN (or infinite) frame: an error, no panic, and the decisions as without it
+    let mut s = stage();
+    let mut out = Vec::new();
+    for (i, fr) in input.iter().enumerate() {
+        if i == 77 {
+            for bad in [f64::NAN, f64::INFINITY] {
+                let mut b = fr.clone();
+                b.values[3] = bad;
+                assert!(s.push(b, &mut out).is_err());
+            }
+        }
+        s.push(fr.clone(), &mut out).unwrap();
+    }
+    s.finish(&mut out).unwrap();
+    assert_eq!(out, all);
+    // a reset after 90 frames: the decisions after it are a fresh stage's over the rest
+    let mut s = stage();
+    let mut out = Vec::new();
+    for fr in &input[..90] {
+        s.push(fr.clone(), &mut out).unwrap();
+    }
+    s.reset();
+    out.clear();
+    for fr in &input[90..] {
+        s.push(fr.clone(), &mut out).unwrap();
+    }
+    s.finish(&mut out).unwrap();
+    let fresh = stage().run_all(input[90..].to_vec()).unwrap();
+    assert_eq!(out, fresh);
 }

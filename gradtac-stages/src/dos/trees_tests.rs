@@ -68,6 +68,20 @@ fn malformed_models_are_refused() {
         ("self loop", Box::new(|t| (t[0].left[1], t[0].right[1]) = (1, 2))),
         ("root as a right child", Box::new(|t| t[0].right[0] = 0)),
         ("child out of range", Box::new(|t| t[0].right[0] = 3)),
+        ("both children one node", Box::new(|t| t[0].right[0] = 1)),
+        (
+            "a node with two parents",
+            Box::new(|t| {
+                // root → 1, 2; node 1 → 3, 4; node 2 → 4, 5: node 4 has two parents
+                t[0] = Tree {
+                    feature: vec![0; 6],
+                    threshold: vec![0.0; 6],
+                    left: vec![1, 3, 4, 0, 0, 0],
+                    right: vec![2, 4, 5, 0, 0, 0],
+                    value: vec![0.0; 6],
+                }
+            }),
+        ),
         ("input out of range", Box::new(move |t| t[0].feature[0] = inputs)),
         ("NaN threshold", Box::new(|t| t[0].threshold[0] = f64::NAN)),
         ("infinite leaf", Box::new(|t| t[0].value[1] = f64::INFINITY)),
