@@ -2447,9 +2447,11 @@ mod tests {
         assert!(max_on <= 0.3 + 1e-9, "{max_on}");
     }
 
-    #[test]
-    fn the_motion_prior_follows_a_moving_contact_with_a_bounded_lag() {
-        // one contact sliding at 20 mm/s (within the 30 mm/s bound)
+    /// The edge slide: one contact (its far ring moving the other way, a = 0.1) sliding at
+    /// 20 mm/s (within the 30 mm/s bound) along the pad's edge from frame 30, ±1 count of
+    /// noise; the fit's error (mm) from frame 50 on, against the truth at each point's window
+    /// centre frame (the truth the point describes).
+    fn edge_slide_errors(cfg: &LocateConfig) -> Vec<f64> {
         let layout = Layout::biotac_sp();
         let geo = Geometry::for_layout(&layout);
         let p0 = layout.positions()[23];
@@ -2463,21 +2465,23 @@ mod tests {
                 })
                 .collect()
         });
+        let out = Fit::try_new(cfg, &layout).unwrap().run_all(input).unwrap();
+        let lag = u64::from(cfg.window_frames - 1) / 2;
+        out[50..]
+            .iter()
+            .map(|o| {
+                let m = o.outcome.contact().expect("contact");
+                let t = at(o.seq - lag);
+                (m.centroid_mm[0] - t[0]).hypot(m.centroid_mm[1] - t[1])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_motion_prior_follows_a_moving_contact_with_a_bounded_lag() {
         let on = LocateConfig::preset(crate::locate::Preset::Accurate);
         let off = LocateConfig { fit_motion_prior: 0.0, ..on.clone() };
-        let err = |cfg: &LocateConfig| {
-            let out = Fit::try_new(cfg, &layout).unwrap().run_all(input.clone()).unwrap();
-            // the window's centre frame is the truth the point describes
-            let lag = u64::from(cfg.window_frames - 1) / 2;
-            out[50..]
-                .iter()
-                .map(|o| {
-                    let m = o.outcome.contact().expect("contact");
-                    let t = at(o.seq - lag);
-                    (m.centroid_mm[0] - t[0]).hypot(m.centroid_mm[1] - t[1])
-                })
-                .collect::<Vec<f64>>()
-        };
+        let err = edge_slide_errors;
         let (e_on, e_off) = (err(&on), err(&off));
         // polarity learning (`fit_polarity_votes`, off in the preset) keeps the bound too
         let e_pol = err(&LocateConfig { fit_polarity_votes: 10, ..on.clone() });
@@ -2796,31 +2800,7 @@ mod tests {
         // pad's edge, ±1 count of noise (the edge-slide of the motion prior's test): the folded
         // fit alone falls into a ring minimum and carries it by its warm start (stop 30: up to
         // 3.8 mm behind); the guard keeps the centre
-        let layout = Layout::biotac_sp();
-        let geo = Geometry::for_layout(&layout);
-        let p0 = layout.positions()[23];
-        let at = |k: u64| [p0[0] - 0.2 * k.saturating_sub(30) as f64, p0[1]];
-        let input = frames(90, |k| {
-            let c = at(k);
-            let contact = geo.model([c[0], c[1], 2.5, -300.0, 0.1], &[1.0; 24]);
-            (0..24)
-                .map(|i| {
-                    base(i) + if k >= 30 { contact[i] } else { 0.0 } + if (k + i as u64) % 2 == 0 { 1.0 } else { -1.0 }
-                })
-                .collect()
-        });
-        let max_err = |cfg: &LocateConfig| {
-            let out = Fit::try_new(cfg, &layout).unwrap().run_all(input.clone()).unwrap();
-            let lag = u64::from(cfg.window_frames - 1) / 2;
-            out[50..]
-                .iter()
-                .map(|o| {
-                    let m = o.outcome.contact().expect("contact");
-                    let t = at(o.seq - lag);
-                    (m.centroid_mm[0] - t[0]).hypot(m.centroid_mm[1] - t[1])
-                })
-                .fold(0.0, f64::max)
-        };
+        let max_err = |cfg: &LocateConfig| edge_slide_errors(cfg).into_iter().fold(0.0, f64::max);
         let (alone, guarded) = (max_err(&folded(0.0)), max_err(&folded(2.0)));
         let unbounded = max_err(&folded(100.0));
         eprintln!(
