@@ -774,6 +774,37 @@ fn stage_decides_by_the_combined_score(net: DosWindowNet) {
     assert_eq!(got[0].decision, model.classify_vector(&features_of(input[..4].to_vec(), &cfg)).unwrap());
 }
 
+/// The sliding mode over `n` frames with hop `hop` (and early answers if `early`): the input up
+/// to `cut` pushed, then `reset` (a gap), then the rest; the reset's frame index and the
+/// decisions after it (never none).
+fn slide_after_reset(
+    m: &DosModel,
+    l: &Layout,
+    input: &[TaxelFrame],
+    n: u64,
+    hop: u64,
+    early: bool,
+    cut: Option<usize>,
+) -> (usize, Vec<DosDecision>) {
+    let mut s = DosClassifier::try_new(m.clone(), l, Some(n)).unwrap().with_hop(hop).unwrap();
+    if early {
+        s = s.with_early_decisions().unwrap();
+    }
+    let mut out = Vec::new();
+    let from = cut.unwrap_or(0);
+    for f in &input[..from] {
+        s.push(f.clone(), &mut out).unwrap();
+    }
+    s.reset();
+    out.clear();
+    for f in &input[from..] {
+        s.push(f.clone(), &mut out).unwrap();
+    }
+    s.finish(&mut out).unwrap();
+    assert!(!out.is_empty());
+    (from, out)
+}
+
 /// The sliding mode prepares each decision's replay (and a net measured against the window's
 /// start) a share per frame ahead of it; a prediction missed (a reset, `finish`, a window not
 /// yet full) replays from scratch. Every decision, for any window, hop, early answers, a reset
@@ -794,22 +825,7 @@ fn sliding_decisions_prepared_ahead_are_fresh_replays_for_any_window_hop_and_res
         for (n, hop) in [(1u64, 1u64), (5, 3), (13, 13), (40, 7), (80, 16), (80, 100), (300, 10)] {
             for early in [false, true] {
                 for cut in [None, Some(1), Some(37), Some(120)] {
-                    let mut s = DosClassifier::try_new(m.clone(), &l, Some(n)).unwrap().with_hop(hop).unwrap();
-                    if early {
-                        s = s.with_early_decisions().unwrap();
-                    }
-                    let mut out = Vec::new();
-                    let from = cut.unwrap_or(0);
-                    for f in &input[..from] {
-                        s.push(f.clone(), &mut out).unwrap();
-                    }
-                    s.reset();
-                    out.clear();
-                    for f in &input[from..] {
-                        s.push(f.clone(), &mut out).unwrap();
-                    }
-                    s.finish(&mut out).unwrap();
-                    assert!(!out.is_empty());
+                    let (from, out) = slide_after_reset(&m, &l, &input, n, hop, early, cut);
                     for d in &out {
                         let last = d.seq as usize;
                         let window = &input[(last + 1).saturating_sub(n as usize).max(from)..=last];
@@ -929,22 +945,7 @@ fn the_sliding_mode_runs_a_tree_part_over_the_windows_since_the_reset() {
     for (n, hop) in [(1u64, 1u64), (5, 3), (13, 13), (40, 7), (80, 16), (80, 100), (300, 10), (50, 10)] {
         for early in [false, true] {
             for cut in [None, Some(1), Some(37), Some(120)] {
-                let mut s = DosClassifier::try_new(m.clone(), &l, Some(n)).unwrap().with_hop(hop).unwrap();
-                if early {
-                    s = s.with_early_decisions().unwrap();
-                }
-                let mut out = Vec::new();
-                let from = cut.unwrap_or(0);
-                for fr in &input[..from] {
-                    s.push(fr.clone(), &mut out).unwrap();
-                }
-                s.reset();
-                out.clear();
-                for fr in &input[from..] {
-                    s.push(fr.clone(), &mut out).unwrap();
-                }
-                s.finish(&mut out).unwrap();
-                assert!(!out.is_empty());
+                let (from, out) = slide_after_reset(&m, &l, &input, n, hop, early, cut);
                 let since = tree_windows_since(&trees, &input, from);
                 for d in &out {
                     let last = d.seq as usize;
