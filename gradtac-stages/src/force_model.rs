@@ -2039,8 +2039,11 @@ mod tests {
         assert!(out[40..].iter().all(|e| (e.force_n.unwrap() - 3.0).abs() < 0.05), "{:?}", &out[40..]);
     }
 
-    /// Session 34's shape-test candidate (d3): the drift-shape return with the magnitude fit.
+    /// Session 34's shape-test candidate (d3), the gate since then: the drift-shape return with
+    /// the magnitude fit.
     const SHAPE_GATE: DriftModel = DriftModel { drift_shape: 0.25, drift_shape_fit: ShapeFit::Magnitude, ..FORCE_GATE };
+    /// Session 33's gate: [`FORCE_GATE`] without the drift-shape return.
+    const GATE_S33: DriftModel = DriftModel { drift_shape: 0.0, drift_shape_fit: ShapeFit::Signed, ..FORCE_GATE };
 
     /// xorshift64: a uniform in [0, 1).
     fn uniform(state: &mut u64) -> f64 {
@@ -2148,15 +2151,15 @@ mod tests {
     fn the_drift_shape_return_keeps_a_press_and_follows_a_drift_without_shape() {
         // a press's slow ramp and hold (smooth over neighbouring taxels) is never returned as
         // drift: held through its hold, nothing left after its lift, no slope learned from
-        // it — as the current gate
-        for gate in [FORCE_GATE, SHAPE_GATE] {
+        // it — as session 33's gate
+        for gate in [GATE_S33, SHAPE_GATE] {
             let (held, late, slope) = ramp_then_lift(gate, 40.0, true);
             assert_eq!((held, late), (250, 0), "{gate:?}");
             assert!(slope < 0.1, "{slope} counts/s learned from a press");
         }
-        // the same peak without a shape (scattered, mixed signs): the current gate holds
+        // the same peak without a shape (scattered, mixed signs): session 33's gate holds
         // it as a contact; the drift-shape return takes it as the new level during the hold
-        assert_eq!(ramp_then_lift(FORCE_GATE, 40.0, false).0, 250);
+        assert_eq!(ramp_then_lift(GATE_S33, 40.0, false).0, 250);
         let (held, late, _) = ramp_then_lift(SHAPE_GATE, 40.0, false);
         assert!(held < 50 && late == 0, "{held} of 250 hold frames in contact, {late} late");
         // without the layout's positions the setting is off
@@ -2177,7 +2180,7 @@ mod tests {
     fn a_drift_without_shape_under_a_long_contact_is_followed_and_the_contact_ends() {
         // the stuck tuning-side members' mechanism (docs/force.md, session 33, second round):
         // a quiet sensor whose taxels drift independently (slope and walk each); the press
-        // freezes the baseline, so after it the stale offsets hold the contact. The current
+        // freezes the baseline, so after it the stale offsets hold the contact. Session 33's
         // gate stays in contact through the rest in every draw and press (4769 of 4800 late
         // frames); the drift-shape return ends it in 14 of the 16 (2758 of 4800: the contact
         // ends, the walk beyond 2 σ brings one back until the next drift-shaped steady frame),
@@ -2185,7 +2188,7 @@ mod tests {
         let (mut old, mut new, mut freed) = (0, 0, 0);
         for draw in 0..8 {
             for peak in [30.0, 150.0] {
-                let (late, held) = press_then_rest(FORCE_GATE, peak, draw);
+                let (late, held) = press_then_rest(GATE_S33, peak, draw);
                 assert_eq!(held, 250);
                 old += late;
                 let (late, held) = press_then_rest(SHAPE_GATE, peak, draw);
@@ -2194,7 +2197,7 @@ mod tests {
                 freed += usize::from(late < 300);
             }
         }
-        assert!(old >= 16 * 290, "the current gate: {old} late frames of 4800");
+        assert!(old >= 16 * 290, "session 33's gate: {old} late frames of 4800");
         assert!(
             5 * new < 3 * old && freed >= 14,
             "the drift-shape return: {new} late frames against {old}, {freed} of 16 freed"
