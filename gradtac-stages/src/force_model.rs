@@ -1092,7 +1092,11 @@ pub struct ChangeForce {
 
 impl ChangeForce {
     /// The stage for a validated file whose model reads changes, with the detector settings
-    /// of `locate` (validated).
+    /// of `locate` (validated). When the file names a built-in layout
+    /// ([`Layout::builtin`](gradtac_stream::Layout::builtin)) of its taxel count, the detector
+    /// gets that layout's positions, which the gate's drift-shape return needs
+    /// ([`FORCE_GATE`]); for another layout give them with [`with_positions`](Self::with_positions)
+    /// (without them that return is off).
     pub fn try_new(file: &ForceFile, locate: &LocateConfig) -> Result<Self> {
         file.validate()?;
         if !file.model.reads_changes() {
@@ -1101,12 +1105,18 @@ impl ChangeForce {
                 file.model.method().name()
             )));
         }
-        let det = force_detector(file.taxels, locate)?;
+        let mut det = force_detector(file.taxels, locate)?;
+        if let Ok(layout) = gradtac_stream::Layout::builtin(&file.layout) {
+            if layout.len() == file.taxels {
+                det = det.with_positions(layout.positions())?;
+            }
+        }
         Ok(ChangeForce { det, model: file.model.clone(), predictor: ForcePredictor::new(&file.model) })
     }
 
     /// The taxels' positions (mm) for the drift model's shape test
-    /// ([`ChangeDetector::with_positions`]; the scene's chain gives the layout's).
+    /// ([`ChangeDetector::with_positions`]; the scene's chain gives its layout's, which replace
+    /// a built-in layout's that [`try_new`](Self::try_new) attached).
     pub fn with_positions(mut self, positions: &[[f64; 2]]) -> Result<Self> {
         self.det = self.det.with_positions(positions)?;
         Ok(self)
@@ -1188,6 +1198,27 @@ mod tests {
             model: CalibratedForce::Ridge { intercept_n: 0.0, weights: vec![-0.01, 0.0], lambda: 0.0 },
             calibration: CalibrationInfo { samples: 10, force_range_n: [0.1, 5.0], in_sample_mape_pct: 3.0 },
         }
+    }
+
+    #[test]
+    fn a_file_of_a_built_in_layout_gives_the_gate_its_positions() {
+        // the drift-shape return of the gate needs positions: a file of the built-in layout
+        // gets them at construction; another layout (or a taxel count that does not match)
+        // runs without them until `with_positions`
+        let sp = ForceFile {
+            taxels: 24,
+            model: CalibratedForce::Ridge { intercept_n: 0.0, weights: vec![-0.01; 24], lambda: 0.0 },
+            ..file()
+        };
+        let f = ChangeForce::try_new(&sp, &LocateConfig::default()).unwrap();
+        assert_eq!(f.detector().positions(), Some(gradtac_stream::Layout::biotac_sp().positions()));
+        let custom = ForceFile { layout: "my-hand".into(), ..sp.clone() };
+        let f = ChangeForce::try_new(&custom, &LocateConfig::default()).unwrap();
+        assert!(f.detector().positions().is_none());
+        let f = f.with_positions(gradtac_stream::Layout::biotac_sp().positions()).unwrap();
+        assert!(f.detector().positions().is_some());
+        // `file()`: the built-in name with 2 taxels, not its 24
+        assert!(ChangeForce::try_new(&file(), &LocateConfig::default()).unwrap().detector().positions().is_none());
     }
 
     /// Samples whose gauge force is an exact power law of the total change.
