@@ -174,6 +174,22 @@ struct SlidingTrees {
     windows: std::collections::VecDeque<(u64, Vec<f64>)>,
 }
 
+impl Sliding {
+    /// Forget the stream (a reset or `finish`): the frames, the decisions' counts, the cached
+    /// and prepared work, and the tree part's windows; the settings stay.
+    fn restart(&mut self) {
+        self.recent.clear();
+        self.since = 0;
+        self.total = 0;
+        self.cache.clear();
+        self.ahead = Ahead::default();
+        if let Some(t) = &mut self.trees {
+            t.extractor.reset();
+            t.windows.clear();
+        }
+    }
+}
+
 /// The next decision's work, done a share per frame between decisions, so that no one frame
 /// carries a whole window's replay (the sliding mode's p99). `replay` holds the frames
 /// `first..pushed` of the window that the next decision is predicted to cover; with a net
@@ -569,15 +585,7 @@ impl Stage for DosClassifier {
             self.decide_window(out)?;
         }
         if let Some(sl) = &mut self.sliding {
-            sl.recent.clear();
-            sl.since = 0;
-            sl.total = 0;
-            sl.cache.clear();
-            sl.ahead = Ahead::default();
-            if let Some(t) = &mut sl.trees {
-                t.extractor.reset();
-                t.windows.clear();
-            }
+            sl.restart();
         }
         self.emit(out)
     }
@@ -592,15 +600,7 @@ impl Stage for DosClassifier {
             v.reset();
         }
         if let Some(sl) = &mut self.sliding {
-            sl.recent.clear();
-            sl.since = 0;
-            sl.total = 0;
-            sl.cache.clear();
-            sl.ahead = Ahead::default();
-            if let Some(t) = &mut sl.trees {
-                t.extractor.reset();
-                t.windows.clear();
-            }
+            sl.restart();
         }
     }
 
