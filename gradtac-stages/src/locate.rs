@@ -861,8 +861,8 @@ pub struct DriftModel {
     /// looks like a press and is not returned by this rule. Cost: on steady excursion frames
     /// only, O(n): four bumps over the taxels (`3 n` exponentials for the signed fit, `6 n`
     /// for the magnitude fit), no allocation. Measured (session 34, `docs/force.md`): the
-    /// magnitude fit at 0.25 ranks first on the 62 tuning members but is not the force gate's
-    /// (a CLI test pins another calibration outcome); the signed fit takes presses of mixed-sign
+    /// magnitude fit at 0.25 ranked first on the 62 tuning members and is the force gate's since
+    /// session 34 ([`crate::force_model::FORCE_GATE`]); the signed fit takes presses of mixed-sign
     /// electrodes for drift.
     pub drift_shape: f64,
     /// How the drift-shape return measures a change's shape ([`ShapeFit`]; default: the
