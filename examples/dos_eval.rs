@@ -36,7 +36,7 @@
 //! the gradient-boosted trees (T1) combined with the Student-t design, held out the same way —
 //! basic → solids, solids → basic and the ConvLSTM protocol; `--trees-nested` adds the nested
 //! leave-one-object-out (≈ 4–6 min more, not in CI; the section without it ≈ 40 s, with the sliding mode's p99
-//! per frame checked against 20 µs).
+//! per frame printed beside the 20 µs, reported, not a floor).
 //!
 //! `--window-candidates FILE.json` replaces the window model's candidates by a JSON list of
 //! (partial) `WindowTrainConfig`s (e.g. `examples/dos_eval_parts/since_start_ensemble.json`,
