@@ -33,7 +33,7 @@
 //! training objects), early answers, its streaming cost and training time (the default window
 //! part until stop 33; now the baseline of the trees).
 //! **The default window part** (`dos_eval_parts/trees_default.rs`, `--trees-only` runs just it):
-//! the gradient-boosted trees (T1) combined with the Student-t design, held out the same way —
+//! the gradient-boosted trees (T4, round 2 of `trees_rule_round2.md`) combined with the Student-t design, held out the same way —
 //! basic → solids, solids → basic and the ConvLSTM protocol; `--trees-nested` adds the nested
 //! leave-one-object-out (≈ 4–6 min more, not in CI; the section without it ≈ 40 s, with the sliding mode's p99
 //! per frame printed beside the 20 µs, reported, not a floor).

@@ -7,6 +7,10 @@
 //! `examples/dos_eval_parts/trees_rule.md`), the leave-one-object-out accuracy *inside* basic and
 //! *inside* solids only (per window and per recording, the causal vote) and the rule's pick; then
 //! each candidate's fit time on all recordings and its per-frame cost through the causal vote.
+//!
+//! `--tree-baseline` makes the file's first candidate the baseline row instead of the window net
+//! (stop 34's round 2, `examples/dos_eval_parts/trees_rule_round2.md`: T1, the default, re-run);
+//! `--first N` numbers the other candidates from `N` (default 1, or 3 with `--tree-baseline`).
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train_trees::{fit_on, inner_score, tree_samples, TreeTrainConfig};
@@ -38,17 +42,21 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut cands_path = root.join("examples/dos_eval_parts/trees_candidates.json");
     let mut held: Option<PathBuf> = None;
     let mut cost_only = false;
+    let mut tree_baseline = false;
+    let mut first: Option<usize> = None;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--candidates" => cands_path = args.next().ok_or("--candidates needs a JSON file")?.into(),
             "--cost-only" => cost_only = true,
+            "--tree-baseline" => tree_baseline = true,
+            "--first" => first = Some(args.next().ok_or("--first needs a number")?.parse()?),
             "--held-out" => {
                 held = Some(args.next().ok_or("--held-out needs a JSON file of one TreeTrainConfig")?.into())
             }
             "-h" | "--help" => {
                 println!(
-                    "usage: dos_trees [DATA_DIR] [--candidates FILE.json] [--cost-only] [--held-out CANDIDATE.json]"
+                    "usage: dos_trees [DATA_DIR] [--candidates FILE.json] [--tree-baseline] [--first N] [--cost-only] [--held-out CANDIDATE.json]"
                 );
                 return Ok(());
             }
@@ -74,24 +82,40 @@ fn main() -> Result<(), Box<dyn Error>> {
     let of = |set: &str| -> Vec<usize> { (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect() };
     let (basic, solids) = (of("basic"), of("solids"));
     if cost_only {
-        costs(&tr, &layout, &cands)?;
+        costs(&tr, &layout, &cands, 1)?;
         return stage_cost(&dir, &layout, &tr);
     }
+    if tree_baseline && cands.len() < 2 {
+        return Err("--tree-baseline needs the baseline and at least one candidate in the file".into());
+    }
+    let first = first.unwrap_or(if tree_baseline { 3 } else { 1 });
+    // the rows' names after the baseline row: T{first}, T{first + 1}, …
+    let name = |k: usize| format!("T{}", first + k);
     let mut rows: Vec<(String, InnerScore, InnerScore)> = Vec::new();
     let t = Instant::now();
-    let wc = gradtac::calibrate::window_candidates();
-    let ws = window_samples(&tr, &layout, &wc[0])?;
-    let b = inner_scores(&tr, &[ws.as_slice()], &basic, &layout, &wc[..1])?;
-    let s = inner_scores(&tr, &[ws.as_slice()], &solids, &layout, &wc[..1])?;
-    rows.push(("current default window part (baseline)".into(), b[0], s[0]));
+    let tree_cands: &[TreeTrainConfig] = if tree_baseline {
+        let c = &cands[0];
+        let samples = tree_samples(&tr, &layout, c)?;
+        let b = inner_score(&tr, &samples, &basic, &layout, c)?;
+        let s = inner_score(&tr, &samples, &solids, &layout, c)?;
+        rows.push((format!("baseline (the default, re-run): {}", serde_json::to_string(c)?), b, s));
+        &cands[1..]
+    } else {
+        let wc = gradtac::calibrate::window_candidates();
+        let ws = window_samples(&tr, &layout, &wc[0])?;
+        let b = inner_scores(&tr, &[ws.as_slice()], &basic, &layout, &wc[..1])?;
+        let s = inner_scores(&tr, &[ws.as_slice()], &solids, &layout, &wc[..1])?;
+        rows.push(("the window net part (stop 33's baseline)".into(), b[0], s[0]));
+        &cands
+    };
     println!("(baseline inner views: {:.0} s)", t.elapsed().as_secs_f64());
-    for (k, c) in cands.iter().enumerate() {
+    for (k, c) in tree_cands.iter().enumerate() {
         let t = Instant::now();
         let samples = tree_samples(&tr, &layout, c)?;
         let b = inner_score(&tr, &samples, &basic, &layout, c)?;
         let s = inner_score(&tr, &samples, &solids, &layout, c)?;
-        println!("(T{} inner views: {:.0} s)", k + 1, t.elapsed().as_secs_f64());
-        rows.push((format!("T{}: {}", k + 1, serde_json::to_string(c)?), b, s));
+        println!("({} inner views: {:.0} s)", name(k), t.elapsed().as_secs_f64());
+        rows.push((format!("{}: {}", name(k), serde_json::to_string(c)?), b, s));
     }
     println!("\n| candidate (inner views only) | inside basic, per window | per recording | inside solids, per window | per recording | recordings, both | mean per window |");
     println!("|---|---|---|---|---|---|---|");
@@ -113,7 +137,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         let excluded = b.1 .0 + 2 < b0.1 .0 || s.1 .0 + 2 < s0.1 .0;
         let key = |b: &InnerScore, s: &InnerScore| (b.1 .0 + s.1 .0, frac(b.0) + frac(s.0));
         let (kb, ks) = (&rows[best].1, &rows[best].2);
-        println!("T{k}: {}", if excluded { "excluded (loses > 2 recordings in a view)" } else { "eligible" });
+        println!(
+            "{}: {}",
+            name(k - 1),
+            if excluded { "excluded (loses > 2 recordings in a view)" } else { "eligible" }
+        );
         if !excluded {
             let (a, am) = key(b, s);
             let (c, cm) = key(kb, ks);
@@ -124,9 +152,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     }
     println!(
         "rule's pick: {}",
-        if best == 0 { "the current default (no tree model scored held out)".into() } else { format!("T{best}") }
+        if best == 0 { "the baseline (no candidate scored held out)".into() } else { name(best - 1) }
     );
-    costs(&tr, &layout, &cands)
+    costs(&tr, &layout, tree_cands, first)
 }
 
 /// `gradtac calibrate dos --window-trees`'s procedure on all recordings (its time), and the
@@ -172,6 +200,7 @@ fn costs(
     tr: &[gradtac::stages::dos::train::TrainRecording],
     layout: &Layout,
     cands: &[TreeTrainConfig],
+    first: usize,
 ) -> Result<(), Box<dyn Error>> {
     let all: Vec<usize> = (0..tr.len()).collect();
     for (k, c) in cands.iter().enumerate() {
@@ -195,7 +224,7 @@ fn costs(
         // the window frames alone: each is one window's inputs and two walks of every tree
         println!(
             "T{}: fit on all {} recordings (with augmentation) {fit_s:.1} s; {} trees, {} nodes; causal vote per frame median {:.2} µs, p99 {:.2} µs ({} frames)",
-            k + 1,
+            k + first,
             tr.len(),
             m.trees().len(),
             m.nodes(),

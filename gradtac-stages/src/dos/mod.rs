@@ -644,6 +644,26 @@
 //! with the 16 s version (wall, load ≈ 8 on 2 cores; ≈ 6 min 2 s without it). This reproduces
 //! the choice already made by the rule; nothing was chosen on it.
 //!
+//! **Round 2 (stop 34): T4, regularised trees, the default.** Rule and candidates in
+//! `examples/dos_eval_parts/trees_rule_round2.md` (committed before any figure of them): stop 33's
+//! rule with T1 as the baseline re-run; candidates aimed at transfer from few training objects —
+//! T3 object-level augmentation (3 copies, per-taxel gain 0.15, offset 0.3), T4 regularisation
+//! (60 rounds, depth ≤ 3, λ 5, minimum hessian 5), T5 offset-invariant inputs (`since_start` +
+//! motion + slope, 76), T6 T3's augmentation with speed 1.5, warp 0.2, dropout 0.1, rotation 20°.
+//! Inner views (`trees_round2_inner_views.txt`, per recording, inside basic + inside solids): T1
+//! 94 + 44 = 138 (reproduced), T3 91 + 45 = 136 (excluded), **T4 94 + 46 = 140**, T5 80 + 40 = 120
+//! (excluded), T6 96 + 44 = 140 (T4 wins the tie on mean per-window accuracy, 77.9 against 76.1 %).
+//! Held out once (`dos_trees --held-out examples/dos_eval_parts/trees_t4.json`,
+//! `trees_round2_held_out.txt`), combination with T4: nested **89.2 %** (149/167), basic → solids
+//! **92.9 %** (52/56), solids → basic **82.0 %** (91/111; T1 79.3 %, target 85 % still not met),
+//! ConvLSTM protocol **89.0 %** (2 738/3 076; with the causal vote 88.3 %); at 1 s 89.3 / 81.1 %;
+//! T4's vote alone 88.6 / 91.1 / 87.4 % (observed, nothing chosen on it). Every met target stays
+//! met and the sliding mode's p99 is 7.6 µs (`dos_eval --trees-only --trees-nested`, which
+//! reproduces every figure), so by the rule T4 is `train_trees::TreeTrainConfig::default()` and
+//! `gradtac calibrate dos`'s tree part (420 trees, ≈ 5 000 nodes against T1's 11 556; fit 2.0 s).
+//! `dos_eval`'s floors follow: 86 / 89 / 79 / 86 % (nested / basic → solids / solids → basic /
+//! ConvLSTM). The T1 figures above are kept as stop 33's record.
+//!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
 //! per-class variances shrunk toward them, `σ²_{c,j} = λ·σ²_j + (1 − λ)·s²_{c,j}` with

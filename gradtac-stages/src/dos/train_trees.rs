@@ -56,14 +56,17 @@ pub struct TreeTrainConfig {
 }
 
 impl Default for TreeTrainConfig {
+    /// T4 of stop 34's round 2 (`examples/dos_eval_parts/trees_rule_round2.md`), the default of
+    /// `gradtac calibrate dos`: stop 33's T1 (80 rounds, depth ≤ 4, λ = 1, minimum hessian 1)
+    /// regularised to 60 rounds, depth ≤ 3, λ = 5, minimum hessian 5.
     fn default() -> Self {
         TreeTrainConfig {
             inputs: TreeInputs::default(),
-            rounds: 80,
-            depth: 4,
+            rounds: 60,
+            depth: 3,
             learning_rate: 0.1,
-            lambda: 1.0,
-            min_hessian: 1.0,
+            lambda: 5.0,
+            min_hessian: 5.0,
             bins: 32,
             subsample: 0.5,
             seed: 1,
