@@ -40,7 +40,7 @@ pub fn run(dir: &std::path::Path, layout: &Layout, no_floors: bool, nested: bool
         return Ok(());
     }
     // speed is reported, not enforced here: a timing on a shared CI machine is not a test
-    // (the criterion bench `tasks` measures it)
+    // (`examples/dos_sliding_cost` measures it, a table of medians and p99)
     if p99 > MAX_P99_US {
         println!(
             "note: trees, sliding-mode p99 cost per frame {p99:.1} µs is over the issue's {MAX_P99_US} µs on this run"
