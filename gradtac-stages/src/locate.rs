@@ -985,6 +985,14 @@ const NOISE_RETURN_MOVE: f64 = 0.1;
 /// the family's kernel widths span 1.5–5 mm and grow with force.
 pub const PRESS_BUMP_WIDTHS_MM: [f64; 3] = [1.5, 3.0, 6.0];
 
+/// A Gaussian bump of width `w` (mm) centred on taxel `p`, at taxel `i` (`positions` in mm):
+/// the smooth bumps of [`press_shaped_fraction`] and [`press_shaped_magnitude`].
+fn press_bump(positions: &[[f64; 2]], p: usize, w: f64, i: usize) -> f64 {
+    let (c, q) = (positions[p], positions[i]);
+    let d2 = (q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2);
+    (-d2 / (2.0 * w * w)).exp()
+}
+
 /// The share of a change's energy one smooth bump explains (in [0, 1]): with `eᵢ = Δᵢ/σᵢ`
 /// (`delta` in input units, `sigma` each taxel's noise σ; a taxel with σ ≤ 0 counts as 0),
 /// `max over g of (g·e)² / (|g|² |e|²)` over the bumps `g` centred on the taxel of the largest
@@ -1010,12 +1018,10 @@ pub fn press_shaped_fraction(delta: &[f64], sigma: &[f64], positions: &[[f64; 2]
         return 1.0;
     }
     let mut best = top * top / ee;
-    let c = positions[p];
     for w in PRESS_BUMP_WIDTHS_MM {
         let (mut ge, mut gg) = (0.0, 0.0);
-        for (i, q) in positions.iter().enumerate() {
-            let d2 = (q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2);
-            let g = (-d2 / (2.0 * w * w)).exp();
+        for i in 0..n {
+            let g = press_bump(positions, p, w, i);
             ge += g * e(i);
             gg += g * g;
         }
@@ -1057,7 +1063,6 @@ pub fn press_shaped_magnitude(delta: &[f64], sigma: &[f64], positions: &[[f64; 2
     if !(saa.is_finite() && saa > 0.0) {
         return 1.0;
     }
-    let c = positions[p];
     let r2 = |g: &dyn Fn(usize) -> f64| {
         let gm = (0..n).map(g).sum::<f64>() / n as f64;
         let (mut sgg, mut sga) = (0.0, 0.0);
@@ -1074,11 +1079,7 @@ pub fn press_shaped_magnitude(delta: &[f64], sigma: &[f64], positions: &[[f64; 2
     };
     let mut best = r2(&|i| f64::from(u8::from(i == p)));
     for w in PRESS_BUMP_WIDTHS_MM {
-        let g = |i: usize| {
-            let q = positions[i];
-            (-((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2)) / (2.0 * w * w)).exp()
-        };
-        best = best.max(r2(&g));
+        best = best.max(r2(&|i| press_bump(positions, p, w, i)));
     }
     if best.is_finite() {
         best.clamp(0.0, 1.0)
