@@ -19,7 +19,7 @@ mod sliding_cost;
 
 use gradtac::calibrate::{read_model, read_recordings, CalibrateOptions, Recording};
 use gradtac::stages::dos::{DosClassifier, DosModel};
-use gradtac::stream::{Layout, SensorId, StageExt, TaxelFrame, Timestamp};
+use gradtac::stream::{Layout, StageExt, TaxelFrame};
 use std::error::Error;
 use std::path::PathBuf;
 
@@ -81,19 +81,7 @@ fn compare_fresh(
     // [from the first frame, slid]: (decisions, same class as fresh, sliding right, fresh right)
     let mut tally = [(0usize, 0usize, 0usize, 0usize); 2];
     for r in recs {
-        let frames: Vec<TaxelFrame> = r
-            .frames
-            .iter()
-            .enumerate()
-            .map(|(seq, v)| {
-                TaxelFrame::new(
-                    SensorId::new("ff"),
-                    Timestamp::from_nanos(seq as i64 * 10_000_000),
-                    seq as u64,
-                    v.clone(),
-                )
-            })
-            .collect();
+        let frames: Vec<TaxelFrame> = r.frames.iter().enumerate().map(|(seq, v)| sliding_cost::frame(seq, v)).collect();
         let mut stage = DosClassifier::try_new(model.clone(), layout, Some(n))?.with_hop(hop)?;
         if early {
             stage = stage.with_early_decisions()?;

@@ -1,13 +1,14 @@
 //! The held-out headline of `dos_eval`: nested leave-one-object-out, cross-object-set figures,
 //! the published 5-frame-window protocol, accuracy by time since contact, and the baselines.
 
+use super::sliding_cost::frame;
 use gradtac::calibrate::{
     design_candidates, design_tables, held_out, object_set, spans_of, CalibrateOptions, Recording,
 };
 use gradtac::stages::dos::{DosClass, DosClassifier, DosFeatureConfig, DosModel, Feature, LabelledSpan};
 use gradtac::stages::dos_select::{choose, Candidate};
 use gradtac::stages::drift::DriftScale;
-use gradtac::stream::{Layout, SensorId, Stage, TaxelFrame, Timestamp};
+use gradtac::stream::{Layout, Stage};
 use std::error::Error;
 
 /// ν of the Student-t class densities (fixed, not chosen).
@@ -94,10 +95,6 @@ fn baseline(recs: &[Recording]) {
         pct(bs.0, bs.1),
         pct(sb.0, sb.1)
     );
-}
-
-fn frame(seq: usize, values: &[f64]) -> TaxelFrame {
-    TaxelFrame::new(SensorId::new("ff"), Timestamp::from_nanos(seq as i64 * 10_000_000), seq as u64, values.to_vec())
 }
 
 /// Sliding decisions of the streaming `dos` tap (early answers, hop 5 frames) of `model` on

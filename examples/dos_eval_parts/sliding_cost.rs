@@ -38,9 +38,14 @@ pub fn push_timed(
     v: &[f64],
     out: &mut Vec<DosDecision>,
 ) -> Result<f64, Box<dyn Error>> {
-    let f =
-        TaxelFrame::new(SensorId::new("ff"), Timestamp::from_nanos(seq as i64 * 10_000_000), seq as u64, v.to_vec());
+    let f = frame(seq, v);
     let t = Instant::now();
     stage.push(f, out)?;
     Ok(t.elapsed().as_secs_f64() * 1e6)
+}
+
+/// Frame `seq` of a recording (raw values `v`) as the `dos` stage is given it: sensor `ff`,
+/// 100 Hz from time 0.
+pub fn frame(seq: usize, v: &[f64]) -> TaxelFrame {
+    TaxelFrame::new(SensorId::new("ff"), Timestamp::from_nanos(seq as i64 * 10_000_000), seq as u64, v.to_vec())
 }
