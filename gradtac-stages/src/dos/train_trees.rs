@@ -17,7 +17,8 @@
 //! frequencies. Each round: softmax probabilities `p`, per class gradient `g = p_c − y_c` and
 //! hessian `h = max(p_c (1 − p_c), 1e-6)`; a random [`TreeTrainConfig::subsample`] share of the
 //! rows; per class one tree grown level by level to [`TreeTrainConfig::depth`]: each node's best
-//! split over all inputs and cuts maximises `G_L²/(H_L+λ) + G_R²/(H_R+λ) − G²/(H+λ)` with
+//! split over all inputs (with [`TreeTrainConfig::colsample`] below 1: over the tree's own random
+//! share of the inputs) and cuts maximises `G_L²/(H_L+λ) + G_R²/(H_R+λ) − G²/(H+λ)` with
 //! `H_L, H_R ≥` [`TreeTrainConfig::min_hessian`]; leaves get `−η·G/(H+λ)` (`η` the learning
 //! rate); every row's logits (not only the drawn ones) move by the new trees.
 
@@ -53,6 +54,18 @@ pub struct TreeTrainConfig {
     /// Average every window's logits with its mirror image's (store the layout's mirror
     /// permutation in the model).
     pub mirror_average: bool,
+    /// Share of the inputs each tree may split on (`(0, 1]`; 1: all, the trainer before stop
+    /// 35). Below 1, every tree (one per class per round) draws each input with this probability
+    /// (at least one input) from its own seeded stream, independent of the row draws: the trees
+    /// cannot all lean on the few taxels one object's pattern singles out (random forests' and
+    /// XGBoost's `colsample_bytree`). Not written when 1.
+    #[serde(skip_serializing_if = "is_one")]
+    pub colsample: f64,
+}
+
+/// Whether `v` is exactly 1 ([`TreeTrainConfig::colsample`]'s default).
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 impl Default for TreeTrainConfig {
@@ -72,6 +85,7 @@ impl Default for TreeTrainConfig {
             seed: 1,
             augment: WindowAugment::default(),
             mirror_average: true,
+            colsample: 1.0,
         }
     }
 }
@@ -91,12 +105,22 @@ impl TreeTrainConfig {
             && self.min_hessian >= 0.0
             && (2..=255).contains(&self.bins)
             && self.subsample > 0.0
-            && self.subsample <= 1.0;
+            && self.subsample <= 1.0
+            && self.colsample > 0.0
+            && self.colsample <= 1.0;
         if !ok {
             return Err(invalid(format!(
                 "tree training out of range: rounds {} (1..=2000), depth {} (1..={MAX_TREE_DEPTH}), learning rate {} \
-                 ((0, 1]), lambda {} (≥ 0), min hessian {} (≥ 0), bins {} (2..=255), subsample {} ((0, 1])",
-                self.rounds, self.depth, self.learning_rate, self.lambda, self.min_hessian, self.bins, self.subsample
+                 ((0, 1]), lambda {} (≥ 0), min hessian {} (≥ 0), bins {} (2..=255), subsample {} ((0, 1]), \
+                 colsample {} ((0, 1])",
+                self.rounds,
+                self.depth,
+                self.learning_rate,
+                self.lambda,
+                self.min_hessian,
+                self.bins,
+                self.subsample,
+                self.colsample
             )));
         }
         Ok(())
@@ -174,6 +198,10 @@ pub fn fit_trees(samples: &[(DosClass, Vec<f64>)], layout: &Layout, cfg: &TreeTr
     base.iter_mut().for_each(|b| *b = (*b / n as f64).max(1e-9).ln());
     let mut logits: Vec<f64> = (0..n).flat_map(|_| base.iter().copied()).collect();
     let mut rng = SplitMix::new(cfg.seed ^ 0x7EE5);
+    // the inputs' draws per tree: their own stream, so that colsample = 1 draws nothing and the
+    // row draws stay those of the trainer without it
+    let mut col_rng = SplitMix::new(cfg.seed ^ 0xC015);
+    let mut allowed = vec![true; d];
     let mut trees = Vec::with_capacity(cfg.rounds * k);
     let (mut g, mut h) = (vec![0.0; n], vec![0.0; n]);
     let mut hist = vec![0.0; 2 * d * bins];
@@ -187,7 +215,10 @@ pub fn fit_trees(samples: &[(DosClass, Vec<f64>)], layout: &Layout, cfg: &TreeTr
                 g[r] = p - f64::from(u8::from(label[r] == c));
                 h[r] = (p * (1.0 - p)).max(1e-6);
             }
-            let tree = grow(&binned, d, bins, &cuts, &g, &h, rows.clone(), cfg, &mut hist);
+            if cfg.colsample < 1.0 {
+                draw_inputs(&mut allowed, cfg.colsample, &mut col_rng);
+            }
+            let tree = grow(&binned, d, bins, &cuts, &g, &h, rows.clone(), cfg, &allowed, &mut hist);
             for r in 0..n {
                 logits[r * k + c] += walk_binned(&tree.0, &tree.1, &binned[r * d..(r + 1) * d]);
             }
@@ -204,6 +235,15 @@ pub fn fit_trees(samples: &[(DosClass, Vec<f64>)], layout: &Layout, cfg: &TreeTr
         None
     };
     DosTrees::try_new(cfg.inputs.clone(), taxels, classes, base, trees, mirror, 0)
+}
+
+/// Each input allowed with probability `share` (at least one: if none is drawn, one at random).
+fn draw_inputs(allowed: &mut [bool], share: f64, rng: &mut SplitMix) {
+    allowed.iter_mut().for_each(|a| *a = rng.uniform() < share);
+    if !allowed.iter().any(|&a| a) && !allowed.is_empty() {
+        let j = ((rng.uniform() * allowed.len() as f64) as usize).min(allowed.len() - 1);
+        allowed[j] = true;
+    }
 }
 
 /// A tree and the bin of each internal node's split.
@@ -227,6 +267,7 @@ fn grow(
     h: &[f64],
     rows: Vec<u32>,
     cfg: &TreeTrainConfig,
+    allowed: &[bool],
     hist: &mut [f64],
 ) -> Grown {
     let mut t = Tree { feature: vec![0], threshold: vec![0.0], left: vec![0], right: vec![0], value: vec![0.0] };
@@ -252,6 +293,9 @@ fn grow(
         let parent = gs * gs / (hs + cfg.lambda);
         let mut best = (1e-9, 0usize, 0usize);
         for (j, cut) in cuts.iter().enumerate() {
+            if !allowed[j] {
+                continue;
+            }
             let (mut gl, mut hl) = (0.0, 0.0);
             for b in 0..cut.len() {
                 let at = 2 * (j * bins + b);

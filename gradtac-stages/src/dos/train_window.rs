@@ -10,7 +10,9 @@
 //! taxel**: every value of taxel `i` times `exp(g_i)` plus `o_i`, `g_i ~ N(0, gain)`,
 //! `o_i ~ N(0, offset · σ)` with `σ` the spread of the first frame's levels across taxels —
 //! what differs between two sensors, or one sensor before and after a re-mount. (The window
-//! representation is not invariant to those, unlike the drift models'.)
+//! representation is not invariant to those, unlike the drift models'.) With
+//! [`WindowAugment::imprint`] each copy also gets an **object imprint** ([`imprint`]): a static
+//! smooth bump over neighbouring taxels, what a differently shaped object presses into the skin.
 //!
 //! Every non-overlapping window of every version is one training sample.
 //!
@@ -38,6 +40,16 @@ pub struct WindowAugment {
     /// Noise, speed, warp, dropout, rotation and vibration of the copies ([`Augment`]; its
     /// `mirror`, `copies` and `crop` are not used).
     pub base: Augment,
+    /// Spread of the **object imprint** added to every random copy ([`imprint`]), in units of
+    /// the spread of levels across taxels (`[0, 10]`; 0: none, the augmentation before stop 35,
+    /// bit for bit). Not written when 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub imprint: f64,
+}
+
+/// Whether `v` is exactly 0.
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Default for WindowAugment {
@@ -48,6 +60,7 @@ impl Default for WindowAugment {
             gain: 0.01,
             offset: 0.1,
             base: Augment { crop: 0.0, ..Augment::default() },
+            imprint: 0.0,
         }
     }
 }
@@ -61,10 +74,15 @@ impl WindowAugment {
     /// Checks every field.
     pub fn validate(&self) -> Result<()> {
         self.base.validate()?;
-        if self.copies > 100 || !(0.0..=1.0).contains(&self.gain) || !(0.0..=10.0).contains(&self.offset) {
+        if self.copies > 100
+            || !(0.0..=1.0).contains(&self.gain)
+            || !(0.0..=10.0).contains(&self.offset)
+            || !(0.0..=10.0).contains(&self.imprint)
+        {
             return Err(invalid(format!(
-                "window augmentation out of range: copies {} (≤ 100), gain {} (in [0, 1]), offset {} (in [0, 10])",
-                self.copies, self.gain, self.offset
+                "window augmentation out of range: copies {} (≤ 100), gain {} (in [0, 1]), offset {} (in [0, 10]), \
+                 imprint {} (in [0, 10])",
+                self.copies, self.gain, self.offset, self.imprint
             )));
         }
         Ok(())
@@ -169,6 +187,42 @@ pub fn gain_offset(frames: &mut [Vec<f64>], gain: f64, offset: f64, rng: &mut Sp
     }
 }
 
+/// Narrowest and widest object imprint ([`imprint`]), mm (the BioTac SP's electrodes are 4–6 mm
+/// apart: from one or two electrodes to about a third of the skin).
+pub const IMPRINT_WIDTH_MM: [f64; 2] = [3.0, 8.0];
+
+/// The **object imprint** (see [`WindowAugment::imprint`]): a static, spatially smooth bump added
+/// to every frame, `a · σ · exp(−|p_i − c|² / (2 w²))` on taxel `i` at `positions[i]`, with
+/// `a ~ N(0, spread)`, `σ` the spread of the first frame's levels across taxels, the centre `c`
+/// a random taxel's position and the width `w` uniform in [`IMPRINT_WIDTH_MM`]. What a different
+/// object plausibly changes: where and how hard its shape presses the skin, smoothly over
+/// neighbouring taxels (unlike [`gain_offset`]'s independent per-taxel offsets, a sensor's). The
+/// same bump at every frame, so every change over time is untouched. Nothing drawn when `spread`
+/// is 0 or there are no frames; `positions` must have one entry per taxel (otherwise nothing is
+/// done).
+pub fn imprint(frames: &mut [Vec<f64>], positions: &[[f64; 2]], spread: f64, rng: &mut SplitMix) {
+    let Some(first) = frames.first() else { return };
+    if spread <= 0.0 || positions.len() != first.len() || positions.is_empty() {
+        return;
+    }
+    let n = first.len() as f64;
+    let mean = first.iter().sum::<f64>() / n;
+    let sigma = (first.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let a = spread * sigma * rng.normal();
+    let at = ((rng.uniform() * n) as usize).min(positions.len() - 1);
+    let c = positions[at];
+    let w = rng.range(IMPRINT_WIDTH_MM[0], IMPRINT_WIDTH_MM[1]);
+    let bump: Vec<f64> = positions
+        .iter()
+        .map(|p| a * (-((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)) / (2.0 * w * w)).exp())
+        .collect();
+    for f in frames {
+        for (v, b) in f.iter_mut().zip(&bump) {
+            *v += b;
+        }
+    }
+}
+
 /// The versions of one labelled recording: itself, its mirror image (with `augment.mirror`;
 /// refused on a layout that is not symmetric) and `augment.copies` random copies of either.
 pub fn versions(
@@ -191,6 +245,9 @@ pub fn versions(
         let (c, f) = &out[k % originals];
         let mut copy = train::augment(f, layout.positions(), &base, rng);
         gain_offset(&mut copy, augment.gain, augment.offset, rng);
+        if augment.imprint > 0.0 {
+            imprint(&mut copy, layout.positions(), augment.imprint, rng);
+        }
         out.push((*c, copy));
     }
     Ok(out)
