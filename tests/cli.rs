@@ -700,12 +700,12 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(gradtac::calibrate::WINDOW_WEIGHTS.contains(&part.weight), "{}", part.weight);
     assert_eq!((part.trees.taxels(), part.trees.recordings()), (24, 12));
     assert_eq!(model.parameter_count(), 24 + part.trees.nodes() + 4 + 1);
-    // calibrate's trees are round 2's rule winner T4 (stop 34), exactly as it was scored held out
-    let t4: gradtac::stages::dos::train_trees::TreeTrainConfig =
-        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t4.json")).unwrap();
-    assert_eq!(t4, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T4 is the default");
-    assert_eq!(part.trees.inputs(), &t4.inputs);
-    assert!(part.trees.trees().len() <= 60 * 7, "T4: 60 rounds of at most 7 trees");
+    // calibrate's trees are round 3's rule winner T9 (stop 35), exactly as it was scored held out
+    let t9: gradtac::stages::dos::train_trees::TreeTrainConfig =
+        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t9.json")).unwrap();
+    assert_eq!(t9, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T9 is the default");
+    assert_eq!(part.trees.inputs(), &t9.inputs);
+    assert!(part.trees.trees().len() <= 60 * 7, "T9: 60 rounds of at most 7 trees");
     // the CLI passed every option on: the library, given the same options, fits the same model
     let opts = gradtac::calibrate::CalibrateOptions { shrinkage: 0.25, student_t_dof: None, ..Default::default() }
         .with_settings_file(&settings)

@@ -69,9 +69,11 @@ fn is_one(v: &f64) -> bool {
 }
 
 impl Default for TreeTrainConfig {
-    /// T4 of stop 34's round 2 (`examples/dos_eval_parts/trees_rule_round2.md`), the default of
-    /// `gradtac calibrate dos`: stop 33's T1 (80 rounds, depth ≤ 4, λ = 1, minimum hessian 1)
-    /// regularised to 60 rounds, depth ≤ 3, λ = 5, minimum hessian 5.
+    /// T9 of stop 35's round 3 (`examples/dos_eval_parts/trees_rule_round3.md`), the default of
+    /// `gradtac calibrate dos`: stop 34's T4 (stop 33's T1 — 80 rounds, depth ≤ 4, λ = 1,
+    /// minimum hessian 1 — regularised to 60 rounds, depth ≤ 3, λ = 5, minimum hessian 5) with
+    /// two random copies per recording (one of it, one of its mirror image) instead of one, each
+    /// with an **object imprint** of spread 0.5 ([`WindowAugment::imprint`]).
     fn default() -> Self {
         TreeTrainConfig {
             inputs: TreeInputs::default(),
@@ -83,7 +85,7 @@ impl Default for TreeTrainConfig {
             bins: 32,
             subsample: 0.5,
             seed: 1,
-            augment: WindowAugment::default(),
+            augment: WindowAugment { copies: 2, imprint: 0.5, ..WindowAugment::default() },
             mirror_average: true,
             colsample: 1.0,
         }

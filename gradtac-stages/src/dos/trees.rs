@@ -38,8 +38,8 @@
 //! Per frame: the window extractor's copy of the frame; per window: its inputs, `n` subtractions
 //! per lag, the slope's running sum, and one root-to-leaf walk per tree (≤ depth comparisons),
 //! twice with the mirror. With 80 rounds × 7 classes of depth 4 (stop 33's T1): ≈ 2 240
-//! comparisons per window (4 480 mirrored); with the default since stop 34's round 2 (T4: 60
-//! rounds, depth 3) ≈ 1 260 (2 520). The walk runs on a compact copy made at load: 16 bytes a node (threshold,
+//! comparisons per window (4 480 mirrored); with the default since stop 34's round 2 (T4,
+//! and stop 35's T9 with the same shape: 60 rounds, depth 3) ≈ 1 260 (2 520). The walk runs on a compact copy made at load: 16 bytes a node (threshold,
 //! input, left child; the right child is the next node, a leaf's value in the threshold's place),
 //! laid out breadth first per tree, 4 trees walked side by side, the child chosen without a
 //! branch — bit-identical to the plain walk of the arrays (tested). Against stop 33's 32-byte

@@ -273,6 +273,54 @@ mod trained {
     }
 
     #[test]
+    fn input_subsampling_limits_each_tree_to_its_drawn_inputs() {
+        let layout = Layout::biotac_sp();
+        let base = TreeTrainConfig { mirror_average: false, rounds: 12, ..TreeTrainConfig::default() };
+        let d = base.inputs.inputs(layout.len());
+        let label = |x: &[f64]| match (x[3] > 0.0, x[40] > 0.5) {
+            (true, true) => DosClass::N,
+            (true, false) => DosClass::E,
+            (false, true) => DosClass::S,
+            (false, false) => DosClass::T,
+        };
+        let mut rng = SplitMix::new(11);
+        let samples: Vec<(DosClass, Vec<f64>)> = (0..800)
+            .map(|_| {
+                let x = random_inputs(d, &mut rng);
+                (label(&x), x)
+            })
+            .collect();
+        let features = |m: &crate::dos::DosTrees| -> Vec<std::collections::BTreeSet<usize>> {
+            m.trees()
+                .iter()
+                .map(|t| (0..t.left.len()).filter(|&i| t.left[i] != 0).map(|i| t.feature[i]).collect())
+                .collect()
+        };
+        // the smallest share: every tree draws one input, so every split of a tree is on one input
+        let one = fit_trees(&samples, &layout, &TreeTrainConfig { colsample: 1e-9, ..base.clone() }).unwrap();
+        assert!(features(&one).iter().all(|f| f.len() <= 1));
+        assert!(features(&one).iter().flatten().collect::<std::collections::BTreeSet<_>>().len() > 1, "drawn afresh");
+        // 1 (the default) draws nothing: the trees are those of the full search, and a share below
+        // 1 changes them, deterministically for a seed
+        let all = fit_trees(&samples, &layout, &base).unwrap();
+        let half_cfg = TreeTrainConfig { colsample: 0.5, ..base.clone() };
+        let half = fit_trees(&samples, &layout, &half_cfg).unwrap();
+        assert_ne!(half, all);
+        assert_eq!(fit_trees(&samples, &layout, &half_cfg).unwrap(), half);
+        // the full search finds the two informative inputs first
+        assert!(features(&all)[0].contains(&3) || features(&all)[0].contains(&40));
+        for bad in [0.0, -0.5, 1.5, f64::NAN] {
+            assert!(TreeTrainConfig { colsample: bad, ..base.clone() }.validate().is_err(), "{bad}");
+        }
+        // not written when 1, read as 1 when absent
+        let text = serde_json::to_string(&TreeTrainConfig::default()).unwrap();
+        assert!(!text.contains("colsample"), "{text}");
+        let back: TreeTrainConfig = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, TreeTrainConfig::default());
+        assert!(serde_json::to_string(&half_cfg).unwrap().contains("\"colsample\":0.5"));
+    }
+
+    #[test]
     fn a_mirror_averaged_model_gives_a_mirrored_input_the_mirrored_posterior() {
         let layout = Layout::biotac_sp();
         let cfg = TreeTrainConfig { rounds: 10, ..TreeTrainConfig::default() };

@@ -376,6 +376,82 @@ mod training {
     }
 
     #[test]
+    fn an_object_imprint_is_one_static_smooth_bump_and_off_changes_nothing() {
+        let layout = Layout::biotac_sp();
+        let frames = counts(DosClass::N, 3);
+        // spread 0 (the default): nothing drawn, nothing changed — the augmentation before it
+        let mut rng = SplitMix::new(7);
+        let mut same = frames.clone();
+        imprint(&mut same, layout.positions(), 0.0, &mut rng);
+        assert_eq!(same, frames);
+        assert_eq!(rng.uniform(), SplitMix::new(7).uniform(), "no draw when off");
+        let off = WindowAugment { copies: 2, ..Default::default() };
+        let with = WindowAugment { imprint: 0.0, ..off.clone() };
+        assert_eq!(
+            versions(DosClass::N, &frames, &layout, &off, &mut SplitMix::new(3)).unwrap(),
+            versions(DosClass::N, &frames, &layout, &with, &mut SplitMix::new(3)).unwrap()
+        );
+        // on: the same added vector at every frame (every change over time kept), largest at one
+        // taxel and falling off smoothly with the distance from it; deterministic for a seed
+        let mut seen_nonzero = false;
+        for seed in 0..20 {
+            let mut a = frames.clone();
+            imprint(&mut a, layout.positions(), 0.5, &mut SplitMix::new(seed));
+            let mut b = frames.clone();
+            imprint(&mut b, layout.positions(), 0.5, &mut SplitMix::new(seed));
+            assert_eq!(a, b);
+            let bump: Vec<f64> = a[0].iter().zip(&frames[0]).map(|(x, y)| x - y).collect();
+            for (fa, f) in a.iter().zip(&frames) {
+                for ((x, y), d) in fa.iter().zip(f).zip(&bump) {
+                    assert!((x - y - d).abs() <= 1e-9 * (1.0 + y.abs()), "seed {seed}: not static");
+                }
+            }
+            let top = (0..24).max_by(|&i, &j| bump[i].abs().total_cmp(&bump[j].abs())).unwrap();
+            let c = layout.positions()[top];
+            let dist = |i: usize| {
+                let p = layout.positions()[i];
+                (p[0] - c[0]).hypot(p[1] - c[1])
+            };
+            // one Gaussian of the distance from the peak taxel: |bump| never grows with distance
+            let mut order: Vec<usize> = (0..24).collect();
+            order.sort_by(|&i, &j| dist(i).total_cmp(&dist(j)));
+            for w in order.windows(2) {
+                assert!(bump[w[1]].abs() <= bump[w[0]].abs() * (1.0 + 1e-9) + 1e-9, "seed {seed}: not one bump");
+            }
+            seen_nonzero |= bump[top].abs() > 0.0;
+        }
+        assert!(seen_nonzero);
+        // with imprint the copies differ from those without, the originals and mirror do not
+        let on = WindowAugment { imprint: 0.5, ..off.clone() };
+        let (a, b) = (
+            versions(DosClass::N, &frames, &layout, &off, &mut SplitMix::new(3)).unwrap(),
+            versions(DosClass::N, &frames, &layout, &on, &mut SplitMix::new(3)).unwrap(),
+        );
+        assert_eq!(a[..2], b[..2]);
+        assert_ne!(a[2..], b[2..]);
+        assert!(WindowAugment { imprint: 11.0, ..Default::default() }.validate().is_err());
+        assert!(WindowAugment { imprint: -0.1, ..Default::default() }.validate().is_err());
+        // empty input, or positions that do not match the taxels: nothing done, no panic
+        let mut none: Vec<Vec<f64>> = Vec::new();
+        imprint(&mut none, layout.positions(), 0.5, &mut SplitMix::new(1));
+        let mut short = frames.clone();
+        imprint(&mut short, &layout.positions()[..3], 0.5, &mut SplitMix::new(1));
+        assert_eq!(short, frames);
+    }
+
+    #[test]
+    fn mirroring_a_recording_twice_gives_it_back() {
+        let layout = Layout::biotac_sp();
+        let aug = WindowAugment::mirror_only();
+        for class in DosClass::ALL {
+            let frames = counts(class, 5);
+            let once = versions(class, &frames, &layout, &aug, &mut SplitMix::new(1)).unwrap();
+            let twice = versions(once[1].0, &once[1].1, &layout, &aug, &mut SplitMix::new(1)).unwrap();
+            assert_eq!(twice[1], (class, frames), "{class}");
+        }
+    }
+
+    #[test]
     fn window_training_separates_synthetic_slips_and_round_trips() {
         let layout = Layout::biotac_sp();
         let mut recs = Vec::new();
