@@ -11,6 +11,9 @@
 //! `--tree-baseline` makes the file's first candidate the baseline row instead of the window net
 //! (stop 34's round 2, `examples/dos_eval_parts/trees_rule_round2.md`: T1, the default, re-run);
 //! `--first N` numbers the other candidates from `N` (default 1, or 3 with `--tree-baseline`).
+//! Stop 35's round 3 (`examples/dos_eval_parts/trees_rule_round3.md`): `--candidates
+//! examples/dos_eval_parts/trees_round3_candidates.json --tree-baseline --first 7` (T4 re-run,
+//! then T7–T9).
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train_trees::{fit_on, inner_score, tree_samples, TreeTrainConfig};
