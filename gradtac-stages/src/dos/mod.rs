@@ -645,8 +645,8 @@
 //! the choice already made by the rule; nothing was chosen on it.
 //!
 //! **Round 2 (stop 34): T4, regularised trees, the default in stop 34 (since stop 35: T9,
-//! below).** Rule and candidates in `examples/dos_eval_parts/trees_rule_round2.md` (committed before any figure of them): stop 33's
-//! rule with T1 as the baseline re-run; candidates aimed at transfer from few training objects —
+//! below).** Rule and candidates in `examples/dos_eval_parts/trees_rule_round2.md` (committed
+//! before any figure of them): stop 33's rule with T1 as the baseline re-run; candidates aimed at transfer from few training objects —
 //! T3 object-level augmentation (3 copies, per-taxel gain 0.15, offset 0.3), T4 regularisation
 //! (60 rounds, depth ≤ 3, λ 5, minimum hessian 5), T5 offset-invariant inputs (`since_start` +
 //! motion + slope, 76), T6 T3's augmentation with speed 1.5, warp 0.2, dropout 0.1, rotation 20°.
