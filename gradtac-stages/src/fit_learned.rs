@@ -451,8 +451,8 @@ impl Design {
         if x.len() != n {
             return;
         }
-        for i in 0..n {
-            self.z[i] = (x[i] - self.mean[i]) / self.scale[i];
+        for ((z, v), (m, s)) in self.z.iter_mut().zip(x).zip(self.mean.iter().zip(&self.scale)) {
+            *z = (v - m) / s;
         }
         terms(&self.z, &self.omega, &self.phase, &mut self.f);
         let t = self.f.len();
