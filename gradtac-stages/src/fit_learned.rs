@@ -33,9 +33,16 @@
 //! deterministically: simulated recordings of [`sim_family`](crate::sim_family)'s **tuning**
 //! physics only (no Mexican hat, lags ≤ 30 ms) at seeds 10 000+ (training) and 20 000+
 //! (validation for the ridge's λ and bandwidths), disjoint from the tuning members (seeds 0–7)
-//! and the held-out members (100–115). The target of a frame is the truth at the frame's
-//! middle time less the member's fluid lag, minus the fit's raw position: the lag lead is
-//! left to the fit's own terms, the correction learns the static bias only.
+//! and the held-out members (100–115). The samples come from the `accurate` preset's fit (since
+//! round 10: the lag estimated online and the folded kernel behind its 2 mm ring-fit guard), so
+//! the shipped weights belong to that fit; on another fit they read inputs they were not
+//! trained on. [`Design`] accumulates the regression per subset of the samples, which
+//! `examples/fit_lopo.rs` uses to re-train without one physics group at a time
+//! (`docs/tradeoff.md`, round 10). The target of a frame is the truth at the frame's
+//! middle time minus the fit's raw position (`train_fit_correction`'s default; `--lagged`
+//! subtracts the member's lag first), so the correction also takes up part of the lag — the
+//! part that round 10's leave-one-physics-out view found does not carry to lags it was not
+//! trained on, which is why the preset now undoes the lag by its online estimate.
 //!
 //! # Limits
 //! Trained on the built-in BioTac SP layout: on any other layout the fit does not apply it. A learned model knows only the physics it was shown; `docs/tradeoff.md`
