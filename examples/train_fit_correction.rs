@@ -6,9 +6,11 @@
 //! no Mexican hat, lags ≤ 30 ms) — training seeds 10 000.. and validation seeds 20 000..
 //! (× 4 trajectory kinds), disjoint from the tuning members (0–7) and the held-out members
 //! (100–115), which this example never simulates. Each recording runs through the `accurate`
-//! fit (correction off, inputs recorded); a fitted frame's sample is its inputs and the truth
-//! at the frame's middle time less the member's fluid lag, minus the fit's raw position. Every
-//! 8th fitted frame is kept (`--every`).
+//! fit (correction off, inputs recorded; since round 10 that fit estimates the lag online and
+//! folds its kernel behind the 2 mm guard); a fitted frame's sample is its inputs and the
+//! truth at the frame's middle time (less the member's fluid lag with `--lagged`), minus the
+//! fit's raw position. Every 8th fitted frame is kept (`--every`). `examples/fit_lopo.rs`
+//! re-trains the same way without one physics group at a time (round 10).
 //!
 //! Choice: the random features' bandwidths and the ridge penalty with the lowest mean
 //! corrected distance on the validation recordings (training-distribution data, no family

@@ -360,19 +360,23 @@ fn explain_shows_the_fit_and_the_preset_values() {
     let pol = explain("[stages.locate]\npreset = \"accurate\"\nfit_polarity_votes = 10\n").unwrap();
     assert!(pol.contains("polarity learned from 10 net votes"), "{pol}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_polarity_votes = 5000\n").is_err());
-    // the folded kernel's ring-fit guard (round 9): off in the preset, shown when a scene turns it on
-    assert!(!accurate.contains("folded"), "{accurate}");
-    let guard =
-        explain("[stages.locate]\npreset = \"accurate\"\nfit_fold_lobe = true\nfit_fold_guard_mm = 2\n").unwrap();
-    assert!(guard.contains("only as a refinement of the unfolded fit within 2 mm (fit_fold_guard_mm)"), "{guard}");
+    // the folded kernel's ring-fit guard (round 9): in the preset since round 10, shown; a scene
+    // changes its bound or turns the fold off
+    assert!(
+        accurate.contains("only as a refinement of the unfolded fit within 2 mm (fit_fold_guard_mm)"),
+        "{accurate}"
+    );
+    let guard = explain("[stages.locate]\npreset = \"accurate\"\nfit_fold_guard_mm = 1.5\n").unwrap();
+    assert!(guard.contains("only as a refinement of the unfolded fit within 1.5 mm (fit_fold_guard_mm)"), "{guard}");
+    let unfolded = explain("[stages.locate]\npreset = \"accurate\"\nfit_fold_lobe = false\n").unwrap();
+    assert!(!unfolded.contains("folded"), "{unfolded}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_fold_guard_mm = 500\n").is_err());
     // the learned bias correction (round 6): on in the preset, shown; a scene turns it off
     assert!(accurate.contains("learned bias correction on (fit_learned_correction"), "{accurate}");
     let off = explain("[stages.locate]\npreset = \"accurate\"\nfit_learned_correction = false\n").unwrap();
     assert!(off.contains("no learned bias correction (fit_learned_correction false)"), "{off}");
-    // the lag estimate is off in the preset (tuning did not choose it); a scene turns it on
-    assert!(accurate.contains("lag lead 0 s along the velocity"), "{accurate}");
-    let on = explain("[stages.locate]\npreset = \"accurate\"\nfit_lag_estimate = true\n").unwrap();
+    // the lag estimate is on in the preset since round 10 (shown); a scene turns it off
+    let on = explain("[stages.locate]\npreset = \"accurate\"\n").unwrap();
     assert!(
         on.contains(
             "fluid lag estimated online from each press onset (prior 0.5 nats per 10 ms toward none, at most 0.1 s)"

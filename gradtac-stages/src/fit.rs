@@ -67,7 +67,7 @@
 //! only motion identifies them, so on a single contact the first millimetres are fitted with
 //! unlearned gains.
 //!
-//! # Kernel shape (`fit_shape_rate`, `fit_fold_lobe`, `fit_fold_guard_mm`; off by default and in `accurate`)
+//! # Kernel shape (`fit_shape_rate`, `fit_fold_lobe`, `fit_fold_guard_mm`; off by default; `accurate` folds with the guard at 2 mm)
 //! Two options widen the fitted family towards the shapes a real skin may have:
 //! - **shape exponent** (`fit_shape_rate` > 0): each lobe becomes `exp(−(ρ/w)^q/q)`, `q` in
 //!   [1, 2] — 2 the Gaussian above (bit-for-bit, unit test), 1 the exponential `exp(−ρ/w)`
@@ -235,7 +235,7 @@
 //! in `v·τ / w`, the same field shifted, so neither the position track nor the electrodes'
 //! pattern *during the slide* says what `τ` is. Default 0 (no lead).
 //!
-//! **`fit_lag_estimate = true`** (off by default, also in the `accurate` preset) estimates `τ` online instead, from
+//! **`fit_lag_estimate = true`** (off by default, on in the `accurate` preset since round 10) estimates `τ` online instead, from
 //! how each press onset turns its corners ([`crate::lag`]: a lagged-ramp fit per onset,
 //! evidence summed over presses, prior at 0, bounded by `fit_lag_max_s`), and undoes it on
 //! the electrodes before the fit — each window's mean change gets the first-order lag's

@@ -293,7 +293,8 @@ pub struct LocateConfig {
     /// `fit`: with the magnitude fit (`fit_signed = false`), fit the kernel's magnitude `|K|`
     /// too (`true`), so a far ring that moves the other way — whose changes arrive as
     /// magnitudes — is modelled as the data see it ([`crate::fit`], *Kernel shape*). Default
-    /// `false`.
+    /// `false`; the `accurate` preset turns it on with the guard below at 2 mm
+    /// (`docs/tradeoff.md`, round 10).
     pub fit_fold_lobe: bool,
     /// `fit`: with `fit_fold_lobe`, the ring-fit guard (mm, 0–100; 0 = off): the frame is
     /// fitted with the unfolded model (its own warm start and cold starts), the folded model is
@@ -301,7 +302,7 @@ pub struct LocateConfig {
     /// replaces it when its cost is lower, its
     /// position within this distance of the unfolded fit's and its ring does not explain the
     /// strongest electrode; the folded fit never carries its own warm start from frame to
-    /// frame ([`crate::fit`], *Kernel shape*). Default 0.
+    /// frame ([`crate::fit`], *Kernel shape*). Default 0; `accurate` 2.
     pub fit_fold_guard_mm: f64,
     /// `fit`: model error as a fraction of the frame's largest change, added in quadrature to
     /// each electrode's measured noise (≥ 0, ≤ 1): how much the response may differ from the
@@ -343,7 +344,7 @@ pub struct LocateConfig {
     /// fit (`true`; `fit_lead_s` is then not used): each press's onset is fitted by a lagged
     /// ramp with a corner, the evidence accumulates over presses with a prior at τ = 0, and
     /// each window's mean change gets the first-order lag's inverse ([`crate::lag`]). Default
-    /// `false`; the `accurate` preset turns it on (`docs/tradeoff.md`, round 4).
+    /// `false`; the `accurate` preset turns it on (`docs/tradeoff.md`, round 10).
     pub fit_lag_estimate: bool,
     /// `fit`: the estimated lag's bound (s, 0–0.1). Default 0.1.
     pub fit_lag_max_s: f64,
@@ -503,17 +504,15 @@ impl LocateConfig {
                 // the learned bias correction (round 6, docs/tradeoff.md): tuning worst kind 0.0316 →
                 // 0.0292 by the rule committed before its run; held out 0.041 → 0.038
                 fit_learned_correction: true,
-                // the lag estimated online (`fit_lag_estimate`) is not part of the preset: with the
-                // gains self-calibrated, tuning scored it 0.033 against 0.032 without it (round 4,
-                // docs/tradeoff.md; its held-out figure is reported there, not used for the choice)
-                fit_lag_estimate: false,
+                // round 10 (docs/tradeoff.md): the lag estimated online and the guarded fold (LF),
+                // chosen on a leave-one-physics-out view inside the tuning physics
+                fit_lag_estimate: true,
                 fit_model_error: 0.3,
                 fit_signed: false,
                 fit_motion_prior: 0.8,
                 fit_innovation_sigmas: 1.2,
-                // the folded kernel behind the ring-fit guard (`fit_fold_guard_mm`) is not part of
-                // the preset: round 9's F2 met the tuning rule (0.0292 → 0.0260) but scored 0.0400
-                // held out against the preset's 0.0384 (docs/tradeoff.md)
+                fit_fold_lobe: true,
+                fit_fold_guard_mm: 2.0,
                 ..base
             },
         }
