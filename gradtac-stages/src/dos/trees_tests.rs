@@ -21,7 +21,7 @@ fn stump(f: usize, thr: f64, a: f64, b: f64) -> Tree {
 }
 
 fn small_inputs() -> TreeInputs {
-    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2 }
+    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2, turn: false }
 }
 
 /// A valid two-class model on the BioTac SP's 24 taxels (no mirror).
