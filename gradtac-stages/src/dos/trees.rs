@@ -13,6 +13,20 @@
 //!   `n` values per lag: how the shear pattern moved over 0.3 s, 1 s, …;
 //! - with [`TreeInputs::slope_windows`] `k > 0`: the mean of the change across the window over
 //!   the last `k` windows (fewer while younger), `n` values: a windowed slope per taxel.
+//! - with [`TreeInputs::turn`] (the default of the trainer since stop 35's round 4), the
+//!   **rotation-sense inputs**, [`TURN_INPUTS`] per lag and per slope: the rigid motion of the
+//!   level pattern `z` about the contact's centre `c` (its loaded taxels' weighted centre, as the
+//!   motion inputs') that best explains a change `Δ` to first order,
+//!   `Δ_i ≈ −v·∇z_i − θ·((x_i − c_x) ∂_y z_i − (y_i − c_y) ∂_x z_i)`, fitted by least squares
+//!   over the taxels (ridge 1e-3 of the normal equations' mean diagonal): `(vx, vy, θ)`. For a
+//!   lag `Δ` is the lag's change and `z` the mean of the two patterns; for the slope `Δ` is the
+//!   mean change across the window and `z` the current pattern. Each taxel's gradient `∇z_i` is a
+//!   Gaussian-weighted least-squares fit over its layout neighbours (width the mean
+//!   nearest-neighbour distance, neighbours within three widths; fixed, not tuned). `θ > 0`
+//!   turns `+x` toward `+y`; mirror signs [`TURN_MIRROR_SIGNS`]. The translation-only inputs
+//!   above carry no sense of rotation that does not depend on where the object presses; this
+//!   one is a rotation of the change field itself about the contact. Cost per window: one
+//!   gradient per taxel (≈ 10 neighbours) and a 3 × 3 solve per source.
 //!
 //! Units: the level pattern's (deviation across taxels over their spread: dimensionless), so
 //! exactly as invariant as the window model's inputs (one gain and offset common to all taxels).
@@ -39,7 +53,7 @@
 //! per lag, the slope's running sum, and one root-to-leaf walk per tree (≤ depth comparisons),
 //! twice with the mirror. With 80 rounds × 7 classes of depth 4 (stop 33's T1): ≈ 2 240
 //! comparisons per window (4 480 mirrored); with the default since stop 34's round 2 (T4,
-//! and stop 35's T9 with the same shape: 60 rounds, depth 3) ≈ 1 260 (2 520). The walk runs on a compact copy made at load: 16 bytes a node (threshold,
+//! and stop 35's T9 and T12 with the same shape: 60 rounds, depth 3) ≈ 1 260 (2 520). The walk runs on a compact copy made at load: 16 bytes a node (threshold,
 //! input, left child; the right child is the next node, a leaf's value in the threshold's place),
 //! laid out breadth first per tree, 4 trees walked side by side, the child chosen without a
 //! branch — bit-identical to the plain walk of the arrays (tested). Against stop 33's 32-byte
@@ -272,7 +286,7 @@ const TURN_RIDGE: f64 = 1e-3;
 /// (symmetric about `y = 0` as the motion inputs', so the mirror image's inputs are the
 /// mirrored inputs) and each taxel's least-squares gradient weights over its neighbours.
 #[derive(Clone, Debug)]
-struct TurnGeometry {
+pub(super) struct TurnGeometry {
     positions: Vec<[f64; 2]>,
     /// Per taxel `i`: `(j, c_ij)` with `∇z_i = Σ_j c_ij (z_j − z_i)`.
     gradient: Vec<Vec<(usize, [f64; 2])>>,
@@ -281,7 +295,7 @@ struct TurnGeometry {
 impl TurnGeometry {
     /// The geometry of `layout`: Gaussian-weighted least-squares gradients with the width the
     /// mean nearest-neighbour distance `h` between taxels, neighbours within `3h` (fixed).
-    fn try_new(layout: &Layout) -> Result<Self> {
+    pub(super) fn try_new(layout: &Layout) -> Result<Self> {
         let positions = super::window::symmetrised(layout.positions());
         let n = positions.len();
         if n < 3 || positions.iter().flatten().any(|v| !v.is_finite()) {
@@ -311,7 +325,7 @@ impl TurnGeometry {
                     c += w * d[1] * d[1];
                 }
                 let det = a * c - b * b;
-                if !(det > 1e-9 * (a * c).max(f64::MIN_POSITIVE)) {
+                if det.is_nan() || det <= 1e-9 * (a * c).max(f64::MIN_POSITIVE) {
                     return Vec::new();
                 }
                 near.iter()
@@ -327,7 +341,7 @@ impl TurnGeometry {
     /// `change_i ≈ −v·∇z_i − θ·∂_φ z_i` with `∂_φ z_i = (x_i − c_x) ∂_y z_i − (y_i − c_y) ∂_x z_i`:
     /// least squares over the taxels with a small ridge ([`TURN_RIDGE`]). `θ > 0` turns `+x`
     /// toward `+y` (the `cw` class's sense). Zeros for a flat pattern.
-    fn rigid_flow(&self, pattern: &[f64], change: &[f64]) -> [f64; TURN_INPUTS] {
+    pub(super) fn rigid_flow(&self, pattern: &[f64], change: &[f64]) -> [f64; TURN_INPUTS] {
         let Some((c, _, _)) = super::window::moments(&self.positions, pattern) else { return [0.0; TURN_INPUTS] };
         let mut ata = [[0.0; 3]; 3];
         let mut atb = [0.0; 3];
@@ -370,7 +384,7 @@ fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> [f64; 3] {
         for j in 0..=i {
             let s = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
             if i == j {
-                if !(s > 0.0) {
+                if s.is_nan() || s <= 0.0 {
                     return [0.0; 3];
                 }
                 l[i][i] = s.sqrt();
