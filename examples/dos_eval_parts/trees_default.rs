@@ -33,8 +33,8 @@ const MAX_P99_US: f64 = 20.0;
 /// The section; fails when a figure is under its floor (unless `no_floors`).
 pub fn run(dir: &std::path::Path, layout: &Layout, no_floors: bool, nested: bool) -> Result<(), Box<dyn Error>> {
     println!(
-        "\n## The default window part: gradient-boosted trees (T9, `dos::DosTrees`; the default of `gradtac calibrate \
-         dos` since stop 34, T9 since stop 35), combined with the Student-t design"
+        "\n## The default window part: gradient-boosted trees (T12, `dos::DosTrees`; the default of `gradtac calibrate \
+         dos` since stop 34, T12 since stop 35's round 4), combined with the Student-t design"
     );
     let f = super::trees_held_out::run_with(dir, layout, &TreeTrainConfig::default(), nested)?;
     let p99 = sliding_p99(dir, layout)?;
