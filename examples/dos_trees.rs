@@ -13,7 +13,9 @@
 //! `--first N` numbers the other candidates from `N` (default 1, or 3 with `--tree-baseline`).
 //! Stop 35's round 3 (`examples/dos_eval_parts/trees_rule_round3.md`): `--candidates
 //! examples/dos_eval_parts/trees_round3_candidates.json --tree-baseline --first 7` (T4 re-run,
-//! then T7–T9).
+//! then T7–T9). Round 4 (`trees_rule_round4.md`): `--candidates
+//! examples/dos_eval_parts/trees_round4_candidates.json --tree-baseline --first 10` (T9 re-run,
+//! then T10–T12). `examples/dos_trees_diag.rs` prints the inner views' errors per object.
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train_trees::{fit_on, inner_score, tree_samples, TreeTrainConfig};

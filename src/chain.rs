@@ -744,9 +744,10 @@ impl SensorChain {
                             w.net.config.frames, w.net.config.hidden, w.weight
                         ),
                         (None, Some(t)) => format!(
-                            "Student t + gradient-boosted trees ({}-frame windows, {} inputs, {} trees), weight a = {}",
+                            "Student t + gradient-boosted trees ({}-frame windows, {} inputs{}, {} trees), weight a = {}",
                             t.trees.inputs().window.frames,
                             t.trees.input_count(),
+                            if t.trees.inputs().turn { " with the rotation-sense ones" } else { "" },
                             t.trees.trees().len(),
                             t.weight
                         ),

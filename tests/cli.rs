@@ -566,7 +566,8 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
         let trees = model.trees.as_ref().unwrap().trees.trees().len();
         assert!(
             text.contains(&format!(
-                "Student t + gradient-boosted trees (5-frame windows, 148 inputs, {trees} trees), weight a = 0.75"
+                "Student t + gradient-boosted trees (5-frame windows, 157 inputs with the rotation-sense ones, {trees} trees), \
+                 weight a = 0.75"
             )),
             "{text}"
         );
@@ -700,12 +701,20 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(gradtac::calibrate::WINDOW_WEIGHTS.contains(&part.weight), "{}", part.weight);
     assert_eq!((part.trees.taxels(), part.trees.recordings()), (24, 12));
     assert_eq!(model.parameter_count(), 24 + part.trees.nodes() + 4 + 1);
-    // calibrate's trees are round 3's rule winner T9 (stop 35), exactly as it was scored held out
+    // calibrate's trees are round 4's rule winner T12 (stop 35), exactly as it was scored held out
+    let t12: gradtac::stages::dos::train_trees::TreeTrainConfig =
+        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t12.json")).unwrap();
+    assert_eq!(t12, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T12 is the default");
+    assert_eq!(part.trees.inputs(), &t12.inputs);
+    assert!(part.trees.inputs().turn, "T12: the rotation-sense inputs");
+    assert!(part.trees.trees().len() <= 60 * 7, "T12: 60 rounds of at most 7 trees");
+    // the earlier defaults' files are spelled out: they keep meaning what was scored
     let t9: gradtac::stages::dos::train_trees::TreeTrainConfig =
         serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t9.json")).unwrap();
-    assert_eq!(t9, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T9 is the default");
-    assert_eq!(part.trees.inputs(), &t9.inputs);
-    assert!(part.trees.trees().len() <= 60 * 7, "T9: 60 rounds of at most 7 trees");
+    assert_eq!((t9.colsample, t9.inputs.turn, t9.augment.copies, t9.augment.imprint), (1.0, false, 2, 0.5));
+    let t4: gradtac::stages::dos::train_trees::TreeTrainConfig =
+        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t4.json")).unwrap();
+    assert_eq!((t4.colsample, t4.inputs.turn, t4.augment.copies, t4.augment.imprint), (1.0, false, 1, 0.0));
     // the CLI passed every option on: the library, given the same options, fits the same model
     let opts = gradtac::calibrate::CalibrateOptions { shrinkage: 0.25, student_t_dof: None, ..Default::default() }
         .with_settings_file(&settings)

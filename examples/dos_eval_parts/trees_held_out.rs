@@ -1,6 +1,6 @@
 //! Held-out figures of one tree candidate (`dos_trees --held-out CANDIDATE.json`), run once for
 //! the rule's winner (`examples/dos_eval_parts/trees_rule.md`), and since stop 34 `dos_eval`'s
-//! section of the default model's tree part (T9 since stop 35's round 3, T4 in stop 34, the cross-set splits; the nested protocol too
+//! section of the default model's tree part (T12 since stop 35's round 4, T9 in round 3, T4 in stop 34, the cross-set splits; the nested protocol too
 //! with `--trees-nested`): the combination with the
 //! Student-t design exactly as the window net's (`dos_eval`'s window part): per outer fold the
 //! Student-t candidate its own procedure chose on the fold's training objects, the weight `a` by

@@ -843,14 +843,15 @@ fn sliding_decisions_prepared_ahead_are_fresh_replays_for_any_window_hop_and_res
     }
 }
 
-/// A hand-made tree model of every class: one stump per class on a different input.
+/// A hand-made tree model of every class: one stump per class on a different input (classes
+/// 0–2 on the rotation-sense inputs' turns, [`TreeInputs::turn`]).
 fn stump_trees(l: &Layout) -> DosTrees {
-    let inputs = TreeInputs::default();
+    let inputs = TreeInputs { turn: true, ..TreeInputs::default() };
     let d = inputs.inputs(l.len());
     let trees: Vec<Tree> = (0..7)
         .map(|c| Tree {
-            feature: vec![(c * 13) % d, 0, 0],
-            threshold: vec![0.1 * c as f64 - 0.3, 0.0, 0.0],
+            feature: vec![if c < 3 { d - TURN_INPUTS * (3 - c) + 2 } else { (c * 13) % d }, 0, 0],
+            threshold: vec![if c < 3 { 0.0 } else { 0.1 * c as f64 - 0.3 }, 0.0, 0.0],
             left: vec![1, 0, 0],
             right: vec![2, 0, 0],
             value: vec![0.0, -0.5 + 0.1 * c as f64, 0.4],

@@ -58,25 +58,21 @@ pub struct TreeTrainConfig {
     /// 35). Below 1, every tree (one per class per round) draws each input with this probability
     /// (at least one input) from its own seeded stream, independent of the row draws: the trees
     /// cannot all lean on the few taxels one object's pattern singles out (random forests' and
-    /// XGBoost's `colsample_bytree`). Not written when 1.
-    #[serde(skip_serializing_if = "is_one")]
+    /// XGBoost's `colsample_bytree`). Always written: a file without it reads the default's
+    /// (0.5 since stop 35's round 4).
     pub colsample: f64,
 }
 
-/// Whether `v` is exactly 1 ([`TreeTrainConfig::colsample`]'s default).
-fn is_one(v: &f64) -> bool {
-    *v == 1.0
-}
-
 impl Default for TreeTrainConfig {
-    /// T9 of stop 35's round 3 (`examples/dos_eval_parts/trees_rule_round3.md`), the default of
-    /// `gradtac calibrate dos`: stop 34's T4 (stop 33's T1 — 80 rounds, depth ≤ 4, λ = 1,
-    /// minimum hessian 1 — regularised to 60 rounds, depth ≤ 3, λ = 5, minimum hessian 5) with
-    /// two random copies per recording (one of it, one of its mirror image) instead of one, each
-    /// with an **object imprint** of spread 0.5 ([`WindowAugment::imprint`]).
+    /// T12 of stop 35's round 4 (`examples/dos_eval_parts/trees_rule_round4.md`), the default of
+    /// `gradtac calibrate dos`: round 3's T9 — stop 34's T4 (60 rounds, depth ≤ 3, λ = 5,
+    /// minimum hessian 5) with two random copies per recording, each with an **object imprint**
+    /// of spread 0.5 ([`WindowAugment::imprint`]) — with the **rotation-sense inputs**
+    /// ([`TreeInputs::turn`]) and each tree splitting on a random half of the inputs
+    /// ([`colsample`](Self::colsample) 0.5).
     fn default() -> Self {
         TreeTrainConfig {
-            inputs: TreeInputs::default(),
+            inputs: TreeInputs { turn: true, ..TreeInputs::default() },
             rounds: 60,
             depth: 3,
             learning_rate: 0.1,
@@ -87,7 +83,7 @@ impl Default for TreeTrainConfig {
             seed: 1,
             augment: WindowAugment { copies: 2, imprint: 0.5, ..WindowAugment::default() },
             mirror_average: true,
-            colsample: 1.0,
+            colsample: 0.5,
         }
     }
 }

@@ -13,6 +13,20 @@
 //!   `n` values per lag: how the shear pattern moved over 0.3 s, 1 s, …;
 //! - with [`TreeInputs::slope_windows`] `k > 0`: the mean of the change across the window over
 //!   the last `k` windows (fewer while younger), `n` values: a windowed slope per taxel.
+//! - with [`TreeInputs::turn`] (the default of the trainer since stop 35's round 4), the
+//!   **rotation-sense inputs**, [`TURN_INPUTS`] per lag and per slope: the rigid motion of the
+//!   level pattern `z` about the contact's centre `c` (its loaded taxels' weighted centre, as the
+//!   motion inputs') that best explains a change `Δ` to first order,
+//!   `Δ_i ≈ −v·∇z_i − θ·((x_i − c_x) ∂_y z_i − (y_i − c_y) ∂_x z_i)`, fitted by least squares
+//!   over the taxels (ridge 1e-3 of the normal equations' mean diagonal): `(vx, vy, θ)`. For a
+//!   lag `Δ` is the lag's change and `z` the mean of the two patterns; for the slope `Δ` is the
+//!   mean change across the window and `z` the current pattern. Each taxel's gradient `∇z_i` is a
+//!   Gaussian-weighted least-squares fit over its layout neighbours (width the mean
+//!   nearest-neighbour distance, neighbours within three widths; fixed, not tuned). `θ > 0`
+//!   turns `+x` toward `+y`; mirror signs [`TURN_MIRROR_SIGNS`]. The translation-only inputs
+//!   above carry no sense of rotation that does not depend on where the object presses; this
+//!   one is a rotation of the change field itself about the contact. Cost per window: one
+//!   gradient per taxel (≈ 10 neighbours) and a 3 × 3 solve per source.
 //!
 //! Units: the level pattern's (deviation across taxels over their spread: dimensionless), so
 //! exactly as invariant as the window model's inputs (one gain and offset common to all taxels).
@@ -39,7 +53,7 @@
 //! per lag, the slope's running sum, and one root-to-leaf walk per tree (≤ depth comparisons),
 //! twice with the mirror. With 80 rounds × 7 classes of depth 4 (stop 33's T1): ≈ 2 240
 //! comparisons per window (4 480 mirrored); with the default since stop 34's round 2 (T4,
-//! and stop 35's T9 with the same shape: 60 rounds, depth 3) ≈ 1 260 (2 520). The walk runs on a compact copy made at load: 16 bytes a node (threshold,
+//! and stop 35's T9 and T12 with the same shape: 60 rounds, depth 3) ≈ 1 260 (2 520). The walk runs on a compact copy made at load: 16 bytes a node (threshold,
 //! input, left child; the right child is the next node, a leaf's value in the threshold's place),
 //! laid out breadth first per tree, 4 trees walked side by side, the child chosen without a
 //! branch — bit-identical to the plain walk of the arrays (tested). Against stop 33's 32-byte
@@ -73,7 +87,23 @@ pub struct TreeInputs {
     pub lags: Vec<usize>,
     /// Windows of the mean change across the window (0: none; ≤ [`MAX_TREE_LAG`]).
     pub slope_windows: usize,
+    /// Add the **rotation-sense inputs** ([`TURN_INPUTS`] per lag and per slope, see the `trees`
+    /// source file's module docs): the rigid motion `(vx, vy, θ)` of the level pattern about the
+    /// contact's centre that best explains each lag's change of the pattern (and the slope's),
+    /// fitted by least squares over the taxels with the pattern's spatial gradient on the
+    /// layout. Needs the layout's taxel positions. Default off (not written when off, so older
+    /// model files read unchanged).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub turn: bool,
 }
+
+/// Rotation-sense inputs per source (a lag or the slope): the pattern's fitted velocity `vx`,
+/// `vy` (mm per change) and turn `θ` (radians per change) ([`TreeInputs::turn`]).
+pub const TURN_INPUTS: usize = 3;
+
+/// The sign each rotation-sense input takes under the layout's reflection across `y = 0`
+/// (`vx`, `vy`, `θ`).
+pub const TURN_MIRROR_SIGNS: [f64; TURN_INPUTS] = [1.0, -1.0, -1.0];
 
 impl Default for TreeInputs {
     /// The rich representation: window inputs `both` with motion, lags 6 and 20 windows (0.3 s,
@@ -83,6 +113,7 @@ impl Default for TreeInputs {
             window: WindowNetConfig { inputs: WindowInputs::Both, motion: true, ..WindowNetConfig::default() },
             lags: vec![6, 20],
             slope_windows: 6,
+            turn: false,
         }
     }
 }
@@ -97,15 +128,25 @@ impl TreeInputs {
         if !self.lags.is_empty() && self.window.inputs == WindowInputs::SinceStart {
             return Err(invalid("tree lags need the level pattern (window inputs levels or both)"));
         }
+        if self.turn && (self.sources() == 0 || self.window.inputs == WindowInputs::SinceStart) {
+            return Err(invalid(
+                "the rotation-sense inputs (turn) need a lag or a slope and the level pattern (window inputs levels or both)",
+            ));
+        }
         if self.slope_windows > MAX_TREE_LAG {
             return Err(invalid(format!("slope windows {} must be ≤ {MAX_TREE_LAG}", self.slope_windows)));
         }
         Ok(())
     }
 
+    /// Number of per-taxel change sources: the lags and the slope.
+    fn sources(&self) -> usize {
+        self.lags.len() + usize::from(self.slope_windows > 0)
+    }
+
     /// Number of inputs for `taxels` taxels.
     pub fn inputs(&self, taxels: usize) -> usize {
-        self.window.inputs(taxels) + (self.lags.len() + usize::from(self.slope_windows > 0)) * taxels
+        self.window.inputs(taxels) + self.sources() * taxels + if self.turn { self.sources() * TURN_INPUTS } else { 0 }
     }
 
     /// The mirror image of an input vector under the taxel permutation `perm` (an involution):
@@ -123,9 +164,15 @@ impl TreeInputs {
             out.extend(MOTION_MIRROR_SIGNS.iter().enumerate().map(|(k, &s)| (at + k, s)));
             at += MOTION_INPUTS;
         }
-        for _ in 0..self.lags.len() + usize::from(self.slope_windows > 0) {
+        for _ in 0..self.sources() {
             per_taxel(&mut out, at);
             at += n;
+        }
+        if self.turn {
+            for _ in 0..self.sources() {
+                out.extend(TURN_MIRROR_SIGNS.iter().enumerate().map(|(k, &s)| (at + k, s)));
+                at += TURN_INPUTS;
+            }
         }
         out
     }
@@ -148,6 +195,8 @@ pub struct TreeExtractor {
     history: VecDeque<Vec<f64>>,
     /// The last `slope_windows` windows' change across the window.
     changes: VecDeque<Vec<f64>>,
+    /// The rotation-sense inputs' geometry ([`TreeInputs::turn`]; `None` when off).
+    turn: Option<TurnGeometry>,
 }
 
 impl TreeExtractor {
@@ -156,6 +205,7 @@ impl TreeExtractor {
         inputs.validate()?;
         let window = WindowExtractor::try_new_on(&inputs.window, layout)?;
         let n = layout.len();
+        let turn = if inputs.turn { Some(TurnGeometry::try_new(layout)?) } else { None };
         Ok(TreeExtractor {
             window,
             lags: inputs.lags.clone(),
@@ -165,6 +215,7 @@ impl TreeExtractor {
             levels: inputs.window.inputs != WindowInputs::SinceStart,
             history: VecDeque::new(),
             changes: VecDeque::new(),
+            turn,
         })
     }
 
@@ -184,11 +235,17 @@ impl TreeExtractor {
             self.history.push_back(x[..n].to_vec());
         }
         let change: Vec<f64> = x[self.change_at..self.change_at + n].to_vec();
-        let mut extra = Vec::with_capacity((self.lags.len() + 1) * n);
+        let mut extra = Vec::with_capacity((self.lags.len() + 1) * (n + TURN_INPUTS));
+        let mut turns = Vec::new();
         for &lag in &self.lags {
             let len = self.history.len();
             let then = &self.history[if len > lag { len - 1 - lag } else { 0 }];
             extra.extend(x[..n].iter().zip(then).map(|(a, b)| a - b));
+            if let Some(g) = &self.turn {
+                // the change from then to now, against the gradient of the pattern halfway
+                let mid: Vec<f64> = x[..n].iter().zip(then).map(|(a, b)| 0.5 * (a + b)).collect();
+                turns.extend(g.rigid_flow(&mid, &extra[extra.len() - n..]));
+            }
         }
         if self.slope_windows > 0 {
             if self.changes.len() == self.slope_windows {
@@ -201,9 +258,15 @@ impl TreeExtractor {
             for c in &self.changes {
                 mean.iter_mut().zip(c).for_each(|(m, v)| *m += v);
             }
-            extra.extend(mean.iter().map(|m| m / k));
+            mean.iter_mut().for_each(|m| *m /= k);
+            if let Some(g) = &self.turn {
+                // validated: the turn needs the level pattern, the first block
+                turns.extend(g.rigid_flow(&x[..n], &mean));
+            }
+            extra.extend(mean);
         }
         x.extend(extra);
+        x.extend(turns);
         Ok(Some(x))
     }
 
@@ -213,6 +276,132 @@ impl TreeExtractor {
         self.history.clear();
         self.changes.clear();
     }
+}
+
+/// Ridge of the rigid-flow fit, as a share of the mean diagonal of its normal equations (fixed,
+/// not tuned): keeps the fit finite for a pattern without gradient along some motion.
+const TURN_RIDGE: f64 = 1e-3;
+
+/// The layout's geometry for the rotation-sense inputs ([`TreeInputs::turn`]): positions
+/// (symmetric about `y = 0` as the motion inputs', so the mirror image's inputs are the
+/// mirrored inputs) and each taxel's least-squares gradient weights over its neighbours.
+#[derive(Clone, Debug)]
+pub(super) struct TurnGeometry {
+    positions: Vec<[f64; 2]>,
+    /// Per taxel `i`: `(j, c_ij)` with `∇z_i = Σ_j c_ij (z_j − z_i)`.
+    gradient: Vec<Vec<(usize, [f64; 2])>>,
+}
+
+impl TurnGeometry {
+    /// The geometry of `layout`: Gaussian-weighted least-squares gradients with the width the
+    /// mean nearest-neighbour distance `h` between taxels, neighbours within `3h` (fixed).
+    pub(super) fn try_new(layout: &Layout) -> Result<Self> {
+        let positions = super::window::symmetrised(layout.positions());
+        let n = positions.len();
+        if n < 3 || positions.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(invalid("the rotation-sense inputs need at least 3 finite taxel positions"));
+        }
+        let dist = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+        let h = (0..n)
+            .map(|i| (0..n).filter(|&j| j != i).map(|j| dist(positions[i], positions[j])).fold(f64::INFINITY, f64::min))
+            .sum::<f64>()
+            / n as f64;
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(invalid("the rotation-sense inputs need distinct taxel positions"));
+        }
+        let gradient = (0..n)
+            .map(|i| {
+                let near: Vec<(usize, [f64; 2], f64)> = (0..n)
+                    .filter(|&j| j != i && dist(positions[i], positions[j]) <= 3.0 * h)
+                    .map(|j| {
+                        let d = [positions[j][0] - positions[i][0], positions[j][1] - positions[i][1]];
+                        (j, d, (-(d[0] * d[0] + d[1] * d[1]) / (2.0 * h * h)).exp())
+                    })
+                    .collect();
+                let (mut a, mut b, mut c) = (0.0, 0.0, 0.0);
+                for (_, d, w) in &near {
+                    a += w * d[0] * d[0];
+                    b += w * d[0] * d[1];
+                    c += w * d[1] * d[1];
+                }
+                let det = a * c - b * b;
+                if det.is_nan() || det <= 1e-9 * (a * c).max(f64::MIN_POSITIVE) {
+                    return Vec::new();
+                }
+                near.iter()
+                    .map(|&(j, d, w)| (j, [w * (c * d[0] - b * d[1]) / det, w * (a * d[1] - b * d[0]) / det]))
+                    .collect()
+            })
+            .collect();
+        Ok(TurnGeometry { positions, gradient })
+    }
+
+    /// The rigid motion `(vx, vy, θ)` about the centre of `pattern` (its loaded taxels' weighted
+    /// centre, as the motion inputs') that best explains the change `change` to first order,
+    /// `change_i ≈ −v·∇z_i − θ·∂_φ z_i` with `∂_φ z_i = (x_i − c_x) ∂_y z_i − (y_i − c_y) ∂_x z_i`:
+    /// least squares over the taxels with a small ridge ([`TURN_RIDGE`]). `θ > 0` turns `+x`
+    /// toward `+y` (the `cw` class's sense). Zeros for a flat pattern.
+    pub(super) fn rigid_flow(&self, pattern: &[f64], change: &[f64]) -> [f64; TURN_INPUTS] {
+        let Some((c, _, _)) = super::window::moments(&self.positions, pattern) else { return [0.0; TURN_INPUTS] };
+        let mut ata = [[0.0; 3]; 3];
+        let mut atb = [0.0; 3];
+        for (i, coefs) in self.gradient.iter().enumerate() {
+            let mut g = [0.0; 2];
+            for &(j, w) in coefs {
+                let dz = pattern[j] - pattern[i];
+                g[0] += w[0] * dz;
+                g[1] += w[1] * dz;
+            }
+            let (x, y) = (self.positions[i][0] - c[0], self.positions[i][1] - c[1]);
+            let a = [-g[0], -g[1], -(x * g[1] - y * g[0])];
+            for r in 0..3 {
+                atb[r] += a[r] * change[i];
+                for k in 0..3 {
+                    ata[r][k] += a[r] * a[k];
+                }
+            }
+        }
+        let ridge = TURN_RIDGE * (ata[0][0] + ata[1][1] + ata[2][2]) / 3.0;
+        if !(ridge > 0.0 && ridge.is_finite()) {
+            return [0.0; TURN_INPUTS];
+        }
+        (0..3).for_each(|r| ata[r][r] += ridge);
+        let tidy = |v: f64| {
+            if v.is_finite() {
+                v.clamp(-super::window::MAX_CHANGE, super::window::MAX_CHANGE)
+            } else {
+                0.0
+            }
+        };
+        solve3(ata, atb).map(tidy)
+    }
+}
+
+/// The solution of a symmetric positive definite 3 × 3 system (Cholesky; zeros if it fails).
+fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> [f64; 3] {
+    let mut l = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..=i {
+            let s = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
+            if i == j {
+                if s.is_nan() || s <= 0.0 {
+                    return [0.0; 3];
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    let mut y = [0.0; 3];
+    for i in 0..3 {
+        y[i] = (b[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
+    }
+    let mut x = [0.0; 3];
+    for i in (0..3).rev() {
+        x[i] = (y[i] - (i + 1..3).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
+    }
+    x
 }
 
 /// One regression tree as arrays (see the [`dos` module docs](crate::dos) and the `trees` source file): node `i` is a leaf when

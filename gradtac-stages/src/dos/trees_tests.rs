@@ -21,7 +21,7 @@ fn stump(f: usize, thr: f64, a: f64, b: f64) -> Tree {
 }
 
 fn small_inputs() -> TreeInputs {
-    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2 }
+    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2, turn: false }
 }
 
 /// A valid two-class model on the BioTac SP's 24 taxels (no mirror).
@@ -175,8 +175,13 @@ proptest! {
 
 #[test]
 fn the_extractor_is_causal_restarts_on_reset_and_refuses_non_finite_frames() {
+    for turn in [false, true] {
+        extractor_is_causal(TreeInputs { turn, ..TreeInputs::default() });
+    }
+}
+
+fn extractor_is_causal(inputs: TreeInputs) {
     let layout = Layout::biotac_sp();
-    let inputs = TreeInputs::default();
     let frames = synthetic_values(DosClass::Cw, [0.0, 0.0], 0.3, 7);
     let run = |x: &mut TreeExtractor, frames: &[Vec<f64>]| -> Vec<Vec<f64>> {
         frames.iter().filter_map(|f| x.push(f).unwrap()).collect()
@@ -205,10 +210,15 @@ fn mirror_of(layout: &Layout) -> Vec<usize> {
 
 #[test]
 fn the_mirror_map_maps_a_mirrored_recordings_inputs() {
+    for (turn, class) in [(false, DosClass::E), (true, DosClass::E), (true, DosClass::Cw)] {
+        mirror_map_maps(TreeInputs { turn, ..TreeInputs::default() }, class);
+    }
+}
+
+fn mirror_map_maps(inputs: TreeInputs, class: DosClass) {
     let layout = Layout::biotac_sp();
     let perm = mirror_of(&layout);
-    let inputs = TreeInputs::default();
-    let frames = synthetic_values(DosClass::E, [0.0, 0.0], 0.3, 3);
+    let frames = synthetic_values(class, [0.0, 0.0], 0.3, 3);
     let mirrored: Vec<Vec<f64>> = frames.iter().map(|f| perm.iter().map(|&j| f[j]).collect()).collect();
     let mut a = TreeExtractor::try_new_on(&inputs, &layout).unwrap();
     let mut b = TreeExtractor::try_new_on(&inputs, &layout).unwrap();
@@ -222,11 +232,77 @@ fn the_mirror_map_maps_a_mirrored_recordings_inputs() {
     }
 }
 
+/// A smooth anisotropic bump on the layout (the level pattern of a pressed contact), turned by
+/// `angle` (radians, `+x` toward `+y`) about its centre and shifted by `shift` (mm).
+fn bump(layout: &Layout, angle: f64, shift: [f64; 2]) -> Vec<f64> {
+    let c = [2.0 + shift[0], 1.0 + shift[1]];
+    let (s, co) = angle.sin_cos();
+    layout
+        .positions()
+        .iter()
+        .map(|p| {
+            let (x, y) = (p[0] - c[0], p[1] - c[1]);
+            // the point in the bump's own axes: turned back by the angle
+            let (u, v) = (co * x + s * y, -s * x + co * y);
+            100.0 * (-(u * u) / (2.0 * 36.0) - (v * v) / (2.0 * 9.0)).exp()
+        })
+        .collect()
+}
+
+#[test]
+fn the_rigid_flow_recovers_a_small_turn_and_shift_of_a_pattern() {
+    let layout = Layout::biotac_sp();
+    let g = super::trees::TurnGeometry::try_new(&layout).unwrap();
+    let run = |angle: f64, shift: [f64; 2]| {
+        let (a, b) = (bump(&layout, 0.0, [0.0; 2]), bump(&layout, angle, shift));
+        let mid: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
+        let change: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();
+        g.rigid_flow(&mid, &change)
+    };
+    for sign in [1.0, -1.0] {
+        // a turn: θ has its sign and roughly its size, the centre hardly moves
+        let [vx, vy, th] = run(sign * 0.1, [0.0; 2]);
+        assert!(th * sign > 0.03 && th * sign < 0.3, "turn {}: {vx} {vy} {th}", sign * 0.1);
+        // a shift along x: vx has its sign, the turn is smaller than the shift's
+        let [vx, _, th] = run(0.0, [sign * 0.5, 0.0]);
+        assert!(vx * sign > 0.15 && vx * sign < 1.5 && th.abs() < 0.05, "shift {}: {vx} {th}", sign * 0.5);
+    }
+    // no change, or a flat pattern: zeros
+    assert_eq!(run(0.0, [0.0; 2]), [0.0; 3]);
+    assert_eq!(g.rigid_flow(&[0.0; 24], &[1.0; 24]), [0.0; 3]);
+    // the turn needs a source and the level pattern
+    let no_source = TreeInputs { lags: vec![], slope_windows: 0, turn: true, ..TreeInputs::default() };
+    assert!(no_source.validate().is_err());
+    let mut since = TreeInputs { lags: vec![], turn: true, ..TreeInputs::default() };
+    since.window.inputs = WindowInputs::SinceStart;
+    assert!(since.validate().is_err());
+    assert_eq!(TreeInputs { turn: true, ..TreeInputs::default() }.inputs(24), TreeInputs::default().inputs(24) + 9);
+}
+
 #[cfg(feature = "train")]
 mod trained {
     use super::*;
     use crate::dos::train_trees::{fit_trees, TreeTrainConfig};
     use crate::splitmix::SplitMix;
+
+    /// The trainer's windows (`train_trees::tree_windows`) are, bit for bit, the inputs a
+    /// model's streaming extractor (the one the `dos` stage's vote pushes frames through) gives
+    /// on the same frames, the rotation-sense inputs included.
+    #[test]
+    fn the_trainers_windows_are_the_streaming_extractors() {
+        let layout = Layout::biotac_sp();
+        let inputs = TreeInputs { turn: true, ..TreeInputs::default() };
+        let frames = synthetic_values(DosClass::Aw, [0.0, 0.0], 0.3, 11);
+        let trainer = crate::dos::train_trees::tree_windows(&frames, &inputs, &layout).unwrap();
+        let classes = vec![DosClass::Cw, DosClass::Aw];
+        let model =
+            DosTrees::try_new(inputs.clone(), 24, classes, vec![0.0; 2], vec![leaf(0.1), leaf(-0.1)], None, 0).unwrap();
+        let mut stage = TreeVoteState::try_new(&model, &layout).unwrap().fresh_extractor();
+        let streamed: Vec<Vec<f64>> = frames.iter().filter_map(|f| stage.push(f).unwrap()).collect();
+        assert_eq!(trainer, streamed);
+        let turns = inputs.inputs(24) - 9;
+        assert!(trainer.iter().any(|x| x[turns..].iter().any(|v| *v != 0.0)), "the turn inputs are computed");
+    }
 
     fn random_inputs(d: usize, rng: &mut SplitMix) -> Vec<f64> {
         (0..d).map(|_| rng.normal()).collect()
@@ -235,7 +311,14 @@ mod trained {
     #[test]
     fn trees_learn_a_separable_toy_problem() {
         let layout = Layout::biotac_sp();
-        let cfg = TreeTrainConfig { mirror_average: false, rounds: 30, ..TreeTrainConfig::default() };
+        // every input searched (colsample 1; the default's half since stop 35's round 4)
+        let cfg = TreeTrainConfig {
+            mirror_average: false,
+            rounds: 30,
+            colsample: 1.0,
+            inputs: TreeInputs::default(),
+            ..TreeTrainConfig::default()
+        };
         let d = cfg.inputs.inputs(layout.len());
         let label = |x: &[f64]| match (x[3] > 0.0, x[40] > 0.5) {
             (true, true) => DosClass::N,
@@ -275,7 +358,13 @@ mod trained {
     #[test]
     fn input_subsampling_limits_each_tree_to_its_drawn_inputs() {
         let layout = Layout::biotac_sp();
-        let base = TreeTrainConfig { mirror_average: false, rounds: 12, ..TreeTrainConfig::default() };
+        let base = TreeTrainConfig {
+            mirror_average: false,
+            rounds: 12,
+            colsample: 1.0,
+            inputs: TreeInputs::default(),
+            ..TreeTrainConfig::default()
+        };
         let d = base.inputs.inputs(layout.len());
         let label = |x: &[f64]| match (x[3] > 0.0, x[40] > 0.5) {
             (true, true) => DosClass::N,
@@ -300,7 +389,7 @@ mod trained {
         let one = fit_trees(&samples, &layout, &TreeTrainConfig { colsample: 1e-9, ..base.clone() }).unwrap();
         assert!(features(&one).iter().all(|f| f.len() <= 1));
         assert!(features(&one).iter().flatten().collect::<std::collections::BTreeSet<_>>().len() > 1, "drawn afresh");
-        // 1 (the default) draws nothing: the trees are those of the full search, and a share below
+        // 1 (the default before stop 35's round 4) draws nothing: the trees are those of the full search, and a share below
         // 1 changes them, deterministically for a seed
         let all = fit_trees(&samples, &layout, &base).unwrap();
         let half_cfg = TreeTrainConfig { colsample: 0.5, ..base.clone() };
@@ -312,12 +401,14 @@ mod trained {
         for bad in [0.0, -0.5, 1.5, f64::NAN] {
             assert!(TreeTrainConfig { colsample: bad, ..base.clone() }.validate().is_err(), "{bad}");
         }
-        // not written when 1, read as 1 when absent
-        let text = serde_json::to_string(&TreeTrainConfig::default()).unwrap();
-        assert!(!text.contains("colsample"), "{text}");
-        let back: TreeTrainConfig = serde_json::from_str(&text).unwrap();
-        assert_eq!(back, TreeTrainConfig::default());
-        assert!(serde_json::to_string(&half_cfg).unwrap().contains("\"colsample\":0.5"));
+        // always written (a file without it reads the default's 0.5): a config round-trips
+        for cfg in [base.clone(), half_cfg.clone(), TreeTrainConfig::default()] {
+            let text = serde_json::to_string(&cfg).unwrap();
+            assert!(text.contains("\"colsample\":"), "{text}");
+            assert_eq!(serde_json::from_str::<TreeTrainConfig>(&text).unwrap(), cfg);
+        }
+        let absent: TreeTrainConfig = serde_json::from_str("{}").unwrap();
+        assert_eq!(absent.colsample, 0.5);
     }
 
     #[test]

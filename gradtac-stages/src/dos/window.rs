@@ -201,7 +201,7 @@ impl WindowNetConfig {
 /// `±f64::MAX` stay finite.
 const SCALE: f64 = 1.0 / 18_446_744_073_709_551_616.0;
 /// Largest `|d_i|` (a change across the window far larger than the spread of levels).
-const MAX_CHANGE: f64 = 1e3;
+pub(super) const MAX_CHANGE: f64 = 1e3;
 
 /// The streaming representation of [`DosWindowNet`] (see the [module docs](crate::dos)): push raw
 /// frames; [`input`](Self::input) is the representation of the last `frames` frames. A plain
@@ -433,7 +433,7 @@ impl WindowExtractor {
 /// its mirror taxel moved to the mean of the two), so that the motion inputs of mirrored frames
 /// are exactly the mirrored motion inputs (the mirror average relies on it); otherwise as
 /// given.
-fn symmetrised(positions: &[[f64; 2]]) -> Vec<[f64; 2]> {
+pub(super) fn symmetrised(positions: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let mirror: Option<Vec<usize>> = positions
         .iter()
         .map(|a| positions.iter().position(|b| (a[0] - b[0]).abs() < 0.1 && (a[1] + b[1]).abs() < 0.1))
@@ -457,7 +457,7 @@ const MOTION_FLOOR: f64 = 0.01;
 /// taxels, whatever the sensor's polarity; the others weigh 0): (centre, trace of the second
 /// moments, `(Cxx − Cyy, 2·Cxy)` — the principal axis as a double angle). `None` for a flat
 /// pattern.
-fn moments(positions: &[[f64; 2]], dev: &[f64]) -> Option<([f64; 2], f64, [f64; 2])> {
+pub(super) fn moments(positions: &[[f64; 2]], dev: &[f64]) -> Option<([f64; 2], f64, [f64; 2])> {
     let top = dev.iter().copied().fold(0.0f64, |a, d| if d.abs() > a.abs() { d } else { a });
     let side = top.signum();
     let weight = |d: f64| (side * d).max(0.0);
