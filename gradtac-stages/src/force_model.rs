@@ -45,7 +45,7 @@
 
 use crate::force::{ForceEstimate, ForceMethod, ForceModel, ForceSample};
 use crate::force_ident::{identify_with, ForwardModel, Geometry, Starts};
-use crate::locate::{ChangeDetector, DriftModel, LocateConfig, ReturnAnchors, ShapeFit};
+use crate::locate::{ChangeDetector, DriftModel, LocateConfig, ReturnAnchors, RiseGuard, ShapeFit};
 use crate::{Error, Result};
 use gradtac_stream::{Delay, Stage, TaxelFrame};
 use serde::{Deserialize, Serialize};
@@ -461,6 +461,8 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     quiet_taxel_s: 0.0,
     drift_shape: 0.25,
     drift_shape_fit: ShapeFit::Magnitude,
+    drift_shape_rise_s: 0.0,
+    drift_shape_rise: RiseGuard::Block,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector

@@ -868,6 +868,37 @@ pub struct DriftModel {
     /// How the drift-shape return measures a change's shape ([`ShapeFit`]; default: the
     /// signed bump).
     pub drift_shape_fit: ShapeFit,
+    /// The drift-shape return's rise test (s, in [0, 60]; 0: off, the default): a frame
+    /// whose total change `Σ|Δᵢ|` this long before was below [`DRIFT_SHAPE_RISE_FRACTION`]
+    /// (half) of its own *rose recently* — as a press does over its rise and hold — and so do
+    /// the frames before the run has been this long out of calibration. A stale level left by
+    /// drift builds up slowly, and one left after a press's fall was higher before. What a
+    /// recent rise does is [`drift_shape_rise`](Self::drift_shape_rise). Cost: one total per
+    /// frame kept over the look-back (bounded), O(1) per frame.
+    pub drift_shape_rise_s: f64,
+    /// What the rise test does to a drift-shape return on a frame that rose recently
+    /// ([`RiseGuard`]; default: blocks it).
+    pub drift_shape_rise: RiseGuard,
+}
+
+/// The drift-shape return's rise test ([`DriftModel::drift_shape_rise_s`]): a frame whose
+/// total change the look-back before was below this fraction of its own rose recently.
+pub const DRIFT_SHAPE_RISE_FRACTION: f64 = 0.5;
+
+/// What the drift-shape return does on a frame that rose recently
+/// ([`DriftModel::drift_shape_rise`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RiseGuard {
+    /// It does not fire: a press's rise and hold are never taken for drift by it. Trade-off:
+    /// a sudden drift-shaped step (a stale level a wrongly returned press leaves at its lift)
+    /// returns only once the look-back has passed.
+    #[default]
+    Block,
+    /// It fires, but the slope's anchors are *shifted* to the new level instead of kept, so
+    /// a press's hold taken for drift does not teach the slope the press; a stale level that
+    /// built up slowly keeps them (the step teaches the slope the drift it had missed).
+    ShiftAnchors,
 }
 
 /// The press-shaped fraction the drift-shape return ([`DriftModel::drift_shape`]) compares
@@ -931,6 +962,8 @@ impl Default for DriftModel {
             quiet_taxel_s: 0.0,
             drift_shape: 0.0,
             drift_shape_fit: ShapeFit::Signed,
+            drift_shape_rise_s: 0.0,
+            drift_shape_rise: RiseGuard::Block,
         }
     }
 }
@@ -963,7 +996,8 @@ impl DriftModel {
             && self.release_flat_sigmas > 0.0
             && self.release_flat_sigmas <= 10.0
             && (0.0..=60.0).contains(&self.quiet_taxel_s)
-            && (0.0..1.0).contains(&self.drift_shape);
+            && (0.0..1.0).contains(&self.drift_shape)
+            && (0.0..=60.0).contains(&self.drift_shape_rise_s);
         if ok {
             Ok(())
         } else {
@@ -1120,6 +1154,9 @@ struct DriftState {
     /// Running mean of `Σ|Δᵢ|` outside excursions (the shape return's floor); `None` before
     /// the first such frame.
     floor: Option<f64>,
+    /// Recent total changes `Σ|Δᵢ|` (time, total), oldest first, for the drift-shape return's
+    /// rise guard.
+    rise: VecDeque<(Timestamp, f64)>,
 }
 
 impl DriftState {
@@ -1141,6 +1178,27 @@ impl DriftState {
             settling: false,
             totals: VecDeque::new(),
             floor: None,
+            rise: VecDeque::new(),
+        }
+    }
+
+    /// The drift-shape return's rise test for a frame of total change `total` (and records
+    /// it): true (rose recently) when the total `drift_shape_rise_s` before was below
+    /// [`DRIFT_SHAPE_RISE_FRACTION`] of this one, when no frame reaches that far back yet, or
+    /// when the totals are not comparable (non-finite).
+    fn rose_recently(&mut self, time: Timestamp, total: f64) -> bool {
+        let horizon = time.0 - (self.model.drift_shape_rise_s * 1e9).round() as i64;
+        while self.rise.len() >= 2 && self.rise[1].0 .0 <= horizon {
+            self.rise.pop_front();
+        }
+        if self.rise.len() >= MAX_STEADY_HISTORY {
+            // a very fast source: compare with a younger frame than asked, never allocate more
+            self.rise.pop_front();
+        }
+        self.rise.push_back((time, total));
+        match self.rise.front() {
+            Some(&(t, old)) if t.0 <= horizon => !(old >= DRIFT_SHAPE_RISE_FRACTION * total && old.is_finite()),
+            _ => true,
         }
     }
 
@@ -1293,9 +1351,13 @@ impl DriftState {
         let peak_return = total < m.release_fraction * self.peak || quiet_total;
         // the drift-shape return: a steady excursion no smooth bump explains is a stale
         // baseline (drift independent per taxel), not a press
+        // the rise test: a frame whose total was under half its own `drift_shape_rise_s` ago
+        // rose recently (a press's rise and hold): blocked, or its anchors shifted below
+        let rose = m.drift_shape > 0.0 && m.drift_shape_rise_s > 0.0 && self.rose_recently(time, total);
         let drift_shaped = m.drift_shape > 0.0
             && steady
             && self.in_contact
+            && !(rose && m.drift_shape_rise == RiseGuard::Block)
             && positions.is_some_and(|p| {
                 let f = match m.drift_shape_fit {
                     ShapeFit::Signed => press_shaped_fraction(delta, sigma, p),
@@ -1357,11 +1419,16 @@ impl DriftState {
         for (base, x) in baseline.iter_mut().zip(&mean) {
             *base += b * (x - *base);
         }
+        // a first return by the drift-shape return (not also by the peak return)
+        let drift_alone = first_return && drift_shaped && !peak_return;
         match m.return_anchors {
             ReturnAnchors::RestartAtShapeReturn if shape_alone => self.restart_anchors(),
             ReturnAnchors::RestartAtAnyReturn if first_return => self.restart_anchors(),
             ReturnAnchors::ShiftAtShapeReturn if shape_alone => self.shift_anchors(time, &mean),
             ReturnAnchors::ShiftAtAnyReturn if first_return => self.shift_anchors(time, &mean),
+            _ if drift_alone && rose && m.drift_shape_rise == RiseGuard::ShiftAnchors => {
+                self.shift_anchors(time, &mean)
+            }
             _ => {}
         }
         if steady && (!held || returning) {
