@@ -708,6 +708,14 @@ impl SensorChain {
                                          its own (a press's rise and hold taken for drift does not teach the slope the press)",
                                         d.drift_shape_rise_s, DRIFT_SHAPE_RISE_FRACTION
                                     ),
+                                    (true, RiseGuard::ShiftAnchorsUndo) => format!(
+                                        ", or shifted to the new level when its total change {} s before was below {} of \
+                                         its own (a press's rise and hold taken for drift does not teach the slope the press), \
+                                         and undone when the sensor comes back to the level before it within {} s",
+                                        d.drift_shape_rise_s,
+                                        DRIFT_SHAPE_RISE_FRACTION,
+                                        if d.stale_s > 0.0 { d.stale_s } else { 10.0 }
+                                    ),
                                     (true, RiseGuard::Block) => String::new(),
                                 },
                                 match (d.drift_shape_rise_s > 0.0, d.drift_shape_rise) {

@@ -2237,6 +2237,95 @@ mod tests {
         );
     }
 
+    /// Session 34's gate: the drift-shape return with its anchors always kept (no rise test).
+    const GATE_S34: DriftModel = DriftModel { drift_shape_rise_s: 0.0, ..SHAPE_GATE };
+    /// Session 35's (e4): the drift-shape return's rise test shifts the anchors of a return on
+    /// a frame that rose within 2 s.
+    const RISE_GATE: DriftModel =
+        DriftModel { drift_shape_rise_s: 2.0, drift_shape_rise: RiseGuard::ShiftAnchors, ..SHAPE_GATE };
+
+    #[test]
+    fn the_rise_test_keeps_a_press_taken_for_drift_from_teaching_the_slope() {
+        // tuning members 204 and 205 (docs/force.md, session 35): a press whose change has no
+        // press's shape by the magnitude fit is taken for drift during its hold; with the
+        // anchors kept (session 34) the hold's frames join the anchors from before the press,
+        // the slope learns the press, and the baseline then runs along it. Here: a change
+        // without a press's shape rising over 3 s and held 3 s, then lifted at once.
+        let (held, late, slope) = ramp_then_lift(GATE_S34, 40.0, false);
+        assert!(held < 50 && late == 0, "{held} {late}");
+        assert!(slope > 3.0, "session 34's gate learns the held change as a slope: {slope} counts/s");
+        // the rise test: the return fires on the same frames (the contact decisions are the
+        // same), but the frame rose within 2 s, so the anchors are shifted and no slope is learned
+        let (held, late, slope) = ramp_then_lift(RISE_GATE, 40.0, false);
+        assert!(held < 50 && late == 0, "{held} {late}");
+        assert!(slope < 0.1, "{slope} counts/s learned from a change that rose within the look-back");
+        // blocking the return instead (session 35's (e2), not eligible): the lift, a sudden
+        // drift-shaped step, stays a contact for the look-back, and the hold still teaches
+        // the slope once the look-back has passed
+        let block = DriftModel { drift_shape_rise: RiseGuard::Block, ..RISE_GATE };
+        let (_, late, slope) = ramp_then_lift(block, 40.0, false);
+        assert!(late > 50 && slope > 3.0, "{late} {slope}");
+        // a press with a press's shape: never returned, as before
+        let (held, late, slope) = ramp_then_lift(RISE_GATE, 40.0, true);
+        assert_eq!((held, late), (250, 0));
+        assert!(slope < 0.1, "{slope}");
+        // a stale level left after a press's fall on a drifting quiet sensor (the drift-shape
+        // return's own case) was higher 2 s before, so its anchors are kept as in session 34:
+        // the contacts are freed as well (14 of 16 draws), and every press is held through its hold
+        let (mut old, mut new, mut freed) = (0, 0, 0);
+        for draw in 0..8 {
+            for peak in [30.0, 150.0] {
+                old += press_then_rest(GATE_S34, peak, draw).0;
+                let (late, held) = press_then_rest(RISE_GATE, peak, draw);
+                assert_eq!(held, 250, "the press is kept (draw {draw}, peak {peak})");
+                new += late;
+                freed += usize::from(late < 300);
+            }
+        }
+        assert!(freed >= 14 && new <= old + old / 20, "{new} late frames against {old}, {freed} of 16 freed");
+    }
+
+    #[test]
+    fn the_rise_test_on_constant_and_non_finite_input_and_its_settings() {
+        // constant input: no contact, no change, whatever the guard does
+        for gate in [RISE_GATE, DriftModel { drift_shape_rise: RiseGuard::Block, ..RISE_GATE }] {
+            let mut det = shaped_detector(gate);
+            for k in 0..500u64 {
+                let f = TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![1800.0; 24]);
+                assert!(!det.push(&f, "t").unwrap().contact);
+            }
+            assert!(det.change().iter().all(|d| d.abs() < 1e-9), "{:?}", det.change());
+            // non-finite frames are errors, never a panic; huge ones are answered without one
+            let mut det = shaped_detector(gate);
+            for k in 0..600u64 {
+                let mut f = shaped_frame(k, if (200..400).contains(&k) { 80.0 } else { 0.0 }, 9, &[0.0; 24]);
+                match k % 41 {
+                    5 => f.values[3] = f64::NAN,
+                    17 => f.values[20] = f64::NEG_INFINITY,
+                    _ => {}
+                }
+                assert_eq!(det.push(&f, "t").is_err(), !f.values.iter().all(|v| v.is_finite()), "frame {k}");
+            }
+            for k in 600..700u64 {
+                let v = [f64::MAX, -f64::MAX, 1e300, 0.0][(k % 4) as usize];
+                let _ = det.push(&TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v; 24]), "t");
+            }
+        }
+        // the look-back is bounded and validated; the names parse; older files load unchanged
+        for bad in [-0.1, 60.5, f64::NAN, f64::INFINITY] {
+            assert!(DriftModel { drift_shape_rise_s: bad, ..RISE_GATE }.validate().is_err(), "{bad}");
+        }
+        for ok in [0.0, 60.0] {
+            assert!(DriftModel { drift_shape_rise_s: ok, ..RISE_GATE }.validate().is_ok(), "{ok}");
+        }
+        let m: DriftModel =
+            serde_json::from_str(r#"{"drift_shape_rise_s": 2.0, "drift_shape_rise": "shift_anchors"}"#).unwrap();
+        assert_eq!((m.drift_shape_rise_s, m.drift_shape_rise), (2.0, RiseGuard::ShiftAnchors));
+        let m: DriftModel = serde_json::from_str(r#"{"drift_shape": 0.25}"#).unwrap();
+        assert_eq!((m.drift_shape_rise_s, m.drift_shape_rise), (0.0, RiseGuard::Block));
+        assert!(serde_json::from_str::<DriftModel>(r#"{"drift_shape_rise": "sometimes"}"#).is_err());
+    }
+
     #[test]
     fn the_drift_shape_return_on_constant_and_non_finite_input() {
         // constant input: no contact, no change

@@ -899,6 +899,13 @@ pub enum RiseGuard {
     /// a press's hold taken for drift does not teach the slope the press; a stale level that
     /// built up slowly keeps them (the step teaches the slope the drift it had missed).
     ShiftAnchors,
+    /// As `ShiftAnchors`, and the level before the return is remembered (moved along the
+    /// slope) for `stale_s` (10 s if 0): once the window means come back to it — steady, their
+    /// total change against it below `release_fraction` of the step the return took — the
+    /// return is undone: that level is the baseline again, any contact ends, and the anchors
+    /// are shifted back. A press's hold taken for drift is lifted that way; without it the
+    /// lift reads as a contact as large as the press that lasts until something returns it.
+    ShiftAnchorsUndo,
 }
 
 /// The press-shaped fraction the drift-shape return ([`DriftModel::drift_shape`]) compares
@@ -1157,6 +1164,9 @@ struct DriftState {
     /// Recent total changes `Σ|Δᵢ|` (time, total), oldest first, for the drift-shape return's
     /// rise guard.
     rise: VecDeque<(Timestamp, f64)>,
+    /// The level before a drift-shape return on a recent rise ([`RiseGuard::ShiftAnchorsUndo`]):
+    /// its time, the baseline then (moved along the slope since) and the total step it took.
+    undo: Option<(Timestamp, Vec<f64>, f64)>,
 }
 
 impl DriftState {
@@ -1179,6 +1189,7 @@ impl DriftState {
             totals: VecDeque::new(),
             floor: None,
             rise: VecDeque::new(),
+            undo: None,
         }
     }
 
@@ -1311,6 +1322,28 @@ impl DriftState {
         }
         self.history.push_back((time, mean.clone()));
         let total: f64 = delta.iter().map(|d| d.abs()).sum();
+        if let Some((since, level, step)) = &mut self.undo {
+            // the level before a drift-shape return on a recent rise: moved along the slope;
+            // back at it (steady), the return took a press's hold for drift: undo it
+            for (l, sl) in level.iter_mut().zip(&self.slope) {
+                *l += sl * dt;
+            }
+            let keep = if m.stale_s > 0.0 { m.stale_s } else { 10.0 };
+            let back: f64 = mean.iter().zip(level.iter()).map(|(x, l)| (x - l).abs()).sum();
+            if (time.0 - since.0) as f64 * 1e-9 > keep {
+                self.undo = None;
+            } else if steady && back < m.release_fraction * *step {
+                baseline.copy_from_slice(level);
+                self.undo = None;
+                self.in_contact = false;
+                self.settling = false;
+                self.touched = false;
+                self.peak = 0.0;
+                self.stale_since = None;
+                self.shift_anchors(time, &mean);
+                return false;
+            }
+        }
         let held = (m.hold_sigmas > 0.0 && delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_sigmas * s))
             || (m.hold_total > 0.0 && total > m.hold_total * sigma.iter().sum::<f64>());
         let holds = m.hold_sigmas > 0.0 || m.hold_total > 0.0;
@@ -1409,6 +1442,12 @@ impl DriftState {
             return false;
         }
         self.stale_since = None;
+        // a first return by the drift-shape return (not also by the peak return)
+        let drift_alone = first_return && drift_shaped && !peak_return;
+        if drift_alone && rose && m.drift_shape_rise == RiseGuard::ShiftAnchorsUndo {
+            let step: f64 = mean.iter().zip(baseline.iter()).map(|(x, b)| (x - b).abs()).sum();
+            self.undo = Some((time, baseline.to_vec(), step));
+        }
         let b = if m.quiet_s > 0.0 && !returning {
             1.0 - (-dt / m.quiet_s).exp()
         } else if steady {
@@ -1419,16 +1458,13 @@ impl DriftState {
         for (base, x) in baseline.iter_mut().zip(&mean) {
             *base += b * (x - *base);
         }
-        // a first return by the drift-shape return (not also by the peak return)
-        let drift_alone = first_return && drift_shaped && !peak_return;
+        let shift_rose = matches!(m.drift_shape_rise, RiseGuard::ShiftAnchors | RiseGuard::ShiftAnchorsUndo);
         match m.return_anchors {
             ReturnAnchors::RestartAtShapeReturn if shape_alone => self.restart_anchors(),
             ReturnAnchors::RestartAtAnyReturn if first_return => self.restart_anchors(),
             ReturnAnchors::ShiftAtShapeReturn if shape_alone => self.shift_anchors(time, &mean),
             ReturnAnchors::ShiftAtAnyReturn if first_return => self.shift_anchors(time, &mean),
-            _ if drift_alone && rose && m.drift_shape_rise == RiseGuard::ShiftAnchors => {
-                self.shift_anchors(time, &mean)
-            }
+            _ if drift_alone && rose && shift_rose => self.shift_anchors(time, &mean),
             _ => {}
         }
         if steady && (!held || returning) {
@@ -1813,6 +1849,35 @@ mod tests {
 
     fn frame(k: u64, v: Vec<f64>) -> TaxelFrame {
         TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, v)
+    }
+
+    #[test]
+    fn the_rise_test_compares_with_the_total_the_look_back_before() {
+        let model = DriftModel { drift_shape: 0.25, drift_shape_rise_s: 2.0, ..DriftModel::default() };
+        let at = |k: i64| Timestamp(k * 10_000_000); // 100 Hz
+                                                     // before the look-back is covered every frame counts as a recent rise
+        let mut st = DriftState::new(model, 2);
+        assert!((0..200).all(|k| st.rose_recently(at(k), 10.0)));
+        // then a constant total has not risen; a total that doubled within 2 s has
+        assert!(!st.rose_recently(at(200), 10.0));
+        assert!(!st.rose_recently(at(201), 19.9));
+        assert!(st.rose_recently(at(202), 21.0));
+        // a slow build-up (1 % a frame) rose by less than half over 2 s only once it is old
+        let mut st = DriftState::new(model, 2);
+        let slow: Vec<bool> = (0..400).map(|k| st.rose_recently(at(k), 100.0 + 0.2 * k as f64)).collect();
+        assert!(slow[200..].iter().all(|r| !r));
+        // non-finite totals are never "not risen"
+        let mut st = DriftState::new(model, 2);
+        for k in 0..300 {
+            let _ = st.rose_recently(at(k), 5.0);
+        }
+        assert!(st.rose_recently(at(300), f64::NAN) && st.rose_recently(at(301), f64::INFINITY));
+        // a very fast source keeps at most MAX_STEADY_HISTORY totals (compares with a younger one)
+        let mut st = DriftState::new(model, 2);
+        for k in 0..20_000 {
+            let _ = st.rose_recently(Timestamp(k * 1_000), 1.0);
+        }
+        assert!(st.rise.len() <= MAX_STEADY_HISTORY);
     }
 
     #[test]
