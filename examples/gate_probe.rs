@@ -4,6 +4,13 @@
 //! return rule fired) by then. Only tuning members (seeds 0–7) and `tests/cli_force.rs`'s
 //! member 700 — never the held-out seeds.
 //!
+//! Since session 35 the detector gets the layout's positions (as the force stage gives them:
+//! the drift-shape return needs them), and each rest also prints the magnitude shape fraction,
+//! whether the frame is steady (every taxel's window mean within 2 σ of 0.3 s before) and the
+//! cosine of its pattern with its contact's peak pattern. `GATE_TRACE=1` prints every frame
+//! (Σ|Δᵢ|, the largest 0.3-s move in σ, the shape fraction, the cosine); `GATE_SLOPE=1` the
+//! learned drift slope against the simulator's true one, and the change, once a second.
+//!
 //! Run: `cargo run --release --example gate_probe [-- 700 0 1 …]`; `GATE_DRIFT='{…}'` (a
 //! `DriftModel` in JSON) probes another gate.
 
