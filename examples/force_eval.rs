@@ -462,8 +462,20 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
     }
     let (mut sum, mut n, mut untouched, mut over, mut missed) = (0.0, 0usize, 0u64, 0u64, 0usize);
     let mut parts = [[0.0f64; 2]; 7];
+    // exploration (session 35): FORCE_EVAL_UNTOUCHED breaks the untouched frames above 0.5 N
+    // down by where they fall — before the first press (segment 0) or in the rest after press
+    // k — and by whether the contact had lasted since that press ("held": it never ended) or
+    // started again inside the rest ("new")
+    let mut by_seg = vec![[0u64; 2]; m.session.segments.len()];
+    let mut ended_since_press = true;
     let dump = std::env::var("FORCE_EVAL_DUMP").ok().and_then(|s| s.parse::<u64>().ok()) == Some(m.session.seed);
-    for (r, &p) in rows.iter().zip(&preds) {
+    for (k, (r, &p)) in rows.iter().zip(&preds).enumerate() {
+        let seg = m.rec.segment.get(k).copied().unwrap_or(0);
+        if seg % 2 == 1 {
+            ended_since_press = false;
+        } else if !r.sample.contact {
+            ended_since_press = true;
+        }
         if dump {
             let (s1, _) = gradtac::stages::force_model::total_change(&r.sample.change);
             let zmax = r.sample.change.iter().map(|d| d.abs()).fold(0.0, f64::max);
@@ -482,6 +494,9 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
         if quiet {
             untouched += 1;
             over += u64::from(p.is_some_and(|p| p > 0.5));
+            if p.is_some_and(|p| p > 0.5) {
+                by_seg[seg][usize::from(ended_since_press)] += 1;
+            }
         }
         if r.t >= split && f > 0.5 {
             let e = p.map_or(1.0, |p| (p - f).abs() / f);
@@ -495,6 +510,31 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
             parts[3 + band][0] += e;
             parts[3 + band][1] += 1.0;
         }
+    }
+    if std::env::var_os("FORCE_EVAL_UNTOUCHED").is_some() {
+        // a row's time is its window's centre, so a press's first rows still fall in the rest
+        // before it: segment s (rest or press) counts for rest s/2 − 1 (s < 2: before the first press)
+        let mut rests = vec![[0u64; 2]; by_seg.len() / 2 + 1];
+        for (s, c) in by_seg.iter().enumerate() {
+            let r = if s < 2 { 0 } else { s / 2 };
+            rests[r][0] += c[0];
+            rests[r][1] += c[1];
+        }
+        let cells: Vec<String> = rests
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c[0] + c[1] > 0)
+            .map(
+                |(r, c)| {
+                    if r == 0 {
+                        format!("pre:{}", c[0] + c[1])
+                    } else {
+                        format!("r{}:{}h/{}n", r - 1, c[0], c[1])
+                    }
+                },
+            )
+            .collect();
+        eprintln!("untouched seed {} {:?} over {over}: {}", m.session.seed, method, cells.join(" "));
     }
     if std::env::var_os("FORCE_EVAL_PHASES").is_some() {
         // per member: (error sum, frames) for rise, hold, fall, then 0.5–1, 1–2, 2–5, > 5 N

@@ -12,7 +12,7 @@ use gradtac_stages::fit::Fit;
 use gradtac_stages::force::{Force, ForceConfig, ForceEstimate, ForceModel};
 use gradtac_stages::force_model::{CalibratedForce, ChangeForce};
 use gradtac_stages::interpolate::{Interpolate, Surface};
-use gradtac_stages::locate::{LocateMethod, ReturnAnchors, ShapeFit};
+use gradtac_stages::locate::{LocateMethod, ReturnAnchors, RiseGuard, ShapeFit, DRIFT_SHAPE_RISE_FRACTION};
 use gradtac_stages::normalise::{Bounds, Normalise};
 use gradtac_stages::peak::SurfaceContour;
 use gradtac_stages::raw_contour::RawChange;
@@ -694,13 +694,38 @@ impl SensorChain {
                         if d.drift_shape > 0.0 {
                             more += &format!(
                                 "; a steady excursion that one smooth bump explains less than {} of ({} fit{}) returns \
-                                 (drift without a press's shape; the slope's anchors kept)",
+                                 (drift without a press's shape; the slope's anchors kept{}){}",
                                 d.drift_shape,
                                 match d.drift_shape_fit {
                                     ShapeFit::Signed => "signed",
                                     ShapeFit::Magnitude => "magnitude",
                                 },
-                                if f.detector().positions().is_some() { "" } else { "; off: no layout positions" }
+                                if f.detector().positions().is_some() { "" } else { "; off: no layout positions" },
+                                match (d.drift_shape_rise_s > 0.0, d.drift_shape_rise) {
+                                    (false, _) => String::new(),
+                                    (true, RiseGuard::ShiftAnchors) => format!(
+                                        ", or shifted to the new level when its total change {} s before was below {} of \
+                                         its own (a press's rise and hold taken for drift does not teach the slope the press)",
+                                        d.drift_shape_rise_s, DRIFT_SHAPE_RISE_FRACTION
+                                    ),
+                                    (true, RiseGuard::ShiftAnchorsUndo) => format!(
+                                        ", or shifted to the new level when its total change {} s before was below {} of \
+                                         its own (a press's rise and hold taken for drift does not teach the slope the press), \
+                                         and undone when the sensor comes back to the level before it within {} s",
+                                        d.drift_shape_rise_s,
+                                        DRIFT_SHAPE_RISE_FRACTION,
+                                        if d.stale_s > 0.0 { d.stale_s } else { 10.0 }
+                                    ),
+                                    (true, RiseGuard::Block) => String::new(),
+                                },
+                                match (d.drift_shape_rise_s > 0.0, d.drift_shape_rise) {
+                                    (true, RiseGuard::Block) => format!(
+                                        "; not while its total change {} s before was below {} of its own (a press's rise \
+                                         and hold), nor in the first {} s",
+                                        d.drift_shape_rise_s, DRIFT_SHAPE_RISE_FRACTION, d.drift_shape_rise_s
+                                    ),
+                                    _ => String::new(),
+                                },
                             );
                         }
                         if d.quiet_taxel_s > 0.0 {

@@ -106,6 +106,12 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
         explain.contains("the slope's anchors shifted to the new level at a return by the shape alone"),
         "{explain}"
     );
+    // the drift-shape return's rise test and its undo (session 35), with their effective values
+    assert!(
+        explain.contains("when its total change 2 s before was below 0.5 of its own")
+            && explain.contains("undone when the sensor comes back to the level before it within 10 s"),
+        "{explain}"
+    );
     assert!(!explain.contains("centroid"), "the force alone needs no contact location: {explain}");
     ok(gradtac().args(["run", "-q"]).arg(&run).output().unwrap());
     let f = forces(&dir.path().join("run.toml.parquet"));

@@ -753,6 +753,7 @@ impl PositionMemory {
 /// | return anchors | with `return_anchors`, on the frame an excursion returns (by the shape return alone, or by any return) the slope's anchors are restarted or shifted to the new level, so the step the return leaves behind is not learned as drift | kept |
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
+/// | rise test | with `drift_shape_rise_s`, a drift-shape return on a frame whose total change that long before was under half its own (a recent rise: a press's rise and hold) is blocked, or fires with the slope's anchors shifted instead of kept (so a press taken for drift does not teach the slope the press), and optionally is undone once the sensor comes back to the level before it ([`RiseGuard`]) | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -867,6 +868,44 @@ pub struct DriftModel {
     /// How the drift-shape return measures a change's shape ([`ShapeFit`]; default: the
     /// signed bump).
     pub drift_shape_fit: ShapeFit,
+    /// The drift-shape return's rise test (s, in [0, 60]; 0: off, the default): a frame
+    /// whose total change `Σ|Δᵢ|` this long before was below [`DRIFT_SHAPE_RISE_FRACTION`]
+    /// (half) of its own *rose recently* — as a press does over its rise and hold — and so do
+    /// the frames before the run has been this long out of calibration. A stale level left by
+    /// drift builds up slowly, and one left after a press's fall was higher before. What a
+    /// recent rise does is [`drift_shape_rise`](Self::drift_shape_rise). Cost: one total per
+    /// frame kept over the look-back (bounded), O(1) per frame.
+    pub drift_shape_rise_s: f64,
+    /// What the rise test does to a drift-shape return on a frame that rose recently
+    /// ([`RiseGuard`]; default: blocks it).
+    pub drift_shape_rise: RiseGuard,
+}
+
+/// The drift-shape return's rise test ([`DriftModel::drift_shape_rise_s`]): a frame whose
+/// total change the look-back before was below this fraction of its own rose recently.
+pub const DRIFT_SHAPE_RISE_FRACTION: f64 = 0.5;
+
+/// What the drift-shape return does on a frame that rose recently
+/// ([`DriftModel::drift_shape_rise`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RiseGuard {
+    /// It does not fire: a press's rise and hold are never taken for drift by it. Trade-off:
+    /// a sudden drift-shaped step (a stale level a wrongly returned press leaves at its lift)
+    /// returns only once the look-back has passed.
+    #[default]
+    Block,
+    /// It fires, but the slope's anchors are *shifted* to the new level instead of kept, so
+    /// a press's hold taken for drift does not teach the slope the press; a stale level that
+    /// built up slowly keeps them (the step teaches the slope the drift it had missed).
+    ShiftAnchors,
+    /// As `ShiftAnchors`, and the level before the return is remembered (moved along the
+    /// slope) for `stale_s` (10 s if 0): once the window means come back to it — steady, their
+    /// total change against it below `release_fraction` of the step the return took — the
+    /// return is undone: that level is the baseline again, any contact ends, and the anchors
+    /// are shifted back. A press's hold taken for drift is lifted that way; without it the
+    /// lift reads as a contact as large as the press that lasts until something returns it.
+    ShiftAnchorsUndo,
 }
 
 /// The press-shaped fraction the drift-shape return ([`DriftModel::drift_shape`]) compares
@@ -930,6 +969,8 @@ impl Default for DriftModel {
             quiet_taxel_s: 0.0,
             drift_shape: 0.0,
             drift_shape_fit: ShapeFit::Signed,
+            drift_shape_rise_s: 0.0,
+            drift_shape_rise: RiseGuard::Block,
         }
     }
 }
@@ -962,7 +1003,8 @@ impl DriftModel {
             && self.release_flat_sigmas > 0.0
             && self.release_flat_sigmas <= 10.0
             && (0.0..=60.0).contains(&self.quiet_taxel_s)
-            && (0.0..1.0).contains(&self.drift_shape);
+            && (0.0..1.0).contains(&self.drift_shape)
+            && (0.0..=60.0).contains(&self.drift_shape_rise_s);
         if ok {
             Ok(())
         } else {
@@ -1119,6 +1161,12 @@ struct DriftState {
     /// Running mean of `Σ|Δᵢ|` outside excursions (the shape return's floor); `None` before
     /// the first such frame.
     floor: Option<f64>,
+    /// Recent total changes `Σ|Δᵢ|` (time, total), oldest first, for the drift-shape return's
+    /// rise guard.
+    rise: VecDeque<(Timestamp, f64)>,
+    /// The level before a drift-shape return on a recent rise ([`RiseGuard::ShiftAnchorsUndo`]):
+    /// its time, the baseline then (moved along the slope since) and the total step it took.
+    undo: Option<(Timestamp, Vec<f64>, f64)>,
 }
 
 impl DriftState {
@@ -1140,6 +1188,28 @@ impl DriftState {
             settling: false,
             totals: VecDeque::new(),
             floor: None,
+            rise: VecDeque::new(),
+            undo: None,
+        }
+    }
+
+    /// The drift-shape return's rise test for a frame of total change `total` (and records
+    /// it): true (rose recently) when the total `drift_shape_rise_s` before was below
+    /// [`DRIFT_SHAPE_RISE_FRACTION`] of this one, when no frame reaches that far back yet, or
+    /// when the totals are not comparable (non-finite).
+    fn rose_recently(&mut self, time: Timestamp, total: f64) -> bool {
+        let horizon = time.0 - (self.model.drift_shape_rise_s * 1e9).round() as i64;
+        while self.rise.len() >= 2 && self.rise[1].0 .0 <= horizon {
+            self.rise.pop_front();
+        }
+        if self.rise.len() >= MAX_STEADY_HISTORY {
+            // a very fast source: compare with a younger frame than asked, never allocate more
+            self.rise.pop_front();
+        }
+        self.rise.push_back((time, total));
+        match self.rise.front() {
+            Some(&(t, old)) if t.0 <= horizon => !(old >= DRIFT_SHAPE_RISE_FRACTION * total && old.is_finite()),
+            _ => true,
         }
     }
 
@@ -1252,6 +1322,28 @@ impl DriftState {
         }
         self.history.push_back((time, mean.clone()));
         let total: f64 = delta.iter().map(|d| d.abs()).sum();
+        if let Some((since, level, step)) = &mut self.undo {
+            // the level before a drift-shape return on a recent rise: moved along the slope;
+            // back at it (steady), the return took a press's hold for drift: undo it
+            for (l, sl) in level.iter_mut().zip(&self.slope) {
+                *l += sl * dt;
+            }
+            let keep = if m.stale_s > 0.0 { m.stale_s } else { 10.0 };
+            let back: f64 = mean.iter().zip(level.iter()).map(|(x, l)| (x - l).abs()).sum();
+            if (time.0 - since.0) as f64 * 1e-9 > keep {
+                self.undo = None;
+            } else if steady && back < m.release_fraction * *step {
+                baseline.copy_from_slice(level);
+                self.undo = None;
+                self.in_contact = false;
+                self.settling = false;
+                self.touched = false;
+                self.peak = 0.0;
+                self.stale_since = None;
+                self.shift_anchors(time, &mean);
+                return false;
+            }
+        }
         let held = (m.hold_sigmas > 0.0 && delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_sigmas * s))
             || (m.hold_total > 0.0 && total > m.hold_total * sigma.iter().sum::<f64>());
         let holds = m.hold_sigmas > 0.0 || m.hold_total > 0.0;
@@ -1292,9 +1384,13 @@ impl DriftState {
         let peak_return = total < m.release_fraction * self.peak || quiet_total;
         // the drift-shape return: a steady excursion no smooth bump explains is a stale
         // baseline (drift independent per taxel), not a press
+        // the rise test: a frame whose total was under half its own `drift_shape_rise_s` ago
+        // rose recently (a press's rise and hold): blocked, or its anchors shifted below
+        let rose = m.drift_shape > 0.0 && m.drift_shape_rise_s > 0.0 && self.rose_recently(time, total);
         let drift_shaped = m.drift_shape > 0.0
             && steady
             && self.in_contact
+            && !(rose && m.drift_shape_rise == RiseGuard::Block)
             && positions.is_some_and(|p| {
                 let f = match m.drift_shape_fit {
                     ShapeFit::Signed => press_shaped_fraction(delta, sigma, p),
@@ -1346,6 +1442,12 @@ impl DriftState {
             return false;
         }
         self.stale_since = None;
+        // a first return by the drift-shape return (not also by the peak return)
+        let drift_alone = first_return && drift_shaped && !peak_return;
+        if drift_alone && rose && m.drift_shape_rise == RiseGuard::ShiftAnchorsUndo {
+            let step: f64 = mean.iter().zip(baseline.iter()).map(|(x, b)| (x - b).abs()).sum();
+            self.undo = Some((time, baseline.to_vec(), step));
+        }
         let b = if m.quiet_s > 0.0 && !returning {
             1.0 - (-dt / m.quiet_s).exp()
         } else if steady {
@@ -1356,11 +1458,13 @@ impl DriftState {
         for (base, x) in baseline.iter_mut().zip(&mean) {
             *base += b * (x - *base);
         }
+        let shift_rose = matches!(m.drift_shape_rise, RiseGuard::ShiftAnchors | RiseGuard::ShiftAnchorsUndo);
         match m.return_anchors {
             ReturnAnchors::RestartAtShapeReturn if shape_alone => self.restart_anchors(),
             ReturnAnchors::RestartAtAnyReturn if first_return => self.restart_anchors(),
             ReturnAnchors::ShiftAtShapeReturn if shape_alone => self.shift_anchors(time, &mean),
             ReturnAnchors::ShiftAtAnyReturn if first_return => self.shift_anchors(time, &mean),
+            _ if drift_alone && rose && shift_rose => self.shift_anchors(time, &mean),
             _ => {}
         }
         if steady && (!held || returning) {
@@ -1745,6 +1849,35 @@ mod tests {
 
     fn frame(k: u64, v: Vec<f64>) -> TaxelFrame {
         TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, v)
+    }
+
+    #[test]
+    fn the_rise_test_compares_with_the_total_the_look_back_before() {
+        let model = DriftModel { drift_shape: 0.25, drift_shape_rise_s: 2.0, ..DriftModel::default() };
+        let at = |k: i64| Timestamp(k * 10_000_000); // 100 Hz
+                                                     // before the look-back is covered every frame counts as a recent rise
+        let mut st = DriftState::new(model, 2);
+        assert!((0..200).all(|k| st.rose_recently(at(k), 10.0)));
+        // then a constant total has not risen; a total that doubled within 2 s has
+        assert!(!st.rose_recently(at(200), 10.0));
+        assert!(!st.rose_recently(at(201), 19.9));
+        assert!(st.rose_recently(at(202), 21.0));
+        // a slow build-up (1 % a frame) rose by less than half over 2 s only once it is old
+        let mut st = DriftState::new(model, 2);
+        let slow: Vec<bool> = (0..400).map(|k| st.rose_recently(at(k), 100.0 + 0.2 * k as f64)).collect();
+        assert!(slow[200..].iter().all(|r| !r));
+        // non-finite totals are never "not risen"
+        let mut st = DriftState::new(model, 2);
+        for k in 0..300 {
+            let _ = st.rose_recently(at(k), 5.0);
+        }
+        assert!(st.rose_recently(at(300), f64::NAN) && st.rose_recently(at(301), f64::INFINITY));
+        // a very fast source keeps at most MAX_STEADY_HISTORY totals (compares with a younger one)
+        let mut st = DriftState::new(model, 2);
+        for k in 0..20_000 {
+            let _ = st.rose_recently(Timestamp(k * 1_000), 1.0);
+        }
+        assert!(st.rise.len() <= MAX_STEADY_HISTORY);
     }
 
     #[test]
