@@ -11,6 +11,11 @@
 //!   slope, [`TreeInputs::turn`]); per object, the share of `cw` / `aw` recordings whose mean has
 //!   the class's sign (`cw` +, `aw` −; 50 % = no sense), and the mean `|θ|` of rotations against
 //!   translations. No model is involved in this part.
+//! - the inner views' touch recordings: the share of windows decided `t` per third of each
+//!   recording and the vote's margin (stop 35's round 5: is a touch read as a slip only after
+//!   contact, while the object settles, or throughout?);
+//! - the change-energy inputs ([`TreeInputs::energy`]) per object, touches against slips (no
+//!   model).
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train_trees::{fit_on, tree_samples, tree_windows, TreeTrainConfig};
@@ -47,6 +52,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     println!("## Inner views of {}\n", serde_json::to_string(&cfg)?);
     let samples = tree_samples(&tr, &layout, &cfg)?;
     let mut confusion: BTreeMap<(DosClass, DosClass), usize> = BTreeMap::new();
+    let mut touch_rows: Vec<String> = Vec::new();
     for set in ["basic", "solids"] {
         let idx: Vec<usize> = (0..recs.len()).filter(|&i| object_set(&recs[i].object) == set).collect();
         let mut objects: Vec<&str> = idx.iter().map(|&i| recs[i].object.as_str()).collect();
@@ -60,10 +66,23 @@ fn main() -> Result<(), Box<dyn Error>> {
             let mut errs: BTreeMap<(DosClass, DosClass), usize> = BTreeMap::new();
             for &i in &test {
                 let mut v = m.vote(&layout)?;
+                let mut per_window = Vec::new();
                 for f in &tr[i].frames {
-                    v.push(f)?;
+                    if let Some(w) = v.push(f)? {
+                        per_window.push(w.class);
+                    }
                 }
                 let d = v.decision().ok_or("a recording without a window")?.class;
+                if tr[i].class == DosClass::T {
+                    touch_rows.push(touch_row(
+                        set,
+                        obj,
+                        d,
+                        &per_window,
+                        &v.mean_log_posterior().unwrap_or_default(),
+                        m.classes(),
+                    ));
+                }
                 if d == tr[i].class {
                     ok += 1;
                 } else {
@@ -77,6 +96,13 @@ fn main() -> Result<(), Box<dyn Error>> {
     }
     let e: Vec<String> = confusion.iter().map(|((t, d), k)| format!("{}→{} {k}", t.as_str(), d.as_str())).collect();
     println!("all inner errors (true→decided): {}\n", e.join(", "));
+    println!("## Touch recordings of the inner views: share of windows decided `t` per third of the recording (causal per-window decisions), and the vote's mean log posterior margin (t minus the decided class)\n");
+    println!("| fold | decided | windows | t in 1st third | 2nd third | 3rd third | margin t − decided |");
+    println!("|---|---|---|---|---|---|---|");
+    for r in &touch_rows {
+        println!("{r}");
+    }
+    println!();
 
     // 2. rotation sense of the inputs (no model)
     let inputs = TreeInputs { turn: true, ..cfg.inputs.clone() };
@@ -131,5 +157,70 @@ fn main() -> Result<(), Box<dyn Error>> {
             );
         }
     }
+
+    // 3. how much the whole pattern changes (the change-energy inputs, no model)
+    let inputs = TreeInputs { energy: true, ..cfg.inputs.clone() };
+    let k = inputs.energy_inputs();
+    let at = inputs.inputs(n) - k;
+    let mut names: Vec<String> = inputs.lags.iter().map(|l| format!("lag {l}")).collect();
+    if inputs.slope_windows > 0 {
+        names.push(format!("slope ({} windows)", inputs.slope_windows));
+    }
+    names.push("since start".into());
+    println!(
+        "\n## Change energy (RMS over taxels) per recording, mean over its windows: touches against slips (no model)\n"
+    );
+    println!("| object | source | mean on t | mean on slips | min on slips | t below every slip of the object |");
+    println!("|---|---|---|---|---|---|");
+    let per_rec: Vec<Vec<f64>> = tr
+        .iter()
+        .map(|r| {
+            let x = tree_windows(&r.frames, &inputs, &layout)?;
+            let m = x.len().max(1) as f64;
+            Ok((0..k).map(|c| x.iter().map(|v| v[at + c]).sum::<f64>() / m).collect())
+        })
+        .collect::<Result<_, Box<dyn Error>>>()?;
+    for obj in objects.iter().copied() {
+        for (c, name) in names.iter().enumerate() {
+            let of = |touch: bool| -> Vec<f64> {
+                (0..tr.len())
+                    .filter(|&i| recs[i].object == obj && (tr[i].class == DosClass::T) == touch)
+                    .map(|i| per_rec[i][c])
+                    .collect()
+            };
+            let (t, s) = (of(true), of(false));
+            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+            let min = s.iter().copied().fold(f64::INFINITY, f64::min);
+            let below = t.iter().filter(|&&v| v < min).count();
+            println!("| {obj} | {name} | {:.3} | {:.3} | {:.3} | {below}/{} |", mean(&t), mean(&s), min, t.len());
+        }
+    }
     Ok(())
+}
+
+/// One row of the touch table: a `t` recording's per-window decisions by thirds.
+fn touch_row(
+    set: &str,
+    obj: &str,
+    decided: DosClass,
+    per_window: &[DosClass],
+    mlp: &[f64],
+    classes: &[DosClass],
+) -> String {
+    let k = per_window.len().max(1);
+    let third = |a: usize, b: usize| {
+        let w = &per_window[a.min(k)..b.min(per_window.len())];
+        let t = w.iter().filter(|&&c| c == DosClass::T).count();
+        format!("{t}/{}", w.len())
+    };
+    let at = |c: DosClass| classes.iter().position(|&x| x == c).and_then(|j| mlp.get(j)).copied().unwrap_or(f64::NAN);
+    format!(
+        "| {set}, {obj} | {} | {} | {} | {} | {} | {:.2} |",
+        decided.as_str(),
+        per_window.len(),
+        third(0, k / 3),
+        third(k / 3, 2 * k / 3),
+        third(2 * k / 3, k),
+        at(DosClass::T) - at(decided)
+    )
 }

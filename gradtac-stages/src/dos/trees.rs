@@ -95,6 +95,16 @@ pub struct TreeInputs {
     /// model files read unchanged).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub turn: bool,
+    /// Add the **change-energy inputs** (stop 35's round 5, touch against slip): one per lag and
+    /// per slope, the root mean square over the taxels of that source's per-taxel change, and,
+    /// with a since-start block (window inputs `both` or `since_start`), the root mean square of
+    /// the pattern since the contact's first 0.1 s ([`energy_inputs`](Self::energy_inputs)
+    /// values, appended last, mirror sign +1). A depth-3 tree sees at most three taxels of a
+    /// change; "the whole pattern hardly moved" (a touch) is a sum over all taxels, which one
+    /// input gives directly. Same units as the changes (dimensionless). Default off (not
+    /// written when off, so older model files read unchanged).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub energy: bool,
 }
 
 /// Rotation-sense inputs per source (a lag or the slope): the pattern's fitted velocity `vx`,
@@ -114,6 +124,7 @@ impl Default for TreeInputs {
             lags: vec![6, 20],
             slope_windows: 6,
             turn: false,
+            energy: false,
         }
     }
 }
@@ -133,6 +144,9 @@ impl TreeInputs {
                 "the rotation-sense inputs (turn) need a lag or a slope and the level pattern (window inputs levels or both)",
             ));
         }
+        if self.energy && self.energy_inputs() == 0 {
+            return Err(invalid("the change-energy inputs (energy) need a lag, a slope or a since-start block"));
+        }
         if self.slope_windows > MAX_TREE_LAG {
             return Err(invalid(format!("slope windows {} must be ≤ {MAX_TREE_LAG}", self.slope_windows)));
         }
@@ -144,9 +158,27 @@ impl TreeInputs {
         self.lags.len() + usize::from(self.slope_windows > 0)
     }
 
+    /// Whether the window inputs carry the pattern since the contact's start.
+    fn since_start(&self) -> bool {
+        self.window.inputs != WindowInputs::Levels
+    }
+
+    /// Number of change-energy inputs ([`energy`](Self::energy)): one per lag and slope, one for
+    /// the since-start block; 0 when off.
+    pub fn energy_inputs(&self) -> usize {
+        if self.energy {
+            self.sources() + usize::from(self.since_start())
+        } else {
+            0
+        }
+    }
+
     /// Number of inputs for `taxels` taxels.
     pub fn inputs(&self, taxels: usize) -> usize {
-        self.window.inputs(taxels) + self.sources() * taxels + if self.turn { self.sources() * TURN_INPUTS } else { 0 }
+        self.window.inputs(taxels)
+            + self.sources() * taxels
+            + if self.turn { self.sources() * TURN_INPUTS } else { 0 }
+            + self.energy_inputs()
     }
 
     /// The mirror image of an input vector under the taxel permutation `perm` (an involution):
@@ -174,6 +206,7 @@ impl TreeInputs {
                 at += TURN_INPUTS;
             }
         }
+        out.extend((0..self.energy_inputs()).map(|k| (at + k, 1.0)));
         out
     }
 }
@@ -197,6 +230,11 @@ pub struct TreeExtractor {
     changes: VecDeque<Vec<f64>>,
     /// The rotation-sense inputs' geometry ([`TreeInputs::turn`]; `None` when off).
     turn: Option<TurnGeometry>,
+    /// Where the since-start block starts in the window inputs, with the change-energy inputs
+    /// ([`TreeInputs::energy`]).
+    energy_since: Option<usize>,
+    /// Whether the change-energy inputs are on.
+    energy: bool,
 }
 
 impl TreeExtractor {
@@ -216,6 +254,9 @@ impl TreeExtractor {
             history: VecDeque::new(),
             changes: VecDeque::new(),
             turn,
+            energy_since: (inputs.energy && inputs.since_start())
+                .then_some(if inputs.window.inputs == WindowInputs::Both { n } else { 0 }),
+            energy: inputs.energy,
         })
     }
 
@@ -265,8 +306,19 @@ impl TreeExtractor {
             }
             extra.extend(mean);
         }
+        let rms = |v: &[f64]| (v.iter().map(|a| a * a).sum::<f64>() / n as f64).sqrt();
+        let energies: Vec<f64> = if self.energy {
+            let mut e: Vec<f64> = extra.chunks(n).map(rms).collect();
+            if let Some(at) = self.energy_since {
+                e.push(rms(&x[at..at + n]));
+            }
+            e
+        } else {
+            Vec::new()
+        };
         x.extend(extra);
         x.extend(turns);
+        x.extend(energies);
         Ok(Some(x))
     }
 

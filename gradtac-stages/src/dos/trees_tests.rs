@@ -21,7 +21,7 @@ fn stump(f: usize, thr: f64, a: f64, b: f64) -> Tree {
 }
 
 fn small_inputs() -> TreeInputs {
-    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2, turn: false }
+    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2, turn: false, energy: false }
 }
 
 /// A valid two-class model on the BioTac SP's 24 taxels (no mirror).
@@ -177,6 +177,7 @@ proptest! {
 fn the_extractor_is_causal_restarts_on_reset_and_refuses_non_finite_frames() {
     for turn in [false, true] {
         extractor_is_causal(TreeInputs { turn, ..TreeInputs::default() });
+        extractor_is_causal(TreeInputs { turn, energy: true, ..TreeInputs::default() });
     }
 }
 
@@ -212,6 +213,7 @@ fn mirror_of(layout: &Layout) -> Vec<usize> {
 fn the_mirror_map_maps_a_mirrored_recordings_inputs() {
     for (turn, class) in [(false, DosClass::E), (true, DosClass::E), (true, DosClass::Cw)] {
         mirror_map_maps(TreeInputs { turn, ..TreeInputs::default() }, class);
+        mirror_map_maps(TreeInputs { turn, energy: true, ..TreeInputs::default() }, class);
     }
 }
 
@@ -279,6 +281,40 @@ fn the_rigid_flow_recovers_a_small_turn_and_shift_of_a_pattern() {
     assert_eq!(TreeInputs { turn: true, ..TreeInputs::default() }.inputs(24), TreeInputs::default().inputs(24) + 9);
 }
 
+/// The change-energy inputs (stop 35's round 5) are the root mean square of each lag's and the
+/// slope's per-taxel change and of the since-start block, appended last; they need a source.
+#[test]
+fn the_energy_inputs_are_the_root_mean_square_of_each_change_block() {
+    let layout = Layout::biotac_sp();
+    let n = layout.len();
+    let inputs = TreeInputs { turn: true, energy: true, ..TreeInputs::default() };
+    assert_eq!(inputs.energy_inputs(), 4);
+    assert_eq!(inputs.inputs(n), TreeInputs { turn: true, ..TreeInputs::default() }.inputs(n) + 4);
+    let frames = synthetic_values(DosClass::N, [0.0, 0.0], 0.3, 5);
+    let mut x = TreeExtractor::try_new_on(&inputs, &layout).unwrap();
+    let windows: Vec<Vec<f64>> = frames.iter().filter_map(|f| x.push(f).unwrap()).collect();
+    let rms = |v: &[f64]| (v.iter().map(|a| a * a).sum::<f64>() / n as f64).sqrt();
+    let w = inputs.window.inputs(n);
+    let e = inputs.inputs(n) - 4;
+    let mut moved = false;
+    for v in &windows {
+        for k in 0..3 {
+            assert_eq!(v[e + k], rms(&v[w + k * n..w + (k + 1) * n]), "source {k}");
+        }
+        // window inputs `both`: the since-start block is the second
+        assert_eq!(v[e + 3], rms(&v[n..2 * n]));
+        moved |= v[e] > 0.0;
+    }
+    assert!(moved, "a sliding contact's pattern changes");
+    // nothing to measure: refused
+    let mut none = TreeInputs { lags: vec![], slope_windows: 0, energy: true, ..TreeInputs::default() };
+    none.window.inputs = WindowInputs::Levels;
+    assert!(none.validate().is_err());
+    none.slope_windows = 2;
+    assert!(none.validate().is_ok());
+    assert_eq!(none.energy_inputs(), 1);
+}
+
 #[cfg(feature = "train")]
 mod trained {
     use super::*;
@@ -287,11 +323,16 @@ mod trained {
 
     /// The trainer's windows (`train_trees::tree_windows`) are, bit for bit, the inputs a
     /// model's streaming extractor (the one the `dos` stage's vote pushes frames through) gives
-    /// on the same frames, the rotation-sense inputs included.
+    /// on the same frames, the rotation-sense and change-energy inputs included.
     #[test]
     fn the_trainers_windows_are_the_streaming_extractors() {
+        for energy in [false, true] {
+            trainers_windows_are_the_streaming_extractors(TreeInputs { turn: true, energy, ..TreeInputs::default() });
+        }
+    }
+
+    fn trainers_windows_are_the_streaming_extractors(inputs: TreeInputs) {
         let layout = Layout::biotac_sp();
-        let inputs = TreeInputs { turn: true, ..TreeInputs::default() };
         let frames = synthetic_values(DosClass::Aw, [0.0, 0.0], 0.3, 11);
         let trainer = crate::dos::train_trees::tree_windows(&frames, &inputs, &layout).unwrap();
         let classes = vec![DosClass::Cw, DosClass::Aw];
@@ -300,8 +341,9 @@ mod trained {
         let mut stage = TreeVoteState::try_new(&model, &layout).unwrap().fresh_extractor();
         let streamed: Vec<Vec<f64>> = frames.iter().filter_map(|f| stage.push(f).unwrap()).collect();
         assert_eq!(trainer, streamed);
-        let turns = inputs.inputs(24) - 9;
-        assert!(trainer.iter().any(|x| x[turns..].iter().any(|v| *v != 0.0)), "the turn inputs are computed");
+        let turns = inputs.inputs(24) - 9 - inputs.energy_inputs();
+        assert!(trainer.iter().any(|x| x[turns..turns + 9].iter().any(|v| *v != 0.0)), "the turn inputs are computed");
+        assert!(trainer.iter().any(|x| x[turns + 9..].iter().any(|v| *v != 0.0)) || !inputs.energy);
     }
 
     fn random_inputs(d: usize, rng: &mut SplitMix) -> Vec<f64> {
