@@ -772,7 +772,12 @@ impl SensorChain {
                             "Student t + gradient-boosted trees ({}-frame windows, {} inputs{}, {} trees), weight a = {}",
                             t.trees.inputs().window.frames,
                             t.trees.input_count(),
-                            if t.trees.inputs().turn { " with the rotation-sense ones" } else { "" },
+                            match (t.trees.inputs().turn, t.trees.inputs().energy) {
+                                (true, true) => " with the rotation-sense and change-energy ones",
+                                (true, false) => " with the rotation-sense ones",
+                                (false, true) => " with the change-energy ones",
+                                (false, false) => "",
+                            },
                             t.trees.trees().len(),
                             t.weight
                         ),

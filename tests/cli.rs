@@ -566,7 +566,7 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
         let trees = model.trees.as_ref().unwrap().trees.trees().len();
         assert!(
             text.contains(&format!(
-                "Student t + gradient-boosted trees (5-frame windows, 157 inputs with the rotation-sense ones, {trees} trees), \
+                "Student t + gradient-boosted trees (5-frame windows, 161 inputs with the rotation-sense and change-energy ones, {trees} trees), \
                  weight a = 0.75"
             )),
             "{text}"
@@ -701,13 +701,17 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(gradtac::calibrate::WINDOW_WEIGHTS.contains(&part.weight), "{}", part.weight);
     assert_eq!((part.trees.taxels(), part.trees.recordings()), (24, 12));
     assert_eq!(model.parameter_count(), 24 + part.trees.nodes() + 4 + 1);
-    // calibrate's trees are round 4's rule winner T12 (stop 35), exactly as it was scored held out
+    // calibrate's trees are round 5's rule winner T13 (stop 35), exactly as it was scored held out
+    let t13: gradtac::stages::dos::train_trees::TreeTrainConfig =
+        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t13.json")).unwrap();
+    assert_eq!(t13, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T13 is the default");
+    assert_eq!(part.trees.inputs(), &t13.inputs);
+    assert!(part.trees.inputs().turn && part.trees.inputs().energy, "T13: rotation-sense and change-energy inputs");
+    assert!(part.trees.trees().len() <= 60 * 7, "T13: 60 rounds of at most 7 trees");
+    // round 4's default stays readable as what was scored: T13 without the change-energy inputs
     let t12: gradtac::stages::dos::train_trees::TreeTrainConfig =
         serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t12.json")).unwrap();
-    assert_eq!(t12, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T12 is the default");
-    assert_eq!(part.trees.inputs(), &t12.inputs);
-    assert!(part.trees.inputs().turn, "T12: the rotation-sense inputs");
-    assert!(part.trees.trees().len() <= 60 * 7, "T12: 60 rounds of at most 7 trees");
+    assert_eq!((t12.colsample, t12.inputs.turn, t12.inputs.energy), (0.5, true, false));
     // the earlier defaults' files are spelled out: they keep meaning what was scored
     let t9: gradtac::stages::dos::train_trees::TreeTrainConfig =
         serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t9.json")).unwrap();

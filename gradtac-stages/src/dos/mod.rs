@@ -709,6 +709,27 @@
 //! `TreeTrainConfig::default()` (T9 with `inputs.turn` and `colsample` 0.5). `dos_eval`'s floors
 //! follow: 87 / 87 / 79 / 86 %.
 //!
+//! **Round 5 (stop 35): T13, change-energy inputs, the default.** Rule, candidate and diagnosis
+//! in `examples/dos_eval_parts/trees_rule_round5.md` (committed before any figure of T13).
+//! Diagnosis on the inner views (`dos_trees_diag`, `trees_round5_diagnosis.txt`): of T12's 23
+//! inner errors 8 are a stable touch decided as a slip (sponge 3, bottle 2, cardboard 3); such a
+//! touch is misread in every third of the recording (not while the object settles), and — per
+//! taxel only — the trees cannot see that the whole pattern hardly moved, while the root mean
+//! square over the taxels of each change block is 2.6–9× lower on touches than on slips on every
+//! object. Candidate T13 = T12 + the **change-energy inputs** ([`TreeInputs::energy`]: that RMS
+//! of the lag-6 and lag-20 changes, the slope and the since-start pattern; 4 inputs). Inner
+//! views (`trees_round5_inner_views.txt`): T12 98 + 46 = 144 (reproduced; 79.9 % per window),
+//! **T13 98 + 48 = 146 (81.9 %)**: T13 wins. Held out once (`dos_trees --held-out
+//! examples/dos_eval_parts/trees_t13.json`, `trees_round5_held_out.txt`), combination with T13
+//! (T12 in brackets): nested **88.6 %** (148/167; 89.2), basic → solids **91.1 %** (51/56;
+//! 91.1), solids → basic **82.9 %** (92/111; 81.1 — target 85 % still not met), ConvLSTM
+//! protocol **89.7 %** (2 758/3 076; 88.7), with the causal vote 89.9 % (89.7); at 1 s 89.3 /
+//! 84.7 % (85.7 / 82.0). T13's vote alone 89.2 / 91.1 / 83.8 % (observed, nothing chosen on
+//! it). Every met target stays met; `gradtac calibrate dos` takes 27.1 s on the 167 recordings
+//! (420 trees, 5 404 nodes; it chose `a` = 0.25) and the sliding mode's p99 is 8.07 µs per
+//! frame (`dos_sliding_cost`), so by the rule T13 is `TreeTrainConfig::default()` (T12 with
+//! `inputs.energy`). `dos_eval`'s floors follow: 86 / 87 / 80 / 87 %.
+//!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
 //! per-class variances shrunk toward them, `σ²_{c,j} = λ·σ²_j + (1 − λ)·s²_{c,j}` with

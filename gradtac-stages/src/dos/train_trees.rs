@@ -64,15 +64,17 @@ pub struct TreeTrainConfig {
 }
 
 impl Default for TreeTrainConfig {
-    /// T12 of stop 35's round 4 (`examples/dos_eval_parts/trees_rule_round4.md`), the default of
-    /// `gradtac calibrate dos`: round 3's T9 — stop 34's T4 (60 rounds, depth ≤ 3, λ = 5,
-    /// minimum hessian 5) with two random copies per recording, each with an **object imprint**
-    /// of spread 0.5 ([`WindowAugment::imprint`]) — with the **rotation-sense inputs**
+    /// T13 of stop 35's round 5 (`examples/dos_eval_parts/trees_rule_round5.md`), the default of
+    /// `gradtac calibrate dos`: round 4's T12 — round 3's T9 (stop 34's T4: 60 rounds, depth ≤ 3,
+    /// λ = 5, minimum hessian 5, with two random copies per recording, each with an **object
+    /// imprint** of spread 0.5, [`WindowAugment::imprint`]) with the **rotation-sense inputs**
     /// ([`TreeInputs::turn`]) and each tree splitting on a random half of the inputs
-    /// ([`colsample`](Self::colsample) 0.5).
+    /// ([`colsample`](Self::colsample) 0.5) — with the **change-energy inputs**
+    /// ([`TreeInputs::energy`]: how much the whole pattern changed, aimed at touches read as
+    /// slips).
     fn default() -> Self {
         TreeTrainConfig {
-            inputs: TreeInputs { turn: true, ..TreeInputs::default() },
+            inputs: TreeInputs { turn: true, energy: true, ..TreeInputs::default() },
             rounds: 60,
             depth: 3,
             learning_rate: 0.1,

@@ -27,6 +27,12 @@
 //!   above carry no sense of rotation that does not depend on where the object presses; this
 //!   one is a rotation of the change field itself about the contact. Cost per window: one
 //!   gradient per taxel (≈ 10 neighbours) and a 3 × 3 solve per source.
+//! - with [`TreeInputs::energy`] (the default of the trainer since stop 35's round 5), the
+//!   **change-energy inputs**, appended last: the root mean square over the taxels of each lag's
+//!   change, of the slope, and of the pattern since the contact's first 0.1 s (with window
+//!   inputs `both` or `since_start`) — how much the *whole* pattern changed, which a tree of
+//!   depth ≤ 3 over per-taxel inputs cannot sum. Aimed at a stable touch read as a slip (the
+//!   largest group of round 4's inner errors). Cost per window: `n` multiply-adds per block.
 //!
 //! Units: the level pattern's (deviation across taxels over their spread: dimensionless), so
 //! exactly as invariant as the window model's inputs (one gain and offset common to all taxels).
