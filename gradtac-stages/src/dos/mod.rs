@@ -728,7 +728,11 @@
 //! it). Every met target stays met; `gradtac calibrate dos` takes 27.1 s on the 167 recordings
 //! (420 trees, 5 404 nodes; it chose `a` = 0.25) and the sliding mode's p99 is 8.07 µs per
 //! frame (`dos_sliding_cost`), so by the rule T13 is `TreeTrainConfig::default()` (T12 with
-//! `inputs.energy`). `dos_eval`'s floors follow: 86 / 87 / 80 / 87 %.
+//! `inputs.energy`). `dos_eval`'s floors follow: 86 / 87 / 80 / 87 %. Looked at after the
+//! choice (inner views, `trees_round5_t13_diagnosis.txt`): T13's two recordings come from the
+//! bottle's rotations (`aw → t` 2, `cw → s` 1 fixed), not from the touches — 9 inner touches are
+//! still read as slips (T12: 8), the sponge's and the bottle's in every window; that group stays
+//! open.
 //!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
