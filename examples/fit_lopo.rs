@@ -35,7 +35,7 @@ use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{self, Correction, Design, Trained};
 use gradtac::stages::locate::LocateConfig;
 use gradtac::stages::sim_family::{KernelShape, Member, PathKind, PhysicsSet};
-use gradtac::stages::track::{ContactState, Track, TrackConfig};
+use gradtac::stages::track::{Track, TrackConfig};
 use gradtac::stream::{Layout, Stage, StageExt};
 use std::collections::HashMap;
 use std::time::Instant;
@@ -263,25 +263,7 @@ fn score(m: &Member, cfg: &LocateConfig, layout: &Layout, w: Option<&Trained>) -
     }
     fit.finish(&mut contours).expect("finish");
     let pts = Track::try_new(&TrackConfig::default()).unwrap().run_all(contours).unwrap();
-    let (t0, t1) = rec.moving_s;
-    let mut errs = Vec::new();
-    for q in &pts {
-        let mid = 0.5 * (q.start.as_secs_f64() + q.time.as_secs_f64());
-        if mid > t0 && mid < t1 && q.state == ContactState::Contact {
-            let c = rec.physics.path.at((mid - t0) / (t1 - t0));
-            let e = (q.x_mm - c[0]).hypot(q.y_mm - c[1]);
-            if e.is_finite() {
-                errs.push(e);
-            }
-        }
-    }
-    let mean = if errs.is_empty() {
-        let c = layout.extent().centre();
-        (1..20).map(|i| rec.physics.path.at(i as f64 / 20.0)).map(|p| (p[0] - c[0]).hypot(p[1] - c[1])).sum::<f64>()
-            / 19.0
-    } else {
-        errs.iter().sum::<f64>() / errs.len() as f64
-    };
+    let mean = rec.mean_track_error_mm(&rec.track_errors_mm(&pts));
     (m.kind, mean / width)
 }
 
