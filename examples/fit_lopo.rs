@@ -40,6 +40,9 @@ use gradtac::stream::{Layout, Stage, StageExt};
 use std::collections::HashMap;
 use std::time::Instant;
 
+#[path = "fit_parts/fitted.rs"]
+mod fitted;
+
 /// Inputs kept by `R2` (the rest are left out: zero in training, a scale that makes them 0).
 const KEPT_R2: usize = 7;
 /// A left-out input's scale: its standardised value is below 3e-12 (inputs are clamped to ±3).
@@ -75,29 +78,21 @@ struct Samples {
 /// Every `every`-th fitted frame of the seeds' recordings (tuning physics), as
 /// `train_fit_correction` takes them (target: the truth at the frame's middle time).
 fn samples(seeds: std::ops::Range<u64>, every: usize, layout: &Layout, cfg: &LocateConfig) -> Samples {
-    let cfg = LocateConfig { fit_learned_correction: false, ..cfg.clone() };
     let mut s = Samples { x: Vec::new(), y: Vec::new(), cell: Vec::new() };
     for m in Member::grid(seeds) {
         let p = m.physics_in(PhysicsSet::Tuning);
         let c = cell(p.kernel, p.lag_s);
         let rec = p.simulate(m.seed);
-        let mut fit = Fit::try_new(&cfg, layout).expect("valid fit settings");
-        fit.record_inputs(true);
-        let mut out = Vec::new();
         let mut k = 0usize;
-        for f in rec.frames.iter().cloned() {
-            out.clear();
-            fit.push(f, &mut out).expect("simulated frames are finite");
-            let (Some((x, p)), Some(cc)) = (fit.last_input(), out.last()) else { continue };
-            let mid = 0.5 * (cc.start.as_secs_f64() + cc.end.as_secs_f64());
-            let Some(t) = rec.truth_at(mid) else { continue };
+        fitted::each_fitted_frame(&rec, cfg, layout, |x, p, mid| {
+            let Some(t) = rec.truth_at(mid) else { return };
             k += 1;
             if k % every == 0 {
                 s.x.push(x[..fit_learned::INPUTS].to_vec());
                 s.y.push([t[0] - p[0], t[1] - p[1]]);
                 s.cell.push(c);
             }
-        }
+        });
     }
     s
 }
