@@ -35,10 +35,13 @@ use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{self, Correction, Design, Trained};
 use gradtac::stages::locate::LocateConfig;
 use gradtac::stages::sim_family::{KernelShape, Member, PathKind, PhysicsSet};
-use gradtac::stages::track::{ContactState, Track, TrackConfig};
+use gradtac::stages::track::{Track, TrackConfig};
 use gradtac::stream::{Layout, Stage, StageExt};
 use std::collections::HashMap;
 use std::time::Instant;
+
+#[path = "fit_parts/fitted.rs"]
+mod fitted;
 
 /// Inputs kept by `R2` (the rest are left out: zero in training, a scale that makes them 0).
 const KEPT_R2: usize = 7;
@@ -75,29 +78,21 @@ struct Samples {
 /// Every `every`-th fitted frame of the seeds' recordings (tuning physics), as
 /// `train_fit_correction` takes them (target: the truth at the frame's middle time).
 fn samples(seeds: std::ops::Range<u64>, every: usize, layout: &Layout, cfg: &LocateConfig) -> Samples {
-    let cfg = LocateConfig { fit_learned_correction: false, ..cfg.clone() };
     let mut s = Samples { x: Vec::new(), y: Vec::new(), cell: Vec::new() };
     for m in Member::grid(seeds) {
         let p = m.physics_in(PhysicsSet::Tuning);
         let c = cell(p.kernel, p.lag_s);
         let rec = p.simulate(m.seed);
-        let mut fit = Fit::try_new(&cfg, layout).expect("valid fit settings");
-        fit.record_inputs(true);
-        let mut out = Vec::new();
         let mut k = 0usize;
-        for f in rec.frames.iter().cloned() {
-            out.clear();
-            fit.push(f, &mut out).expect("simulated frames are finite");
-            let (Some((x, p)), Some(cc)) = (fit.last_input(), out.last()) else { continue };
-            let mid = 0.5 * (cc.start.as_secs_f64() + cc.end.as_secs_f64());
-            let Some(t) = rec.truth_at(mid) else { continue };
+        fitted::each_fitted_frame(&rec, cfg, layout, |x, p, mid| {
+            let Some(t) = rec.truth_at(mid) else { return };
             k += 1;
             if k % every == 0 {
                 s.x.push(x[..fit_learned::INPUTS].to_vec());
                 s.y.push([t[0] - p[0], t[1] - p[1]]);
                 s.cell.push(c);
             }
-        }
+        });
     }
     s
 }
@@ -263,25 +258,7 @@ fn score(m: &Member, cfg: &LocateConfig, layout: &Layout, w: Option<&Trained>) -
     }
     fit.finish(&mut contours).expect("finish");
     let pts = Track::try_new(&TrackConfig::default()).unwrap().run_all(contours).unwrap();
-    let (t0, t1) = rec.moving_s;
-    let mut errs = Vec::new();
-    for q in &pts {
-        let mid = 0.5 * (q.start.as_secs_f64() + q.time.as_secs_f64());
-        if mid > t0 && mid < t1 && q.state == ContactState::Contact {
-            let c = rec.physics.path.at((mid - t0) / (t1 - t0));
-            let e = (q.x_mm - c[0]).hypot(q.y_mm - c[1]);
-            if e.is_finite() {
-                errs.push(e);
-            }
-        }
-    }
-    let mean = if errs.is_empty() {
-        let c = layout.extent().centre();
-        (1..20).map(|i| rec.physics.path.at(i as f64 / 20.0)).map(|p| (p[0] - c[0]).hypot(p[1] - c[1])).sum::<f64>()
-            / 19.0
-    } else {
-        errs.iter().sum::<f64>() / errs.len() as f64
-    };
+    let mean = rec.mean_track_error_mm(&rec.track_errors_mm(&pts));
     (m.kind, mean / width)
 }
 

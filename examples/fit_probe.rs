@@ -23,7 +23,7 @@ use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{Correction, Trained};
 use gradtac::stages::locate::LocateConfig;
 use gradtac::stages::sim_family::{Member, PathKind, Physics, PhysicsSet, IDEAL_TERMS};
-use gradtac::stages::track::{ContactState, Track, TrackConfig};
+use gradtac::stages::track::{Track, TrackConfig};
 use gradtac::stream::{Layout, Stage, StageExt};
 use std::collections::HashMap;
 
@@ -106,31 +106,19 @@ fn main() {
         );
         fit.finish(&mut contours).unwrap();
         let pts = Track::try_new(&TrackConfig::default()).unwrap().run_all(contours).unwrap();
+        // every track point during the movement; the contact ones scored against the truth
+        // (with none, the truth's mean distance from the pad centre, as `tradeoff` scores it)
         let (t0, t1) = rec.moving_s;
-        let mut errs = Vec::new();
-        for q in &pts {
-            let mid = 0.5 * (q.start.as_secs_f64() + q.time.as_secs_f64());
-            if mid > t0 && mid < t1 {
-                total += 1;
-                if q.state == ContactState::Contact {
-                    let c = rec.physics.path.at((mid - t0) / (t1 - t0));
-                    let e = (q.x_mm - c[0]).hypot(q.y_mm - c[1]);
-                    if e.is_finite() {
-                        errs.push(e);
-                        contact += 1;
-                    }
-                }
-            }
-        }
-        // no contact during the movement: the truth's mean distance from the pad centre (as
-        // `tradeoff` scores it)
-        let mean = if errs.is_empty() {
-            let c = layout.extent().centre();
-            (1..20).map(|i| rec.physics.path.at(i as f64 / 20.0)).map(|p| (p[0] - c[0]).hypot(p[1] - c[1])).sum::<f64>()
-                / 19.0
-        } else {
-            errs.iter().sum::<f64>() / errs.len() as f64
-        };
+        total += pts
+            .iter()
+            .filter(|q| {
+                let mid = 0.5 * (q.start.as_secs_f64() + q.time.as_secs_f64());
+                mid > t0 && mid < t1
+            })
+            .count();
+        let errs = rec.track_errors_mm(&pts);
+        contact += errs.len();
+        let mean = rec.mean_track_error_mm(&errs);
         if verbose {
             println!(
                 "  seed {:3} {:10} kernel {:12} q̂ {shape:.2} {polarity} | {:.4}",

@@ -409,14 +409,7 @@ fn score(rec: &FamilyRecording, pts: &[TrackPoint]) -> Score {
     let moving = |t: f64| t > t0 && t < t1;
     let mid = |p: &TrackPoint| 0.5 * (p.start.as_secs_f64() + p.time.as_secs_f64());
     let total = pts.iter().filter(|p| moving(mid(p))).count().max(1);
-    let errs: Vec<f64> = pts
-        .iter()
-        .filter(|p| p.state == ContactState::Contact && moving(mid(p)))
-        .filter_map(|p| {
-            let c = rec.physics.path.at((mid(p) - t0) / (t1 - t0));
-            Some((p.x_mm - c[0]).hypot(p.y_mm - c[1])).filter(|e| e.is_finite())
-        })
-        .collect();
+    let errs = rec.track_errors_mm(pts);
     let way = rec
         .waypoints
         .iter()
@@ -429,18 +422,7 @@ fn score(rec: &FamilyRecording, pts: &[TrackPoint]) -> Score {
         .collect();
     // a recording without any contact during the movement scores the mean distance of the truth
     // from the pad centre (what "no idea" costs), not infinity
-    let mean_mm = if errs.is_empty() {
-        let c = Layout::biotac_sp().extent().centre();
-        let d: Vec<f64> = (1..20)
-            .map(|i| {
-                let p = rec.physics.path.at(i as f64 / 20.0);
-                (p[0] - c[0]).hypot(p[1] - c[1])
-            })
-            .collect();
-        d.iter().sum::<f64>() / d.len() as f64
-    } else {
-        errs.iter().sum::<f64>() / errs.len() as f64
-    };
+    let mean_mm = rec.mean_track_error_mm(&errs);
     let quiet = |t: f64| {
         let k = (t * 100.0).round() as i64;
         t > 0.3 && (k - 8..=k + 8).all(|j| j < 0 || rec.force.get(j as usize).is_none_or(|&f| f == 0.0))

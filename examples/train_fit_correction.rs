@@ -31,13 +31,15 @@
 //! {0.125, 0.25} × {1e-6, 1e-5}. A file written with
 //! `--out` is scored without rebuilding by `fit_probe --weights PATH`.
 
-use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{self, Correction};
 use gradtac::stages::locate::LocateConfig;
 use gradtac::stages::sim_family::{Member, Physics, PhysicsSet, IDEAL_TERMS};
 use gradtac::stages::splitmix::SplitMix;
-use gradtac::stream::{Layout, Stage};
+use gradtac::stream::Layout;
 use std::time::Instant;
+
+#[path = "fit_parts/fitted.rs"]
+mod fitted;
 
 /// Inputs, targets and the score's truth (at the middle time, not less the lag), each minus the
 /// raw position.
@@ -63,8 +65,6 @@ fn widen(p: &mut Physics, m: &Member) {
 }
 
 fn samples(seeds: std::ops::Range<u64>, every: usize, lagged: bool, layout: &Layout, opts: &Opts) -> Samples {
-    // the fit without the correction: the samples never depend on the weights
-    let cfg = LocateConfig { fit_learned_correction: false, ..opts.cfg.clone() };
     let (mut xs, mut ys, mut us) = (Vec::new(), Vec::new(), Vec::new());
     for m in Member::grid(seeds) {
         let mut p = m.physics_in(PhysicsSet::Tuning);
@@ -72,18 +72,11 @@ fn samples(seeds: std::ops::Range<u64>, every: usize, lagged: bool, layout: &Lay
             widen(&mut p, &m);
         }
         let rec = p.simulate(m.seed);
-        let mut fit = Fit::try_new(&cfg, layout).expect("valid fit settings");
-        fit.record_inputs(true);
-        let mut out = Vec::new();
         let mut k = 0usize;
-        for f in rec.frames.iter().cloned() {
-            out.clear();
-            fit.push(f, &mut out).expect("simulated frames are finite");
-            let (Some((x, p)), Some(c)) = (fit.last_input(), out.last()) else { continue };
-            let mid = 0.5 * (c.start.as_secs_f64() + c.end.as_secs_f64());
+        fitted::each_fitted_frame(&rec, &opts.cfg, layout, |x, p, mid| {
             let shift = if lagged { rec.physics.lag_s } else { 0.0 };
-            let Some(t) = rec.truth_at(mid - shift) else { continue };
-            let Some(u) = rec.truth_at(mid) else { continue };
+            let Some(t) = rec.truth_at(mid - shift) else { return };
+            let Some(u) = rec.truth_at(mid) else { return };
             k += 1;
             if k % every == 0 {
                 xs.push(
@@ -92,7 +85,7 @@ fn samples(seeds: std::ops::Range<u64>, every: usize, lagged: bool, layout: &Lay
                 ys.push([t[0] - p[0], t[1] - p[1]]);
                 us.push([u[0] - p[0], u[1] - p[1]]);
             }
-        }
+        });
     }
     (xs, ys, us)
 }

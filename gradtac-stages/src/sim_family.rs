@@ -57,6 +57,7 @@
 //! assert_eq!(rec.waypoints.len(), 5);
 //! ```
 
+use crate::track::{ContactState, TrackPoint};
 use gradtac_stream::{Layout, SensorId, TaxelFrame, Timestamp};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -361,6 +362,41 @@ impl FamilyRecording {
         self.contact[k as usize]?;
         let (t0, t1) = self.moving_s;
         Some(self.physics.path.at((t - t0) / (t1 - t0)))
+    }
+
+    /// The tracking errors (mm) of `points` against the truth, as the location evaluations
+    /// score them (`tradeoff`, `fit_probe`, `fit_lopo`): every contact point whose span's middle
+    /// time lies inside the movement, its distance from the path at that time; non-finite
+    /// distances left out.
+    pub fn track_errors_mm(&self, points: &[TrackPoint]) -> Vec<f64> {
+        let (t0, t1) = self.moving_s;
+        points
+            .iter()
+            .filter_map(|q| {
+                let mid = 0.5 * (q.start.as_secs_f64() + q.time.as_secs_f64());
+                if !(mid > t0 && mid < t1 && q.state == ContactState::Contact) {
+                    return None;
+                }
+                let c = self.physics.path.at((mid - t0) / (t1 - t0));
+                Some((q.x_mm - c[0]).hypot(q.y_mm - c[1])).filter(|e| e.is_finite())
+            })
+            .collect()
+    }
+
+    /// The mean of `errors` (mm, from [`track_errors_mm`](Self::track_errors_mm)); without any,
+    /// what "no idea" costs: the mean distance of the path from the pad's centre (the BioTac SP
+    /// layout's extent) at 19 evenly spaced points of the movement, not infinity.
+    pub fn mean_track_error_mm(&self, errors: &[f64]) -> f64 {
+        if errors.is_empty() {
+            let c = Layout::biotac_sp().extent().centre();
+            (1..20)
+                .map(|i| self.physics.path.at(i as f64 / 20.0))
+                .map(|p| (p[0] - c[0]).hypot(p[1] - c[1]))
+                .sum::<f64>()
+                / 19.0
+        } else {
+            errors.iter().sum::<f64>() / errors.len() as f64
+        }
     }
 }
 
