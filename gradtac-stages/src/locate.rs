@@ -1854,8 +1854,9 @@ mod tests {
     #[test]
     fn the_rise_test_compares_with_the_total_the_look_back_before() {
         let model = DriftModel { drift_shape: 0.25, drift_shape_rise_s: 2.0, ..DriftModel::default() };
-        let at = |k: i64| Timestamp(k * 10_000_000); // 100 Hz
-                                                     // before the look-back is covered every frame counts as a recent rise
+        // frames at 100 Hz
+        let at = |k: i64| Timestamp(k * 10_000_000);
+        // before the look-back is covered every frame counts as a recent rise
         let mut st = DriftState::new(model, 2);
         assert!((0..200).all(|k| st.rose_recently(at(k), 10.0)));
         // then a constant total has not risen; a total that doubled within 2 s has
