@@ -350,6 +350,26 @@ mod trained {
         (0..d).map(|_| rng.normal()).collect()
     }
 
+    /// The toy problem's class of an input vector: four classes, separable on inputs 3 and 40.
+    fn toy_label(x: &[f64]) -> DosClass {
+        match (x[3] > 0.0, x[40] > 0.5) {
+            (true, true) => DosClass::N,
+            (true, false) => DosClass::E,
+            (false, true) => DosClass::S,
+            (false, false) => DosClass::T,
+        }
+    }
+
+    /// `n` labelled random input vectors of length `d` for the toy problem ([`toy_label`]).
+    fn toy_samples(d: usize, n: usize, rng: &mut SplitMix) -> Vec<(DosClass, Vec<f64>)> {
+        (0..n)
+            .map(|_| {
+                let x = random_inputs(d, rng);
+                (toy_label(&x), x)
+            })
+            .collect()
+    }
+
     #[test]
     fn trees_learn_a_separable_toy_problem() {
         let layout = Layout::biotac_sp();
@@ -362,25 +382,14 @@ mod trained {
             ..TreeTrainConfig::default()
         };
         let d = cfg.inputs.inputs(layout.len());
-        let label = |x: &[f64]| match (x[3] > 0.0, x[40] > 0.5) {
-            (true, true) => DosClass::N,
-            (true, false) => DosClass::E,
-            (false, true) => DosClass::S,
-            (false, false) => DosClass::T,
-        };
         let mut rng = SplitMix::new(5);
-        let samples: Vec<(DosClass, Vec<f64>)> = (0..2000)
-            .map(|_| {
-                let x = random_inputs(d, &mut rng);
-                (label(&x), x)
-            })
-            .collect();
+        let samples = toy_samples(d, 2000, &mut rng);
         let m = fit_trees(&samples, &layout, &cfg).unwrap();
         assert_eq!(m.classes(), &[DosClass::N, DosClass::E, DosClass::S, DosClass::T]);
         let mut ok = 0;
         for _ in 0..500 {
             let x = random_inputs(d, &mut rng);
-            ok += usize::from(m.classify(&x).unwrap().class == label(&x));
+            ok += usize::from(m.classify(&x).unwrap().class == toy_label(&x));
         }
         assert!(ok >= 490, "{ok} of 500");
         // the compact, interleaved walk adds exactly what the arrays' plain walk gives, in order
@@ -408,19 +417,7 @@ mod trained {
             ..TreeTrainConfig::default()
         };
         let d = base.inputs.inputs(layout.len());
-        let label = |x: &[f64]| match (x[3] > 0.0, x[40] > 0.5) {
-            (true, true) => DosClass::N,
-            (true, false) => DosClass::E,
-            (false, true) => DosClass::S,
-            (false, false) => DosClass::T,
-        };
-        let mut rng = SplitMix::new(11);
-        let samples: Vec<(DosClass, Vec<f64>)> = (0..800)
-            .map(|_| {
-                let x = random_inputs(d, &mut rng);
-                (label(&x), x)
-            })
-            .collect();
+        let samples = toy_samples(d, 800, &mut SplitMix::new(11));
         let features = |m: &crate::dos::DosTrees| -> Vec<std::collections::BTreeSet<usize>> {
             m.trees()
                 .iter()
