@@ -18,6 +18,7 @@
 //!   model).
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
+use gradtac::stages::dos::train::TrainRecording;
 use gradtac::stages::dos::train_trees::{fit_on, tree_samples, tree_windows, TreeTrainConfig};
 use gradtac::stages::dos::{DosClass, TreeInputs, MOTION_INPUTS, TURN_INPUTS};
 use gradtac::stream::Layout;
@@ -107,7 +108,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     // 2. rotation sense of the inputs (no model)
     let inputs = TreeInputs { turn: true, ..cfg.inputs.clone() };
     let w = inputs.window.inputs(n);
-    let src = inputs.lags.len() + usize::from(inputs.slope_windows > 0);
+    let src = inputs.sources();
     let turn_at = inputs.inputs(n) - src * TURN_INPUTS;
     let mut names = vec!["motion: turn of the principal axis".to_string()];
     names.extend(inputs.lags.iter().map(|l| format!("fitted θ over lag {l}")));
@@ -119,14 +120,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     println!("## Rotation sense of the inputs (per recording: mean over its windows; sign right = cw +, aw −)\n");
     println!("| input | object | cw/aw sign right | mean |·| on cw/aw | mean |·| on n/e/s/w/t |");
     println!("|---|---|---|---|---|");
-    let per_rec: Vec<Vec<f64>> = tr
-        .iter()
-        .map(|r| {
-            let x = tree_windows(&r.frames, &inputs, &layout)?;
-            let k = x.len().max(1) as f64;
-            Ok(cols.iter().map(|&c| x.iter().map(|v| v[c]).sum::<f64>() / k).collect())
-        })
-        .collect::<Result<_, Box<dyn Error>>>()?;
+    let per_rec = column_means(&tr, &inputs, &layout, &cols)?;
     let mut objects: Vec<&str> = recs.iter().map(|r| r.object.as_str()).collect();
     objects.sort();
     objects.dedup();
@@ -172,14 +166,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     );
     println!("| object | source | mean on t | mean on slips | min on slips | t below every slip of the object |");
     println!("|---|---|---|---|---|---|");
-    let per_rec: Vec<Vec<f64>> = tr
-        .iter()
-        .map(|r| {
-            let x = tree_windows(&r.frames, &inputs, &layout)?;
-            let m = x.len().max(1) as f64;
-            Ok((0..k).map(|c| x.iter().map(|v| v[at + c]).sum::<f64>() / m).collect())
-        })
-        .collect::<Result<_, Box<dyn Error>>>()?;
+    let per_rec = column_means(&tr, &inputs, &layout, &(at..at + k).collect::<Vec<_>>())?;
     for obj in objects.iter().copied() {
         for (c, name) in names.iter().enumerate() {
             let of = |touch: bool| -> Vec<f64> {
@@ -223,4 +210,20 @@ fn touch_row(
         third(2 * k / 3, k),
         at(DosClass::T) - at(decided)
     )
+}
+
+/// Per recording, the mean over its tree windows (`inputs`) of each input column in `cols`.
+fn column_means(
+    tr: &[TrainRecording],
+    inputs: &TreeInputs,
+    layout: &Layout,
+    cols: &[usize],
+) -> Result<Vec<Vec<f64>>, Box<dyn Error>> {
+    tr.iter()
+        .map(|r| {
+            let x = tree_windows(&r.frames, inputs, layout)?;
+            let k = x.len().max(1) as f64;
+            Ok(cols.iter().map(|&c| x.iter().map(|v| v[c]).sum::<f64>() / k).collect())
+        })
+        .collect()
 }

@@ -160,7 +160,7 @@ impl TreeInputs {
     }
 
     /// Number of per-taxel change sources: the lags and the slope.
-    fn sources(&self) -> usize {
+    pub fn sources(&self) -> usize {
         self.lags.len() + usize::from(self.slope_windows > 0)
     }
 
