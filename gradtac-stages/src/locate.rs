@@ -900,8 +900,9 @@ pub enum RiseGuard {
     /// built up slowly keeps them (the step teaches the slope the drift it had missed).
     ShiftAnchors,
     /// As `ShiftAnchors`, and the level before the return is remembered (moved along the
-    /// slope) for `stale_s` (10 s if 0): once the window means come back to it — steady, their
-    /// total change against it below `release_fraction` of the step the return took — the
+    /// slope) for `stale_s` (10 s if 0; [`DriftModel::undo_window_s`]): once the window means
+    /// come back to it — steady, their total change against it below `release_fraction` of
+    /// the step the return took — the
     /// return is undone: that level is the baseline again, any contact ends, and the anchors
     /// are shifted back. A press's hold taken for drift is lifted that way; without it the
     /// lift reads as a contact as large as the press that lasts until something returns it.
@@ -976,6 +977,16 @@ impl Default for DriftModel {
 }
 
 impl DriftModel {
+    /// How long [`RiseGuard::ShiftAnchorsUndo`] remembers the level before a return (s):
+    /// `stale_s`, or 10 s when that is 0.
+    pub fn undo_window_s(&self) -> f64 {
+        if self.stale_s > 0.0 {
+            self.stale_s
+        } else {
+            10.0
+        }
+    }
+
     /// Check the ranges of the field docs.
     pub fn validate(&self) -> Result<()> {
         let pos = |x: f64| x.is_finite() && x > 0.0;
@@ -1328,7 +1339,7 @@ impl DriftState {
             for (l, sl) in level.iter_mut().zip(&self.slope) {
                 *l += sl * dt;
             }
-            let keep = if m.stale_s > 0.0 { m.stale_s } else { 10.0 };
+            let keep = m.undo_window_s();
             let back: f64 = mean.iter().zip(level.iter()).map(|(x, l)| (x - l).abs()).sum();
             if (time.0 - since.0) as f64 * 1e-9 > keep {
                 self.undo = None;
