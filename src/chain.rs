@@ -692,6 +692,38 @@ impl SensorChain {
                             }
                         };
                         if d.drift_shape > 0.0 {
+                            // the rise test: a clause inside the parentheses (the anchors shifted,
+                            // perhaps undone) or, when it blocks, one after them
+                            let rose = format!(
+                                "its total change {} s before was below {} of its own",
+                                d.drift_shape_rise_s, DRIFT_SHAPE_RISE_FRACTION
+                            );
+                            let rise = match (d.drift_shape_rise_s > 0.0, d.drift_shape_rise) {
+                                (false, _) => (String::new(), String::new()),
+                                (true, RiseGuard::Block) => (
+                                    String::new(),
+                                    format!(
+                                        "; not while {rose} (a press's rise and hold), nor in the first {} s",
+                                        d.drift_shape_rise_s
+                                    ),
+                                ),
+                                (true, guard) => (
+                                    format!(
+                                        ", or shifted to the new level when {rose} (a press's rise and hold taken for \
+                                         drift does not teach the slope the press){}",
+                                        if guard == RiseGuard::ShiftAnchorsUndo {
+                                            format!(
+                                                ", and undone when the sensor comes back to the level before it \
+                                                 within {} s",
+                                                d.undo_window_s()
+                                            )
+                                        } else {
+                                            String::new()
+                                        }
+                                    ),
+                                    String::new(),
+                                ),
+                            };
                             more += &format!(
                                 "; a steady excursion that one smooth bump explains less than {} of ({} fit{}) returns \
                                  (drift without a press's shape; the slope's anchors kept{}){}",
@@ -701,31 +733,8 @@ impl SensorChain {
                                     ShapeFit::Magnitude => "magnitude",
                                 },
                                 if f.detector().positions().is_some() { "" } else { "; off: no layout positions" },
-                                match (d.drift_shape_rise_s > 0.0, d.drift_shape_rise) {
-                                    (false, _) => String::new(),
-                                    (true, RiseGuard::ShiftAnchors) => format!(
-                                        ", or shifted to the new level when its total change {} s before was below {} of \
-                                         its own (a press's rise and hold taken for drift does not teach the slope the press)",
-                                        d.drift_shape_rise_s, DRIFT_SHAPE_RISE_FRACTION
-                                    ),
-                                    (true, RiseGuard::ShiftAnchorsUndo) => format!(
-                                        ", or shifted to the new level when its total change {} s before was below {} of \
-                                         its own (a press's rise and hold taken for drift does not teach the slope the press), \
-                                         and undone when the sensor comes back to the level before it within {} s",
-                                        d.drift_shape_rise_s,
-                                        DRIFT_SHAPE_RISE_FRACTION,
-                                        if d.stale_s > 0.0 { d.stale_s } else { 10.0 }
-                                    ),
-                                    (true, RiseGuard::Block) => String::new(),
-                                },
-                                match (d.drift_shape_rise_s > 0.0, d.drift_shape_rise) {
-                                    (true, RiseGuard::Block) => format!(
-                                        "; not while its total change {} s before was below {} of its own (a press's rise \
-                                         and hold), nor in the first {} s",
-                                        d.drift_shape_rise_s, DRIFT_SHAPE_RISE_FRACTION, d.drift_shape_rise_s
-                                    ),
-                                    _ => String::new(),
-                                },
+                                rise.0,
+                                rise.1,
                             );
                         }
                         if d.quiet_taxel_s > 0.0 {
