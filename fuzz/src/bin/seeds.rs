@@ -15,8 +15,13 @@ use gradtac_io::{ArrowRecord, ParquetSink};
 use gradtac_stages::contour::{Contour, ContourConfig};
 use gradtac_stages::dos::{DosClass, DosFeatureConfig, DosModel, Feature};
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
+use gradtac_stages::force::ForceMethod;
+use gradtac_stages::force_model::{calibrate, force_detector, CalibrationMethod, GaugeSample};
 use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
+use gradtac_stages::locate::LocateConfig;
 use gradtac_stages::sim::{Scene as SimScene, SensorModel, Simulator, Trajectory};
+use gradtac_stages::sim_force::{ForceSession, Segment};
+use gradtac_stages::tare::Tare;
 use gradtac_stages::track::{Track, TrackConfig};
 use gradtac_stages::window::{Aggregate, Window, WindowConfig};
 use gradtac_stream::{Layout, StageExt, TaxelFrame};
@@ -204,6 +209,42 @@ fn main() {
         .collect();
     let model = DosModel::calibrate(cfg, &samples).unwrap();
     put(&dir, "dos_model", "one-feature", serde_json::to_string_pretty(&model).unwrap().as_bytes());
+
+    // Force model and tare files (a mode byte first: see fuzz_targets/model_files.rs): a model
+    // of each calibration method that reads the changes, from a gauge session of a simulated
+    // member, and a tare of the same member's untouched stretch.
+    let session = ForceSession { noise_stream: 3, ..ForceSession::presses(7, 4) };
+    let rec = session.simulate();
+    let mut det = force_detector(24, &LocateConfig::default()).unwrap();
+    let samples: Vec<GaugeSample> = rec
+        .frames
+        .iter()
+        .map(|f| {
+            let ch = det.push(f, "seeds").unwrap();
+            let k = ((ch.start.0 + ch.end.0) / 2 - rec.frames[0].time.0) as f64 * 1e-7;
+            GaugeSample {
+                change: det.change().to_vec(),
+                contact: ch.contact,
+                area_mm2: None,
+                amplitude: None,
+                force_n: rec.gauge[k.round() as usize],
+                time_s: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
+            }
+        })
+        .collect();
+    for method in [CalibrationMethod::Forward, CalibrationMethod::Ridge, CalibrationMethod::Total, CalibrationMethod::Placed]
+    {
+        let file = calibrate(&samples, method, 1e-3, ForceMethod::Isotonic, &layout).unwrap();
+        let json = serde_json::to_string_pretty(&file).unwrap();
+        put(&dir, "model_files", method.name(), &with_mode(0, json.as_bytes()));
+    }
+    let rest = ForceSession { segments: vec![Segment::Rest(3.0)], noise_stream: 1, ..session }.simulate();
+    let values: Vec<Vec<f64>> = rest.frames.iter().map(|f| f.values.clone()).collect();
+    let times: Vec<i64> = rest.frames.iter().map(|f| f.time.0).collect();
+    let tare = Tare::measure(&values, &times, "biotac-sp", "ff", &LocateConfig::default()).unwrap();
+    let json = serde_json::to_string_pretty(&tare).unwrap();
+    put(&dir, "model_files", "tare-track", &with_mode(1, json.as_bytes()));
+    put(&dir, "model_files", "tare-force-nan", &with_mode(7, json.as_bytes()));
 
     // Parquet files of the stages' outputs (what `gradtac plot` reads).
     parquet(&dir, "frames", FrameShape::from_layout(&layout), &frames, &layout);
