@@ -98,6 +98,14 @@ pub struct Trained {
     pub w: [Vec<f64>; 2],
     /// The ridge penalty the weights were fitted with (reported only).
     pub lambda: f64,
+    /// Per-axis bounds of the correction `[x_lo, x_hi, y_lo, y_hi]` (mm), or `None`: the
+    /// [0.5 %, 99.5 %] quantiles of its own outputs on its training frames
+    /// ([`Trained::with_limits`]; round 11's C1, `docs/tradeoff.md`).
+    pub clamp_mm: Option<[f64; 4]>,
+    /// Novelty bound, or `None`: the 99th percentile over the training frames of the root mean
+    /// square of the standardised inputs; a frame whose root mean square `r` exceeds it has its
+    /// correction multiplied by `novelty / r` ([`Trained::with_limits`]; round 11's C2).
+    pub novelty: Option<f64>,
 }
 
 impl Trained {
@@ -109,7 +117,49 @@ impl Trained {
             bandwidth: weights::BANDWIDTH,
             w: [weights::WX.to_vec(), weights::WY.to_vec()],
             lambda: weights::LAMBDA,
+            clamp_mm: <[f64; 4]>::try_from(&weights::CLAMP[..]).ok(),
+            novelty: weights::NOVELTY.first().copied(),
         }
+    }
+
+    /// These weights with output limits computed on the frames `xs` they were trained on
+    /// (round 11): `clamp` sets [`Trained::clamp_mm`] to each axis's [0.5 %, 99.5 %] quantiles of
+    /// the correction's outputs on `xs`, `novelty` sets [`Trained::novelty`] to the 99th
+    /// percentile of the standardised inputs' root mean square on `xs`; both off leaves them
+    /// `None`. The quantiles are taken from the unlimited correction. Unchanged when `xs` is
+    /// empty or the weights are unusable.
+    pub fn with_limits(mut self, xs: &[Vec<f64>], clamp: bool, novelty: bool) -> Trained {
+        self.clamp_mm = None;
+        self.novelty = None;
+        if xs.is_empty() || !(clamp || novelty) {
+            return self;
+        }
+        let Ok(mut c) = Correction::try_new(self.clone()) else { return self };
+        let n = self.mean.len();
+        let (mut ox, mut oy, mut r) = (Vec::new(), Vec::new(), Vec::new());
+        for x in xs {
+            let v = c.apply(x);
+            if x.len() >= n && v[0].is_finite() && v[1].is_finite() {
+                ox.push(v[0]);
+                oy.push(v[1]);
+                r.push(c.rms());
+            }
+        }
+        if ox.is_empty() {
+            return self;
+        }
+        let q = |v: &mut Vec<f64>, p: f64| -> f64 {
+            v.sort_by(f64::total_cmp);
+            v[((v.len() - 1) as f64 * p).round() as usize]
+        };
+        if clamp {
+            self.clamp_mm = Some([q(&mut ox, 0.005), q(&mut ox, 0.995), q(&mut oy, 0.005), q(&mut oy, 0.995)]);
+        }
+        if novelty {
+            let v = q(&mut r, 0.99);
+            self.novelty = (v.is_finite() && v > 0.0).then_some(v);
+        }
+        self
     }
 
     /// Rust source of the weights file (what the training example writes).
@@ -129,6 +179,10 @@ impl Trained {
         s.push_str(&format!("pub(super) const SCALE: [f64; {}] = [{}];\n", self.scale.len(), arr(&self.scale)));
         s.push_str(&format!("pub(super) const WX: [f64; {}] = [{}];\n", self.w[0].len(), arr(&self.w[0])));
         s.push_str(&format!("pub(super) const WY: [f64; {}] = [{}];\n", self.w[1].len(), arr(&self.w[1])));
+        let clamp = self.clamp_mm.map_or(Vec::new(), |c| c.to_vec());
+        s.push_str(&format!("pub(super) const CLAMP: [f64; {}] = [{}];\n", clamp.len(), arr(&clamp)));
+        let nov = self.novelty.map_or(Vec::new(), |v| vec![v]);
+        s.push_str(&format!("pub(super) const NOVELTY: [f64; {}] = [{}];\n", nov.len(), arr(&nov)));
         s
     }
 }
@@ -149,12 +203,23 @@ impl Trained {
             inner.split(',').map(|v| v.trim().parse().ok()).collect()
         };
         let bw = list("BANDWIDTH")?;
+        // the round-11 limits: absent (older files) or empty = none
+        let opt = |name: &str| -> Option<Vec<f64>> {
+            let b = body(name)?;
+            let inner = b.strip_prefix('[')?.strip_suffix(']')?.trim();
+            if inner.is_empty() {
+                return None;
+            }
+            inner.split(',').map(|v| v.trim().parse().ok()).collect()
+        };
         Some(Trained {
             mean: list("MEAN")?,
             scale: list("SCALE")?,
             bandwidth: [*bw.first()?, *bw.get(1)?],
             w: [list("WX")?, list("WY")?],
             lambda: body("LAMBDA")?.parse().ok()?,
+            clamp_mm: opt("CLAMP").and_then(|v| <[f64; 4]>::try_from(&v[..]).ok()),
+            novelty: opt("NOVELTY").and_then(|v| v.first().copied()),
         })
     }
 }
@@ -178,7 +243,9 @@ impl Correction {
             && t.w.iter().all(|w| w.len() == terms_for(n) && w.iter().all(|v| v.is_finite()))
             && t.mean.iter().all(|v| v.is_finite())
             && t.scale.iter().all(|v| v.is_finite() && *v > 0.0)
-            && t.bandwidth.iter().all(|v| v.is_finite() && *v >= 0.0);
+            && t.bandwidth.iter().all(|v| v.is_finite() && *v >= 0.0)
+            && t.clamp_mm.is_none_or(|c| c.iter().all(|v| v.is_finite()) && c[0] <= c[1] && c[2] <= c[3])
+            && t.novelty.is_none_or(|v| v.is_finite() && v > 0.0);
         if !ok {
             return Err(Error::InvalidConfig {
                 stage: "locate",
@@ -204,7 +271,14 @@ impl Correction {
         self.z.len()
     }
 
-    /// The correction (mm, clamped to [`MAX_CORRECTION_MM`]) for one frame's inputs `x`
+    /// The root mean square of the last applied frame's standardised inputs (the novelty
+    /// [`Trained::novelty`] bounds).
+    fn rms(&self) -> f64 {
+        (self.z.iter().map(|z| z * z).sum::<f64>() / self.z.len().max(1) as f64).sqrt()
+    }
+
+    /// The correction (mm; shrunk by [`Trained::novelty`] and clamped to [`Trained::clamp_mm`]
+    /// when the weights have them, then to [`MAX_CORRECTION_MM`]) for one frame's inputs `x`
     /// ([`INPUTS`] values from [`inputs`], then the [`GAIN_INPUTS`] from [`gain_inputs`]; the
     /// weights read the first [`Correction::inputs`]); `[0, 0]` when `x` is shorter or
     /// anything is not finite.
@@ -232,6 +306,17 @@ impl Correction {
             let f = norm * a.cos();
             cx += wx[1 + n + k] * f;
             cy += wy[1 + n + k] * f;
+        }
+        if let Some(q) = self.t.novelty {
+            let r = self.rms();
+            if r > q {
+                cx *= q / r;
+                cy *= q / r;
+            }
+        }
+        if let Some(c) = self.t.clamp_mm {
+            cx = cx.clamp(c[0], c[1]);
+            cy = cy.clamp(c[2], c[3]);
         }
         let m = cx.hypot(cy);
         if !m.is_finite() {
@@ -518,6 +603,8 @@ impl Design {
                     bandwidth: self.bandwidth,
                     w: [wx, wy],
                     lambda,
+                    clamp_mm: None,
+                    novelty: None,
                 })
             })
             .collect()
