@@ -758,6 +758,77 @@ mod tests {
     }
 
     #[test]
+    fn output_limits_hold_the_training_range_shrink_novel_frames_and_round_trip() {
+        let mut rng = SplitMix::new(11);
+        let f = |x: &[f64]| [0.3 * x[0] - 0.2 * x[5], 0.4 * (1.5 * x[1]).sin()];
+        let xs: Vec<Vec<f64>> = (0..2000).map(|_| sample(&mut rng)).collect();
+        let ys: Vec<[f64; 2]> = xs.iter().map(|x| f(x)).collect();
+        let t = train(&xs, &ys, 1e-5, [1.5, 0.5]).unwrap();
+        assert_eq!((t.clamp_mm, t.novelty), (None, None));
+        // nothing asked, or no frames: no limits
+        assert_eq!(t.clone().with_limits(&xs, false, false), t);
+        assert_eq!(t.clone().with_limits(&[], true, true), t);
+        let c1 = t.clone().with_limits(&xs, true, false);
+        let c2 = t.clone().with_limits(&xs, false, true);
+        let c3 = t.clone().with_limits(&xs, true, true);
+        let b = c1.clamp_mm.unwrap();
+        assert!(b[0] < b[1] && b[2] < b[3] && c1.novelty.is_none());
+        assert_eq!(c3.clamp_mm, c1.clamp_mm);
+        assert_eq!(c3.novelty, c2.novelty);
+        let q = c2.novelty.unwrap();
+        assert!(q > 0.5 && q < 3.0, "{q}");
+        let (mut plain, mut clamp, mut shrink) = (
+            Correction::try_new(t.clone()).unwrap(),
+            Correction::try_new(c1).unwrap(),
+            Correction::try_new(c2).unwrap(),
+        );
+        // on its training frames the clamp moves about 1 % of the outputs per axis, and never by
+        // more than it must; the shrink leaves 99 % unchanged
+        let (mut moved, mut shrunk) = (0usize, 0usize);
+        for x in &xs {
+            let (p, c, s) = (plain.apply(x), clamp.apply(x), shrink.apply(x));
+            assert!(c[0] >= b[0] && c[0] <= b[1] && c[1] >= b[2] && c[1] <= b[3]);
+            assert_eq!([p[0].clamp(b[0], b[1]), p[1].clamp(b[2], b[3])], c);
+            moved += usize::from(c != p);
+            shrunk += usize::from(s != p);
+        }
+        assert!(moved > 0 && moved <= 45, "{moved}");
+        assert!(shrunk > 0 && shrunk <= 22, "{shrunk}");
+        // a frame far outside the training inputs: shrunk by q / rms, in the same direction
+        let far: Vec<f64> = (0..INPUTS).map(|i| if i % 2 == 0 { 3.0 } else { -3.0 }).collect();
+        let (p, s) = (plain.apply(&far), shrink.apply(&far));
+        let r = shrink.rms();
+        assert!(r > q);
+        for k in 0..2 {
+            assert!((s[k] - p[k] * q / r).abs() <= 1e-12 * p[k].abs().max(1.0), "{s:?} {p:?}");
+        }
+        // the file format carries the limits; an older file (no CLAMP / NOVELTY) reads as none
+        assert_eq!(Trained::from_rust(&c3.to_rust("limits")), Some(c3.clone()));
+        let old: String = t
+            .to_rust("old")
+            .lines()
+            .filter(|l| !l.contains("const CLAMP") && !l.contains("const NOVELTY"))
+            .collect::<Vec<_>>()
+            .join("\n");
+        assert_eq!(Trained::from_rust(&old), Some(t.clone()));
+        // limits that cannot be applied are refused
+        for (clamp, nov) in [
+            (Some([1.0, -1.0, 0.0, 0.0]), None),
+            (Some([f64::NAN, 1.0, 0.0, 0.0]), None),
+            (None, Some(0.0)),
+            (None, Some(f64::INFINITY)),
+        ] {
+            assert!(Correction::try_new(Trained { clamp_mm: clamp, novelty: nov, ..t.clone() }).is_err());
+        }
+        // non-finite inputs still give no correction, never a panic
+        let mut c = Correction::try_new(c3).unwrap();
+        assert_eq!(c.apply(&[f64::INFINITY; INPUTS]), [0.0, 0.0]);
+        let mut nan = far.clone();
+        nan[4] = f64::NAN;
+        assert_eq!(c.apply(&nan), [0.0, 0.0]);
+    }
+
+    #[test]
     fn bad_weights_are_refused() {
         let mut t = Trained::builtin();
         t.w[0].pop();
