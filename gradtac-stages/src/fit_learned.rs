@@ -23,8 +23,11 @@
 //! correction `(δx, δy)` mm by ridge regression on `1 + INPUTS + RANDOM` terms: a constant,
 //! the inputs, and [`RANDOM`] random cosine features `√(2/R)·cos(ωₖ·z + bₖ)` whose
 //! frequencies are drawn from a fixed seed ([`SEED`]; position dimensions at bandwidth
-//! `bandwidth[0]`, the others at `bandwidth[1] / √(INPUTS − 2)`). The correction is clamped
-//! to [`MAX_CORRECTION_MM`] and added to the fit's raw position, before the lag lead, the
+//! `bandwidth[0]`, the others at `bandwidth[1] / √(INPUTS − 2)`). Weights may carry output limits
+//! computed on their training frames ([`Trained::with_limits`], round 11: a per-axis clamp to
+//! the training range, a shrink beyond the training inputs' novelty; off in the shipped weights,
+//! where neither improved the leave-one-physics-out view — `docs/tradeoff.md`). The correction
+//! is clamped to [`MAX_CORRECTION_MM`] and added to the fit's raw position, before the lag lead, the
 //! motion prior and the position memory (which see the corrected point). The fit itself —
 //! its warm start, gains and shape learning — never sees the correction.
 //!
