@@ -33,6 +33,14 @@
 //!   inputs `both` or `since_start`) — how much the *whole* pattern changed, which a tree of
 //!   depth ≤ 3 over per-taxel inputs cannot sum. Aimed at a stable touch read as a slip (the
 //!   largest group of round 4's inner errors). Cost per window: `n` multiply-adds per block.
+//! - with [`TreeInputs::flow_share`] (stop 36's round 6 candidate T14, not the default): per lag
+//!   and slope, the share of the change's energy the fitted flow explains (`[0, 1]`).
+//! - with [`TreeInputs::dilation`] (the default of the trainer since stop 36's round 6, T15): the
+//!   flow above is fitted with a fourth unknown, an isotropic dilation `δ` about the contact's
+//!   centre (`Δ_i ≈ … − δ·((x_i − c_x) ∂_x z_i + (y_i − c_y) ∂_y z_i)`), and `δ` per lag and slope
+//!   is appended last (mirror sign +1). A spreading pattern (a press, creep on a soft object)
+//!   otherwise leaks into `(vx, vy, θ)`: T13's fitted `θ` had the class's sign on 24 of 48 inner
+//!   rotations, with the dilation 35/48. Cost: a 4 × 4 solve instead of 3 × 3 per source.
 //!
 //! Units: the level pattern's (deviation across taxels over their spread: dimensionless), so
 //! exactly as invariant as the window model's inputs (one gain and offset common to all taxels).
