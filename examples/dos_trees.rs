@@ -17,7 +17,9 @@
 //! examples/dos_eval_parts/trees_round4_candidates.json --tree-baseline --first 10` (T9 re-run,
 //! then T10–T12). Round 5 (`trees_rule_round5.md`): `--candidates
 //! examples/dos_eval_parts/trees_round5_candidates.json --tree-baseline --first 13` (T12 re-run,
-//! then T13). `examples/dos_trees_diag.rs` prints the inner views' errors per object.
+//! then T13). Round 6 (stop 36, `trees_rule_round6.md`): `--candidates
+//! examples/dos_eval_parts/trees_round6_candidates.json --tree-baseline --first 14` (T13 re-run,
+//! then T14–T16). `examples/dos_trees_diag.rs` prints the inner views' errors per object.
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train_trees::{fit_on, inner_score, tree_samples, TreeTrainConfig};

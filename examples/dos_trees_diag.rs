@@ -15,7 +15,10 @@
 //!   recording and the vote's margin (stop 35's round 5: is a touch read as a slip only after
 //!   contact, while the object settles, or throughout?);
 //! - the change-energy inputs ([`TreeInputs::energy`]) per object, touches against slips (no
-//!   model).
+//!   model);
+//! - stop 36's round 6 (no model): the flow share ([`TreeInputs::flow_share`]) and the dilation
+//!   ([`TreeInputs::dilation`]) per object, touches against slips, and the rotation sense of the
+//!   turn fitted beside the dilation.
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train::TrainRecording;
@@ -181,6 +184,81 @@ fn main() -> Result<(), Box<dyn Error>> {
             let below = t.iter().filter(|&&v| v < min).count();
             println!("| {obj} | {name} | {:.3} | {:.3} | {:.3} | {below}/{} |", mean(&t), mean(&s), min, t.len());
         }
+    }
+
+    // 4. stiffness-free touch inputs (stop 36's round 6, no model): the flow share per source
+    //    ([`TreeInputs::flow_share`]) and the dilation per source ([`TreeInputs::dilation`]), with
+    //    the rotation sense of the turn fitted beside the dilation
+    let inputs = TreeInputs { turn: true, flow_share: true, dilation: true, ..cfg.inputs.clone() };
+    let (f, d) = (inputs.flow_share_inputs(), inputs.dilation_inputs());
+    let at = inputs.inputs(n) - f - d;
+    let turn_at = at - inputs.energy_inputs() - src * TURN_INPUTS;
+    let mut srcs: Vec<String> = inputs.lags.iter().map(|l| format!("lag {l}")).collect();
+    if inputs.slope_windows > 0 {
+        srcs.push(format!("slope ({} windows)", inputs.slope_windows));
+    }
+    let mut names: Vec<String> = srcs.iter().map(|s| format!("flow share (with dilation), {s}")).collect();
+    names.extend(srcs.iter().map(|s| format!("dilation, {s}")));
+    names.extend(srcs.iter().map(|s| format!("|dilation|, {s}")));
+    let mut cols: Vec<usize> = (at..at + f + d).collect();
+    cols.extend(at + f..at + f + d);
+    println!("\n## Flow share and dilation per recording, mean over its windows: touches against slips (no model)\n");
+    println!("| object | input | mean on t | mean on slips | t below every slip | t below the slips' median |");
+    println!("|---|---|---|---|---|---|");
+    let per_rec = column_means(&tr, &inputs, &layout, &cols)?;
+    let abs_from = f + d;
+    for obj in objects.iter().copied().chain(["all"]) {
+        for (c, name) in names.iter().enumerate() {
+            let of = |touch: bool| -> Vec<f64> {
+                (0..tr.len())
+                    .filter(|&i| (obj == "all" || recs[i].object == obj) && (tr[i].class == DosClass::T) == touch)
+                    .map(|i| if c >= abs_from { per_rec[i][c].abs() } else { per_rec[i][c] })
+                    .collect()
+            };
+            let (t, mut s) = (of(true), of(false));
+            s.sort_by(f64::total_cmp);
+            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+            let min = s.first().copied().unwrap_or(f64::INFINITY);
+            let median = s.get(s.len() / 2).copied().unwrap_or(f64::INFINITY);
+            let below = t.iter().filter(|&&v| v < min).count();
+            let below_median = t.iter().filter(|&&v| v < median).count();
+            println!(
+                "| {obj} | {name} | {:.3} | {:.3} | {below}/{} | {below_median}/{} |",
+                mean(&t),
+                mean(&s),
+                t.len(),
+                t.len()
+            );
+        }
+    }
+    println!(
+        "\n## Rotation sense of the turn fitted beside the dilation (per recording: mean over its windows; sign right = cw +, aw −; no model)\n"
+    );
+    println!("| input | cw/aw sign right | mean |·| on cw/aw | mean |·| on n/e/s/w/t |");
+    println!("|---|---|---|---|");
+    let cols: Vec<usize> = (0..src).map(|k| turn_at + k * TURN_INPUTS + 2).collect();
+    let per_rec = column_means(&tr, &inputs, &layout, &cols)?;
+    for (c, name) in srcs.iter().enumerate() {
+        let (mut right, mut rot, mut rot_abs, mut other_abs, mut other) = (0, 0, 0.0, 0.0, 0);
+        for (i, r) in tr.iter().enumerate() {
+            let v = per_rec[i][c];
+            match r.class.rotation_sense() {
+                Some(s) => {
+                    rot += 1;
+                    rot_abs += v.abs();
+                    right += usize::from(v * s > 0.0);
+                }
+                None => {
+                    other += 1;
+                    other_abs += v.abs();
+                }
+            }
+        }
+        println!(
+            "| fitted θ with dilation, {name} | {right}/{rot} | {:.4} | {:.4} |",
+            rot_abs / rot.max(1) as f64,
+            other_abs / other.max(1) as f64
+        );
     }
     Ok(())
 }

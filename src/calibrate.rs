@@ -377,8 +377,8 @@ pub fn calibrate_window_part(
 }
 
 /// The tree part of the model `gradtac calibrate dos` writes by default: the procedure of
-/// [`calibrate_window_part`] with the tree model (`train_trees::TreeTrainConfig::default()`, T13,
-/// the winner of stop 35's round 5 over round 4's T12, which won over round 3's T9 — T9 won over stop 34's T4, itself round 2's
+/// [`calibrate_window_part`] with the tree model (`train_trees::TreeTrainConfig::default()`, T15,
+/// the winner of stop 36's round 6 over round 5's T13, which won over round 4's T12, which won over round 3's T9 — T9 won over stop 34's T4, itself round 2's
 /// winner over stop 33's T1) in place of the net: the weight `a` ∈ [`WINDOW_WEIGHTS`] with
 /// the most recordings right by leave-one-object-out (the Student-t model and the trees refitted
 /// without each object), then the trees fitted on every recording; with fewer than two objects

@@ -781,11 +781,22 @@ impl SensorChain {
                             "Student t + gradient-boosted trees ({}-frame windows, {} inputs{}, {} trees), weight a = {}",
                             t.trees.inputs().window.frames,
                             t.trees.input_count(),
-                            match (t.trees.inputs().turn, t.trees.inputs().energy) {
-                                (true, true) => " with the rotation-sense and change-energy ones",
-                                (true, false) => " with the rotation-sense ones",
-                                (false, true) => " with the change-energy ones",
-                                (false, false) => "",
+                            {
+                                let i = t.trees.inputs();
+                                let groups: Vec<&str> = [
+                                    (i.turn && !i.dilation, "rotation-sense"),
+                                    (i.dilation, "rotation-sense (fitted with a dilation), dilation"),
+                                    (i.energy, "change-energy"),
+                                    (i.flow_share, "flow-share"),
+                                ]
+                                .into_iter()
+                                .filter_map(|(on, name)| on.then_some(name))
+                                .collect();
+                                match groups.split_last() {
+                                    None => String::new(),
+                                    Some((last, [])) => format!(" with the {last} ones"),
+                                    Some((last, rest)) => format!(" with the {} and {last} ones", rest.join(", ")),
+                                }
                             },
                             t.trees.trees().len(),
                             t.weight

@@ -220,7 +220,7 @@ struct DosArgs {
     #[arg(long, conflicts_with = "no_window")]
     no_window_motion: bool,
     /// The window part as gradient-boosted trees over a per-taxel time representation of the
-    /// contact (`dos::DosTrees`; T13, the rule winner of stop 35's round 5, see the `dos` module docs): the
+    /// contact (`dos::DosTrees`; T15, the rule winner of stop 36's round 6, see the `dos` module docs): the
     /// default since stop 34 (the flag is kept for scripts that name it).
     #[arg(long, conflicts_with_all = ["no_window", "no_window_motion", "window_net"])]
     window_trees: bool,

@@ -566,7 +566,7 @@ fn calibrate_writes_a_model_that_a_dos_scene_uses() {
         let trees = model.trees.as_ref().unwrap().trees.trees().len();
         assert!(
             text.contains(&format!(
-                "Student t + gradient-boosted trees (5-frame windows, 161 inputs with the rotation-sense and change-energy ones, {trees} trees), \
+                "Student t + gradient-boosted trees (5-frame windows, 164 inputs with the rotation-sense (fitted with a dilation), dilation and change-energy ones, {trees} trees), \
                  weight a = 0.75"
             )),
             "{text}"
@@ -701,13 +701,28 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert!(gradtac::calibrate::WINDOW_WEIGHTS.contains(&part.weight), "{}", part.weight);
     assert_eq!((part.trees.taxels(), part.trees.recordings()), (24, 12));
     assert_eq!(model.parameter_count(), 24 + part.trees.nodes() + 4 + 1);
-    // calibrate's trees are round 5's rule winner T13 (stop 35), exactly as it was scored held out
+    // calibrate's trees are round 6's rule winner T15 (stop 36), exactly as it was scored held out
+    let t15: gradtac::stages::dos::train_trees::TreeTrainConfig =
+        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t15.json")).unwrap();
+    assert_eq!(t15, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T15 is the default");
+    assert_eq!(part.trees.inputs(), &t15.inputs);
+    let i = part.trees.inputs();
+    assert!(
+        i.turn && i.energy && i.dilation && !i.flow_share,
+        "T15: rotation-sense, change-energy and dilation inputs"
+    );
+    assert!(part.trees.trees().len() <= 60 * 7, "T15: 60 rounds of at most 7 trees");
+    // round 5's default stays readable as what was scored: T15 without the dilation
     let t13: gradtac::stages::dos::train_trees::TreeTrainConfig =
         serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t13.json")).unwrap();
-    assert_eq!(t13, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T13 is the default");
-    assert_eq!(part.trees.inputs(), &t13.inputs);
-    assert!(part.trees.inputs().turn && part.trees.inputs().energy, "T13: rotation-sense and change-energy inputs");
-    assert!(part.trees.trees().len() <= 60 * 7, "T13: 60 rounds of at most 7 trees");
+    let i = &t13.inputs;
+    assert_eq!((t13.colsample, i.turn, i.energy, i.dilation, i.flow_share), (0.5, true, true, false, false));
+    // every round-6 candidate file reads as itself: T13 (its baseline row), T14, T15, T16
+    let round6: Vec<gradtac::stages::dos::train_trees::TreeTrainConfig> =
+        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_round6_candidates.json")).unwrap();
+    let switches: Vec<(bool, bool)> = round6.iter().map(|c| (c.inputs.flow_share, c.inputs.dilation)).collect();
+    assert_eq!(switches, [(false, false), (true, false), (false, true), (true, true)]);
+    assert_eq!((&round6[0], &round6[2]), (&t13, &t15));
     // round 4's default stays readable as what was scored: T13 without the change-energy inputs
     let t12: gradtac::stages::dos::train_trees::TreeTrainConfig =
         serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t12.json")).unwrap();

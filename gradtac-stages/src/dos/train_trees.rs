@@ -64,8 +64,10 @@ pub struct TreeTrainConfig {
 }
 
 impl Default for TreeTrainConfig {
-    /// T13 of stop 35's round 5 (`examples/dos_eval_parts/trees_rule_round5.md`), the default of
-    /// `gradtac calibrate dos`: round 4's T12 — round 3's T9 (stop 34's T4: 60 rounds, depth ≤ 3,
+    /// T15 of stop 36's round 6 (`examples/dos_eval_parts/trees_rule_round6.md`), the default of
+    /// `gradtac calibrate dos`: round 5's T13 with the rotation-sense fit's flow fitted jointly
+    /// with an isotropic **dilation** about the contact's centre and the dilation as an input
+    /// ([`TreeInputs::dilation`]: a spreading pattern no longer leaks into the turn). T13 was round 4's T12 — round 3's T9 (stop 34's T4: 60 rounds, depth ≤ 3,
     /// λ = 5, minimum hessian 5, with two random copies per recording, each with an **object
     /// imprint** of spread 0.5, [`WindowAugment::imprint`]) with the **rotation-sense inputs**
     /// ([`TreeInputs::turn`]) and each tree splitting on a random half of the inputs
@@ -74,7 +76,7 @@ impl Default for TreeTrainConfig {
     /// slips).
     fn default() -> Self {
         TreeTrainConfig {
-            inputs: TreeInputs { turn: true, energy: true, ..TreeInputs::default() },
+            inputs: TreeInputs { turn: true, energy: true, dilation: true, ..TreeInputs::default() },
             rounds: 60,
             depth: 3,
             learning_rate: 0.1,

@@ -33,6 +33,14 @@
 //!   inputs `both` or `since_start`) — how much the *whole* pattern changed, which a tree of
 //!   depth ≤ 3 over per-taxel inputs cannot sum. Aimed at a stable touch read as a slip (the
 //!   largest group of round 4's inner errors). Cost per window: `n` multiply-adds per block.
+//! - with [`TreeInputs::flow_share`] (stop 36's round 6 candidate T14, not the default): per lag
+//!   and slope, the share of the change's energy the fitted flow explains (`[0, 1]`).
+//! - with [`TreeInputs::dilation`] (the default of the trainer since stop 36's round 6, T15): the
+//!   flow above is fitted with a fourth unknown, an isotropic dilation `δ` about the contact's
+//!   centre (`Δ_i ≈ … − δ·((x_i − c_x) ∂_x z_i + (y_i − c_y) ∂_y z_i)`), and `δ` per lag and slope
+//!   is appended last (mirror sign +1). A spreading pattern (a press, creep on a soft object)
+//!   otherwise leaks into `(vx, vy, θ)`: T13's fitted `θ` had the class's sign on 24 of 48 inner
+//!   rotations, with the dilation 35/48. Cost: a 4 × 4 solve instead of 3 × 3 per source.
 //!
 //! Units: the level pattern's (deviation across taxels over their spread: dimensionless), so
 //! exactly as invariant as the window model's inputs (one gain and offset common to all taxels).
@@ -111,6 +119,23 @@ pub struct TreeInputs {
     /// written when off, so older model files read unchanged).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub energy: bool,
+    /// Add the **flow-share inputs** (stop 36's round 6 candidate T14, touch against slip
+    /// independent of stiffness): one per lag and per slope, the share of that change's energy
+    /// the fitted rigid flow `(vx, vy, θ)` explains, `1 − Σ(Δ − Aθ)² / ΣΔ²` clamped to `[0, 1]`
+    /// (0 for no change). A slip moves the pattern (a high share whatever the object's
+    /// stiffness); a touch's changes are noise and creep, not a motion. Needs
+    /// [`turn`](Self::turn). Appended after the change-energy inputs, mirror sign +1. Default off
+    /// (not written when off).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub flow_share: bool,
+    /// Fit the rigid flow of the rotation-sense inputs **jointly with an isotropic dilation**
+    /// about the contact's centre and add the dilation rate as one more input per lag and slope
+    /// (stop 36's round 6 candidate T15): a press or creep on a soft object spreads the pattern
+    /// (dilation), a slip moves it (translation, turn); without the term, a spreading pattern
+    /// leaks into the fitted `(vx, vy, θ)`. Changes the rotation-sense inputs' values. Needs
+    /// [`turn`](Self::turn). Appended last, mirror sign +1. Default off (not written when off).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub dilation: bool,
 }
 
 /// Rotation-sense inputs per source (a lag or the slope): the pattern's fitted velocity `vx`,
@@ -131,6 +156,8 @@ impl Default for TreeInputs {
             slope_windows: 6,
             turn: false,
             energy: false,
+            flow_share: false,
+            dilation: false,
         }
     }
 }
@@ -152,6 +179,12 @@ impl TreeInputs {
         }
         if self.energy && self.energy_inputs() == 0 {
             return Err(invalid("the change-energy inputs (energy) need a lag, a slope or a since-start block"));
+        }
+        if self.flow_share && !self.turn {
+            return Err(invalid("the flow-share inputs (flow_share) need the rotation-sense inputs (turn)"));
+        }
+        if self.dilation && !self.turn {
+            return Err(invalid("the dilation inputs (dilation) need the rotation-sense inputs (turn)"));
         }
         if self.slope_windows > MAX_TREE_LAG {
             return Err(invalid(format!("slope windows {} must be ≤ {MAX_TREE_LAG}", self.slope_windows)));
@@ -179,12 +212,32 @@ impl TreeInputs {
         }
     }
 
+    /// Number of flow-share inputs ([`flow_share`](Self::flow_share)): one per lag and slope.
+    pub fn flow_share_inputs(&self) -> usize {
+        if self.flow_share {
+            self.sources()
+        } else {
+            0
+        }
+    }
+
+    /// Number of dilation inputs ([`dilation`](Self::dilation)): one per lag and slope.
+    pub fn dilation_inputs(&self) -> usize {
+        if self.dilation {
+            self.sources()
+        } else {
+            0
+        }
+    }
+
     /// Number of inputs for `taxels` taxels.
     pub fn inputs(&self, taxels: usize) -> usize {
         self.window.inputs(taxels)
             + self.sources() * taxels
             + if self.turn { self.sources() * TURN_INPUTS } else { 0 }
             + self.energy_inputs()
+            + self.flow_share_inputs()
+            + self.dilation_inputs()
     }
 
     /// The mirror image of an input vector under the taxel permutation `perm` (an involution):
@@ -212,7 +265,8 @@ impl TreeInputs {
                 at += TURN_INPUTS;
             }
         }
-        out.extend((0..self.energy_inputs()).map(|k| (at + k, 1.0)));
+        let scalars = self.energy_inputs() + self.flow_share_inputs() + self.dilation_inputs();
+        out.extend((0..scalars).map(|k| (at + k, 1.0)));
         out
     }
 }
@@ -241,6 +295,10 @@ pub struct TreeExtractor {
     energy_since: Option<usize>,
     /// Whether the change-energy inputs are on.
     energy: bool,
+    /// Whether the flow-share inputs are on ([`TreeInputs::flow_share`]).
+    flow_share: bool,
+    /// Whether the flow is fitted with a dilation ([`TreeInputs::dilation`]).
+    dilation: bool,
 }
 
 impl TreeExtractor {
@@ -263,6 +321,8 @@ impl TreeExtractor {
             energy_since: (inputs.energy && inputs.since_start())
                 .then_some(if inputs.window.inputs == WindowInputs::Both { n } else { 0 }),
             energy: inputs.energy,
+            flow_share: inputs.flow_share,
+            dilation: inputs.dilation,
         })
     }
 
@@ -284,6 +344,8 @@ impl TreeExtractor {
         let change: Vec<f64> = x[self.change_at..self.change_at + n].to_vec();
         let mut extra = Vec::with_capacity((self.lags.len() + 1) * (n + TURN_INPUTS));
         let mut turns = Vec::new();
+        let mut shares = Vec::new();
+        let mut dilations = Vec::new();
         for &lag in &self.lags {
             let len = self.history.len();
             let then = &self.history[if len > lag { len - 1 - lag } else { 0 }];
@@ -291,7 +353,10 @@ impl TreeExtractor {
             if let Some(g) = &self.turn {
                 // the change from then to now, against the gradient of the pattern halfway
                 let mid: Vec<f64> = x[..n].iter().zip(then).map(|(a, b)| 0.5 * (a + b)).collect();
-                turns.extend(g.rigid_flow(&mid, &extra[extra.len() - n..]));
+                let (flow, share, dil) = g.flow_inputs(&mid, &extra[extra.len() - n..], self.dilation);
+                turns.extend(flow);
+                shares.push(share);
+                dilations.push(dil);
             }
         }
         if self.slope_windows > 0 {
@@ -308,7 +373,10 @@ impl TreeExtractor {
             mean.iter_mut().for_each(|m| *m /= k);
             if let Some(g) = &self.turn {
                 // validated: the turn needs the level pattern, the first block
-                turns.extend(g.rigid_flow(&x[..n], &mean));
+                let (flow, share, dil) = g.flow_inputs(&x[..n], &mean, self.dilation);
+                turns.extend(flow);
+                shares.push(share);
+                dilations.push(dil);
             }
             extra.extend(mean);
         }
@@ -325,6 +393,12 @@ impl TreeExtractor {
         x.extend(extra);
         x.extend(turns);
         x.extend(energies);
+        if self.flow_share {
+            x.extend(shares);
+        }
+        if self.dilation {
+            x.extend(dilations);
+        }
         Ok(Some(x))
     }
 
@@ -399,10 +473,48 @@ impl TurnGeometry {
     /// `change_i ≈ −v·∇z_i − θ·∂_φ z_i` with `∂_φ z_i = (x_i − c_x) ∂_y z_i − (y_i − c_y) ∂_x z_i`:
     /// least squares over the taxels with a small ridge ([`TURN_RIDGE`]). `θ > 0` turns `+x`
     /// toward `+y` (the `cw` class's sense). Zeros for a flat pattern.
+    #[cfg(test)]
     pub(super) fn rigid_flow(&self, pattern: &[f64], change: &[f64]) -> [f64; TURN_INPUTS] {
-        let Some((c, _, _)) = super::window::moments(&self.positions, pattern) else { return [0.0; TURN_INPUTS] };
-        let mut ata = [[0.0; 3]; 3];
-        let mut atb = [0.0; 3];
+        self.rigid_flow_share(pattern, change).0
+    }
+
+    /// [`rigid_flow`](Self::rigid_flow) and the share of the change's energy it explains,
+    /// `1 − Σ(change_i − a_i·(vx, vy, θ))² / Σchange_i²` clamped to `[0, 1]` (0 for no change or a
+    /// flat pattern) ([`TreeInputs::flow_share`]). The flow is computed exactly as
+    /// `rigid_flow`'s.
+    pub(super) fn rigid_flow_share(&self, pattern: &[f64], change: &[f64]) -> ([f64; TURN_INPUTS], f64) {
+        self.flow_fit::<3>(pattern, change)
+    }
+
+    /// The rigid flow fitted jointly with an isotropic **dilation** about the centre
+    /// ([`TreeInputs::dilation`]): `change_i ≈ −v·∇z_i − θ·∂_φ z_i − δ·((x_i − c_x) ∂_x z_i +
+    /// (y_i − c_y) ∂_y z_i)`, the same least squares and ridge with four unknowns; returns
+    /// `(vx, vy, θ)`, the share of the change's energy the four explain, and `δ` (per change; > 0:
+    /// the pattern spreads).
+    pub(super) fn dilating_flow(&self, pattern: &[f64], change: &[f64]) -> ([f64; TURN_INPUTS], f64, f64) {
+        let (f, share) = self.flow_fit::<4>(pattern, change);
+        ([f[0], f[1], f[2]], share, f[3])
+    }
+
+    /// The extractor's flow inputs: `(vx, vy, θ)`, the share and the dilation (0 without it).
+    fn flow_inputs(&self, pattern: &[f64], change: &[f64], dilation: bool) -> ([f64; TURN_INPUTS], f64, f64) {
+        if dilation {
+            self.dilating_flow(pattern, change)
+        } else {
+            let (f, share) = self.rigid_flow_share(pattern, change);
+            (f, share, 0.0)
+        }
+    }
+
+    /// The least-squares flow with `N` = 3 (translation, turn) or 4 (and dilation) unknowns, and
+    /// the share of the change's energy it explains.
+    fn flow_fit<const N: usize>(&self, pattern: &[f64], change: &[f64]) -> ([f64; N], f64) {
+        let Some((c, _, _)) = super::window::moments(&self.positions, pattern) else {
+            return ([0.0; N], 0.0);
+        };
+        let mut ata = [[0.0; N]; N];
+        let mut atb = [0.0; N];
+        let mut rows = Vec::with_capacity(self.gradient.len());
         for (i, coefs) in self.gradient.iter().enumerate() {
             let mut g = [0.0; 2];
             for &(j, w) in coefs {
@@ -411,19 +523,22 @@ impl TurnGeometry {
                 g[1] += w[1] * dz;
             }
             let (x, y) = (self.positions[i][0] - c[0], self.positions[i][1] - c[1]);
-            let a = [-g[0], -g[1], -(x * g[1] - y * g[0])];
-            for r in 0..3 {
+            let full = [-g[0], -g[1], -(x * g[1] - y * g[0]), -(x * g[0] + y * g[1])];
+            let mut a = [0.0; N];
+            a.copy_from_slice(&full[..N]);
+            rows.push(a);
+            for r in 0..N {
                 atb[r] += a[r] * change[i];
-                for k in 0..3 {
+                for k in 0..N {
                     ata[r][k] += a[r] * a[k];
                 }
             }
         }
-        let ridge = TURN_RIDGE * (ata[0][0] + ata[1][1] + ata[2][2]) / 3.0;
+        let ridge = TURN_RIDGE * (0..N).map(|r| ata[r][r]).sum::<f64>() / N as f64;
         if !(ridge > 0.0 && ridge.is_finite()) {
-            return [0.0; TURN_INPUTS];
+            return ([0.0; N], 0.0);
         }
-        (0..3).for_each(|r| ata[r][r] += ridge);
+        (0..N).for_each(|r| ata[r][r] += ridge);
         let tidy = |v: f64| {
             if v.is_finite() {
                 v.clamp(-super::window::MAX_CHANGE, super::window::MAX_CHANGE)
@@ -431,19 +546,34 @@ impl TurnGeometry {
                 0.0
             }
         };
-        solve3(ata, atb).map(tidy)
+        let flow = solve(ata, atb).map(tidy);
+        let total: f64 = change.iter().map(|d| d * d).sum();
+        let residual: f64 = rows
+            .iter()
+            .zip(change)
+            .map(|(a, d)| {
+                let r = d - a.iter().zip(&flow).map(|(a, f)| a * f).sum::<f64>();
+                r * r
+            })
+            .sum();
+        let share = if total > 0.0 && total.is_finite() && residual.is_finite() {
+            (1.0 - residual / total).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (flow, share)
     }
 }
 
-/// The solution of a symmetric positive definite 3 × 3 system (Cholesky; zeros if it fails).
-fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> [f64; 3] {
-    let mut l = [[0.0; 3]; 3];
-    for i in 0..3 {
+/// The solution of a symmetric positive definite `N × N` system (Cholesky; zeros if it fails).
+fn solve<const N: usize>(a: [[f64; N]; N], b: [f64; N]) -> [f64; N] {
+    let mut l = [[0.0; N]; N];
+    for i in 0..N {
         for j in 0..=i {
             let s = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
             if i == j {
                 if s.is_nan() || s <= 0.0 {
-                    return [0.0; 3];
+                    return [0.0; N];
                 }
                 l[i][i] = s.sqrt();
             } else {
@@ -451,13 +581,13 @@ fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> [f64; 3] {
             }
         }
     }
-    let mut y = [0.0; 3];
-    for i in 0..3 {
+    let mut y = [0.0; N];
+    for i in 0..N {
         y[i] = (b[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
     }
-    let mut x = [0.0; 3];
-    for i in (0..3).rev() {
-        x[i] = (y[i] - (i + 1..3).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
+    let mut x = [0.0; N];
+    for i in (0..N).rev() {
+        x[i] = (y[i] - (i + 1..N).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
     }
     x
 }

@@ -21,7 +21,7 @@ fn stump(f: usize, thr: f64, a: f64, b: f64) -> Tree {
 }
 
 fn small_inputs() -> TreeInputs {
-    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2, turn: false, energy: false }
+    TreeInputs { window: WindowNetConfig::default(), lags: vec![2], slope_windows: 2, ..TreeInputs::default() }
 }
 
 /// A valid two-class model on the BioTac SP's 24 taxels (no mirror).
@@ -179,6 +179,9 @@ fn the_extractor_is_causal_restarts_on_reset_and_refuses_non_finite_frames() {
         extractor_is_causal(TreeInputs { turn, ..TreeInputs::default() });
         extractor_is_causal(TreeInputs { turn, energy: true, ..TreeInputs::default() });
     }
+    for (flow_share, dilation) in [(true, false), (false, true), (true, true)] {
+        extractor_is_causal(TreeInputs { turn: true, energy: true, flow_share, dilation, ..TreeInputs::default() });
+    }
 }
 
 fn extractor_is_causal(inputs: TreeInputs) {
@@ -214,6 +217,12 @@ fn the_mirror_map_maps_a_mirrored_recordings_inputs() {
     for (turn, class) in [(false, DosClass::E), (true, DosClass::E), (true, DosClass::Cw)] {
         mirror_map_maps(TreeInputs { turn, ..TreeInputs::default() }, class);
         mirror_map_maps(TreeInputs { turn, energy: true, ..TreeInputs::default() }, class);
+    }
+    for class in [DosClass::E, DosClass::Cw, DosClass::T] {
+        for (flow_share, dilation) in [(true, false), (false, true), (true, true)] {
+            let inputs = TreeInputs { turn: true, energy: true, flow_share, dilation, ..TreeInputs::default() };
+            mirror_map_maps(inputs, class);
+        }
     }
 }
 
@@ -281,6 +290,72 @@ fn the_rigid_flow_recovers_a_small_turn_and_shift_of_a_pattern() {
     assert_eq!(TreeInputs { turn: true, ..TreeInputs::default() }.inputs(24), TreeInputs::default().inputs(24) + 9);
 }
 
+/// The flow share (stop 36's round 6) is near 1 for a pattern that only moves, near 0 for a
+/// change unrelated to the pattern, 0 for no change; the dilation is positive for a pattern that
+/// spreads, negative for one that shrinks, and the dilating fit still finds a turn's sense. The
+/// three-term fit behind T13's inputs is `rigid_flow`, unchanged.
+#[test]
+fn the_flow_share_and_the_dilation_read_motion_and_spreading() {
+    let layout = Layout::biotac_sp();
+    let g = super::trees::TurnGeometry::try_new(&layout).unwrap();
+    let pair = |a: &[f64], b: &[f64]| -> (Vec<f64>, Vec<f64>) {
+        (a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect(), b.iter().zip(a).map(|(x, y)| x - y).collect())
+    };
+    let base = bump(&layout, 0.0, [0.0; 2]);
+    // a small shift: most of the change is a rigid motion (0.76 here: the gradients are fitted on
+    // the coarse layout)
+    let (mid, change) = pair(&base, &bump(&layout, 0.0, [0.3, 0.0]));
+    let (flow, share) = g.rigid_flow_share(&mid, &change);
+    assert_eq!(flow, g.rigid_flow(&mid, &change));
+    assert!(share > 0.6, "shift: share {share}");
+    // a change that is no motion of the pattern (alternating taxels): a small share
+    let noise: Vec<f64> = (0..24).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+    let (_, share) = g.rigid_flow_share(&base, &noise);
+    assert!(share < 0.3, "noise: share {share}");
+    assert_eq!(g.rigid_flow_share(&base, &[0.0; 24]), ([0.0; 3], 0.0));
+    assert_eq!(g.dilating_flow(&[0.0; 24], &noise), ([0.0; 3], 0.0, 0.0));
+    // a spreading and a shrinking bump (the same shape, scaled about its centre)
+    let scaled = |k: f64| -> Vec<f64> {
+        let c = [2.0, 1.0];
+        layout
+            .positions()
+            .iter()
+            .map(|p| {
+                let (u, v) = ((p[0] - c[0]) / k, (p[1] - c[1]) / k);
+                100.0 * (-(u * u) / (2.0 * 36.0) - (v * v) / (2.0 * 9.0)).exp()
+            })
+            .collect()
+    };
+    for (k, sign) in [(1.1, 1.0), (0.9, -1.0)] {
+        let (mid, change) = pair(&base, &scaled(k));
+        let (_, share, d) = g.dilating_flow(&mid, &change);
+        assert!(d * sign > 0.0 && share > 0.5, "scale {k}: dilation {d}, share {share}");
+    }
+    for sign in [1.0, -1.0] {
+        let (mid, change) = pair(&base, &bump(&layout, sign * 0.1, [0.0; 2]));
+        let ([_, _, th], _, _) = g.dilating_flow(&mid, &change);
+        assert!(th * sign > 0.0, "turn {}: {th}", sign * 0.1);
+    }
+    // both need the rotation-sense fit; each adds one input per source
+    assert!(TreeInputs { flow_share: true, ..TreeInputs::default() }.validate().is_err());
+    assert!(TreeInputs { dilation: true, ..TreeInputs::default() }.validate().is_err());
+    let t13 = TreeInputs { turn: true, energy: true, ..TreeInputs::default() };
+    for (f, d, extra) in [(true, false, 3), (false, true, 3), (true, true, 6)] {
+        let i = TreeInputs { flow_share: f, dilation: d, ..t13.clone() };
+        assert!(i.validate().is_ok());
+        assert_eq!(i.inputs(24), t13.inputs(24) + extra);
+    }
+    // T13's inputs are the first ones of T14's, bit for bit (the new inputs are appended)
+    let frames = synthetic_values(DosClass::Cw, [0.0, 0.0], 0.3, 9);
+    let windows = |inputs: &TreeInputs| -> Vec<Vec<f64>> {
+        let mut x = TreeExtractor::try_new_on(inputs, &layout).unwrap();
+        frames.iter().filter_map(|f| x.push(f).unwrap()).collect()
+    };
+    let (a, b) = (windows(&t13), windows(&TreeInputs { flow_share: true, ..t13.clone() }));
+    let m = t13.inputs(24);
+    assert!(a.iter().zip(&b).all(|(a, b)| a[..] == b[..m] && b[m..].iter().all(|s| (0.0..=1.0).contains(s))));
+}
+
 /// The change-energy inputs (stop 35's round 5) are the root mean square of each lag's and the
 /// slope's per-taxel change and of the since-start block, appended last; they need a source.
 #[test]
@@ -329,6 +404,10 @@ mod trained {
         for energy in [false, true] {
             trainers_windows_are_the_streaming_extractors(TreeInputs { turn: true, energy, ..TreeInputs::default() });
         }
+        for (flow_share, dilation) in [(true, false), (false, true), (true, true)] {
+            let inputs = TreeInputs { turn: true, energy: true, flow_share, dilation, ..TreeInputs::default() };
+            trainers_windows_are_the_streaming_extractors(inputs);
+        }
     }
 
     fn trainers_windows_are_the_streaming_extractors(inputs: TreeInputs) {
@@ -341,7 +420,8 @@ mod trained {
         let mut stage = TreeVoteState::try_new(&model, &layout).unwrap().fresh_extractor();
         let streamed: Vec<Vec<f64>> = frames.iter().filter_map(|f| stage.push(f).unwrap()).collect();
         assert_eq!(trainer, streamed);
-        let turns = inputs.inputs(24) - 9 - inputs.energy_inputs();
+        let turns =
+            inputs.inputs(24) - 9 - inputs.energy_inputs() - inputs.flow_share_inputs() - inputs.dilation_inputs();
         assert!(trainer.iter().any(|x| x[turns..turns + 9].iter().any(|v| *v != 0.0)), "the turn inputs are computed");
         assert!(trainer.iter().any(|x| x[turns + 9..].iter().any(|v| *v != 0.0)) || !inputs.energy);
     }
