@@ -206,23 +206,15 @@ impl Trained {
             inner.split(',').map(|v| v.trim().parse().ok()).collect()
         };
         let bw = list("BANDWIDTH")?;
-        // the round-11 limits: absent (older files) or empty = none
-        let opt = |name: &str| -> Option<Vec<f64>> {
-            let b = body(name)?;
-            let inner = b.strip_prefix('[')?.strip_suffix(']')?.trim();
-            if inner.is_empty() {
-                return None;
-            }
-            inner.split(',').map(|v| v.trim().parse().ok()).collect()
-        };
         Some(Trained {
             mean: list("MEAN")?,
             scale: list("SCALE")?,
             bandwidth: [*bw.first()?, *bw.get(1)?],
             w: [list("WX")?, list("WY")?],
             lambda: body("LAMBDA")?.parse().ok()?,
-            clamp_mm: opt("CLAMP").and_then(|v| <[f64; 4]>::try_from(&v[..]).ok()),
-            novelty: opt("NOVELTY").and_then(|v| v.first().copied()),
+            // the round-11 limits: absent (older files) or empty (`[]` parses to no list) = none
+            clamp_mm: list("CLAMP").and_then(|v| <[f64; 4]>::try_from(&v[..]).ok()),
+            novelty: list("NOVELTY").and_then(|v| v.first().copied()),
         })
     }
 }
