@@ -39,8 +39,11 @@
 //!   flow above is fitted with a fourth unknown, an isotropic dilation `δ` about the contact's
 //!   centre (`Δ_i ≈ … − δ·((x_i − c_x) ∂_x z_i + (y_i − c_y) ∂_y z_i)`), and `δ` per lag and slope
 //!   is appended last (mirror sign +1). A spreading pattern (a press, creep on a soft object)
-//!   otherwise leaks into `(vx, vy, θ)`: T13's fitted `θ` had the class's sign on 24 of 48 inner
-//!   rotations, with the dilation 35/48. Cost: a 4 × 4 solve instead of 3 × 3 per source.
+//!   otherwise leaks into `(vx, vy, θ)`. Over lag 20 the fitted `θ` is negative for `cw` and
+//!   positive for `aw` on 33 of the 48 inner rotations without the dilation (T13) and on 35/48
+//!   with it (stop 36's round 7, corrected diagnosis; round 6 had read 24/48 for T13 from wrong
+//!   columns). Cost: a 4 × 4
+//!   solve instead of 3 × 3 per source.
 //!
 //! Units: the level pattern's (deviation across taxels over their spread: dimensionless), so
 //! exactly as invariant as the window model's inputs (one gain and offset common to all taxels).
