@@ -112,9 +112,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     let inputs = TreeInputs { turn: true, ..cfg.inputs.clone() };
     let w = inputs.window.inputs(n);
     let src = inputs.sources();
-    // the turn blocks follow the window inputs and the per-taxel lag and slope blocks (the
-    // change-energy, flow-share and dilation inputs come after them when on)
-    let turn_at = w + src * n;
+    // not `inputs(n) − src × TURN_INPUTS`: the turn blocks are last only without the
+    // change-energy, flow-share and dilation inputs
+    let turn_at = inputs.turn_at(n).ok_or("the turn inputs are on")?;
     let mut names = vec!["motion: turn of the principal axis".to_string()];
     names.extend(inputs.lags.iter().map(|l| format!("fitted θ over lag {l}")));
     if inputs.slope_windows > 0 {
@@ -160,9 +160,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     // 3. how much the whole pattern changes (the change-energy inputs, no model)
     let inputs = TreeInputs { energy: true, ..cfg.inputs.clone() };
     let k = inputs.energy_inputs();
-    // the change-energy inputs follow the turn blocks (the flow-share and dilation inputs come
-    // after them when on)
-    let at = inputs.window.inputs(n) + src * n + if inputs.turn { src * TURN_INPUTS } else { 0 };
+    // not `inputs(n) − k`: the flow-share and dilation inputs follow the change-energy inputs
+    let at = inputs.energy_at(n).ok_or("the energy inputs are on")?;
     let mut names: Vec<String> = inputs.lags.iter().map(|l| format!("lag {l}")).collect();
     if inputs.slope_windows > 0 {
         names.push(format!("slope ({} windows)", inputs.slope_windows));

@@ -243,6 +243,25 @@ impl TreeInputs {
             + self.dilation_inputs()
     }
 
+    /// Where the rotation-sense inputs start for `taxels` taxels ([`TURN_INPUTS`] per lag, then
+    /// the slope's; `(vx, vy, θ)` each), `None` without [`turn`](Self::turn). The input order is:
+    /// the window inputs, the per-taxel lag and slope blocks, the rotation-sense inputs, the
+    /// change-energy, flow-share and dilation inputs — so the turn block is the last one only
+    /// when none of those three is on (a reader that assumed so read the wrong columns).
+    pub fn turn_at(&self, taxels: usize) -> Option<usize> {
+        self.turn.then(|| self.window.inputs(taxels) + self.sources() * taxels)
+    }
+
+    /// Where the change-energy inputs start for `taxels` taxels ([`energy_inputs`](Self::energy_inputs)
+    /// of them, after the rotation-sense inputs), `None` without [`energy`](Self::energy).
+    pub fn energy_at(&self, taxels: usize) -> Option<usize> {
+        self.energy.then(|| {
+            self.window.inputs(taxels)
+                + self.sources() * taxels
+                + if self.turn { self.sources() * TURN_INPUTS } else { 0 }
+        })
+    }
+
     /// The mirror image of an input vector under the taxel permutation `perm` (an involution):
     /// `out[j] = sign_j · x[source_j]` for the `(source_j, sign_j)` this returns.
     pub fn mirror_map(&self, perm: &[usize]) -> Vec<(usize, f64)> {
