@@ -19,7 +19,9 @@
 //! examples/dos_eval_parts/trees_round5_candidates.json --tree-baseline --first 13` (T12 re-run,
 //! then T13). Round 6 (stop 36, `trees_rule_round6.md`): `--candidates
 //! examples/dos_eval_parts/trees_round6_candidates.json --tree-baseline --first 14` (T13 re-run,
-//! then T14–T16). `examples/dos_trees_diag.rs` prints the inner views' errors per object.
+//! then T14–T16). Round 7 (`trees_rule_round7.md`): `--candidates
+//! examples/dos_eval_parts/trees_round7_candidates.json --tree-baseline --first 17` (T15 re-run,
+//! then T17–T19). `examples/dos_trees_diag.rs` prints the inner views' errors per object.
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train_trees::{fit_on, inner_score, tree_samples, TreeTrainConfig};

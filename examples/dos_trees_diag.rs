@@ -112,7 +112,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     let inputs = TreeInputs { turn: true, ..cfg.inputs.clone() };
     let w = inputs.window.inputs(n);
     let src = inputs.sources();
-    let turn_at = inputs.inputs(n) - src * TURN_INPUTS;
+    // not `inputs(n) − src × TURN_INPUTS`: the turn blocks are last only without the
+    // change-energy, flow-share and dilation inputs
+    let turn_at = inputs.turn_at(n).ok_or("the turn inputs are on")?;
     let mut names = vec!["motion: turn of the principal axis".to_string()];
     names.extend(inputs.lags.iter().map(|l| format!("fitted θ over lag {l}")));
     if inputs.slope_windows > 0 {
@@ -158,7 +160,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     // 3. how much the whole pattern changes (the change-energy inputs, no model)
     let inputs = TreeInputs { energy: true, ..cfg.inputs.clone() };
     let k = inputs.energy_inputs();
-    let at = inputs.inputs(n) - k;
+    // not `inputs(n) − k`: the flow-share and dilation inputs follow the change-energy inputs
+    let at = inputs.energy_at(n).ok_or("the energy inputs are on")?;
     let mut names: Vec<String> = inputs.lags.iter().map(|l| format!("lag {l}")).collect();
     if inputs.slope_windows > 0 {
         names.push(format!("slope ({} windows)", inputs.slope_windows));

@@ -740,7 +740,10 @@
 //! fitted turn `θ` over lag 20 and of the slope has the class's sign on exactly 24 of 48 inner
 //! rotations — no sense — because a spreading pattern (a press, creep) is not in the rigid
 //! flow's model and leaks into it; fitted jointly with an isotropic dilation about the contact's
-//! centre, `θ`'s sign agrees on 35/48. And the share of a change's energy that the rigid flow
+//! centre, `θ`'s sign agrees on 35/48. *(Corrected in round 7: the 24/48 was read from the wrong
+//! columns — the diagnosis assumed the turn block came last, but the change-energy inputs follow
+//! it. Read right, T13's `θ` over lag 20 is negative for `cw` and positive for `aw` on 33/48
+//! rotations (T15's: 35/48), so the dilation added little sense; T15 was chosen on the inner views, which the bug did not touch.)* And the share of a change's energy that the rigid flow
 //! explains is below the slips' median for 24/24 touches (sponge included), without the object's
 //! stiffness. Candidates (each one change on T13): T14 + the **flow-share inputs**
 //! ([`TreeInputs::flow_share`], 3), T15 + the **dilation** ([`TreeInputs::dilation`]: the fit with
@@ -758,6 +761,19 @@
 //! `inputs.dilation`). `dos_eval`'s floors follow: 86 / 89 / 80 / 88 %. This stop's held-out
 //! splits have now been scored by four rounds' winners; a gain of one or two recordings is within
 //! what that can produce.
+//!
+//! **Round 7 (stop 36): no winner, T15 stays the default.** Rule, candidates and diagnosis in
+//! `examples/dos_eval_parts/trees_rule_round7.md` (committed before any figure of a candidate).
+//! First the diagnosis's column bug above was fixed (`trees_round7_t15_diagnosis.txt`,
+//! `trees_round7_t13_diagnosis.txt`) and the rotation-sign convention checked (no label or axis
+//! bug; see the class table below). Candidates (each one change on T15), aimed at transfer from
+//! few training objects and at touches that keep settling (the sponge's touch since contact
+//! exceeds its slips' smallest change): T17 four random copies per recording instead of two,
+//! T18 an object imprint of spread 1.0 instead of 0.5, T19 the window inputs `levels` (no
+//! since-start block). Inner views (`trees_round7_inner_views.txt`): T15 99 + 50 = 149
+//! (reproduced; 81.5 % per window), T17 96 + 46 = 142 (excluded: −4 inside solids), T18 99 + 50 =
+//! 149 (81.2 %: a tie on recordings, lower per window), T19 96 + 45 = 141 (excluded). None
+//! strictly beats T15, so nothing was scored held out and the held-out figures stay round 6's.
 //!
 //! # Decision rule
 //! [`DosModel::calibrate`] fits class means `μ_c`, pooled within-class variances `σ²_j` and
@@ -816,7 +832,15 @@
 //! −0.38 and +0.20 rad with spreads above 1 rad; see `dos_eval`'s printout). What does differ
 //! is `drift_signed_y` (class means `cw` −1.2 mm, `aw` +2.3 mm, spreads ≈ 2.3 mm: in `cw` the
 //! `−y` side's counts tend to rise and the `+y` side's to fall, in `aw` the reverse) — a
-//! signature the classifier learns, not a geometric derivation of the sense.
+//! signature the classifier learns, not a geometric derivation of the sense. Two turn measures
+//! that agree on synthetic turns (both tested) disagree on the real rotations (stop 36,
+//! `examples/dos_trees_diag.rs`, mean per recording of the 48 `cw`/`aw` recordings): the turn of
+//! the pattern's principal axis has the sign above on 31/48, the rigid turn fitted beside a
+//! dilation ([`TreeInputs::dilation`]) over 1 s on 13/48 (the opposite sign on 35/48); per
+//! object the fitted turn never has a majority of the sign above (4/8 at most), in basic and
+//! solids alike, so no object or set is labelled the other way round. No trainer, model or stage uses the sign of a rotation
+//! class (the mirror augmentation maps `cw ↔ aw`, right whatever the sense), so the models do not
+//! depend on this convention; only [`DosClass::rotation_sense`]'s meaning does.
 //!
 //! # Units, delay, cost
 //! Input in raw sensor counts (> 0; a value ≤ 0 is raised to the events stage's floor,

@@ -39,8 +39,11 @@
 //!   flow above is fitted with a fourth unknown, an isotropic dilation `δ` about the contact's
 //!   centre (`Δ_i ≈ … − δ·((x_i − c_x) ∂_x z_i + (y_i − c_y) ∂_y z_i)`), and `δ` per lag and slope
 //!   is appended last (mirror sign +1). A spreading pattern (a press, creep on a soft object)
-//!   otherwise leaks into `(vx, vy, θ)`: T13's fitted `θ` had the class's sign on 24 of 48 inner
-//!   rotations, with the dilation 35/48. Cost: a 4 × 4 solve instead of 3 × 3 per source.
+//!   otherwise leaks into `(vx, vy, θ)`. Over lag 20 the fitted `θ` is negative for `cw` and
+//!   positive for `aw` on 33 of the 48 inner rotations without the dilation (T13) and on 35/48
+//!   with it (stop 36's round 7, corrected diagnosis; round 6 had read 24/48 for T13 from wrong
+//!   columns). Cost: a 4 × 4
+//!   solve instead of 3 × 3 per source.
 //!
 //! Units: the level pattern's (deviation across taxels over their spread: dimensionless), so
 //! exactly as invariant as the window model's inputs (one gain and offset common to all taxels).
@@ -238,6 +241,25 @@ impl TreeInputs {
             + self.energy_inputs()
             + self.flow_share_inputs()
             + self.dilation_inputs()
+    }
+
+    /// Where the rotation-sense inputs start for `taxels` taxels ([`TURN_INPUTS`] per lag, then
+    /// the slope's; `(vx, vy, θ)` each), `None` without [`turn`](Self::turn). The input order is:
+    /// the window inputs, the per-taxel lag and slope blocks, the rotation-sense inputs, the
+    /// change-energy, flow-share and dilation inputs — so the turn block is the last one only
+    /// when none of those three is on (a reader that assumed so read the wrong columns).
+    pub fn turn_at(&self, taxels: usize) -> Option<usize> {
+        self.turn.then(|| self.window.inputs(taxels) + self.sources() * taxels)
+    }
+
+    /// Where the change-energy inputs start for `taxels` taxels ([`energy_inputs`](Self::energy_inputs)
+    /// of them, after the rotation-sense inputs), `None` without [`energy`](Self::energy).
+    pub fn energy_at(&self, taxels: usize) -> Option<usize> {
+        self.energy.then(|| {
+            self.window.inputs(taxels)
+                + self.sources() * taxels
+                + if self.turn { self.sources() * TURN_INPUTS } else { 0 }
+        })
     }
 
     /// The mirror image of an input vector under the taxel permutation `perm` (an involution):

@@ -371,6 +371,8 @@ fn the_energy_inputs_are_the_root_mean_square_of_each_change_block() {
     let rms = |v: &[f64]| (v.iter().map(|a| a * a).sum::<f64>() / n as f64).sqrt();
     let w = inputs.window.inputs(n);
     let e = inputs.inputs(n) - 4;
+    assert_eq!(inputs.energy_at(n), Some(e));
+    assert_eq!(inputs.turn_at(n), Some(e - 9));
     let mut moved = false;
     for v in &windows {
         for k in 0..3 {
@@ -381,6 +383,28 @@ fn the_energy_inputs_are_the_root_mean_square_of_each_change_block() {
         moved |= v[e] > 0.0;
     }
     assert!(moved, "a sliding contact's pattern changes");
+    // with the flow-share and dilation inputs after them, the energy and turn blocks are no longer
+    // last: `energy_at` and `turn_at` still find them (stop 36's round 7: the diagnosis read the
+    // columns at the end of the vector and printed other inputs under their names)
+    let all = TreeInputs { turn: true, energy: true, flow_share: true, dilation: true, ..TreeInputs::default() };
+    let (e, t) = (all.energy_at(n).unwrap(), all.turn_at(n).unwrap());
+    assert_eq!(e, all.inputs(n) - 4 - 3 - 3);
+    assert_eq!(t, e - 9);
+    let mut x = TreeExtractor::try_new_on(&all, &layout).unwrap();
+    let full: Vec<Vec<f64>> = frames.iter().filter_map(|f| x.push(f).unwrap()).collect();
+    for (v, u) in full.iter().zip(&windows) {
+        for k in 0..3 {
+            assert_eq!(v[e + k], rms(&v[w + k * n..w + (k + 1) * n]), "source {k}");
+        }
+        assert_eq!(v[e + 3], u[inputs.energy_at(n).unwrap() + 3], "the since-start energy");
+    }
+    let map = all.mirror_map(&mirror_of(&layout));
+    for k in 0..3 {
+        let signs: Vec<f64> = (0..TURN_INPUTS).map(|j| map[t + k * TURN_INPUTS + j].1).collect();
+        assert_eq!(signs, TURN_MIRROR_SIGNS, "the turn block of source {k}");
+    }
+    assert_eq!(TreeInputs::default().turn_at(n), None);
+    assert_eq!(TreeInputs::default().energy_at(n), None);
     // nothing to measure: refused
     let mut none = TreeInputs { lags: vec![], slope_windows: 0, energy: true, ..TreeInputs::default() };
     none.window.inputs = WindowInputs::Levels;
