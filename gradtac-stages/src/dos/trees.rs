@@ -490,40 +490,28 @@ impl TurnGeometry {
         Ok(TurnGeometry { positions, gradient })
     }
 
-    /// The rigid motion `(vx, vy, θ)` about the centre of `pattern` (its loaded taxels' weighted
-    /// centre, as the motion inputs') that best explains the change `change` to first order,
-    /// `change_i ≈ −v·∇z_i − θ·∂_φ z_i` with `∂_φ z_i = (x_i − c_x) ∂_y z_i − (y_i − c_y) ∂_x z_i`:
-    /// least squares over the taxels with a small ridge ([`TURN_RIDGE`]). `θ > 0` turns `+x`
-    /// toward `+y` (the `cw` class's sense). Zeros for a flat pattern.
-    #[cfg(test)]
-    pub(super) fn rigid_flow(&self, pattern: &[f64], change: &[f64]) -> [f64; TURN_INPUTS] {
-        self.rigid_flow_share(pattern, change).0
-    }
-
-    /// [`rigid_flow`](Self::rigid_flow) and the share of the change's energy it explains,
-    /// `1 − Σ(change_i − a_i·(vx, vy, θ))² / Σchange_i²` clamped to `[0, 1]` (0 for no change or a
-    /// flat pattern) ([`TreeInputs::flow_share`]). The flow is computed exactly as
-    /// `rigid_flow`'s.
-    pub(super) fn rigid_flow_share(&self, pattern: &[f64], change: &[f64]) -> ([f64; TURN_INPUTS], f64) {
-        self.flow_fit::<3>(pattern, change)
-    }
-
-    /// The rigid flow fitted jointly with an isotropic **dilation** about the centre
-    /// ([`TreeInputs::dilation`]): `change_i ≈ −v·∇z_i − θ·∂_φ z_i − δ·((x_i − c_x) ∂_x z_i +
-    /// (y_i − c_y) ∂_y z_i)`, the same least squares and ridge with four unknowns; returns
-    /// `(vx, vy, θ)`, the share of the change's energy the four explain, and `δ` (per change; > 0:
-    /// the pattern spreads).
-    pub(super) fn dilating_flow(&self, pattern: &[f64], change: &[f64]) -> ([f64; TURN_INPUTS], f64, f64) {
-        let (f, share) = self.flow_fit::<4>(pattern, change);
-        ([f[0], f[1], f[2]], share, f[3])
-    }
-
-    /// The extractor's flow inputs: `(vx, vy, θ)`, the share and the dilation (0 without it).
-    fn flow_inputs(&self, pattern: &[f64], change: &[f64], dilation: bool) -> ([f64; TURN_INPUTS], f64, f64) {
+    /// The flow inputs of one source: the rigid motion `(vx, vy, θ)` about the centre of
+    /// `pattern` (its loaded taxels' weighted centre, as the motion inputs') that best explains
+    /// the change `change` to first order, `change_i ≈ −v·∇z_i − θ·∂_φ z_i` with
+    /// `∂_φ z_i = (x_i − c_x) ∂_y z_i − (y_i − c_y) ∂_x z_i`: least squares over the taxels with a
+    /// small ridge ([`TURN_RIDGE`]). `θ > 0` turns `+x` toward `+y` (the `cw` class's sense).
+    /// With `dilation` ([`TreeInputs::dilation`]) the same least squares has a fourth unknown, an
+    /// isotropic dilation `δ` about the centre (`… − δ·((x_i − c_x) ∂_x z_i + (y_i − c_y) ∂_y
+    /// z_i)`; > 0: the pattern spreads), fitted jointly. Returns `(vx, vy, θ)`, the share of the
+    /// change's energy the fitted terms explain, `1 − Σ(change_i − a_i·flow)² / Σchange_i²`
+    /// clamped to `[0, 1]` ([`TreeInputs::flow_share`]), and `δ` (0 without `dilation`). Zeros
+    /// for a flat pattern; a share of 0 for no change.
+    pub(super) fn flow_inputs(
+        &self,
+        pattern: &[f64],
+        change: &[f64],
+        dilation: bool,
+    ) -> ([f64; TURN_INPUTS], f64, f64) {
         if dilation {
-            self.dilating_flow(pattern, change)
+            let (f, share) = self.flow_fit::<4>(pattern, change);
+            ([f[0], f[1], f[2]], share, f[3])
         } else {
-            let (f, share) = self.rigid_flow_share(pattern, change);
+            let (f, share) = self.flow_fit::<3>(pattern, change);
             (f, share, 0.0)
         }
     }
