@@ -754,6 +754,8 @@ impl PositionMemory {
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | rise test | with `drift_shape_rise_s`, a drift-shape return on a frame whose total change that long before was under half its own (a recent rise: a press's rise and hold) is blocked, or fires with the slope's anchors shifted instead of kept (so a press taken for drift does not teach the slope the press), and optionally is undone once the sensor comes back to the level before it ([`RiseGuard`]) | off |
+/// | dip return | with `dip_return_s`, an excursion at least that old also returns on a steady frame whose total change is the lowest of that look-back and at most half its highest (a rest between presses); the slope's anchors are kept | off |
+/// | walk-scaled undo | with `undo_walk`, the undo's bound grows with the drift walk measured from the slope's anchors and the time since the return, at most to half the step | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -879,6 +881,28 @@ pub struct DriftModel {
     /// What the rise test does to a drift-shape return on a frame that rose recently
     /// ([`RiseGuard`]; default: blocks it).
     pub drift_shape_rise: RiseGuard,
+    /// The dip return (s, in [0, 60]; 0: off, the default): an excursion that has lasted at
+    /// least this long also *returns* on a steady frame whose total change `Σ|Δᵢ|` is the
+    /// lowest of the last `dip_return_s` and at most [`DRIFT_SHAPE_RISE_FRACTION`] (half) of
+    /// the highest of them — a rest between presses, found against the presses of the last
+    /// seconds rather than the excursion's whole peak (which a baseline left behind by an
+    /// unlearned slope keeps raising, so the peak return never fires). The slope's anchors are
+    /// kept at such a return (the rest is the sensor untouched), so the rests' ends anchor the
+    /// slope inside what would be one long contact. Trade-off: a press that eases to under
+    /// half its force and holds still there, this long into the excursion, returns (the
+    /// baseline settles to it). Cost: O(1) amortised per frame (two monotone queues of totals,
+    /// bounded). Session 36, round 7 (`docs/force.md`).
+    pub dip_return_s: f64,
+    /// The walk-scaled undo (a factor ≥ 0, at most 10; 0: off, the default): with
+    /// [`RiseGuard::ShiftAnchorsUndo`], the undo's bound on the sensor's distance from the
+    /// level before the return (`release_fraction` of the step) grows by this factor times
+    /// `Σwᵢ · √(time since the return)`, at most to half the step, where `wᵢ` is taxel i's
+    /// drift walk (counts/√s) measured from pairs of slope anchors 0.5–5 s apart (the change
+    /// less the slope's, squared over the time between; an exponential mean with the slope's
+    /// memory). A walk moves the sensor away from the remembered level while a press taken for
+    /// drift is held; without this the lift of a long press on a walking sensor is not undone.
+    /// Session 36, round 7 (`docs/force.md`).
+    pub undo_walk: f64,
 }
 
 /// The drift-shape return's rise test ([`DriftModel::drift_shape_rise_s`]): a frame whose
@@ -972,6 +996,8 @@ impl Default for DriftModel {
             drift_shape_fit: ShapeFit::Signed,
             drift_shape_rise_s: 0.0,
             drift_shape_rise: RiseGuard::Block,
+            dip_return_s: 0.0,
+            undo_walk: 0.0,
         }
     }
 }
@@ -1015,7 +1041,9 @@ impl DriftModel {
             && self.release_flat_sigmas <= 10.0
             && (0.0..=60.0).contains(&self.quiet_taxel_s)
             && (0.0..1.0).contains(&self.drift_shape)
-            && (0.0..=60.0).contains(&self.drift_shape_rise_s);
+            && (0.0..=60.0).contains(&self.drift_shape_rise_s)
+            && (0.0..=60.0).contains(&self.dip_return_s)
+            && (0.0..=10.0).contains(&self.undo_walk);
         if ok {
             Ok(())
         } else {
@@ -1027,6 +1055,10 @@ impl DriftModel {
 /// Most window means the steadiness look-back keeps (a very fast source compares with a
 /// younger frame instead of allocating without bound).
 const MAX_STEADY_HISTORY: usize = 4096;
+
+/// The walk estimate's anchor pairs ([`DriftModel::undo_walk`]): at least and at most this far
+/// apart (s).
+const WALK_PAIR_S: (f64, f64) = (0.5, 5.0);
 
 /// The noise return ([`DriftModel::release_sigmas`]) waits until the total change moved by less
 /// than this multiple of `Σσᵢ` over the steadiness look-back (about twice the noise of that
@@ -1178,6 +1210,18 @@ struct DriftState {
     /// The level before a drift-shape return on a recent rise ([`RiseGuard::ShiftAnchorsUndo`]):
     /// its time, the baseline then (moved along the slope since) and the total step it took.
     undo: Option<(Timestamp, Vec<f64>, f64)>,
+    /// Start of the current excursion (the dip return's age test).
+    excursion_since: Option<Timestamp>,
+    /// Recent total changes, monotone queues over the dip return's look-back: increasing
+    /// (front: the least) and decreasing (front: the most).
+    dip_lo: VecDeque<(Timestamp, f64)>,
+    dip_hi: VecDeque<(Timestamp, f64)>,
+    /// The walk estimate ([`DriftModel::undo_walk`]): the last anchor of a pair (time, means),
+    /// the forgotten sum of the time between pairs and, per taxel, of their squared changes
+    /// less the slope's.
+    walk_prev: Option<(Timestamp, Vec<f64>)>,
+    walk_w: f64,
+    walk_s: Vec<f64>,
 }
 
 impl DriftState {
@@ -1201,7 +1245,83 @@ impl DriftState {
             floor: None,
             rise: VecDeque::new(),
             undo: None,
+            excursion_since: None,
+            dip_lo: VecDeque::new(),
+            dip_hi: VecDeque::new(),
+            walk_prev: None,
+            walk_w: 0.0,
+            walk_s: vec![0.0; n],
         }
+    }
+
+    /// The dip return's test for a frame of total change `total` (and records it): the lowest
+    /// total of the look-back `dip_return_s`, and at most [`DRIFT_SHAPE_RISE_FRACTION`] of its
+    /// highest. A non-finite total forgets the look-back and is no dip.
+    fn dip(&mut self, time: Timestamp, total: f64) -> bool {
+        if !total.is_finite() {
+            self.dip_lo.clear();
+            self.dip_hi.clear();
+            return false;
+        }
+        let horizon = time.0 - (self.model.dip_return_s * 1e9).round() as i64;
+        for q in [&mut self.dip_lo, &mut self.dip_hi] {
+            while q.front().is_some_and(|(t, _)| t.0 < horizon) {
+                q.pop_front();
+            }
+            if q.len() >= MAX_STEADY_HISTORY {
+                // a very fast source: a shorter look-back than asked, never more memory
+                q.pop_front();
+            }
+        }
+        while self.dip_lo.back().is_some_and(|&(_, x)| x >= total) {
+            self.dip_lo.pop_back();
+        }
+        self.dip_lo.push_back((time, total));
+        while self.dip_hi.back().is_some_and(|&(_, x)| x <= total) {
+            self.dip_hi.pop_back();
+        }
+        self.dip_hi.push_back((time, total));
+        let lowest = self.dip_lo.front().is_some_and(|&(t, _)| t == time);
+        let highest = self.dip_hi.front().map_or(total, |&(_, x)| x);
+        lowest && total <= DRIFT_SHAPE_RISE_FRACTION * highest
+    }
+
+    /// The drift walk per taxel (counts/√s) measured so far, summed over the taxels (0 before
+    /// the first pair of anchors).
+    fn walk_sum(&self) -> f64 {
+        if self.walk_w <= 0.0 {
+            return 0.0;
+        }
+        let w: f64 = self.walk_s.iter().map(|s| (s / self.walk_w).sqrt()).sum();
+        if w.is_finite() {
+            w
+        } else {
+            0.0
+        }
+    }
+
+    /// Record an anchor frame for the walk estimate (pairs 0.5–5 s apart).
+    fn walk_anchor(&mut self, time: Timestamp, mean: &[f64]) {
+        let Some((tp, prev)) = &self.walk_prev else {
+            self.walk_prev = Some((time, mean.to_vec()));
+            return;
+        };
+        let tau = (time.0 - tp.0) as f64 * 1e-9;
+        if tau < WALK_PAIR_S.0 {
+            return;
+        }
+        if tau <= WALK_PAIR_S.1 {
+            let d2: Vec<f64> =
+                mean.iter().zip(prev).zip(&self.slope).map(|((x, p), s)| (x - p - s * tau).powi(2)).collect();
+            if d2.iter().all(|d| d.is_finite()) {
+                let a = (-tau / self.model.slope_memory_s).exp();
+                self.walk_w = a * self.walk_w + tau;
+                for (s, d) in self.walk_s.iter_mut().zip(&d2) {
+                    *s = a * *s + d;
+                }
+            }
+        }
+        self.walk_prev = Some((time, mean.to_vec()));
     }
 
     /// The drift-shape return's rise test for a frame of total change `total` (and records
@@ -1333,6 +1453,7 @@ impl DriftState {
         }
         self.history.push_back((time, mean.clone()));
         let total: f64 = delta.iter().map(|d| d.abs()).sum();
+        let walk = if m.undo_walk > 0.0 { self.walk_sum() } else { 0.0 };
         if let Some((since, level, step)) = &mut self.undo {
             // the level before a drift-shape return on a recent rise: moved along the slope;
             // back at it (steady), the return took a press's hold for drift: undo it
@@ -1341,9 +1462,16 @@ impl DriftState {
             }
             let keep = m.undo_window_s();
             let back: f64 = mean.iter().zip(level.iter()).map(|(x, l)| (x - l).abs()).sum();
-            if (time.0 - since.0) as f64 * 1e-9 > keep {
+            let age = (time.0 - since.0) as f64 * 1e-9;
+            let mut bound = m.release_fraction * *step;
+            if walk > 0.0 {
+                // the walk moved the sensor away from the remembered level since the return
+                let grown = bound + m.undo_walk * walk * age.max(0.0).sqrt();
+                bound = bound.max(grown.min(DRIFT_SHAPE_RISE_FRACTION * *step));
+            }
+            if age > keep {
                 self.undo = None;
-            } else if steady && back < m.release_fraction * *step {
+            } else if steady && back < bound {
                 baseline.copy_from_slice(level);
                 self.undo = None;
                 self.in_contact = false;
@@ -1370,12 +1498,22 @@ impl DriftState {
                 self.in_contact = true;
                 self.touched = false;
                 self.peak = 0.0;
+                self.excursion_since = Some(time);
             }
             self.peak = self.peak.max(total);
         } else {
             self.in_contact = false;
             self.settling = false;
+            self.excursion_since = None;
         }
+        // the dip return: a steady frame of a long excursion at the lowest total of the
+        // look-back and under half its highest (a rest between presses)
+        let dip = m.dip_return_s > 0.0 && {
+            let d = self.dip(time, total);
+            d && steady
+                && self.in_contact
+                && self.excursion_since.is_some_and(|s| (time.0 - s.0) as f64 * 1e-9 >= m.dip_return_s)
+        };
         if m.release_excess > 0.0 && !self.in_contact && total.is_finite() {
             let a = 1.0 - (-dt / FLOOR_S).exp();
             let f = self.floor.get_or_insert(total);
@@ -1409,12 +1547,13 @@ impl DriftState {
                 };
                 f < m.drift_shape
             });
-        let returning = steady && self.in_contact && (self.settling || peak_return || shape_return || drift_shaped);
+        let returning =
+            steady && self.in_contact && (self.settling || peak_return || shape_return || drift_shaped || dip);
         // the frame this excursion first returns on (not a later settling frame), and whether
         // the shape return alone made it return (a residual step stays behind; a drift-shaped
         // step is drift, and the anchors keep it)
         let first_return = returning && !self.settling && (contact || self.touched);
-        let shape_alone = first_return && !peak_return && !drift_shaped;
+        let shape_alone = first_return && !peak_return && !drift_shaped && !dip;
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
         if !contact && held && (self.touched || m.hold_contact) {
@@ -1492,6 +1631,9 @@ impl DriftState {
                 *stx = a * *stx + dt * t * x;
                 let s = (*stx - tb * *sx) / (var.max(0.0) + m.slope_prior_s3);
                 *slope = if s.is_finite() { s } else { 0.0 };
+            }
+            if m.undo_walk > 0.0 {
+                self.walk_anchor(time, &mean);
             }
         }
         false
@@ -1928,6 +2070,127 @@ mod tests {
         assert!(stale_drift.abs() < 2.0 && stale_plain > 6.0, "{stale_drift} vs {stale_plain}");
         drift.reset();
         assert_eq!(drift.drift_slope(), &[0.0, 0.0]);
+    }
+
+    #[test]
+    fn the_dip_test_finds_a_rest_between_presses() {
+        let model = DriftModel { dip_return_s: 4.0, ..DriftModel::default() };
+        let at = |k: i64| Timestamp(k * 10_000_000);
+        let mut st = DriftState::new(model, 1);
+        // a constant total is the lowest of its look-back but not under half the highest
+        assert!((0..100).all(|k| !st.dip(at(k), 10.0)));
+        // 5 s of a press, then a rest at a third of it: a dip on every rest frame
+        assert!((100..600).all(|k| !st.dip(at(k), 300.0)));
+        assert!((600..660).all(|k| st.dip(at(k), 100.0)));
+        // higher than the rest a moment ago: not the lowest
+        assert!((660..700).all(|k| !st.dip(at(k), 200.0)));
+        // the next press; its rest above half the press is no dip, under half it is
+        assert!((700..1100).all(|k| !st.dip(at(k), 300.0)));
+        assert!(!st.dip(at(1100), 160.0));
+        assert!(st.dip(at(1101), 140.0));
+        // a non-finite total is no dip and forgets the look-back
+        assert!(!st.dip(at(1102), f64::NAN));
+        assert!(st.dip_lo.is_empty() && st.dip_hi.is_empty());
+        // a very fast source keeps at most MAX_STEADY_HISTORY totals per queue
+        let mut st = DriftState::new(model, 1);
+        for k in 0..20_000 {
+            let _ = st.dip(Timestamp(k * 1_000), k as f64);
+        }
+        assert!(st.dip_lo.len() <= MAX_STEADY_HISTORY && st.dip_hi.len() <= MAX_STEADY_HISTORY);
+        for bad in [-0.1, 60.5, f64::NAN, f64::INFINITY] {
+            assert!(DriftModel { dip_return_s: bad, ..DriftModel::default() }.validate().is_err(), "{bad}");
+            assert!(DriftModel { undo_walk: bad * 0.2, ..DriftModel::default() }.validate().is_err(), "{bad}");
+        }
+        // older JSON files (without the new keys) read with both off
+        let m: DriftModel = serde_json::from_str(r#"{"stale_s": 10.0}"#).unwrap();
+        assert_eq!((m.dip_return_s, m.undo_walk), (0.0, 0.0));
+    }
+
+    #[test]
+    fn the_walk_estimate_recovers_each_taxels_walk() {
+        let model = DriftModel { undo_walk: 1.0, ..DriftModel::default() };
+        let mut st = DriftState::new(model, 3);
+        assert_eq!(st.walk_sum(), 0.0);
+        // steps of ±wᵢ √τ every τ = 1 s (signs from a small generator): the estimate is wᵢ
+        let w = [0.5, 1.0, 2.0];
+        let mut x = [100.0, 200.0, 300.0];
+        let mut state = 3u64;
+        for k in 0..200i64 {
+            st.walk_anchor(Timestamp(k * 1_000_000_000), &x);
+            // an anchor closer than 0.5 s to the last pair's end is not a pair
+            st.walk_anchor(Timestamp(k * 1_000_000_000 + 100_000_000), &[1e6; 3]);
+            for (xi, wi) in x.iter_mut().zip(w) {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                *xi += if state >> 63 == 0 { wi } else { -wi };
+            }
+        }
+        let sum: f64 = w.iter().sum();
+        assert!((st.walk_sum() - sum).abs() < 1e-9, "{} vs {sum}", st.walk_sum());
+        // anchors more than 5 s apart (a long contact between) are no pair: a jump there is
+        // not read as walk
+        st.walk_anchor(Timestamp(400 * 1_000_000_000), &[1e4; 3]);
+        assert!((st.walk_sum() - sum).abs() < 1e-9);
+        // a non-finite change is skipped
+        st.walk_anchor(Timestamp(401 * 1_000_000_000), &[f64::NAN; 3]);
+        assert!((st.walk_sum() - sum).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_dip_return_misses_a_rest_whose_stale_change_climbs() {
+        // (docs/force.md, "Session 36, round 7": the dip return's known limit, pinned) taxels
+        // 0–3 drift at 4 counts/s from the first frame; taxel 5 is pressed every 4.6 s (rise 2 s
+        // to 120 counts, hold 0.5 s, fall 1.5 s, rest 0.6 s) from 0.5 s. The rests' stale change
+        // (16 counts/s summed) stays above 0.3 of the excursion's peak, so the first excursion
+        // never returns and the slope is never learned. The dip return does not free it (the
+        // likely reason, not traced frame by frame: the stale change climbs through each rest,
+        // so a rest's steady end is not the lowest total of its look-back)
+        let value = |k: u64| {
+            let t = k as f64 / 100.0;
+            let e = if k % 2 == 0 { 1.0 } else { -1.0 };
+            let c = ((t - 0.5).max(0.0)) % 4.6;
+            let press = if t < 0.5 {
+                0.0
+            } else if c < 2.0 {
+                120.0 * c / 2.0
+            } else if c < 2.5 {
+                120.0
+            } else if c < 4.0 {
+                120.0 * (4.0 - c) / 1.5
+            } else {
+                0.0
+            };
+            let mut v: Vec<f64> = (0..6).map(|i| 1000.0 + if i < 4 { 4.0 * t } else { 0.0 } + e).collect();
+            v[5] += press;
+            v
+        };
+        let run = |model: DriftModel| {
+            let mut det =
+                ChangeDetector::try_new(6, &LocateConfig::default()).unwrap().with_drift_model(model).unwrap();
+            let (mut rest_contact, mut rest_frames, mut press_contact) = (0, 0, 0);
+            for k in 0..3000u64 {
+                let c = det.push(&frame(k, value(k)), "t").unwrap().contact;
+                let t = k as f64 / 100.0;
+                let cyc = (t - 0.5).max(0.0) % 4.6;
+                if t > 9.7 && cyc > 4.45 {
+                    rest_frames += 1;
+                    rest_contact += usize::from(c);
+                }
+                if t > 9.7 && (2.0..2.5).contains(&cyc) {
+                    press_contact += usize::from(c);
+                }
+            }
+            (rest_contact, rest_frames, press_contact, det.drift_slope().to_vec())
+        };
+        let gate = crate::force_model::FORCE_GATE;
+        let off = run(gate);
+        let on = run(DriftModel { dip_return_s: 4.0, ..gate });
+        for (rest_contact, rest_frames, press_contact, slope) in [&off, &on] {
+            assert_eq!(*rest_frames, 60);
+            assert_eq!(rest_contact, rest_frames, "every rest's end is still a contact");
+            assert_eq!(*press_contact, 200, "every hold is a contact");
+            assert!(slope[..4].iter().all(|s| s.abs() < 0.1), "the slope is not learned: {slope:?}");
+        }
+        assert_eq!(off, on);
     }
 
     #[test]
