@@ -131,29 +131,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     objects.dedup();
     for (c, name) in names.iter().enumerate() {
         for obj in objects.iter().copied().chain(["all"]) {
-            let (mut right, mut rot, mut rot_abs, mut other_abs, mut other) = (0, 0, 0.0, 0.0, 0);
-            for (i, r) in tr.iter().enumerate() {
-                if obj != "all" && recs[i].object != obj {
-                    continue;
-                }
-                let v = per_rec[i][c];
-                match r.class.rotation_sense() {
-                    Some(s) => {
-                        rot += 1;
-                        rot_abs += v.abs();
-                        right += usize::from(v * s > 0.0);
-                    }
-                    None => {
-                        other += 1;
-                        other_abs += v.abs();
-                    }
-                }
-            }
-            println!(
-                "| {name} | {obj} | {right}/{rot} | {:.4} | {:.4} |",
-                rot_abs / rot.max(1) as f64,
-                other_abs / other.max(1) as f64
-            );
+            let cells = rotation_sense_cells(&tr, &per_rec, c, |i| obj == "all" || recs[i].object == obj);
+            println!("| {name} | {obj} | {cells} |");
         }
     }
 
@@ -242,28 +221,31 @@ fn main() -> Result<(), Box<dyn Error>> {
     let cols: Vec<usize> = (0..src).map(|k| turn_at + k * TURN_INPUTS + 2).collect();
     let per_rec = column_means(&tr, &inputs, &layout, &cols)?;
     for (c, name) in srcs.iter().enumerate() {
-        let (mut right, mut rot, mut rot_abs, mut other_abs, mut other) = (0, 0, 0.0, 0.0, 0);
-        for (i, r) in tr.iter().enumerate() {
-            let v = per_rec[i][c];
-            match r.class.rotation_sense() {
-                Some(s) => {
-                    rot += 1;
-                    rot_abs += v.abs();
-                    right += usize::from(v * s > 0.0);
-                }
-                None => {
-                    other += 1;
-                    other_abs += v.abs();
-                }
-            }
-        }
-        println!(
-            "| fitted θ with dilation, {name} | {right}/{rot} | {:.4} | {:.4} |",
-            rot_abs / rot.max(1) as f64,
-            other_abs / other.max(1) as f64
-        );
+        println!("| fitted θ with dilation, {name} | {} |", rotation_sense_cells(&tr, &per_rec, c, |_| true));
     }
     Ok(())
+}
+
+/// The rotation-sense table's cells for column `c` of the per-recording means `per_rec`, over
+/// the recordings `keep` selects: how many rotation recordings (cw, aw) have the class's sign
+/// of all of them, the mean |value| on them, and on the other classes.
+fn rotation_sense_cells(tr: &[TrainRecording], per_rec: &[Vec<f64>], c: usize, keep: impl Fn(usize) -> bool) -> String {
+    let (mut right, mut rot, mut rot_abs, mut other_abs, mut other) = (0, 0, 0.0, 0.0, 0);
+    for (i, r) in tr.iter().enumerate().filter(|(i, _)| keep(*i)) {
+        let v = per_rec[i][c];
+        match r.class.rotation_sense() {
+            Some(s) => {
+                rot += 1;
+                rot_abs += v.abs();
+                right += usize::from(v * s > 0.0);
+            }
+            None => {
+                other += 1;
+                other_abs += v.abs();
+            }
+        }
+    }
+    format!("{right}/{rot} | {:.4} | {:.4}", rot_abs / rot.max(1) as f64, other_abs / other.max(1) as f64)
 }
 
 /// One row of the touch table: a `t` recording's per-window decisions by thirds.
