@@ -524,7 +524,7 @@ impl Geometry {
         (0..self.len())
             .map(|i| {
                 let r2 = dist2(self.core[i], sp) - self.depth2[i];
-                gain[i] * th[3] * kernel(r2, th[2], th[4], q).0
+                gain[i] * th[3] * kernel(r2, th[2], th[4], (q, LOBE_RATIO)).0
             })
             .collect()
     }
@@ -539,6 +539,12 @@ pub const SHAPE_MAX: f64 = 2.0;
 const SHAPE_SMOOTH: f64 = 1e-3;
 /// Step in `q` of the shape learner's three-point cost curve.
 const SHAPE_STEP: f64 = 0.1;
+/// Smallest far-lobe width ratio `m` the width learner reaches (`fit_lobe_ratio_rate`).
+pub const RATIO_MIN: f64 = 1.5;
+/// Largest far-lobe width ratio `m` the width learner reaches.
+pub const RATIO_MAX: f64 = 5.0;
+/// Step in `ln m` of the width learner's three-point cost curve.
+const RATIO_STEP: f64 = 0.1;
 
 /// One lobe `exp(−u^{q/2}/q)`, `u = ρ²/w²`, and its derivative along `u`.
 #[inline]
@@ -557,8 +563,8 @@ fn lobe(u: f64, q: f64) -> (f64, f64) {
 /// [`kernel`], folded to `|K|` when `fold` (the magnitude fit with `fit_fold_lobe`: a far
 /// ring that moves the other way is seen as a magnitude, as the changes are).
 #[inline]
-fn kern(r2: f64, lw: f64, a: f64, q: f64, fold: bool) -> (f64, f64, f64, f64) {
-    let k = kernel(r2, lw, a, q);
+fn kern(r2: f64, lw: f64, a: f64, (q, m): (f64, f64), fold: bool) -> (f64, f64, f64, f64) {
+    let k = kernel(r2, lw, a, (q, m));
     if fold && k.0 < 0.0 {
         (-k.0, -k.1, -k.2, -k.3)
     } else {
@@ -566,11 +572,12 @@ fn kern(r2: f64, lw: f64, a: f64, q: f64, fold: bool) -> (f64, f64, f64, f64) {
     }
 }
 
-/// `K(ρ²)` of shape `q` and its derivatives along ρ², ln w and a.
+/// `K(ρ²)` of shape `q` and far-lobe width ratio `m` (`LOBE_RATIO` unless
+/// `fit_lobe_ratio_rate`), and its derivatives along ρ², ln w and a.
 #[inline]
-fn kernel(r2: f64, lw: f64, a: f64, q: f64) -> (f64, f64, f64, f64) {
+fn kernel(r2: f64, lw: f64, a: f64, (q, m): (f64, f64)) -> (f64, f64, f64, f64) {
     let w2 = (2.0 * lw).exp();
-    let m2 = LOBE_RATIO * LOBE_RATIO;
+    let m2 = m * m;
     if q >= SHAPE_MAX {
         // the Gaussian lobes, evaluated exactly as before the shape exponent (bit for bit)
         let e1 = (-r2 / (2.0 * w2)).exp();
@@ -645,6 +652,8 @@ struct Problem<'a> {
     gain: &'a [f64],
     /// Kernel shape exponent `q` (2 Gaussian, 1 exponential).
     q: f64,
+    /// Far-lobe width ratio `m` ([`LOBE_RATIO`] unless `fit_lobe_ratio_rate`).
+    m: f64,
     /// The model folded to `|K|` (`fit_fold_lobe` on the magnitude fit).
     fold: bool,
     /// The amplitude held positive (`fit_polarity_votes`: the changes are in pressing units).
@@ -686,7 +695,7 @@ impl Problem<'_> {
                 continue;
             }
             let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let m = self.gain[i] * th[3] * kern(r2, th[2], th[4], self.q, self.fold).0;
+            let m = self.gain[i] * th[3] * kern(r2, th[2], th[4], (self.q, self.m), self.fold).0;
             c += huber((self.d[i] - m) * self.inv_s[i]);
         }
         c
@@ -705,7 +714,7 @@ impl Problem<'_> {
             let e = self.geo.core[i];
             let v = [e[0] - sp[0], e[1] - sp[1], e[2] - sp[2]];
             let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2] - self.geo.depth2[i];
-            let (k, dr2, dlw, da) = kern(r2, th[2], th[4], self.q, self.fold);
+            let (k, dr2, dlw, da) = kern(r2, th[2], th[4], (self.q, self.m), self.fold);
             let ga = self.gain[i] * th[3];
             let dx = -2.0 * (v[0] * sx[0] + v[1] * sx[1] + v[2] * sx[2]);
             let dy = -2.0 * (v[0] * sy[0] + v[1] * sy[1] + v[2] * sy[2]);
@@ -803,6 +812,8 @@ pub struct Fit {
     lag: Option<crate::lag::LagEstimator>,
     /// The kernel's shape exponent `q` (`fit_shape_rate`; 2 = Gaussian).
     shape: f64,
+    /// The far lobe's width ratio `m` (`fit_lobe_ratio_rate`; [`LOBE_RATIO`] when off).
+    ratio: f64,
     /// The kernel folded to `|K|` (`fit_fold_lobe` and not `fit_signed`).
     fold: bool,
     /// Polarity learning (`fit_polarity_votes`, see *Polarity*): the frame's signed changes,
@@ -859,6 +870,7 @@ impl Fit {
             cal: GainCal::new(layout.positions()),
             lag: cfg.fit_lag_estimate.then(|| crate::lag::LagEstimator::new(cfg.fit_lag_prior, cfg.fit_lag_max_s)),
             shape: SHAPE_MAX,
+            ratio: LOBE_RATIO,
             fold: cfg.fit_fold_lobe && !cfg.fit_signed,
             sd: Vec::with_capacity(n),
             votes: vec![0.0; n],
@@ -916,6 +928,7 @@ impl Fit {
             inv_s: &self.inv_s,
             gain: &self.gain,
             q,
+            m: self.ratio,
             fold: self.fold,
             positive: self.positive(),
         };
@@ -952,6 +965,63 @@ impl Fit {
         };
         let target = target.clamp(SHAPE_MIN, SHAPE_MAX);
         self.shape = (q + rate * (target - q)).clamp(SHAPE_MIN, SHAPE_MAX);
+    }
+
+    /// The far lobe's width ratio `m` learned so far (`fit_lobe_ratio_rate`; stays
+    /// [`LOBE_RATIO`] with the rate 0).
+    pub fn lobe_ratio(&self) -> f64 {
+        self.ratio
+    }
+
+    /// One step of the far lobe's width learner on a clean fit `th`, as [`Self::step_shape`]
+    /// in `ln m`: the frame's cost re-fitted at `ln m − h`, `ln m`, `ln m + h` (warm, one step
+    /// each), the parabola's minimum (clamped to [`RATIO_MIN`, `RATIO_MAX`]; the cheaper end
+    /// when the curve is not convex), and `ln m` moved toward it by `rate`.
+    fn step_ratio(&mut self, rate: f64, th: &[f64; NP]) {
+        let (lo, hi) = (RATIO_MIN.ln(), RATIO_MAX.ln());
+        let l = self.ratio.ln().clamp(lo, hi);
+        let prob = |l: f64| Problem {
+            geo: &self.geo,
+            d: &self.d,
+            inv_s: &self.inv_s,
+            gain: &self.gain,
+            q: self.shape,
+            m: l.exp(),
+            fold: self.fold,
+            positive: self.positive(),
+        };
+        let (lm, lp) = ((l - RATIO_STEP).max(lo), (l + RATIO_STEP).min(hi));
+        let c = |l: f64| prob(l).solve(*th, 1).cost;
+        let (cm, c0, cp) = (c(lm), c(l), c(lp));
+        if !(cm.is_finite() && c0.is_finite() && cp.is_finite()) {
+            return;
+        }
+        let target = if lp - l < 1e-12 {
+            if cm < c0 {
+                lm
+            } else {
+                l
+            }
+        } else if l - lm < 1e-12 {
+            if cp < c0 {
+                lp
+            } else {
+                l
+            }
+        } else {
+            let h = RATIO_STEP;
+            let g = (cp - cm) / (2.0 * h);
+            let curv = (cp - 2.0 * c0 + cm) / (h * h);
+            if curv > 0.0 {
+                l - g / curv
+            } else if cm < cp {
+                lo
+            } else {
+                hi
+            }
+        };
+        let target = target.clamp(lo, hi);
+        self.ratio = (l + rate * (target - l)).clamp(lo, hi).exp();
     }
 
     /// Each electrode's pressing polarity as the fit applies it (`fit_polarity_votes`): +1 or
@@ -1144,6 +1214,7 @@ impl Fit {
             inv_s: &self.inv_s,
             gain: &self.gain,
             q: self.shape,
+            m: self.ratio,
             fold: self.fold && guard == 0.0,
             positive: self.positive(),
         };
@@ -1160,11 +1231,11 @@ impl Fit {
         // instead of its centre: such a fit is a ring, kept only when nothing else converges
         let geo = &self.geo;
         let fold = self.fold;
-        let q = self.shape;
+        let qm = (self.shape, self.ratio);
         let ring_at = |th: &[f64; NP]| {
             let (sp, _, _) = geo.skin(th[0], th[1]);
             let r2 = dist2(geo.core[k], sp) - geo.depth2[k];
-            kernel(r2, th[2], th[4], q).0 < RING_MIN
+            kernel(r2, th[2], th[4], qm).0 < RING_MIN
         };
         let ringed = |th: &[f64; NP]| prob.fold && ring_at(th);
         let poor = |b: &Option<Solution>| {
@@ -1221,7 +1292,7 @@ impl Fit {
         let (mut far, mut far_strong, mut outliers) = (0, 0, 0);
         for i in 0..n {
             let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let kk = kern(r2, th[2], th[4], self.shape, folded).0;
+            let kk = kern(r2, th[2], th[4], (self.shape, self.ratio), folded).0;
             self.kk[i] = kk;
             if self.inv_s[i] == 0.0 {
                 continue;
@@ -1274,6 +1345,7 @@ impl Fit {
         // learn the gains from a clean fit
         let rate = cfg.fit_gain_rate;
         let shape_rate = cfg.fit_shape_rate;
+        let ratio_rate = cfg.fit_lobe_ratio_rate;
         let clean = best.cost < 0.05 * null && !second_region && outliers <= 3;
         if rate > 0.0 && clean {
             if cfg.fit_gain_keys > 0 {
@@ -1281,7 +1353,13 @@ impl Fit {
                 let (spacing, cap) = (cfg.fit_gain_spacing_mm, cfg.fit_gain_keys as usize);
                 let pol = self.polarity_on().then_some((&self.sd[..], &self.thr[..], self.big, &self.inv_full[..]));
                 self.cal.offer(&th, &self.kk, (&self.d, pol), &self.inv_s, eps, (spacing, cap));
-                self.cal.refit(&self.geo, &self.gain, (self.shape, self.fold, self.positive()), GAIN_REFITS, 1);
+                self.cal.refit(
+                    &self.geo,
+                    &self.gain,
+                    ((self.shape, self.ratio), self.fold, self.positive()),
+                    GAIN_REFITS,
+                    1,
+                );
                 self.cal.gains(cfg.fit_gain_prior, cfg.fit_signed, &mut self.gain);
             } else {
                 self.step_gains(rate, th[3]);
@@ -1289,6 +1367,9 @@ impl Fit {
         }
         if shape_rate > 0.0 && clean {
             self.step_shape(shape_rate, &th);
+        }
+        if ratio_rate > 0.0 && clean {
+            self.step_ratio(ratio_rate, &th);
         }
         // polarity votes need a plausible single contact: a spread or far lobe at the family's
         // extremes is a fit through a far ring, whose "core" electrodes are in the ring
@@ -1450,6 +1531,7 @@ impl Stage for Fit {
         self.gain.iter_mut().for_each(|g| *g = 1.0);
         self.cal.clear();
         self.shape = SHAPE_MAX;
+        self.ratio = LOBE_RATIO;
         self.votes.iter_mut().for_each(|v| *v = 0.0);
         self.pol.iter_mut().for_each(|v| *v = 0.0);
         self.majority = 0.0;
@@ -1766,7 +1848,7 @@ impl GainCal {
         &mut self,
         geo: &Geometry,
         gain: &[f64],
-        (q, fold, positive): (f64, bool, bool),
+        ((q, ratio), fold, positive): ((f64, f64), bool, bool),
         count: usize,
         iterations: u32,
     ) {
@@ -1775,13 +1857,13 @@ impl GainCal {
             let k = self.next_refit % m;
             self.next_refit = k + 1;
             let key = &mut self.keys[k];
-            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, fold, positive };
+            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, m: ratio, fold, positive };
             let s = prob.solve(key.th, iterations);
             key.th = s.th;
             let (sp, _, _) = geo.skin(s.th[0], s.th[1]);
             for i in 0..key.kk.len() {
                 let r2 = dist2(geo.core[i], sp) - geo.depth2[i];
-                key.kk[i] = kern(r2, s.th[2], s.th[4], q, fold).0;
+                key.kk[i] = kern(r2, s.th[2], s.th[4], (q, ratio), fold).0;
             }
         }
     }
@@ -2125,13 +2207,15 @@ mod tests {
             let w2 = (2.0 * lw).exp();
             let m2 = LOBE_RATIO * LOBE_RATIO;
             let (e1, e2) = ((-r2 / (2.0 * w2)).exp(), (-r2 / (2.0 * m2 * w2)).exp());
-            let k = kernel(r2, lw, a, 2.0);
+            let k = kernel(r2, lw, a, (2.0, LOBE_RATIO));
             assert_eq!(k.0, (1.0 + a) * e1 - a * e2);
             assert_eq!(k.1, -(1.0 + a) * e1 / (2.0 * w2) + a * e2 / (2.0 * m2 * w2));
             assert_eq!(k.2, (1.0 + a) * e1 * r2 / w2 - a * e2 * r2 / (m2 * w2));
             assert_eq!(k.3, e1 - e2);
-            // every shape: analytic derivatives against central differences
-            for q in [1.0, 1.3, 1.7, 2.0] {
+            // every shape and far-lobe width: analytic derivatives against central differences
+            for (q, m) in [(1.0, LOBE_RATIO), (1.3, LOBE_RATIO), (1.7, 1.6), (2.0, LOBE_RATIO), (2.0, 4.2), (1.4, 3.3)]
+            {
+                let q = (q, m);
                 let r2 = r2.max(0.5);
                 let k = kernel(r2, lw, a, q);
                 let h = 1e-6;
@@ -2141,16 +2225,16 @@ mod tests {
                 let d_a = num(&|x| kernel(r2, lw, x, q).0, a);
                 assert!(
                     (k.1 - d_r2).abs() < 1e-6 && (k.2 - d_lw).abs() < 1e-6 && (k.3 - d_a).abs() < 1e-6,
-                    "q {q} r2 {r2}: {k:?} vs {d_r2} {d_lw} {d_a}"
+                    "q, m {q:?} r2 {r2}: {k:?} vs {d_r2} {d_lw} {d_a}"
                 );
             }
             // the exponential at q = 1 (up to the cusp's smoothing)
             let r2 = r2.max(0.0);
-            let e = kernel(r2, lw, 0.0, 1.0).0;
+            let e = kernel(r2, lw, 0.0, (1.0, LOBE_RATIO)).0;
             assert!((e - (-(r2.sqrt()) / lw.exp()).exp()).abs() < 0.05, "{e}");
             // folded: the magnitude, derivatives with it
-            let f = kern(r2, lw, a, 1.5, true);
-            assert!(f.0 >= 0.0 && f.0 == kernel(r2, lw, a, 1.5).0.abs());
+            let f = kern(r2, lw, a, (1.5, LOBE_RATIO), true);
+            assert!(f.0 >= 0.0 && f.0 == kernel(r2, lw, a, (1.5, LOBE_RATIO)).0.abs());
         }
     }
 
