@@ -16,7 +16,7 @@ use gradtac_stages::contour::{Contour, ContourConfig};
 use gradtac_stages::dos::{DosClass, DosFeatureConfig, DosModel, Feature};
 use gradtac_stages::events::{Events, EventsConfig, Threshold};
 use gradtac_stages::force::ForceMethod;
-use gradtac_stages::force_model::{calibrate, force_detector, CalibrationMethod, GaugeSample};
+use gradtac_stages::force_model::{calibrate_unguarded, CalibrationMethod, GaugeSample};
 use gradtac_stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac_stages::locate::LocateConfig;
 use gradtac_stages::sim::{Scene as SimScene, SensorModel, Simulator, Trajectory};
@@ -212,29 +212,28 @@ fn main() {
 
     // Force model and tare files (a mode byte first: see fuzz_targets/model_files.rs): a model
     // of each calibration method that reads the changes, from a gauge session of a simulated
-    // member, and a tare of the same member's untouched stretch.
+    // member (unguarded: the guard would replace `forward` by `placed` on these plain changes, and
+    // the seed is to hold a forward model), and a tare of the same member's untouched stretch.
     let session = ForceSession { noise_stream: 3, ..ForceSession::presses(7, 4) };
     let rec = session.simulate();
-    let mut det = force_detector(24, &LocateConfig::default()).unwrap();
+    // each frame's change from the first (untouched) one, in contact while the gauge reads
+    let base = &rec.frames[0].values;
     let samples: Vec<GaugeSample> = rec
         .frames
         .iter()
-        .map(|f| {
-            let ch = det.push(f, "seeds").unwrap();
-            let k = ((ch.start.0 + ch.end.0) / 2 - rec.frames[0].time.0) as f64 * 1e-7;
-            GaugeSample {
-                change: det.change().to_vec(),
-                contact: ch.contact,
-                area_mm2: None,
-                amplitude: None,
-                force_n: rec.gauge[k.round() as usize],
-                time_s: 0.5 * (ch.start.as_secs_f64() + ch.end.as_secs_f64()),
-            }
+        .zip(&rec.gauge)
+        .map(|(f, &g)| GaugeSample {
+            change: f.values.iter().zip(base).map(|(v, b)| v - b).collect(),
+            contact: g > 0.0,
+            area_mm2: None,
+            amplitude: None,
+            force_n: g,
+            time_s: f.time.as_secs_f64(),
         })
         .collect();
     for method in [CalibrationMethod::Forward, CalibrationMethod::Ridge, CalibrationMethod::Total, CalibrationMethod::Placed]
     {
-        let file = calibrate(&samples, method, 1e-3, ForceMethod::Isotonic, &layout).unwrap();
+        let file = calibrate_unguarded(&samples, method, 1e-3, ForceMethod::Isotonic, &layout).unwrap();
         let json = serde_json::to_string_pretty(&file).unwrap();
         put(&dir, "model_files", method.name(), &with_mode(0, json.as_bytes()));
     }
