@@ -946,38 +946,9 @@ impl Fit {
             fold: self.fold,
             positive: self.positive(),
         };
-        let (qm, qp) = ((q - SHAPE_STEP).max(SHAPE_MIN), (q + SHAPE_STEP).min(SHAPE_MAX));
-        let c = |q: f64| prob(q).solve(*th, 1).cost;
-        let (cm, c0, cp) = (c(qm), c(q), c(qp));
-        if !(cm.is_finite() && c0.is_finite() && cp.is_finite()) {
+        let Some(target) = parabola_target(q, SHAPE_MIN, SHAPE_MAX, SHAPE_STEP, |q| prob(q).solve(*th, 1).cost) else {
             return;
-        }
-        // through three points (qm, q, qp), at most one of them at a bound
-        let target = if qp - q < 1e-12 {
-            if cm < c0 {
-                qm
-            } else {
-                q
-            }
-        } else if q - qm < 1e-12 {
-            if cp < c0 {
-                qp
-            } else {
-                q
-            }
-        } else {
-            let h = SHAPE_STEP;
-            let g = (cp - cm) / (2.0 * h);
-            let curv = (cp - 2.0 * c0 + cm) / (h * h);
-            if curv > 0.0 {
-                q - g / curv
-            } else if cm < cp {
-                SHAPE_MIN
-            } else {
-                SHAPE_MAX
-            }
         };
-        let target = target.clamp(SHAPE_MIN, SHAPE_MAX);
         self.shape = (q + rate * (target - q)).clamp(SHAPE_MIN, SHAPE_MAX);
     }
 
@@ -1004,37 +975,9 @@ impl Fit {
             fold: self.fold,
             positive: self.positive(),
         };
-        let (lm, lp) = ((l - RATIO_STEP).max(lo), (l + RATIO_STEP).min(hi));
-        let c = |l: f64| prob(l).solve(*th, 1).cost;
-        let (cm, c0, cp) = (c(lm), c(l), c(lp));
-        if !(cm.is_finite() && c0.is_finite() && cp.is_finite()) {
+        let Some(target) = parabola_target(l, lo, hi, RATIO_STEP, |l| prob(l).solve(*th, 1).cost) else {
             return;
-        }
-        let target = if lp - l < 1e-12 {
-            if cm < c0 {
-                lm
-            } else {
-                l
-            }
-        } else if l - lm < 1e-12 {
-            if cp < c0 {
-                lp
-            } else {
-                l
-            }
-        } else {
-            let h = RATIO_STEP;
-            let g = (cp - cm) / (2.0 * h);
-            let curv = (cp - 2.0 * c0 + cm) / (h * h);
-            if curv > 0.0 {
-                l - g / curv
-            } else if cm < cp {
-                lo
-            } else {
-                hi
-            }
         };
-        let target = target.clamp(lo, hi);
         self.ratio = (l + rate * (target - l)).clamp(lo, hi).exp();
     }
 
@@ -1993,12 +1936,67 @@ fn invert3(a: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
     Some(inv)
 }
 
+/// One step of a learner of a parameter `x` in `[lo, hi]` (the shape exponent, the far lobe's
+/// `ln m`): the cost `c` at `x − h`, `x`, `x + h` (each side cut at its bound), and the minimum of
+/// the parabola through the three, clamped to `[lo, hi]`; the cheaper bound when the curve is not
+/// convex; with a side at its bound (`x` there), the cheaper of `x` and the other side. `None`
+/// when a cost is not finite.
+fn parabola_target(x: f64, lo: f64, hi: f64, h: f64, c: impl Fn(f64) -> f64) -> Option<f64> {
+    let (xm, xp) = ((x - h).max(lo), (x + h).min(hi));
+    let (cm, c0, cp) = (c(xm), c(x), c(xp));
+    if !(cm.is_finite() && c0.is_finite() && cp.is_finite()) {
+        return None;
+    }
+    let target = if xp - x < 1e-12 {
+        if cm < c0 {
+            xm
+        } else {
+            x
+        }
+    } else if x - xm < 1e-12 {
+        if cp < c0 {
+            xp
+        } else {
+            x
+        }
+    } else {
+        let g = (cp - cm) / (2.0 * h);
+        let curv = (cp - 2.0 * c0 + cm) / (h * h);
+        if curv > 0.0 {
+            x - g / curv
+        } else if cm < cp {
+            lo
+        } else {
+            hi
+        }
+    };
+    Some(target.clamp(lo, hi))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::centroid::Centroid;
     use gradtac_stream::{StageExt, Timestamp};
     use proptest::prelude::*;
+
+    #[test]
+    fn the_parabola_learner_step_finds_a_quadratics_minimum_and_respects_its_bounds() {
+        let quad = |m: f64| move |x: f64| (x - m) * (x - m) + 2.0;
+        // a convex quadratic's minimum from three points, wherever it lies (clamped to the range)
+        assert!((parabola_target(0.5, 0.0, 1.0, 0.1, quad(0.3)).unwrap() - 0.3).abs() < 1e-12);
+        assert!((parabola_target(0.5, 0.0, 1.0, 0.1, quad(0.9)).unwrap() - 0.9).abs() < 1e-12);
+        assert_eq!(parabola_target(0.5, 0.0, 1.0, 0.1, quad(-4.0)), Some(0.0));
+        // not convex: the cheaper bound
+        assert_eq!(parabola_target(0.5, 0.0, 1.0, 0.1, |x| -(x - 0.45) * (x - 0.45)), Some(1.0));
+        assert_eq!(parabola_target(0.5, 0.0, 1.0, 0.1, |x| -(x - 0.55) * (x - 0.55)), Some(0.0));
+        // at a bound: the cheaper of it and the inner side
+        assert_eq!(parabola_target(1.0, 0.0, 1.0, 0.1, quad(0.2)), Some(0.9));
+        assert_eq!(parabola_target(1.0, 0.0, 1.0, 0.1, quad(2.0)), Some(1.0));
+        assert_eq!(parabola_target(0.0, 0.0, 1.0, 0.1, quad(0.5)), Some(0.1));
+        // a cost that is not finite: no step
+        assert_eq!(parabola_target(0.5, 0.0, 1.0, 0.1, |x| if x > 0.55 { f64::NAN } else { x }), None);
+    }
 
     fn frames(n: u64, f: impl Fn(u64) -> Vec<f64>) -> Vec<TaxelFrame> {
         (0..n).map(|k| TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, f(k))).collect()
