@@ -765,7 +765,6 @@ impl PositionMemory {
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | rise test | with `drift_shape_rise_s`, a drift-shape return on a frame whose total change that long before was under half its own (a recent rise: a press's rise and hold) is blocked, or fires with the slope's anchors shifted instead of kept (so a press taken for drift does not teach the slope the press), and optionally is undone once the sensor comes back to the level before it ([`RiseGuard`]) | off |
-/// | dip return | with `dip_return_s`, an excursion at least that old also returns on a steady frame whose total change is the lowest of that look-back and at most half its highest (a rest between presses); the slope's anchors are kept | off |
 /// | walk-scaled undo | with `undo_walk`, the undo's bound grows with the drift walk measured from the slope's anchors and the time since the return, at most to half the step | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
@@ -892,18 +891,6 @@ pub struct DriftModel {
     /// What the rise test does to a drift-shape return on a frame that rose recently
     /// ([`RiseGuard`]; default: blocks it).
     pub drift_shape_rise: RiseGuard,
-    /// The dip return (s, in [0, 60]; 0: off, the default): an excursion that has lasted at
-    /// least this long also *returns* on a steady frame whose total change `Σ|Δᵢ|` is the
-    /// lowest of the last `dip_return_s` and at most [`DRIFT_SHAPE_RISE_FRACTION`] (half) of
-    /// the highest of them — a rest between presses, found against the presses of the last
-    /// seconds rather than the excursion's whole peak (which a baseline left behind by an
-    /// unlearned slope keeps raising, so the peak return never fires). The slope's anchors are
-    /// kept at such a return (the rest is the sensor untouched), so the rests' ends anchor the
-    /// slope inside what would be one long contact. Trade-off: a press that eases to under
-    /// half its force and holds still there, this long into the excursion, returns (the
-    /// baseline settles to it). Cost: O(1) amortised per frame (two monotone queues of totals,
-    /// bounded). Session 36, round 7 (`docs/force.md`).
-    pub dip_return_s: f64,
     /// The walk-scaled undo (a factor ≥ 0, at most 10; 0: off, the default): with
     /// [`RiseGuard::ShiftAnchorsUndo`], the undo's bound on the sensor's distance from the
     /// level before the return (`release_fraction` of the step) grows by this factor times
@@ -1007,7 +994,6 @@ impl Default for DriftModel {
             drift_shape_fit: ShapeFit::Signed,
             drift_shape_rise_s: 0.0,
             drift_shape_rise: RiseGuard::Block,
-            dip_return_s: 0.0,
             undo_walk: 0.0,
         }
     }
@@ -1053,7 +1039,6 @@ impl DriftModel {
             && (0.0..=60.0).contains(&self.quiet_taxel_s)
             && (0.0..1.0).contains(&self.drift_shape)
             && (0.0..=60.0).contains(&self.drift_shape_rise_s)
-            && (0.0..=60.0).contains(&self.dip_return_s)
             && (0.0..=10.0).contains(&self.undo_walk);
         if ok {
             Ok(())
@@ -1221,12 +1206,6 @@ struct DriftState {
     /// The level before a drift-shape return on a recent rise ([`RiseGuard::ShiftAnchorsUndo`]):
     /// its time, the baseline then (moved along the slope since) and the total step it took.
     undo: Option<(Timestamp, Vec<f64>, f64)>,
-    /// Start of the current excursion (the dip return's age test).
-    excursion_since: Option<Timestamp>,
-    /// Recent total changes, monotone queues over the dip return's look-back: increasing
-    /// (front: the least) and decreasing (front: the most).
-    dip_lo: VecDeque<(Timestamp, f64)>,
-    dip_hi: VecDeque<(Timestamp, f64)>,
     /// The walk estimate ([`DriftModel::undo_walk`]): the last anchor of a pair (time, means),
     /// the forgotten sum of the time between pairs and, per taxel, of their squared changes
     /// less the slope's.
@@ -1256,45 +1235,10 @@ impl DriftState {
             floor: None,
             rise: VecDeque::new(),
             undo: None,
-            excursion_since: None,
-            dip_lo: VecDeque::new(),
-            dip_hi: VecDeque::new(),
             walk_prev: None,
             walk_w: 0.0,
             walk_s: vec![0.0; n],
         }
-    }
-
-    /// The dip return's test for a frame of total change `total` (and records it): the lowest
-    /// total of the look-back `dip_return_s`, and at most [`DRIFT_SHAPE_RISE_FRACTION`] of its
-    /// highest. A non-finite total forgets the look-back and is no dip.
-    fn dip(&mut self, time: Timestamp, total: f64) -> bool {
-        if !total.is_finite() {
-            self.dip_lo.clear();
-            self.dip_hi.clear();
-            return false;
-        }
-        let horizon = time.0 - (self.model.dip_return_s * 1e9).round() as i64;
-        for q in [&mut self.dip_lo, &mut self.dip_hi] {
-            while q.front().is_some_and(|(t, _)| t.0 < horizon) {
-                q.pop_front();
-            }
-            if q.len() >= MAX_STEADY_HISTORY {
-                // a very fast source: a shorter look-back than asked, never more memory
-                q.pop_front();
-            }
-        }
-        while self.dip_lo.back().is_some_and(|&(_, x)| x >= total) {
-            self.dip_lo.pop_back();
-        }
-        self.dip_lo.push_back((time, total));
-        while self.dip_hi.back().is_some_and(|&(_, x)| x <= total) {
-            self.dip_hi.pop_back();
-        }
-        self.dip_hi.push_back((time, total));
-        let lowest = self.dip_lo.front().is_some_and(|&(t, _)| t == time);
-        let highest = self.dip_hi.front().map_or(total, |&(_, x)| x);
-        lowest && total <= DRIFT_SHAPE_RISE_FRACTION * highest
     }
 
     /// The drift walk per taxel (counts/√s) measured so far, summed over the taxels (0 before
@@ -1509,22 +1453,12 @@ impl DriftState {
                 self.in_contact = true;
                 self.touched = false;
                 self.peak = 0.0;
-                self.excursion_since = Some(time);
             }
             self.peak = self.peak.max(total);
         } else {
             self.in_contact = false;
             self.settling = false;
-            self.excursion_since = None;
         }
-        // the dip return: a steady frame of a long excursion at the lowest total of the
-        // look-back and under half its highest (a rest between presses)
-        let dip = m.dip_return_s > 0.0 && {
-            let d = self.dip(time, total);
-            d && steady
-                && self.in_contact
-                && self.excursion_since.is_some_and(|s| (time.0 - s.0) as f64 * 1e-9 >= m.dip_return_s)
-        };
         if m.release_excess > 0.0 && !self.in_contact && total.is_finite() {
             let a = 1.0 - (-dt / FLOOR_S).exp();
             let f = self.floor.get_or_insert(total);
@@ -1558,13 +1492,12 @@ impl DriftState {
                 };
                 f < m.drift_shape
             });
-        let returning =
-            steady && self.in_contact && (self.settling || peak_return || shape_return || drift_shaped || dip);
+        let returning = steady && self.in_contact && (self.settling || peak_return || shape_return || drift_shaped);
         // the frame this excursion first returns on (not a later settling frame), and whether
         // the shape return alone made it return (a residual step stays behind; a drift-shaped
         // step is drift, and the anchors keep it)
         let first_return = returning && !self.settling && (contact || self.touched);
-        let shape_alone = first_return && !peak_return && !drift_shaped && !dip;
+        let shape_alone = first_return && !peak_return && !drift_shaped;
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
         if !contact && held && (self.touched || m.hold_contact) {
@@ -2084,37 +2017,13 @@ mod tests {
     }
 
     #[test]
-    fn the_dip_test_finds_a_rest_between_presses() {
-        let model = DriftModel { dip_return_s: 4.0, ..DriftModel::default() };
-        let at = |k: i64| Timestamp(k * 10_000_000);
-        let mut st = DriftState::new(model, 1);
-        // a constant total is the lowest of its look-back but not under half the highest
-        assert!((0..100).all(|k| !st.dip(at(k), 10.0)));
-        // 5 s of a press, then a rest at a third of it: a dip on every rest frame
-        assert!((100..600).all(|k| !st.dip(at(k), 300.0)));
-        assert!((600..660).all(|k| st.dip(at(k), 100.0)));
-        // higher than the rest a moment ago: not the lowest
-        assert!((660..700).all(|k| !st.dip(at(k), 200.0)));
-        // the next press; its rest above half the press is no dip, under half it is
-        assert!((700..1100).all(|k| !st.dip(at(k), 300.0)));
-        assert!(!st.dip(at(1100), 160.0));
-        assert!(st.dip(at(1101), 140.0));
-        // a non-finite total is no dip and forgets the look-back
-        assert!(!st.dip(at(1102), f64::NAN));
-        assert!(st.dip_lo.is_empty() && st.dip_hi.is_empty());
-        // a very fast source keeps at most MAX_STEADY_HISTORY totals per queue
-        let mut st = DriftState::new(model, 1);
-        for k in 0..20_000 {
-            let _ = st.dip(Timestamp(k * 1_000), k as f64);
+    fn the_walk_scaled_undo_is_validated_and_off_in_older_files() {
+        for bad in [-0.02, 12.1, f64::NAN, f64::INFINITY] {
+            assert!(DriftModel { undo_walk: bad, ..DriftModel::default() }.validate().is_err(), "{bad}");
         }
-        assert!(st.dip_lo.len() <= MAX_STEADY_HISTORY && st.dip_hi.len() <= MAX_STEADY_HISTORY);
-        for bad in [-0.1, 60.5, f64::NAN, f64::INFINITY] {
-            assert!(DriftModel { dip_return_s: bad, ..DriftModel::default() }.validate().is_err(), "{bad}");
-            assert!(DriftModel { undo_walk: bad * 0.2, ..DriftModel::default() }.validate().is_err(), "{bad}");
-        }
-        // older JSON files (without the new keys) read with both off
+        // older JSON files (without the key) read with it off
         let m: DriftModel = serde_json::from_str(r#"{"stale_s": 10.0}"#).unwrap();
-        assert_eq!((m.dip_return_s, m.undo_walk), (0.0, 0.0));
+        assert_eq!(m.undo_walk, 0.0);
     }
 
     #[test]
@@ -2147,14 +2056,13 @@ mod tests {
     }
 
     #[test]
-    fn the_dip_return_misses_a_rest_whose_stale_change_climbs() {
-        // (docs/force.md, "Session 36, round 7": the dip return's known limit, pinned) taxels
-        // 0–3 drift at 4 counts/s from the first frame; taxel 5 is pressed every 4.6 s (rise 2 s
-        // to 120 counts, hold 0.5 s, fall 1.5 s, rest 0.6 s) from 0.5 s. The rests' stale change
-        // (16 counts/s summed) stays above 0.3 of the excursion's peak, so the first excursion
-        // never returns and the slope is never learned. The dip return does not free it (the
-        // likely reason, not traced frame by frame: the stale change climbs through each rest,
-        // so a rest's steady end is not the lowest total of its look-back)
+    fn the_gate_never_learns_a_slope_that_drifts_from_the_first_frame() {
+        // (docs/force.md, "Session 36": member 212's failure, pinned as the gate's known limit)
+        // taxels 0–3 drift at 4 counts/s from the first frame; taxel 5 is pressed every 4.6 s
+        // (rise 2 s to 120 counts, hold 0.5 s, fall 1.5 s, rest 0.6 s) from 0.5 s. The rests'
+        // stale change (16 counts/s summed) stays above 0.3 of the excursion's peak, so the first
+        // excursion never returns and the slope is never learned. (Round 7's dip return did not
+        // free it either; its code is at commit 7125739.)
         let value = |k: u64| {
             let t = k as f64 / 100.0;
             let e = if k % 2 == 0 { 1.0 } else { -1.0 };
@@ -2192,16 +2100,11 @@ mod tests {
             }
             (rest_contact, rest_frames, press_contact, det.drift_slope().to_vec())
         };
-        let gate = crate::force_model::FORCE_GATE;
-        let off = run(gate);
-        let on = run(DriftModel { dip_return_s: 4.0, ..gate });
-        for (rest_contact, rest_frames, press_contact, slope) in [&off, &on] {
-            assert_eq!(*rest_frames, 60);
-            assert_eq!(rest_contact, rest_frames, "every rest's end is still a contact");
-            assert_eq!(*press_contact, 200, "every hold is a contact");
-            assert!(slope[..4].iter().all(|s| s.abs() < 0.1), "the slope is not learned: {slope:?}");
-        }
-        assert_eq!(off, on);
+        let (rest_contact, rest_frames, press_contact, slope) = run(crate::force_model::FORCE_GATE);
+        assert_eq!(rest_frames, 60);
+        assert_eq!(rest_contact, rest_frames, "every rest's end is still a contact");
+        assert_eq!(press_contact, 200, "every hold is a contact");
+        assert!(slope[..4].iter().all(|s| s.abs() < 0.1), "the slope is not learned: {slope:?}");
     }
 
     #[test]
