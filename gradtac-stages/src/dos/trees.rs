@@ -375,7 +375,7 @@ impl TreeExtractor {
             if let Some(g) = &self.turn {
                 // the change from then to now, against the gradient of the pattern halfway
                 let mid: Vec<f64> = x[..n].iter().zip(then).map(|(a, b)| 0.5 * (a + b)).collect();
-                let (flow, share, dil) = g.flow_inputs(&mid, &extra[extra.len() - n..], self.dilation);
+                let (flow, share, dil) = g.flow_inputs(&mid, &extra[extra.len() - n..], self.dilation, self.flow_share);
                 turns.extend(flow);
                 shares.push(share);
                 dilations.push(dil);
@@ -395,7 +395,7 @@ impl TreeExtractor {
             mean.iter_mut().for_each(|m| *m /= k);
             if let Some(g) = &self.turn {
                 // validated: the turn needs the level pattern, the first block
-                let (flow, share, dil) = g.flow_inputs(&x[..n], &mean, self.dilation);
+                let (flow, share, dil) = g.flow_inputs(&x[..n], &mean, self.dilation, self.flow_share);
                 turns.extend(flow);
                 shares.push(share);
                 dilations.push(dil);
@@ -499,32 +499,35 @@ impl TurnGeometry {
     /// isotropic dilation `δ` about the centre (`… − δ·((x_i − c_x) ∂_x z_i + (y_i − c_y) ∂_y
     /// z_i)`; > 0: the pattern spreads), fitted jointly. Returns `(vx, vy, θ)`, the share of the
     /// change's energy the fitted terms explain, `1 − Σ(change_i − a_i·flow)² / Σchange_i²`
-    /// clamped to `[0, 1]` ([`TreeInputs::flow_share`]), and `δ` (0 without `dilation`). Zeros
-    /// for a flat pattern; a share of 0 for no change.
+    /// clamped to `[0, 1]` ([`TreeInputs::flow_share`]; computed only when `share` asks, 0
+    /// otherwise), and `δ` (0 without `dilation`). Zeros for a flat pattern; a share of 0 for no
+    /// change.
     pub(super) fn flow_inputs(
         &self,
         pattern: &[f64],
         change: &[f64],
         dilation: bool,
+        share: bool,
     ) -> ([f64; TURN_INPUTS], f64, f64) {
         if dilation {
-            let (f, share) = self.flow_fit::<4>(pattern, change);
+            let (f, share) = self.flow_fit::<4>(pattern, change, share);
             ([f[0], f[1], f[2]], share, f[3])
         } else {
-            let (f, share) = self.flow_fit::<3>(pattern, change);
+            let (f, share) = self.flow_fit::<3>(pattern, change, share);
             (f, share, 0.0)
         }
     }
 
     /// The least-squares flow with `N` = 3 (translation, turn) or 4 (and dilation) unknowns, and
-    /// the share of the change's energy it explains.
-    fn flow_fit<const N: usize>(&self, pattern: &[f64], change: &[f64]) -> ([f64; N], f64) {
+    /// (with `want_share`; 0 otherwise) the share of the change's energy it explains: the model's
+    /// rows are kept for that residual only when it is asked for.
+    fn flow_fit<const N: usize>(&self, pattern: &[f64], change: &[f64], want_share: bool) -> ([f64; N], f64) {
         let Some((c, _, _)) = super::window::moments(&self.positions, pattern) else {
             return ([0.0; N], 0.0);
         };
         let mut ata = [[0.0; N]; N];
         let mut atb = [0.0; N];
-        let mut rows = Vec::with_capacity(self.gradient.len());
+        let mut rows = Vec::new();
         for (i, coefs) in self.gradient.iter().enumerate() {
             let mut g = [0.0; 2];
             for &(j, w) in coefs {
@@ -536,7 +539,9 @@ impl TurnGeometry {
             let full = [-g[0], -g[1], -(x * g[1] - y * g[0]), -(x * g[0] + y * g[1])];
             let mut a = [0.0; N];
             a.copy_from_slice(&full[..N]);
-            rows.push(a);
+            if want_share {
+                rows.push(a);
+            }
             for r in 0..N {
                 atb[r] += a[r] * change[i];
                 for k in 0..N {
@@ -557,6 +562,9 @@ impl TurnGeometry {
             }
         };
         let flow = solve(ata, atb).map(tidy);
+        if !want_share {
+            return (flow, 0.0);
+        }
         let total: f64 = change.iter().map(|d| d * d).sum();
         let residual: f64 = rows
             .iter()

@@ -268,7 +268,7 @@ fn the_rigid_flow_recovers_a_small_turn_and_shift_of_a_pattern() {
         let (a, b) = (bump(&layout, 0.0, [0.0; 2]), bump(&layout, angle, shift));
         let mid: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
         let change: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();
-        g.flow_inputs(&mid, &change, false).0
+        g.flow_inputs(&mid, &change, false, true).0
     };
     for sign in [1.0, -1.0] {
         // a turn: θ has its sign and roughly its size, the centre hardly moves
@@ -280,7 +280,7 @@ fn the_rigid_flow_recovers_a_small_turn_and_shift_of_a_pattern() {
     }
     // no change, or a flat pattern: zeros
     assert_eq!(run(0.0, [0.0; 2]), [0.0; 3]);
-    assert_eq!(g.flow_inputs(&[0.0; 24], &[1.0; 24], false).0, [0.0; 3]);
+    assert_eq!(g.flow_inputs(&[0.0; 24], &[1.0; 24], false, true).0, [0.0; 3]);
     // the turn needs a source and the level pattern
     let no_source = TreeInputs { lags: vec![], slope_windows: 0, turn: true, ..TreeInputs::default() };
     assert!(no_source.validate().is_err());
@@ -305,14 +305,16 @@ fn the_flow_share_and_the_dilation_read_motion_and_spreading() {
     // a small shift: most of the change is a rigid motion (0.76 here: the gradients are fitted on
     // the coarse layout)
     let (mid, change) = pair(&base, &bump(&layout, 0.0, [0.3, 0.0]));
-    let (_, share, d) = g.flow_inputs(&mid, &change, false);
+    let (flow, share, d) = g.flow_inputs(&mid, &change, false, true);
+    // not asked for, the share is not computed (0) and the flow is the same
+    assert_eq!(g.flow_inputs(&mid, &change, false, false), (flow, 0.0, 0.0));
     assert!(share > 0.6 && d == 0.0, "shift: share {share}, dilation {d}");
     // a change that is no motion of the pattern (alternating taxels): a small share
     let noise: Vec<f64> = (0..24).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
-    let (_, share, _) = g.flow_inputs(&base, &noise, false);
+    let (_, share, _) = g.flow_inputs(&base, &noise, false, true);
     assert!(share < 0.3, "noise: share {share}");
-    assert_eq!(g.flow_inputs(&base, &[0.0; 24], false), ([0.0; 3], 0.0, 0.0));
-    assert_eq!(g.flow_inputs(&[0.0; 24], &noise, true), ([0.0; 3], 0.0, 0.0));
+    assert_eq!(g.flow_inputs(&base, &[0.0; 24], false, true), ([0.0; 3], 0.0, 0.0));
+    assert_eq!(g.flow_inputs(&[0.0; 24], &noise, true, true), ([0.0; 3], 0.0, 0.0));
     // a spreading and a shrinking bump (the same shape, scaled about its centre)
     let scaled = |k: f64| -> Vec<f64> {
         let c = [2.0, 1.0];
@@ -327,12 +329,12 @@ fn the_flow_share_and_the_dilation_read_motion_and_spreading() {
     };
     for (k, sign) in [(1.1, 1.0), (0.9, -1.0)] {
         let (mid, change) = pair(&base, &scaled(k));
-        let (_, share, d) = g.flow_inputs(&mid, &change, true);
+        let (_, share, d) = g.flow_inputs(&mid, &change, true, true);
         assert!(d * sign > 0.0 && share > 0.5, "scale {k}: dilation {d}, share {share}");
     }
     for sign in [1.0, -1.0] {
         let (mid, change) = pair(&base, &bump(&layout, sign * 0.1, [0.0; 2]));
-        let ([_, _, th], _, _) = g.flow_inputs(&mid, &change, true);
+        let ([_, _, th], _, _) = g.flow_inputs(&mid, &change, true, true);
         assert!(th * sign > 0.0, "turn {}: {th}", sign * 0.1);
     }
     // both need the rotation-sense fit; each adds one input per source
