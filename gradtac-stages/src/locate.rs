@@ -1408,7 +1408,8 @@ impl DriftState {
         }
         self.history.push_back((time, mean.clone()));
         let total: f64 = delta.iter().map(|d| d.abs()).sum();
-        let walk = if m.undo_walk > 0.0 { self.walk_sum() } else { 0.0 };
+        // the walk's sum, for a pending undo only (it borrows the state the undo holds)
+        let walk = if m.undo_walk > 0.0 && self.undo.is_some() { self.walk_sum() } else { 0.0 };
         if let Some((since, level, step)) = &mut self.undo {
             // the level before a drift-shape return on a recent rise: moved along the slope;
             // back at it (steady), the return took a press's hold for drift: undo it
