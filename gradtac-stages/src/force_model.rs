@@ -2117,6 +2117,38 @@ mod tests {
     }
 
     /// A detector on the BioTac SP layout with `gate`.
+    /// Under `gate`: constant input (500 frames) gives no contact and no change; then a press
+    /// (frames 200..400 of 600) with a bad value at frame `k` where `k % period` is one of
+    /// `bad`'s slots (`(slot, taxel, value)`): exactly the non-finite frames are errors, never a
+    /// panic; then `huge_frames` frames of the `huge` values in turn are answered without one.
+    fn constant_and_non_finite_input(
+        gate: DriftModel,
+        (period, bad): (u64, [(u64, usize, f64); 2]),
+        huge: &[f64],
+        huge_frames: u64,
+    ) {
+        let mut det = shaped_detector(gate);
+        for k in 0..500u64 {
+            let f = TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![1800.0; 24]);
+            assert!(!det.push(&f, "t").unwrap().contact);
+        }
+        assert!(det.change().iter().all(|d| d.abs() < 1e-9), "{:?}", det.change());
+        let mut det = shaped_detector(gate);
+        for k in 0..600u64 {
+            let mut f = shaped_frame(k, if (200..400).contains(&k) { 80.0 } else { 0.0 }, 9, &[0.0; 24]);
+            for &(slot, taxel, v) in &bad {
+                if k % period == slot {
+                    f.values[taxel] = v;
+                }
+            }
+            assert_eq!(det.push(&f, "t").is_err(), !f.values.iter().all(|v| v.is_finite()), "frame {k}");
+        }
+        for k in 600..600 + huge_frames {
+            let v = huge[(k % huge.len() as u64) as usize];
+            let _ = det.push(&TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v; 24]), "t");
+        }
+    }
+
     fn shaped_detector(gate: DriftModel) -> ChangeDetector {
         ChangeDetector::try_new(24, &LocateConfig::default())
             .unwrap()
@@ -2360,28 +2392,14 @@ mod tests {
     #[test]
     fn the_rise_test_on_constant_and_non_finite_input_and_its_settings() {
         // constant input: no contact, no change, whatever the guard does
+        // non-finite frames are errors, never a panic; huge ones are answered without one
         for gate in [RISE_GATE, UNDO_GATE, DriftModel { drift_shape_rise: RiseGuard::Block, ..RISE_GATE }] {
-            let mut det = shaped_detector(gate);
-            for k in 0..500u64 {
-                let f = TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![1800.0; 24]);
-                assert!(!det.push(&f, "t").unwrap().contact);
-            }
-            assert!(det.change().iter().all(|d| d.abs() < 1e-9), "{:?}", det.change());
-            // non-finite frames are errors, never a panic; huge ones are answered without one
-            let mut det = shaped_detector(gate);
-            for k in 0..600u64 {
-                let mut f = shaped_frame(k, if (200..400).contains(&k) { 80.0 } else { 0.0 }, 9, &[0.0; 24]);
-                match k % 41 {
-                    5 => f.values[3] = f64::NAN,
-                    17 => f.values[20] = f64::NEG_INFINITY,
-                    _ => {}
-                }
-                assert_eq!(det.push(&f, "t").is_err(), !f.values.iter().all(|v| v.is_finite()), "frame {k}");
-            }
-            for k in 600..700u64 {
-                let v = [f64::MAX, -f64::MAX, 1e300, 0.0][(k % 4) as usize];
-                let _ = det.push(&TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v; 24]), "t");
-            }
+            constant_and_non_finite_input(
+                gate,
+                (41, [(5, 3, f64::NAN), (17, 20, f64::NEG_INFINITY)]),
+                &[f64::MAX, -f64::MAX, 1e300, 0.0],
+                100,
+            );
         }
         // the look-back is bounded and validated; the names parse; older files load unchanged
         for bad in [-0.1, 60.5, f64::NAN, f64::INFINITY] {
@@ -2402,29 +2420,14 @@ mod tests {
 
     #[test]
     fn the_drift_shape_return_on_constant_and_non_finite_input() {
-        // constant input: no contact, no change
-        let mut det = shaped_detector(SHAPE_GATE);
-        for k in 0..500u64 {
-            let f = TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![1800.0; 24]);
-            assert!(!det.push(&f, "t").unwrap().contact);
-        }
-        assert!(det.change().iter().all(|d| d.abs() < 1e-9), "{:?}", det.change());
-        // non-finite frames are errors naming the frame, never a panic, and ordinary frames
-        // after them are answered
-        let mut det = shaped_detector(SHAPE_GATE);
-        for k in 0..600u64 {
-            let mut f = shaped_frame(k, if (200..400).contains(&k) { 80.0 } else { 0.0 }, 9, &[0.0; 24]);
-            match k % 53 {
-                7 => f.values[2] = f64::NAN,
-                19 => f.values[9] = f64::INFINITY,
-                _ => {}
-            }
-            assert_eq!(det.push(&f, "t").is_err(), !f.values.iter().all(|v| v.is_finite()), "frame {k}");
-        }
-        for k in 600..640u64 {
-            let v = [f64::MAX, -f64::MAX, 1e300][(k % 3) as usize];
-            let _ = det.push(&TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, vec![v; 24]), "t");
-        }
+        // constant input: no contact, no change; non-finite frames are errors naming the frame,
+        // never a panic, and ordinary frames after them are answered
+        constant_and_non_finite_input(
+            SHAPE_GATE,
+            (53, [(7, 2, f64::NAN), (19, 9, f64::INFINITY)]),
+            &[f64::MAX, -f64::MAX, 1e300],
+            40,
+        );
         // the setting's range, and its fit read from JSON by name
         for bad in [-0.1, 1.0, f64::NAN, f64::INFINITY] {
             assert!(DriftModel { drift_shape: bad, ..FORCE_GATE }.validate().is_err(), "{bad}");
