@@ -19,7 +19,8 @@
 //! examples/dos_eval_parts/trees_round5_candidates.json --tree-baseline --first 13` (T12 re-run,
 //! then T13). Round 6 (stop 36, `trees_rule_round6.md`): `--candidates
 //! examples/dos_eval_parts/trees_round6_candidates.json --tree-baseline --first 14` (T13 re-run,
-//! then T14–T16). Round 7 (`trees_rule_round7.md`): `--candidates
+//! then T14–T16; T14's and T16's flow-share inputs were removed in stop 37, so that file runs at
+//! commit `e43beac`, not at HEAD). Round 7 (`trees_rule_round7.md`): `--candidates
 //! examples/dos_eval_parts/trees_round7_candidates.json --tree-baseline --first 17` (T15 re-run,
 //! then T17–T19). `examples/dos_trees_diag.rs` prints the inner views' errors per object.
 

@@ -16,9 +16,10 @@
 //!   contact, while the object settles, or throughout?);
 //! - the change-energy inputs ([`TreeInputs::energy`]) per object, touches against slips (no
 //!   model);
-//! - stop 36's round 6 (no model): the flow share ([`TreeInputs::flow_share`]) and the dilation
-//!   ([`TreeInputs::dilation`]) per object, touches against slips, and the rotation sense of the
-//!   turn fitted beside the dilation.
+//! - stop 36's round 6 (no model): the dilation ([`TreeInputs::dilation`]) per object, touches
+//!   against slips, and the rotation sense of the turn fitted beside the dilation. (Round 6's
+//!   printout also had the flow share of candidate T14, removed in stop 37; commit `e43beac` still
+//!   prints it, `trees_round6_diagnosis.txt` keeps it.)
 
 use gradtac::calibrate::{object_set, train_recordings, CalibrateOptions};
 use gradtac::stages::dos::train::TrainRecording;
@@ -113,7 +114,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let w = inputs.window.inputs(n);
     let src = inputs.sources();
     // not `inputs(n) − src × TURN_INPUTS`: the turn blocks are last only without the
-    // change-energy, flow-share and dilation inputs
+    // change-energy and dilation inputs
     let turn_at = inputs.turn_at(n).ok_or("the turn inputs are on")?;
     let mut names = vec!["motion: turn of the principal axis".to_string()];
     names.extend(inputs.lags.iter().map(|l| format!("fitted θ over lag {l}")));
@@ -139,7 +140,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     // 3. how much the whole pattern changes (the change-energy inputs, no model)
     let inputs = TreeInputs { energy: true, ..cfg.inputs.clone() };
     let k = inputs.energy_inputs();
-    // not `inputs(n) − k`: the flow-share and dilation inputs follow the change-energy inputs
+    // not `inputs(n) − k`: the dilation inputs follow the change-energy inputs
     let at = inputs.energy_at(n).ok_or("the energy inputs are on")?;
     let mut names: Vec<String> = inputs.lags.iter().map(|l| format!("lag {l}")).collect();
     if inputs.slope_windows > 0 {
@@ -168,27 +169,26 @@ fn main() -> Result<(), Box<dyn Error>> {
         }
     }
 
-    // 4. stiffness-free touch inputs (stop 36's round 6, no model): the flow share per source
-    //    ([`TreeInputs::flow_share`]) and the dilation per source ([`TreeInputs::dilation`]), with
-    //    the rotation sense of the turn fitted beside the dilation
-    let inputs = TreeInputs { turn: true, flow_share: true, dilation: true, ..cfg.inputs.clone() };
-    let (f, d) = (inputs.flow_share_inputs(), inputs.dilation_inputs());
-    let at = inputs.inputs(n) - f - d;
-    let turn_at = at - inputs.energy_inputs() - src * TURN_INPUTS;
+    // 4. stiffness-free touch inputs (stop 36's round 6, no model): the dilation per source
+    //    ([`TreeInputs::dilation`]), with the rotation sense of the turn fitted beside it
+    let inputs = TreeInputs { turn: true, dilation: true, ..cfg.inputs.clone() };
+    let d = inputs.dilation_inputs();
+    // the dilation inputs are the last block
+    let at = inputs.inputs(n) - d;
+    let turn_at = inputs.turn_at(n).ok_or("the turn inputs are on")?;
     let mut srcs: Vec<String> = inputs.lags.iter().map(|l| format!("lag {l}")).collect();
     if inputs.slope_windows > 0 {
         srcs.push(format!("slope ({} windows)", inputs.slope_windows));
     }
-    let mut names: Vec<String> = srcs.iter().map(|s| format!("flow share (with dilation), {s}")).collect();
-    names.extend(srcs.iter().map(|s| format!("dilation, {s}")));
+    let mut names: Vec<String> = srcs.iter().map(|s| format!("dilation, {s}")).collect();
     names.extend(srcs.iter().map(|s| format!("|dilation|, {s}")));
-    let mut cols: Vec<usize> = (at..at + f + d).collect();
-    cols.extend(at + f..at + f + d);
-    println!("\n## Flow share and dilation per recording, mean over its windows: touches against slips (no model)\n");
+    let mut cols: Vec<usize> = (at..at + d).collect();
+    cols.extend(at..at + d);
+    println!("\n## Dilation per recording, mean over its windows: touches against slips (no model)\n");
     println!("| object | input | mean on t | mean on slips | t below every slip | t below the slips' median |");
     println!("|---|---|---|---|---|---|");
     let per_rec = column_means(&tr, &inputs, &layout, &cols)?;
-    let abs_from = f + d;
+    let abs_from = d;
     for obj in objects.iter().copied().chain(["all"]) {
         for (c, name) in names.iter().enumerate() {
             let of = |touch: bool| -> Vec<f64> {

@@ -795,7 +795,6 @@ impl SensorChain {
                                     (i.turn && !i.dilation, "rotation-sense"),
                                     (i.dilation, "rotation-sense (fitted with a dilation), dilation"),
                                     (i.energy, "change-energy"),
-                                    (i.flow_share, "flow-share"),
                                 ]
                                 .into_iter()
                                 .filter_map(|(on, name)| on.then_some(name))

@@ -707,22 +707,36 @@ fn calibrate_cross_validates_and_takes_settings() {
     assert_eq!(t15, gradtac::stages::dos::train_trees::TreeTrainConfig::default(), "T15 is the default");
     assert_eq!(part.trees.inputs(), &t15.inputs);
     let i = part.trees.inputs();
-    assert!(
-        i.turn && i.energy && i.dilation && !i.flow_share,
-        "T15: rotation-sense, change-energy and dilation inputs"
-    );
+    assert!(i.turn && i.energy && i.dilation, "T15: rotation-sense, change-energy and dilation inputs");
     assert!(part.trees.trees().len() <= 60 * 7, "T15: 60 rounds of at most 7 trees");
     // round 5's default stays readable as what was scored: T15 without the dilation
     let t13: gradtac::stages::dos::train_trees::TreeTrainConfig =
         serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t13.json")).unwrap();
     let i = &t13.inputs;
-    assert_eq!((t13.colsample, i.turn, i.energy, i.dilation, i.flow_share), (0.5, true, true, false, false));
-    // every round-6 candidate file reads as itself: T13 (its baseline row), T14, T15, T16
-    let round6: Vec<gradtac::stages::dos::train_trees::TreeTrainConfig> =
+    assert_eq!((t13.colsample, i.turn, i.energy, i.dilation), (0.5, true, true, false));
+    // round 6's candidates file: T13 (its baseline row) and T15 read as themselves; T14 and T16
+    // asked for the flow-share inputs, removed in stop 37: refused, naming the commit that has them
+    // (the file stays as the record; `trees_rule_round6.md` says so)
+    let round6: Vec<serde_json::Value> =
         serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_round6_candidates.json")).unwrap();
-    let switches: Vec<(bool, bool)> = round6.iter().map(|c| (c.inputs.flow_share, c.inputs.dilation)).collect();
-    assert_eq!(switches, [(false, false), (true, false), (false, true), (true, true)]);
-    assert_eq!((&round6[0], &round6[2]), (&t13, &t15));
+    assert_eq!(round6.len(), 4);
+    let read =
+        |v: &serde_json::Value| serde_json::from_value::<gradtac::stages::dos::train_trees::TreeTrainConfig>(v.clone());
+    assert_eq!((&read(&round6[0]).unwrap(), &read(&round6[2]).unwrap()), (&t13, &t15));
+    for (k, name) in [(1, "T14"), (3, "T16")] {
+        assert_eq!(round6[k]["inputs"]["flow_share"], true, "{name}");
+        let e = read(&round6[k]).unwrap_err().to_string();
+        assert!(e.contains("flow-share") && e.contains("removed") && e.contains("commit e43beac"), "{name}: {e}");
+    }
+    assert!(serde_json::from_str::<Vec<gradtac::stages::dos::train_trees::TreeTrainConfig>>(include_str!(
+        "../examples/dos_eval_parts/trees_round6_candidates.json"
+    ))
+    .is_err());
+    // round 7's candidates (T15 as the baseline row, T17–T19) spell the switch out as false: they read,
+    // the baseline row as T15
+    let round7: Vec<gradtac::stages::dos::train_trees::TreeTrainConfig> =
+        serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_round7_candidates.json")).unwrap();
+    assert_eq!((round7.len(), &round7[0]), (4, &t15));
     // round 4's default stays readable as what was scored: T13 without the change-energy inputs
     let t12: gradtac::stages::dos::train_trees::TreeTrainConfig =
         serde_json::from_str(include_str!("../examples/dos_eval_parts/trees_t12.json")).unwrap();

@@ -746,7 +746,7 @@
 //! rotations (T15's: 35/48), so the dilation added little sense; T15 was chosen on the inner views, which the bug did not touch.)* And the share of a change's energy that the rigid flow
 //! explains is below the slips' median for 24/24 touches (sponge included), without the object's
 //! stiffness. Candidates (each one change on T13): T14 + the **flow-share inputs**
-//! ([`TreeInputs::flow_share`], 3), T15 + the **dilation** ([`TreeInputs::dilation`]: the fit with
+//! (`flow_share`, 3; removed in stop 37, code at `e43beac`), T15 + the **dilation** ([`TreeInputs::dilation`]: the fit with
 //! a fourth unknown, its `δ` as 3 inputs), T16 both. Inner views (`trees_round6_inner_views.txt`):
 //! T13 98 + 48 = 146 (reproduced; 81.9 % per window), T14 97 + 50 = 147 (81.4 %), **T15 99 + 50 =
 //! 149 (81.5 %)**, T16 98 + 50 = 148 (81.3 %): T15 wins. Held out once (`dos_trees --held-out

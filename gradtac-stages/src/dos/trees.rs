@@ -33,8 +33,6 @@
 //!   inputs `both` or `since_start`) — how much the *whole* pattern changed, which a tree of
 //!   depth ≤ 3 over per-taxel inputs cannot sum. Aimed at a stable touch read as a slip (the
 //!   largest group of round 4's inner errors). Cost per window: `n` multiply-adds per block.
-//! - with [`TreeInputs::flow_share`] (stop 36's round 6 candidate T14, not the default): per lag
-//!   and slope, the share of the change's energy the fitted flow explains (`[0, 1]`).
 //! - with [`TreeInputs::dilation`] (the default of the trainer since stop 36's round 6, T15): the
 //!   flow above is fitted with a fourth unknown, an isotropic dilation `δ` about the contact's
 //!   centre (`Δ_i ≈ … − δ·((x_i − c_x) ∂_x z_i + (y_i − c_y) ∂_y z_i)`), and `δ` per lag and slope
@@ -94,8 +92,13 @@ pub const MAX_TREES: usize = 100_000;
 pub const MAX_TREE_LAG: usize = 1000;
 
 /// The tree model's representation (see the [`dos` module docs](crate::dos) and the `trees` source file).
+///
+/// Read from a file with every field optional (the default when absent); besides these fields, a file may carry
+/// `"flow_share": false` (configs and candidates files written in stop 36 spell it out); `true`
+/// is refused with an error naming the commit that still has the removed flow-share inputs
+/// ([`FLOW_SHARE_COMMIT`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(try_from = "RawTreeInputs")]
 pub struct TreeInputs {
     /// The window representation (its `hidden` is not used).
     pub window: WindowNetConfig,
@@ -122,15 +125,6 @@ pub struct TreeInputs {
     /// written when off, so older model files read unchanged).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub energy: bool,
-    /// Add the **flow-share inputs** (stop 36's round 6 candidate T14, touch against slip
-    /// independent of stiffness): one per lag and per slope, the share of that change's energy
-    /// the fitted rigid flow `(vx, vy, θ)` explains, `1 − Σ(Δ − Aθ)² / ΣΔ²` clamped to `[0, 1]`
-    /// (0 for no change). A slip moves the pattern (a high share whatever the object's
-    /// stiffness); a touch's changes are noise and creep, not a motion. Needs
-    /// [`turn`](Self::turn). Appended after the change-energy inputs, mirror sign +1. Default off
-    /// (not written when off).
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
-    pub flow_share: bool,
     /// Fit the rigid flow of the rotation-sense inputs **jointly with an isotropic dilation**
     /// about the contact's centre and add the dilation rate as one more input per lag and slope
     /// (stop 36's round 6 candidate T15): a press or creep on a soft object spreads the pattern
@@ -139,6 +133,46 @@ pub struct TreeInputs {
     /// [`turn`](Self::turn). Appended last, mirror sign +1. Default off (not written when off).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub dilation: bool,
+}
+
+/// The commit that still has the **flow-share inputs** (`TreeInputs::flow_share`, stop 36's
+/// round-6 candidate T14, not adopted): they were removed in stop 37, and a file that asks for
+/// them is refused with this commit in the message, where round 6's figures can be re-run.
+pub const FLOW_SHARE_COMMIT: &str = "e43beac";
+
+/// [`TreeInputs`] as a file spells it: every field of it (each with its default when absent) and
+/// the removed `flow_share` switch, read only to refuse `true`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawTreeInputs {
+    window: WindowNetConfig,
+    lags: Vec<usize>,
+    slope_windows: usize,
+    turn: bool,
+    energy: bool,
+    flow_share: bool,
+    dilation: bool,
+}
+
+impl Default for RawTreeInputs {
+    fn default() -> Self {
+        let TreeInputs { window, lags, slope_windows, turn, energy, dilation } = TreeInputs::default();
+        RawTreeInputs { window, lags, slope_windows, turn, energy, flow_share: false, dilation }
+    }
+}
+
+impl TryFrom<RawTreeInputs> for TreeInputs {
+    type Error = Error;
+    fn try_from(r: RawTreeInputs) -> Result<Self> {
+        if r.flow_share {
+            return Err(invalid(format!(
+                "the flow-share inputs (\"flow_share\": true, stop 36's round-6 candidates T14 and T16) were \
+                 removed in stop 37 (only false is read); commit {FLOW_SHARE_COMMIT} still has them"
+            )));
+        }
+        let RawTreeInputs { window, lags, slope_windows, turn, energy, flow_share: _, dilation } = r;
+        Ok(TreeInputs { window, lags, slope_windows, turn, energy, dilation })
+    }
 }
 
 /// Rotation-sense inputs per source (a lag or the slope): the pattern's fitted velocity `vx`,
@@ -159,7 +193,6 @@ impl Default for TreeInputs {
             slope_windows: 6,
             turn: false,
             energy: false,
-            flow_share: false,
             dilation: false,
         }
     }
@@ -182,9 +215,6 @@ impl TreeInputs {
         }
         if self.energy && self.energy_inputs() == 0 {
             return Err(invalid("the change-energy inputs (energy) need a lag, a slope or a since-start block"));
-        }
-        if self.flow_share && !self.turn {
-            return Err(invalid("the flow-share inputs (flow_share) need the rotation-sense inputs (turn)"));
         }
         if self.dilation && !self.turn {
             return Err(invalid("the dilation inputs (dilation) need the rotation-sense inputs (turn)"));
@@ -215,15 +245,6 @@ impl TreeInputs {
         }
     }
 
-    /// Number of flow-share inputs ([`flow_share`](Self::flow_share)): one per lag and slope.
-    pub fn flow_share_inputs(&self) -> usize {
-        if self.flow_share {
-            self.sources()
-        } else {
-            0
-        }
-    }
-
     /// Number of dilation inputs ([`dilation`](Self::dilation)): one per lag and slope.
     pub fn dilation_inputs(&self) -> usize {
         if self.dilation {
@@ -239,15 +260,14 @@ impl TreeInputs {
             + self.sources() * taxels
             + if self.turn { self.sources() * TURN_INPUTS } else { 0 }
             + self.energy_inputs()
-            + self.flow_share_inputs()
             + self.dilation_inputs()
     }
 
     /// Where the rotation-sense inputs start for `taxels` taxels ([`TURN_INPUTS`] per lag, then
     /// the slope's; `(vx, vy, θ)` each), `None` without [`turn`](Self::turn). The input order is:
     /// the window inputs, the per-taxel lag and slope blocks, the rotation-sense inputs, the
-    /// change-energy, flow-share and dilation inputs — so the turn block is the last one only
-    /// when none of those three is on (a reader that assumed so read the wrong columns).
+    /// change-energy and dilation inputs — so the turn block is the last one only when neither
+    /// of those two is on (a reader that assumed so read the wrong columns).
     pub fn turn_at(&self, taxels: usize) -> Option<usize> {
         self.turn.then(|| self.window.inputs(taxels) + self.sources() * taxels)
     }
@@ -287,7 +307,7 @@ impl TreeInputs {
                 at += TURN_INPUTS;
             }
         }
-        let scalars = self.energy_inputs() + self.flow_share_inputs() + self.dilation_inputs();
+        let scalars = self.energy_inputs() + self.dilation_inputs();
         out.extend((0..scalars).map(|k| (at + k, 1.0)));
         out
     }
@@ -317,8 +337,6 @@ pub struct TreeExtractor {
     energy_since: Option<usize>,
     /// Whether the change-energy inputs are on.
     energy: bool,
-    /// Whether the flow-share inputs are on ([`TreeInputs::flow_share`]).
-    flow_share: bool,
     /// Whether the flow is fitted with a dilation ([`TreeInputs::dilation`]).
     dilation: bool,
 }
@@ -343,7 +361,6 @@ impl TreeExtractor {
             energy_since: (inputs.energy && inputs.since_start())
                 .then_some(if inputs.window.inputs == WindowInputs::Both { n } else { 0 }),
             energy: inputs.energy,
-            flow_share: inputs.flow_share,
             dilation: inputs.dilation,
         })
     }
@@ -366,7 +383,6 @@ impl TreeExtractor {
         let change: Vec<f64> = x[self.change_at..self.change_at + n].to_vec();
         let mut extra = Vec::with_capacity((self.lags.len() + 1) * (n + TURN_INPUTS));
         let mut turns = Vec::new();
-        let mut shares = Vec::new();
         let mut dilations = Vec::new();
         for &lag in &self.lags {
             let len = self.history.len();
@@ -375,9 +391,8 @@ impl TreeExtractor {
             if let Some(g) = &self.turn {
                 // the change from then to now, against the gradient of the pattern halfway
                 let mid: Vec<f64> = x[..n].iter().zip(then).map(|(a, b)| 0.5 * (a + b)).collect();
-                let (flow, share, dil) = g.flow_inputs(&mid, &extra[extra.len() - n..], self.dilation, self.flow_share);
+                let (flow, dil) = g.flow_inputs(&mid, &extra[extra.len() - n..], self.dilation);
                 turns.extend(flow);
-                shares.push(share);
                 dilations.push(dil);
             }
         }
@@ -395,9 +410,8 @@ impl TreeExtractor {
             mean.iter_mut().for_each(|m| *m /= k);
             if let Some(g) = &self.turn {
                 // validated: the turn needs the level pattern, the first block
-                let (flow, share, dil) = g.flow_inputs(&x[..n], &mean, self.dilation, self.flow_share);
+                let (flow, dil) = g.flow_inputs(&x[..n], &mean, self.dilation);
                 turns.extend(flow);
-                shares.push(share);
                 dilations.push(dil);
             }
             extra.extend(mean);
@@ -415,9 +429,6 @@ impl TreeExtractor {
         x.extend(extra);
         x.extend(turns);
         x.extend(energies);
-        if self.flow_share {
-            x.extend(shares);
-        }
         if self.dilation {
             x.extend(dilations);
         }
@@ -497,37 +508,24 @@ impl TurnGeometry {
     /// small ridge ([`TURN_RIDGE`]). `θ > 0` turns `+x` toward `+y` (the `cw` class's sense).
     /// With `dilation` ([`TreeInputs::dilation`]) the same least squares has a fourth unknown, an
     /// isotropic dilation `δ` about the centre (`… − δ·((x_i − c_x) ∂_x z_i + (y_i − c_y) ∂_y
-    /// z_i)`; > 0: the pattern spreads), fitted jointly. Returns `(vx, vy, θ)`, the share of the
-    /// change's energy the fitted terms explain, `1 − Σ(change_i − a_i·flow)² / Σchange_i²`
-    /// clamped to `[0, 1]` ([`TreeInputs::flow_share`]; computed only when `share` asks, 0
-    /// otherwise), and `δ` (0 without `dilation`). Zeros for a flat pattern; a share of 0 for no
-    /// change.
-    pub(super) fn flow_inputs(
-        &self,
-        pattern: &[f64],
-        change: &[f64],
-        dilation: bool,
-        share: bool,
-    ) -> ([f64; TURN_INPUTS], f64, f64) {
+    /// z_i)`; > 0: the pattern spreads), fitted jointly. Returns `(vx, vy, θ)` and `δ` (0
+    /// without `dilation`). Zeros for a flat pattern.
+    pub(super) fn flow_inputs(&self, pattern: &[f64], change: &[f64], dilation: bool) -> ([f64; TURN_INPUTS], f64) {
         if dilation {
-            let (f, share) = self.flow_fit::<4>(pattern, change, share);
-            ([f[0], f[1], f[2]], share, f[3])
+            let f = self.flow_fit::<4>(pattern, change);
+            ([f[0], f[1], f[2]], f[3])
         } else {
-            let (f, share) = self.flow_fit::<3>(pattern, change, share);
-            (f, share, 0.0)
+            (self.flow_fit::<3>(pattern, change), 0.0)
         }
     }
 
-    /// The least-squares flow with `N` = 3 (translation, turn) or 4 (and dilation) unknowns, and
-    /// (with `want_share`; 0 otherwise) the share of the change's energy it explains: the model's
-    /// rows are kept for that residual only when it is asked for.
-    fn flow_fit<const N: usize>(&self, pattern: &[f64], change: &[f64], want_share: bool) -> ([f64; N], f64) {
+    /// The least-squares flow with `N` = 3 (translation, turn) or 4 (and dilation) unknowns.
+    fn flow_fit<const N: usize>(&self, pattern: &[f64], change: &[f64]) -> [f64; N] {
         let Some((c, _, _)) = super::window::moments(&self.positions, pattern) else {
-            return ([0.0; N], 0.0);
+            return [0.0; N];
         };
         let mut ata = [[0.0; N]; N];
         let mut atb = [0.0; N];
-        let mut rows = Vec::new();
         for (i, coefs) in self.gradient.iter().enumerate() {
             let mut g = [0.0; 2];
             for &(j, w) in coefs {
@@ -539,9 +537,6 @@ impl TurnGeometry {
             let full = [-g[0], -g[1], -(x * g[1] - y * g[0]), -(x * g[0] + y * g[1])];
             let mut a = [0.0; N];
             a.copy_from_slice(&full[..N]);
-            if want_share {
-                rows.push(a);
-            }
             for r in 0..N {
                 atb[r] += a[r] * change[i];
                 for k in 0..N {
@@ -551,7 +546,7 @@ impl TurnGeometry {
         }
         let ridge = TURN_RIDGE * (0..N).map(|r| ata[r][r]).sum::<f64>() / N as f64;
         if !(ridge > 0.0 && ridge.is_finite()) {
-            return ([0.0; N], 0.0);
+            return [0.0; N];
         }
         (0..N).for_each(|r| ata[r][r] += ridge);
         let tidy = |v: f64| {
@@ -561,25 +556,7 @@ impl TurnGeometry {
                 0.0
             }
         };
-        let flow = solve(ata, atb).map(tidy);
-        if !want_share {
-            return (flow, 0.0);
-        }
-        let total: f64 = change.iter().map(|d| d * d).sum();
-        let residual: f64 = rows
-            .iter()
-            .zip(change)
-            .map(|(a, d)| {
-                let r = d - a.iter().zip(&flow).map(|(a, f)| a * f).sum::<f64>();
-                r * r
-            })
-            .sum();
-        let share = if total > 0.0 && total.is_finite() && residual.is_finite() {
-            (1.0 - residual / total).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        (flow, share)
+        solve(ata, atb).map(tidy)
     }
 }
 

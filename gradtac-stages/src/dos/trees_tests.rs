@@ -179,9 +179,7 @@ fn the_extractor_is_causal_restarts_on_reset_and_refuses_non_finite_frames() {
         extractor_is_causal(TreeInputs { turn, ..TreeInputs::default() });
         extractor_is_causal(TreeInputs { turn, energy: true, ..TreeInputs::default() });
     }
-    for (flow_share, dilation) in [(true, false), (false, true), (true, true)] {
-        extractor_is_causal(TreeInputs { turn: true, energy: true, flow_share, dilation, ..TreeInputs::default() });
-    }
+    extractor_is_causal(TreeInputs { turn: true, energy: true, dilation: true, ..TreeInputs::default() });
 }
 
 fn extractor_is_causal(inputs: TreeInputs) {
@@ -219,10 +217,7 @@ fn the_mirror_map_maps_a_mirrored_recordings_inputs() {
         mirror_map_maps(TreeInputs { turn, energy: true, ..TreeInputs::default() }, class);
     }
     for class in [DosClass::E, DosClass::Cw, DosClass::T] {
-        for (flow_share, dilation) in [(true, false), (false, true), (true, true)] {
-            let inputs = TreeInputs { turn: true, energy: true, flow_share, dilation, ..TreeInputs::default() };
-            mirror_map_maps(inputs, class);
-        }
+        mirror_map_maps(TreeInputs { turn: true, energy: true, dilation: true, ..TreeInputs::default() }, class);
     }
 }
 
@@ -268,7 +263,7 @@ fn the_rigid_flow_recovers_a_small_turn_and_shift_of_a_pattern() {
         let (a, b) = (bump(&layout, 0.0, [0.0; 2]), bump(&layout, angle, shift));
         let mid: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect();
         let change: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();
-        g.flow_inputs(&mid, &change, false, true).0
+        g.flow_inputs(&mid, &change, false).0
     };
     for sign in [1.0, -1.0] {
         // a turn: θ has its sign and roughly its size, the centre hardly moves
@@ -280,7 +275,7 @@ fn the_rigid_flow_recovers_a_small_turn_and_shift_of_a_pattern() {
     }
     // no change, or a flat pattern: zeros
     assert_eq!(run(0.0, [0.0; 2]), [0.0; 3]);
-    assert_eq!(g.flow_inputs(&[0.0; 24], &[1.0; 24], false, true).0, [0.0; 3]);
+    assert_eq!(g.flow_inputs(&[0.0; 24], &[1.0; 24], false).0, [0.0; 3]);
     // the turn needs a source and the level pattern
     let no_source = TreeInputs { lags: vec![], slope_windows: 0, turn: true, ..TreeInputs::default() };
     assert!(no_source.validate().is_err());
@@ -290,31 +285,28 @@ fn the_rigid_flow_recovers_a_small_turn_and_shift_of_a_pattern() {
     assert_eq!(TreeInputs { turn: true, ..TreeInputs::default() }.inputs(24), TreeInputs::default().inputs(24) + 9);
 }
 
-/// The flow share (stop 36's round 6) is near 1 for a pattern that only moves, near 0 for a
-/// change unrelated to the pattern, 0 for no change; the dilation is positive for a pattern that
-/// spreads, negative for one that shrinks, and the dilating fit still finds a turn's sense. The
-/// three-term fit (without the dilation) reports a dilation of 0.
+/// The dilation (stop 36's round 6, T15) is positive for a pattern that spreads, negative for one
+/// that shrinks, and the dilating fit still finds a turn's sense and a shift's direction. The
+/// three-term fit (without the dilation) reports a dilation of 0; no change or a flat pattern
+/// gives zeros.
 #[test]
-fn the_flow_share_and_the_dilation_read_motion_and_spreading() {
+fn the_dilation_reads_spreading() {
     let layout = Layout::biotac_sp();
     let g = super::trees::TurnGeometry::try_new(&layout).unwrap();
     let pair = |a: &[f64], b: &[f64]| -> (Vec<f64>, Vec<f64>) {
         (a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect(), b.iter().zip(a).map(|(x, y)| x - y).collect())
     };
     let base = bump(&layout, 0.0, [0.0; 2]);
-    // a small shift: most of the change is a rigid motion (0.76 here: the gradients are fitted on
-    // the coarse layout)
+    // a small shift along x: vx has its sign with and without the dilation; the three-term fit's
+    // dilation is 0
     let (mid, change) = pair(&base, &bump(&layout, 0.0, [0.3, 0.0]));
-    let (flow, share, d) = g.flow_inputs(&mid, &change, false, true);
-    // not asked for, the share is not computed (0) and the flow is the same
-    assert_eq!(g.flow_inputs(&mid, &change, false, false), (flow, 0.0, 0.0));
-    assert!(share > 0.6 && d == 0.0, "shift: share {share}, dilation {d}");
-    // a change that is no motion of the pattern (alternating taxels): a small share
+    let ([vx, _, _], d) = g.flow_inputs(&mid, &change, false);
+    assert!(vx > 0.0 && d == 0.0, "shift: vx {vx}, dilation {d}");
+    let ([vx, _, _], _) = g.flow_inputs(&mid, &change, true);
+    assert!(vx > 0.0, "shift, with the dilation: vx {vx}");
     let noise: Vec<f64> = (0..24).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
-    let (_, share, _) = g.flow_inputs(&base, &noise, false, true);
-    assert!(share < 0.3, "noise: share {share}");
-    assert_eq!(g.flow_inputs(&base, &[0.0; 24], false, true), ([0.0; 3], 0.0, 0.0));
-    assert_eq!(g.flow_inputs(&[0.0; 24], &noise, true, true), ([0.0; 3], 0.0, 0.0));
+    assert_eq!(g.flow_inputs(&base, &[0.0; 24], true), ([0.0; 3], 0.0));
+    assert_eq!(g.flow_inputs(&[0.0; 24], &noise, true), ([0.0; 3], 0.0));
     // a spreading and a shrinking bump (the same shape, scaled about its centre)
     let scaled = |k: f64| -> Vec<f64> {
         let c = [2.0, 1.0];
@@ -329,32 +321,44 @@ fn the_flow_share_and_the_dilation_read_motion_and_spreading() {
     };
     for (k, sign) in [(1.1, 1.0), (0.9, -1.0)] {
         let (mid, change) = pair(&base, &scaled(k));
-        let (_, share, d) = g.flow_inputs(&mid, &change, true, true);
-        assert!(d * sign > 0.0 && share > 0.5, "scale {k}: dilation {d}, share {share}");
+        let (_, d) = g.flow_inputs(&mid, &change, true);
+        assert!(d * sign > 0.0, "scale {k}: dilation {d}");
     }
     for sign in [1.0, -1.0] {
         let (mid, change) = pair(&base, &bump(&layout, sign * 0.1, [0.0; 2]));
-        let ([_, _, th], _, _) = g.flow_inputs(&mid, &change, true, true);
+        let ([_, _, th], _) = g.flow_inputs(&mid, &change, true);
         assert!(th * sign > 0.0, "turn {}: {th}", sign * 0.1);
     }
-    // both need the rotation-sense fit; each adds one input per source
-    assert!(TreeInputs { flow_share: true, ..TreeInputs::default() }.validate().is_err());
+    // it needs the rotation-sense fit and adds one input per source
     assert!(TreeInputs { dilation: true, ..TreeInputs::default() }.validate().is_err());
     let t13 = TreeInputs { turn: true, energy: true, ..TreeInputs::default() };
-    for (f, d, extra) in [(true, false, 3), (false, true, 3), (true, true, 6)] {
-        let i = TreeInputs { flow_share: f, dilation: d, ..t13.clone() };
-        assert!(i.validate().is_ok());
-        assert_eq!(i.inputs(24), t13.inputs(24) + extra);
-    }
-    // T13's inputs are the first ones of T14's, bit for bit (the new inputs are appended)
-    let frames = synthetic_values(DosClass::Cw, [0.0, 0.0], 0.3, 9);
-    let windows = |inputs: &TreeInputs| -> Vec<Vec<f64>> {
-        let mut x = TreeExtractor::try_new_on(inputs, &layout).unwrap();
-        frames.iter().filter_map(|f| x.push(f).unwrap()).collect()
-    };
-    let (a, b) = (windows(&t13), windows(&TreeInputs { flow_share: true, ..t13.clone() }));
-    let m = t13.inputs(24);
-    assert!(a.iter().zip(&b).all(|(a, b)| a[..] == b[..m] && b[m..].iter().all(|s| (0.0..=1.0).contains(s))));
+    let t15 = TreeInputs { dilation: true, ..t13.clone() };
+    assert!(t15.validate().is_ok());
+    assert_eq!((t15.dilation_inputs(), t15.inputs(24)), (3, t13.inputs(24) + 3));
+}
+
+/// The flow-share inputs (stop 36's round-6 candidate T14) were removed in stop 37: a file that
+/// spells them out as `false` (round 6's and 7's candidates files, `trees_t15.json`) reads as
+/// before; `true` is refused, and the message says they were removed and names the commit that
+/// has them. Every other field keeps its default when absent, and an unknown field is refused.
+#[test]
+fn the_removed_flow_share_inputs_read_as_off_and_are_refused_on() {
+    let t15 = TreeInputs { turn: true, energy: true, dilation: true, ..TreeInputs::default() };
+    let spelled = r#"{"window": {"frames": 5, "hidden": 16, "inputs": "both", "motion": true}, "lags": [6, 20],
+        "slope_windows": 6, "turn": true, "energy": true, "flow_share": false, "dilation": true}"#;
+    let read: TreeInputs = serde_json::from_str(spelled).unwrap();
+    assert_eq!(read, t15);
+    // what is written has no such key, and reads back as itself
+    let written = serde_json::to_string(&t15).unwrap();
+    assert!(!written.contains("flow_share"), "{written}");
+    assert_eq!(serde_json::from_str::<TreeInputs>(&written).unwrap(), t15);
+    let short: TreeInputs = serde_json::from_str(r#"{"turn": true, "energy": true, "dilation": true}"#).unwrap();
+    assert_eq!(short, t15);
+    assert_eq!(serde_json::from_str::<TreeInputs>("{}").unwrap(), TreeInputs::default());
+    let on = spelled.replace(r#""flow_share": false"#, r#""flow_share": true"#);
+    let e = serde_json::from_str::<TreeInputs>(&on).unwrap_err().to_string();
+    assert!(e.contains("flow-share") && e.contains("removed") && e.contains("commit e43beac"), "{e}");
+    assert!(serde_json::from_str::<TreeInputs>(r#"{"flow_shares": false}"#).is_err());
 }
 
 /// The change-energy inputs (stop 35's round 5) are the root mean square of each lag's and the
@@ -384,12 +388,12 @@ fn the_energy_inputs_are_the_root_mean_square_of_each_change_block() {
         moved |= v[e] > 0.0;
     }
     assert!(moved, "a sliding contact's pattern changes");
-    // with the flow-share and dilation inputs after them, the energy and turn blocks are no longer
-    // last: `energy_at` and `turn_at` still find them (stop 36's round 7: the diagnosis read the
+    // with the dilation inputs after them, the energy and turn blocks are no longer last:
+    // `energy_at` and `turn_at` still find them (stop 36's round 7: the diagnosis read the
     // columns at the end of the vector and printed other inputs under their names)
-    let all = TreeInputs { turn: true, energy: true, flow_share: true, dilation: true, ..TreeInputs::default() };
+    let all = TreeInputs { turn: true, energy: true, dilation: true, ..TreeInputs::default() };
     let (e, t) = (all.energy_at(n).unwrap(), all.turn_at(n).unwrap());
-    assert_eq!(e, all.inputs(n) - 4 - 3 - 3);
+    assert_eq!(e, all.inputs(n) - 4 - 3);
     assert_eq!(t, e - 9);
     let mut x = TreeExtractor::try_new_on(&all, &layout).unwrap();
     let full: Vec<Vec<f64>> = frames.iter().filter_map(|f| x.push(f).unwrap()).collect();
@@ -429,10 +433,8 @@ mod trained {
         for energy in [false, true] {
             trainers_windows_are_the_streaming_extractors(TreeInputs { turn: true, energy, ..TreeInputs::default() });
         }
-        for (flow_share, dilation) in [(true, false), (false, true), (true, true)] {
-            let inputs = TreeInputs { turn: true, energy: true, flow_share, dilation, ..TreeInputs::default() };
-            trainers_windows_are_the_streaming_extractors(inputs);
-        }
+        let t15 = TreeInputs { turn: true, energy: true, dilation: true, ..TreeInputs::default() };
+        trainers_windows_are_the_streaming_extractors(t15);
     }
 
     fn trainers_windows_are_the_streaming_extractors(inputs: TreeInputs) {
@@ -445,8 +447,7 @@ mod trained {
         let mut stage = TreeVoteState::try_new(&model, &layout).unwrap().fresh_extractor();
         let streamed: Vec<Vec<f64>> = frames.iter().filter_map(|f| stage.push(f).unwrap()).collect();
         assert_eq!(trainer, streamed);
-        let turns =
-            inputs.inputs(24) - 9 - inputs.energy_inputs() - inputs.flow_share_inputs() - inputs.dilation_inputs();
+        let turns = inputs.inputs(24) - 9 - inputs.energy_inputs() - inputs.dilation_inputs();
         assert!(trainer.iter().any(|x| x[turns..turns + 9].iter().any(|v| *v != 0.0)), "the turn inputs are computed");
         assert!(trainer.iter().any(|x| x[turns + 9..].iter().any(|v| *v != 0.0)) || !inputs.energy);
     }
