@@ -37,7 +37,7 @@
 //! it (`3n` inputs, 72 for the BioTac SP): measured inside basic and inside solids by
 //! leave-one-object-out, the change since contact alone is weak (44–46 % / 33–34 % per window,
 //! levels 61–62 % / 65–66 %) and the two together the best (66–71 % / 66–69 %). Held out
-//! (`dos` module docs) a five-member ensemble of `Both` with the Student-t design gains nested
+//! (`dos` module docs; the log in `examples/dos_eval_parts/history.md`) a five-member ensemble of `Both` with the Student-t design gains nested
 //! and basic → solids and loses solids → basic against the default, so the default stays
 //! [`WindowInputs::Levels`]. Cost: `n` more additions per frame for the first
 //! `reference_frames` frames, `n` more inputs per window; in the `dos` stage's sliding mode no
@@ -47,7 +47,7 @@
 //!
 //! ## Motion inputs about the contact's own centre ([`WindowNetConfig::motion`], calibrate's default)
 //! Four more inputs aimed at the rotation–translation confusion (see the `dos` module docs for
-//! the measurement). With `w_i` the window's deviation `dev_i` on the side of its largest
+//! the figures, `examples/dos_eval_parts/history.md` for the measurement). With `w_i` the window's deviation `dev_i` on the side of its largest
 //! deviation (the loaded taxels; others 0), the contact's centre `c = Σ w_i p_i / Σ w_i`, its
 //! second moments `C` about `c`, `tr = Cxx + Cyy` and `z = (Cxx − Cyy) + 2i·Cxy` (the principal
 //! axis as a double angle); the same of the span's reference (its first `reference_frames`
