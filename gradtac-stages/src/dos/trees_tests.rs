@@ -359,6 +359,16 @@ fn the_removed_flow_share_inputs_read_as_off_and_are_refused_on() {
     let e = serde_json::from_str::<TreeInputs>(&on).unwrap_err().to_string();
     assert!(e.contains("flow-share") && e.contains("removed") && e.contains("commit e43beac"), "{e}");
     assert!(serde_json::from_str::<TreeInputs>(r#"{"flow_shares": false}"#).is_err());
+    // a model file's tree part reads its inputs the same way
+    let classes = vec![DosClass::Cw, DosClass::Aw];
+    let model =
+        DosTrees::try_new(t15.clone(), 24, classes, vec![0.0; 2], vec![leaf(0.1), leaf(-0.1)], None, 0).unwrap();
+    let mut file: serde_json::Value = serde_json::to_value(&model).unwrap();
+    file["inputs"]["flow_share"] = false.into();
+    assert_eq!(serde_json::from_value::<DosTrees>(file.clone()).unwrap(), model);
+    file["inputs"]["flow_share"] = true.into();
+    let e = serde_json::from_value::<DosTrees>(file).unwrap_err().to_string();
+    assert!(e.contains("removed") && e.contains("commit e43beac"), "{e}");
 }
 
 /// The change-energy inputs (stop 35's round 5) are the root mean square of each lag's and the
