@@ -277,7 +277,7 @@ pub const FALLBACK_WINDOW_WEIGHT: f64 = 0.75;
 /// seeds 1, 2, 3), each averaged with its own mirror image
 /// ([`WindowTrainConfig::mirror_average`]): one network of 96 hidden units, symmetric under
 /// the layout's mirror by construction. Chosen by leave-one-object-out *inside* basic and
-/// *inside* solids only, among twelve configurations (the `dos` module docs log them); before
+/// *inside* solids only, among twelve configurations (logged in `examples/dos_eval_parts/history.md`); before
 /// it, the choice per fold between mirror images only and mirror images with one random copy
 /// of a single 16-unit network ([`previous_window_candidates`]). Since stop 32 the network also
 /// has the four motion inputs about the contact's own centre
