@@ -474,7 +474,6 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     drift_shape_fit: ShapeFit::Magnitude,
     drift_shape_rise_s: 2.0,
     drift_shape_rise: RiseGuard::ShiftAnchorsUndo,
-    undo_walk: 0.0,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector

@@ -765,7 +765,6 @@ impl PositionMemory {
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | rise test | with `drift_shape_rise_s`, a drift-shape return on a frame whose total change that long before was under half its own (a recent rise: a press's rise and hold) is blocked, or fires with the slope's anchors shifted instead of kept (so a press taken for drift does not teach the slope the press), and optionally is undone once the sensor comes back to the level before it ([`RiseGuard`]) | off |
-/// | walk-scaled undo | with `undo_walk`, the undo's bound grows with the drift walk measured from the slope's anchors and the time since the return, at most to half the step | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -783,8 +782,13 @@ impl PositionMemory {
 /// earlier than the flatness look-back (`release_flat_s`, else `steady_s`: 0.3 s) after the
 /// residual goes flat, and the anchors move on that frame. Units: times in seconds of the
 /// frames' timestamps, changes in the sensor's counts, bounds in σ (or `Σσᵢ`) of one frame.
+///
+/// Serde: every field is optional (the defaults above fill in); an unknown key is refused.
+/// `undo_walk` (session 36's walk-scaled undo, removed) is still read as 0 (off), so older
+/// JSON that spells it out loads; any other value is refused, naming the commit
+/// ([`UNDO_WALK_COMMIT`]) that still has it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(remote = "Self", deny_unknown_fields, default)]
 pub struct DriftModel {
     /// Steadiness look-back (s), in (0, 60].
     pub steady_s: f64,
@@ -891,16 +895,36 @@ pub struct DriftModel {
     /// What the rise test does to a drift-shape return on a frame that rose recently
     /// ([`RiseGuard`]; default: blocks it).
     pub drift_shape_rise: RiseGuard,
-    /// The walk-scaled undo (a factor ≥ 0, at most 10; 0: off, the default): with
-    /// [`RiseGuard::ShiftAnchorsUndo`], the undo's bound on the sensor's distance from the
-    /// level before the return (`release_fraction` of the step) grows by this factor times
-    /// `Σwᵢ · √(time since the return)`, at most to half the step, where `wᵢ` is taxel i's
-    /// drift walk (counts/√s) measured from pairs of slope anchors 0.5–5 s apart (the change
-    /// less the slope's, squared over the time between; an exponential mean with the slope's
-    /// memory). A walk moves the sensor away from the remembered level while a press taken for
-    /// drift is held; without this the lift of a long press on a walking sensor is not undone.
-    /// Session 36, round 7 (`docs/force.md`).
-    pub undo_walk: f64,
+}
+
+/// The last commit with the drift model's walk-scaled undo (`undo_walk`, session 36's round-7
+/// candidate (h2): no winner, removed in session 37); `docs/force.md` and
+/// `examples/force_parts/rule_round7.md` point to it.
+pub const UNDO_WALK_COMMIT: &str = "e43beac";
+
+impl Serialize for DriftModel {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        // the derived serializer (`remote = "Self"`): every field, by name
+        DriftModel::serialize(self, serializer)
+    }
+}
+
+impl<'de> Deserialize<'de> for DriftModel {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let mut value = serde_json::Value::deserialize(deserializer)?;
+        if let Some(walk) = value.as_object_mut().and_then(|map| map.remove("undo_walk")) {
+            // the removed walk-scaled undo: off (0) reads as before, anything else is refused
+            if walk.as_f64() != Some(0.0) {
+                return Err(D::Error::custom(format!(
+                    "drift model: `undo_walk` = {walk}: the walk-scaled undo was removed (session 37; \
+                     it never won a round); only 0 (off) is read. Its code is at commit {UNDO_WALK_COMMIT}"
+                )));
+            }
+        }
+        // the derived deserializer (`remote = "Self"`): defaults, unknown keys refused
+        DriftModel::deserialize(value).map_err(D::Error::custom)
+    }
 }
 
 /// The drift-shape return's rise test ([`DriftModel::drift_shape_rise_s`]): a frame whose
@@ -994,7 +1018,6 @@ impl Default for DriftModel {
             drift_shape_fit: ShapeFit::Signed,
             drift_shape_rise_s: 0.0,
             drift_shape_rise: RiseGuard::Block,
-            undo_walk: 0.0,
         }
     }
 }
@@ -1038,8 +1061,7 @@ impl DriftModel {
             && self.release_flat_sigmas <= 10.0
             && (0.0..=60.0).contains(&self.quiet_taxel_s)
             && (0.0..1.0).contains(&self.drift_shape)
-            && (0.0..=60.0).contains(&self.drift_shape_rise_s)
-            && (0.0..=10.0).contains(&self.undo_walk);
+            && (0.0..=60.0).contains(&self.drift_shape_rise_s);
         if ok {
             Ok(())
         } else {
@@ -1051,10 +1073,6 @@ impl DriftModel {
 /// Most window means the steadiness look-back keeps (a very fast source compares with a
 /// younger frame instead of allocating without bound).
 const MAX_STEADY_HISTORY: usize = 4096;
-
-/// The walk estimate's anchor pairs ([`DriftModel::undo_walk`]): at least and at most this far
-/// apart (s).
-const WALK_PAIR_S: (f64, f64) = (0.5, 5.0);
 
 /// The noise return ([`DriftModel::release_sigmas`]) waits until the total change moved by less
 /// than this multiple of `Σσᵢ` over the steadiness look-back (about twice the noise of that
@@ -1206,12 +1224,6 @@ struct DriftState {
     /// The level before a drift-shape return on a recent rise ([`RiseGuard::ShiftAnchorsUndo`]):
     /// its time, the baseline then (moved along the slope since) and the total step it took.
     undo: Option<(Timestamp, Vec<f64>, f64)>,
-    /// The walk estimate ([`DriftModel::undo_walk`]): the last anchor of a pair (time, means),
-    /// the forgotten sum of the time between pairs and, per taxel, of their squared changes
-    /// less the slope's.
-    walk_prev: Option<(Timestamp, Vec<f64>)>,
-    walk_w: f64,
-    walk_s: Vec<f64>,
 }
 
 impl DriftState {
@@ -1235,48 +1247,7 @@ impl DriftState {
             floor: None,
             rise: VecDeque::new(),
             undo: None,
-            walk_prev: None,
-            walk_w: 0.0,
-            walk_s: vec![0.0; n],
         }
-    }
-
-    /// The drift walk per taxel (counts/√s) measured so far, summed over the taxels (0 before
-    /// the first pair of anchors).
-    fn walk_sum(&self) -> f64 {
-        if self.walk_w <= 0.0 {
-            return 0.0;
-        }
-        let w: f64 = self.walk_s.iter().map(|s| (s / self.walk_w).sqrt()).sum();
-        if w.is_finite() {
-            w
-        } else {
-            0.0
-        }
-    }
-
-    /// Record an anchor frame for the walk estimate (pairs 0.5–5 s apart).
-    fn walk_anchor(&mut self, time: Timestamp, mean: &[f64]) {
-        let Some((tp, prev)) = &self.walk_prev else {
-            self.walk_prev = Some((time, mean.to_vec()));
-            return;
-        };
-        let tau = (time.0 - tp.0) as f64 * 1e-9;
-        if tau < WALK_PAIR_S.0 {
-            return;
-        }
-        if tau <= WALK_PAIR_S.1 {
-            let d2: Vec<f64> =
-                mean.iter().zip(prev).zip(&self.slope).map(|((x, p), s)| (x - p - s * tau).powi(2)).collect();
-            if d2.iter().all(|d| d.is_finite()) {
-                let a = (-tau / self.model.slope_memory_s).exp();
-                self.walk_w = a * self.walk_w + tau;
-                for (s, d) in self.walk_s.iter_mut().zip(&d2) {
-                    *s = a * *s + d;
-                }
-            }
-        }
-        self.walk_prev = Some((time, mean.to_vec()));
     }
 
     /// The drift-shape return's rise test for a frame of total change `total` (and records
@@ -1408,8 +1379,6 @@ impl DriftState {
         }
         self.history.push_back((time, mean.clone()));
         let total: f64 = delta.iter().map(|d| d.abs()).sum();
-        // the walk's sum, for a pending undo only (it borrows the state the undo holds)
-        let walk = if m.undo_walk > 0.0 && self.undo.is_some() { self.walk_sum() } else { 0.0 };
         if let Some((since, level, step)) = &mut self.undo {
             // the level before a drift-shape return on a recent rise: moved along the slope;
             // back at it (steady), the return took a press's hold for drift: undo it
@@ -1418,16 +1387,9 @@ impl DriftState {
             }
             let keep = m.undo_window_s();
             let back: f64 = mean.iter().zip(level.iter()).map(|(x, l)| (x - l).abs()).sum();
-            let age = (time.0 - since.0) as f64 * 1e-9;
-            let mut bound = m.release_fraction * *step;
-            if walk > 0.0 {
-                // the walk moved the sensor away from the remembered level since the return
-                let grown = bound + m.undo_walk * walk * age.max(0.0).sqrt();
-                bound = bound.max(grown.min(DRIFT_SHAPE_RISE_FRACTION * *step));
-            }
-            if age > keep {
+            if (time.0 - since.0) as f64 * 1e-9 > keep {
                 self.undo = None;
-            } else if steady && back < bound {
+            } else if steady && back < m.release_fraction * *step {
                 baseline.copy_from_slice(level);
                 self.undo = None;
                 self.in_contact = false;
@@ -1576,9 +1538,6 @@ impl DriftState {
                 *stx = a * *stx + dt * t * x;
                 let s = (*stx - tb * *sx) / (var.max(0.0) + m.slope_prior_s3);
                 *slope = if s.is_finite() { s } else { 0.0 };
-            }
-            if m.undo_walk > 0.0 {
-                self.walk_anchor(time, &mean);
             }
         }
         false
@@ -2018,42 +1977,29 @@ mod tests {
     }
 
     #[test]
-    fn the_walk_scaled_undo_is_validated_and_off_in_older_files() {
-        for bad in [-0.02, 12.1, f64::NAN, f64::INFINITY] {
-            assert!(DriftModel { undo_walk: bad, ..DriftModel::default() }.validate().is_err(), "{bad}");
-        }
-        // older JSON files (without the key) read with it off
+    fn the_removed_walk_scaled_undo_reads_as_off_and_nothing_else() {
+        // older JSON without the key, or with it at 0 (round 7's gates spelled out every
+        // field), loads as before
         let m: DriftModel = serde_json::from_str(r#"{"stale_s": 10.0}"#).unwrap();
-        assert_eq!(m.undo_walk, 0.0);
-    }
-
-    #[test]
-    fn the_walk_estimate_recovers_each_taxels_walk() {
-        let model = DriftModel { undo_walk: 1.0, ..DriftModel::default() };
-        let mut st = DriftState::new(model, 3);
-        assert_eq!(st.walk_sum(), 0.0);
-        // steps of ±wᵢ √τ every τ = 1 s (signs from a small generator): the estimate is wᵢ
-        let w = [0.5, 1.0, 2.0];
-        let mut x = [100.0, 200.0, 300.0];
-        let mut state = 3u64;
-        for k in 0..200i64 {
-            st.walk_anchor(Timestamp(k * 1_000_000_000), &x);
-            // an anchor closer than 0.5 s to the last pair's end is not a pair
-            st.walk_anchor(Timestamp(k * 1_000_000_000 + 100_000_000), &[1e6; 3]);
-            for (xi, wi) in x.iter_mut().zip(w) {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                *xi += if state >> 63 == 0 { wi } else { -wi };
-            }
+        assert_eq!(m, DriftModel { stale_s: 10.0, ..DriftModel::default() });
+        for zero in ["0", "0.0", "-0.0"] {
+            let m: DriftModel = serde_json::from_str(&format!(r#"{{"stale_s": 10.0, "undo_walk": {zero}}}"#)).unwrap();
+            assert_eq!(m, DriftModel { stale_s: 10.0, ..DriftModel::default() }, "{zero}");
         }
-        let sum: f64 = w.iter().sum();
-        assert!((st.walk_sum() - sum).abs() < 1e-9, "{} vs {sum}", st.walk_sum());
-        // anchors more than 5 s apart (a long contact between) are no pair: a jump there is
-        // not read as walk
-        st.walk_anchor(Timestamp(400 * 1_000_000_000), &[1e4; 3]);
-        assert!((st.walk_sum() - sum).abs() < 1e-9);
-        // a non-finite change is skipped
-        st.walk_anchor(Timestamp(401 * 1_000_000_000), &[f64::NAN; 3]);
-        assert!((st.walk_sum() - sum).abs() < 1e-9);
+        // any other value is refused, naming the setting and the commit that still has it
+        for bad in ["1.0", "1e-9", "-0.5", "null", "\"on\""] {
+            let e = serde_json::from_str::<DriftModel>(&format!(r#"{{"undo_walk": {bad}}}"#)).unwrap_err().to_string();
+            assert!(e.contains("undo_walk") && e.contains("removed") && e.contains(UNDO_WALK_COMMIT), "{bad}: {e}");
+        }
+        // other unknown keys are still refused (round 7's removed dip return among them), a
+        // wrong type still names its field, and the force gate round-trips without the key
+        assert!(serde_json::from_str::<DriftModel>(r#"{"dip_return_s": 0}"#).is_err());
+        let e = serde_json::from_str::<DriftModel>(r#"{"stale_s": "x"}"#).unwrap_err().to_string();
+        assert!(e.contains("invalid type"), "{e}");
+        let gate = crate::force_model::FORCE_GATE;
+        let json = serde_json::to_string(&gate).unwrap();
+        assert!(!json.contains("undo_walk"), "{json}");
+        assert_eq!(serde_json::from_str::<DriftModel>(&json).unwrap(), gate);
     }
 
     #[test]
