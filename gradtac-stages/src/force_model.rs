@@ -460,6 +460,7 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     hold_sigmas: 2.0,
     hold_total: 0.0,
     hold_contact: true,
+    hold_start_sigmas: 0.0,
     release_moving: 0.0,
     quiet_s: 5.0,
     stale_s: 10.0,

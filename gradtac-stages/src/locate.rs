@@ -762,6 +762,7 @@ impl PositionMemory {
 /// | stale | a held or contact stretch steady for `stale_s` is a new resting level: the baseline takes it, the slope's anchors start again | off |
 /// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
 /// | return anchors | with `return_anchors`, on the frame an excursion returns (by the shape return alone, or by any return) the slope's anchors are restarted or shifted to the new level, so the step the return leaves behind is not learned as drift | kept |
+/// | hold start | with `hold_start_sigmas` and `hold_contact`, a held frame starts a contact only once some taxel is beyond `hold_start_sigmas` σ; the hold still freezes the baseline and keeps a contact going down to `hold_sigmas` | off |
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | rise test | with `drift_shape_rise_s`, a drift-shape return on a frame whose total change that long before was under half its own (a recent rise: a press's rise and hold) is blocked, or fires with the slope's anchors shifted instead of kept (so a press taken for drift does not teach the slope the press), and optionally is undone once the sensor comes back to the level before it ([`RiseGuard`]) | off |
@@ -812,6 +813,16 @@ pub struct DriftModel {
     /// A held frame of an excursion that has not returned is a contact (the contact
     /// threshold drops to the hold bounds).
     pub hold_contact: bool,
+    /// The hold's start bound (σ of one frame; 0: off, the default; else at least
+    /// `hold_sigmas`, at most 100): with `hold_contact`, a held frame of an excursion that is
+    /// not yet a contact becomes one only when some taxel is beyond this many σ. The hold
+    /// (`hold_sigmas`) still freezes the baseline and keeps a contact going, so a contact
+    /// starts at this bound and ends at the hold's (hysteresis). With 24 taxels and
+    /// independent noise, some taxel is beyond 2 σ in ≈ 67 % of frames and beyond 3 σ in
+    /// ≈ 6 %, so a 2-σ hold alone starts contacts on noise and walk. Trade-off: a press whose
+    /// largest taxel stays between `hold_sigmas` and this bound is not reported. Session 37,
+    /// force round 8 (`docs/force.md`).
+    pub hold_start_sigmas: f64,
     /// Early release, a fraction of the excursion's peak total change in [0, 1) (0: off): a
     /// contact kept only by the hold (no taxel beyond `contact_sigmas`) ends, steady or not,
     /// once its total change falls below this fraction of the peak.
@@ -1004,6 +1015,7 @@ impl Default for DriftModel {
             hold_sigmas: 0.0,
             hold_total: 0.0,
             hold_contact: false,
+            hold_start_sigmas: 0.0,
             release_moving: 0.0,
             quiet_s: 0.0,
             stale_s: 0.0,
@@ -1048,6 +1060,8 @@ impl DriftModel {
             && self.hold_sigmas >= 0.0
             && self.hold_total.is_finite()
             && self.hold_total >= 0.0
+            && (self.hold_start_sigmas == 0.0
+                || (self.hold_start_sigmas >= self.hold_sigmas && self.hold_start_sigmas <= 100.0))
             && (0.0..1.0).contains(&self.release_moving)
             && self.quiet_s.is_finite()
             && self.quiet_s >= 0.0
@@ -1463,7 +1477,10 @@ impl DriftState {
         let shape_alone = first_return && !peak_return && !drift_shaped;
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
-        if !contact && held && (self.touched || m.hold_contact) {
+        // the hold's start bound: a held frame starts a contact only beyond it
+        let starts =
+            m.hold_start_sigmas <= 0.0 || delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_start_sigmas * s);
+        if !contact && held && (self.touched || (m.hold_contact && starts)) {
             contact = !(m.release_moving > 0.0 && total < m.release_moving * self.peak);
         }
         if contact && returning {
@@ -1974,6 +1991,54 @@ mod tests {
         assert!(stale_drift.abs() < 2.0 && stale_plain > 6.0, "{stale_drift} vs {stale_plain}");
         drift.reset();
         assert_eq!(drift.drift_slope(), &[0.0, 0.0]);
+    }
+
+    #[test]
+    fn the_hold_start_bound_starts_a_contact_above_it_and_keeps_it_down_to_the_hold() {
+        // four taxels with ±1 alternating noise; after 2 s untouched taxel 0 steps to 2.5 σ
+        // (beyond the 2-σ hold, below a 3-σ start) for 1 s, then to 4.5 σ, then back to 2.6 σ
+        // (above half the peak: no return); no taxel reaches `contact_sigmas`
+        let run = |start: f64| -> [usize; 3] {
+            let model =
+                DriftModel { hold_sigmas: 2.0, hold_contact: true, hold_start_sigmas: start, ..DriftModel::default() };
+            let mut det =
+                ChangeDetector::try_new(4, &LocateConfig::default()).unwrap().with_drift_model(model).unwrap();
+            let (mut sigma, mut counts) = (0.0, [0usize; 3]);
+            for k in 0..500u64 {
+                let e = if k % 2 == 0 { 1.0 } else { -1.0 };
+                let z = match k {
+                    200..=299 => 2.5,
+                    300..=399 => 4.5,
+                    400..=499 => 2.6,
+                    _ => 0.0,
+                };
+                let v = (0..4).map(|i| 100.0 * (i + 1) as f64 + e + if i == 0 { z * sigma } else { 0.0 }).collect();
+                let contact = det.push(&frame(k, v), "t").unwrap().contact;
+                if k == 199 {
+                    sigma = det.noise()[0];
+                    assert!(sigma > 0.5 && sigma < 3.0, "{sigma}");
+                }
+                // each stretch's contact frames once the window holds only that stretch
+                if k >= 200 && k % 100 >= 10 {
+                    counts[(k / 100 - 2) as usize] += usize::from(contact);
+                }
+            }
+            counts
+        };
+        // off: the 2-σ hold starts the contact; at 3 σ it starts only at 4.5 σ, and the 2-σ hold
+        // keeps it at 2.6 σ (hysteresis)
+        assert_eq!(run(0.0), [90, 90, 90]);
+        assert_eq!(run(3.0), [0, 90, 90]);
+        // a start bound above every step: no contact at all
+        assert_eq!(run(5.0), [0, 0, 0]);
+        // validated: 0 or between the hold and 100 σ; older JSON reads it off
+        for bad in [1.5, 100.5, -1.0, f64::NAN, f64::INFINITY] {
+            let m = DriftModel { hold_sigmas: 2.0, hold_start_sigmas: bad, ..DriftModel::default() };
+            assert!(m.validate().is_err(), "{bad}");
+        }
+        assert!(DriftModel { hold_sigmas: 2.0, hold_start_sigmas: 2.0, ..DriftModel::default() }.validate().is_ok());
+        let m: DriftModel = serde_json::from_str(r#"{"hold_sigmas": 2.0}"#).unwrap();
+        assert_eq!(m.hold_start_sigmas, 0.0);
     }
 
     #[test]
