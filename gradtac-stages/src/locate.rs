@@ -762,7 +762,7 @@ impl PositionMemory {
 /// | stale | a held or contact stretch steady for `stale_s` is a new resting level: the baseline takes it, the slope's anchors start again | off |
 /// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
 /// | return anchors | with `return_anchors`, on the frame an excursion returns (by the shape return alone, or by any return) the slope's anchors are restarted or shifted to the new level, so the step the return leaves behind is not learned as drift | kept |
-/// | hold start | with `hold_start_sigmas` and `hold_contact`, a held frame starts a contact only once some taxel is beyond `hold_start_sigmas` σ; the hold still freezes the baseline and keeps a contact going down to `hold_sigmas` | off |
+/// | hold start | with `hold_start_sigmas` and `hold_contact`, a held frame starts a contact only once some taxel is beyond `hold_start_sigmas` σ; the hold still freezes the baseline and keeps a contact going down to `hold_sigmas` | off (the force gate: 3 σ since session 37) |
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | rise test | with `drift_shape_rise_s`, a drift-shape return on a frame whose total change that long before was under half its own (a recent rise: a press's rise and hold) is blocked, or fires with the slope's anchors shifted instead of kept (so a press taken for drift does not teach the slope the press), and optionally is undone once the sensor comes back to the level before it ([`RiseGuard`]) | off |
@@ -820,8 +820,9 @@ pub struct DriftModel {
     /// starts at this bound and ends at the hold's (hysteresis). With 24 taxels and
     /// independent noise, some taxel is beyond 2 σ in ≈ 67 % of frames and beyond 3 σ in
     /// ≈ 6 %, so a 2-σ hold alone starts contacts on noise and walk. Trade-off: a press whose
-    /// largest taxel stays between `hold_sigmas` and this bound is not reported. Session 37,
-    /// force round 8 (`docs/force.md`).
+    /// largest taxel stays between `hold_sigmas` and this bound is not reported, and a press
+    /// is reported from its crossing of this bound. Session 37, force round 8
+    /// (`docs/force.md`): 3 σ in [`crate::force_model::FORCE_GATE`].
     pub hold_start_sigmas: f64,
     /// Early release, a fraction of the excursion's peak total change in [0, 1) (0: off): a
     /// contact kept only by the hold (no taxel beyond `contact_sigmas`) ends, steady or not,
