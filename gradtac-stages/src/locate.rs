@@ -788,8 +788,7 @@ impl PositionMemory {
 /// `undo_walk` (session 36's walk-scaled undo, removed) is still read as 0 (off), so older
 /// JSON that spells it out loads; any other value is refused, naming the commit
 /// ([`UNDO_WALK_COMMIT`]) that still has it.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(remote = "Self", deny_unknown_fields, default)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriftModel {
     /// Steadiness look-back (s), in (0, 60].
     pub steady_s: f64,
@@ -914,10 +913,41 @@ pub struct DriftModel {
 /// `examples/force_parts/rule_round7.md` point to it.
 pub const UNDO_WALK_COMMIT: &str = "e43beac";
 
+/// Serde's view of [`DriftModel`]: every field by name, the defaults filling in, unknown keys
+/// refused. A private list so that the public type carries no derived inherent functions; the
+/// derive checks at compile time that it names every field of `DriftModel`.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "DriftModel", deny_unknown_fields, default = "DriftModel::default")]
+struct DriftModelFields {
+    steady_s: f64,
+    steady_sigmas: f64,
+    settle_s: f64,
+    slope_memory_s: f64,
+    slope_prior_s3: f64,
+    release_fraction: f64,
+    hold_sigmas: f64,
+    hold_total: f64,
+    hold_contact: bool,
+    hold_start_sigmas: f64,
+    release_moving: f64,
+    quiet_s: f64,
+    stale_s: f64,
+    release_sigmas: f64,
+    release_excess: f64,
+    release_flat_s: f64,
+    release_flat_range: bool,
+    release_flat_sigmas: f64,
+    return_anchors: ReturnAnchors,
+    quiet_taxel_s: f64,
+    drift_shape: f64,
+    drift_shape_fit: ShapeFit,
+    drift_shape_rise_s: f64,
+    drift_shape_rise: RiseGuard,
+}
+
 impl Serialize for DriftModel {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
-        // the derived serializer (`remote = "Self"`): every field, by name
-        DriftModel::serialize(self, serializer)
+        DriftModelFields::serialize(self, serializer)
     }
 }
 
@@ -934,8 +964,8 @@ impl<'de> Deserialize<'de> for DriftModel {
                 )));
             }
         }
-        // the derived deserializer (`remote = "Self"`): defaults, unknown keys refused
-        DriftModel::deserialize(value).map_err(D::Error::custom)
+        // every other key as named by the field list (defaults fill in, unknown keys refused)
+        DriftModelFields::deserialize(value).map_err(D::Error::custom)
     }
 }
 
