@@ -54,7 +54,7 @@ const TEST: std::ops::Range<u64> = 100..116;
 const PRESSES: usize = 10;
 /// `--quick`'s held-out floors for the default method (`forward` with its guard): worst member
 /// %, mean %, untouched frames above 0.5 N % (scripts/force_eval.sh gives the measured figures).
-const FLOOR: [f64; 3] = [79.0, 30.0, 13.0];
+const FLOOR: [f64; 3] = [78.0, 29.0, 13.0];
 
 /// The frames' features under one location method.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -754,7 +754,14 @@ impl SensorChain {
                         more
                     },
                     d.hold_sigmas,
-                    if d.hold_contact { " and a contact until it returns" } else { "" },
+                    match (d.hold_contact, d.hold_start_sigmas > 0.0) {
+                        (false, _) => String::new(),
+                        (true, false) => " and a contact until it returns".to_string(),
+                        (true, true) => format!(
+                            " and a contact until it returns, started only beyond {} σ",
+                            d.hold_start_sigmas
+                        ),
+                    },
                     d.quiet_s,
                     d.stale_s
                 )

@@ -99,6 +99,11 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
     let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
     assert!(explain.contains("the identified forward model"), "{explain}");
     assert!(explain.contains("drift model: settle 0.2 s"), "{explain}");
+    // the hold's start bound (session 37): a contact starts beyond 3 σ, the 2-σ hold keeps it
+    assert!(
+        explain.contains("hold beyond 2 σ: baseline frozen and a contact until it returns, started only beyond 3 σ"),
+        "{explain}"
+    );
     // the gate's shape return, with its flatness test
     assert!(explain.contains("(range within 0.1 Σσ), at most 0.5 of the peak above the untouched floor"), "{explain}");
     // and what the slope's anchors do at such a return (session 33)

@@ -762,10 +762,10 @@ impl PositionMemory {
 /// | stale | a held or contact stretch steady for `stale_s` is a new resting level: the baseline takes it, the slope's anchors start again | off |
 /// | noise return | with `release_sigmas`, an excursion also returns (steady) once `Σ\|Δᵢ\|` is below `release_sigmas · Σσᵢ`, whatever its peak | off |
 /// | return anchors | with `return_anchors`, on the frame an excursion returns (by the shape return alone, or by any return) the slope's anchors are restarted or shifted to the new level, so the step the return leaves behind is not learned as drift | kept |
+/// | hold start | with `hold_start_sigmas` and `hold_contact`, a held frame starts a contact only once some taxel is beyond `hold_start_sigmas` σ; the hold still freezes the baseline and keeps a contact going down to `hold_sigmas` | off (the force gate: 3 σ since session 37) |
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | rise test | with `drift_shape_rise_s`, a drift-shape return on a frame whose total change that long before was under half its own (a recent rise: a press's rise and hold) is blocked, or fires with the slope's anchors shifted instead of kept (so a press taken for drift does not teach the slope the press), and optionally is undone once the sensor comes back to the level before it ([`RiseGuard`]) | off |
-/// | walk-scaled undo | with `undo_walk`, the undo's bound grows with the drift walk measured from the slope's anchors and the time since the return, at most to half the step | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -783,8 +783,12 @@ impl PositionMemory {
 /// earlier than the flatness look-back (`release_flat_s`, else `steady_s`: 0.3 s) after the
 /// residual goes flat, and the anchors move on that frame. Units: times in seconds of the
 /// frames' timestamps, changes in the sensor's counts, bounds in σ (or `Σσᵢ`) of one frame.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+///
+/// Serde: every field is optional (the defaults above fill in); an unknown key is refused.
+/// `undo_walk` (session 36's walk-scaled undo, removed) is still read as 0 (off), so older
+/// JSON that spells it out loads; any other value is refused, naming the commit
+/// ([`UNDO_WALK_COMMIT`]) that still has it.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriftModel {
     /// Steadiness look-back (s), in (0, 60].
     pub steady_s: f64,
@@ -808,6 +812,17 @@ pub struct DriftModel {
     /// A held frame of an excursion that has not returned is a contact (the contact
     /// threshold drops to the hold bounds).
     pub hold_contact: bool,
+    /// The hold's start bound (σ of one frame; 0: off, the default; else at least
+    /// `hold_sigmas`, at most 100): with `hold_contact`, a held frame of an excursion that is
+    /// not yet a contact becomes one only when some taxel is beyond this many σ. The hold
+    /// (`hold_sigmas`) still freezes the baseline and keeps a contact going, so a contact
+    /// starts at this bound and ends at the hold's (hysteresis). With 24 taxels and
+    /// independent noise, some taxel is beyond 2 σ in ≈ 67 % of frames and beyond 3 σ in
+    /// ≈ 6 %, so a 2-σ hold alone starts contacts on noise and walk. Trade-off: a press whose
+    /// largest taxel stays between `hold_sigmas` and this bound is not reported, and a press
+    /// is reported from its crossing of this bound. Session 37, force round 8
+    /// (`docs/force.md`): 3 σ in [`crate::force_model::FORCE_GATE`].
+    pub hold_start_sigmas: f64,
     /// Early release, a fraction of the excursion's peak total change in [0, 1) (0: off): a
     /// contact kept only by the hold (no taxel beyond `contact_sigmas`) ends, steady or not,
     /// once its total change falls below this fraction of the peak.
@@ -891,16 +906,67 @@ pub struct DriftModel {
     /// What the rise test does to a drift-shape return on a frame that rose recently
     /// ([`RiseGuard`]; default: blocks it).
     pub drift_shape_rise: RiseGuard,
-    /// The walk-scaled undo (a factor ≥ 0, at most 10; 0: off, the default): with
-    /// [`RiseGuard::ShiftAnchorsUndo`], the undo's bound on the sensor's distance from the
-    /// level before the return (`release_fraction` of the step) grows by this factor times
-    /// `Σwᵢ · √(time since the return)`, at most to half the step, where `wᵢ` is taxel i's
-    /// drift walk (counts/√s) measured from pairs of slope anchors 0.5–5 s apart (the change
-    /// less the slope's, squared over the time between; an exponential mean with the slope's
-    /// memory). A walk moves the sensor away from the remembered level while a press taken for
-    /// drift is held; without this the lift of a long press on a walking sensor is not undone.
-    /// Session 36, round 7 (`docs/force.md`).
-    pub undo_walk: f64,
+}
+
+/// The last commit with the drift model's walk-scaled undo (`undo_walk`, session 36's round-7
+/// candidate (h2): no winner, removed in session 37); `docs/force.md` and
+/// `examples/force_parts/rule_round7.md` point to it.
+pub const UNDO_WALK_COMMIT: &str = "e43beac";
+
+/// Serde's view of [`DriftModel`]: every field by name, the defaults filling in, unknown keys
+/// refused. A private list so that the public type carries no derived inherent functions; the
+/// derive checks at compile time that it names every field of `DriftModel`.
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "DriftModel", deny_unknown_fields, default = "DriftModel::default")]
+struct DriftModelFields {
+    steady_s: f64,
+    steady_sigmas: f64,
+    settle_s: f64,
+    slope_memory_s: f64,
+    slope_prior_s3: f64,
+    release_fraction: f64,
+    hold_sigmas: f64,
+    hold_total: f64,
+    hold_contact: bool,
+    hold_start_sigmas: f64,
+    release_moving: f64,
+    quiet_s: f64,
+    stale_s: f64,
+    release_sigmas: f64,
+    release_excess: f64,
+    release_flat_s: f64,
+    release_flat_range: bool,
+    release_flat_sigmas: f64,
+    return_anchors: ReturnAnchors,
+    quiet_taxel_s: f64,
+    drift_shape: f64,
+    drift_shape_fit: ShapeFit,
+    drift_shape_rise_s: f64,
+    drift_shape_rise: RiseGuard,
+}
+
+impl Serialize for DriftModel {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        DriftModelFields::serialize(self, serializer)
+    }
+}
+
+impl<'de> Deserialize<'de> for DriftModel {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let mut value = serde_json::Value::deserialize(deserializer)?;
+        if let Some(walk) = value.as_object_mut().and_then(|map| map.remove("undo_walk")) {
+            // the removed walk-scaled undo: off (0) reads as before, anything else is refused
+            if walk.as_f64() != Some(0.0) {
+                return Err(D::Error::custom(format!(
+                    "drift model: `undo_walk` = {walk}: the walk-scaled undo was removed (session 37; \
+                     it never won a round); only 0 (off) is read. Its code is at commit {UNDO_WALK_COMMIT}"
+                )));
+            }
+        }
+        // every other key as named by the field list (defaults fill in, unknown keys refused)
+        DriftModelFields::deserialize(value).map_err(D::Error::custom)
+    }
 }
 
 /// The drift-shape return's rise test ([`DriftModel::drift_shape_rise_s`]): a frame whose
@@ -980,6 +1046,7 @@ impl Default for DriftModel {
             hold_sigmas: 0.0,
             hold_total: 0.0,
             hold_contact: false,
+            hold_start_sigmas: 0.0,
             release_moving: 0.0,
             quiet_s: 0.0,
             stale_s: 0.0,
@@ -994,7 +1061,6 @@ impl Default for DriftModel {
             drift_shape_fit: ShapeFit::Signed,
             drift_shape_rise_s: 0.0,
             drift_shape_rise: RiseGuard::Block,
-            undo_walk: 0.0,
         }
     }
 }
@@ -1025,6 +1091,8 @@ impl DriftModel {
             && self.hold_sigmas >= 0.0
             && self.hold_total.is_finite()
             && self.hold_total >= 0.0
+            && (self.hold_start_sigmas == 0.0
+                || (self.hold_start_sigmas >= self.hold_sigmas && self.hold_start_sigmas <= 100.0))
             && (0.0..1.0).contains(&self.release_moving)
             && self.quiet_s.is_finite()
             && self.quiet_s >= 0.0
@@ -1038,8 +1106,7 @@ impl DriftModel {
             && self.release_flat_sigmas <= 10.0
             && (0.0..=60.0).contains(&self.quiet_taxel_s)
             && (0.0..1.0).contains(&self.drift_shape)
-            && (0.0..=60.0).contains(&self.drift_shape_rise_s)
-            && (0.0..=10.0).contains(&self.undo_walk);
+            && (0.0..=60.0).contains(&self.drift_shape_rise_s);
         if ok {
             Ok(())
         } else {
@@ -1051,10 +1118,6 @@ impl DriftModel {
 /// Most window means the steadiness look-back keeps (a very fast source compares with a
 /// younger frame instead of allocating without bound).
 const MAX_STEADY_HISTORY: usize = 4096;
-
-/// The walk estimate's anchor pairs ([`DriftModel::undo_walk`]): at least and at most this far
-/// apart (s).
-const WALK_PAIR_S: (f64, f64) = (0.5, 5.0);
 
 /// The noise return ([`DriftModel::release_sigmas`]) waits until the total change moved by less
 /// than this multiple of `Σσᵢ` over the steadiness look-back (about twice the noise of that
@@ -1206,12 +1269,6 @@ struct DriftState {
     /// The level before a drift-shape return on a recent rise ([`RiseGuard::ShiftAnchorsUndo`]):
     /// its time, the baseline then (moved along the slope since) and the total step it took.
     undo: Option<(Timestamp, Vec<f64>, f64)>,
-    /// The walk estimate ([`DriftModel::undo_walk`]): the last anchor of a pair (time, means),
-    /// the forgotten sum of the time between pairs and, per taxel, of their squared changes
-    /// less the slope's.
-    walk_prev: Option<(Timestamp, Vec<f64>)>,
-    walk_w: f64,
-    walk_s: Vec<f64>,
 }
 
 impl DriftState {
@@ -1235,48 +1292,7 @@ impl DriftState {
             floor: None,
             rise: VecDeque::new(),
             undo: None,
-            walk_prev: None,
-            walk_w: 0.0,
-            walk_s: vec![0.0; n],
         }
-    }
-
-    /// The drift walk per taxel (counts/√s) measured so far, summed over the taxels (0 before
-    /// the first pair of anchors).
-    fn walk_sum(&self) -> f64 {
-        if self.walk_w <= 0.0 {
-            return 0.0;
-        }
-        let w: f64 = self.walk_s.iter().map(|s| (s / self.walk_w).sqrt()).sum();
-        if w.is_finite() {
-            w
-        } else {
-            0.0
-        }
-    }
-
-    /// Record an anchor frame for the walk estimate (pairs 0.5–5 s apart).
-    fn walk_anchor(&mut self, time: Timestamp, mean: &[f64]) {
-        let Some((tp, prev)) = &self.walk_prev else {
-            self.walk_prev = Some((time, mean.to_vec()));
-            return;
-        };
-        let tau = (time.0 - tp.0) as f64 * 1e-9;
-        if tau < WALK_PAIR_S.0 {
-            return;
-        }
-        if tau <= WALK_PAIR_S.1 {
-            let d2: Vec<f64> =
-                mean.iter().zip(prev).zip(&self.slope).map(|((x, p), s)| (x - p - s * tau).powi(2)).collect();
-            if d2.iter().all(|d| d.is_finite()) {
-                let a = (-tau / self.model.slope_memory_s).exp();
-                self.walk_w = a * self.walk_w + tau;
-                for (s, d) in self.walk_s.iter_mut().zip(&d2) {
-                    *s = a * *s + d;
-                }
-            }
-        }
-        self.walk_prev = Some((time, mean.to_vec()));
     }
 
     /// The drift-shape return's rise test for a frame of total change `total` (and records
@@ -1408,8 +1424,6 @@ impl DriftState {
         }
         self.history.push_back((time, mean.clone()));
         let total: f64 = delta.iter().map(|d| d.abs()).sum();
-        // the walk's sum, for a pending undo only (it borrows the state the undo holds)
-        let walk = if m.undo_walk > 0.0 && self.undo.is_some() { self.walk_sum() } else { 0.0 };
         if let Some((since, level, step)) = &mut self.undo {
             // the level before a drift-shape return on a recent rise: moved along the slope;
             // back at it (steady), the return took a press's hold for drift: undo it
@@ -1418,16 +1432,9 @@ impl DriftState {
             }
             let keep = m.undo_window_s();
             let back: f64 = mean.iter().zip(level.iter()).map(|(x, l)| (x - l).abs()).sum();
-            let age = (time.0 - since.0) as f64 * 1e-9;
-            let mut bound = m.release_fraction * *step;
-            if walk > 0.0 {
-                // the walk moved the sensor away from the remembered level since the return
-                let grown = bound + m.undo_walk * walk * age.max(0.0).sqrt();
-                bound = bound.max(grown.min(DRIFT_SHAPE_RISE_FRACTION * *step));
-            }
-            if age > keep {
+            if (time.0 - since.0) as f64 * 1e-9 > keep {
                 self.undo = None;
-            } else if steady && back < bound {
+            } else if steady && back < m.release_fraction * *step {
                 baseline.copy_from_slice(level);
                 self.undo = None;
                 self.in_contact = false;
@@ -1501,7 +1508,10 @@ impl DriftState {
         let shape_alone = first_return && !peak_return && !drift_shaped;
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
-        if !contact && held && (self.touched || m.hold_contact) {
+        // the hold's start bound: a held frame starts a contact only beyond it
+        let starts =
+            m.hold_start_sigmas <= 0.0 || delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_start_sigmas * s);
+        if !contact && held && (self.touched || (m.hold_contact && starts)) {
             contact = !(m.release_moving > 0.0 && total < m.release_moving * self.peak);
         }
         if contact && returning {
@@ -1576,9 +1586,6 @@ impl DriftState {
                 *stx = a * *stx + dt * t * x;
                 let s = (*stx - tb * *sx) / (var.max(0.0) + m.slope_prior_s3);
                 *slope = if s.is_finite() { s } else { 0.0 };
-            }
-            if m.undo_walk > 0.0 {
-                self.walk_anchor(time, &mean);
             }
         }
         false
@@ -2018,42 +2025,77 @@ mod tests {
     }
 
     #[test]
-    fn the_walk_scaled_undo_is_validated_and_off_in_older_files() {
-        for bad in [-0.02, 12.1, f64::NAN, f64::INFINITY] {
-            assert!(DriftModel { undo_walk: bad, ..DriftModel::default() }.validate().is_err(), "{bad}");
+    fn the_hold_start_bound_starts_a_contact_above_it_and_keeps_it_down_to_the_hold() {
+        // four taxels with ±1 alternating noise; after 2 s untouched taxel 0 steps to 2.5 σ
+        // (beyond the 2-σ hold, below a 3-σ start) for 1 s, then to 4.5 σ, then back to 2.6 σ
+        // (above half the peak: no return); no taxel reaches `contact_sigmas`
+        let run = |start: f64| -> [usize; 3] {
+            let model =
+                DriftModel { hold_sigmas: 2.0, hold_contact: true, hold_start_sigmas: start, ..DriftModel::default() };
+            let mut det =
+                ChangeDetector::try_new(4, &LocateConfig::default()).unwrap().with_drift_model(model).unwrap();
+            let (mut sigma, mut counts) = (0.0, [0usize; 3]);
+            for k in 0..500u64 {
+                let e = if k % 2 == 0 { 1.0 } else { -1.0 };
+                let z = match k {
+                    200..=299 => 2.5,
+                    300..=399 => 4.5,
+                    400..=499 => 2.6,
+                    _ => 0.0,
+                };
+                let v = (0..4).map(|i| 100.0 * (i + 1) as f64 + e + if i == 0 { z * sigma } else { 0.0 }).collect();
+                let contact = det.push(&frame(k, v), "t").unwrap().contact;
+                if k == 199 {
+                    sigma = det.noise()[0];
+                    assert!(sigma > 0.5 && sigma < 3.0, "{sigma}");
+                }
+                // each stretch's contact frames once the window holds only that stretch
+                if k >= 200 && k % 100 >= 10 {
+                    counts[(k / 100 - 2) as usize] += usize::from(contact);
+                }
+            }
+            counts
+        };
+        // off: the 2-σ hold starts the contact; at 3 σ it starts only at 4.5 σ, and the 2-σ hold
+        // keeps it at 2.6 σ (hysteresis)
+        assert_eq!(run(0.0), [90, 90, 90]);
+        assert_eq!(run(3.0), [0, 90, 90]);
+        // a start bound above every step: no contact at all
+        assert_eq!(run(5.0), [0, 0, 0]);
+        // validated: 0 or between the hold and 100 σ; older JSON reads it off
+        for bad in [1.5, 100.5, -1.0, f64::NAN, f64::INFINITY] {
+            let m = DriftModel { hold_sigmas: 2.0, hold_start_sigmas: bad, ..DriftModel::default() };
+            assert!(m.validate().is_err(), "{bad}");
         }
-        // older JSON files (without the key) read with it off
-        let m: DriftModel = serde_json::from_str(r#"{"stale_s": 10.0}"#).unwrap();
-        assert_eq!(m.undo_walk, 0.0);
+        assert!(DriftModel { hold_sigmas: 2.0, hold_start_sigmas: 2.0, ..DriftModel::default() }.validate().is_ok());
+        let m: DriftModel = serde_json::from_str(r#"{"hold_sigmas": 2.0}"#).unwrap();
+        assert_eq!(m.hold_start_sigmas, 0.0);
     }
 
     #[test]
-    fn the_walk_estimate_recovers_each_taxels_walk() {
-        let model = DriftModel { undo_walk: 1.0, ..DriftModel::default() };
-        let mut st = DriftState::new(model, 3);
-        assert_eq!(st.walk_sum(), 0.0);
-        // steps of ±wᵢ √τ every τ = 1 s (signs from a small generator): the estimate is wᵢ
-        let w = [0.5, 1.0, 2.0];
-        let mut x = [100.0, 200.0, 300.0];
-        let mut state = 3u64;
-        for k in 0..200i64 {
-            st.walk_anchor(Timestamp(k * 1_000_000_000), &x);
-            // an anchor closer than 0.5 s to the last pair's end is not a pair
-            st.walk_anchor(Timestamp(k * 1_000_000_000 + 100_000_000), &[1e6; 3]);
-            for (xi, wi) in x.iter_mut().zip(w) {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                *xi += if state >> 63 == 0 { wi } else { -wi };
-            }
+    fn the_removed_walk_scaled_undo_reads_as_off_and_nothing_else() {
+        // older JSON without the key, or with it at 0 (round 7's gates spelled out every
+        // field), loads as before
+        let m: DriftModel = serde_json::from_str(r#"{"stale_s": 10.0}"#).unwrap();
+        assert_eq!(m, DriftModel { stale_s: 10.0, ..DriftModel::default() });
+        for zero in ["0", "0.0", "-0.0"] {
+            let m: DriftModel = serde_json::from_str(&format!(r#"{{"stale_s": 10.0, "undo_walk": {zero}}}"#)).unwrap();
+            assert_eq!(m, DriftModel { stale_s: 10.0, ..DriftModel::default() }, "{zero}");
         }
-        let sum: f64 = w.iter().sum();
-        assert!((st.walk_sum() - sum).abs() < 1e-9, "{} vs {sum}", st.walk_sum());
-        // anchors more than 5 s apart (a long contact between) are no pair: a jump there is
-        // not read as walk
-        st.walk_anchor(Timestamp(400 * 1_000_000_000), &[1e4; 3]);
-        assert!((st.walk_sum() - sum).abs() < 1e-9);
-        // a non-finite change is skipped
-        st.walk_anchor(Timestamp(401 * 1_000_000_000), &[f64::NAN; 3]);
-        assert!((st.walk_sum() - sum).abs() < 1e-9);
+        // any other value is refused, naming the setting and the commit that still has it
+        for bad in ["1.0", "1e-9", "-0.5", "null", "\"on\""] {
+            let e = serde_json::from_str::<DriftModel>(&format!(r#"{{"undo_walk": {bad}}}"#)).unwrap_err().to_string();
+            assert!(e.contains("undo_walk") && e.contains("removed") && e.contains(UNDO_WALK_COMMIT), "{bad}: {e}");
+        }
+        // other unknown keys are still refused (round 7's removed dip return among them), a
+        // wrong type still names its field, and the force gate round-trips without the key
+        assert!(serde_json::from_str::<DriftModel>(r#"{"dip_return_s": 0}"#).is_err());
+        let e = serde_json::from_str::<DriftModel>(r#"{"stale_s": "x"}"#).unwrap_err().to_string();
+        assert!(e.contains("invalid type"), "{e}");
+        let gate = crate::force_model::FORCE_GATE;
+        let json = serde_json::to_string(&gate).unwrap();
+        assert!(!json.contains("undo_walk"), "{json}");
+        assert_eq!(serde_json::from_str::<DriftModel>(&json).unwrap(), gate);
     }
 
     #[test]
