@@ -539,12 +539,6 @@ impl SensorChain {
                          sign kept (fit_polarity_votes)",
                         l.fit_polarity_votes
                     )
-                } else if l.fit_ring_sign_share > 0.0 {
-                    format!(
-                        "the changes' magnitudes |Δ| at or above {} of the frame's largest, the weaker ones signed \
-                         relative to the frame's strongest electrodes (fit_ring_sign_share)",
-                        l.fit_ring_sign_share
-                    )
                 } else {
                     "the changes' magnitudes |Δ| (fit_polarity_votes 0)".to_string()
                 };

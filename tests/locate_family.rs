@@ -376,13 +376,6 @@ fn explain_shows_the_fit_and_the_preset_values() {
     let ratio = explain("[stages.locate]\npreset = \"accurate\"\nfit_lobe_ratio_rate = 0.05\n").unwrap();
     assert!(ratio.contains("far lobe's width ratio m (1.5–5, from 2.5) learned per sensor at rate 0.05"), "{ratio}");
     assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_lobe_ratio_rate = 2\n").is_err());
-    // the ring sign (round 13): off in the preset (magnitudes, shown above); a scene turns it on
-    let signs = explain("[stages.locate]\npreset = \"accurate\"\nfit_ring_sign_share = 0.35\n").unwrap();
-    assert!(
-        signs.contains("magnitudes |Δ| at or above 0.35 of the frame's largest, the weaker ones signed"),
-        "{signs}"
-    );
-    assert!(explain("[stages.locate]\nmethod = \"fit\"\nfit_ring_sign_share = 0.35\nfit_signed = true\n").is_err());
     // the learned bias correction (round 6): on in the preset, shown; a scene turns it off
     assert!(accurate.contains("learned bias correction on (fit_learned_correction"), "{accurate}");
     let off = explain("[stages.locate]\npreset = \"accurate\"\nfit_learned_correction = false\n").unwrap();

@@ -193,18 +193,6 @@
 //! motion (an electrode's change as the contact passes over it), or a ring the magnitude fit
 //! can rule out before it votes.
 //!
-//! # Ring sign (`fit_ring_sign_share`; off by default and in `accurate`; round 13)
-//! The polarity-free alternative to the votes: each frame's sign reference is its own strongest
-//! electrodes — `s` the sign of the summed signed changes of those at or above 0.5 × the frame's
-//! largest change. A change at or above `fit_ring_sign_share` × the largest stays its magnitude
-//! `|Δᵢ|` (under the core, whatever its polarity); a weaker one is fitted as `s·Δᵢ`, negative
-//! when it moves against the strongest electrodes (a far ring — or a weak electrode of the other
-//! polarity, then an outlier to the robust loss). The folded kernel applies only where the
-//! change seen is not negative; a negative one is matched by the unfolded kernel (far lobe
-//! `a > 0`). Unit test: on the fit's own noise-free ring (`a` = 0.3) the position error of a
-//! sweep falls from 1.21 to 0.56 mm (the sweep's floor) at 0.35; a heavier tail is fitted bit for
-//! bit as without it. Trial: `examples/fit_parts/rule_round13.md`.
-//!
 //! # Reported per point ([`FitSummary`] in [`MaxContour::fit`])
 //! amplitude `|A|`, spread `w`, far-lobe weight `a`, the **relative residual**
 //! `‖Δ − model‖ / ‖Δ‖` over the electrodes used, the **position uncertainty** `sigma_mm` (the
@@ -318,7 +306,6 @@
 //! | `fit_lobe_ratio_rate` | 0: the far lobe 2.5 × the spread | the far lobe's width follows each clean frame (1.5–5 ×), noisier; three one-step re-fits per clean frame |
 //! | `fit_fold_lobe` | a far ring that moves the other way is an outlier to the model | the ring fitted as magnitudes; more local minima (ring fits; far lobe ≤ 0.6) |
 //! | `fit_fold_guard_mm` | 0: the folded fit carries its own minima (ring fits); small: the fold kept only near the unfolded fit | the fold's refinement kept farther from the unfolded fit (ring fits reachable in one frame's descent); one more solve per fitted frame either way |
-//! | `fit_ring_sign_share` | 0: every change a magnitude (the ring read as a heavier tail) | more of the weak changes signed against the strongest electrodes: the ring seen, but weak electrodes of the other polarity become outliers |
 //! | `fit_polarity_votes` | 0: magnitudes, the ring read as the contact; few: a polarity decided on few frames | fewer false polarities, decided later; the ring's electrodes left out until decided (measured: no gain, *Polarity*) |
 //! | `fit_learned_correction` | off: the fit's biases stay (tuning 0.032) | the average bias of simulated tuning physics removed (tuning 0.029; mostly the gains' share); ≈ 0.14 mm added on a sensor that is the fit's own model; ≈ 6 µs per fitted frame; knows only the BioTac SP and the physics it was trained on |
 //! | `fit_gain_prior` | gains follow the keys: best when the kernel fits (gains alone: 0.018 of the width at 0.03) | gains held near 1: other model errors (kernel shape, lag) leak less into them (full sensor: 0.032 at 0.3, 0.036 at 0.03) |
@@ -433,24 +420,6 @@ fn polarise(s: f64, p: f64, m: f64, thr: f64, big: f64) -> Option<f64> {
         }
     }
 }
-/// Share of the frame's largest change at or above which an electrode is one of the frame's
-/// strongest, whose summed signed changes give the sign reference (`fit_ring_sign_share`).
-const SIGN_REF_SHARE: f64 = 0.5;
-
-/// The changes as the ring-sign fit sees them (`fit_ring_sign_share` = `share` > 0, *Ring
-/// sign*): the reference `s` is the sign of the summed changes of the electrodes at or above
-/// [`SIGN_REF_SHARE`] × the frame's largest (+1 on a tie); a change at or above `share` × the
-/// largest becomes its magnitude `|Δᵢ|`, a weaker one `s·Δᵢ` (negative when it moves against
-/// the frame's strongest electrodes: a far ring, or a weak electrode of the other polarity).
-fn ring_sign(d: &mut [f64], share: f64) {
-    let top = d.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
-    let reference: f64 = d.iter().filter(|v| v.abs() >= SIGN_REF_SHARE * top).sum();
-    let s = if reference < 0.0 { -1.0 } else { 1.0 };
-    for v in d.iter_mut() {
-        *v = if v.abs() >= share * top { v.abs() } else { s * *v };
-    }
-}
-
 /// Fewest electrodes a fit needs.
 const MIN_USED: usize = NP + 1;
 
@@ -701,9 +670,6 @@ struct Problem<'a> {
     m: f64,
     /// The model folded to `|K|` (`fit_fold_lobe` on the magnitude fit).
     fold: bool,
-    /// Ring sign (`fit_ring_sign_share` > 0): the fold only where the change is not negative
-    /// (a negative change is a weak one against the frame's strongest: the unfolded model).
-    signs: bool,
     /// The amplitude held positive (`fit_polarity_votes`: the changes are in pressing units).
     positive: bool,
 }
@@ -720,13 +686,6 @@ struct Solution {
 }
 
 impl Problem<'_> {
-    /// Whether electrode `i`'s model is folded (`fold`, and with `signs` only where its change
-    /// is not negative).
-    #[inline]
-    fn fold_at(&self, i: usize) -> bool {
-        self.fold && !(self.signs && self.d[i] < 0.0)
-    }
-
     fn clamp(&self, th: &mut [f64; NP]) -> bool {
         let b = self.geo.bounds;
         let (x, y) = (th[0].clamp(b[0], b[1]), th[1].clamp(b[2], b[3]));
@@ -750,7 +709,7 @@ impl Problem<'_> {
                 continue;
             }
             let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let m = self.gain[i] * th[3] * kern(r2, th[2], th[4], (self.q, self.m), self.fold_at(i)).0;
+            let m = self.gain[i] * th[3] * kern(r2, th[2], th[4], (self.q, self.m), self.fold).0;
             c += huber((self.d[i] - m) * self.inv_s[i]);
         }
         c
@@ -769,7 +728,7 @@ impl Problem<'_> {
             let e = self.geo.core[i];
             let v = [e[0] - sp[0], e[1] - sp[1], e[2] - sp[2]];
             let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2] - self.geo.depth2[i];
-            let (k, dr2, dlw, da) = kern(r2, th[2], th[4], (self.q, self.m), self.fold_at(i));
+            let (k, dr2, dlw, da) = kern(r2, th[2], th[4], (self.q, self.m), self.fold);
             let ga = self.gain[i] * th[3];
             let dx = -2.0 * (v[0] * sx[0] + v[1] * sx[1] + v[2] * sx[2]);
             let dy = -2.0 * (v[0] * sy[0] + v[1] * sy[1] + v[2] * sy[2]);
@@ -985,7 +944,6 @@ impl Fit {
             q,
             m: self.ratio,
             fold: self.fold,
-            signs: self.signs(),
             positive: self.positive(),
         };
         let Some(target) = parabola_target(q, SHAPE_MIN, SHAPE_MAX, SHAPE_STEP, |q| prob(q).solve(*th, 1).cost) else {
@@ -1015,7 +973,6 @@ impl Fit {
             q: self.shape,
             m: l.exp(),
             fold: self.fold,
-            signs: self.signs(),
             positive: self.positive(),
         };
         let Some(target) = parabola_target(l, lo, hi, RATIO_STEP, |l| prob(l).solve(*th, 1).cost) else {
@@ -1034,13 +991,6 @@ impl Fit {
     fn polarity_on(&self) -> bool {
         let cfg = self.det.config();
         cfg.fit_polarity_votes > 0 && !cfg.fit_signed
-    }
-
-    /// Whether the weak changes keep their sign relative to the frame's strongest electrodes
-    /// (`fit_ring_sign_share` > 0, *Ring sign*; the config rules out `fit_signed` and polarity
-    /// votes with it).
-    fn signs(&self) -> bool {
-        self.det.config().fit_ring_sign_share > 0.0
     }
 
     /// Whether the amplitude is held positive: with polarity learning the changes are in
@@ -1223,7 +1173,6 @@ impl Fit {
             q: self.shape,
             m: self.ratio,
             fold: self.fold && guard == 0.0,
-            signs: self.signs(),
             positive: self.positive(),
         };
         let a0 = self.d[k] / if self.gain[k].abs() > 0.2 { self.gain[k] } else { 1.0 };
@@ -1300,7 +1249,7 @@ impl Fit {
         let (mut far, mut far_strong, mut outliers) = (0, 0, 0);
         for i in 0..n {
             let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let kk = kern(r2, th[2], th[4], (self.shape, self.ratio), prob.fold_at(i)).0;
+            let kk = kern(r2, th[2], th[4], (self.shape, self.ratio), folded).0;
             self.kk[i] = kk;
             if self.inv_s[i] == 0.0 {
                 continue;
@@ -1364,7 +1313,7 @@ impl Fit {
                 self.cal.refit(
                     &self.geo,
                     &self.gain,
-                    ((self.shape, self.ratio), (self.fold, self.signs()), self.positive()),
+                    ((self.shape, self.ratio), self.fold, self.positive()),
                     GAIN_REFITS,
                     1,
                 );
@@ -1473,8 +1422,6 @@ impl Stage for Fit {
                         }
                     }
                 }
-            } else if self.signs() {
-                ring_sign(&mut d, self.det.config().fit_ring_sign_share);
             } else if !self.det.config().fit_signed {
                 d.iter_mut().for_each(|v| *v = v.abs());
             }
@@ -1858,7 +1805,7 @@ impl GainCal {
         &mut self,
         geo: &Geometry,
         gain: &[f64],
-        ((q, ratio), (fold, signs), positive): ((f64, f64), (bool, bool), bool),
+        ((q, ratio), fold, positive): ((f64, f64), bool, bool),
         count: usize,
         iterations: u32,
     ) {
@@ -1867,13 +1814,13 @@ impl GainCal {
             let k = self.next_refit % m;
             self.next_refit = k + 1;
             let key = &mut self.keys[k];
-            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, m: ratio, fold, signs, positive };
+            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, m: ratio, fold, positive };
             let s = prob.solve(key.th, iterations);
             key.th = s.th;
             let (sp, _, _) = geo.skin(s.th[0], s.th[1]);
             for i in 0..key.kk.len() {
                 let r2 = dist2(geo.core[i], sp) - geo.depth2[i];
-                key.kk[i] = kern(r2, s.th[2], s.th[4], (q, ratio), prob.fold_at(i)).0;
+                key.kk[i] = kern(r2, s.th[2], s.th[4], (q, ratio), fold).0;
             }
         }
     }
@@ -2271,70 +2218,6 @@ mod tests {
         let mut off = Fit::try_new(&LocateConfig { fit_lobe_ratio_rate: 0.0, ..cfg }, &layout).unwrap();
         push_all(&mut off, ratio_sweep(4.0, -0.3, 300));
         assert_eq!(off.lobe_ratio(), LOBE_RATIO);
-    }
-
-    /// Mean distance (mm) of the fitted positions (`peak_mm`) from the sweep of
-    /// [`ratio_sweep`] over its last `tail` frames, the last fit's far lobe and residual.
-    fn sweep_error(out: &[ContourFrame], tail: usize) -> (f64, f64, f64) {
-        let n = out.len();
-        let mut e = 0.0;
-        for (k, f) in out.iter().enumerate().skip(n - tail) {
-            let c = f.outcome.contact().expect("in contact");
-            // the window's middle: (window_frames − 1)/2 = 0 frames behind at the preset's window 1
-            let t = (k as u64).saturating_sub(30) as f64 / 100.0;
-            let p = [8.0 + 8.5 * (1.3 * t).sin(), 8.0 + 8.5 * (2.1 * t).sin()];
-            e += (c.peak_mm[0] - p[0]).hypot(c.peak_mm[1] - p[1]);
-        }
-        let s = last(out).fit.expect("a fit");
-        (e / tail as f64, s.lobe, s.residual)
-    }
-
-    #[test]
-    fn the_ring_sign_sees_a_ring_that_moves_the_other_way_and_is_the_magnitude_fit_at_a_vanishing_share() {
-        let layout = grid();
-        let cfg = LocateConfig { fit_gain_rate: 0.0, ..LocateConfig::preset(crate::locate::Preset::Accurate) };
-        let on_cfg = LocateConfig { fit_ring_sign_share: 0.35, ..cfg.clone() };
-        // the fit's own ring (a = 0.3, m = 2.5): the magnitude fit is pulled off it (measured
-        // 1.21 mm, residual 0.018); with the weak changes' sign the ring is fitted (measured
-        // 0.56 mm — the sweep's floor, the same as on a heavier tail below — residual 0.0035)
-        let mut off = Fit::try_new(&cfg, &layout).unwrap();
-        let (e_off, _, r_off) = sweep_error(&push_all(&mut off, ratio_sweep(2.5, 0.3, 600)), 300);
-        let mut on = Fit::try_new(&on_cfg, &layout).unwrap();
-        let (e_on, lobe_on, r_on) = sweep_error(&push_all(&mut on, ratio_sweep(2.5, 0.3, 600)), 300);
-        assert!(e_on < 0.6 * e_off, "ring sign {e_on} mm against {e_off} mm");
-        assert!(r_on < 0.5 * r_off && lobe_on > 0.2, "residual {r_on} against {r_off}, lobe {lobe_on}");
-        // a heavier tail (a = −0.3) has no weak change against the strongest: the same fit
-        let mut off = Fit::try_new(&cfg, &layout).unwrap();
-        let mut on = Fit::try_new(&on_cfg, &layout).unwrap();
-        assert_eq!(push_all(&mut off, ratio_sweep(2.5, -0.3, 400)), push_all(&mut on, ratio_sweep(2.5, -0.3, 400)));
-        // at a vanishing share every change is a magnitude: the magnitude fit bit for bit, ring or not
-        let tiny = LocateConfig { fit_ring_sign_share: 1e-12, ..cfg.clone() };
-        for lobe in [0.3, -0.3] {
-            let mut off = Fit::try_new(&cfg, &layout).unwrap();
-            let mut on = Fit::try_new(&tiny, &layout).unwrap();
-            assert_eq!(push_all(&mut off, ratio_sweep(2.5, lobe, 400)), push_all(&mut on, ratio_sweep(2.5, lobe, 400)));
-        }
-        // constant input: no contact either way
-        let mut on = Fit::try_new(&on_cfg, &layout).unwrap();
-        let flat = frames(200, |i| (0..25).map(|k| 2000.0 + 10.0 * k as f64 + 0.0 * i as f64).collect());
-        assert!(push_all(&mut on, flat).iter().all(|f| f.outcome.contact().is_none()));
-    }
-
-    #[test]
-    fn ring_sign_keeps_weak_changes_signed_against_the_strongest() {
-        // strongest falling (−100, −80: reference −1): strong ones magnitudes, weak ones × −1
-        let mut d = [-100.0, -80.0, -20.0, 25.0, 0.0, 40.0];
-        ring_sign(&mut d, 0.35);
-        assert_eq!(d, [100.0, 80.0, 20.0, -25.0, 0.0, 40.0]);
-        // strongest rising: weak ones keep their sign; an electrode of the other polarity among
-        // the strongest does not flip the reference
-        let mut d = [100.0, -60.0, 70.0, -10.0, 5.0];
-        ring_sign(&mut d, 0.35);
-        assert_eq!(d, [100.0, 60.0, 70.0, -10.0, 5.0]);
-        // all zero: unchanged
-        let mut d = [0.0; 4];
-        ring_sign(&mut d, 0.35);
-        assert_eq!(d, [0.0; 4]);
     }
 
     #[test]

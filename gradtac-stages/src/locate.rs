@@ -295,13 +295,6 @@ pub struct LocateConfig {
     /// toward each clean frame's best `m` ([`crate::fit`], *Kernel shape*). Default 0
     /// (`docs/tradeoff.md`, round 12).
     pub fit_lobe_ratio_rate: f64,
-    /// `fit`: with the magnitude fit, keep the sign of the weak changes relative to the
-    /// frame's strongest electrodes (0–1; 0 = off, every change a magnitude): a change below
-    /// this share of the frame's largest is fitted signed in the strongest electrodes' sign,
-    /// so a far ring that moves the other way is seen negative; the stronger ones stay
-    /// magnitudes ([`crate::fit`], *Ring sign*). Not with `fit_signed` or
-    /// `fit_polarity_votes`. Default 0 (`docs/tradeoff.md`, round 13).
-    pub fit_ring_sign_share: f64,
     /// `fit`: with the magnitude fit (`fit_signed = false`), fit the kernel's magnitude `|K|`
     /// too (`true`), so a far ring that moves the other way — whose changes arrive as
     /// magnitudes — is modelled as the data see it ([`crate::fit`], *Kernel shape*). Default
@@ -411,7 +404,6 @@ struct LocateToml {
     fit_gain_prior: Option<f64>,
     fit_shape_rate: Option<f64>,
     fit_lobe_ratio_rate: Option<f64>,
-    fit_ring_sign_share: Option<f64>,
     fit_fold_lobe: Option<bool>,
     fit_fold_guard_mm: Option<f64>,
     fit_model_error: Option<f64>,
@@ -455,7 +447,6 @@ impl From<LocateToml> for LocateConfig {
             fit_gain_prior,
             fit_shape_rate,
             fit_lobe_ratio_rate,
-            fit_ring_sign_share,
             fit_fold_lobe,
             fit_fold_guard_mm,
             fit_model_error,
@@ -558,7 +549,6 @@ impl LocateConfig {
             fit_gain_prior: 1.0,
             fit_shape_rate: 0.0,
             fit_lobe_ratio_rate: 0.0,
-            fit_ring_sign_share: 0.0,
             fit_fold_lobe: false,
             fit_fold_guard_mm: 0.0,
             fit_model_error: 0.3,
@@ -636,16 +626,6 @@ impl LocateConfig {
         }
         if !(self.fit_lobe_ratio_rate.is_finite() && (0.0..=1.0).contains(&self.fit_lobe_ratio_rate)) {
             return bad(format!("`fit_lobe_ratio_rate` = {} must be in [0, 1] (0 = off)", self.fit_lobe_ratio_rate));
-        }
-        if !(self.fit_ring_sign_share.is_finite() && (0.0..=1.0).contains(&self.fit_ring_sign_share)) {
-            return bad(format!("`fit_ring_sign_share` = {} must be in [0, 1] (0 = off)", self.fit_ring_sign_share));
-        }
-        if self.fit_ring_sign_share > 0.0 && (self.fit_signed || self.fit_polarity_votes > 0) {
-            return bad(format!(
-                "`fit_ring_sign_share` = {} needs the magnitude fit without polarity votes (`fit_signed` = false, \
-                 `fit_polarity_votes` = 0)",
-                self.fit_ring_sign_share
-            ));
         }
         if !(self.fit_fold_guard_mm.is_finite() && (0.0..=100.0).contains(&self.fit_fold_guard_mm)) {
             return bad(format!("`fit_fold_guard_mm` = {} must be in [0, 100] (0 = off)", self.fit_fold_guard_mm));
@@ -2204,10 +2184,6 @@ mod tests {
             LocateConfig { fit_shape_rate: f64::NAN, ..Default::default() },
             LocateConfig { fit_lobe_ratio_rate: 1.5, ..Default::default() },
             LocateConfig { fit_lobe_ratio_rate: f64::NAN, ..Default::default() },
-            LocateConfig { fit_ring_sign_share: 1.5, ..Default::default() },
-            LocateConfig { fit_ring_sign_share: f64::NAN, ..Default::default() },
-            LocateConfig { fit_ring_sign_share: 0.35, fit_signed: true, ..Default::default() },
-            LocateConfig { fit_ring_sign_share: 0.35, fit_polarity_votes: 10, ..Default::default() },
             LocateConfig { fit_fold_guard_mm: -1.0, ..Default::default() },
             LocateConfig { fit_fold_guard_mm: f64::INFINITY, ..Default::default() },
             LocateConfig { fit_velocity_frames: 101, ..Default::default() },
