@@ -109,35 +109,12 @@ struct Cand {
     bandwidths: Vec<[f64; 2]>,
     lambdas: Vec<f64>,
     select: Select,
-    /// Round 11: output limits from the training frames ([`Trained::with_limits`]): clamp to the
-    /// training range, shrink by novelty.
-    limits: (bool, bool),
 }
 
 fn candidate(name: &str) -> Option<Cand> {
     let round6 = (vec![[0.125, 0.125], [0.25, 0.25]], vec![1e-6, 1e-5]);
     Some(match name {
-        "R0" => Cand {
-            name: "R0",
-            kept: 55,
-            bandwidths: round6.0,
-            lambdas: round6.1,
-            select: Select::Pooled,
-            limits: (false, false),
-        },
-        // round 11 (examples/fit_parts/rule_round11.md): R0's weights with output limits
-        "C1" | "C2" | "C3" => Cand {
-            name: match name {
-                "C1" => "C1",
-                "C2" => "C2",
-                _ => "C3",
-            },
-            kept: 55,
-            bandwidths: round6.0,
-            lambdas: round6.1,
-            select: Select::Pooled,
-            limits: (name != "C2", name != "C1"),
-        },
+        "R0" => Cand { name: "R0", kept: 55, bandwidths: round6.0, lambdas: round6.1, select: Select::Pooled },
         "R2" => Cand {
             name: "R2",
             kept: KEPT_R2,
@@ -146,7 +123,6 @@ fn candidate(name: &str) -> Option<Cand> {
             bandwidths: vec![[0.125, 0.25], [0.25, 0.25], [0.125, 0.8], [0.25, 0.8]],
             lambdas: vec![1e-6, 1e-5],
             select: Select::Pooled,
-            limits: (false, false),
         },
         "R3" => Cand {
             name: "R3",
@@ -154,7 +130,6 @@ fn candidate(name: &str) -> Option<Cand> {
             bandwidths: vec![[0.125, 0.125], [0.25, 0.25], [0.5, 0.5]],
             lambdas: vec![1e-6, 1e-5, 1e-4, 1e-3, 1e-2],
             select: Select::Groups,
-            limits: (false, false),
         },
         _ => return None,
     })
@@ -259,21 +234,11 @@ fn weights(cand: &Cand, tr: &Samples, va: &Samples, train: &[bool; CELLS]) -> (T
         }
     }
     let (v, t) = best.expect("a solvable regression");
-    // round 11: limits from the frames the weights were trained on (the chosen weights unchanged)
-    let t = if cand.limits != (false, false) {
-        let xs: Vec<Vec<f64>> = tr.x.iter().zip(&tr.cell).filter(|(_, c)| train[**c]).map(|(x, _)| x.clone()).collect();
-        t.with_limits(&xs, cand.limits.0, cand.limits.1)
-    } else {
-        t
-    };
     let what = format!(
-        "bandwidth {:?} λ {:e}, {} {v:.4} mm{}{}",
+        "bandwidth {:?} λ {:e}, {} {v:.4} mm",
         t.bandwidth,
         t.lambda,
         if cand.select == Select::Pooled { "validation" } else { "inner worst group" },
-        t.clamp_mm
-            .map_or(String::new(), |c| format!(", clamp x [{:.3}, {:.3}] y [{:.3}, {:.3}] mm", c[0], c[1], c[2], c[3])),
-        t.novelty.map_or(String::new(), |q| format!(", novelty q {q:.3}"))
     );
     (t, what)
 }

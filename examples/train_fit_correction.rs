@@ -30,12 +30,6 @@
 //! chooses over bandwidths {0.25, 0.5, 1} × λ {1e-7, 1e-6, 1e-5} instead of round 6's
 //! {0.125, 0.25} × {1e-6, 1e-5}. A file written with
 //! `--out` is scored without rebuilding by `fit_probe --weights PATH`.
-//!
-//! Round 11 (`examples/fit_parts/rule_round11.md`): `--limits none|clamp|novelty|both` stores
-//! output limits with the chosen weights, computed on its training frames
-//! (`fit_learned::Trained::with_limits`: each axis clamped to the [0.5 %, 99.5 %] quantiles of
-//! the correction's outputs; the correction shrunk by `q/r` beyond the 99th percentile `q` of the
-//! standardised inputs' root mean square). Default `none`.
 
 use gradtac::stages::fit_learned::{self, Correction};
 use gradtac::stages::locate::LocateConfig;
@@ -105,9 +99,6 @@ fn mean_dist(c: Option<&mut Correction>, xs: &[Vec<f64>], ys: &[[f64; 2]]) -> f6
     }
     s / xs.len().max(1) as f64
 }
-
-/// The output limits the shipped weights carry (`--limits`'s default; round 11).
-const LIMITS: &str = "none";
 
 /// Experiment options (round 8): the fit's settings and the wider draw.
 struct Opts {
@@ -181,24 +172,6 @@ fn main() {
     }
     let (v, t) = best.expect("at least one fit");
     println!("chosen: bandwidth {:?} lambda {:e}, validation {v:.4} mm", t.bandwidth, t.lambda);
-    let limits = args.iter().position(|a| a == "--limits").and_then(|i| args.get(i + 1)).map_or(LIMITS, |s| s.as_str());
-    let (clamp, novelty) = match limits {
-        "none" => (false, false),
-        "clamp" => (true, false),
-        "novelty" => (false, true),
-        "both" => (true, true),
-        other => panic!("--limits {other}: none, clamp, novelty or both"),
-    };
-    let t = t.with_limits(&xt, clamp, novelty);
-    if clamp || novelty {
-        let mut c = Correction::try_new(t.clone()).expect("usable limits");
-        println!(
-            "limits ({limits}): clamp {:?} mm, novelty {:?}; validation {:.4} mm with them",
-            t.clamp_mm,
-            t.novelty,
-            mean_dist(Some(&mut c), &xv, &yv)
-        );
-    }
     let prov = format!(
         "Training: sim_family tuning physics{}, seeds 10000..{} and validation seeds 20000..{} (× 4 kinds);\n\
          {} training / {} validation frames; chosen bandwidth {:?}, lambda {:e} (validation mean distance {:.4} mm).",
@@ -225,7 +198,7 @@ fn main() {
         let top = t.w.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs())).max(1.0);
         let mut worst = 0.0f64;
         let mut same = true;
-        for name in ["MEAN", "SCALE", "WX", "WY", "CLAMP", "NOVELTY"] {
+        for name in ["MEAN", "SCALE", "WX", "WY"] {
             let (a, b) = (nums(&committed, name), nums(&fresh, name));
             same &= a.len() == b.len();
             for (x, y) in a.iter().zip(&b) {

@@ -507,19 +507,11 @@ impl SensorChain {
                     )
                 };
                 let shape = format!(
-                    "kernel {}, {}{}",
+                    "kernel {}, far lobe 2.5 × the spread{}",
                     if l.fit_shape_rate > 0.0 {
                         format!("shape exponent q (2 Gaussian … 1 exponential) learned per sensor at rate {}", l.fit_shape_rate)
                     } else {
                         "Gaussian lobes (fit_shape_rate 0)".to_string()
-                    },
-                    if l.fit_lobe_ratio_rate > 0.0 {
-                        format!(
-                            "far lobe's width ratio m (1.5–5, from 2.5) learned per sensor at rate {} (fit_lobe_ratio_rate)",
-                            l.fit_lobe_ratio_rate
-                        )
-                    } else {
-                        "far lobe 2.5 × the spread (fit_lobe_ratio_rate 0)".to_string()
                     },
                     match (l.fit_fold_lobe && !l.fit_signed, l.fit_fold_guard_mm > 0.0) {
                         (true, true) => format!(

@@ -80,19 +80,6 @@
 //!   a Gaussian one stays at 2.00; an exponential one settles at `q̂ ≈ 1.26` with far-lobe
 //!   weight `a ≈ −0.64` (a heavier tail and a smaller `q` trade against each other) and fits
 //!   to < 1 % residual.
-//! - **far-lobe width** (`fit_lobe_ratio_rate` > 0; round 12, `docs/tradeoff.md`): the far
-//!   lobe's width ratio `m` (2.5 above) becomes one value per sensor in [1.5, 5], learned as
-//!   `q` is, in `ln m` (steps of 0.1; [`Fit::lobe_ratio`] reads it, `reset` returns it to 2.5):
-//!   a ring at another relative radius than 2.5 × the spread is then fitted by the ring's own
-//!   term instead of by distorting the core's spread or position. With the rate 0 the kernel
-//!   is the one above bit for bit. Cost: three one-step re-fits per clean frame. Unit test: on
-//!   a noise-free sweep with a heavier tail (`a` = −0.3) `m̂` reaches 4.04 for `m` = 4 and
-//!   1.85 for 1.8. **A ring that moves the other way (`a` > 0) is not identified**: the
-//!   magnitude fit reads it as a heavier tail (fitted `a` < 0) and `m̂` drifts to 4–5 whatever
-//!   the ring's width (`examples/fit_parts/round12_diagnosis.txt`). **Measured, not in the
-//!   preset** (round 12, leave-one-physics-out protocol on tuning physics): protocol 0.0384 /
-//!   0.0383 at rates 0.05 / 0.01 against LF's 0.0374, in-sample worst kind 0.0302 / 0.0297
-//!   against 0.0291.
 //! - **folded kernel** (`fit_fold_lobe`, magnitude fit only): the model is `|g·A·K|`, so a far
 //!   ring that moves the other way (a difference of Gaussians or a Mexican hat) is fitted as the
 //!   magnitudes `|Δᵢ|` see it — without it the ring's electrodes are outliers to a model that
@@ -303,7 +290,6 @@
 //! | `fit_gain_keys` | 0: the per-frame step; few: the gains remember only the last stretch of path | the gains remember more of the pad; ≈ 24 × keys multiply-adds per clean frame |
 //! | `fit_gain_spacing_mm` | keys crowd where the contact dwells | fewer keys, the pad sampled coarsely |
 //! | `fit_shape_rate` | 0: the Gaussian (or difference of Gaussians) only | the shape follows each clean frame, noisier; three one-step re-fits per clean frame |
-//! | `fit_lobe_ratio_rate` | 0: the far lobe 2.5 × the spread | the far lobe's width follows each clean frame (1.5–5 ×), noisier; three one-step re-fits per clean frame |
 //! | `fit_fold_lobe` | a far ring that moves the other way is an outlier to the model | the ring fitted as magnitudes; more local minima (ring fits; far lobe ≤ 0.6) |
 //! | `fit_fold_guard_mm` | 0: the folded fit carries its own minima (ring fits); small: the fold kept only near the unfolded fit | the fold's refinement kept farther from the unfolded fit (ring fits reachable in one frame's descent); one more solve per fitted frame either way |
 //! | `fit_polarity_votes` | 0: magnitudes, the ring read as the contact; few: a polarity decided on few frames | fewer false polarities, decided later; the ring's electrodes left out until decided (measured: no gain, *Polarity*) |
@@ -553,12 +539,6 @@ pub const SHAPE_MAX: f64 = 2.0;
 const SHAPE_SMOOTH: f64 = 1e-3;
 /// Step in `q` of the shape learner's three-point cost curve.
 const SHAPE_STEP: f64 = 0.1;
-/// Smallest far-lobe width ratio `m` the width learner reaches (`fit_lobe_ratio_rate`).
-pub const RATIO_MIN: f64 = 1.5;
-/// Largest far-lobe width ratio `m` the width learner reaches.
-pub const RATIO_MAX: f64 = 5.0;
-/// Step in `ln m` of the width learner's three-point cost curve.
-const RATIO_STEP: f64 = 0.1;
 
 /// One lobe `exp(−u^{q/2}/q)`, `u = ρ²/w²`, and its derivative along `u`.
 #[inline]
@@ -586,8 +566,8 @@ fn kern(r2: f64, lw: f64, a: f64, (q, m): (f64, f64), fold: bool) -> (f64, f64, 
     }
 }
 
-/// `K(ρ²)` of shape `q` and far-lobe width ratio `m` (`LOBE_RATIO` unless
-/// `fit_lobe_ratio_rate`), and its derivatives along ρ², ln w and a.
+/// `K(ρ²)` of shape `q` and far-lobe width ratio `m` (the fit uses [`LOBE_RATIO`]; the tests
+/// draw other widths), and its derivatives along ρ², ln w and a.
 #[inline]
 fn kernel(r2: f64, lw: f64, a: f64, (q, m): (f64, f64)) -> (f64, f64, f64, f64) {
     let w2 = (2.0 * lw).exp();
@@ -666,8 +646,6 @@ struct Problem<'a> {
     gain: &'a [f64],
     /// Kernel shape exponent `q` (2 Gaussian, 1 exponential).
     q: f64,
-    /// Far-lobe width ratio `m` ([`LOBE_RATIO`] unless `fit_lobe_ratio_rate`).
-    m: f64,
     /// The model folded to `|K|` (`fit_fold_lobe` on the magnitude fit).
     fold: bool,
     /// The amplitude held positive (`fit_polarity_votes`: the changes are in pressing units).
@@ -709,7 +687,7 @@ impl Problem<'_> {
                 continue;
             }
             let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let m = self.gain[i] * th[3] * kern(r2, th[2], th[4], (self.q, self.m), self.fold).0;
+            let m = self.gain[i] * th[3] * kern(r2, th[2], th[4], (self.q, LOBE_RATIO), self.fold).0;
             c += huber((self.d[i] - m) * self.inv_s[i]);
         }
         c
@@ -728,7 +706,7 @@ impl Problem<'_> {
             let e = self.geo.core[i];
             let v = [e[0] - sp[0], e[1] - sp[1], e[2] - sp[2]];
             let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2] - self.geo.depth2[i];
-            let (k, dr2, dlw, da) = kern(r2, th[2], th[4], (self.q, self.m), self.fold);
+            let (k, dr2, dlw, da) = kern(r2, th[2], th[4], (self.q, LOBE_RATIO), self.fold);
             let ga = self.gain[i] * th[3];
             let dx = -2.0 * (v[0] * sx[0] + v[1] * sx[1] + v[2] * sx[2]);
             let dy = -2.0 * (v[0] * sy[0] + v[1] * sy[1] + v[2] * sy[2]);
@@ -826,8 +804,6 @@ pub struct Fit {
     lag: Option<crate::lag::LagEstimator>,
     /// The kernel's shape exponent `q` (`fit_shape_rate`; 2 = Gaussian).
     shape: f64,
-    /// The far lobe's width ratio `m` (`fit_lobe_ratio_rate`; [`LOBE_RATIO`] when off).
-    ratio: f64,
     /// The kernel folded to `|K|` (`fit_fold_lobe` and not `fit_signed`).
     fold: bool,
     /// Polarity learning (`fit_polarity_votes`, see *Polarity*): the frame's signed changes,
@@ -884,7 +860,6 @@ impl Fit {
             cal: GainCal::new(layout.positions()),
             lag: cfg.fit_lag_estimate.then(|| crate::lag::LagEstimator::new(cfg.fit_lag_prior, cfg.fit_lag_max_s)),
             shape: SHAPE_MAX,
-            ratio: LOBE_RATIO,
             fold: cfg.fit_fold_lobe && !cfg.fit_signed,
             sd: Vec::with_capacity(n),
             votes: vec![0.0; n],
@@ -942,7 +917,6 @@ impl Fit {
             inv_s: &self.inv_s,
             gain: &self.gain,
             q,
-            m: self.ratio,
             fold: self.fold,
             positive: self.positive(),
         };
@@ -950,35 +924,6 @@ impl Fit {
             return;
         };
         self.shape = (q + rate * (target - q)).clamp(SHAPE_MIN, SHAPE_MAX);
-    }
-
-    /// The far lobe's width ratio `m` learned so far (`fit_lobe_ratio_rate`; stays
-    /// [`LOBE_RATIO`] with the rate 0).
-    pub fn lobe_ratio(&self) -> f64 {
-        self.ratio
-    }
-
-    /// One step of the far lobe's width learner on a clean fit `th`, as [`Self::step_shape`]
-    /// in `ln m`: the frame's cost re-fitted at `ln m − h`, `ln m`, `ln m + h` (warm, one step
-    /// each), the parabola's minimum (clamped to [`RATIO_MIN`, `RATIO_MAX`]; the cheaper end
-    /// when the curve is not convex), and `ln m` moved toward it by `rate`.
-    fn step_ratio(&mut self, rate: f64, th: &[f64; NP]) {
-        let (lo, hi) = (RATIO_MIN.ln(), RATIO_MAX.ln());
-        let l = self.ratio.ln().clamp(lo, hi);
-        let prob = |l: f64| Problem {
-            geo: &self.geo,
-            d: &self.d,
-            inv_s: &self.inv_s,
-            gain: &self.gain,
-            q: self.shape,
-            m: l.exp(),
-            fold: self.fold,
-            positive: self.positive(),
-        };
-        let Some(target) = parabola_target(l, lo, hi, RATIO_STEP, |l| prob(l).solve(*th, 1).cost) else {
-            return;
-        };
-        self.ratio = (l + rate * (target - l)).clamp(lo, hi).exp();
     }
 
     /// Each electrode's pressing polarity as the fit applies it (`fit_polarity_votes`): +1 or
@@ -1171,7 +1116,6 @@ impl Fit {
             inv_s: &self.inv_s,
             gain: &self.gain,
             q: self.shape,
-            m: self.ratio,
             fold: self.fold && guard == 0.0,
             positive: self.positive(),
         };
@@ -1188,7 +1132,7 @@ impl Fit {
         // instead of its centre: such a fit is a ring, kept only when nothing else converges
         let geo = &self.geo;
         let fold = self.fold;
-        let qm = (self.shape, self.ratio);
+        let qm = (self.shape, LOBE_RATIO);
         let ring_at = |th: &[f64; NP]| {
             let (sp, _, _) = geo.skin(th[0], th[1]);
             let r2 = dist2(geo.core[k], sp) - geo.depth2[k];
@@ -1249,7 +1193,7 @@ impl Fit {
         let (mut far, mut far_strong, mut outliers) = (0, 0, 0);
         for i in 0..n {
             let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let kk = kern(r2, th[2], th[4], (self.shape, self.ratio), folded).0;
+            let kk = kern(r2, th[2], th[4], (self.shape, LOBE_RATIO), folded).0;
             self.kk[i] = kk;
             if self.inv_s[i] == 0.0 {
                 continue;
@@ -1302,7 +1246,6 @@ impl Fit {
         // learn the gains from a clean fit
         let rate = cfg.fit_gain_rate;
         let shape_rate = cfg.fit_shape_rate;
-        let ratio_rate = cfg.fit_lobe_ratio_rate;
         let clean = best.cost < 0.05 * null && !second_region && outliers <= 3;
         if rate > 0.0 && clean {
             if cfg.fit_gain_keys > 0 {
@@ -1310,13 +1253,7 @@ impl Fit {
                 let (spacing, cap) = (cfg.fit_gain_spacing_mm, cfg.fit_gain_keys as usize);
                 let pol = self.polarity_on().then_some((&self.sd[..], &self.thr[..], self.big, &self.inv_full[..]));
                 self.cal.offer(&th, &self.kk, (&self.d, pol), &self.inv_s, eps, (spacing, cap));
-                self.cal.refit(
-                    &self.geo,
-                    &self.gain,
-                    ((self.shape, self.ratio), self.fold, self.positive()),
-                    GAIN_REFITS,
-                    1,
-                );
+                self.cal.refit(&self.geo, &self.gain, (self.shape, self.fold, self.positive()), GAIN_REFITS, 1);
                 self.cal.gains(cfg.fit_gain_prior, cfg.fit_signed, &mut self.gain);
             } else {
                 self.step_gains(rate, th[3]);
@@ -1324,9 +1261,6 @@ impl Fit {
         }
         if shape_rate > 0.0 && clean {
             self.step_shape(shape_rate, &th);
-        }
-        if ratio_rate > 0.0 && clean {
-            self.step_ratio(ratio_rate, &th);
         }
         // polarity votes need a plausible single contact: a spread or far lobe at the family's
         // extremes is a fit through a far ring, whose "core" electrodes are in the ring
@@ -1488,7 +1422,6 @@ impl Stage for Fit {
         self.gain.iter_mut().for_each(|g| *g = 1.0);
         self.cal.clear();
         self.shape = SHAPE_MAX;
-        self.ratio = LOBE_RATIO;
         self.votes.iter_mut().for_each(|v| *v = 0.0);
         self.pol.iter_mut().for_each(|v| *v = 0.0);
         self.majority = 0.0;
@@ -1805,7 +1738,7 @@ impl GainCal {
         &mut self,
         geo: &Geometry,
         gain: &[f64],
-        ((q, ratio), fold, positive): ((f64, f64), bool, bool),
+        (q, fold, positive): (f64, bool, bool),
         count: usize,
         iterations: u32,
     ) {
@@ -1814,13 +1747,13 @@ impl GainCal {
             let k = self.next_refit % m;
             self.next_refit = k + 1;
             let key = &mut self.keys[k];
-            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, m: ratio, fold, positive };
+            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, fold, positive };
             let s = prob.solve(key.th, iterations);
             key.th = s.th;
             let (sp, _, _) = geo.skin(s.th[0], s.th[1]);
             for i in 0..key.kk.len() {
                 let r2 = dist2(geo.core[i], sp) - geo.depth2[i];
-                key.kk[i] = kern(r2, s.th[2], s.th[4], (q, ratio), fold).0;
+                key.kk[i] = kern(r2, s.th[2], s.th[4], (q, LOBE_RATIO), fold).0;
             }
         }
     }
@@ -2174,50 +2107,6 @@ mod tests {
             let m = geo.model_shaped([p[0], p[1], 3.0, -200.0, lobe], q, &[1.0; 25]);
             (0..25).map(|i| 2000.0 + 10.0 * i as f64 + if k >= 30 { m[i] } else { 0.0 }).collect()
         })
-    }
-
-    /// A noise-free sweep over the grid (unit gains) whose changes have a difference of
-    /// Gaussians of far-lobe weight `lobe` and width ratio `m` (spread 3 mm).
-    fn ratio_sweep(m: f64, lobe: f64, n: u64) -> Vec<TaxelFrame> {
-        let geo = Geometry::for_layout(&grid());
-        frames(n, |k| {
-            let t = k.saturating_sub(30) as f64 / 100.0;
-            let p = [8.0 + 8.5 * (1.3 * t).sin(), 8.0 + 8.5 * (2.1 * t).sin()];
-            let (sp, _, _) = geo.skin(p[0], p[1]);
-            (0..25)
-                .map(|i| {
-                    let r2 = dist2(geo.core[i], sp) - geo.depth2[i];
-                    let d = -200.0 * kernel(r2, 3.0f64.ln(), lobe, (2.0, m)).0;
-                    2000.0 + 10.0 * i as f64 + if k >= 30 { d } else { 0.0 }
-                })
-                .collect()
-        })
-    }
-
-    #[test]
-    fn the_far_lobe_width_is_learned_on_a_heavy_tail_and_stays_put_when_off() {
-        let layout = grid();
-        let cfg = LocateConfig {
-            fit_gain_rate: 0.0,
-            fit_lobe_ratio_rate: 0.05,
-            ..LocateConfig::preset(crate::locate::Preset::Accurate)
-        };
-        // a heavier tail (a = −0.3) of width ratio 4 and 1.8: the learned ratio moves from 2.5
-        // to it (measured 4.04 and 1.85)
-        let mut wide = Fit::try_new(&cfg, &layout).unwrap();
-        push_all(&mut wide, ratio_sweep(4.0, -0.3, 800));
-        assert!((wide.lobe_ratio() - 4.0).abs() < 0.3, "m̂ = {}", wide.lobe_ratio());
-        let mut narrow = Fit::try_new(&cfg, &layout).unwrap();
-        push_all(&mut narrow, ratio_sweep(1.8, -0.3, 800));
-        assert!((narrow.lobe_ratio() - 1.8).abs() < 0.15, "m̂ = {}", narrow.lobe_ratio());
-        // (a ring that moves the other way, a > 0, is NOT identified: the magnitude fit reads it
-        // as a heavier tail and the ratio drifts wide; examples/fit_parts/round12_diagnosis.txt)
-        // `reset` returns it to 2.5; off, it never moves and the kernel is the fixed one
-        wide.reset();
-        assert_eq!(wide.lobe_ratio(), LOBE_RATIO);
-        let mut off = Fit::try_new(&LocateConfig { fit_lobe_ratio_rate: 0.0, ..cfg }, &layout).unwrap();
-        push_all(&mut off, ratio_sweep(4.0, -0.3, 300));
-        assert_eq!(off.lobe_ratio(), LOBE_RATIO);
     }
 
     #[test]

@@ -23,10 +23,7 @@
 //! correction `(δx, δy)` mm by ridge regression on `1 + INPUTS + RANDOM` terms: a constant,
 //! the inputs, and [`RANDOM`] random cosine features `√(2/R)·cos(ωₖ·z + bₖ)` whose
 //! frequencies are drawn from a fixed seed ([`SEED`]; position dimensions at bandwidth
-//! `bandwidth[0]`, the others at `bandwidth[1] / √(INPUTS − 2)`). Weights may carry output limits
-//! computed on their training frames ([`Trained::with_limits`], round 11: a per-axis clamp to
-//! the training range, a shrink beyond the training inputs' novelty; off in the shipped weights,
-//! where neither improved the leave-one-physics-out view — `docs/tradeoff.md`). The correction
+//! `bandwidth[0]`, the others at `bandwidth[1] / √(INPUTS − 2)`). The correction
 //! is clamped to [`MAX_CORRECTION_MM`] and added to the fit's raw position, before the lag lead, the
 //! motion prior and the position memory (which see the corrected point). The fit itself —
 //! its warm start, gains and shape learning — never sees the correction.
@@ -101,14 +98,6 @@ pub struct Trained {
     pub w: [Vec<f64>; 2],
     /// The ridge penalty the weights were fitted with (reported only).
     pub lambda: f64,
-    /// Per-axis bounds of the correction `[x_lo, x_hi, y_lo, y_hi]` (mm), or `None`: the
-    /// [0.5 %, 99.5 %] quantiles of its own outputs on its training frames
-    /// ([`Trained::with_limits`]; round 11's C1, `docs/tradeoff.md`).
-    pub clamp_mm: Option<[f64; 4]>,
-    /// Novelty bound, or `None`: the 99th percentile over the training frames of the root mean
-    /// square of the standardised inputs; a frame whose root mean square `r` exceeds it has its
-    /// correction multiplied by `novelty / r` ([`Trained::with_limits`]; round 11's C2).
-    pub novelty: Option<f64>,
 }
 
 impl Trained {
@@ -120,49 +109,7 @@ impl Trained {
             bandwidth: weights::BANDWIDTH,
             w: [weights::WX.to_vec(), weights::WY.to_vec()],
             lambda: weights::LAMBDA,
-            clamp_mm: <[f64; 4]>::try_from(&weights::CLAMP[..]).ok(),
-            novelty: weights::NOVELTY.first().copied(),
         }
-    }
-
-    /// These weights with output limits computed on the frames `xs` they were trained on
-    /// (round 11): `clamp` sets [`Trained::clamp_mm`] to each axis's [0.5 %, 99.5 %] quantiles of
-    /// the correction's outputs on `xs`, `novelty` sets [`Trained::novelty`] to the 99th
-    /// percentile of the standardised inputs' root mean square on `xs`; both off leaves them
-    /// `None`. The quantiles are taken from the unlimited correction. Unchanged when `xs` is
-    /// empty or the weights are unusable.
-    pub fn with_limits(mut self, xs: &[Vec<f64>], clamp: bool, novelty: bool) -> Trained {
-        self.clamp_mm = None;
-        self.novelty = None;
-        if xs.is_empty() || !(clamp || novelty) {
-            return self;
-        }
-        let Ok(mut c) = Correction::try_new(self.clone()) else { return self };
-        let n = self.mean.len();
-        let (mut ox, mut oy, mut r) = (Vec::new(), Vec::new(), Vec::new());
-        for x in xs {
-            let v = c.apply(x);
-            if x.len() >= n && v[0].is_finite() && v[1].is_finite() {
-                ox.push(v[0]);
-                oy.push(v[1]);
-                r.push(c.rms());
-            }
-        }
-        if ox.is_empty() {
-            return self;
-        }
-        let q = |v: &mut Vec<f64>, p: f64| -> f64 {
-            v.sort_by(f64::total_cmp);
-            v[((v.len() - 1) as f64 * p).round() as usize]
-        };
-        if clamp {
-            self.clamp_mm = Some([q(&mut ox, 0.005), q(&mut ox, 0.995), q(&mut oy, 0.005), q(&mut oy, 0.995)]);
-        }
-        if novelty {
-            let v = q(&mut r, 0.99);
-            self.novelty = (v.is_finite() && v > 0.0).then_some(v);
-        }
-        self
     }
 
     /// Rust source of the weights file (what the training example writes).
@@ -182,18 +129,16 @@ impl Trained {
         s.push_str(&format!("pub(super) const SCALE: [f64; {}] = [{}];\n", self.scale.len(), arr(&self.scale)));
         s.push_str(&format!("pub(super) const WX: [f64; {}] = [{}];\n", self.w[0].len(), arr(&self.w[0])));
         s.push_str(&format!("pub(super) const WY: [f64; {}] = [{}];\n", self.w[1].len(), arr(&self.w[1])));
-        let clamp = self.clamp_mm.map_or(Vec::new(), |c| c.to_vec());
-        s.push_str(&format!("pub(super) const CLAMP: [f64; {}] = [{}];\n", clamp.len(), arr(&clamp)));
-        let nov = self.novelty.map_or(Vec::new(), |v| vec![v]);
-        s.push_str(&format!("pub(super) const NOVELTY: [f64; {}] = [{}];\n", nov.len(), arr(&nov)));
         s
     }
 }
 
 impl Trained {
     /// The weights from the text of a weights file ([`Trained::to_rust`]'s format); `None`
-    /// when a constant is missing or does not parse. Sizes are checked by
-    /// [`Correction::try_new`], not here.
+    /// when a constant is missing or does not parse, or when the file carries output limits
+    /// (round 11's `CLAMP` / `NOVELTY` lists, since removed: such weights cannot be applied as
+    /// trained; files whose lists are empty, as every shipped one, read as before). Sizes are
+    /// checked by [`Correction::try_new`], not here.
     pub fn from_rust(src: &str) -> Option<Trained> {
         let body = |name: &str| -> Option<&str> {
             let line = src.lines().find(|l| l.contains(&format!("const {name}:")))?;
@@ -205,6 +150,13 @@ impl Trained {
             let inner = b.strip_prefix('[')?.strip_suffix(']')?;
             inner.split(',').map(|v| v.trim().parse().ok()).collect()
         };
+        // round 11's output limits (removed): absent or empty lists only
+        if ["CLAMP", "NOVELTY"]
+            .iter()
+            .any(|n| body(n).is_some_and(|b| b.trim_start_matches('[').trim_end_matches(']').trim() != ""))
+        {
+            return None;
+        }
         let bw = list("BANDWIDTH")?;
         Some(Trained {
             mean: list("MEAN")?,
@@ -212,9 +164,6 @@ impl Trained {
             bandwidth: [*bw.first()?, *bw.get(1)?],
             w: [list("WX")?, list("WY")?],
             lambda: body("LAMBDA")?.parse().ok()?,
-            // the round-11 limits: absent (older files) or empty (`[]` parses to no list) = none
-            clamp_mm: list("CLAMP").and_then(|v| <[f64; 4]>::try_from(&v[..]).ok()),
-            novelty: list("NOVELTY").and_then(|v| v.first().copied()),
         })
     }
 }
@@ -238,9 +187,7 @@ impl Correction {
             && t.w.iter().all(|w| w.len() == terms_for(n) && w.iter().all(|v| v.is_finite()))
             && t.mean.iter().all(|v| v.is_finite())
             && t.scale.iter().all(|v| v.is_finite() && *v > 0.0)
-            && t.bandwidth.iter().all(|v| v.is_finite() && *v >= 0.0)
-            && t.clamp_mm.is_none_or(|c| c.iter().all(|v| v.is_finite()) && c[0] <= c[1] && c[2] <= c[3])
-            && t.novelty.is_none_or(|v| v.is_finite() && v > 0.0);
+            && t.bandwidth.iter().all(|v| v.is_finite() && *v >= 0.0);
         if !ok {
             return Err(Error::InvalidConfig {
                 stage: "locate",
@@ -266,14 +213,7 @@ impl Correction {
         self.z.len()
     }
 
-    /// The root mean square of the last applied frame's standardised inputs (the novelty
-    /// [`Trained::novelty`] bounds).
-    fn rms(&self) -> f64 {
-        (self.z.iter().map(|z| z * z).sum::<f64>() / self.z.len().max(1) as f64).sqrt()
-    }
-
-    /// The correction (mm; shrunk by [`Trained::novelty`] and clamped to [`Trained::clamp_mm`]
-    /// when the weights have them, then to [`MAX_CORRECTION_MM`]) for one frame's inputs `x`
+    /// The correction (mm; clamped to [`MAX_CORRECTION_MM`]) for one frame's inputs `x`
     /// ([`INPUTS`] values from [`inputs`], then the [`GAIN_INPUTS`] from [`gain_inputs`]; the
     /// weights read the first [`Correction::inputs`]); `[0, 0]` when `x` is shorter or
     /// anything is not finite.
@@ -301,17 +241,6 @@ impl Correction {
             let f = norm * a.cos();
             cx += wx[1 + n + k] * f;
             cy += wy[1 + n + k] * f;
-        }
-        if let Some(q) = self.t.novelty {
-            let r = self.rms();
-            if r > q {
-                cx *= q / r;
-                cy *= q / r;
-            }
-        }
-        if let Some(c) = self.t.clamp_mm {
-            cx = cx.clamp(c[0], c[1]);
-            cy = cy.clamp(c[2], c[3]);
         }
         let m = cx.hypot(cy);
         if !m.is_finite() {
@@ -598,8 +527,6 @@ impl Design {
                     bandwidth: self.bandwidth,
                     w: [wx, wy],
                     lambda,
-                    clamp_mm: None,
-                    novelty: None,
                 })
             })
             .collect()
@@ -753,72 +680,35 @@ mod tests {
     }
 
     #[test]
-    fn output_limits_hold_the_training_range_shrink_novel_frames_and_round_trip() {
+    fn weights_files_round_trip_and_older_files_with_empty_limits_still_load() {
         let mut rng = SplitMix::new(11);
         let f = |x: &[f64]| [0.3 * x[0] - 0.2 * x[5], 0.4 * (1.5 * x[1]).sin()];
         let xs: Vec<Vec<f64>> = (0..2000).map(|_| sample(&mut rng)).collect();
         let ys: Vec<[f64; 2]> = xs.iter().map(|x| f(x)).collect();
         let t = train(&xs, &ys, 1e-5, [1.5, 0.5]).unwrap();
-        assert_eq!((t.clamp_mm, t.novelty), (None, None));
-        // nothing asked, or no frames: no limits
-        assert_eq!(t.clone().with_limits(&xs, false, false), t);
-        assert_eq!(t.clone().with_limits(&[], true, true), t);
-        let c1 = t.clone().with_limits(&xs, true, false);
-        let c2 = t.clone().with_limits(&xs, false, true);
-        let c3 = t.clone().with_limits(&xs, true, true);
-        let b = c1.clamp_mm.unwrap();
-        assert!(b[0] < b[1] && b[2] < b[3] && c1.novelty.is_none());
-        assert_eq!(c3.clamp_mm, c1.clamp_mm);
-        assert_eq!(c3.novelty, c2.novelty);
-        let q = c2.novelty.unwrap();
-        assert!(q > 0.5 && q < 3.0, "{q}");
-        let (mut plain, mut clamp, mut shrink) = (
-            Correction::try_new(t.clone()).unwrap(),
-            Correction::try_new(c1).unwrap(),
-            Correction::try_new(c2).unwrap(),
-        );
-        // on its training frames the clamp moves about 1 % of the outputs per axis, and never by
-        // more than it must; the shrink leaves 99 % unchanged
-        let (mut moved, mut shrunk) = (0usize, 0usize);
-        for x in &xs {
-            let (p, c, s) = (plain.apply(x), clamp.apply(x), shrink.apply(x));
-            assert!(c[0] >= b[0] && c[0] <= b[1] && c[1] >= b[2] && c[1] <= b[3]);
-            assert_eq!([p[0].clamp(b[0], b[1]), p[1].clamp(b[2], b[3])], c);
-            moved += usize::from(c != p);
-            shrunk += usize::from(s != p);
-        }
-        assert!(moved > 0 && moved <= 45, "{moved}");
-        assert!(shrunk > 0 && shrunk <= 22, "{shrunk}");
-        // a frame far outside the training inputs: shrunk by q / rms, in the same direction
-        let far: Vec<f64> = (0..INPUTS).map(|i| if i % 2 == 0 { 3.0 } else { -3.0 }).collect();
-        let (p, s) = (plain.apply(&far), shrink.apply(&far));
-        let r = shrink.rms();
-        assert!(r > q);
-        for k in 0..2 {
-            assert!((s[k] - p[k] * q / r).abs() <= 1e-12 * p[k].abs().max(1.0), "{s:?} {p:?}");
-        }
-        // the file format carries the limits; an older file (no CLAMP / NOVELTY) reads as none
-        assert_eq!(Trained::from_rust(&c3.to_rust("limits")), Some(c3.clone()));
-        let old: String = t
-            .to_rust("old")
-            .lines()
-            .filter(|l| !l.contains("const CLAMP") && !l.contains("const NOVELTY"))
-            .collect::<Vec<_>>()
-            .join("\n");
+        let src = t.to_rust("round trip");
+        assert!(!src.contains("CLAMP") && !src.contains("NOVELTY"), "{src}");
+        assert_eq!(Trained::from_rust(&src), Some(t.clone()));
+        // a file written before round 11's limits were removed carries them as empty lists (the
+        // shipped file did): it reads as the same weights
+        let old = format!("{src}pub(super) const CLAMP: [f64; 0] = [];\npub(super) const NOVELTY: [f64; 0] = [];\n");
         assert_eq!(Trained::from_rust(&old), Some(t.clone()));
-        // limits that cannot be applied are refused
-        for (clamp, nov) in [
-            (Some([1.0, -1.0, 0.0, 0.0]), None),
-            (Some([f64::NAN, 1.0, 0.0, 0.0]), None),
-            (None, Some(0.0)),
-            (None, Some(f64::INFINITY)),
+        let shipped = include_str!("fit_learned_weights.rs");
+        let shipped_old =
+            format!("{shipped}pub(super) const CLAMP: [f64; 0] = [];\npub(super) const NOVELTY: [f64; 0] = [];\n");
+        assert_eq!(Trained::from_rust(shipped), Some(Trained::builtin()));
+        assert_eq!(Trained::from_rust(&shipped_old), Some(Trained::builtin()));
+        // a file with limits (round 11's candidates, never shipped) cannot be applied as trained: refused
+        for limits in [
+            "pub(super) const CLAMP: [f64; 4] = [-1e0, 1e0, -1e0, 1e0];\npub(super) const NOVELTY: [f64; 0] = [];\n",
+            "pub(super) const CLAMP: [f64; 0] = [];\npub(super) const NOVELTY: [f64; 1] = [2e0];\n",
         ] {
-            assert!(Correction::try_new(Trained { clamp_mm: clamp, novelty: nov, ..t.clone() }).is_err());
+            assert_eq!(Trained::from_rust(&format!("{src}{limits}")), None, "{limits}");
         }
-        // non-finite inputs still give no correction, never a panic
-        let mut c = Correction::try_new(c3).unwrap();
+        // non-finite inputs give no correction, never a panic
+        let mut c = Correction::try_new(t).unwrap();
         assert_eq!(c.apply(&[f64::INFINITY; INPUTS]), [0.0, 0.0]);
-        let mut nan = far.clone();
+        let mut nan: Vec<f64> = (0..INPUTS).map(|i| if i % 2 == 0 { 3.0 } else { -3.0 }).collect();
         nan[4] = f64::NAN;
         assert_eq!(c.apply(&nan), [0.0, 0.0]);
     }

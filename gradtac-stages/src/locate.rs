@@ -290,11 +290,6 @@ pub struct LocateConfig {
     /// exponential), one value per sensor, moved by this fraction toward each clean frame's
     /// best `q` ([`crate::fit`], *Kernel shape*). Default 0.
     pub fit_shape_rate: f64,
-    /// `fit`: how fast the far lobe's width ratio `m` is learned (0–1 per clean fit; 0 = off,
-    /// `m` = 2.5): `m` in [1.5, 5], one value per sensor, moved (in `ln m`) by this fraction
-    /// toward each clean frame's best `m` ([`crate::fit`], *Kernel shape*). Default 0
-    /// (`docs/tradeoff.md`, round 12).
-    pub fit_lobe_ratio_rate: f64,
     /// `fit`: with the magnitude fit (`fit_signed = false`), fit the kernel's magnitude `|K|`
     /// too (`true`), so a far ring that moves the other way — whose changes arrive as
     /// magnitudes — is modelled as the data see it ([`crate::fit`], *Kernel shape*). Default
@@ -403,7 +398,6 @@ struct LocateToml {
     fit_gain_spacing_mm: Option<f64>,
     fit_gain_prior: Option<f64>,
     fit_shape_rate: Option<f64>,
-    fit_lobe_ratio_rate: Option<f64>,
     fit_fold_lobe: Option<bool>,
     fit_fold_guard_mm: Option<f64>,
     fit_model_error: Option<f64>,
@@ -446,7 +440,6 @@ impl From<LocateToml> for LocateConfig {
             fit_gain_spacing_mm,
             fit_gain_prior,
             fit_shape_rate,
-            fit_lobe_ratio_rate,
             fit_fold_lobe,
             fit_fold_guard_mm,
             fit_model_error,
@@ -548,7 +541,6 @@ impl LocateConfig {
             fit_gain_spacing_mm: 1.0,
             fit_gain_prior: 1.0,
             fit_shape_rate: 0.0,
-            fit_lobe_ratio_rate: 0.0,
             fit_fold_lobe: false,
             fit_fold_guard_mm: 0.0,
             fit_model_error: 0.3,
@@ -623,9 +615,6 @@ impl LocateConfig {
         }
         if !(self.fit_shape_rate.is_finite() && (0.0..=1.0).contains(&self.fit_shape_rate)) {
             return bad(format!("`fit_shape_rate` = {} must be in [0, 1] (0 = off)", self.fit_shape_rate));
-        }
-        if !(self.fit_lobe_ratio_rate.is_finite() && (0.0..=1.0).contains(&self.fit_lobe_ratio_rate)) {
-            return bad(format!("`fit_lobe_ratio_rate` = {} must be in [0, 1] (0 = off)", self.fit_lobe_ratio_rate));
         }
         if !(self.fit_fold_guard_mm.is_finite() && (0.0..=100.0).contains(&self.fit_fold_guard_mm)) {
             return bad(format!("`fit_fold_guard_mm` = {} must be in [0, 100] (0 = off)", self.fit_fold_guard_mm));
@@ -2224,8 +2213,6 @@ mod tests {
             LocateConfig { fit_lag_prior: -1.0, ..Default::default() },
             LocateConfig { fit_shape_rate: 1.5, ..Default::default() },
             LocateConfig { fit_shape_rate: f64::NAN, ..Default::default() },
-            LocateConfig { fit_lobe_ratio_rate: 1.5, ..Default::default() },
-            LocateConfig { fit_lobe_ratio_rate: f64::NAN, ..Default::default() },
             LocateConfig { fit_fold_guard_mm: -1.0, ..Default::default() },
             LocateConfig { fit_fold_guard_mm: f64::INFINITY, ..Default::default() },
             LocateConfig { fit_velocity_frames: 101, ..Default::default() },
