@@ -531,12 +531,6 @@ impl SensorChain {
                          sign kept (fit_polarity_votes)",
                         l.fit_polarity_votes
                     )
-                } else if l.fit_ring_sign_spreads > 0.0 {
-                    format!(
-                        "the changes' magnitudes |Δ|, then a second pass with the electrodes at least {} fitted \
-                         spreads from the fitted contact signed relative to the fitted core (fit_ring_sign_spreads)",
-                        l.fit_ring_sign_spreads
-                    )
                 } else {
                     "the changes' magnitudes |Δ| (fit_polarity_votes 0)".to_string()
                 };

@@ -180,20 +180,6 @@
 //! motion (an electrode's change as the contact passes over it), or a ring the magnitude fit
 //! can rule out before it votes.
 //!
-//! # Ring sign (`fit_ring_sign_spreads`; off by default and in `accurate`; round 14)
-//! A second pass per fitted frame in which the **fitted model** picks the electrodes that are
-//! signed: after the magnitude fit (and its fold guard), an electrode at least
-//! `fit_ring_sign_spreads` fitted spreads `w` from the fitted contact (ρ ≥ c·w on the 3-D skin)
-//! is refitted as `s·Δᵢ`, `s` the sign of the fitted core's signed changes (weighted by the
-//! core lobe `exp(−ρ²/2w²)`); the electrodes nearer stay magnitudes, so an electrode of the
-//! other polarity on the core's flank is not read as ring. Only when some signed change is
-//! negative (a far ring moving against the core) the fit is solved again from the first
-//! pass's solution, the fold applying only where the change is not negative, and kept when it
-//! stays within 2 mm, explains ≥ 80 % of the no-contact cost and does not put the strongest
-//! electrode in its ring; the gains, key frames and learned correction then read the changes
-//! as that pass saw them. Otherwise the first pass stands, bit for bit. Trial:
-//! `examples/fit_parts/rule_round14.md`.
-//!
 //! # Reported per point ([`FitSummary`] in [`MaxContour::fit`])
 //! amplitude `|A|`, spread `w`, far-lobe weight `a`, the **relative residual**
 //! `‖Δ − model‖ / ‖Δ‖` over the electrodes used, the **position uncertainty** `sigma_mm` (the
@@ -305,7 +291,6 @@
 //! | `fit_gain_spacing_mm` | keys crowd where the contact dwells | fewer keys, the pad sampled coarsely |
 //! | `fit_shape_rate` | 0: the Gaussian (or difference of Gaussians) only | the shape follows each clean frame, noisier; three one-step re-fits per clean frame |
 //! | `fit_fold_lobe` | a far ring that moves the other way is an outlier to the model | the ring fitted as magnitudes; more local minima (ring fits; far lobe ≤ 0.6) |
-//! | `fit_ring_sign_spreads` | 0: every change a magnitude (the ring read as a heavier tail) | fewer electrodes signed (only the far ring); small: flank electrodes of the other polarity signed too; one more solve on frames with a signed ring |
 //! | `fit_fold_guard_mm` | 0: the folded fit carries its own minima (ring fits); small: the fold kept only near the unfolded fit | the fold's refinement kept farther from the unfolded fit (ring fits reachable in one frame's descent); one more solve per fitted frame either way |
 //! | `fit_polarity_votes` | 0: magnitudes, the ring read as the contact; few: a polarity decided on few frames | fewer false polarities, decided later; the ring's electrodes left out until decided (measured: no gain, *Polarity*) |
 //! | `fit_learned_correction` | off: the fit's biases stay (tuning 0.032) | the average bias of simulated tuning physics removed (tuning 0.029; mostly the gains' share); ≈ 0.14 mm added on a sensor that is the fit's own model; ≈ 6 µs per fitted frame; knows only the BioTac SP and the physics it was trained on |
@@ -372,8 +357,6 @@ const FOLD_LOBE_MAX: f64 = 0.6;
 const RING_MIN: f64 = 0.3;
 /// The far-lobe weight the ring-fit guard's folded refinement starts from (at least; `fit_fold_guard_mm`).
 const FOLD_START_LOBE: f64 = 0.3;
-/// Farthest (mm) the ring sign's second pass may move the first pass's position (*Ring sign*).
-const RING_SIGN_GUARD_MM: f64 = 2.0;
 /// Kernel value at or above which an electrode is under the contact's core (polarity votes).
 const CORE_KERNEL: f64 = 0.5;
 /// Share of the frame's largest change an electrode's change needs to vote for its polarity.
@@ -665,9 +648,6 @@ struct Problem<'a> {
     q: f64,
     /// The model folded to `|K|` (`fit_fold_lobe` on the magnitude fit).
     fold: bool,
-    /// Ring sign (`fit_ring_sign_spreads` > 0): the fold only where the change is not negative
-    /// (a negative change is a ring electrode signed against the fitted core: the unfolded model).
-    signs: bool,
     /// The amplitude held positive (`fit_polarity_votes`: the changes are in pressing units).
     positive: bool,
 }
@@ -684,13 +664,6 @@ struct Solution {
 }
 
 impl Problem<'_> {
-    /// Whether electrode `i`'s model is folded (`fold`, and with `signs` only where its change
-    /// is not negative).
-    #[inline]
-    fn fold_at(&self, i: usize) -> bool {
-        self.fold && !(self.signs && self.d[i] < 0.0)
-    }
-
     fn clamp(&self, th: &mut [f64; NP]) -> bool {
         let b = self.geo.bounds;
         let (x, y) = (th[0].clamp(b[0], b[1]), th[1].clamp(b[2], b[3]));
@@ -714,7 +687,7 @@ impl Problem<'_> {
                 continue;
             }
             let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let m = self.gain[i] * th[3] * kern(r2, th[2], th[4], (self.q, LOBE_RATIO), self.fold_at(i)).0;
+            let m = self.gain[i] * th[3] * kern(r2, th[2], th[4], (self.q, LOBE_RATIO), self.fold).0;
             c += huber((self.d[i] - m) * self.inv_s[i]);
         }
         c
@@ -733,7 +706,7 @@ impl Problem<'_> {
             let e = self.geo.core[i];
             let v = [e[0] - sp[0], e[1] - sp[1], e[2] - sp[2]];
             let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2] - self.geo.depth2[i];
-            let (k, dr2, dlw, da) = kern(r2, th[2], th[4], (self.q, LOBE_RATIO), self.fold_at(i));
+            let (k, dr2, dlw, da) = kern(r2, th[2], th[4], (self.q, LOBE_RATIO), self.fold);
             let ga = self.gain[i] * th[3];
             let dx = -2.0 * (v[0] * sx[0] + v[1] * sx[1] + v[2] * sx[2]);
             let dy = -2.0 * (v[0] * sy[0] + v[1] * sy[1] + v[2] * sy[2]);
@@ -833,8 +806,6 @@ pub struct Fit {
     shape: f64,
     /// The kernel folded to `|K|` (`fit_fold_lobe` and not `fit_signed`).
     fold: bool,
-    /// The changes as the ring sign's second pass sees them (`fit_ring_sign_spreads`).
-    ring: Vec<f64>,
     /// Polarity learning (`fit_polarity_votes`, see *Polarity*): the frame's signed changes,
     /// each electrode's net core votes and the polarity applied (±1, 0 = magnitude).
     sd: Vec<f64>,
@@ -890,7 +861,6 @@ impl Fit {
             lag: cfg.fit_lag_estimate.then(|| crate::lag::LagEstimator::new(cfg.fit_lag_prior, cfg.fit_lag_max_s)),
             shape: SHAPE_MAX,
             fold: cfg.fit_fold_lobe && !cfg.fit_signed,
-            ring: Vec::with_capacity(n),
             sd: Vec::with_capacity(n),
             votes: vec![0.0; n],
             pol: vec![0.0; n],
@@ -948,7 +918,6 @@ impl Fit {
             gain: &self.gain,
             q,
             fold: self.fold,
-            signs: self.signs(),
             positive: self.positive(),
         };
         let Some(target) = parabola_target(q, SHAPE_MIN, SHAPE_MAX, SHAPE_STEP, |q| prob(q).solve(*th, 1).cost) else {
@@ -967,12 +936,6 @@ impl Fit {
     fn polarity_on(&self) -> bool {
         let cfg = self.det.config();
         cfg.fit_polarity_votes > 0 && !cfg.fit_signed
-    }
-
-    /// Whether the ring sign's second pass runs (`fit_ring_sign_spreads` > 0, *Ring sign*; the
-    /// config rules out `fit_signed` and polarity votes with it).
-    fn signs(&self) -> bool {
-        self.det.config().fit_ring_sign_spreads > 0.0
     }
 
     /// Whether the amplitude is held positive: with polarity learning the changes are in
@@ -1154,7 +1117,6 @@ impl Fit {
             gain: &self.gain,
             q: self.shape,
             fold: self.fold && guard == 0.0,
-            signs: self.signs(),
             positive: self.positive(),
         };
         let a0 = self.d[k] / if self.gain[k].abs() > 0.2 { self.gain[k] } else { 1.0 };
@@ -1222,57 +1184,7 @@ impl Fit {
         } else {
             (best, fold)
         };
-        // the ring sign's second pass (`fit_ring_sign_spreads`, *Ring sign*): the fitted model
-        // picks the electrodes that are signed
-        let spreads = cfg.fit_ring_sign_spreads;
-        let mut best = best;
-        let mut resigned = false;
-        if spreads > 0.0 && self.sd.len() == n {
-            let th = best.th;
-            let (sp, _, _) = self.geo.skin(th[0], th[1]);
-            let w2 = (2.0 * th[2]).exp();
-            let far2 = spreads * spreads * w2;
-            // the fitted core's sign: its signed changes weighted by the fitted core lobe
-            let mut core = 0.0;
-            for i in 0..n {
-                if self.inv_s[i] != 0.0 {
-                    let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-                    core += (-r2 / (2.0 * w2)).exp() * self.sd[i];
-                }
-            }
-            let s = if core < 0.0 { -1.0 } else { 1.0 };
-            self.ring.clear();
-            let mut negative = false;
-            for i in 0..n {
-                let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-                let v = if r2 >= far2 && self.inv_s[i] != 0.0 { s * self.sd[i] } else { self.d[i] };
-                negative |= v < 0.0;
-                self.ring.push(v);
-            }
-            // no ring electrode moves against the core: the first pass stands (bit for bit)
-            if negative {
-                let ps = Problem { d: &self.ring, fold: folded, ..prob };
-                let s2 = ps.solve(th, iters);
-                let near = (s2.th[0] - th[0]).hypot(s2.th[1] - th[1]) <= RING_SIGN_GUARD_MM;
-                if near && s2.cost < 0.2 * null && !ring_at(&s2.th) {
-                    best = s2;
-                    resigned = true;
-                }
-            }
-        }
-        if resigned {
-            std::mem::swap(&mut self.d, &mut self.ring);
-        }
-        let prob = Problem {
-            geo: &self.geo,
-            d: &self.d,
-            inv_s: &self.inv_s,
-            gain: &self.gain,
-            q: self.shape,
-            fold: folded,
-            signs: self.signs(),
-            positive: self.positive(),
-        };
+        let prob = Problem { fold: folded, ..prob };
         let th = best.th;
         // summary: residual, covariance, second region
         let (sp, _, _) = self.geo.skin(th[0], th[1]);
@@ -1281,7 +1193,7 @@ impl Fit {
         let (mut far, mut far_strong, mut outliers) = (0, 0, 0);
         for i in 0..n {
             let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-            let kk = kern(r2, th[2], th[4], (self.shape, LOBE_RATIO), prob.fold_at(i)).0;
+            let kk = kern(r2, th[2], th[4], (self.shape, LOBE_RATIO), folded).0;
             self.kk[i] = kk;
             if self.inv_s[i] == 0.0 {
                 continue;
@@ -1341,13 +1253,7 @@ impl Fit {
                 let (spacing, cap) = (cfg.fit_gain_spacing_mm, cfg.fit_gain_keys as usize);
                 let pol = self.polarity_on().then_some((&self.sd[..], &self.thr[..], self.big, &self.inv_full[..]));
                 self.cal.offer(&th, &self.kk, (&self.d, pol), &self.inv_s, eps, (spacing, cap));
-                self.cal.refit(
-                    &self.geo,
-                    &self.gain,
-                    (self.shape, (self.fold, self.signs()), self.positive()),
-                    GAIN_REFITS,
-                    1,
-                );
+                self.cal.refit(&self.geo, &self.gain, (self.shape, self.fold, self.positive()), GAIN_REFITS, 1);
                 self.cal.gains(cfg.fit_gain_prior, cfg.fit_signed, &mut self.gain);
             } else {
                 self.step_gains(rate, th[3]);
@@ -1451,11 +1357,6 @@ impl Stage for Fit {
                     }
                 }
             } else if !self.det.config().fit_signed {
-                if self.signs() {
-                    // the signed changes, for the ring sign's second pass
-                    self.sd.clear();
-                    self.sd.extend_from_slice(&d);
-                }
                 d.iter_mut().for_each(|v| *v = v.abs());
             }
             self.d = d;
@@ -1837,7 +1738,7 @@ impl GainCal {
         &mut self,
         geo: &Geometry,
         gain: &[f64],
-        (q, (fold, signs), positive): (f64, (bool, bool), bool),
+        (q, fold, positive): (f64, bool, bool),
         count: usize,
         iterations: u32,
     ) {
@@ -1846,13 +1747,13 @@ impl GainCal {
             let k = self.next_refit % m;
             self.next_refit = k + 1;
             let key = &mut self.keys[k];
-            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, fold, signs, positive };
+            let prob = Problem { geo, d: &key.d, inv_s: &key.inv_s, gain, q, fold, positive };
             let s = prob.solve(key.th, iterations);
             key.th = s.th;
             let (sp, _, _) = geo.skin(s.th[0], s.th[1]);
             for i in 0..key.kk.len() {
                 let r2 = dist2(geo.core[i], sp) - geo.depth2[i];
-                key.kk[i] = kern(r2, s.th[2], s.th[4], (q, LOBE_RATIO), prob.fold_at(i)).0;
+                key.kk[i] = kern(r2, s.th[2], s.th[4], (q, LOBE_RATIO), fold).0;
             }
         }
     }
@@ -2206,73 +2107,6 @@ mod tests {
             let m = geo.model_shaped([p[0], p[1], 3.0, -200.0, lobe], q, &[1.0; 25]);
             (0..25).map(|i| 2000.0 + 10.0 * i as f64 + if k >= 30 { m[i] } else { 0.0 }).collect()
         })
-    }
-
-    /// A noise-free sweep of the kernel with far lobe `lobe` and width ratio `m` (spread 3 mm);
-    /// the electrodes in `flips` rise under pressure (the other polarity).
-    fn ring_sweep(m: f64, lobe: f64, flips: &[usize], n: u64) -> Vec<TaxelFrame> {
-        let geo = Geometry::for_layout(&grid());
-        frames(n, |k| {
-            let t = k.saturating_sub(30) as f64 / 100.0;
-            let p = [8.0 + 8.5 * (1.3 * t).sin(), 8.0 + 8.5 * (2.1 * t).sin()];
-            let (sp, _, _) = geo.skin(p[0], p[1]);
-            (0..25)
-                .map(|i| {
-                    let r2 = dist2(geo.core[i], sp) - geo.depth2[i];
-                    let sg = if flips.contains(&i) { -1.0 } else { 1.0 };
-                    let d = -200.0 * sg * kernel(r2, 3.0f64.ln(), lobe, (2.0, m)).0;
-                    2000.0 + 10.0 * i as f64 + if k >= 30 { d } else { 0.0 }
-                })
-                .collect()
-        })
-    }
-
-    /// Mean distance (mm) of the fitted positions from [`ring_sweep`]'s path over the last
-    /// `tail` frames.
-    fn ring_sweep_error(out: &[ContourFrame], tail: usize) -> f64 {
-        let n = out.len();
-        let mut e = 0.0;
-        for (k, f) in out.iter().enumerate().skip(n - tail) {
-            let c = f.outcome.contact().expect("in contact");
-            let t = (k as u64).saturating_sub(30) as f64 / 100.0;
-            let p = [8.0 + 8.5 * (1.3 * t).sin(), 8.0 + 8.5 * (2.1 * t).sin()];
-            e += (c.peak_mm[0] - p[0]).hypot(c.peak_mm[1] - p[1]);
-        }
-        e / tail as f64
-    }
-
-    #[test]
-    fn the_model_picked_ring_sign_stays_near_the_magnitude_fit_and_keeps_constant_input_quiet() {
-        let layout = grid();
-        let cfg = LocateConfig { fit_gain_rate: 0.0, ..LocateConfig::preset(crate::locate::Preset::Accurate) };
-        for c in [2.0, 3.0] {
-            let on_cfg = LocateConfig { fit_ring_sign_spreads: c, ..cfg.clone() };
-            // a heavier tail, a Gaussian, the fit's own ring (a = 0.3), and a Gaussian with
-            // four electrodes of the other polarity
-            for (lobe, flips) in [(-0.3, vec![]), (0.0, vec![]), (0.3, vec![]), (0.0, vec![3usize, 7, 12, 18])] {
-                let mut off = Fit::try_new(&cfg, &layout).unwrap();
-                let e_off = ring_sweep_error(&push_all(&mut off, ring_sweep(2.5, lobe, &flips, 600)), 300);
-                let mut on = Fit::try_new(&on_cfg, &layout).unwrap();
-                let e_on = ring_sweep_error(&push_all(&mut on, ring_sweep(2.5, lobe, &flips, 600)), 300);
-                // measured (noise-free, unit gains): 0.557 / 0.557 mm on the tail and the Gaussian at
-                // both spreads; the ring 1.213 → 1.150 (2) / 1.139 mm (3); the four flank
-                // electrodes of the other polarity 0.557 → 0.562 / 0.559 mm (round 13's frame
-                // sign: 0.784 mm)
-                let what =
-                    format!("spreads {c} lobe {lobe} flips {flips:?}: ring sign {e_on} mm, magnitudes {e_off} mm");
-                if lobe > 0.0 {
-                    assert!(e_on < e_off - 0.03, "{what}");
-                } else if flips.is_empty() {
-                    assert!((e_on - e_off).abs() < 0.005, "{what}");
-                } else {
-                    assert!(e_on < e_off + 0.02, "{what}");
-                }
-            }
-            // constant input: no contact
-            let mut on = Fit::try_new(&on_cfg, &layout).unwrap();
-            let flat = frames(200, |_| (0..25).map(|k| 2000.0 + 10.0 * k as f64).collect());
-            assert!(push_all(&mut on, flat).iter().all(|f| f.outcome.contact().is_none()));
-        }
     }
 
     #[test]

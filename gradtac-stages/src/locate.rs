@@ -304,12 +304,6 @@ pub struct LocateConfig {
     /// strongest electrode; the folded fit never carries its own warm start from frame to
     /// frame ([`crate::fit`], *Kernel shape*). Default 0; `accurate` 2.
     pub fit_fold_guard_mm: f64,
-    /// `fit`: with the magnitude fit, a second pass per fitted frame in which the electrodes at
-    /// least this many fitted spreads from the fitted contact keep their sign relative to the
-    /// fitted core (0–20; 0 = off, every change a magnitude): the fitted model, not the data's
-    /// magnitude, picks the ring's electrodes ([`crate::fit`], *Ring sign*). Not with
-    /// `fit_signed` or `fit_polarity_votes`. Default 0 (`docs/tradeoff.md`, round 14).
-    pub fit_ring_sign_spreads: f64,
     /// `fit`: model error as a fraction of the frame's largest change, added in quadrature to
     /// each electrode's measured noise (≥ 0, ≤ 1): how much the response may differ from the
     /// fitted kernel before an electrode stops counting fully. Default 0.3.
@@ -406,7 +400,6 @@ struct LocateToml {
     fit_shape_rate: Option<f64>,
     fit_fold_lobe: Option<bool>,
     fit_fold_guard_mm: Option<f64>,
-    fit_ring_sign_spreads: Option<f64>,
     fit_model_error: Option<f64>,
     fit_rails: Option<[f64; 2]>,
     fit_signed: Option<bool>,
@@ -449,7 +442,6 @@ impl From<LocateToml> for LocateConfig {
             fit_shape_rate,
             fit_fold_lobe,
             fit_fold_guard_mm,
-            fit_ring_sign_spreads,
             fit_model_error,
             fit_rails,
             fit_signed,
@@ -551,7 +543,6 @@ impl LocateConfig {
             fit_shape_rate: 0.0,
             fit_fold_lobe: false,
             fit_fold_guard_mm: 0.0,
-            fit_ring_sign_spreads: 0.0,
             fit_model_error: 0.3,
             fit_rails: [0.0, 4095.0],
             fit_signed: false,
@@ -627,19 +618,6 @@ impl LocateConfig {
         }
         if !(self.fit_fold_guard_mm.is_finite() && (0.0..=100.0).contains(&self.fit_fold_guard_mm)) {
             return bad(format!("`fit_fold_guard_mm` = {} must be in [0, 100] (0 = off)", self.fit_fold_guard_mm));
-        }
-        if !(self.fit_ring_sign_spreads.is_finite() && (0.0..=20.0).contains(&self.fit_ring_sign_spreads)) {
-            return bad(format!(
-                "`fit_ring_sign_spreads` = {} must be in [0, 20] (0 = off)",
-                self.fit_ring_sign_spreads
-            ));
-        }
-        if self.fit_ring_sign_spreads > 0.0 && (self.fit_signed || self.fit_polarity_votes > 0) {
-            return bad(format!(
-                "`fit_ring_sign_spreads` = {} needs the magnitude fit without polarity votes (`fit_signed` = false, \
-                 `fit_polarity_votes` = 0)",
-                self.fit_ring_sign_spreads
-            ));
         }
         if self.fit_polarity_votes > 1000 {
             return bad(format!("`fit_polarity_votes` = {} must be in 0..=1000 (0 = off)", self.fit_polarity_votes));
@@ -2237,10 +2215,6 @@ mod tests {
             LocateConfig { fit_shape_rate: f64::NAN, ..Default::default() },
             LocateConfig { fit_fold_guard_mm: -1.0, ..Default::default() },
             LocateConfig { fit_fold_guard_mm: f64::INFINITY, ..Default::default() },
-            LocateConfig { fit_ring_sign_spreads: 21.0, ..Default::default() },
-            LocateConfig { fit_ring_sign_spreads: f64::NAN, ..Default::default() },
-            LocateConfig { fit_ring_sign_spreads: 2.0, fit_signed: true, ..Default::default() },
-            LocateConfig { fit_ring_sign_spreads: 2.0, fit_polarity_votes: 10, ..Default::default() },
             LocateConfig { fit_velocity_frames: 101, ..Default::default() },
             LocateConfig { fit_motion_prior: -0.5, ..Default::default() },
             LocateConfig { fit_motion_prior: f64::INFINITY, ..Default::default() },
