@@ -773,11 +773,11 @@ impl PositionMemory {
 /// residual goes flat, and the anchors move on that frame. Units: times in seconds of the
 /// frames' timestamps, changes in the sensor's counts, bounds in σ (or `Σσᵢ`) of one frame.
 ///
-/// Serde: every field is optional (the defaults above fill in); an unknown key is refused.
-/// `undo_walk` (session 36's walk-scaled undo, removed) is still read as 0 (off), so older
-/// JSON that spells it out loads; any other value is refused, naming the commit
-/// ([`UNDO_WALK_COMMIT`]) that still has it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Serde: every field is optional (the defaults above fill in); an unknown key is refused —
+/// among them the removed candidates `dip_return_s` (its code at commit `7125739`) and
+/// `undo_walk` (at `e43beac`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct DriftModel {
     /// Steadiness look-back (s), in (0, 60].
     pub steady_s: f64,
@@ -895,67 +895,6 @@ pub struct DriftModel {
     /// What the rise test does to a drift-shape return on a frame that rose recently
     /// ([`RiseGuard`]; default: blocks it).
     pub drift_shape_rise: RiseGuard,
-}
-
-/// The last commit with the drift model's walk-scaled undo (`undo_walk`, session 36's round-7
-/// candidate (h2): no winner, removed in session 37); `docs/force.md` and
-/// `examples/force_parts/rule_round7.md` point to it.
-pub const UNDO_WALK_COMMIT: &str = "e43beac";
-
-/// Serde's view of [`DriftModel`]: every field by name, the defaults filling in, unknown keys
-/// refused. A private list so that the public type carries no derived inherent functions; the
-/// derive checks at compile time that it names every field of `DriftModel`.
-#[derive(Serialize, Deserialize)]
-#[serde(remote = "DriftModel", deny_unknown_fields, default = "DriftModel::default")]
-struct DriftModelFields {
-    steady_s: f64,
-    steady_sigmas: f64,
-    settle_s: f64,
-    slope_memory_s: f64,
-    slope_prior_s3: f64,
-    release_fraction: f64,
-    hold_sigmas: f64,
-    hold_total: f64,
-    hold_contact: bool,
-    hold_start_sigmas: f64,
-    release_moving: f64,
-    quiet_s: f64,
-    stale_s: f64,
-    release_sigmas: f64,
-    release_excess: f64,
-    release_flat_s: f64,
-    release_flat_range: bool,
-    release_flat_sigmas: f64,
-    return_anchors: ReturnAnchors,
-    quiet_taxel_s: f64,
-    drift_shape: f64,
-    drift_shape_fit: ShapeFit,
-    drift_shape_rise_s: f64,
-    drift_shape_rise: RiseGuard,
-}
-
-impl Serialize for DriftModel {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
-        DriftModelFields::serialize(self, serializer)
-    }
-}
-
-impl<'de> Deserialize<'de> for DriftModel {
-    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
-        use serde::de::Error as _;
-        let mut value = serde_json::Value::deserialize(deserializer)?;
-        if let Some(walk) = value.as_object_mut().and_then(|map| map.remove("undo_walk")) {
-            // the removed walk-scaled undo: off (0) reads as before, anything else is refused
-            if walk.as_f64() != Some(0.0) {
-                return Err(D::Error::custom(format!(
-                    "drift model: `undo_walk` = {walk}: the walk-scaled undo was removed (session 37; \
-                     it never won a round); only 0 (off) is read. Its code is at commit {UNDO_WALK_COMMIT}"
-                )));
-            }
-        }
-        // every other key as named by the field list (defaults fill in, unknown keys refused)
-        DriftModelFields::deserialize(value).map_err(D::Error::custom)
-    }
 }
 
 /// The drift-shape return's rise test ([`DriftModel::drift_shape_rise_s`]): a frame whose
@@ -2062,28 +2001,19 @@ mod tests {
     }
 
     #[test]
-    fn the_removed_walk_scaled_undo_reads_as_off_and_nothing_else() {
-        // older JSON without the key, or with it at 0 (round 7's gates spelled out every
-        // field), loads as before
+    fn removed_drift_settings_are_refused_and_the_gate_round_trips() {
+        // older JSON without them loads as before; the removed candidates are unknown keys
         let m: DriftModel = serde_json::from_str(r#"{"stale_s": 10.0}"#).unwrap();
         assert_eq!(m, DriftModel { stale_s: 10.0, ..DriftModel::default() });
-        for zero in ["0", "0.0", "-0.0"] {
-            let m: DriftModel = serde_json::from_str(&format!(r#"{{"stale_s": 10.0, "undo_walk": {zero}}}"#)).unwrap();
-            assert_eq!(m, DriftModel { stale_s: 10.0, ..DriftModel::default() }, "{zero}");
+        for removed in [r#"{"undo_walk": 0.0}"#, r#"{"undo_walk": 1.0}"#, r#"{"dip_return_s": 0}"#] {
+            let e = serde_json::from_str::<DriftModel>(removed).unwrap_err().to_string();
+            assert!(e.contains("unknown field"), "{removed}: {e}");
         }
-        // any other value is refused, naming the setting and the commit that still has it
-        for bad in ["1.0", "1e-9", "-0.5", "null", "\"on\""] {
-            let e = serde_json::from_str::<DriftModel>(&format!(r#"{{"undo_walk": {bad}}}"#)).unwrap_err().to_string();
-            assert!(e.contains("undo_walk") && e.contains("removed") && e.contains(UNDO_WALK_COMMIT), "{bad}: {e}");
-        }
-        // other unknown keys are still refused (round 7's removed dip return among them), a
-        // wrong type still names its field, and the force gate round-trips without the key
-        assert!(serde_json::from_str::<DriftModel>(r#"{"dip_return_s": 0}"#).is_err());
+        // a wrong type still names its field, and the force gate round-trips
         let e = serde_json::from_str::<DriftModel>(r#"{"stale_s": "x"}"#).unwrap_err().to_string();
         assert!(e.contains("invalid type"), "{e}");
         let gate = crate::force_model::FORCE_GATE;
         let json = serde_json::to_string(&gate).unwrap();
-        assert!(!json.contains("undo_walk"), "{json}");
         assert_eq!(serde_json::from_str::<DriftModel>(&json).unwrap(), gate);
     }
 
