@@ -1436,10 +1436,11 @@ impl DriftState {
         let shape_alone = first_return && !peak_return && !drift_shaped;
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
-        // the hold's start bound: a held frame starts a contact only beyond it
+        // the hold's start bound: a held frame starts a contact only beyond it (looked at only
+        // for a held frame that is not yet a contact)
         let starts =
-            m.hold_start_sigmas <= 0.0 || delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_start_sigmas * s);
-        if !contact && held && (self.touched || (m.hold_contact && starts)) {
+            || m.hold_start_sigmas <= 0.0 || delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_start_sigmas * s);
+        if !contact && held && (self.touched || (m.hold_contact && starts())) {
             contact = !(m.release_moving > 0.0 && total < m.release_moving * self.peak);
         }
         if contact && returning {
