@@ -9,8 +9,9 @@
 //! `[stages.locate]` table that starts from `preset = "accurate"`.
 //!
 //! Options: `--seeds N` (tuning seeds 0..N, default 8); `--only TERM` (an ideal sensor —
-//! Gaussian kernel, 1 ms lag, no drift, 0.5 counts of noise, no saturation, unit gains — with
-//! one term of the member's physics kept: `gains`, `lag`, `kernel`, `drift`, `noise`, `knee`;
+//! Gaussian kernel, 1 ms lag, no drift, 0.5 counts of noise, no saturation, unit gains that keep
+//! each electrode's sign, its polarity (`Physics::idealise`) — with one term of the member's
+//! physics kept: `gains`, `lag`, `kernel`, `drift`, `noise`, `knee`;
 //! `none` keeps none); `--without TERM` (the member's physics with that term made ideal);
 //! `--heldout` (score the held-out members, seeds 100–115 × 4 kinds, `PhysicsSet::HeldOut`,
 //! instead: for a final candidate only, never for a choice); `--verbose` (each member's
