@@ -1374,7 +1374,9 @@ impl DriftState {
                 return false;
             }
         }
-        let held = (m.hold_sigmas > 0.0 && delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_sigmas * s))
+        // some taxel beyond `k` σ (the hold's bound, and the start bound below)
+        let beyond = |k: f64| delta.iter().zip(sigma).any(|(d, s)| d.abs() > k * s);
+        let held = (m.hold_sigmas > 0.0 && beyond(m.hold_sigmas))
             || (m.hold_total > 0.0 && total > m.hold_total * sigma.iter().sum::<f64>());
         let holds = m.hold_sigmas > 0.0 || m.hold_total > 0.0;
         // an excursion: from the first held (or contact) frame until none is; its peak total
@@ -1438,8 +1440,7 @@ impl DriftState {
         // hysteresis: a contact lasts while its excursion is held, until it returns
         // the hold's start bound: a held frame starts a contact only beyond it (looked at only
         // for a held frame that is not yet a contact)
-        let starts =
-            || m.hold_start_sigmas <= 0.0 || delta.iter().zip(sigma).any(|(d, s)| d.abs() > m.hold_start_sigmas * s);
+        let starts = || m.hold_start_sigmas <= 0.0 || beyond(m.hold_start_sigmas);
         if !contact && held && (self.touched || (m.hold_contact && starts())) {
             contact = !(m.release_moving > 0.0 && total < m.release_moving * self.peak);
         }
