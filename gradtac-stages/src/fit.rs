@@ -1869,11 +1869,11 @@ fn invert3(a: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
     Some(inv)
 }
 
-/// One step of a learner of a parameter `x` in `[lo, hi]` (the shape exponent, the far lobe's
-/// `ln m`): the cost `c` at `x − h`, `x`, `x + h` (each side cut at its bound), and the minimum of
-/// the parabola through the three, clamped to `[lo, hi]`; the cheaper bound when the curve is not
-/// convex; with a side at its bound (`x` there), the cheaper of `x` and the other side. `None`
-/// when a cost is not finite.
+/// One step of a learner of a parameter `x` in `[lo, hi]` (the shape exponent `q`): the cost
+/// `c` at `x − h`, `x`, `x + h` (each side cut at its bound), and the minimum of the parabola
+/// through the three, clamped to `[lo, hi]`; the cheaper bound when the curve is not convex;
+/// with a side at its bound (`x` there), the cheaper of `x` and the other side. `None` when a
+/// cost is not finite.
 fn parabola_target(x: f64, lo: f64, hi: f64, h: f64, c: impl Fn(f64) -> f64) -> Option<f64> {
     let (xm, xp) = ((x - h).max(lo), (x + h).min(hi));
     let (cm, c0, cp) = (c(xm), c(x), c(xp));

@@ -2126,7 +2126,6 @@ mod tests {
         TaxelFrame::new("ff".into(), Timestamp::at_rate(k, 100.0), k, values)
     }
 
-    /// A detector on the BioTac SP layout with `gate`.
     /// Under `gate`: constant input (500 frames) gives no contact and no change; then a press
     /// (frames 200..400 of 600) with a bad value at frame `k` where `k % period` is one of
     /// `bad`'s slots (`(slot, taxel, value)`): exactly the non-finite frames are errors, never a
@@ -2159,6 +2158,7 @@ mod tests {
         }
     }
 
+    /// A detector on the BioTac SP layout with `gate`.
     fn shaped_detector(gate: DriftModel) -> ChangeDetector {
         ChangeDetector::try_new(24, &LocateConfig::default())
             .unwrap()
