@@ -1,5 +1,5 @@
 //! Leave-one-physics-out view of the model fit's learned bias correction, **inside the tuning
-//! side** (issue #22, round 10; `docs/tradeoff.md`, "Round 10").
+//! side** (issue #22, round 10; `examples/fit_parts/history.md`, "Round 10").
 //!
 //! The held-out members differ from the tuning members by physics (a kernel shape and a lag
 //! range no choice ever sees). This example builds the same kind of gap inside the tuning

@@ -322,7 +322,7 @@ fn at(series: &[f64], t: f64) -> f64 {
     series[k] * (1.0 - u) + series[k + 1] * u
 }
 
-/// Exploration (the error's decomposition, `docs/force.md`): `FORCE_EVAL_OFF=gains,kernel,…`
+/// Exploration (the error's decomposition, `examples/force_parts/history.md`): `FORCE_EVAL_OFF=gains,kernel,…`
 /// switches those physics terms off (`gains`: |gᵢ| = 1, signs kept; `signs`: every σᵢ = −1;
 /// `kernel`: Gaussian; `lag`: τ = 0.1 ms; `knee`: no saturation; `drift`; `noise` (and the
 /// gauge's); `gamma`: γ = 1; `spread`: s = 0), `FORCE_EVAL_ON=…` switches every term off but
@@ -439,9 +439,9 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
         .filter(|r| r.t < split)
         .map(|r| GaugeSample { force_n: at(&m.rec.gauge, r.t), ..r.sample.clone() })
         .collect();
-    // exploration: FORCE_EVAL_UNGUARDED runs `forward` without its guard (docs/force.md)
+    // exploration: FORCE_EVAL_UNGUARDED runs `forward` without its guard (examples/force_parts/history.md)
     // exploration: FORCE_EVAL_FORWARD=single|multi,in_sample|held_aside sets the `forward`
-    // calibration's starts and guard (docs/force.md, session 32; default: the library's)
+    // calibration's starts and guard (examples/force_parts/history.md, session 32; default: the library's)
     let fwd = forward_settings();
     let fitted = if std::env::var_os("FORCE_EVAL_UNGUARDED").is_some() {
         calibrate_unguarded_with(&train, method, lambda, curve, &layout, fwd.starts)
@@ -650,7 +650,7 @@ fn main() {
         }
     }
     // the table's rows; with `--only` also the exploration rows (the `placed` width, the
-    // `accurate` fit's gains and amplitude: docs/force.md)
+    // `accurate` fit's gains and amplitude: examples/force_parts/history.md)
     let mut sources = vec![
         Source::Forward,
         Source::Placed,
@@ -714,7 +714,7 @@ fn main() {
             .map(|s| (evaluate(&tune, &ft, s.0, s.1, s.2), s))
             .min_by(|a, b| a.0.worst.total_cmp(&b.0.worst))
             .unwrap();
-        // the selection rule's eligibility (docs/force.md): untouched frames on the tuning members
+        // the selection rule's eligibility (examples/force_parts/history.md): untouched frames on the tuning members
         eprintln!(
             "{}: tuning worst {:.1} %, mean {:.1} %, untouched above 0.5 N {} of {}",
             source.name(),

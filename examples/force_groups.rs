@@ -1,5 +1,5 @@
 //! Leave-one-group-out view of a force-gate change **inside the tuning members** (issue #22,
-//! force round 6; `docs/force.md`, "Session 36").
+//! force round 6; `examples/force_parts/history.md`, "Session 36").
 //!
 //! The held-out members (seeds 100–115) are drawn from the same family as the tuning members,
 //! so a gain that does not transfer is a gain carried by a few tuning members whose physics

@@ -1,4 +1,4 @@
-//! Probe of the force gate's returns (`docs/force.md`, "The force gate's returns"): per press
+//! Probe of the force gate's returns (`examples/force_parts/history.md`, "The force gate's returns"): per press
 //! of a force-family member, the peak total change `Σ|Δᵢ|`, the total change and the largest
 //! `|Δᵢ|/σᵢ` at the end of the rest that follows, and whether the contact had ended (the
 //! return rule fired) by then. Only tuning members (seeds 0–7) and `tests/cli_force.rs`'s

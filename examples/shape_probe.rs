@@ -1,4 +1,4 @@
-//! Probe of the drift model's shape test (`docs/force.md`, "Session 34"): on force-family
+//! Probe of the drift model's shape test (`examples/force_parts/history.md`, "Session 34"): on force-family
 //! members, the press-shaped fraction of the force gate's changes — over frames in contact
 //! with a true force above 2 N and between 0.5 and 2 N, and over untouched frames (no force in
 //! the last 0.5 s) that the gate holds in contact (a stale baseline) — its quantiles and the

@@ -42,7 +42,7 @@
 //! and `--tuning-only` (tuning members only, one line per setting, nothing held out: for
 //! exploring settings without looking at held-out members); `--scene-only` runs only the two
 //! rows of what a `method = "events"` scene runs (`event_chain` default and `paper`);
-//! `--fit-only` (the fit, centroid and Δ² rows only: the round-4 rows of docs/tradeoff.md).
+//! `--fit-only` (the fit, centroid and Δ² rows only: the round-4 rows of examples/fit_parts/history.md).
 
 use gradtac::chain::event_track_stages;
 use gradtac::scene::StageSettings;
@@ -540,7 +540,7 @@ fn main() {
     // development flags: only the event contours (and the centroid beside them); tuning members only
     let events_only = std::env::args().any(|a| a == "--events-only");
     let tuning_only = std::env::args().any(|a| a == "--tuning-only");
-    // development flag: only the fit and the centroid rows (the round-4 rows of docs/tradeoff.md)
+    // development flag: only the fit and the centroid rows (the round-4 rows of examples/fit_parts/history.md)
     let fit_only = std::env::args().any(|a| a == "--fit-only");
     let tune_seeds: Vec<u64> = if quick { (0..3).collect() } else { (0..8).collect() };
     let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };

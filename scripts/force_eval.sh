@@ -6,11 +6,11 @@
 # before it 79 / 30 / 13; measured session 34 with the
 # drift-shape return in the gate: 76.6 %, 28.1 %, 11.88 % — the gate was chosen on the 62 tuning
 # members and its held-out worst member is worse than session 33's 55.7 % / 32.6 % / 11.88 %
-# under floors 58 / 34 / 13, docs/force.md "Session 34"; session 31: 55.7 %, 33.8 %, 12.1 %).
+# under floors 58 / 34 / 13, examples/force_parts/history.md "Session 34"; session 31: 55.7 %, 33.8 %, 12.1 %).
 # Session 35's gate (the drift-shape return's rise test and undo) measures the same 76.6 %,
-# 28.1 %, 11.88 %, so the floors are unchanged (docs/force.md "Session 35"). Session 37's gate
+# 28.1 %, 11.88 %, so the floors are unchanged (examples/force_parts/history.md "Session 35"). Session 37's gate
 # (a contact starts beyond 3 σ, `hold_start_sigmas`) measures 75.3 %, 27.7 %, 11.88 %: floors
-# 78 / 29 / 13 (docs/force.md "Session 37").
+# 78 / 29 / 13 (examples/force_parts/history.md "Session 37").
 # ≈ 53 s after the release build the other checks made, on a loaded machine (the default's
 # calibration runs 36 identifications; with session 31's one it took ≈ 5 s in all).
 set -euo pipefail

@@ -169,7 +169,7 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
 fn a_gauge_file_matched_by_time_and_clear_refusals() {
     let dir = tempfile::tempdir().unwrap();
     // tuning member 1 (4 presses): one on which the guard below fires under session 34's gate;
-    // member 701 took that path until then (docs/force.md, session 34)
+    // member 701 took that path until then (examples/force_parts/history.md, session 34)
     let rec = ForceSession::presses(1, 4).simulate();
     write_csv(&dir.path().join("cal.csv"), &rec);
     // the gauge on its own clock rows (every other frame), in ms

@@ -38,7 +38,7 @@
 //! the shipped weights belong to that fit; on another fit they read inputs they were not
 //! trained on. [`Design`] accumulates the regression per subset of the samples, which
 //! `examples/fit_lopo.rs` uses to re-train without one physics group at a time
-//! (`docs/tradeoff.md`, round 10). The target of a frame is the truth at the frame's
+//! (`examples/fit_parts/history.md`, round 10). The target of a frame is the truth at the frame's
 //! middle time minus the fit's raw position (`train_fit_correction`'s default; `--lagged`
 //! subtracts the member's lag first), so the correction also takes up part of the lag — the
 //! part that round 10's leave-one-physics-out view found does not carry to lags it was not

@@ -39,7 +39,7 @@
 //! The shape fit starts from `(γ, s, w)` = (0.75, 0.2, 3 mm) ([`Starts::Single`], session 31)
 //! or from each of [`MULTI_STARTS`], keeping the lowest final cost ([`Starts::Multi`], what
 //! `gradtac calibrate force` uses since session 32: chosen on the tuning members by a rule
-//! stated first; held out it scored the same worst member as one start — `docs/force.md`).
+//! stated first; held out it scored the same worst member as one start — `examples/force_parts/history.md`).
 //!
 //! Each frame's residuals are weighted by `1/max(max|Δ|, 5)²`, so every frame counts by its
 //! *relative* error (what MAPE measures), not its size in counts. At most [`MAX_FRAMES`]
@@ -49,7 +49,7 @@
 //! moved the `placed` law's worst tuning member by under 1 point) and the fluid lag (a grid of
 //! lags chosen by in-sample fit lowered the tuning mean, 16.6 → 15.0 %, but raised the worst
 //! member, 32.1 → 36.5 %; the file's `lag_s`, 0 as calibrated, is inverted on the changes
-//! when set — `docs/force.md`).
+//! when set — `examples/force_parts/history.md`).
 //!
 //! # Inversion ([`ForwardModel::invert`])
 //! Per frame, `(x, y, ln F)` minimise `Σᵢ (Δᵢ − model)²`: a coarse search over `ln F` at the
@@ -80,7 +80,7 @@ pub const F_RANGE_N: [f64; 2] = [1e-3, 1e3];
 
 /// Which shape numbers [`identify`] holds fixed: the profile `q` stays at 2 (Gaussian lobes).
 /// Freeing it (with the exponential members of the family in view) scored a worse tuning
-/// worst member, 38.6 % against 32.1 % (`docs/force.md`).
+/// worst member, 38.6 % against 32.1 % (`examples/force_parts/history.md`).
 const FIXED: [bool; 5] = [false, false, false, true, false];
 /// Bounds of the shape numbers `(γ, s, ln w, q, a)`.
 const SHAPE_LO: [f64; 5] = [0.2, -0.3, -0.7, 1.0, -0.7];
@@ -366,7 +366,7 @@ pub enum Starts {
 
 /// The multi-start grid `(γ, w mm)` (`s` starts at 0.2, `a` at 0): a narrow kernel moves one or
 /// two electrodes per press, and from one start the width, spread growth and `γ` can trade
-/// into a wrong minimum (`docs/force.md`, member 700).
+/// into a wrong minimum (`examples/force_parts/history.md`, member 700).
 pub const MULTI_STARTS: [[f64; 2]; 6] = [[0.6, 1.5], [0.9, 1.5], [0.6, 3.0], [0.9, 3.0], [0.6, 6.0], [0.9, 6.0]];
 
 /// [`identify`] from `starts`.

@@ -125,7 +125,7 @@ impl CalibrationMethod {
 }
 
 /// What `gradtac calibrate force` fits without `--method`: `forward` with its guard (the rule's
-/// choice on the tuning members, session 31; `docs/force.md`) — on a sensor whose identification
+/// choice on the tuning members, session 31; `examples/force_parts/history.md`) — on a sensor whose identification
 /// fails, [`calibrate`] writes the `placed` law instead.
 pub const DEFAULT_METHOD: CalibrationMethod = CalibrationMethod::Forward;
 /// The width (mm) of the `placed` method's nominal response, chosen on the tuning members
@@ -406,7 +406,7 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// press below the contact threshold is not absorbed into the baseline during its hold, so its
 /// lift does not read as a contact that never ends.
 ///
-/// Known limit (measured, `docs/force.md` "the force gate's returns"): the return bound is
+/// Known limit (measured, `examples/force_parts/history.md` "the force gate's returns"): the return bound is
 /// relative to the peak only, so a residual of a few σ left by a light press on a noisy sensor
 /// (whose window means' noise alone fills `Σ|Δᵢ|` above 0.3 of that peak) is no return and stays
 /// a contact until the stale time; on the tuning members 32 of 80 rests of 0.6 s end in contact
@@ -418,7 +418,7 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// ([`DriftModel::release_excess`] 0.5, flatness as the range of `Σ|Δᵢ|` over 0.3 s): an
 /// excursion that is steady, flat, and has fallen to half its peak's change above the
 /// untouched floor returns — a press rising or held sits near its peak, so it is not absorbed.
-/// Chosen by the rule of `docs/force.md` on the tuning members (worst of 14 members 67.5 →
+/// Chosen by the rule of `examples/force_parts/history.md` on the tuning members (worst of 14 members 67.5 →
 /// 40.1 %). Known limit: on a weak, noisy sensor (σ 4.4 counts over 24 taxels) the range of
 /// `Σ|Δᵢ|` over 0.3 s exceeds 0.1 `Σσᵢ` by noise alone, so a light press's residual there still
 /// stays a contact until the stale time.
@@ -427,7 +427,7 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// excursion returns by the shape return alone ([`ReturnAnchors::ShiftAtShapeReturn`]): the
 /// residual step that return leaves behind is no longer learned as drift (which ran the baseline
 /// off and brought the contact back), and the slope learned before it is kept. Chosen by the
-/// rule of `docs/force.md` ("Session 33") on the tuning members (worst of 14 members 40.1 →
+/// rule of `examples/force_parts/history.md` ("Session 33") on the tuning members (worst of 14 members 40.1 →
 /// 36.3 %, untouched frames above 0.5 N 75 → 57 of 2800).
 ///
 /// Since session 34 the gate has the *drift-shape return* ([`DriftModel::drift_shape`] 0.25 with
@@ -435,7 +435,7 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// force` and `force_eval` give): a steady excursion whose change is not shaped like a press
 /// (one smooth bump explains under 0.25 of its magnitudes' variance) returns, so a stale
 /// baseline under drift no longer holds a contact that never ends. Ranked first by the rule
-/// of `docs/force.md` ("Session 34") over the 62 tuning members (worst tied, 151.1 against
+/// of `examples/force_parts/history.md` ("Session 34") over the 62 tuning members (worst tied, 151.1 against
 /// 150.6 %; mean 22.11 → 18.74 %; untouched frames above 0.5 N 547 → 367 of 12400). Held out
 /// (scored once, after the choice): worst member 76.6 % against 55.7 %, mean 17.6 against
 /// 18.9 %, untouched 3.00 against 3.03 %.
@@ -446,7 +446,7 @@ pub fn place_response(positions: &[[f64; 2]], delta: &[f64], width_mm: f64) -> f
 /// press's magnitudes fit no bump — shifts the slope's anchors instead of keeping them (so the
 /// press is not learned as a slope that runs the baseline off), and is undone once the sensor
 /// comes back to the level before it (the press lifted). Ranked first by the rule of
-/// `docs/force.md` ("Session 35") over the 62 tuning members (worst tied at 151.1 %, mean
+/// `examples/force_parts/history.md` ("Session 35") over the 62 tuning members (worst tied at 151.1 %, mean
 /// 18.74 → 18.71 %, untouched frames above 0.5 N 367 → 193 of 12400). Held out (scored once,
 /// after the choice): unchanged to the printed decimal, worst member 76.6 %, mean 17.6 %,
 /// untouched 3.00 %.
@@ -820,7 +820,7 @@ impl Default for ForwardSettings {
 /// The identification starts from [`Starts::Multi`] by default. The returned file's method says
 /// which was written; [`calibrate_unguarded`] skips the guard. With the
 /// [default settings](ForwardSettings::default); [`calibrate_with`] takes others
-/// (`docs/force.md`, sessions 31 and 32).
+/// (`examples/force_parts/history.md`, sessions 31 and 32).
 pub fn calibrate(
     samples: &[GaugeSample],
     method: CalibrationMethod,
@@ -1005,7 +1005,7 @@ fn fit_model(
             let positions = layout.positions().to_vec();
             let geo = Geometry::for_positions(&positions);
             // the fluid lag is not identified (`lag_s` = 0): a grid of lags chosen by in-sample
-            // fit scored a worse tuning worst member (36.5 % against 32.1 %, docs/force.md)
+            // fit scored a worse tuning worst member (36.5 % against 32.1 %, examples/force_parts/history.md)
             let tau = 0.0;
             let no_model = || {
                 invalid(format!(
@@ -1598,7 +1598,7 @@ mod tests {
 
     /// Frames of a quiet sensor (σ √2: ±1 alternation) whose taxels 0–3 drift at ±2 counts/s
     /// while taxel 4 is pressed (a 4 s, 150-count plateau every 4.6 s after 1 s of rest), as
-    /// the stuck tuning-side members 201/212 of `docs/force.md` (session 33, second round).
+    /// the stuck tuning-side members 201/212 of `examples/force_parts/history.md` (session 33, second round).
     fn drifting_quiet_presses(k: u64) -> (TaxelFrame, bool) {
         let t = k as f64 / 100.0;
         let e = if k % 2 == 0 { 1.0 } else { -1.0 };
@@ -1773,7 +1773,7 @@ mod tests {
         (late, held)
     }
 
-    /// The shape-return candidates of docs/force.md (session 32, second round): (g1)–(g8)
+    /// The shape-return candidates of examples/force_parts/history.md (session 32, second round): (g1)–(g8)
     /// (g9 and g10's rise guard lost by far and was removed after the choice).
     fn shape_gates() -> Vec<DriftModel> {
         let mut gates = Vec::new();
@@ -1852,7 +1852,7 @@ mod tests {
     /// Session 32's gate: [`FORCE_GATE`] with the anchors kept at a return.
     const FORCE_GATE_S32: DriftModel = DriftModel { return_anchors: ReturnAnchors::Keep, ..FORCE_GATE };
 
-    /// The return-anchor candidates of docs/force.md (session 33): (a1)–(a4).
+    /// The return-anchor candidates of examples/force_parts/history.md (session 33): (a1)–(a4).
     fn anchor_gates() -> Vec<DriftModel> {
         [
             ReturnAnchors::RestartAtShapeReturn,
@@ -1904,7 +1904,7 @@ mod tests {
 
     #[test]
     fn after_a_shape_return_the_step_is_not_learned_as_drift() {
-        // session 33 (docs/force.md): the residual step a shape return leaves behind, then drift
+        // session 33 (examples/force_parts/history.md): the residual step a shape return leaves behind, then drift
         // (±1 count/s from 4.5 s after the drop, 19 s long), then a real second press. With the
         // anchors kept (the session-32 gate) the slope learns the step, the baseline runs off
         // and a contact comes back; restarting or shifting the anchors at the return keeps the
@@ -1970,7 +1970,7 @@ mod tests {
 
     #[test]
     fn a_light_press_on_a_weak_drifting_sensor_and_the_return_rules() {
-        // (docs/force.md, "The force gate's returns") the gate's return bound, 0.3 of the
+        // (examples/force_parts/history.md, "The force gate's returns") the gate's return bound, 0.3 of the
         // press's peak total change Σ|Δᵢ|, sits below what the window means' noise alone adds
         // to Σ|Δᵢ| on a weak sensor (σ 4.4 counts: ≈ 28 counts over 24 taxels), so a residual
         // of 4.5 σ left by a light press (60 counts on one taxel) is never a return: the
@@ -1988,7 +1988,7 @@ mod tests {
         // the drift alone (a line the slope follows) leaves no contact behind
         assert_eq!(light_press_on_a_weak_sensor(FORCE_GATE, 60.0, 0.0), (0, 50));
         // the noise return (`release_sigmas`) ends that contact, but it also returns during
-        // the light press itself (absorbing it) — why it is measured and off (docs/force.md)
+        // the light press itself (absorbing it) — why it is measured and off (examples/force_parts/history.md)
         let noise = DriftModel { release_sigmas: 0.5, ..FORCE_GATE };
         let (late, held) = light_press_on_a_weak_sensor(noise, 60.0, 20.0);
         assert_eq!(late, 0, "the noise return ends the residual's contact");
@@ -2171,7 +2171,7 @@ mod tests {
     /// 1 s untouched, a press (`peak` counts at taxel 9: 1 s rise, 3 s hold, 0.5 s fall), then
     /// 6 s untouched, on [`shaped_frame`] whose taxels drift independently (draw `draw`: a
     /// slope in ±2 counts/s and a random walk of 1.5 counts/√s each, as the stuck tuning-side
-    /// members of `docs/force.md`): (frames in contact in the last 3 s, frames in contact
+    /// members of `examples/force_parts/history.md`): (frames in contact in the last 3 s, frames in contact
     /// during the hold's last 2.5 s, of 250).
     fn press_then_rest(gate: DriftModel, peak: f64, draw: u64) -> (usize, usize) {
         let mut state = 0x2545_f491_4f6c_dd1d ^ draw.wrapping_mul(0x9e37_79b9_7f4a_7c15);
@@ -2265,7 +2265,7 @@ mod tests {
 
     #[test]
     fn a_drift_without_shape_under_a_long_contact_is_followed_and_the_contact_ends() {
-        // the stuck tuning-side members' mechanism (docs/force.md, session 33, second round):
+        // the stuck tuning-side members' mechanism (examples/force_parts/history.md, session 33, second round):
         // a quiet sensor whose taxels drift independently (slope and walk each); the press
         // freezes the baseline, so after it the stale offsets hold the contact. Session 33's
         // gate stays in contact through the rest in every draw and press (4769 of 4800 late
@@ -2300,7 +2300,7 @@ mod tests {
 
     #[test]
     fn the_rise_test_keeps_a_press_taken_for_drift_from_teaching_the_slope() {
-        // tuning members 204 and 205 (docs/force.md, session 35): a press whose change has no
+        // tuning members 204 and 205 (examples/force_parts/history.md, session 35): a press whose change has no
         // press's shape by the magnitude fit is taken for drift during its hold; with the
         // anchors kept (session 34) the hold's frames join the anchors from before the press,
         // the slope learns the press, and the baseline then runs along it. Here: a change

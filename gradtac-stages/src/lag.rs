@@ -1,6 +1,6 @@
 //! Online estimate of a sensor's fluid lag, and its inverse on the electrodes
 //! (`[stages.locate] fit_lag_estimate = true`; off by default and in both presets: with the
-//! gains self-calibrated, the tuning members did not choose it — `docs/tradeoff.md`, round 4).
+//! gains self-calibrated, the tuning members did not choose it — `examples/fit_parts/history.md`, round 4).
 //!
 //! # Why
 //! A skin whose electrodes follow the pressure through a first-order fluid lag of time

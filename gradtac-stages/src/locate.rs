@@ -82,7 +82,7 @@ impl LocateMethod {
 ///
 /// `press_release` is the event setting chosen on the tuning members of the simulator family
 /// and scored once on held-out members with held-out physics (the repository's
-/// `docs/tradeoff.md`, rounds 3 and 4): held-out worst kind 0.063 of the width, 4.2 % of
+/// `examples/fit_parts/history.md`, rounds 3 and 4): held-out worst kind 0.063 of the width, 4.2 % of
 /// untouched track points in contact; through a scene's stages, `paper` scores 0.401 (0.104–0.116
 /// and 48–55 % untouched in contact at its best setting of the example's grid). `paper` is the
 /// chain as the paper states it: the stages' own defaults, so a chain composed in code from
@@ -294,7 +294,7 @@ pub struct LocateConfig {
     /// too (`true`), so a far ring that moves the other way — whose changes arrive as
     /// magnitudes — is modelled as the data see it ([`crate::fit`], *Kernel shape*). Default
     /// `false`; the `accurate` preset turns it on with the guard below at 2 mm
-    /// (`docs/tradeoff.md`, round 10).
+    /// (`examples/fit_parts/history.md`, round 10).
     pub fit_fold_lobe: bool,
     /// `fit`: with `fit_fold_lobe`, the ring-fit guard (mm, 0–100; 0 = off): the frame is
     /// fitted with the unfolded model (its own warm start and cold starts), the folded model is
@@ -329,7 +329,7 @@ pub struct LocateConfig {
     /// changes and the fit's residual pattern, trained on simulated frames of the family's
     /// tuning physics only (`examples/train_fit_correction.rs`). Applied on the built-in BioTac
     /// SP layout only (its weights know no other geometry; elsewhere it does nothing). Default
-    /// `false`; `true` in the `accurate` preset (round 6, `docs/tradeoff.md`).
+    /// `false`; `true` in the `accurate` preset (round 6, `examples/fit_parts/history.md`).
     pub fit_learned_correction: bool,
     /// `fit`: lag compensation (s, 0–1; 0 = none): the fitted position is moved ahead along the
     /// contact's velocity by this time, `p + fit_lead_s · v̂`, undoing the `v·τ` a first-order
@@ -344,7 +344,7 @@ pub struct LocateConfig {
     /// fit (`true`; `fit_lead_s` is then not used): each press's onset is fitted by a lagged
     /// ramp with a corner, the evidence accumulates over presses with a prior at τ = 0, and
     /// each window's mean change gets the first-order lag's inverse ([`crate::lag`]). Default
-    /// `false`; the `accurate` preset turns it on (`docs/tradeoff.md`, round 10).
+    /// `false`; the `accurate` preset turns it on (`examples/fit_parts/history.md`, round 10).
     pub fit_lag_estimate: bool,
     /// `fit`: the estimated lag's bound (s, 0–0.1). Default 0.1.
     pub fit_lag_max_s: f64,
@@ -501,10 +501,10 @@ impl LocateConfig {
                 fit_gain_spacing_mm: 0.5,
                 fit_gain_prior: 0.3,
                 fit_lead_s: 0.0,
-                // the learned bias correction (round 6, docs/tradeoff.md): tuning worst kind 0.0316 →
+                // the learned bias correction (round 6, examples/fit_parts/history.md): tuning worst kind 0.0316 →
                 // 0.0292 by the rule committed before its run; held out 0.041 → 0.038
                 fit_learned_correction: true,
-                // round 10 (docs/tradeoff.md): the lag estimated online and the guarded fold (LF),
+                // round 10 (examples/fit_parts/history.md): the lag estimated online and the guarded fold (LF),
                 // chosen on a leave-one-physics-out view inside the tuning physics
                 fit_lag_estimate: true,
                 fit_model_error: 0.3,
@@ -768,7 +768,7 @@ impl PositionMemory {
 /// baseline settles to it at `settle_s`, 0.2 s); the slope keeps what it learned before, so a
 /// drift that changes rate at that moment is followed only at `quiet_s` until new anchors teach
 /// it; restarting instead forgets the slope and re-learns it over `slope_memory_s` (measured
-/// worse on the tuning members, `docs/force.md`). Delay: a shape return ends a contact no
+/// worse on the tuning members, `examples/force_parts/history.md`). Delay: a shape return ends a contact no
 /// earlier than the flatness look-back (`release_flat_s`, else `steady_s`: 0.3 s) after the
 /// residual goes flat, and the anchors move on that frame. Units: times in seconds of the
 /// frames' timestamps, changes in the sensor's counts, bounds in σ (or `Σσᵢ`) of one frame.
@@ -876,7 +876,7 @@ pub struct DriftModel {
     /// changes is taken as drift (absorbed); a stale offset on a few neighbouring taxels
     /// looks like a press and is not returned by this rule. Cost: on steady excursion frames
     /// only, O(n): four bumps over the taxels (`3 n` exponentials for the signed fit, `6 n`
-    /// for the magnitude fit), no allocation. Measured (session 34, `docs/force.md`): the
+    /// for the magnitude fit), no allocation. Measured (session 34, `examples/force_parts/history.md`): the
     /// magnitude fit at 0.25 ranked first on the 62 tuning members and is the force gate's since
     /// session 34 ([`crate::force_model::FORCE_GATE`]); the signed fit takes presses of mixed-sign
     /// electrodes for drift.
@@ -2021,7 +2021,7 @@ mod tests {
 
     #[test]
     fn the_gate_never_learns_a_slope_that_drifts_from_the_first_frame() {
-        // (docs/force.md, "Session 36": member 212's failure, pinned as the gate's known limit)
+        // (examples/force_parts/history.md, "Session 36": member 212's failure, pinned as the gate's known limit)
         // taxels 0–3 drift at 4 counts/s from the first frame; taxel 5 is pressed every 4.6 s
         // (rise 2 s to 120 counts, hold 0.5 s, fall 1.5 s, rest 0.6 s) from 0.5 s. The rests'
         // stale change (16 counts/s summed) stays above 0.3 of the excursion's peak, so the first
