@@ -407,7 +407,8 @@ fn split_s(s: &ForceSession) -> f64 {
     t
 }
 
-/// The `forward` settings: the library's default, or `FORCE_EVAL_FORWARD` (exploration).
+/// The `forward` settings: the library's default, or `FORCE_EVAL_FORWARD` (exploration:
+/// `single|multi`, `in_sample|held_aside`, `floor=<N>`, comma-separated).
 fn forward_settings() -> ForwardSettings {
     let mut fwd = ForwardSettings::default();
     if let Ok(v) = std::env::var("FORCE_EVAL_FORWARD") {
@@ -417,6 +418,10 @@ fn forward_settings() -> ForwardSettings {
                 "multi" => fwd.starts = Starts::Multi,
                 "in_sample" => fwd.guard = ForwardGuard::InSample,
                 "held_aside" => fwd.guard = ForwardGuard::HeldAside,
+                // force round 9 (rule_round9.md): floor=N attaches a linear floor at N newtons
+                p if p.starts_with("floor=") => {
+                    fwd.floor_n = Some(p["floor=".len()..].parse().expect("FORCE_EVAL_FORWARD: floor=<newtons>"))
+                }
                 other => panic!("FORCE_EVAL_FORWARD: unknown {other:?}"),
             }
         }
