@@ -637,8 +637,10 @@ impl SensorChain {
                         let floor = floor.as_ref().map_or(String::new(), |fl| {
                             format!(
                                 "; below a linear floor of {} N (ridge λ {} on the same calibration) the ridge \
-                                 reading is reported instead",
-                                fl.floor_n, fl.lambda
+                                 reading is reported instead{}",
+                                fl.floor_n,
+                                fl.lambda,
+                                fl.after_s.map_or(String::new(), |a| format!(" in a contact older than {a:.2} s"))
                             )
                         });
                         placed = format!(
@@ -652,8 +654,10 @@ impl SensorChain {
                         let floor = floor.as_ref().map_or(String::new(), |fl| {
                             format!(
                                 " (below a linear floor of {} N, ridge λ {} on the same calibration, the ridge \
-                                 reading instead)",
-                                fl.floor_n, fl.lambda
+                                 reading instead{})",
+                                fl.floor_n,
+                                fl.lambda,
+                                fl.after_s.map_or(String::new(), |a| format!(" in a contact older than {a:.2} s"))
                             )
                         });
                         placed = format!(

@@ -239,6 +239,14 @@ pub struct LinearFloor {
     pub lambda: f64,
     /// The floor (N).
     pub floor_n: f64,
+    /// When set (s), the floor applies only to a contact that has lasted at least this long
+    /// (a contact of the detector, timed from its first frame; [`ForcePredictor`] and
+    /// [`ChangeForce`] keep the time): `age_factor` × the calibration's longest press (the
+    /// longest run of gauge readings of at least [`MIN_CALIBRATION_N`]). Unset: every frame in
+    /// contact. A reading without the contact's age ([`CalibratedForce::predict_changes`])
+    /// applies an unset floor only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub after_s: Option<f64>,
 }
 
 impl LinearFloor {
@@ -250,6 +258,12 @@ impl LinearFloor {
         } else {
             f.max(0.0)
         }
+    }
+
+    /// Whether the floor applies to a contact `age_s` old (NaN: unknown, applies only when
+    /// [`after_s`](Self::after_s) is unset).
+    pub fn applies(&self, age_s: f64) -> bool {
+        self.after_s.is_none_or(|a| age_s >= a)
     }
 
     /// The force reported for the inversion's force `inverted` and changes `delta`: `inverted`
@@ -337,7 +351,7 @@ impl CalibratedForce {
             CalibratedForce::Forward { floor, .. } => {
                 let (m, geo) = self.forward().expect("a forward model");
                 let f = forward_force(&m, &geo, delta);
-                Some(floor.as_ref().map_or(f, |fl| fl.apply(f, delta)))
+                Some(floor.as_ref().filter(|fl| fl.applies(f64::NAN)).map_or(f, |fl| fl.apply(f, delta)))
             }
             CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions, floor } => {
                 let (s1, s2) = total_change(delta);
@@ -350,7 +364,7 @@ impl CalibratedForce {
                 let r = place_response(positions, delta, *width_mm).ln();
                 let f = (log_scale + sum_exponent * (s1.ln() - r) + norm_exponent * (s2.ln() - r)).exp();
                 let f = if f.is_nan() { f } else { f.max(0.0) };
-                Some(floor.as_ref().map_or(f, |fl| fl.apply(f, delta)))
+                Some(floor.as_ref().filter(|fl| fl.applies(f64::NAN)).map_or(f, |fl| fl.apply(f, delta)))
             }
             CalibratedForce::Total { log_scale, sum_exponent, norm_exponent } => {
                 let (s1, s2) = total_change(delta);
@@ -394,6 +408,8 @@ pub struct ForcePredictor {
     forward: Option<(ForwardModel, Geometry, f64)>,
     floor: Option<LinearFloor>,
     prev: Option<(f64, Vec<f64>)>,
+    /// The current contact's first frame's time (s).
+    since: Option<f64>,
 }
 
 impl ForcePredictor {
@@ -403,31 +419,41 @@ impl ForcePredictor {
             CalibratedForce::Forward { lag_s, .. } => model.forward().map(|(m, g)| (m, g, *lag_s)),
             _ => None,
         };
-        let floor = match model {
-            CalibratedForce::Forward { floor, .. } => floor.clone(),
+        // the floor is applied here (it may need the contact's age), on the model without it
+        let mut base = model.clone();
+        let floor = match &mut base {
+            CalibratedForce::Forward { floor, .. } | CalibratedForce::Placed { floor, .. } => floor.take(),
             _ => None,
         };
-        ForcePredictor { model: model.clone(), forward, floor, prev: None }
+        ForcePredictor { model: base, forward, floor, prev: None, since: None }
     }
 
     /// The next frame's force (N; `None` without a contact or the model's feature): frames
     /// must come in time order.
     pub fn push(&mut self, s: &GaugeSample) -> Option<f64> {
-        let Some((m, geo, tau)) = &self.forward else { return self.model.predict_sample(s) };
-        let led = match &self.prev {
-            Some((t, p)) => lead(&s.change, p, s.time_s - t, *tau),
-            None => s.change.clone(),
+        self.since = if s.contact { Some(self.since.unwrap_or(s.time_s)) } else { None };
+        let p = match &self.forward {
+            None => self.model.predict_sample(s),
+            Some((m, geo, tau)) => {
+                let led = match &self.prev {
+                    Some((t, p)) => lead(&s.change, p, s.time_s - t, *tau),
+                    None => s.change.clone(),
+                };
+                self.prev = Some((s.time_s, s.change.clone()));
+                s.contact.then(|| forward_force(m, geo, &led))
+            }
         };
-        self.prev = Some((s.time_s, s.change.clone()));
-        s.contact.then(|| {
-            let f = forward_force(m, geo, &led);
-            self.floor.as_ref().map_or(f, |fl| fl.apply(f, &s.change))
-        })
+        let age = self.since.map_or(f64::NAN, |t0| s.time_s - t0);
+        match &self.floor {
+            Some(fl) if fl.applies(age) => p.map(|f| fl.apply(f, &s.change)),
+            _ => p,
+        }
     }
 
-    /// Forget the previous frame (a gap).
+    /// Forget the previous frame and the contact's start (a gap).
     pub fn reset(&mut self) {
         self.prev = None;
+        self.since = None;
     }
 }
 
@@ -717,10 +743,11 @@ impl ForceFile {
         if !(fl.intercept_n.is_finite()
             && fl.lambda.is_finite()
             && fl.weights.iter().all(|w| w.is_finite())
-            && FLOOR_RANGE_N.contains(&fl.floor_n))
+            && FLOOR_RANGE_N.contains(&fl.floor_n)
+            && fl.after_s.is_none_or(|a| a.is_finite() && (0.0..=1e6).contains(&a)))
         {
             return Err(invalid(format!(
-                "a linear-floor parameter is not finite (or its floor_n is outside {}..={} N)",
+                "a linear-floor parameter is not finite (or its floor_n is outside {}..={} N, or after_s outside 0–1e6 s)",
                 FLOOR_RANGE_N.start(),
                 FLOOR_RANGE_N.end()
             )));
@@ -900,11 +927,14 @@ pub struct ForwardSettings {
     /// The linear floor's `floor_n` (N; [`LinearFloor`]): `Some` attaches one to a `forward`
     /// model the guard keeps (force round 9 candidate; `None`, the default, attaches none).
     pub floor_n: Option<f64>,
+    /// With `floor_n`: the floor applies only to contacts older than this factor × the
+    /// calibration's longest press ([`LinearFloor::after_s`]; `None`: to every contact frame).
+    pub floor_age_factor: Option<f64>,
 }
 
 impl Default for ForwardSettings {
     fn default() -> Self {
-        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside, floor_n: None }
+        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside, floor_n: None, floor_age_factor: None }
     }
 }
 
@@ -965,20 +995,39 @@ pub fn calibrate_with(
     };
     match fwd.floor_n {
         Some(floor_n) if matches!(chosen.model.method(), CalibrationMethod::Forward | CalibrationMethod::Placed) => {
-            with_linear_floor(chosen, samples, floor_n, layout)
+            with_linear_floor(chosen, samples, floor_n, fwd.floor_age_factor, layout)
         }
         _ => Ok(chosen),
     }
 }
 
+/// The longest press of a calibration (s): the longest time from the first to the last of
+/// consecutive samples with a finite gauge force of at least [`MIN_CALIBRATION_N`] (`None`
+/// without one of a positive, finite duration).
+pub fn longest_press_s(samples: &[GaugeSample]) -> Option<f64> {
+    let (mut best, mut start): (f64, Option<f64>) = (0.0, None);
+    for s in samples {
+        if s.force_n.is_finite() && s.force_n >= MIN_CALIBRATION_N && s.time_s.is_finite() {
+            let t0 = *start.get_or_insert(s.time_s);
+            best = best.max(s.time_s - t0);
+        } else {
+            start = None;
+        }
+    }
+    (best > 0.0 && best.is_finite()).then_some(best)
+}
+
 /// `file` (a `forward` or `placed` model; another is returned unchanged) with a
 /// [`LinearFloor`] at `floor_n` N: the ridge law (penalty [`DEFAULT_RIDGE_LAMBDA`]) fitted on the
-/// calibration frames of `samples`, and the in-sample figure scored again with it. When the ridge
-/// system is singular, `file` unchanged.
+/// calibration frames of `samples`, and the in-sample figure scored again with it; with
+/// `age_factor`, applied only to contacts older than that factor × the longest press of
+/// `samples` ([`longest_press_s`]). When the ridge system is singular, or `age_factor` is set
+/// and no press has a duration, `file` unchanged.
 pub fn with_linear_floor(
     file: ForceFile,
     samples: &[GaugeSample],
     floor_n: f64,
+    age_factor: Option<f64>,
     layout: &gradtac_stream::Layout,
 ) -> Result<ForceFile> {
     if !FLOOR_RANGE_N.contains(&floor_n) {
@@ -987,6 +1036,14 @@ pub fn with_linear_floor(
     if !matches!(file.model, CalibratedForce::Forward { .. } | CalibratedForce::Placed { .. }) {
         return Ok(file);
     }
+    let after_s = match age_factor {
+        None => None,
+        Some(k) if k.is_finite() && k > 0.0 => match longest_press_s(samples) {
+            Some(d) if (k * d).is_finite() && k * d <= 1e6 => Some(k * d),
+            _ => return Ok(file),
+        },
+        Some(k) => return Err(invalid(format!("floor age factor {k} (want a finite factor > 0)"))),
+    };
     let lambda = DEFAULT_RIDGE_LAMBDA;
     let Ok(CalibratedForce::Ridge { intercept_n, weights, .. }) =
         fit_model(samples, CalibrationMethod::Ridge, lambda, ForceMethod::Linear, layout, Starts::Single)
@@ -995,7 +1052,7 @@ pub fn with_linear_floor(
     };
     let mut model = file.model.clone();
     if let CalibratedForce::Forward { floor, .. } | CalibratedForce::Placed { floor, .. } = &mut model {
-        *floor = Some(LinearFloor { intercept_n, weights, lambda, floor_n });
+        *floor = Some(LinearFloor { intercept_n, weights, lambda, floor_n, after_s });
     }
     let mut predictor = ForcePredictor::new(&model);
     let scored: Vec<f64> = samples
@@ -1649,7 +1706,15 @@ mod tests {
     fn the_held_aside_guard_predicts_each_press_from_the_others() {
         let layout = Layout::biotac_sp();
         let fwd = ForwardSettings::default();
-        assert_eq!(fwd, ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside, floor_n: None });
+        assert_eq!(
+            fwd,
+            ForwardSettings {
+                starts: Starts::Multi,
+                guard: ForwardGuard::HeldAside,
+                floor_n: None,
+                floor_age_factor: None
+            }
+        );
         let aside = |s: &[GaugeSample], m| held_aside_mape_pct(s, m, 0.0, ForceMethod::Linear, &layout, fwd.starts);
         // its own model, three presses at three places: the forward model predicts a press it
         // never saw (the third place's electrodes keep the prior gain, here the true one)
@@ -1690,7 +1755,7 @@ mod tests {
         // analytic: b = 0.1 N, w₀ = 0.01 N/count, the other weights 0
         let mut weights = vec![0.0; 24];
         weights[0] = 0.01;
-        let fl = LinearFloor { intercept_n: 0.1, weights, lambda: 0.1, floor_n: 0.5 };
+        let fl = LinearFloor { intercept_n: 0.1, weights, lambda: 0.1, floor_n: 0.5, after_s: None };
         let mut d = vec![0.0; 24];
         d[0] = 20.0; // r = 0.3 N < 0.5: the reading
         assert!((fl.apply(3.0, &d) - 0.3).abs() < 1e-12);
@@ -1748,11 +1813,11 @@ mod tests {
         assert!(bad(&|fl| fl.weights[2] = f64::INFINITY));
         assert!(bad(&|fl| fl.floor_n = -0.1));
         assert!(bad(&|fl| fl.intercept_n = f64::NAN));
-        assert!(with_linear_floor(plain, &samples, f64::NAN, &layout).is_err());
+        assert!(with_linear_floor(plain.clone(), &samples, f64::NAN, None, &layout).is_err());
         // the `placed` law (what the guard may write) takes a floor too: version 5, applied
         let placed =
             calibrate(&power_law_samples(), CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
-        let floored = with_linear_floor(placed.clone(), &power_law_samples(), 0.5, &layout).unwrap();
+        let floored = with_linear_floor(placed.clone(), &power_law_samples(), 0.5, None, &layout).unwrap();
         assert_eq!((placed.version, floored.version), (3, 5));
         floored.validate().unwrap();
         let CalibratedForce::Placed { floor: Some(fl), .. } = &floored.model else { panic!() };
@@ -1769,7 +1834,82 @@ mod tests {
         // a model of another method is returned unchanged
         let total =
             calibrate(&power_law_samples(), CalibrationMethod::Total, 0.0, ForceMethod::Linear, &layout).unwrap();
-        assert_eq!(with_linear_floor(total.clone(), &power_law_samples(), 0.5, &layout).unwrap(), total);
+        assert_eq!(with_linear_floor(total.clone(), &power_law_samples(), 0.5, None, &layout).unwrap(), total);
+    }
+
+    #[test]
+    fn an_aged_floor_applies_only_to_contacts_older_than_its_bound() {
+        // the longest press: consecutive gauge readings ≥ 0.05 N, first to last
+        let g = |t: f64, f: f64| GaugeSample {
+            change: vec![0.0; 24],
+            contact: true,
+            area_mm2: None,
+            amplitude: None,
+            time_s: t,
+            force_n: f,
+        };
+        let presses: Vec<GaugeSample> =
+            [(0.0, 0.0), (1.0, 0.1), (2.0, 1.0), (3.0, 0.2), (4.0, 0.0), (5.0, 0.3), (9.0, 2.0), (10.0, 0.01)]
+                .iter()
+                .map(|&(t, f)| g(t, f))
+                .collect();
+        assert_eq!(longest_press_s(&presses), Some(4.0));
+        assert_eq!(longest_press_s(&presses[..2]), None);
+        assert_eq!(longest_press_s(&[g(f64::NAN, 1.0), g(f64::NAN, 1.0)]), None);
+        // a ridge-only floor (w = 0, b = 0.2 N: the linear reading is 0.2 N everywhere) on a
+        // `total` law's stand-in: a placed model that reads 3 N for any change
+        let layout = Layout::biotac_sp();
+        let fl =
+            LinearFloor { intercept_n: 0.2, weights: vec![0.0; 24], lambda: 0.1, floor_n: 0.5, after_s: Some(2.0) };
+        let model = CalibratedForce::Placed {
+            log_scale: 3f64.ln(),
+            sum_exponent: 0.0,
+            norm_exponent: 0.0,
+            width_mm: 2.5,
+            positions: layout.positions().to_vec(),
+            floor: Some(fl.clone()),
+        };
+        let mut p = ForcePredictor::new(&model);
+        let frame = |t: f64, contact: bool| GaugeSample { contact, change: vec![1.0; 24], ..g(t, f64::NAN) };
+        let out: Vec<Option<f64>> = [(0.0, true), (1.0, true), (2.0, true), (3.0, true), (4.0, false), (5.0, true)]
+            .iter()
+            .map(|&(t, c)| p.push(&frame(t, c)))
+            .collect();
+        let close = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9);
+        assert!(close(out[0], 3.0) && close(out[1], 3.0), "{out:?}");
+        assert!(close(out[2], 0.2) && close(out[3], 0.2), "{out:?}");
+        assert_eq!(out[4], None);
+        assert!(close(out[5], 3.0), "a new contact starts young: {out:?}");
+        // without the age (a stateless reading) an aged floor does not apply
+        assert!(close(model.predict_changes(&[1.0; 24]), 3.0));
+        // reset forgets the contact's start
+        p.push(&frame(9.0, true));
+        p.reset();
+        assert!(close(p.push(&frame(20.0, true)), 3.0));
+        // the file: a bad after_s is refused
+        let file = ForceFile {
+            format: FORCE_FORMAT.into(),
+            version: 5,
+            layout: layout.name().into(),
+            taxels: 24,
+            model,
+            calibration: CalibrationInfo { samples: 10, force_range_n: [0.1, 3.0], in_sample_mape_pct: 1.0 },
+        };
+        file.validate().unwrap();
+        for bad in [f64::NAN, -1.0, 2e6] {
+            let mut f = file.clone();
+            if let CalibratedForce::Placed { floor: Some(x), .. } = &mut f.model {
+                x.after_s = Some(bad);
+            }
+            assert!(f.validate().is_err(), "{bad}");
+        }
+        // calibrated with an age factor: after_s = factor × the longest press
+        let samples = forward_samples();
+        let fwd = ForwardSettings { floor_n: Some(0.5), floor_age_factor: Some(2.0), ..ForwardSettings::default() };
+        let f = calibrate_with(&samples, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout, fwd).unwrap();
+        let CalibratedForce::Forward { floor: Some(x), .. } = &f.model else { panic!() };
+        let d = longest_press_s(&samples).unwrap();
+        assert!((x.after_s.unwrap() - 2.0 * d).abs() < 1e-9, "{:?} {d}", x.after_s);
     }
 
     #[test]
