@@ -407,8 +407,7 @@ fn split_s(s: &ForceSession) -> f64 {
     t
 }
 
-/// The `forward` settings: the library's default, or `FORCE_EVAL_FORWARD` (exploration:
-/// `single|multi`, `in_sample|held_aside`, `floor=<N>`, `floor_age=<factor>`, comma-separated).
+/// The `forward` settings: the library's default, or `FORCE_EVAL_FORWARD` (exploration).
 fn forward_settings() -> ForwardSettings {
     let mut fwd = ForwardSettings::default();
     if let Ok(v) = std::env::var("FORCE_EVAL_FORWARD") {
@@ -418,15 +417,6 @@ fn forward_settings() -> ForwardSettings {
                 "multi" => fwd.starts = Starts::Multi,
                 "in_sample" => fwd.guard = ForwardGuard::InSample,
                 "held_aside" => fwd.guard = ForwardGuard::HeldAside,
-                // force round 9 (rule_round9.md): floor=N attaches a linear floor at N newtons
-                // floor_age=K: the floor only on contacts older than K × the calibration's longest press
-                p if p.starts_with("floor_age=") => {
-                    fwd.floor_age_factor =
-                        Some(p["floor_age=".len()..].parse().expect("FORCE_EVAL_FORWARD: floor_age=<factor>"))
-                }
-                p if p.starts_with("floor=") => {
-                    fwd.floor_n = Some(p["floor=".len()..].parse().expect("FORCE_EVAL_FORWARD: floor=<newtons>"))
-                }
                 other => panic!("FORCE_EVAL_FORWARD: unknown {other:?}"),
             }
         }
@@ -497,7 +487,7 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
                 s1,
                 zmax,
                 p.unwrap_or(-1.0),
-                // exploration (round 9): FORCE_EVAL_DUMP_CHANGES adds the split and the 24 changes
+                // exploration (force round 9): FORCE_EVAL_DUMP_CHANGES adds the split and the 24 changes
                 if std::env::var_os("FORCE_EVAL_DUMP_CHANGES").is_some() {
                     let d: Vec<String> = r.sample.change.iter().map(|d| format!("{d:.1}")).collect();
                     format!(" split {split:.2} d {}", d.join(" "))

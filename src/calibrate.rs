@@ -942,17 +942,11 @@ pub fn calibrate_force(
         &layout,
     )
     .map_err(|e| Error::Scene { path: scene.origin.clone(), reason: format!("sensor {:?}: {e}", spec.name) })?;
-    // frame by frame, as the force stage reads them (a floor may need the contact's age)
-    let mut predictor = force_model::ForcePredictor::new(&file.model);
-    let (mut quiet, mut over) = (0u64, 0u64);
-    for s in &samples {
-        let p = predictor.push(s);
-        if s.force_n < force_model::MIN_CALIBRATION_N {
-            quiet += 1;
-            over += u64::from(p.is_some_and(|p| p > 0.5));
-        }
-    }
-    let report = ForceCalibrationReport { frames, with_gauge: samples.len() as u64, untouched: (quiet, over) };
+    let predict = |s: &GaugeSample| file.model.predict_sample(s);
+    let quiet: Vec<&GaugeSample> = samples.iter().filter(|s| s.force_n < force_model::MIN_CALIBRATION_N).collect();
+    let over = quiet.iter().filter(|s| predict(s).is_some_and(|p| p > 0.5)).count() as u64;
+    let report =
+        ForceCalibrationReport { frames, with_gauge: samples.len() as u64, untouched: (quiet.len() as u64, over) };
     Ok((file, report))
 }
 

@@ -631,37 +631,18 @@ impl SensorChain {
                         shape,
                         lobe,
                         lag_s,
-                        floor,
                         ..
                     } => {
-                        let floor = floor.as_ref().map_or(String::new(), |fl| {
-                            format!(
-                                "; below a linear floor of {} N (ridge λ {} on the same calibration) the ridge \
-                                 reading is reported instead{}",
-                                fl.floor_n,
-                                fl.lambda,
-                                fl.after_s.map_or(String::new(), |a| format!(" in a contact older than {a:.2} s"))
-                            )
-                        });
                         placed = format!(
                             "the identified forward model (force exponent {exponent:.3}, spread exponent {spread:.3}, \
                              width {width_mm:.2} mm, profile q {shape:.2}, lobe {lobe:.2}, per-taxel gains, fluid lag \
-                             {lag_s} s inverted{floor}) solved for place and force per frame from the"
+                             {lag_s} s inverted) solved for place and force per frame from the"
                         );
                         placed.as_str()
                     }
-                    gradtac_stages::force_model::CalibratedForce::Placed { width_mm, floor, .. } => {
-                        let floor = floor.as_ref().map_or(String::new(), |fl| {
-                            format!(
-                                " (below a linear floor of {} N, ridge λ {} on the same calibration, the ridge \
-                                 reading instead{})",
-                                fl.floor_n,
-                                fl.lambda,
-                                fl.after_s.map_or(String::new(), |a| format!(" in a contact older than {a:.2} s"))
-                            )
-                        });
+                    gradtac_stages::force_model::CalibratedForce::Placed { width_mm, .. } => {
                         placed = format!(
-                            "a power law in the total change ÷ the layout's response at the contact (w = {width_mm} mm{floor}) \
+                            "a power law in the total change ÷ the layout's response at the contact (w = {width_mm} mm) \
                              of the"
                         );
                         placed.as_str()

@@ -54,14 +54,12 @@ const STAGE: &str = "force";
 
 /// The `format` tag of a force model file.
 pub const FORCE_FORMAT: &str = "gradtac-force";
-/// The newest version this build reads (and writes, for a `forward` model with a linear floor):
-/// version 2 added the `total` method, version 3 the `placed` method, version 4 the `forward`
-/// method, version 5 the linear floor of a `forward` or `placed` model ([`LinearFloor`]; a
-/// model without one is still written as before); `placed`
+/// The newest version this build reads (and writes, for a `forward` model): version 2 added the
+/// `total` method, version 3 the `placed` method, version 4 the `forward` method; `placed`
 /// models are still written as version 3, `total` models as version 2 and `ridge`, `area` and
 /// `amplitude` models as version 1, so older builds keep reading them. Every version up to
 /// this one is read.
-pub const FORCE_VERSION: u32 = 5;
+pub const FORCE_VERSION: u32 = 4;
 /// Most taxels a model may hold.
 pub const MAX_TAXELS: usize = 65_536;
 /// Most knots of an isotonic curve in a file.
@@ -164,11 +162,6 @@ pub enum CalibratedForce {
         lag_s: f64,
         /// The layout's electrode positions (layout plane, mm), one per taxel.
         positions: Vec<[f64; 2]>,
-        /// The linear floor ([`LinearFloor`]; version 5): where the ridge reading of the same
-        /// calibration is under its floor, that reading is reported instead of the inversion's.
-        /// Absent in version-4 files (the inversion alone).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        floor: Option<LinearFloor>,
     },
     /// The `total` law on the changes divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`, the
     /// layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of
@@ -185,10 +178,6 @@ pub enum CalibratedForce {
         width_mm: f64,
         /// The layout's electrode positions (layout plane, mm), one per taxel.
         positions: Vec<[f64; 2]>,
-        /// The linear floor ([`LinearFloor`]; version 5), as for `forward` (the law a `forward`
-        /// calibration's guard writes carries it too). Absent in version-3 files.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        floor: Option<LinearFloor>,
     },
     /// `F = exp(log_scale + sum_exponent · ln S₁ + norm_exponent · ln S₂)` with `S₁ = Σ|Δᵢ|`,
     /// `S₂ = √ΣΔᵢ²` (counts); 0 N when nothing changed.
@@ -222,65 +211,6 @@ pub enum CalibratedForce {
     },
 }
 
-/// A `forward` model's linear floor (force round 9, `examples/force_parts/rule_round9.md`): the
-/// ridge law `r = max(0, b + Σ wᵢ Δᵢ)` fitted on the same calibration frames as the forward
-/// model (penalty [`DEFAULT_RIDGE_LAMBDA`]). Per frame in contact, the inversion's force is
-/// reported where `r ≥ floor_n`, and `r` itself where `r < floor_n`: a change the linear law
-/// reads as lighter than the floor (a drift the gate holds as a contact, whose pattern the
-/// inversion fits as a press) is not read as a press by the inversion.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LinearFloor {
-    /// `b`: the ridge law's force at no change (N).
-    pub intercept_n: f64,
-    /// `wᵢ`: N per count, per taxel.
-    pub weights: Vec<f64>,
-    /// The penalty the ridge law was fitted with.
-    pub lambda: f64,
-    /// The floor (N).
-    pub floor_n: f64,
-    /// When set (s), the floor applies only to a contact that has lasted at least this long
-    /// (a contact of the detector, timed from its first frame; [`ForcePredictor`] and
-    /// [`ChangeForce`] keep the time): `age_factor` × the calibration's longest press (the
-    /// longest run of gauge readings of at least [`MIN_CALIBRATION_N`]). Unset: every frame in
-    /// contact. A reading without the contact's age ([`CalibratedForce::predict_changes`])
-    /// applies an unset floor only.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub after_s: Option<f64>,
-}
-
-impl LinearFloor {
-    /// The linear reading `max(0, b + Σ wᵢ Δᵢ)` (N; NaN in, NaN out).
-    pub fn reading(&self, delta: &[f64]) -> f64 {
-        let f = self.intercept_n + self.weights.iter().zip(delta).map(|(w, d)| w * d).sum::<f64>();
-        if f.is_nan() {
-            f
-        } else {
-            f.max(0.0)
-        }
-    }
-
-    /// Whether the floor applies to a contact `age_s` old (NaN: unknown, applies only when
-    /// [`after_s`](Self::after_s) is unset).
-    pub fn applies(&self, age_s: f64) -> bool {
-        self.after_s.is_none_or(|a| age_s >= a)
-    }
-
-    /// The force reported for the inversion's force `inverted` and changes `delta`: `inverted`
-    /// where the linear reading is at least the floor, else the reading.
-    pub fn apply(&self, inverted: f64, delta: &[f64]) -> f64 {
-        let r = self.reading(delta);
-        if r.is_nan() || r >= self.floor_n {
-            inverted
-        } else {
-            r
-        }
-    }
-}
-
-/// Bounds of a linear floor (N).
-pub const FLOOR_RANGE_N: std::ops::RangeInclusive<f64> = 0.0..=1000.0;
-
 impl CalibratedForce {
     /// Its method.
     pub fn method(&self) -> CalibrationMethod {
@@ -312,13 +242,11 @@ impl CalibratedForce {
         self.method().reads_changes()
     }
 
-    /// The file version a model of this method is written with: 5 for `forward` or `placed` with
-    /// a linear floor ([`LinearFloor`]), 4 for `forward` without one, 3 for
+    /// The file version a model of this method is written with: 4 for `forward`, 3 for
     /// `placed`, 2 for `total` (a build that reads only older versions refuses it by its
     /// version), 1 for the others.
     pub fn version(&self) -> u32 {
         match self {
-            CalibratedForce::Forward { floor: Some(_), .. } | CalibratedForce::Placed { floor: Some(_), .. } => 5,
             CalibratedForce::Forward { .. } => 4,
             CalibratedForce::Placed { .. } => 3,
             CalibratedForce::Total { .. } => 2,
@@ -348,12 +276,11 @@ impl CalibratedForce {
     /// (The `forward` model builds its geometry on each call; [`ChangeForce`] keeps it.)
     pub fn predict_changes(&self, delta: &[f64]) -> Option<f64> {
         match self {
-            CalibratedForce::Forward { floor, .. } => {
+            CalibratedForce::Forward { .. } => {
                 let (m, geo) = self.forward().expect("a forward model");
-                let f = forward_force(&m, &geo, delta);
-                Some(floor.as_ref().filter(|fl| fl.applies(f64::NAN)).map_or(f, |fl| fl.apply(f, delta)))
+                Some(forward_force(&m, &geo, delta))
             }
-            CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions, floor } => {
+            CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions } => {
                 let (s1, s2) = total_change(delta);
                 if s1.is_nan() {
                     return Some(f64::NAN);
@@ -363,8 +290,7 @@ impl CalibratedForce {
                 }
                 let r = place_response(positions, delta, *width_mm).ln();
                 let f = (log_scale + sum_exponent * (s1.ln() - r) + norm_exponent * (s2.ln() - r)).exp();
-                let f = if f.is_nan() { f } else { f.max(0.0) };
-                Some(floor.as_ref().filter(|fl| fl.applies(f64::NAN)).map_or(f, |fl| fl.apply(f, delta)))
+                Some(if f.is_nan() { f } else { f.max(0.0) })
             }
             CalibratedForce::Total { log_scale, sum_exponent, norm_exponent } => {
                 let (s1, s2) = total_change(delta);
@@ -406,10 +332,7 @@ fn lead(delta: &[f64], prev: &[f64], dt: f64, tau: f64) -> Vec<f64> {
 pub struct ForcePredictor {
     model: CalibratedForce,
     forward: Option<(ForwardModel, Geometry, f64)>,
-    floor: Option<LinearFloor>,
     prev: Option<(f64, Vec<f64>)>,
-    /// The current contact's first frame's time (s).
-    since: Option<f64>,
 }
 
 impl ForcePredictor {
@@ -419,41 +342,24 @@ impl ForcePredictor {
             CalibratedForce::Forward { lag_s, .. } => model.forward().map(|(m, g)| (m, g, *lag_s)),
             _ => None,
         };
-        // the floor is applied here (it may need the contact's age), on the model without it
-        let mut base = model.clone();
-        let floor = match &mut base {
-            CalibratedForce::Forward { floor, .. } | CalibratedForce::Placed { floor, .. } => floor.take(),
-            _ => None,
-        };
-        ForcePredictor { model: base, forward, floor, prev: None, since: None }
+        ForcePredictor { model: model.clone(), forward, prev: None }
     }
 
     /// The next frame's force (N; `None` without a contact or the model's feature): frames
     /// must come in time order.
     pub fn push(&mut self, s: &GaugeSample) -> Option<f64> {
-        self.since = if s.contact { Some(self.since.unwrap_or(s.time_s)) } else { None };
-        let p = match &self.forward {
-            None => self.model.predict_sample(s),
-            Some((m, geo, tau)) => {
-                let led = match &self.prev {
-                    Some((t, p)) => lead(&s.change, p, s.time_s - t, *tau),
-                    None => s.change.clone(),
-                };
-                self.prev = Some((s.time_s, s.change.clone()));
-                s.contact.then(|| forward_force(m, geo, &led))
-            }
+        let Some((m, geo, tau)) = &self.forward else { return self.model.predict_sample(s) };
+        let led = match &self.prev {
+            Some((t, p)) => lead(&s.change, p, s.time_s - t, *tau),
+            None => s.change.clone(),
         };
-        let age = self.since.map_or(f64::NAN, |t0| s.time_s - t0);
-        match &self.floor {
-            Some(fl) if fl.applies(age) => p.map(|f| fl.apply(f, &s.change)),
-            _ => p,
-        }
+        self.prev = Some((s.time_s, s.change.clone()));
+        s.contact.then(|| forward_force(m, geo, &led))
     }
 
-    /// Forget the previous frame and the contact's start (a gap).
+    /// Forget the previous frame (a gap).
     pub fn reset(&mut self) {
         self.prev = None;
-        self.since = None;
     }
 }
 
@@ -650,10 +556,7 @@ impl ForceFile {
             return Err(invalid(format!("{} taxels (want 1..={MAX_TAXELS})", self.taxels)));
         }
         match &self.model {
-            CalibratedForce::Forward { gains, positions, lag_s, floor, .. } => {
-                if let Some(fl) = floor {
-                    self.validate_floor(fl)?;
-                }
+            CalibratedForce::Forward { gains, positions, lag_s, .. } => {
                 if !LAG_RANGE_S.contains(lag_s) {
                     return Err(invalid(format!(
                         "lag_s {lag_s} (want {}..={} s)",
@@ -681,10 +584,7 @@ impl ForceFile {
                     ));
                 }
             }
-            CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions, floor } => {
-                if let Some(fl) = floor {
-                    self.validate_floor(fl)?;
-                }
+            CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, positions } => {
                 if ![log_scale, sum_exponent, norm_exponent].iter().all(|x| x.is_finite()) {
                     return Err(invalid("a placed-law parameter is not finite".into()));
                 }
@@ -727,30 +627,6 @@ impl ForceFile {
         let c = &self.calibration;
         if !c.force_range_n.iter().all(|f| f.is_finite()) || c.in_sample_mape_pct.is_nan() {
             return Err(invalid("calibration figures are not finite".into()));
-        }
-        Ok(())
-    }
-
-    /// Check a model's linear floor: a version-5 file, one weight per taxel, finite numbers, a
-    /// floor within [`FLOOR_RANGE_N`].
-    fn validate_floor(&self, fl: &LinearFloor) -> Result<()> {
-        if self.version < 5 {
-            return Err(invalid(format!("version {} with a linear floor (a floor needs version 5)", self.version)));
-        }
-        if fl.weights.len() != self.taxels {
-            return Err(invalid(format!("{} taxels but {} floor weights", self.taxels, fl.weights.len())));
-        }
-        if !(fl.intercept_n.is_finite()
-            && fl.lambda.is_finite()
-            && fl.weights.iter().all(|w| w.is_finite())
-            && FLOOR_RANGE_N.contains(&fl.floor_n)
-            && fl.after_s.is_none_or(|a| a.is_finite() && (0.0..=1e6).contains(&a)))
-        {
-            return Err(invalid(format!(
-                "a linear-floor parameter is not finite (or its floor_n is outside {}..={} N, or after_s outside 0–1e6 s)",
-                FLOOR_RANGE_N.start(),
-                FLOOR_RANGE_N.end()
-            )));
         }
         Ok(())
     }
@@ -918,23 +794,17 @@ pub enum ForwardGuard {
 }
 
 /// The `forward` calibration's settings: where the identification starts and its guard.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ForwardSettings {
     /// The identification's starts.
     pub starts: Starts,
     /// The guard.
     pub guard: ForwardGuard,
-    /// The linear floor's `floor_n` (N; [`LinearFloor`]): `Some` attaches one to a `forward`
-    /// model the guard keeps (force round 9 candidate; `None`, the default, attaches none).
-    pub floor_n: Option<f64>,
-    /// With `floor_n`: the floor applies only to contacts older than this factor × the
-    /// calibration's longest press ([`LinearFloor::after_s`]; `None`: to every contact frame).
-    pub floor_age_factor: Option<f64>,
 }
 
 impl Default for ForwardSettings {
     fn default() -> Self {
-        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside, floor_n: None, floor_age_factor: None }
+        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside }
     }
 }
 
@@ -977,101 +847,13 @@ pub fn calibrate_with(
     let Ok(placed) = calibrate_unguarded(samples, CalibrationMethod::Placed, lambda, curve, layout) else {
         return Ok(file);
     };
-    let chosen = match fwd.guard {
-        ForwardGuard::HeldAside => {
-            let aside = |m| held_aside_mape_pct(samples, m, lambda, curve, layout, fwd.starts);
-            match (aside(CalibrationMethod::Forward), aside(CalibrationMethod::Placed)) {
-                (Some(f), Some(p)) => {
-                    if f.is_finite() && f <= p {
-                        file
-                    } else {
-                        placed
-                    }
-                }
-                _ => forward_guard(file, placed),
-            }
-        }
-        ForwardGuard::InSample => forward_guard(file, placed),
-    };
-    match fwd.floor_n {
-        Some(floor_n) if matches!(chosen.model.method(), CalibrationMethod::Forward | CalibrationMethod::Placed) => {
-            with_linear_floor(chosen, samples, floor_n, fwd.floor_age_factor, layout)
-        }
-        _ => Ok(chosen),
-    }
-}
-
-/// The longest press of a calibration (s): the longest time from the first to the last of
-/// consecutive samples with a finite gauge force of at least [`MIN_CALIBRATION_N`] (`None`
-/// without one of a positive, finite duration).
-pub fn longest_press_s(samples: &[GaugeSample]) -> Option<f64> {
-    let (mut best, mut start): (f64, Option<f64>) = (0.0, None);
-    for s in samples {
-        if s.force_n.is_finite() && s.force_n >= MIN_CALIBRATION_N && s.time_s.is_finite() {
-            let t0 = *start.get_or_insert(s.time_s);
-            best = best.max(s.time_s - t0);
-        } else {
-            start = None;
+    if fwd.guard == ForwardGuard::HeldAside {
+        let aside = |m| held_aside_mape_pct(samples, m, lambda, curve, layout, fwd.starts);
+        if let (Some(f), Some(p)) = (aside(CalibrationMethod::Forward), aside(CalibrationMethod::Placed)) {
+            return Ok(if f.is_finite() && f <= p { file } else { placed });
         }
     }
-    (best > 0.0 && best.is_finite()).then_some(best)
-}
-
-/// `file` (a `forward` or `placed` model; another is returned unchanged) with a
-/// [`LinearFloor`] at `floor_n` N: the ridge law (penalty [`DEFAULT_RIDGE_LAMBDA`]) fitted on the
-/// calibration frames of `samples`, and the in-sample figure scored again with it; with
-/// `age_factor`, applied only to contacts older than that factor × the longest press of
-/// `samples` ([`longest_press_s`]). When the ridge system is singular, or `age_factor` is set
-/// and no press has a duration, `file` unchanged.
-pub fn with_linear_floor(
-    file: ForceFile,
-    samples: &[GaugeSample],
-    floor_n: f64,
-    age_factor: Option<f64>,
-    layout: &gradtac_stream::Layout,
-) -> Result<ForceFile> {
-    if !FLOOR_RANGE_N.contains(&floor_n) {
-        return Err(invalid(format!("floor_n {floor_n} (want {}..={} N)", FLOOR_RANGE_N.start(), FLOOR_RANGE_N.end())));
-    }
-    if !matches!(file.model, CalibratedForce::Forward { .. } | CalibratedForce::Placed { .. }) {
-        return Ok(file);
-    }
-    let after_s = match age_factor {
-        None => None,
-        Some(k) if k.is_finite() && k > 0.0 => match longest_press_s(samples) {
-            Some(d) if (k * d).is_finite() && k * d <= 1e6 => Some(k * d),
-            _ => return Ok(file),
-        },
-        Some(k) => return Err(invalid(format!("floor age factor {k} (want a finite factor > 0)"))),
-    };
-    let lambda = DEFAULT_RIDGE_LAMBDA;
-    let Ok(CalibratedForce::Ridge { intercept_n, weights, .. }) =
-        fit_model(samples, CalibrationMethod::Ridge, lambda, ForceMethod::Linear, layout, Starts::Single)
-    else {
-        return Ok(file);
-    };
-    let mut model = file.model.clone();
-    if let CalibratedForce::Forward { floor, .. } | CalibratedForce::Placed { floor, .. } = &mut model {
-        *floor = Some(LinearFloor { intercept_n, weights, lambda, floor_n, after_s });
-    }
-    let mut predictor = ForcePredictor::new(&model);
-    let scored: Vec<f64> = samples
-        .iter()
-        .map(|s| (predictor.push(s), s))
-        .filter(|(_, s)| scored(s))
-        .map(|(p, s)| relative_error(p, s))
-        .collect();
-    let out = ForceFile {
-        version: model.version(),
-        model,
-        calibration: CalibrationInfo {
-            in_sample_mape_pct: 100.0 * scored.iter().sum::<f64>() / scored.len().max(1) as f64,
-            ..file.calibration
-        },
-        ..file
-    };
-    out.validate()?;
-    Ok(out)
+    Ok(forward_guard(file, placed))
 }
 
 /// Whether a sample is used for a calibration: a contact frame of a finite gauge force of at
@@ -1255,7 +1037,6 @@ fn fit_model(
                 lobe: m.lobe,
                 lag_s: tau,
                 positions,
-                floor: None,
             }
         }
         CalibrationMethod::Placed => {
@@ -1276,14 +1057,7 @@ fn fit_model(
                 )));
             }
             let (c, w2) = acc.solve(0.0).ok_or_else(|| invalid("the placed-law fit is singular".into()))?;
-            CalibratedForce::Placed {
-                log_scale: c,
-                sum_exponent: w2[0],
-                norm_exponent: w2[1],
-                width_mm: w,
-                positions,
-                floor: None,
-            }
+            CalibratedForce::Placed { log_scale: c, sum_exponent: w2[0], norm_exponent: w2[1], width_mm: w, positions }
         }
         CalibrationMethod::Total => {
             let mut acc = RidgeAccumulator::new(2);
@@ -1498,8 +1272,7 @@ mod tests {
         }
         let file = calibrate(&s, CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
         assert_eq!(file.version, 3, "a placed file is version 3");
-        let CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, ref positions, .. } =
-            file.model
+        let CalibratedForce::Placed { log_scale, sum_exponent, norm_exponent, width_mm, ref positions } = file.model
         else {
             panic!()
         };
@@ -1524,7 +1297,6 @@ mod tests {
             norm_exponent: 0.0,
             width_mm: w,
             positions: p,
-            floor: None,
         };
         let pos = layout.positions().to_vec();
         assert!(!bad(placed(2.5, pos.clone())));
@@ -1567,7 +1339,6 @@ mod tests {
             norm_exponent: 0.0,
             width_mm: w,
             positions: p.clone(),
-            floor: None,
         };
         let f_on = model(&on).predict_changes(&a_on).unwrap();
         let f_between = model(&between).predict_changes(&a_between).unwrap();
@@ -1706,15 +1477,7 @@ mod tests {
     fn the_held_aside_guard_predicts_each_press_from_the_others() {
         let layout = Layout::biotac_sp();
         let fwd = ForwardSettings::default();
-        assert_eq!(
-            fwd,
-            ForwardSettings {
-                starts: Starts::Multi,
-                guard: ForwardGuard::HeldAside,
-                floor_n: None,
-                floor_age_factor: None
-            }
-        );
+        assert_eq!(fwd, ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside });
         let aside = |s: &[GaugeSample], m| held_aside_mape_pct(s, m, 0.0, ForceMethod::Linear, &layout, fwd.starts);
         // its own model, three presses at three places: the forward model predicts a press it
         // never saw (the third place's electrodes keep the prior gain, here the true one)
@@ -1751,168 +1514,6 @@ mod tests {
     }
 
     #[test]
-    fn the_linear_floor_reports_the_linear_reading_below_its_floor_and_files_are_version_5() {
-        // analytic: b = 0.1 N, w₀ = 0.01 N/count, the other weights 0
-        let mut weights = vec![0.0; 24];
-        weights[0] = 0.01;
-        let fl = LinearFloor { intercept_n: 0.1, weights, lambda: 0.1, floor_n: 0.5, after_s: None };
-        let mut d = vec![0.0; 24];
-        d[0] = 20.0; // r = 0.3 N < 0.5: the reading
-        assert!((fl.apply(3.0, &d) - 0.3).abs() < 1e-12);
-        d[0] = 40.0; // r = 0.5 N: the inversion's
-        assert_eq!(fl.apply(3.0, &d), 3.0);
-        d[0] = -100.0; // r < 0 is read as 0 N
-        assert_eq!(fl.apply(3.0, &d), 0.0);
-        d[0] = f64::NAN;
-        assert!(fl.apply(f64::NAN, &d).is_nan());
-        // calibrated with a floor: version 5, loads again; without one: version 4, no floor key
-        let layout = Layout::biotac_sp();
-        let samples = forward_samples();
-        let fwd = ForwardSettings { floor_n: Some(0.5), ..ForwardSettings::default() };
-        let file =
-            calibrate_with(&samples, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout, fwd).unwrap();
-        assert_eq!(file.version, 5);
-        let CalibratedForce::Forward { floor: Some(floor), .. } = &file.model else { panic!("{:?}", file.model) };
-        assert_eq!((floor.floor_n, floor.lambda, floor.weights.len()), (0.5, DEFAULT_RIDGE_LAMBDA, 24));
-        let json = serde_json::to_string(&file).unwrap();
-        assert_eq!(serde_json::from_str::<ForceFile>(&json).unwrap(), file);
-        let plain = calibrate(&samples, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
-        assert_eq!(plain.version, 4);
-        assert!(!serde_json::to_string(&plain).unwrap().contains("floor"));
-        // the floor changes a frame's force only where the linear reading is under 0.5 N
-        let mut with = ForcePredictor::new(&file.model);
-        let mut without = ForcePredictor::new(&plain.model);
-        let (mut below, mut above) = (0, 0);
-        for s in &samples {
-            let (a, b) = (with.push(s), without.push(s));
-            if !s.contact {
-                assert_eq!((a, b), (None, None));
-                continue;
-            }
-            let r = floor.reading(&s.change);
-            if r < 0.5 {
-                assert_eq!(a, Some(r));
-                below += 1;
-            } else {
-                assert_eq!(a, b);
-                above += 1;
-            }
-        }
-        assert!(below > 0 && above > 0, "{below} {above}");
-        // invalid floors are refused: a version-4 header, a wrong length, a non-finite weight,
-        // a negative floor
-        assert!(ForceFile { version: 4, ..file.clone() }.validate().unwrap_err().to_string().contains("version 5"));
-        let bad = |f: &dyn Fn(&mut LinearFloor)| {
-            let mut g = file.clone();
-            if let CalibratedForce::Forward { floor: Some(fl), .. } = &mut g.model {
-                f(fl);
-            }
-            g.validate().is_err()
-        };
-        assert!(bad(&|fl| fl.weights.truncate(3)));
-        assert!(bad(&|fl| fl.weights[2] = f64::INFINITY));
-        assert!(bad(&|fl| fl.floor_n = -0.1));
-        assert!(bad(&|fl| fl.intercept_n = f64::NAN));
-        assert!(with_linear_floor(plain.clone(), &samples, f64::NAN, None, &layout).is_err());
-        // the `placed` law (what the guard may write) takes a floor too: version 5, applied
-        let placed =
-            calibrate(&power_law_samples(), CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
-        let floored = with_linear_floor(placed.clone(), &power_law_samples(), 0.5, None, &layout).unwrap();
-        assert_eq!((placed.version, floored.version), (3, 5));
-        floored.validate().unwrap();
-        let CalibratedForce::Placed { floor: Some(fl), .. } = &floored.model else { panic!() };
-        let mut n = 0;
-        for s in power_law_samples() {
-            let (a, b) =
-                (floored.model.predict_changes(&s.change).unwrap(), placed.model.predict_changes(&s.change).unwrap());
-            let r = fl.reading(&s.change);
-            assert_eq!(a, if r < 0.5 { r } else { b });
-            n += usize::from(r < 0.5);
-        }
-        assert!(n > 0);
-        assert!(ForceFile { version: 3, ..floored }.validate().is_err());
-        // a model of another method is returned unchanged
-        let total =
-            calibrate(&power_law_samples(), CalibrationMethod::Total, 0.0, ForceMethod::Linear, &layout).unwrap();
-        assert_eq!(with_linear_floor(total.clone(), &power_law_samples(), 0.5, None, &layout).unwrap(), total);
-    }
-
-    #[test]
-    fn an_aged_floor_applies_only_to_contacts_older_than_its_bound() {
-        // the longest press: consecutive gauge readings ≥ 0.05 N, first to last
-        let g = |t: f64, f: f64| GaugeSample {
-            change: vec![0.0; 24],
-            contact: true,
-            area_mm2: None,
-            amplitude: None,
-            time_s: t,
-            force_n: f,
-        };
-        let presses: Vec<GaugeSample> =
-            [(0.0, 0.0), (1.0, 0.1), (2.0, 1.0), (3.0, 0.2), (4.0, 0.0), (5.0, 0.3), (9.0, 2.0), (10.0, 0.01)]
-                .iter()
-                .map(|&(t, f)| g(t, f))
-                .collect();
-        assert_eq!(longest_press_s(&presses), Some(4.0));
-        assert_eq!(longest_press_s(&presses[..2]), None);
-        assert_eq!(longest_press_s(&[g(f64::NAN, 1.0), g(f64::NAN, 1.0)]), None);
-        // a ridge-only floor (w = 0, b = 0.2 N: the linear reading is 0.2 N everywhere) on a
-        // `total` law's stand-in: a placed model that reads 3 N for any change
-        let layout = Layout::biotac_sp();
-        let fl =
-            LinearFloor { intercept_n: 0.2, weights: vec![0.0; 24], lambda: 0.1, floor_n: 0.5, after_s: Some(2.0) };
-        let model = CalibratedForce::Placed {
-            log_scale: 3f64.ln(),
-            sum_exponent: 0.0,
-            norm_exponent: 0.0,
-            width_mm: 2.5,
-            positions: layout.positions().to_vec(),
-            floor: Some(fl.clone()),
-        };
-        let mut p = ForcePredictor::new(&model);
-        let frame = |t: f64, contact: bool| GaugeSample { contact, change: vec![1.0; 24], ..g(t, f64::NAN) };
-        let out: Vec<Option<f64>> = [(0.0, true), (1.0, true), (2.0, true), (3.0, true), (4.0, false), (5.0, true)]
-            .iter()
-            .map(|&(t, c)| p.push(&frame(t, c)))
-            .collect();
-        let close = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9);
-        assert!(close(out[0], 3.0) && close(out[1], 3.0), "{out:?}");
-        assert!(close(out[2], 0.2) && close(out[3], 0.2), "{out:?}");
-        assert_eq!(out[4], None);
-        assert!(close(out[5], 3.0), "a new contact starts young: {out:?}");
-        // without the age (a stateless reading) an aged floor does not apply
-        assert!(close(model.predict_changes(&[1.0; 24]), 3.0));
-        // reset forgets the contact's start
-        p.push(&frame(9.0, true));
-        p.reset();
-        assert!(close(p.push(&frame(20.0, true)), 3.0));
-        // the file: a bad after_s is refused
-        let file = ForceFile {
-            format: FORCE_FORMAT.into(),
-            version: 5,
-            layout: layout.name().into(),
-            taxels: 24,
-            model,
-            calibration: CalibrationInfo { samples: 10, force_range_n: [0.1, 3.0], in_sample_mape_pct: 1.0 },
-        };
-        file.validate().unwrap();
-        for bad in [f64::NAN, -1.0, 2e6] {
-            let mut f = file.clone();
-            if let CalibratedForce::Placed { floor: Some(x), .. } = &mut f.model {
-                x.after_s = Some(bad);
-            }
-            assert!(f.validate().is_err(), "{bad}");
-        }
-        // calibrated with an age factor: after_s = factor × the longest press
-        let samples = forward_samples();
-        let fwd = ForwardSettings { floor_n: Some(0.5), floor_age_factor: Some(2.0), ..ForwardSettings::default() };
-        let f = calibrate_with(&samples, CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout, fwd).unwrap();
-        let CalibratedForce::Forward { floor: Some(x), .. } = &f.model else { panic!() };
-        let d = longest_press_s(&samples).unwrap();
-        assert!((x.after_s.unwrap() - 2.0 * d).abs() < 1e-9, "{:?} {d}", x.after_s);
-    }
-
-    #[test]
     fn forward_files_are_version_4_fit_their_own_model_and_survive_garbage() {
         let layout = Layout::biotac_sp();
         let file =
@@ -1926,7 +1527,7 @@ mod tests {
             calibrate(&power_law_samples(), CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
         assert_eq!(placed.version, 3);
         placed.validate().unwrap();
-        assert!(ForceFile { version: 6, ..file.clone() }.validate().unwrap_err().to_string().contains("version 6"));
+        assert!(ForceFile { version: 5, ..file.clone() }.validate().unwrap_err().to_string().contains("version 5"));
         // out-of-bounds parameters are refused
         let CalibratedForce::Forward { gains, positions, .. } = file.model.clone() else { panic!() };
         for bad in [
@@ -1939,7 +1540,6 @@ mod tests {
                 lobe: 0.0,
                 lag_s: 0.0,
                 positions: positions.clone(),
-                floor: None,
             },
             CalibratedForce::Forward {
                 gains: gains.clone(),
@@ -1950,7 +1550,6 @@ mod tests {
                 lobe: 0.0,
                 lag_s: -1.0,
                 positions: positions.clone(),
-                floor: None,
             },
             CalibratedForce::Forward {
                 gains: gains[..3].to_vec(),
@@ -1961,7 +1560,6 @@ mod tests {
                 lobe: 0.0,
                 lag_s: 0.0,
                 positions: positions.clone(),
-                floor: None,
             },
         ] {
             assert!(ForceFile { model: bad, ..file.clone() }.validate().is_err());
