@@ -480,13 +480,20 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
             let (s1, _) = gradtac::stages::force_model::total_change(&r.sample.change);
             let zmax = r.sample.change.iter().map(|d| d.abs()).fold(0.0, f64::max);
             eprintln!(
-                "{:.2} F {:.2} c {} S1 {:.0} max {:.0} pred {:.2}",
+                "{:.2} F {:.2} c {} S1 {:.0} max {:.0} pred {:.2}{}",
                 r.t,
                 at(&m.rec.force, r.t),
                 u8::from(r.sample.contact),
                 s1,
                 zmax,
-                p.unwrap_or(-1.0)
+                p.unwrap_or(-1.0),
+                // exploration (force round 9): FORCE_EVAL_DUMP_CHANGES adds the split and the 24 changes
+                if std::env::var_os("FORCE_EVAL_DUMP_CHANGES").is_some() {
+                    let d: Vec<String> = r.sample.change.iter().map(|d| format!("{d:.1}")).collect();
+                    format!(" split {split:.2} d {}", d.join(" "))
+                } else {
+                    String::new()
+                }
             );
         }
         let f = at(&m.rec.force, r.t);
