@@ -81,6 +81,8 @@ const G_MAX: f64 = 1.5;
 const ADC_MAX: f64 = 4095.0;
 /// Held-out seeds of `force_eval`: never simulated here.
 const HELD_OUT: std::ops::Range<u64> = 100..116;
+/// The force detector's window (`window_frames`, frames): the second observer sees these.
+const WINDOW: usize = 9;
 
 /// What the oracle is told about a member.
 #[derive(Clone, Debug)]
@@ -311,7 +313,8 @@ fn calibrate(o: &Oracle, rec: &ForceRecording, frames: impl Iterator<Item = usiz
                     let keep: Vec<usize> = (0..G_POINTS).filter(|&k| lps[k] >= max - G_SUPPORT_NATS).collect();
                     let (a, b) = (keep[0], *keep.last().unwrap());
                     if a > 0 || b + 1 < G_POINTS {
-                        let (nlo, nhi) = (lo + a.saturating_sub(1) as f64 * step, lo + (b + 2).min(G_POINTS) as f64 * step);
+                        let (nlo, nhi) =
+                            (lo + a.saturating_sub(1) as f64 * step, lo + (b + 2).min(G_POINTS) as f64 * step);
                         (lo, hi) = (nlo, nhi);
                         continue;
                     }
@@ -386,19 +389,72 @@ fn ln_marginal_censored(x: f64, b0: f64, h: f64, p: &GainPost, sd: f64) -> f64 {
     max + lps.iter().map(|l| (l - max).exp()).sum::<f64>().ln()
 }
 
-/// ln p(frame | F) for each force of `grid` (ln F), up to a constant.
-fn log_lik(o: &Oracle, posts: &[GainPost], x: &[f64], rho: &[f64; 24], grid: &[f64]) -> Vec<f64> {
+/// What an observer sees of one scored frame: the counts of the frames of its window (one frame,
+/// or the 9 of the force detector's window, all at the same place) with each frame's force as a
+/// told ratio to the scored frame's, `F_j = r_j F`.
+struct Window<'a> {
+    frames: Vec<(&'a [f64], f64)>,
+    rho: [f64; 24],
+}
+
+/// ln p(window | F) for each force of `grid` (ln F), up to a constant. Per electrode the
+/// window's Gaussian terms are quadratic in |gᵢ|: with `S_hh = Σ h²`, `S_hr = Σ h r`, `S_rr = Σ r²`
+/// (r the baseline-relative counts) they are one observation `r' = S_hr/√S_hh` of `g √S_hh` plus
+/// `−(S_rr − S_hr²/S_hh)/2v`, so [`ln_marginal`] serves any window; a window with a censored
+/// count sums over the gain grid directly.
+fn log_lik(o: &Oracle, posts: &[GainPost], win: &Window<'_>, grid: &[f64]) -> Vec<f64> {
     let sd = o.var.sqrt();
-    let mut h = [0.0; 24];
+    let mut h = vec![[0.0; 24]; win.frames.len()];
     grid.iter()
         .map(|&lf| {
-            o.unit(rho, lf.exp(), &mut h);
+            let f = lf.exp();
+            for (hj, (_, r)) in h.iter_mut().zip(&win.frames) {
+                o.unit(&win.rho, f * r, hj);
+            }
             (0..24)
                 .map(|i| {
-                    if censored(x[i]) {
-                        ln_marginal_censored(x[i], o.baseline[i], h[i], &posts[i], sd)
+                    let b = o.baseline[i];
+                    if win.frames.iter().any(|(x, _)| censored(x[i])) {
+                        if let [(x, _)] = win.frames[..] {
+                            return ln_marginal_censored(x[i], b, h[0][i], &posts[i], sd);
+                        }
+                        let p = &posts[i];
+                        let l: Vec<f64> = (0..p.w.len())
+                            .map(|k| {
+                                let g = p.g(k);
+                                p.w[k].ln()
+                                    + win
+                                        .frames
+                                        .iter()
+                                        .zip(&h)
+                                        .map(|((x, _), hj)| {
+                                            if censored(x[i]) {
+                                                ln_censored(x[i], b + g * hj[i], sd)
+                                            } else {
+                                                -(x[i] - b - g * hj[i]).powi(2) / (2.0 * o.var)
+                                            }
+                                        })
+                                        .sum::<f64>()
+                            })
+                            .collect();
+                        let m = l.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                        return m + l.iter().map(|v| (v - m).exp()).sum::<f64>().ln();
+                    }
+                    if let [(x, _)] = win.frames[..] {
+                        return ln_marginal(x[i] - b, h[0][i], &posts[i], o.var);
+                    }
+                    let (mut hh, mut hr, mut rr) = (0.0, 0.0, 0.0);
+                    for ((x, _), hj) in win.frames.iter().zip(&h) {
+                        let r = x[i] - b;
+                        hh += hj[i] * hj[i];
+                        hr += hj[i] * r;
+                        rr += r * r;
+                    }
+                    if hh > 0.0 {
+                        let s = hh.sqrt();
+                        ln_marginal(hr / s, s, &posts[i], o.var) - (rr - hr * hr / hh).max(0.0) / (2.0 * o.var)
                     } else {
-                        ln_marginal(x[i] - o.baseline[i], h[i], &posts[i], o.var)
+                        ln_marginal(0.0, 0.0, &posts[i], o.var) - rr / (2.0 * o.var)
                     }
                 })
                 .sum()
@@ -430,9 +486,9 @@ fn ln_grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 }
 
 /// The observer's estimate of one frame's force: a coarse pass, then a fine one over the support.
-fn estimate(o: &Oracle, posts: &[GainPost], x: &[f64], rho: &[f64; 24]) -> f64 {
+fn estimate(o: &Oracle, posts: &[GainPost], win: &Window<'_>) -> f64 {
     let coarse = ln_grid(F_LO.ln(), F_HI.ln(), F_COARSE);
-    let lp = log_lik(o, posts, x, rho, &coarse);
+    let lp = log_lik(o, posts, win, &coarse);
     let max = lp.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let keep: Vec<usize> = (0..F_COARSE).filter(|&k| lp[k] >= max - F_SUPPORT_NATS).collect();
     let (a, b) = (keep[0].saturating_sub(1), (keep[keep.len() - 1] + 1).min(F_COARSE - 1));
@@ -440,8 +496,130 @@ fn estimate(o: &Oracle, posts: &[GainPost], x: &[f64], rho: &[f64; 24]) -> f64 {
         return weighted_median(&coarse, &lp);
     }
     let fine = ln_grid(coarse[a], coarse[b], F_FINE);
-    let lp = log_lik(o, posts, x, rho, &fine);
+    let lp = log_lik(o, posts, win, &fine);
     weighted_median(&fine, &lp)
+}
+
+/// Starting places for [`mle_place_unknown`]: a 2.5-mm grid over the pad region's bounding box.
+fn start_places() -> Vec<[f64; 2]> {
+    let region = gradtac::stages::sim_family::pad_region();
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in &region {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let mut v = Vec::new();
+    let mut x = lo[0];
+    while x <= hi[0] + 1e-9 {
+        let mut y = lo[1];
+        while y <= hi[1] + 1e-9 {
+            v.push([x, y]);
+            y += 2.5;
+        }
+        x += 2.5;
+    }
+    v
+}
+
+/// **Not a floor — a reference with the place unknown**: the maximum-likelihood `(x, y, ln F)` of
+/// one frame, the gains at their calibrated posterior means, everything else told (censored
+/// counts left out). Started from the best of `starts` × 40 forces (0.05–20 N), then
+/// Levenberg–Marquardt from the three best starts; the lowest cost wins. Returns F̂ (N).
+fn mle_place_unknown(o: &Oracle, gains: &[f64; 24], x: &[f64], starts: &[[f64; 2]]) -> f64 {
+    let sd = o.var.sqrt();
+    let resid = |p: [f64; 3], out: &mut [f64; 24]| {
+        let mut h = [0.0; 24];
+        o.unit(&o.rho([p[0], p[1]]), p[2].exp(), &mut h);
+        for i in 0..24 {
+            out[i] = if censored(x[i]) { 0.0 } else { (x[i] - o.baseline[i] - gains[i] * h[i]) / sd };
+        }
+    };
+    let cost = |p: [f64; 3]| {
+        let mut r = [0.0; 24];
+        resid(p, &mut r);
+        r.iter().map(|v| v * v).sum::<f64>()
+    };
+    let lf = ln_grid(F_LO.ln(), F_HI.ln(), 40);
+    let mut cands: Vec<(f64, [f64; 3])> =
+        starts.iter().flat_map(|q| lf.iter().map(move |&l| [q[0], q[1], l])).map(|p| (cost(p), p)).collect();
+    cands.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best = (f64::INFINITY, [0.0; 3]);
+    for &(c0, p0) in cands.iter().take(3) {
+        let (mut p, mut c, mut lambda) = (p0, c0, 1e-3);
+        let (mut r, mut rp) = ([0.0; 24], [0.0; 24]);
+        for _ in 0..100 {
+            resid(p, &mut r);
+            // forward-difference Jacobian
+            let mut j = [[0.0; 3]; 24];
+            for (a, eps) in [(0usize, 1e-4), (1, 1e-4), (2, 1e-5)] {
+                let mut q = p;
+                q[a] += eps;
+                resid(q, &mut rp);
+                for i in 0..24 {
+                    j[i][a] = (rp[i] - r[i]) / eps;
+                }
+            }
+            let mut jtj = [[0.0; 3]; 3];
+            let mut jtr = [0.0; 3];
+            for i in 0..24 {
+                for a in 0..3 {
+                    jtr[a] += j[i][a] * r[i];
+                    for b in 0..3 {
+                        jtj[a][b] += j[i][a] * j[i][b];
+                    }
+                }
+            }
+            let mut improved = false;
+            for _ in 0..20 {
+                let mut m = jtj;
+                for a in 0..3 {
+                    m[a][a] += lambda * jtj[a][a].max(1e-12);
+                }
+                let Some(step) = solve3(m, [-jtr[0], -jtr[1], -jtr[2]]) else { break };
+                let mut q = [p[0] + step[0], p[1] + step[1], p[2] + step[2]];
+                q[2] = q[2].clamp((0.01f64).ln(), (50.0f64).ln());
+                let cq = cost(q);
+                if cq < c {
+                    let done = c - cq < 1e-12 * c.max(1.0);
+                    (p, c) = (q, cq);
+                    lambda = (lambda / 3.0).max(1e-12);
+                    improved = !done;
+                    break;
+                }
+                lambda *= 4.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        if c < best.0 {
+            best = (c, p);
+        }
+    }
+    best.1[2].exp()
+}
+
+/// Solve a 3×3 system by Cramer's rule (`None` if singular).
+fn solve3(m: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(&m);
+    if !d.is_finite() || d.abs() < 1e-300 {
+        return None;
+    }
+    let mut out = [0.0; 3];
+    for (k, o) in out.iter_mut().enumerate() {
+        let mut mk = m;
+        for r in 0..3 {
+            mk[r][k] = b[r];
+        }
+        *o = det(&mk) / d;
+    }
+    Some(out)
 }
 
 /// End (s) of the calibration half: after the rest that follows press `PRESSES / 2`
@@ -472,6 +650,11 @@ struct MemberFloor {
     told: f64,
     floor: f64,
     prior: f64,
+    /// MAPE (%) of [`mle_place_unknown`] (place not told; not a floor).
+    mle: f64,
+    /// MAPE (%) of the told and calibrated observers of the 9-frame window.
+    told9: f64,
+    floor9: f64,
     /// Scored frames used.
     frames: usize,
     /// Floor MAPE (%) per scored press.
@@ -501,8 +684,14 @@ fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
     let (posts, _) = calibrate(&o, &rec, 0..split_k.min(rec.frames.len()));
     let prior: Vec<GainPost> = (0..24).map(|_| GainPost::prior()).collect();
     let told: Vec<GainPost> = o.abs_gain.iter().map(|&g| GainPost::told(g)).collect();
-    let scored: Vec<usize> = (split_k..rec.frames.len()).filter(|&k| rec.force[k] > 0.5).step_by(stride.max(1)).collect();
-    let mut sums = [0.0f64; 3];
+    let scored: Vec<usize> =
+        (split_k..rec.frames.len()).filter(|&k| rec.force[k] > 0.5).step_by(stride.max(1)).collect();
+    let mut sums = [0.0f64; 6];
+    let starts = start_places();
+    let mut gains = [0.0; 24];
+    for (g, p) in gains.iter_mut().zip(&posts) {
+        *g = p.mean_sd().0;
+    }
     let mut press: BTreeMap<usize, (f64, usize)> = BTreeMap::new();
     let mut rho_cache: BTreeMap<usize, [f64; 24]> = BTreeMap::new();
     for &k in &scored {
@@ -510,8 +699,19 @@ fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
         let rho = *rho_cache.entry(rec.segment[k]).or_insert_with(|| o.rho(place));
         let x = &rec.frames[k].values;
         let f = rec.force[k];
-        for (v, p) in [&told, &posts, &prior].into_iter().enumerate() {
-            let e = (estimate(&o, p, x, &rho) - f).abs() / f;
+        let one = Window { frames: vec![(&x[..], 1.0)], rho };
+        // the detector's window: the frames k − 4 … k + 4 of the same press, forces told as ratios
+        let half = WINDOW / 2;
+        let nine = Window {
+            frames: (k.saturating_sub(half)..(k + half + 1).min(rec.frames.len()))
+                .filter(|&j| rec.segment[j] == rec.segment[k])
+                .map(|j| (&rec.frames[j].values[..], rec.force[j] / f))
+                .collect(),
+            rho,
+        };
+        for (v, p, w) in [(0, &told, &one), (1, &posts, &one), (2, &prior, &one), (4, &told, &nine), (5, &posts, &nine)]
+        {
+            let e = (estimate(&o, p, w) - f).abs() / f;
             sums[v] += e;
             if v == 1 {
                 let c = press.entry(rec.segment[k]).or_default();
@@ -519,6 +719,7 @@ fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
                 c.1 += 1;
             }
         }
+        sums[3] += (mle_place_unknown(&o, &gains, x, &starts) - f).abs() / f;
     }
     let n = scored.len().max(1) as f64;
     // diagnostics: which electrodes calibration measured, and what the scored places excite
@@ -542,6 +743,9 @@ fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
         told: 100.0 * sums[0] / n,
         floor: 100.0 * sums[1] / n,
         prior: 100.0 * sums[2] / n,
+        mle: 100.0 * sums[3] / n,
+        told9: 100.0 * sums[4] / n,
+        floor9: 100.0 * sums[5] / n,
         frames: scored.len(),
         per_press: press.values().map(|(s, c)| 100.0 * s / *c as f64).collect(),
         kernel: o.kernel.name(),
@@ -604,7 +808,11 @@ fn main() {
             panic!("seed {s} is a held-out member of force_eval: not computed here");
         }
     }
-    let sensor = if s31 { "session 31's ideal + gains sensor (Gaussian, no noise, γ = 1, s = 0)" } else { "ideal sensor but the gains" };
+    let sensor = if s31 {
+        "session 31's ideal + gains sensor (Gaussian, no noise, γ = 1, s = 0)"
+    } else {
+        "ideal sensor but the gains"
+    };
     println!(
         "information floor: per-frame Bayes-optimal force (MAPE-optimal) on force_eval's protocol, {sensor}; scored frames stride {stride}, {threads} threads"
     );
@@ -628,17 +836,20 @@ fn main() {
         let wall = t0.elapsed().as_secs_f64();
         if debug {
             println!("\n{name}: per member (MAPE % on the scored half, true force > 0.5 N)");
-            println!("| seed | told | **floor** | prior | forward (log) | floor per scored press | kernel | w mm | A | σ | γ | s | gains sd < 0.01 | gain rel. sd at scored places | CR sd at 1 N | dist mm | frames | s |");
-            println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+            println!("| seed | told | **floor** | prior | told, 9 frames | **floor, 9 frames** | place unknown (ML) | forward (log) | floor per scored press | kernel | w mm | A | σ | γ | s | gains sd < 0.01 | gain rel. sd at scored places | CR sd at 1 N | dist mm | frames | s |");
+            println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
             for (m, secs) in &rows {
                 let fw = forward.as_ref().and_then(|f| f.get(&m.seed)).map_or("—".into(), |v| format!("{v:.1}"));
                 let pp: Vec<String> = m.per_press.iter().map(|v| format!("{v:.1}")).collect();
                 println!(
-                    "| {} | {:.2} | **{:.2}** | {:.1} | {fw} | {} | {} | {:.2} | {:.0} | {:.2} | {:.2} | {:.2} | {} | {:.2} % | {:.2} % | {:.1} | {} | {secs:.1} |",
+                    "| {} | {:.2} | **{:.2}** | {:.1} | {:.2} | **{:.2}** | {:.2} | {fw} | {} | {} | {:.2} | {:.0} | {:.2} | {:.2} | {:.2} | {} | {:.2} % | {:.2} % | {:.1} | {} | {secs:.1} |",
                     m.seed,
                     m.told,
                     m.floor,
                     m.prior,
+                    m.told9,
+                    m.floor9,
+                    m.mle,
                     pp.join(" "),
                     m.kernel,
                     m.width_mm,
@@ -658,8 +869,14 @@ fn main() {
         println!("| observer | worst member | median | mean | members > 10 % | P(all 16 of a random 16 ≤ 10 %) |");
         println!("|---|---|---|---|---|---|");
         type Pick = fn(&MemberFloor) -> f64;
-        let picks: [(&str, Pick); 3] =
-            [("gains told", |m| m.told), ("**calibrated (the floor)**", |m| m.floor), ("prior (no calibration)", |m| m.prior)];
+        let picks: [(&str, Pick); 6] = [
+            ("one frame: gains told", |m| m.told),
+            ("**one frame: calibrated (the floor)**", |m| m.floor),
+            ("one frame: prior (no calibration)", |m| m.prior),
+            ("9-frame window: gains told", |m| m.told9),
+            ("**9-frame window: calibrated (the floor)**", |m| m.floor9),
+            ("place unknown, ML with calibrated gains (not a floor)", |m| m.mle),
+        ];
         for (label, f) in picks {
             let mut v: Vec<f64> = rows.iter().map(|r| f(&r.0)).collect();
             let worst = rows.iter().max_by(|a, b| f(&a.0).total_cmp(&f(&b.0))).map(|r| r.0.seed).unwrap_or(0);
@@ -749,7 +966,7 @@ mod tests {
             let mut n = 0;
             for k in (0..rec.frames.len()).filter(|&k| rec.force[k] > 0.5).step_by(23) {
                 let (f0, rho) = (rec.force[k], o.rho(rec.contact[k].unwrap()));
-                let f = estimate(&o, &told, &rec.frames[k].values, &rho);
+                let f = estimate(&o, &told, &Window { frames: vec![(&rec.frames[k].values[..], 1.0)], rho });
                 // the Cramér–Rao bound of ln F with the gains known: Σ (∂μᵢ/∂ln F)² / var
                 let (mut up, mut dn) = ([0.0; 24], [0.0; 24]);
                 o.unit(&rho, f0 * 1.001, &mut up);
@@ -780,12 +997,58 @@ mod tests {
         let best = (0..24).max_by(|&a, &b| stats[a].hh.total_cmp(&stats[b].hh)).unwrap();
         let (m, sd) = posts[best].mean_sd();
         assert!(sd < 0.01, "electrode {} sd {sd}", best + 1);
-        assert!((m - o.abs_gain[best]).abs() < 4.0 * sd + 1e-4, "electrode {}: {m} ± {sd} vs {}", best + 1, o.abs_gain[best]);
+        assert!(
+            (m - o.abs_gain[best]).abs() < 4.0 * sd + 1e-4,
+            "electrode {}: {m} ± {sd} vs {}",
+            best + 1,
+            o.abs_gain[best]
+        );
         // electrode 10: the prior, untouched
         assert!(stats[9].hh < 1e-12, "{}", stats[9].hh);
         let (m, sd) = posts[9].mean_sd();
         assert!(posts[9].tv_from_prior() < 1e-6, "{}", posts[9].tv_from_prior());
         assert!((m - 1.0).abs() < 1e-6 && (sd - 1.0 / 12f64.sqrt()).abs() < 1e-6, "{m} {sd}");
+    }
+
+    #[test]
+    fn a_window_s_likelihood_is_the_product_of_its_frames_marginalised_once() {
+        // the window's collapsed form against Σₖ wₖ Πⱼ N(xⱼ; b + gₖ hⱼ) summed directly, with a
+        // calibrated posterior (first press) on a window of the second press
+        let (_, rec, o) = small(2, 2, 3.0);
+        let first_end = rec.segment.iter().position(|&s| s == 3).unwrap();
+        let (posts, _) = calibrate(&o, &rec, 0..first_end);
+        let k = (first_end..rec.frames.len()).find(|&k| rec.force[k] > 3.0).unwrap();
+        let rho = o.rho(rec.contact[k].unwrap());
+        let win = Window {
+            frames: (k - 4..=k + 4).map(|j| (&rec.frames[j].values[..], rec.force[j] / rec.force[k])).collect(),
+            rho,
+        };
+        let grid = ln_grid(0.5f64.ln(), 8f64.ln(), 7);
+        let fast = log_lik(&o, &posts, &win, &grid);
+        for (n, &lf) in grid.iter().enumerate() {
+            let direct: f64 = (0..24)
+                .map(|i| {
+                    let p = &posts[i];
+                    let l: Vec<f64> = (0..p.w.len())
+                        .map(|q| {
+                            p.w[q].ln()
+                                + win
+                                    .frames
+                                    .iter()
+                                    .map(|(x, r)| {
+                                        let mut h = [0.0; 24];
+                                        o.unit(&rho, lf.exp() * r, &mut h);
+                                        -(x[i] - o.baseline[i] - p.g(q) * h[i]).powi(2) / (2.0 * o.var)
+                                    })
+                                    .sum::<f64>()
+                        })
+                        .collect();
+                    let m = l.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                    m + l.iter().map(|v| (v - m).exp()).sum::<f64>().ln()
+                })
+                .sum();
+            assert!((fast[n] - direct).abs() < 1e-6 * direct.abs().max(1.0), "F {}: {} vs {direct}", lf.exp(), fast[n]);
+        }
     }
 
     #[test]
