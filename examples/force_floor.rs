@@ -792,7 +792,8 @@ fn main() {
     let stride: usize = std::env::var("FORCE_FLOOR_STRIDE").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
     let threads: usize = std::env::var("FORCE_FLOOR_THREADS").ok().and_then(|s| s.parse().ok()).unwrap_or(2).max(1);
     let s31 = std::env::var_os("FORCE_FLOOR_S31").is_some();
-    let forward = std::env::var("FORCE_FLOOR_FORWARD_LOG").ok().map(|p| forward_log(&p));
+    // the log's figures are the full sensor's: not put beside session 31's sensor
+    let forward = std::env::var("FORCE_FLOOR_FORWARD_LOG").ok().filter(|_| !s31).map(|p| forward_log(&p));
     let tuning: Vec<u64> = (0..8).chain(700..706).chain(200..248).collect();
     let fresh: Vec<u64> = (5000..5200).collect();
     let mut sets: Vec<(String, Vec<u64>)> =
