@@ -53,7 +53,8 @@
 //! `FORCE_FLOOR_STRIDE=k` scores every k-th scored frame (default 1: all); `FORCE_FLOOR_THREADS`
 //! (default 2); `FORCE_FLOOR_FORWARD_LOG=examples/force_parts/round8_k1.log` puts `forward`'s
 //! per-member scored-half MAPE from that `force_eval` log beside the floor; `FORCE_FLOOR_S31=1`
-//! runs the oracle on session 31's "ideal + gains" sensor instead, see [`idealised`]).
+//! runs the oracle on session 31's "ideal + gains" sensor instead, see [`idealised`];
+//! `FORCE_FLOOR_ONLY_ML=1` runs only the two place-unknown references, the Bayes columns NaN).
 
 use gradtac::stages::sim_family::{skin_point, Physics, CORE_MM, RATE_HZ, SKIN_MM};
 use gradtac::stages::sim_force::{ForceRecording, ForceResponse, ForceSession, Segment};
@@ -524,20 +525,26 @@ fn start_places() -> Vec<[f64; 2]> {
 }
 
 /// **Not a floor — a reference with the place unknown**: the maximum-likelihood `(x, y, ln F)` of
-/// one frame, the gains at their calibrated posterior means, everything else told (censored
-/// counts left out). Started from the best of `starts` × 40 forces (0.05–20 N), then
-/// Levenberg–Marquardt from the three best starts; the lowest cost wins. Returns F̂ (N).
-fn mle_place_unknown(o: &Oracle, gains: &[f64; 24], x: &[f64], starts: &[[f64; 2]]) -> f64 {
+/// a window (one frame, or the 9-frame window with the forces told as ratios and one place), the
+/// gains at their calibrated posterior means, everything else told (censored counts left out;
+/// the window's place is ignored). Started from the best of `starts` × 40 forces (0.05–20 N),
+/// then Levenberg–Marquardt from the three best starts; the lowest cost wins. Returns F̂ (N).
+fn mle_place_unknown(o: &Oracle, gains: &[f64; 24], win: &Window<'_>, starts: &[[f64; 2]]) -> f64 {
     let sd = o.var.sqrt();
-    let resid = |p: [f64; 3], out: &mut [f64; 24]| {
+    let n = 24 * win.frames.len();
+    let resid = |p: [f64; 3], out: &mut Vec<f64>| {
+        out.clear();
+        let rho = o.rho([p[0], p[1]]);
         let mut h = [0.0; 24];
-        o.unit(&o.rho([p[0], p[1]]), p[2].exp(), &mut h);
-        for i in 0..24 {
-            out[i] = if censored(x[i]) { 0.0 } else { (x[i] - o.baseline[i] - gains[i] * h[i]) / sd };
+        for (x, r) in &win.frames {
+            o.unit(&rho, p[2].exp() * r, &mut h);
+            for i in 0..24 {
+                out.push(if censored(x[i]) { 0.0 } else { (x[i] - o.baseline[i] - gains[i] * h[i]) / sd });
+            }
         }
     };
     let cost = |p: [f64; 3]| {
-        let mut r = [0.0; 24];
+        let mut r = Vec::with_capacity(n);
         resid(p, &mut r);
         r.iter().map(|v| v * v).sum::<f64>()
     };
@@ -548,22 +555,22 @@ fn mle_place_unknown(o: &Oracle, gains: &[f64; 24], x: &[f64], starts: &[[f64; 2
     let mut best = (f64::INFINITY, [0.0; 3]);
     for &(c0, p0) in cands.iter().take(3) {
         let (mut p, mut c, mut lambda) = (p0, c0, 1e-3);
-        let (mut r, mut rp) = ([0.0; 24], [0.0; 24]);
+        let (mut r, mut rp) = (Vec::with_capacity(n), Vec::with_capacity(n));
         for _ in 0..100 {
             resid(p, &mut r);
             // forward-difference Jacobian
-            let mut j = [[0.0; 3]; 24];
+            let mut j = vec![[0.0; 3]; n];
             for (a, eps) in [(0usize, 1e-4), (1, 1e-4), (2, 1e-5)] {
                 let mut q = p;
                 q[a] += eps;
                 resid(q, &mut rp);
-                for i in 0..24 {
+                for i in 0..n {
                     j[i][a] = (rp[i] - r[i]) / eps;
                 }
             }
             let mut jtj = [[0.0; 3]; 3];
             let mut jtr = [0.0; 3];
-            for i in 0..24 {
+            for i in 0..n {
                 for a in 0..3 {
                     jtr[a] += j[i][a] * r[i];
                     for b in 0..3 {
@@ -652,6 +659,8 @@ struct MemberFloor {
     prior: f64,
     /// MAPE (%) of [`mle_place_unknown`] (place not told; not a floor).
     mle: f64,
+    /// The same on the 9-frame window (one place, forces told as ratios).
+    mle9: f64,
     /// MAPE (%) of the told and calibrated observers of the 9-frame window.
     told9: f64,
     floor9: f64,
@@ -676,7 +685,7 @@ struct MemberFloor {
     dist_mm: f64,
 }
 
-fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
+fn member_floor(seed: u64, stride: usize, s31: bool, only_ml: bool) -> MemberFloor {
     let session = idealised(seed, s31);
     let rec = session.simulate();
     let o = Oracle::new(&session);
@@ -686,7 +695,7 @@ fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
     let told: Vec<GainPost> = o.abs_gain.iter().map(|&g| GainPost::told(g)).collect();
     let scored: Vec<usize> =
         (split_k..rec.frames.len()).filter(|&k| rec.force[k] > 0.5).step_by(stride.max(1)).collect();
-    let mut sums = [0.0f64; 6];
+    let mut sums = [0.0f64; 7];
     let starts = start_places();
     let mut gains = [0.0; 24];
     for (g, p) in gains.iter_mut().zip(&posts) {
@@ -709,8 +718,8 @@ fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
                 .collect(),
             rho,
         };
-        for (v, p, w) in [(0, &told, &one), (1, &posts, &one), (2, &prior, &one), (4, &told, &nine), (5, &posts, &nine)]
-        {
+        let bayes = [(0, &told, &one), (1, &posts, &one), (2, &prior, &one), (4, &told, &nine), (5, &posts, &nine)];
+        for (v, p, w) in bayes.into_iter().filter(|_| !only_ml) {
             let e = (estimate(&o, p, w) - f).abs() / f;
             sums[v] += e;
             if v == 1 {
@@ -719,7 +728,11 @@ fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
                 c.1 += 1;
             }
         }
-        sums[3] += (mle_place_unknown(&o, &gains, x, &starts) - f).abs() / f;
+        sums[3] += (mle_place_unknown(&o, &gains, &one, &starts) - f).abs() / f;
+        sums[6] += (mle_place_unknown(&o, &gains, &nine, &starts) - f).abs() / f;
+    }
+    if only_ml {
+        [0, 1, 2, 4, 5].iter().for_each(|&v| sums[v] = f64::NAN);
     }
     let n = scored.len().max(1) as f64;
     // diagnostics: which electrodes calibration measured, and what the scored places excite
@@ -744,6 +757,7 @@ fn member_floor(seed: u64, stride: usize, s31: bool) -> MemberFloor {
         floor: 100.0 * sums[1] / n,
         prior: 100.0 * sums[2] / n,
         mle: 100.0 * sums[3] / n,
+        mle9: 100.0 * sums[6] / n,
         told9: 100.0 * sums[4] / n,
         floor9: 100.0 * sums[5] / n,
         frames: scored.len(),
@@ -792,6 +806,7 @@ fn main() {
     let stride: usize = std::env::var("FORCE_FLOOR_STRIDE").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
     let threads: usize = std::env::var("FORCE_FLOOR_THREADS").ok().and_then(|s| s.parse().ok()).unwrap_or(2).max(1);
     let s31 = std::env::var_os("FORCE_FLOOR_S31").is_some();
+    let only_ml = std::env::var_os("FORCE_FLOOR_ONLY_ML").is_some();
     // the log's figures are the full sensor's: not put beside session 31's sensor
     let forward = std::env::var("FORCE_FLOOR_FORWARD_LOG").ok().filter(|_| !s31).map(|p| forward_log(&p));
     let tuning: Vec<u64> = (0..8).chain(700..706).chain(200..248).collect();
@@ -827,7 +842,7 @@ fn main() {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&seed) = seeds.get(i) else { break };
                     let t = Instant::now();
-                    let m = member_floor(seed, stride, s31);
+                    let m = member_floor(seed, stride, s31, only_ml);
                     out.lock().unwrap().push((m, t.elapsed().as_secs_f64()));
                 });
             }
@@ -837,13 +852,13 @@ fn main() {
         let wall = t0.elapsed().as_secs_f64();
         if debug {
             println!("\n{name}: per member (MAPE % on the scored half, true force > 0.5 N)");
-            println!("| seed | told | **floor** | prior | told, 9 frames | **floor, 9 frames** | place unknown (ML) | forward (log) | floor per scored press | kernel | w mm | A | σ | γ | s | gains sd < 0.01 | gain rel. sd at scored places | CR sd at 1 N | dist mm | frames | s |");
-            println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+            println!("| seed | told | **floor** | prior | told, 9 frames | **floor, 9 frames** | place unknown (ML) | place unknown, 9 frames (ML) | forward (log) | floor per scored press | kernel | w mm | A | σ | γ | s | gains sd < 0.01 | gain rel. sd at scored places | CR sd at 1 N | dist mm | frames | s |");
+            println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
             for (m, secs) in &rows {
                 let fw = forward.as_ref().and_then(|f| f.get(&m.seed)).map_or("—".into(), |v| format!("{v:.1}"));
                 let pp: Vec<String> = m.per_press.iter().map(|v| format!("{v:.1}")).collect();
                 println!(
-                    "| {} | {:.2} | **{:.2}** | {:.1} | {:.2} | **{:.2}** | {:.2} | {fw} | {} | {} | {:.2} | {:.0} | {:.2} | {:.2} | {:.2} | {} | {:.2} % | {:.2} % | {:.1} | {} | {secs:.1} |",
+                    "| {} | {:.2} | **{:.2}** | {:.1} | {:.2} | **{:.2}** | {:.2} | {:.2} | {fw} | {} | {} | {:.2} | {:.0} | {:.2} | {:.2} | {:.2} | {} | {:.2} % | {:.2} % | {:.1} | {} | {secs:.1} |",
                     m.seed,
                     m.told,
                     m.floor,
@@ -851,6 +866,7 @@ fn main() {
                     m.told9,
                     m.floor9,
                     m.mle,
+                    m.mle9,
                     pp.join(" "),
                     m.kernel,
                     m.width_mm,
@@ -870,16 +886,20 @@ fn main() {
         println!("| observer | worst member | median | mean | members > 10 % | P(all 16 of a random 16 ≤ 10 %) |");
         println!("|---|---|---|---|---|---|");
         type Pick = fn(&MemberFloor) -> f64;
-        let picks: [(&str, Pick); 6] = [
+        let picks: [(&str, Pick); 7] = [
             ("one frame: gains told", |m| m.told),
             ("**one frame: calibrated (the floor)**", |m| m.floor),
             ("one frame: prior (no calibration)", |m| m.prior),
             ("9-frame window: gains told", |m| m.told9),
             ("**9-frame window: calibrated (the floor)**", |m| m.floor9),
             ("place unknown, ML with calibrated gains (not a floor)", |m| m.mle),
+            ("place unknown, 9-frame window, ML with calibrated gains (not a floor)", |m| m.mle9),
         ];
         for (label, f) in picks {
             let mut v: Vec<f64> = rows.iter().map(|r| f(&r.0)).collect();
+            if v.iter().all(|x| x.is_nan()) {
+                continue; // not run (FORCE_FLOOR_ONLY_ML)
+            }
             let worst = rows.iter().max_by(|a, b| f(&a.0).total_cmp(&f(&b.0))).map(|r| r.0.seed).unwrap_or(0);
             let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
             let over = v.iter().filter(|&&x| x > 10.0).count();
