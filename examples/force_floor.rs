@@ -1073,6 +1073,26 @@ mod tests {
     }
 
     #[test]
+    fn the_place_unknown_reference_finds_place_and_force_on_a_noise_free_member() {
+        // gains told, noise 0: the maximum-likelihood force with the place searched, one frame and
+        // a 9-frame window, is the truth within 1 % (the rounding's reach on these presses)
+        let (_, rec, o) = small(3, 2, 0.0);
+        let starts = start_places();
+        for k in (0..rec.frames.len()).filter(|&k| rec.force[k] > 1.0).step_by(97) {
+            let (f0, rho) = (rec.force[k], o.rho(rec.contact[k].unwrap()));
+            let one = Window { frames: vec![(&rec.frames[k].values[..], 1.0)], rho };
+            let nine = Window {
+                frames: (k - 4..=k + 4).map(|j| (&rec.frames[j].values[..], rec.force[j] / f0)).collect(),
+                rho,
+            };
+            for w in [&one, &nine] {
+                let f = mle_place_unknown(&o, &o.abs_gain, w, &starts);
+                assert!((f / f0 - 1.0).abs() < 0.01, "frame {k} ({} frames): {f} vs {f0}", w.frames.len());
+            }
+        }
+    }
+
+    #[test]
     fn the_weighted_median_minimises_the_expected_relative_error() {
         // a two-point posterior: mass ⅔ at 1 N, ⅓ at 4 N; weights ∝ p/F give ⅔ vs 1/12: 1 N
         let grid = ln_grid(0.0, 4f64.ln(), 3);
