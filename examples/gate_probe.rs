@@ -1,8 +1,9 @@
 //! Probe of the force gate's returns (`examples/force_parts/history.md`, "The force gate's returns"): per press
 //! of a force-family member, the peak total change `Σ|Δᵢ|`, the total change and the largest
 //! `|Δᵢ|/σᵢ` at the end of the rest that follows, and whether the contact had ended (the
-//! return rule fired) by then. Only tuning members (seeds 0–7) and `tests/cli_force.rs`'s
-//! member 700 — never the held-out seeds.
+//! return rule fired) by then. Without arguments: the tuning members 0–7 and
+//! `tests/cli_force.rs`'s member 700; any seed may be named except the held-out seeds 100–115,
+//! which it refuses.
 //!
 //! Since session 35 the detector gets the layout's positions (as the force stage gives them:
 //! the drift-shape return needs them), and each rest also prints the magnitude shape fraction,
