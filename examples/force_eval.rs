@@ -442,12 +442,6 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
     // exploration: FORCE_EVAL_UNGUARDED runs `forward` without its guard (examples/force_parts/history.md)
     // exploration: FORCE_EVAL_FORWARD=single|multi,in_sample|held_aside sets the `forward`
     // calibration's starts and guard (examples/force_parts/history.md, session 32; default: the library's)
-    if std::env::var_os("FORCE_EVAL_FIX_SHAPE").is_some() {
-        // exploration: identify with the member's true shape numbers held (a Gaussian kernel)
-        let (ph, resp) = (&m.session.physics, &m.session.response);
-        let v = format!("{},{},{}", resp.exponent, resp.spread, ph.width_mm);
-        std::env::set_var("FWD_FIX_SHAPE", v);
-    }
     let fwd = forward_settings();
     let fitted = if std::env::var_os("FORCE_EVAL_UNGUARDED").is_some() {
         calibrate_unguarded_with(&train, method, lambda, curve, &layout, fwd.starts)
@@ -592,9 +586,10 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
 
 // ---- exploration (session 38, examples/force_parts/forward_gap.md): FORCE_EVAL_FWD_GAP=k1,k2,…
 // swaps parts of the identified `forward` model for the member's truth (only where the model can
-// hold it: a Gaussian kernel) — `gains`, `shape` (γ, s, w, q = 2, a = 0), `lag` (τ) — and prints per scored
-// press its MAPE, the inversion's place error and the share of frames whose inversion, restarted
-// at the true place and force, ends at a lower cost ("inv" in the line).
+// hold it: a Gaussian kernel) — `gains` (gᵢ·A·F₀: counts at F₀ = 2 N), `shape` (γ, s, w, q = 2,
+// a = 0), `lag` (τ) — and prints per scored press its MAPE, the inversion's place error and the
+// share of frames where the model's cost at the true place and force is below the cost at the
+// inversion's answer ("truth-lower": the inversion stopped short of a better point).
 fn fwd_gap_swap(m: &Member, model: &mut gradtac::stages::force_model::CalibratedForce, v: &str) {
     use gradtac::stages::force_model::CalibratedForce;
     let (ph, resp) = (&m.session.physics, &m.session.response);

@@ -237,26 +237,12 @@ impl ForwardModel {
         let th = self.shape_numbers();
         let mut r2 = vec![0.0; n];
         let (lo, hi) = (F_RANGE_N[0].ln(), F_RANGE_N[1].ln());
-        // TEMP exploration (forward_gap.md): FWD_INV_W=s0 weighs electrode i by 1/(s0² + (rᵢ Δᵢ)²),
-        // rᵢ the share of the prior in its identified gain × 0.3 (the prior's relative sd)
-        let sw: Vec<f64> =
-            match (std::env::var("FWD_INV_W").ok().and_then(|v| v.parse::<f64>().ok()), gap_lookup(&self.gains)) {
-                (Some(s0), Some(r)) => {
-                    delta.iter().zip(&r).map(|(d, r)| 1.0 / (s0 * s0 + (r * d).powi(2)).sqrt()).collect()
-                }
-                _ => vec![1.0; n],
-            };
-        let cost_w = |q: [f64; 3], r2: &mut [f64]| -> f64 {
-            geo.rho2(q[0], q[1], r2);
-            let f = q[2].exp();
-            (0..n).map(|i| (sw[i] * (delta[i] - self.gains[i] * unit(&th, r2[i], f))).powi(2)).sum()
-        };
         // coarse search over ln F at the centroid
         let mut best = (f64::INFINITY, [c[0], c[1], 0.0]);
         for k in 0..=24 {
             let lf = -4.0 + 8.0 * k as f64 / 24.0;
             let p = [c[0], c[1], lf];
-            let e = cost_w(p, &mut r2);
+            let e = self.cost(&th, geo, delta, p, &mut r2);
             if e < best.0 {
                 best = (e, p);
             }
@@ -277,7 +263,7 @@ impl ForwardModel {
             let mut m0 = vec![0.0; n];
             model(p, &mut r2, &mut m0);
             for i in 0..n {
-                res[i] = sw[i] * (delta[i] - m0[i]);
+                res[i] = delta[i] - m0[i];
             }
             let steps = [1e-4, 1e-4, 1e-5];
             let mut mk = vec![0.0; n];
@@ -286,7 +272,7 @@ impl ForwardModel {
                 q[k] += h;
                 model(q, &mut r2, &mut mk);
                 for i in 0..n {
-                    jac[i][k] = sw[i] * (mk[i] - m0[i]) / h;
+                    jac[i][k] = (mk[i] - m0[i]) / h;
                 }
             }
             let mut a = [[0.0; 3]; 3];
@@ -308,7 +294,7 @@ impl ForwardModel {
                 let Some(step) = solve3(m, g) else { break };
                 let (x, y) = geo.clamp(p[0] + step[0], p[1] + step[1]);
                 let q = [x, y, (p[2] + step[2]).clamp(lo, hi)];
-                let eq = cost_w(q, &mut r2);
+                let eq = self.cost(&th, geo, delta, q, &mut r2);
                 if eq < e {
                     let small = (eq - e).abs() <= 1e-10 * e.max(1e-300);
                     p = q;
@@ -383,28 +369,13 @@ pub enum Starts {
 /// into a wrong minimum (`examples/force_parts/history.md`, member 700).
 pub const MULTI_STARTS: [[f64; 2]; 6] = [[0.6, 1.5], [0.9, 1.5], [0.6, 3.0], [0.9, 3.0], [0.6, 6.0], [0.9, 6.0]];
 
-thread_local! {
-    // TEMP exploration: (gains, rᵢ) of every identification of this thread
-    static GAP: std::cell::RefCell<Vec<(Vec<f64>, Vec<f64>)>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-fn gap_lookup(g: &[f64]) -> Option<Vec<f64>> {
-    GAP.with(|v| v.borrow().iter().rev().find(|(a, _)| a.as_slice() == g).map(|(_, r)| r.clone()))
-}
-
 /// [`identify`] from `starts`.
 pub fn identify_with(geo: &Geometry, frames: &[(&[f64], f64, usize)], starts: Starts) -> Option<ForwardModel> {
     match starts {
         Starts::Single => identify_from(geo, frames, ROUNDS, [0.75, 0.2, 3f64.ln(), 2.0, 0.0]).map(|r| r.0),
         Starts::Multi => MULTI_STARTS
             .iter()
-            .filter_map(|st| {
-                identify_from(
-                    geo,
-                    frames,
-                    std::env::var("FWD_ROUNDS").ok().and_then(|v| v.parse().ok()).unwrap_or(ROUNDS),
-                    [st[0], 0.2, st[1].ln(), 2.0, 0.0],
-                )
-            })
+            .filter_map(|st| identify_from(geo, frames, ROUNDS, [st[0], 0.2, st[1].ln(), 2.0, 0.0]))
             .filter(|r| r.1.is_finite())
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|r| r.0),
@@ -461,15 +432,8 @@ fn identify_from(
         }
     }
     let mut th = start;
-    // TEMP exploration: FWD_FIX_SHAPE=γ,s,w holds the shape numbers at those (q = 2, a = 0)
-    let fix: Option<Vec<f64>> =
-        std::env::var("FWD_FIX_SHAPE").ok().map(|v| v.split(',').map(|x| x.parse().unwrap()).collect());
-    if let Some(f) = &fix {
-        th = [f[0], f[1], f[2].ln(), 2.0, 0.0];
-    }
     let mut gains = vec![-1.0; n];
     let mut cost = f64::INFINITY;
-    let mut last_r = vec![0.3; n];
     let mut r2 = vec![0.0; n];
     // the unit responses m[f][i] at the current places and shape
     let units = |th: &[f64; 5], place: &[[f64; 2]], r2: &mut [f64]| -> Vec<f64> {
@@ -503,8 +467,8 @@ fn identify_from(
         let mut mags: Vec<f64> = well.iter().map(|&i| free[i].abs()).collect();
         mags.sort_by(f64::total_cmp);
         let prior = sign * mags.get(mags.len() / 2).copied().unwrap_or(1.0);
-        let lam = std::env::var("FWD_GAIN_PRIOR").ok().and_then(|v| v.parse().ok()).unwrap_or(GAIN_PRIOR) * dmax; // TEMP exploration
-                                                                                                                  // a well-excited electrode keeps its own sign under the prior
+        let lam = GAIN_PRIOR * dmax;
+        // a well-excited electrode keeps its own sign under the prior
         let priors: Vec<f64> =
             (0..n).map(|i| if den[i] >= 0.2 * dmax && free[i] * prior < 0.0 { -prior } else { prior }).collect();
         for i in 0..n {
@@ -551,7 +515,7 @@ fn identify_from(
         let (mut r0, mut g0) = project(&th, &mut r2);
         let mut e = sq(&r0);
         let mut lambda = 1e-3;
-        for _ in 0..if fix.is_some() { 0 } else { 6 } {
+        for _ in 0..6 {
             let mut jac = vec![[0.0f64; 5]; nf * n];
             for c in 0..5 {
                 if FIXED[c] {
@@ -614,16 +578,7 @@ fn identify_from(
         }
         gains = g0;
         cost = e;
-        let r: Vec<f64> = (0..n).map(|i| 0.3 * lam / (den[i] + lam)).collect();
-        last_r = r;
     }
-    GAP.with(|v| {
-        let mut v = v.borrow_mut();
-        if v.len() > 64 {
-            v.remove(0);
-        }
-        v.push((gains.clone(), last_r.clone()));
-    });
     let model =
         ForwardModel { gains, exponent: th[0], spread: th[1], width_mm: th[2].exp(), shape: th[3], lobe: th[4] };
     model.is_valid().then_some((model, cost))
