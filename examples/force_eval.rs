@@ -448,7 +448,11 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
     } else {
         calibrate_with(&train, method, lambda, curve, &layout, fwd)
     };
-    let Ok(file) = fitted else { return (100.0, 0, 0) };
+    let Ok(mut file) = fitted else { return (100.0, 0, 0) };
+    let fwd_gap = std::env::var("FORCE_EVAL_FWD_GAP").ok();
+    if let Some(v) = &fwd_gap {
+        fwd_gap_swap(m, &mut file.model, v);
+    }
     let mut predictor = ForcePredictor::new(&file.model);
     let t0 = Instant::now();
     let preds: Vec<Option<f64>> = rows.iter().map(|r| predictor.push(&r.sample)).collect();
@@ -518,6 +522,9 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
             parts[3 + band][1] += 1.0;
         }
     }
+    if fwd_gap.is_some() {
+        fwd_gap_presses(m, rows, &preds, &file.model, split);
+    }
     if std::env::var_os("FORCE_EVAL_UNTOUCHED").is_some() {
         // a row's time is its window's centre, so a press's first rows still fall in the rest
         // before it: segment s (rest or press) counts for rest s/2 − 1 (s < 2: before the first press)
@@ -583,6 +590,87 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
     }
     (100.0 * sum / n.max(1) as f64, untouched, over)
 }
+
+// ---- exploration (session 38, examples/force_parts/forward_gap.md): FORCE_EVAL_FWD_GAP=k1,k2,…
+// swaps parts of the identified `forward` model for the member's truth (only where the model can
+// hold it: a Gaussian kernel) — `gains` (gᵢ·A·F₀: counts at F₀ = 2 N), `shape` (γ, s, w, q = 2,
+// a = 0), `lag` (τ) — and prints per scored press its MAPE, the inversion's place error and the
+// share of frames where the model's cost at the true place and force is below the cost at the
+// inversion's answer ("truth-lower": the inversion stopped short of a better point).
+fn fwd_gap_swap(m: &Member, model: &mut gradtac::stages::force_model::CalibratedForce, v: &str) {
+    use gradtac::stages::force_model::CalibratedForce;
+    let (ph, resp) = (&m.session.physics, &m.session.response);
+    if let CalibratedForce::Forward { gains, exponent, spread, width_mm, shape, lobe, lag_s, .. } = model {
+        for k in v.split(',') {
+            match k {
+                "gains" => {
+                    for (g, t) in gains.iter_mut().zip(&ph.gain) {
+                        *g = t * ph.amplitude * 2.0;
+                    }
+                }
+                "shape" => {
+                    (*exponent, *spread, *width_mm, *shape, *lobe) = (resp.exponent, resp.spread, ph.width_mm, 2.0, 0.0)
+                }
+                "lag" => *lag_s = ph.lag_s,
+                _ => {}
+            }
+        }
+    }
+}
+
+fn fwd_gap_presses(
+    m: &Member,
+    rows: &[Row],
+    preds: &[Option<f64>],
+    model: &gradtac::stages::force_model::CalibratedForce,
+    split: f64,
+) {
+    let Some((fm, geo)) = model.forward() else { return };
+    let places = m.session.places();
+    // per press: error sum, frames, place error sum, frames where a start at the truth ends lower
+    let mut acc = vec![[0.0f64; 4]; places.len()];
+    for (k, (r, p)) in rows.iter().zip(preds).enumerate() {
+        let f = at(&m.rec.force, r.t);
+        if r.t < split || f <= 0.5 {
+            continue;
+        }
+        let seg = m.rec.segment.get(k).copied().unwrap_or(0);
+        if seg % 2 == 0 {
+            continue;
+        }
+        let press = seg / 2;
+        let e = p.map_or(1.0, |p| (p - f).abs() / f);
+        let d = &r.sample.change;
+        let inv = fm.invert(&geo, d).unwrap_or([0.0; 3]);
+        let truth = places[press];
+        let cost = |q: [f64; 3]| -> f64 {
+            fm.predict(&geo, q[0], q[1], q[2]).iter().zip(d).map(|(a, b)| (a - b).powi(2)).sum::<f64>()
+        };
+        let lower = cost([truth[0], truth[1], f]) < cost(inv) - 1e-9;
+        let a = &mut acc[press];
+        a[0] += e;
+        a[1] += 1.0;
+        a[2] += (inv[0] - truth[0]).hypot(inv[1] - truth[1]);
+        a[3] += f64::from(u8::from(lower));
+    }
+    let cells: Vec<String> = acc
+        .iter()
+        .enumerate()
+        .filter(|(_, a)| a[1] > 0.0)
+        .map(|(k, a)| {
+            format!(
+                "p{k} ({:.1},{:.1}) {:.1}% place {:.2} mm truth-lower {:.0}%",
+                places[k][0],
+                places[k][1],
+                100.0 * a[0] / a[1],
+                a[2] / a[1],
+                100.0 * a[3] / a[1]
+            )
+        })
+        .collect();
+    eprintln!("gap seed {}: {}", m.session.seed, cells.join(" | "));
+}
+// ---- end of the exploration block
 
 struct Cell {
     worst: f64,
