@@ -388,25 +388,6 @@ fn phase(s: &ForceSession, t: f64) -> usize {
     3
 }
 
-/// End (s) of the calibration half: after the rest that follows press `PRESSES / 2`.
-fn split_s(s: &ForceSession) -> f64 {
-    let mut t = 0.0;
-    let mut presses = 0;
-    for seg in &s.segments {
-        t += match *seg {
-            Segment::Rest(d) => d,
-            Segment::Press { rise_s, hold_s, fall_s, .. } => {
-                presses += 1;
-                rise_s + hold_s + fall_s
-            }
-        };
-        if presses == PRESSES / 2 && matches!(seg, Segment::Rest(_)) {
-            return t;
-        }
-    }
-    t
-}
-
 /// The `forward` settings: the library's default, or `FORCE_EVAL_FORWARD` (exploration).
 fn forward_settings() -> ForwardSettings {
     let mut fwd = ForwardSettings::default();
@@ -432,7 +413,7 @@ struct Member {
 
 /// Score of one method setting on one member: (MAPE %, untouched frames, of which > 0.5 N).
 fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve: ForceMethod) -> (f64, u64, u64) {
-    let split = split_s(&m.session);
+    let split = m.session.after_press_s(PRESSES / 2);
     let layout = Layout::biotac_sp();
     let train: Vec<GaugeSample> = rows
         .iter()

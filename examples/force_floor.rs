@@ -57,7 +57,7 @@
 //! `FORCE_FLOOR_ONLY_ML=1` runs only the two place-unknown references, the Bayes columns NaN).
 
 use gradtac::stages::sim_family::{skin_point, Physics, CORE_MM, RATE_HZ, SKIN_MM};
-use gradtac::stages::sim_force::{ForceRecording, ForceResponse, ForceSession, Segment};
+use gradtac::stages::sim_force::{ForceRecording, ForceResponse, ForceSession};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -629,26 +629,6 @@ fn solve3(m: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
     Some(out)
 }
 
-/// End (s) of the calibration half: after the rest that follows press `PRESSES / 2`
-/// (`force_eval`'s split).
-fn split_s(s: &ForceSession) -> f64 {
-    let mut t = 0.0;
-    let mut presses = 0;
-    for seg in &s.segments {
-        t += match *seg {
-            Segment::Rest(d) => d,
-            Segment::Press { rise_s, hold_s, fall_s, .. } => {
-                presses += 1;
-                rise_s + hold_s + fall_s
-            }
-        };
-        if presses == PRESSES / 2 && matches!(seg, Segment::Rest(_)) {
-            return t;
-        }
-    }
-    t
-}
-
 /// One member's figures.
 #[derive(Clone, Debug)]
 struct MemberFloor {
@@ -689,7 +669,7 @@ fn member_floor(seed: u64, stride: usize, s31: bool, only_ml: bool) -> MemberFlo
     let session = idealised(seed, s31);
     let rec = session.simulate();
     let o = Oracle::new(&session);
-    let split_k = (split_s(&session) * RATE_HZ).round() as usize;
+    let split_k = (session.after_press_s(PRESSES / 2) * RATE_HZ).round() as usize;
     let (posts, _) = calibrate(&o, &rec, 0..split_k.min(rec.frames.len()));
     let prior: Vec<GainPost> = (0..24).map(|_| GainPost::prior()).collect();
     let told: Vec<GainPost> = o.abs_gain.iter().map(|&g| GainPost::told(g)).collect();
@@ -937,6 +917,7 @@ fn main() {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gradtac::stages::sim_force::Segment;
 
     /// A small member: `n` presses, ideal but the gains, with the given noise.
     fn small(seed: u64, n: usize, noise: f64) -> (ForceSession, ForceRecording, Oracle) {

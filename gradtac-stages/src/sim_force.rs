@@ -210,6 +210,23 @@ impl ForceSession {
         self.segments.iter().map(Segment::duration).sum()
     }
 
+    /// End (s) of the rest that follows the `n`-th press (the session's end if there is none):
+    /// where a calibration on the first `n` presses stops (`force_eval`'s split at `n` = 5 of 10).
+    pub fn after_press_s(&self, n: usize) -> f64 {
+        let mut t = 0.0;
+        let mut presses = 0;
+        for seg in &self.segments {
+            t += seg.duration();
+            if matches!(seg, Segment::Press { .. }) {
+                presses += 1;
+            }
+            if presses == n && matches!(seg, Segment::Rest(_)) {
+                return t;
+            }
+        }
+        t
+    }
+
     /// Simulate the session.
     pub fn simulate(&self) -> ForceRecording {
         let p = &self.physics;
@@ -322,6 +339,19 @@ mod tests {
         let k = a.force.iter().enumerate().max_by(|x, y| x.1.total_cmp(y.1)).unwrap().0;
         let moved = (0..24).map(|i| (a.frames[k].values[i] - a.frames[0].values[i]).abs()).fold(0.0, f64::max);
         assert!(moved > 50.0, "{moved}");
+    }
+
+    #[test]
+    fn the_split_after_a_press_ends_its_rest() {
+        let s = ForceSession::presses(5, 4);
+        // 1 s at rest, then per press 2 + 0.5 + 1.5 s and 0.6 s at rest
+        assert!((s.after_press_s(2) - (1.0 + 2.0 * 4.6)).abs() < 1e-12);
+        assert_eq!(s.after_press_s(0), 1.0);
+        assert_eq!(s.after_press_s(9), s.duration_s());
+        let r = s.simulate();
+        let k = (s.after_press_s(2) * RATE_HZ).round() as usize;
+        assert_eq!(r.force[k - 1], 0.0);
+        assert!(r.force[k + 10] > 0.0);
     }
 
     #[test]
