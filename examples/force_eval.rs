@@ -44,7 +44,7 @@ use gradtac::stages::normalise::Normalise;
 use gradtac::stages::peak::SurfaceContour;
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::SavGol;
-use gradtac::stages::sim_force::{ForceRecording, ForceSession, Segment};
+use gradtac::stages::sim_force::{ForceRecording, ForceSession, Segment, F_REF_N};
 use gradtac::stages::window::Window;
 use gradtac::stream::{Layout, Stage, StageExt};
 use std::time::Instant;
@@ -556,7 +556,8 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
                 ph.amplitude,
                 ph.lag_s * 1e3,
                 fm.gains.iter().map(|g| format!("{g:.0}")).collect::<Vec<_>>().join(" "),
-                ph.gain.iter().map(|g| format!("{:.0}", g * ph.amplitude * 2.0 * (2.0f64).powf(m.session.response.exponent - 1.0))).collect::<Vec<_>>().join(" ")
+                // the truth in the identified model's units: σᵢgᵢ A F_ref, its (F/F₀)^γ factor with F₀ = F_ref = 2 N
+                ph.gain.iter().map(|g| format!("{:.0}", g * ph.amplitude * F_REF_N)).collect::<Vec<_>>().join(" ")
             );
         }
         eprintln!(
