@@ -25,7 +25,10 @@
 //! (maximal event contour), and the contact fit's amplitude, each through a monotone curve.
 //! With `--quick` the default (`forward`) row's held-out figures are checked against floors (CI).
 //!
-//! Run: `cargo run --release --example force_eval [-- --quick]`.
+//! Run: `cargo run --release --example force_eval [-- --quick | --tuning-only] [--only a,b,…]`.
+//! Exploration variables, for the tuning members only (each documented where it is read):
+//! `FORCE_EVAL_SEEDS`, `_DEBUG`, `_DUMP`, `_DUMP_CHANGES`, `_UNTOUCHED`, `_PHASES`, `_DRIFT`,
+//! `_FORWARD`, `_UNGUARDED`, `_FWD_GAP`, `_OFF` / `_ON`, `_GAINS`, `_PLACE_POW`.
 
 use gradtac::chain::{effective_contour, effective_events};
 use gradtac::scene::StageSettings;
