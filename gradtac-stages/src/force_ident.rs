@@ -77,6 +77,14 @@ pub const GAIN_PRIOR: f64 = 0.02;
 pub const INVERT_ITERATIONS: usize = 20;
 /// The force range an inversion reports (N).
 pub const F_RANGE_N: [f64; 2] = [1e-3, 1e3];
+/// The prior gain's relative standard deviation: an electrode whose identified gain is all
+/// prior has a gain doubt `rᵢ` of this (see [`ForwardModel::gain_rel_sd`]).
+pub const PRIOR_REL_SD: f64 = 0.3;
+/// `s₀` (counts): the floor of each residual's standard deviation in the gain-doubt weighted
+/// inversion, `1/√(s₀² + (rᵢ Δᵢ)²)`. Chosen in session 38's exploration on the **tuning
+/// members** (`examples/force_parts/forward_gap.md`, "(c2)"; disclosed in
+/// `examples/force_parts/rule_round10.md`): a few counts, the order of the changes' noise.
+pub const INVERT_NOISE_COUNTS: f64 = 3.0;
 
 /// Which shape numbers [`identify`] holds fixed: the profile `q` stays at 2 (Gaussian lobes).
 /// Freeing it (with the exponential members of the family in view) scored a worse tuning
@@ -171,6 +179,14 @@ pub struct ForwardModel {
     pub shape: f64,
     /// `a`.
     pub lobe: f64,
+    /// `rᵢ`, one per taxel: how much of electrode `i`'s identified gain is the prior's
+    /// (`λ/(denᵢ + λ)`, its share in the last round's closed-form gain) × [`PRIOR_REL_SD`]. When
+    /// present, [`invert`](Self::invert) weighs residual `i` by `1/√(s₀² + (rᵢ Δᵢ)²)`
+    /// ([`INVERT_NOISE_COUNTS`]), so an electrode calibration barely excited (its gain near the
+    /// prior) does not drag the force; `None` (a file written before it): unweighted, exactly
+    /// as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gain_rel_sd: Option<Vec<f64>>,
 }
 
 /// `E(u)` for `u = ρ²/w²` and shape `q`: `exp(−u^{q/2}/q)`.
@@ -212,6 +228,10 @@ impl ForwardModel {
     pub fn is_valid(&self) -> bool {
         let th = self.shape_numbers();
         self.gains.iter().all(|g| g.is_finite() && g.abs() <= 1e9)
+            && self
+                .gain_rel_sd
+                .as_ref()
+                .is_none_or(|r| r.len() == self.gains.len() && r.iter().all(|v| (0.0..=1.0).contains(v)))
             && th.iter().all(|v| v.is_finite())
             && (0..5).all(|k| th[k] >= SHAPE_LO[k] - 1e-9 && th[k] <= SHAPE_HI[k] + 1e-9)
     }
@@ -222,9 +242,27 @@ impl ForwardModel {
         delta.iter().zip(r2.iter()).zip(&self.gains).map(|((d, &r), g)| (d - g * unit(th, r, f)).powi(2)).sum()
     }
 
+    /// [`cost`](Self::cost) with residual `i` multiplied by `sw[i]`.
+    fn cost_weighted(
+        &self,
+        th: &[f64; 5],
+        geo: &Geometry,
+        delta: &[f64],
+        sw: &[f64],
+        p: [f64; 3],
+        r2: &mut [f64],
+    ) -> f64 {
+        geo.rho2(p[0], p[1], r2);
+        let f = p[2].exp();
+        (0..delta.len()).map(|i| (sw[i] * (delta[i] - self.gains[i] * unit(th, r2[i], f))).powi(2)).sum()
+    }
+
     /// The contact `(x, y, F)` (mm, mm, N) that best explains the changes `delta`: `None` with
     /// a non-finite change or a taxel count other than the model's; `F` = 0 (at the centre of
-    /// the layout) when nothing changed. See the [module docs](self).
+    /// the layout) when nothing changed. With [`gain_rel_sd`](Self::gain_rel_sd), residual `i`
+    /// is weighted by `1/√(s₀² + (rᵢ Δᵢ)²)` in both the coarse search and the
+    /// Levenberg–Marquardt steps; without it (or with one of another length) unweighted. See
+    /// the [module docs](self).
     pub fn invert(&self, geo: &Geometry, delta: &[f64]) -> Option<[f64; 3]> {
         let n = self.gains.len();
         if delta.len() != n || geo.len() != n || delta.iter().any(|d| !d.is_finite()) {
@@ -237,12 +275,21 @@ impl ForwardModel {
         let th = self.shape_numbers();
         let mut r2 = vec![0.0; n];
         let (lo, hi) = (F_RANGE_N[0].ln(), F_RANGE_N[1].ln());
+        // the gain-doubt weights (none: the unweighted cost, untouched)
+        let sw: Option<Vec<f64>> = self.gain_rel_sd.as_ref().filter(|r| r.len() == n).map(|r| {
+            let s0 = INVERT_NOISE_COUNTS;
+            delta.iter().zip(r).map(|(d, r)| 1.0 / (s0 * s0 + (r * d).powi(2)).sqrt()).collect()
+        });
+        let cost = |p: [f64; 3], r2: &mut [f64]| match &sw {
+            None => self.cost(&th, geo, delta, p, r2),
+            Some(w) => self.cost_weighted(&th, geo, delta, w, p, r2),
+        };
         // coarse search over ln F at the centroid
         let mut best = (f64::INFINITY, [c[0], c[1], 0.0]);
         for k in 0..=24 {
             let lf = -4.0 + 8.0 * k as f64 / 24.0;
             let p = [c[0], c[1], lf];
-            let e = self.cost(&th, geo, delta, p, &mut r2);
+            let e = cost(p, &mut r2);
             if e < best.0 {
                 best = (e, p);
             }
@@ -265,6 +312,11 @@ impl ForwardModel {
             for i in 0..n {
                 res[i] = delta[i] - m0[i];
             }
+            if let Some(w) = &sw {
+                for i in 0..n {
+                    res[i] *= w[i];
+                }
+            }
             let steps = [1e-4, 1e-4, 1e-5];
             let mut mk = vec![0.0; n];
             for (k, h) in steps.iter().enumerate() {
@@ -273,6 +325,11 @@ impl ForwardModel {
                 model(q, &mut r2, &mut mk);
                 for i in 0..n {
                     jac[i][k] = (mk[i] - m0[i]) / h;
+                }
+                if let Some(w) = &sw {
+                    for i in 0..n {
+                        jac[i][k] *= w[i];
+                    }
                 }
             }
             let mut a = [[0.0; 3]; 3];
@@ -294,7 +351,7 @@ impl ForwardModel {
                 let Some(step) = solve3(m, g) else { break };
                 let (x, y) = geo.clamp(p[0] + step[0], p[1] + step[1]);
                 let q = [x, y, (p[2] + step[2]).clamp(lo, hi)];
-                let eq = self.cost(&th, geo, delta, q, &mut r2);
+                let eq = cost(q, &mut r2);
                 if eq < e {
                     let small = (eq - e).abs() <= 1e-10 * e.max(1e-300);
                     p = q;
@@ -434,6 +491,7 @@ fn identify_from(
     let mut th = start;
     let mut gains = vec![-1.0; n];
     let mut cost = f64::INFINITY;
+    let mut rel_sd = vec![PRIOR_REL_SD; n];
     let mut r2 = vec![0.0; n];
     // the unit responses m[f][i] at the current places and shape
     let units = |th: &[f64; 5], place: &[[f64; 2]], r2: &mut [f64]| -> Vec<f64> {
@@ -473,6 +531,8 @@ fn identify_from(
             (0..n).map(|i| if den[i] >= 0.2 * dmax && free[i] * prior < 0.0 { -prior } else { prior }).collect();
         for i in 0..n {
             gains[i] = (num[i] + lam * priors[i]) / (den[i] + lam);
+            // the gain doubt: the prior's share in this gain × the prior's relative sd
+            rel_sd[i] = PRIOR_REL_SD * lam / (den[i] + lam);
         }
         // 2. each frame's place (Levenberg–Marquardt on (x, y), a few iterations)
         let unit_model = ForwardModel {
@@ -482,6 +542,7 @@ fn identify_from(
             width_mm: th[2].exp(),
             shape: th[3],
             lobe: th[4],
+            gain_rel_sd: None,
         };
         for idx in &presses {
             let p = fit_place(&unit_model, &th, geo, &data, &wf, idx, place[idx[0]], &mut r2);
@@ -579,8 +640,15 @@ fn identify_from(
         gains = g0;
         cost = e;
     }
-    let model =
-        ForwardModel { gains, exponent: th[0], spread: th[1], width_mm: th[2].exp(), shape: th[3], lobe: th[4] };
+    let model = ForwardModel {
+        gains,
+        exponent: th[0],
+        spread: th[1],
+        width_mm: th[2].exp(),
+        shape: th[3],
+        lobe: th[4],
+        gain_rel_sd: Some(rel_sd),
+    };
     model.is_valid().then_some((model, cost))
 }
 
@@ -679,7 +747,7 @@ mod tests {
                 }
             })
             .collect();
-        ForwardModel { gains, exponent: 0.7, spread: 0.25, width_mm: 3.2, shape: 2.0, lobe: 0.3 }
+        ForwardModel { gains, exponent: 0.7, spread: 0.25, width_mm: 3.2, shape: 2.0, lobe: 0.3, gain_rel_sd: None }
     }
 
     /// Noise-free frames of `m`: a ramp 0.3..9 N at each place.
@@ -736,7 +804,15 @@ mod tests {
         let places = [[-6.5, -3.0], [4.0, 2.5], [1.0, -1.0], [-2.5, 5.5], [7.0, -4.0]];
         let gains: Vec<f64> =
             (0..24).map(|i| if i == 4 { 30.0 } else { -30.0 * (1.0 + 0.3 * ((i as f64) * 1.3).sin()) }).collect();
-        let t = ForwardModel { gains, exponent: 0.57, spread: 0.22, width_mm: 1.6, shape: 2.0, lobe: 0.4 };
+        let t = ForwardModel {
+            gains,
+            exponent: 0.57,
+            spread: 0.22,
+            width_mm: 1.6,
+            shape: 2.0,
+            lobe: 0.4,
+            gain_rel_sd: None,
+        };
         let mut data = frames(&t, &geo, &places);
         let mut seed = 12345u64;
         for (d, _) in data.iter_mut() {

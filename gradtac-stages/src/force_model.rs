@@ -55,11 +55,12 @@ const STAGE: &str = "force";
 /// The `format` tag of a force model file.
 pub const FORCE_FORMAT: &str = "gradtac-force";
 /// The newest version this build reads (and writes, for a `forward` model): version 2 added the
-/// `total` method, version 3 the `placed` method, version 4 the `forward` method; `placed`
+/// `total` method, version 3 the `placed` method, version 4 the `forward` method, version 5 the
+/// `forward` model's `gain_rel_sd` (a `forward` file without it is still written as version 4); `placed`
 /// models are still written as version 3, `total` models as version 2 and `ridge`, `area` and
 /// `amplitude` models as version 1, so older builds keep reading them. Every version up to
 /// this one is read.
-pub const FORCE_VERSION: u32 = 4;
+pub const FORCE_VERSION: u32 = 5;
 /// Most taxels a model may hold.
 pub const MAX_TAXELS: usize = 65_536;
 /// Most knots of an isotonic curve in a file.
@@ -162,6 +163,11 @@ pub enum CalibratedForce {
         lag_s: f64,
         /// The layout's electrode positions (layout plane, mm), one per taxel.
         positions: Vec<[f64; 2]>,
+        /// `rᵢ`, one per taxel: each gain's doubt (the prior's share × its relative sd,
+        /// [`ForwardModel::gain_rel_sd`]), weighing the inversion's residuals; absent in a
+        /// version-4 file (then the inversion is unweighted, as before version 5).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gain_rel_sd: Option<Vec<f64>>,
     },
     /// The `total` law on the changes divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`, the
     /// layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of
@@ -242,11 +248,13 @@ impl CalibratedForce {
         self.method().reads_changes()
     }
 
-    /// The file version a model of this method is written with: 4 for `forward`, 3 for
+    /// The file version a model of this method is written with: 5 for `forward` with gain
+    /// doubts (4 without), 3 for
     /// `placed`, 2 for `total` (a build that reads only older versions refuses it by its
     /// version), 1 for the others.
     pub fn version(&self) -> u32 {
         match self {
+            CalibratedForce::Forward { gain_rel_sd: Some(_), .. } => 5,
             CalibratedForce::Forward { .. } => 4,
             CalibratedForce::Placed { .. } => 3,
             CalibratedForce::Total { .. } => 2,
@@ -257,7 +265,9 @@ impl CalibratedForce {
     /// The `forward` model and its geometry (`None` for another method).
     pub fn forward(&self) -> Option<(ForwardModel, Geometry)> {
         match self {
-            CalibratedForce::Forward { gains, exponent, spread, width_mm, shape, lobe, positions, .. } => Some((
+            CalibratedForce::Forward {
+                gains, exponent, spread, width_mm, shape, lobe, positions, gain_rel_sd, ..
+            } => Some((
                 ForwardModel {
                     gains: gains.clone(),
                     exponent: *exponent,
@@ -265,6 +275,7 @@ impl CalibratedForce {
                     width_mm: *width_mm,
                     shape: *shape,
                     lobe: *lobe,
+                    gain_rel_sd: gain_rel_sd.clone(),
                 },
                 Geometry::for_positions(positions),
             )),
@@ -556,7 +567,16 @@ impl ForceFile {
             return Err(invalid(format!("{} taxels (want 1..={MAX_TAXELS})", self.taxels)));
         }
         match &self.model {
-            CalibratedForce::Forward { gains, positions, lag_s, .. } => {
+            CalibratedForce::Forward { gains, positions, lag_s, gain_rel_sd, .. } => {
+                if gain_rel_sd.is_some() && self.version < 5 {
+                    return Err(invalid(format!(
+                        "gain_rel_sd in a version-{} file (it came with version 5)",
+                        self.version
+                    )));
+                }
+                if gain_rel_sd.as_ref().is_some_and(|r| r.len() != self.taxels) {
+                    return Err(invalid(format!("{} taxels but a gain_rel_sd of another length", self.taxels)));
+                }
                 if !LAG_RANGE_S.contains(lag_s) {
                     return Err(invalid(format!(
                         "lag_s {lag_s} (want {}..={} s)",
@@ -1037,6 +1057,7 @@ fn fit_model(
                 lobe: m.lobe,
                 lag_s: tau,
                 positions,
+                gain_rel_sd: m.gain_rel_sd,
             }
         }
         CalibrationMethod::Placed => {
@@ -1404,8 +1425,15 @@ mod tests {
     /// a frame without contact between presses.
     fn forward_samples() -> Vec<GaugeSample> {
         let geo = Geometry::for_positions(Layout::biotac_sp().positions());
-        let m =
-            ForwardModel { gains: vec![-60.0; 24], exponent: 0.7, spread: 0.2, width_mm: 3.0, shape: 2.0, lobe: 0.2 };
+        let m = ForwardModel {
+            gains: vec![-60.0; 24],
+            exponent: 0.7,
+            spread: 0.2,
+            width_mm: 3.0,
+            shape: 2.0,
+            lobe: 0.2,
+            gain_rel_sd: None,
+        };
         let mut out = Vec::new();
         for (j, p) in [[-5.0, -3.0], [4.0, 2.0], [0.0, 5.0]].iter().enumerate() {
             for k in 0..30 {
@@ -1540,6 +1568,7 @@ mod tests {
                 lobe: 0.0,
                 lag_s: 0.0,
                 positions: positions.clone(),
+                gain_rel_sd: None,
             },
             CalibratedForce::Forward {
                 gains: gains.clone(),
@@ -1550,6 +1579,7 @@ mod tests {
                 lobe: 0.0,
                 lag_s: -1.0,
                 positions: positions.clone(),
+                gain_rel_sd: None,
             },
             CalibratedForce::Forward {
                 gains: gains[..3].to_vec(),
@@ -1560,6 +1590,7 @@ mod tests {
                 lobe: 0.0,
                 lag_s: 0.0,
                 positions: positions.clone(),
+                gain_rel_sd: None,
             },
         ] {
             assert!(ForceFile { model: bad, ..file.clone() }.validate().is_err());
