@@ -762,6 +762,23 @@ mod tests {
         out
     }
 
+    /// `(x, y, F)` of [`without_gain_doubts_the_readings_are_bit_identical_to_before`]'s four
+    /// frames, as `f64::to_bits`, from commit `caedfbc` (before the gain doubts).
+    const PINNED_BITS: [u64; 12] = [
+        13805334404179181193,
+        13793873050940861723,
+        4613885746348040608,
+        4617361560907407107,
+        4614087124365150373,
+        4609470529575088640,
+        13841787608226489418,
+        13839626669915833228,
+        4618416595129096952,
+        13825640083153166184,
+        4619123701884386576,
+        4594756959140405035,
+    ];
+
     const PLACES: [[f64; 2]; 6] = [[-6.0, -4.0], [5.0, 3.0], [0.0, 0.0], [-3.0, 5.0], [7.0, -3.0], [-9.0, 1.0]];
 
     #[test]
@@ -788,11 +805,63 @@ mod tests {
         for i in (0..24).filter(|&i| peak[i] > 0.5 * top) {
             assert!((m.gains[i] / t.gains[i] - 1.0).abs() < 0.1, "gain {i}: {} vs {}", m.gains[i], t.gains[i]);
         }
-        // and the inversion gives back each frame's force
+        // the gain doubts: one per taxel, within [0, PRIOR_REL_SD]; a well-excited electrode's small
+        let r = m.gain_rel_sd.as_ref().expect("identification stores the gain doubts");
+        assert_eq!(r.len(), 24);
+        assert!(r.iter().all(|v| (0.0..=PRIOR_REL_SD).contains(v)), "{r:?}");
+        for i in (0..24).filter(|&i| peak[i] > 0.5 * top) {
+            assert!(r[i] < 0.1 * PRIOR_REL_SD, "electrode {i}: r {}", r[i]);
+        }
+        // and the (weighted) inversion gives back each frame's force, as the unweighted one does
+        let bare = ForwardModel { gain_rel_sd: None, ..m.clone() };
         for (d, f) in data.iter().step_by(7) {
             let p = m.invert(&geo, d).unwrap();
             assert!((p[2] / f - 1.0).abs() < 0.05, "F {} vs {f}", p[2]);
+            let q = bare.invert(&geo, d).unwrap();
+            assert!((q[2] / f - 1.0).abs() < 0.05, "unweighted F {} vs {f}", q[2]);
         }
+    }
+
+    /// An electrode under the press whose gain is the prior's, and wrong (half its true gain):
+    /// with its doubt stored the weighted inversion reads the force closer to the truth than the
+    /// unweighted one, which the wrong gain drags.
+    #[test]
+    fn a_wrong_prior_gain_under_the_press_no_longer_drags_the_force() {
+        let geo = Geometry::for_positions(Layout::biotac_sp().positions());
+        let t = truth();
+        for (place, f) in [([0.0, 0.0], 3.0), ([5.0, 3.0], 1.5), ([-6.0, -4.0], 6.0)] {
+            let d = t.predict(&geo, place[0], place[1], f);
+            let k = (0..24).max_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs())).unwrap();
+            let mut gains = t.gains.clone();
+            gains[k] *= 0.5;
+            let mut r = vec![0.0; 24];
+            r[k] = PRIOR_REL_SD;
+            let weighted = ForwardModel { gains: gains.clone(), gain_rel_sd: Some(r), ..t.clone() };
+            let bare = ForwardModel { gains, gain_rel_sd: None, ..t.clone() };
+            let fw = weighted.invert(&geo, &d).unwrap()[2];
+            let fb = bare.invert(&geo, &d).unwrap()[2];
+            let (ew, eb) = ((fw / f - 1.0).abs(), (fb / f - 1.0).abs());
+            assert!(ew < eb, "at {place:?} ({f} N, electrode {k}): weighted {fw} ({ew}), unweighted {fb} ({eb})");
+            assert!(eb > 0.05, "the wrong gain drags the unweighted force: {fb} vs {f}");
+        }
+    }
+
+    /// Without gain doubts (a version-4 file) the inversion is the unweighted one of before
+    /// round 10, bit for bit: readings pinned from commit `caedfbc`'s `invert`.
+    #[test]
+    fn without_gain_doubts_the_readings_are_bit_identical_to_before() {
+        let geo = Geometry::for_positions(Layout::biotac_sp().positions());
+        let t = truth();
+        let mut got = Vec::new();
+        for (place, f) in [([0.0, 0.0], 3.0), ([5.0, 3.0], 1.5), ([-6.0, -4.0], 6.0), ([8.0, 8.0], 0.4)] {
+            let mut d = t.predict(&geo, place[0], place[1], f);
+            for (i, v) in d.iter_mut().enumerate() {
+                *v += 2.0 * ((i as f64) * 0.9).sin();
+            }
+            let p = t.invert(&geo, &d).unwrap();
+            got.extend(p.iter().map(|v| v.to_bits()));
+        }
+        assert_eq!(got, PINNED_BITS.to_vec(), "{got:?}");
     }
 
     /// Member 700's shape numbers — a narrow kernel (1.6 mm: each press moves one or two
@@ -858,7 +927,19 @@ mod tests {
     #[test]
     fn garbage_never_panics() {
         let geo = Geometry::for_positions(Layout::biotac_sp().positions());
-        let m = truth();
+        for r in [None, Some(vec![PRIOR_REL_SD; 24]), Some((0..24).map(|i| 0.0125 * i as f64).collect())] {
+            garbage_never_panics_with(&geo, ForwardModel { gain_rel_sd: r, ..truth() });
+        }
+        // gain doubts of another length: skipped (unweighted), and not a valid model
+        let odd = ForwardModel { gain_rel_sd: Some(vec![0.1; 5]), ..truth() };
+        assert!(!odd.is_valid());
+        let d = truth().predict(&geo, 1.0, 2.0, 2.5);
+        assert_eq!(odd.invert(&geo, &d), truth().invert(&geo, &d));
+        assert!(!ForwardModel { gain_rel_sd: Some(vec![f64::NAN; 24]), ..truth() }.is_valid());
+    }
+
+    fn garbage_never_panics_with(geo: &Geometry, m: ForwardModel) {
+        let geo = geo.clone();
         let mut d = m.predict(&geo, 0.0, 0.0, 3.0);
         assert!(m.invert(&geo, &d).is_some());
         d[3] = f64::NAN;

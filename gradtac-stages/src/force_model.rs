@@ -1542,11 +1542,13 @@ mod tests {
     }
 
     #[test]
-    fn forward_files_are_version_4_fit_their_own_model_and_survive_garbage() {
+    fn forward_files_are_version_5_fit_their_own_model_and_survive_garbage() {
         let layout = Layout::biotac_sp();
         let file =
             calibrate(&forward_samples(), CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
-        assert_eq!(file.version, 4);
+        assert_eq!(file.version, 5, "a forward file with gain doubts is version 5");
+        let CalibratedForce::Forward { gain_rel_sd: Some(r), .. } = &file.model else { panic!("gain doubts stored") };
+        assert_eq!(r.len(), 24);
         assert!(file.calibration.in_sample_mape_pct < 5.0, "{:?}", file.calibration);
         let json = serde_json::to_string(&file).unwrap();
         assert_eq!(serde_json::from_str::<ForceFile>(&json).unwrap(), file);
@@ -1555,7 +1557,40 @@ mod tests {
             calibrate(&power_law_samples(), CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
         assert_eq!(placed.version, 3);
         placed.validate().unwrap();
-        assert!(ForceFile { version: 5, ..file.clone() }.validate().unwrap_err().to_string().contains("version 5"));
+        assert!(ForceFile { version: 6, ..file.clone() }.validate().unwrap_err().to_string().contains("version 6"));
+        // a version-4 forward file (no gain doubts) loads, is written back as version 4 without
+        // the field, and reads exactly what the unweighted inversion reads
+        let mut v4: serde_json::Value = serde_json::to_value(&file).unwrap();
+        v4["version"] = 4.into();
+        v4["model"].as_object_mut().unwrap().remove("gain_rel_sd");
+        let old: ForceFile = serde_json::from_value(v4).unwrap();
+        old.validate().unwrap();
+        let CalibratedForce::Forward { gain_rel_sd: None, .. } = &old.model else { panic!("no gain doubts") };
+        assert_eq!(old.model.version(), 4);
+        assert!(!serde_json::to_string(&old).unwrap().contains("gain_rel_sd"));
+        let (m, geo) = file.model.forward().unwrap();
+        let bare = ForwardModel { gain_rel_sd: None, ..m.clone() };
+        let mut differ = 0;
+        for s in forward_samples().iter().filter(|s| s.contact).step_by(5) {
+            let o = old.model.predict_changes(&s.change).unwrap();
+            assert_eq!(o.to_bits(), forward_force(&bare, &geo, &s.change).to_bits());
+            let n = file.model.predict_changes(&s.change).unwrap();
+            assert_eq!(n.to_bits(), forward_force(&m, &geo, &s.change).to_bits());
+            differ += usize::from(o != n);
+        }
+        assert!(differ > 0, "the gain doubts weigh the inversion");
+        // gain doubts in a version-4 file, or of another length, are refused
+        assert!(ForceFile { version: 4, ..file.clone() }.validate().unwrap_err().to_string().contains("version-4"));
+        let mut short = file.clone();
+        if let CalibratedForce::Forward { gain_rel_sd, .. } = &mut short.model {
+            *gain_rel_sd = Some(vec![0.1; 3]);
+        }
+        assert!(short.validate().is_err());
+        let mut nan = file.clone();
+        if let CalibratedForce::Forward { gain_rel_sd, .. } = &mut nan.model {
+            *gain_rel_sd = Some(vec![f64::NAN; 24]);
+        }
+        assert!(nan.validate().is_err());
         // out-of-bounds parameters are refused
         let CalibratedForce::Forward { gains, positions, .. } = file.model.clone() else { panic!() };
         for bad in [
