@@ -169,9 +169,10 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
 #[test]
 fn a_gauge_file_matched_by_time_and_clear_refusals() {
     let dir = tempfile::tempdir().unwrap();
-    // tuning member 1 (4 presses): one on which the guard below fires under session 34's gate;
-    // member 701 took that path until then (examples/force_parts/history.md, session 34)
-    let rec = ForceSession::presses(1, 4).simulate();
+    // tuning member 221 (4 presses): one on which the guard below fires with round 10's
+    // gain-doubt weighted inversion (examples/force_parts/rule_round10.md); member 1 took that
+    // path from session 34 until then, member 701 before
+    let rec = ForceSession::presses(221, 4).simulate();
     write_csv(&dir.path().join("cal.csv"), &rec);
     // the gauge on its own clock rows (every other frame), in ms
     let mut g = String::from("time_ms,newtons\n");
@@ -195,7 +196,7 @@ fn a_gauge_file_matched_by_time_and_clear_refusals() {
         "--force-time-unit",
         "ms",
     ]));
-    // member 1 (4 presses): its forward model predicts the presses held aside worse than the
+    // member 221 (4 presses): its forward model predicts the presses held aside worse than the
     // placed law (session 32's guard), so the placed law is written and the CLI says why
     assert!(text.contains("calibrated placed force"), "{text}");
     assert!(

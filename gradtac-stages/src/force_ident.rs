@@ -55,7 +55,12 @@
 //! Per frame, `(x, y, ln F)` minimise `Σᵢ (Δᵢ − model)²`: a coarse search over `ln F` at the
 //! `Δ²`-weighted centroid, then Levenberg–Marquardt (at most [`INVERT_ITERATIONS`]
 //! iterations, forward-difference Jacobian), the place kept within the layout's extent grown
-//! by 3 mm and `F` within [`F_RANGE_N`]. Stateless: every frame is solved from scratch (no
+//! by 3 mm and `F` within [`F_RANGE_N`]. Since session 38's round 10 the identification also
+//! stores each gain's doubt `rᵢ` ([`ForwardModel::gain_rel_sd`]: the prior's share in the gain
+//! × [`PRIOR_REL_SD`]) and the inversion weighs residual `i` by `1/√(s₀² + (rᵢ Δᵢ)²)`
+//! ([`INVERT_NOISE_COUNTS`]), so an electrode whose gain calibration left at the prior does not
+//! drag the force (`examples/force_parts/rule_round10.md`); a model without doubts (a version-4
+//! file) is inverted unweighted, as before. Stateless: every frame is solved from scratch (no
 //! warm start, so a frame's force does not depend on the frames before it). Cost: ≈ 10–30 µs
 //! per frame in contact (`examples/force_eval.rs`'s µs column).
 
