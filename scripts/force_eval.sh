@@ -10,7 +10,9 @@
 # Session 35's gate (the drift-shape return's rise test and undo) measures the same 76.6 %,
 # 28.1 %, 11.88 %, so the floors are unchanged (examples/force_parts/history.md "Session 35"). Session 37's gate
 # (a contact starts beyond 3 σ, `hold_start_sigmas`) measures 75.3 %, 27.7 %, 11.88 %: floors
-# 78 / 29 / 13 (examples/force_parts/history.md "Session 37").
+# 78 / 29 / 13 (examples/force_parts/history.md "Session 37"). Session 38's round 10 (the
+# inversion weighs each electrode by its gain's doubt) measures 75.3 %, 26.4 %, 11.88 %: the
+# floors 78 / 29 / 13 stay (measured + 2.7 / 2.6 / 1.1; examples/force_parts/rule_round10.md).
 # ≈ 53 s after the release build the other checks made, on a loaded machine (the default's
 # calibration runs 36 identifications; with session 31's one it took ≈ 5 s in all).
 set -euo pipefail

@@ -87,11 +87,12 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
         .unwrap());
     // the default method is `forward` (session 31) with the multi-start identification and the
     // held-aside-press guard (session 32): on member 700 the forward model predicts each
-    // calibration press held aside better than the placed law, so a version-4 forward file is
+    // calibration press held aside better than the placed law, so a version-5 forward file (with
+    // its gains' doubts, round 10) is
     // written (session 31's single start failed here — γ 1.16, w 3.2 mm, 11 of 24 gains of the
     // wrong sign — and its in-sample guard wrote the placed law)
     assert!(text.contains("calibrated forward force on") && !text.contains("note:"), "{text}");
-    assert_eq!(gradtac::scene::read_force_file(&model).unwrap().version, 4);
+    assert_eq!(gradtac::scene::read_force_file(&model).unwrap().version, 5);
     // a second session of the same sensor (other noise), through the bare default chain
     let test = ForceSession { noise_stream: 9, ..ForceSession::presses(700, 6) }.simulate();
     write_csv(&dir.path().join("test.csv"), &test);
@@ -168,9 +169,10 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
 #[test]
 fn a_gauge_file_matched_by_time_and_clear_refusals() {
     let dir = tempfile::tempdir().unwrap();
-    // tuning member 1 (4 presses): one on which the guard below fires under session 34's gate;
-    // member 701 took that path until then (examples/force_parts/history.md, session 34)
-    let rec = ForceSession::presses(1, 4).simulate();
+    // tuning member 221 (4 presses): one on which the guard below fires with round 10's
+    // gain-doubt weighted inversion (examples/force_parts/rule_round10.md); member 1 took that
+    // path from session 34 until then, member 701 before
+    let rec = ForceSession::presses(221, 4).simulate();
     write_csv(&dir.path().join("cal.csv"), &rec);
     // the gauge on its own clock rows (every other frame), in ms
     let mut g = String::from("time_ms,newtons\n");
@@ -194,7 +196,7 @@ fn a_gauge_file_matched_by_time_and_clear_refusals() {
         "--force-time-unit",
         "ms",
     ]));
-    // member 1 (4 presses): its forward model predicts the presses held aside worse than the
+    // member 221 (4 presses): its forward model predicts the presses held aside worse than the
     // placed law (session 32's guard), so the placed law is written and the CLI says why
     assert!(text.contains("calibrated placed force"), "{text}");
     assert!(
@@ -315,7 +317,7 @@ fn area_and_amplitude_models_run_through_their_location_chain() {
 }
 
 /// The default method end to end on member 702, a sensor whose identification succeeds: a
-/// version-4 `forward` file without a note, the bare scene runs it and `explain` names it, no
+/// version-5 `forward` file without a note, the bare scene runs it and `explain` names it, no
 /// force before the first press, and the next session read more closely than the placed law.
 #[test]
 fn the_default_writes_forward_where_the_identification_fits() {
@@ -336,7 +338,7 @@ fn the_default_writes_forward_where_the_identification_fits() {
         let text = ok(cmd.arg("--out").arg(&model).output().unwrap());
         assert!(text.contains(&format!("calibrated {method} force on")) && !text.contains("note:"), "{text}");
         let file = gradtac::scene::read_force_file(&model).unwrap();
-        assert_eq!(file.version, if method == "forward" { 4 } else { 3 });
+        assert_eq!(file.version, if method == "forward" { 5 } else { 3 });
         let body = format!("[stages.force]\nmodel = \"{method}.json\"\n");
         let run = scene(dir.path(), &format!("{method}.toml"), "test.csv", &body, "force");
         if method == "forward" {

@@ -134,8 +134,15 @@ fn bench(c: &mut Criterion) {
     let geo = Geometry::for_positions(layout.positions());
     let gains = (0..24)
         .map(|i| -80.0 * (1.0 + 0.3 * (i as f64 * 1.7).sin()) * if [4, 11, 19].contains(&i) { -1.0 } else { 1.0 });
-    let model =
-        ForwardModel { gains: gains.collect(), exponent: 0.7, spread: 0.25, width_mm: 3.2, shape: 2.0, lobe: 0.3 };
+    let model = ForwardModel {
+        gains: gains.collect(),
+        exponent: 0.7,
+        spread: 0.25,
+        width_mm: 3.2,
+        shape: 2.0,
+        lobe: 0.3,
+        gain_rel_sd: None,
+    };
     let deltas: Vec<Vec<f64>> = (0..256)
         .map(|k| {
             let (x, y, f) = (

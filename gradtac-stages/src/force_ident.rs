@@ -55,7 +55,12 @@
 //! Per frame, `(x, y, ln F)` minimise `Σᵢ (Δᵢ − model)²`: a coarse search over `ln F` at the
 //! `Δ²`-weighted centroid, then Levenberg–Marquardt (at most [`INVERT_ITERATIONS`]
 //! iterations, forward-difference Jacobian), the place kept within the layout's extent grown
-//! by 3 mm and `F` within [`F_RANGE_N`]. Stateless: every frame is solved from scratch (no
+//! by 3 mm and `F` within [`F_RANGE_N`]. Since session 38's round 10 the identification also
+//! stores each gain's doubt `rᵢ` ([`ForwardModel::gain_rel_sd`]: the prior's share in the gain
+//! × [`PRIOR_REL_SD`]) and the inversion weighs residual `i` by `1/√(s₀² + (rᵢ Δᵢ)²)`
+//! ([`INVERT_NOISE_COUNTS`]), so an electrode whose gain calibration left at the prior does not
+//! drag the force (`examples/force_parts/rule_round10.md`); a model without doubts (a version-4
+//! file) is inverted unweighted, as before. Stateless: every frame is solved from scratch (no
 //! warm start, so a frame's force does not depend on the frames before it). Cost: ≈ 10–30 µs
 //! per frame in contact (`examples/force_eval.rs`'s µs column).
 
@@ -77,6 +82,14 @@ pub const GAIN_PRIOR: f64 = 0.02;
 pub const INVERT_ITERATIONS: usize = 20;
 /// The force range an inversion reports (N).
 pub const F_RANGE_N: [f64; 2] = [1e-3, 1e3];
+/// The prior gain's relative standard deviation: an electrode whose identified gain is all
+/// prior has a gain doubt `rᵢ` of this (see [`ForwardModel::gain_rel_sd`]).
+pub const PRIOR_REL_SD: f64 = 0.3;
+/// `s₀` (counts): the floor of each residual's standard deviation in the gain-doubt weighted
+/// inversion, `1/√(s₀² + (rᵢ Δᵢ)²)`. Chosen in session 38's exploration on the **tuning
+/// members** (`examples/force_parts/forward_gap.md`, "(c2)"; disclosed in
+/// `examples/force_parts/rule_round10.md`): a few counts, the order of the changes' noise.
+pub const INVERT_NOISE_COUNTS: f64 = 3.0;
 
 /// Which shape numbers [`identify`] holds fixed: the profile `q` stays at 2 (Gaussian lobes).
 /// Freeing it (with the exponential members of the family in view) scored a worse tuning
@@ -171,6 +184,14 @@ pub struct ForwardModel {
     pub shape: f64,
     /// `a`.
     pub lobe: f64,
+    /// `rᵢ`, one per taxel: how much of electrode `i`'s identified gain is the prior's
+    /// (`λ/(denᵢ + λ)`, its share in the last round's closed-form gain) × [`PRIOR_REL_SD`]. When
+    /// present, [`invert`](Self::invert) weighs residual `i` by `1/√(s₀² + (rᵢ Δᵢ)²)`
+    /// ([`INVERT_NOISE_COUNTS`]), so an electrode calibration barely excited (its gain near the
+    /// prior) does not drag the force; `None` (a file written before it): unweighted, exactly
+    /// as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gain_rel_sd: Option<Vec<f64>>,
 }
 
 /// `E(u)` for `u = ρ²/w²` and shape `q`: `exp(−u^{q/2}/q)`.
@@ -212,6 +233,10 @@ impl ForwardModel {
     pub fn is_valid(&self) -> bool {
         let th = self.shape_numbers();
         self.gains.iter().all(|g| g.is_finite() && g.abs() <= 1e9)
+            && self
+                .gain_rel_sd
+                .as_ref()
+                .is_none_or(|r| r.len() == self.gains.len() && r.iter().all(|v| (0.0..=1.0).contains(v)))
             && th.iter().all(|v| v.is_finite())
             && (0..5).all(|k| th[k] >= SHAPE_LO[k] - 1e-9 && th[k] <= SHAPE_HI[k] + 1e-9)
     }
@@ -222,9 +247,27 @@ impl ForwardModel {
         delta.iter().zip(r2.iter()).zip(&self.gains).map(|((d, &r), g)| (d - g * unit(th, r, f)).powi(2)).sum()
     }
 
+    /// [`cost`](Self::cost) with residual `i` multiplied by `sw[i]`.
+    fn cost_weighted(
+        &self,
+        th: &[f64; 5],
+        geo: &Geometry,
+        delta: &[f64],
+        sw: &[f64],
+        p: [f64; 3],
+        r2: &mut [f64],
+    ) -> f64 {
+        geo.rho2(p[0], p[1], r2);
+        let f = p[2].exp();
+        (0..delta.len()).map(|i| (sw[i] * (delta[i] - self.gains[i] * unit(th, r2[i], f))).powi(2)).sum()
+    }
+
     /// The contact `(x, y, F)` (mm, mm, N) that best explains the changes `delta`: `None` with
     /// a non-finite change or a taxel count other than the model's; `F` = 0 (at the centre of
-    /// the layout) when nothing changed. See the [module docs](self).
+    /// the layout) when nothing changed. With [`gain_rel_sd`](Self::gain_rel_sd), residual `i`
+    /// is weighted by `1/√(s₀² + (rᵢ Δᵢ)²)` in both the coarse search and the
+    /// Levenberg–Marquardt steps; without it (or with one of another length) unweighted. See
+    /// the [module docs](self).
     pub fn invert(&self, geo: &Geometry, delta: &[f64]) -> Option<[f64; 3]> {
         let n = self.gains.len();
         if delta.len() != n || geo.len() != n || delta.iter().any(|d| !d.is_finite()) {
@@ -237,12 +280,21 @@ impl ForwardModel {
         let th = self.shape_numbers();
         let mut r2 = vec![0.0; n];
         let (lo, hi) = (F_RANGE_N[0].ln(), F_RANGE_N[1].ln());
+        // the gain-doubt weights (none: the unweighted cost, untouched)
+        let sw: Option<Vec<f64>> = self.gain_rel_sd.as_ref().filter(|r| r.len() == n).map(|r| {
+            let s0 = INVERT_NOISE_COUNTS;
+            delta.iter().zip(r).map(|(d, r)| 1.0 / (s0 * s0 + (r * d).powi(2)).sqrt()).collect()
+        });
+        let cost = |p: [f64; 3], r2: &mut [f64]| match &sw {
+            None => self.cost(&th, geo, delta, p, r2),
+            Some(w) => self.cost_weighted(&th, geo, delta, w, p, r2),
+        };
         // coarse search over ln F at the centroid
         let mut best = (f64::INFINITY, [c[0], c[1], 0.0]);
         for k in 0..=24 {
             let lf = -4.0 + 8.0 * k as f64 / 24.0;
             let p = [c[0], c[1], lf];
-            let e = self.cost(&th, geo, delta, p, &mut r2);
+            let e = cost(p, &mut r2);
             if e < best.0 {
                 best = (e, p);
             }
@@ -265,6 +317,11 @@ impl ForwardModel {
             for i in 0..n {
                 res[i] = delta[i] - m0[i];
             }
+            if let Some(w) = &sw {
+                for i in 0..n {
+                    res[i] *= w[i];
+                }
+            }
             let steps = [1e-4, 1e-4, 1e-5];
             let mut mk = vec![0.0; n];
             for (k, h) in steps.iter().enumerate() {
@@ -273,6 +330,11 @@ impl ForwardModel {
                 model(q, &mut r2, &mut mk);
                 for i in 0..n {
                     jac[i][k] = (mk[i] - m0[i]) / h;
+                }
+                if let Some(w) = &sw {
+                    for i in 0..n {
+                        jac[i][k] *= w[i];
+                    }
                 }
             }
             let mut a = [[0.0; 3]; 3];
@@ -294,7 +356,7 @@ impl ForwardModel {
                 let Some(step) = solve3(m, g) else { break };
                 let (x, y) = geo.clamp(p[0] + step[0], p[1] + step[1]);
                 let q = [x, y, (p[2] + step[2]).clamp(lo, hi)];
-                let eq = self.cost(&th, geo, delta, q, &mut r2);
+                let eq = cost(q, &mut r2);
                 if eq < e {
                     let small = (eq - e).abs() <= 1e-10 * e.max(1e-300);
                     p = q;
@@ -434,6 +496,7 @@ fn identify_from(
     let mut th = start;
     let mut gains = vec![-1.0; n];
     let mut cost = f64::INFINITY;
+    let mut rel_sd = vec![PRIOR_REL_SD; n];
     let mut r2 = vec![0.0; n];
     // the unit responses m[f][i] at the current places and shape
     let units = |th: &[f64; 5], place: &[[f64; 2]], r2: &mut [f64]| -> Vec<f64> {
@@ -473,6 +536,8 @@ fn identify_from(
             (0..n).map(|i| if den[i] >= 0.2 * dmax && free[i] * prior < 0.0 { -prior } else { prior }).collect();
         for i in 0..n {
             gains[i] = (num[i] + lam * priors[i]) / (den[i] + lam);
+            // the gain doubt: the prior's share in this gain × the prior's relative sd
+            rel_sd[i] = PRIOR_REL_SD * lam / (den[i] + lam);
         }
         // 2. each frame's place (Levenberg–Marquardt on (x, y), a few iterations)
         let unit_model = ForwardModel {
@@ -482,6 +547,7 @@ fn identify_from(
             width_mm: th[2].exp(),
             shape: th[3],
             lobe: th[4],
+            gain_rel_sd: None,
         };
         for idx in &presses {
             let p = fit_place(&unit_model, &th, geo, &data, &wf, idx, place[idx[0]], &mut r2);
@@ -579,8 +645,15 @@ fn identify_from(
         gains = g0;
         cost = e;
     }
-    let model =
-        ForwardModel { gains, exponent: th[0], spread: th[1], width_mm: th[2].exp(), shape: th[3], lobe: th[4] };
+    let model = ForwardModel {
+        gains,
+        exponent: th[0],
+        spread: th[1],
+        width_mm: th[2].exp(),
+        shape: th[3],
+        lobe: th[4],
+        gain_rel_sd: Some(rel_sd),
+    };
     model.is_valid().then_some((model, cost))
 }
 
@@ -679,7 +752,7 @@ mod tests {
                 }
             })
             .collect();
-        ForwardModel { gains, exponent: 0.7, spread: 0.25, width_mm: 3.2, shape: 2.0, lobe: 0.3 }
+        ForwardModel { gains, exponent: 0.7, spread: 0.25, width_mm: 3.2, shape: 2.0, lobe: 0.3, gain_rel_sd: None }
     }
 
     /// Noise-free frames of `m`: a ramp 0.3..9 N at each place.
@@ -693,6 +766,23 @@ mod tests {
         }
         out
     }
+
+    /// `(x, y, F)` of [`without_gain_doubts_the_readings_are_bit_identical_to_before`]'s four
+    /// frames, as `f64::to_bits`, from commit `caedfbc` (before the gain doubts).
+    const PINNED_BITS: [u64; 12] = [
+        13805334404179181193,
+        13793873050940861723,
+        4613885746348040608,
+        4617361560907407107,
+        4614087124365150373,
+        4609470529575088640,
+        13841787608226489418,
+        13839626669915833228,
+        4618416595129096952,
+        13825640083153166184,
+        4619123701884386576,
+        4594756959140405035,
+    ];
 
     const PLACES: [[f64; 2]; 6] = [[-6.0, -4.0], [5.0, 3.0], [0.0, 0.0], [-3.0, 5.0], [7.0, -3.0], [-9.0, 1.0]];
 
@@ -720,11 +810,63 @@ mod tests {
         for i in (0..24).filter(|&i| peak[i] > 0.5 * top) {
             assert!((m.gains[i] / t.gains[i] - 1.0).abs() < 0.1, "gain {i}: {} vs {}", m.gains[i], t.gains[i]);
         }
-        // and the inversion gives back each frame's force
+        // the gain doubts: one per taxel, within [0, PRIOR_REL_SD]; a well-excited electrode's small
+        let r = m.gain_rel_sd.as_ref().expect("identification stores the gain doubts");
+        assert_eq!(r.len(), 24);
+        assert!(r.iter().all(|v| (0.0..=PRIOR_REL_SD).contains(v)), "{r:?}");
+        for i in (0..24).filter(|&i| peak[i] > 0.5 * top) {
+            assert!(r[i] < 0.1 * PRIOR_REL_SD, "electrode {i}: r {}", r[i]);
+        }
+        // and the (weighted) inversion gives back each frame's force, as the unweighted one does
+        let bare = ForwardModel { gain_rel_sd: None, ..m.clone() };
         for (d, f) in data.iter().step_by(7) {
             let p = m.invert(&geo, d).unwrap();
             assert!((p[2] / f - 1.0).abs() < 0.05, "F {} vs {f}", p[2]);
+            let q = bare.invert(&geo, d).unwrap();
+            assert!((q[2] / f - 1.0).abs() < 0.05, "unweighted F {} vs {f}", q[2]);
         }
+    }
+
+    /// An electrode under the press whose gain is the prior's, and wrong (half its true gain):
+    /// with its doubt stored the weighted inversion reads the force closer to the truth than the
+    /// unweighted one, which the wrong gain drags.
+    #[test]
+    fn a_wrong_prior_gain_under_the_press_no_longer_drags_the_force() {
+        let geo = Geometry::for_positions(Layout::biotac_sp().positions());
+        let t = truth();
+        for (place, f) in [([0.0, 0.0], 3.0), ([5.0, 3.0], 1.5), ([-6.0, -4.0], 6.0)] {
+            let d = t.predict(&geo, place[0], place[1], f);
+            let k = (0..24).max_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs())).unwrap();
+            let mut gains = t.gains.clone();
+            gains[k] *= 0.5;
+            let mut r = vec![0.0; 24];
+            r[k] = PRIOR_REL_SD;
+            let weighted = ForwardModel { gains: gains.clone(), gain_rel_sd: Some(r), ..t.clone() };
+            let bare = ForwardModel { gains, gain_rel_sd: None, ..t.clone() };
+            let fw = weighted.invert(&geo, &d).unwrap()[2];
+            let fb = bare.invert(&geo, &d).unwrap()[2];
+            let (ew, eb) = ((fw / f - 1.0).abs(), (fb / f - 1.0).abs());
+            assert!(ew < eb, "at {place:?} ({f} N, electrode {k}): weighted {fw} ({ew}), unweighted {fb} ({eb})");
+            assert!(eb > 0.05, "the wrong gain drags the unweighted force: {fb} vs {f}");
+        }
+    }
+
+    /// Without gain doubts (a version-4 file) the inversion is the unweighted one of before
+    /// round 10, bit for bit: readings pinned from commit `caedfbc`'s `invert`.
+    #[test]
+    fn without_gain_doubts_the_readings_are_bit_identical_to_before() {
+        let geo = Geometry::for_positions(Layout::biotac_sp().positions());
+        let t = truth();
+        let mut got = Vec::new();
+        for (place, f) in [([0.0, 0.0], 3.0), ([5.0, 3.0], 1.5), ([-6.0, -4.0], 6.0), ([8.0, 8.0], 0.4)] {
+            let mut d = t.predict(&geo, place[0], place[1], f);
+            for (i, v) in d.iter_mut().enumerate() {
+                *v += 2.0 * ((i as f64) * 0.9).sin();
+            }
+            let p = t.invert(&geo, &d).unwrap();
+            got.extend(p.iter().map(|v| v.to_bits()));
+        }
+        assert_eq!(got, PINNED_BITS.to_vec(), "{got:?}");
     }
 
     /// Member 700's shape numbers — a narrow kernel (1.6 mm: each press moves one or two
@@ -736,7 +878,15 @@ mod tests {
         let places = [[-6.5, -3.0], [4.0, 2.5], [1.0, -1.0], [-2.5, 5.5], [7.0, -4.0]];
         let gains: Vec<f64> =
             (0..24).map(|i| if i == 4 { 30.0 } else { -30.0 * (1.0 + 0.3 * ((i as f64) * 1.3).sin()) }).collect();
-        let t = ForwardModel { gains, exponent: 0.57, spread: 0.22, width_mm: 1.6, shape: 2.0, lobe: 0.4 };
+        let t = ForwardModel {
+            gains,
+            exponent: 0.57,
+            spread: 0.22,
+            width_mm: 1.6,
+            shape: 2.0,
+            lobe: 0.4,
+            gain_rel_sd: None,
+        };
         let mut data = frames(&t, &geo, &places);
         let mut seed = 12345u64;
         for (d, _) in data.iter_mut() {
@@ -782,7 +932,19 @@ mod tests {
     #[test]
     fn garbage_never_panics() {
         let geo = Geometry::for_positions(Layout::biotac_sp().positions());
-        let m = truth();
+        for r in [None, Some(vec![PRIOR_REL_SD; 24]), Some((0..24).map(|i| 0.0125 * i as f64).collect())] {
+            garbage_never_panics_with(&geo, ForwardModel { gain_rel_sd: r, ..truth() });
+        }
+        // gain doubts of another length: skipped (unweighted), and not a valid model
+        let odd = ForwardModel { gain_rel_sd: Some(vec![0.1; 5]), ..truth() };
+        assert!(!odd.is_valid());
+        let d = truth().predict(&geo, 1.0, 2.0, 2.5);
+        assert_eq!(odd.invert(&geo, &d), truth().invert(&geo, &d));
+        assert!(!ForwardModel { gain_rel_sd: Some(vec![f64::NAN; 24]), ..truth() }.is_valid());
+    }
+
+    fn garbage_never_panics_with(geo: &Geometry, m: ForwardModel) {
+        let geo = geo.clone();
         let mut d = m.predict(&geo, 0.0, 0.0, 3.0);
         assert!(m.invert(&geo, &d).is_some());
         d[3] = f64::NAN;

@@ -55,11 +55,12 @@ const STAGE: &str = "force";
 /// The `format` tag of a force model file.
 pub const FORCE_FORMAT: &str = "gradtac-force";
 /// The newest version this build reads (and writes, for a `forward` model): version 2 added the
-/// `total` method, version 3 the `placed` method, version 4 the `forward` method; `placed`
+/// `total` method, version 3 the `placed` method, version 4 the `forward` method, version 5 the
+/// `forward` model's `gain_rel_sd` (a `forward` file without it is still written as version 4); `placed`
 /// models are still written as version 3, `total` models as version 2 and `ridge`, `area` and
 /// `amplitude` models as version 1, so older builds keep reading them. Every version up to
 /// this one is read.
-pub const FORCE_VERSION: u32 = 4;
+pub const FORCE_VERSION: u32 = 5;
 /// Most taxels a model may hold.
 pub const MAX_TAXELS: usize = 65_536;
 /// Most knots of an isotonic curve in a file.
@@ -162,6 +163,11 @@ pub enum CalibratedForce {
         lag_s: f64,
         /// The layout's electrode positions (layout plane, mm), one per taxel.
         positions: Vec<[f64; 2]>,
+        /// `rᵢ`, one per taxel: each gain's doubt (the prior's share × its relative sd,
+        /// [`ForwardModel::gain_rel_sd`]), weighing the inversion's residuals; absent in a
+        /// version-4 file (then the inversion is unweighted, as before version 5).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gain_rel_sd: Option<Vec<f64>>,
     },
     /// The `total` law on the changes divided by `R(x̂) = Σⱼ exp(−|x̂ − pⱼ|²/2w²)`, the
     /// layout's unit-gain response at the contact's place `x̂` (the `Δ²`-weighted centroid of
@@ -242,11 +248,13 @@ impl CalibratedForce {
         self.method().reads_changes()
     }
 
-    /// The file version a model of this method is written with: 4 for `forward`, 3 for
+    /// The file version a model of this method is written with: 5 for `forward` with gain
+    /// doubts (4 without), 3 for
     /// `placed`, 2 for `total` (a build that reads only older versions refuses it by its
     /// version), 1 for the others.
     pub fn version(&self) -> u32 {
         match self {
+            CalibratedForce::Forward { gain_rel_sd: Some(_), .. } => 5,
             CalibratedForce::Forward { .. } => 4,
             CalibratedForce::Placed { .. } => 3,
             CalibratedForce::Total { .. } => 2,
@@ -257,7 +265,9 @@ impl CalibratedForce {
     /// The `forward` model and its geometry (`None` for another method).
     pub fn forward(&self) -> Option<(ForwardModel, Geometry)> {
         match self {
-            CalibratedForce::Forward { gains, exponent, spread, width_mm, shape, lobe, positions, .. } => Some((
+            CalibratedForce::Forward {
+                gains, exponent, spread, width_mm, shape, lobe, positions, gain_rel_sd, ..
+            } => Some((
                 ForwardModel {
                     gains: gains.clone(),
                     exponent: *exponent,
@@ -265,6 +275,7 @@ impl CalibratedForce {
                     width_mm: *width_mm,
                     shape: *shape,
                     lobe: *lobe,
+                    gain_rel_sd: gain_rel_sd.clone(),
                 },
                 Geometry::for_positions(positions),
             )),
@@ -556,7 +567,16 @@ impl ForceFile {
             return Err(invalid(format!("{} taxels (want 1..={MAX_TAXELS})", self.taxels)));
         }
         match &self.model {
-            CalibratedForce::Forward { gains, positions, lag_s, .. } => {
+            CalibratedForce::Forward { gains, positions, lag_s, gain_rel_sd, .. } => {
+                if gain_rel_sd.is_some() && self.version < 5 {
+                    return Err(invalid(format!(
+                        "gain_rel_sd in a version-{} file (it came with version 5)",
+                        self.version
+                    )));
+                }
+                if gain_rel_sd.as_ref().is_some_and(|r| r.len() != self.taxels) {
+                    return Err(invalid(format!("{} taxels but a gain_rel_sd of another length", self.taxels)));
+                }
                 if !LAG_RANGE_S.contains(lag_s) {
                     return Err(invalid(format!(
                         "lag_s {lag_s} (want {}..={} s)",
@@ -1037,6 +1057,7 @@ fn fit_model(
                 lobe: m.lobe,
                 lag_s: tau,
                 positions,
+                gain_rel_sd: m.gain_rel_sd,
             }
         }
         CalibrationMethod::Placed => {
@@ -1404,8 +1425,15 @@ mod tests {
     /// a frame without contact between presses.
     fn forward_samples() -> Vec<GaugeSample> {
         let geo = Geometry::for_positions(Layout::biotac_sp().positions());
-        let m =
-            ForwardModel { gains: vec![-60.0; 24], exponent: 0.7, spread: 0.2, width_mm: 3.0, shape: 2.0, lobe: 0.2 };
+        let m = ForwardModel {
+            gains: vec![-60.0; 24],
+            exponent: 0.7,
+            spread: 0.2,
+            width_mm: 3.0,
+            shape: 2.0,
+            lobe: 0.2,
+            gain_rel_sd: None,
+        };
         let mut out = Vec::new();
         for (j, p) in [[-5.0, -3.0], [4.0, 2.0], [0.0, 5.0]].iter().enumerate() {
             for k in 0..30 {
@@ -1514,11 +1542,13 @@ mod tests {
     }
 
     #[test]
-    fn forward_files_are_version_4_fit_their_own_model_and_survive_garbage() {
+    fn forward_files_are_version_5_fit_their_own_model_and_survive_garbage() {
         let layout = Layout::biotac_sp();
         let file =
             calibrate(&forward_samples(), CalibrationMethod::Forward, 0.0, ForceMethod::Linear, &layout).unwrap();
-        assert_eq!(file.version, 4);
+        assert_eq!(file.version, 5, "a forward file with gain doubts is version 5");
+        let CalibratedForce::Forward { gain_rel_sd: Some(r), .. } = &file.model else { panic!("gain doubts stored") };
+        assert_eq!(r.len(), 24);
         assert!(file.calibration.in_sample_mape_pct < 5.0, "{:?}", file.calibration);
         let json = serde_json::to_string(&file).unwrap();
         assert_eq!(serde_json::from_str::<ForceFile>(&json).unwrap(), file);
@@ -1527,7 +1557,40 @@ mod tests {
             calibrate(&power_law_samples(), CalibrationMethod::Placed, 0.0, ForceMethod::Linear, &layout).unwrap();
         assert_eq!(placed.version, 3);
         placed.validate().unwrap();
-        assert!(ForceFile { version: 5, ..file.clone() }.validate().unwrap_err().to_string().contains("version 5"));
+        assert!(ForceFile { version: 6, ..file.clone() }.validate().unwrap_err().to_string().contains("version 6"));
+        // a version-4 forward file (no gain doubts) loads, is written back as version 4 without
+        // the field, and reads exactly what the unweighted inversion reads
+        let mut v4: serde_json::Value = serde_json::to_value(&file).unwrap();
+        v4["version"] = 4.into();
+        v4["model"].as_object_mut().unwrap().remove("gain_rel_sd");
+        let old: ForceFile = serde_json::from_value(v4).unwrap();
+        old.validate().unwrap();
+        let CalibratedForce::Forward { gain_rel_sd: None, .. } = &old.model else { panic!("no gain doubts") };
+        assert_eq!(old.model.version(), 4);
+        assert!(!serde_json::to_string(&old).unwrap().contains("gain_rel_sd"));
+        let (m, geo) = file.model.forward().unwrap();
+        let bare = ForwardModel { gain_rel_sd: None, ..m.clone() };
+        let mut differ = 0;
+        for s in forward_samples().iter().filter(|s| s.contact).step_by(5) {
+            let o = old.model.predict_changes(&s.change).unwrap();
+            assert_eq!(o.to_bits(), forward_force(&bare, &geo, &s.change).to_bits());
+            let n = file.model.predict_changes(&s.change).unwrap();
+            assert_eq!(n.to_bits(), forward_force(&m, &geo, &s.change).to_bits());
+            differ += usize::from(o != n);
+        }
+        assert!(differ > 0, "the gain doubts weigh the inversion");
+        // gain doubts in a version-4 file, or of another length, are refused
+        assert!(ForceFile { version: 4, ..file.clone() }.validate().unwrap_err().to_string().contains("version-4"));
+        let mut short = file.clone();
+        if let CalibratedForce::Forward { gain_rel_sd, .. } = &mut short.model {
+            *gain_rel_sd = Some(vec![0.1; 3]);
+        }
+        assert!(short.validate().is_err());
+        let mut nan = file.clone();
+        if let CalibratedForce::Forward { gain_rel_sd, .. } = &mut nan.model {
+            *gain_rel_sd = Some(vec![f64::NAN; 24]);
+        }
+        assert!(nan.validate().is_err());
         // out-of-bounds parameters are refused
         let CalibratedForce::Forward { gains, positions, .. } = file.model.clone() else { panic!() };
         for bad in [
@@ -1540,6 +1603,7 @@ mod tests {
                 lobe: 0.0,
                 lag_s: 0.0,
                 positions: positions.clone(),
+                gain_rel_sd: None,
             },
             CalibratedForce::Forward {
                 gains: gains.clone(),
@@ -1550,6 +1614,7 @@ mod tests {
                 lobe: 0.0,
                 lag_s: -1.0,
                 positions: positions.clone(),
+                gain_rel_sd: None,
             },
             CalibratedForce::Forward {
                 gains: gains[..3].to_vec(),
@@ -1560,6 +1625,7 @@ mod tests {
                 lobe: 0.0,
                 lag_s: 0.0,
                 positions: positions.clone(),
+                gain_rel_sd: None,
             },
         ] {
             assert!(ForceFile { model: bad, ..file.clone() }.validate().is_err());
