@@ -631,12 +631,22 @@ impl SensorChain {
                         shape,
                         lobe,
                         lag_s,
+                        gain_rel_sd,
                         ..
                     } => {
+                        let weights = match gain_rel_sd {
+                            Some(r) => format!(
+                                "each taxel's residual weighted by its gain's calibration doubt (1/√(s₀² + (rᵢΔᵢ)²), \
+                                 s₀ = {} counts, rᵢ up to {:.3})",
+                                gradtac_stages::force_ident::INVERT_NOISE_COUNTS,
+                                r.iter().copied().fold(0.0, f64::max)
+                            ),
+                            None => "residuals unweighted (a version-4 file: no gain doubts)".into(),
+                        };
                         placed = format!(
                             "the identified forward model (force exponent {exponent:.3}, spread exponent {spread:.3}, \
                              width {width_mm:.2} mm, profile q {shape:.2}, lobe {lobe:.2}, per-taxel gains, fluid lag \
-                             {lag_s} s inverted) solved for place and force per frame from the"
+                             {lag_s} s inverted; {weights}) solved for place and force per frame from the"
                         );
                         placed.as_str()
                     }

@@ -99,6 +99,11 @@ fn calibrate_force_then_a_bare_scene_reports_force_and_none_when_untouched() {
     let run = scene(dir.path(), "run.toml", "test.csv", "[stages.force]\nmodel = \"force.json\"\n", "force");
     let explain = ok(gradtac().arg("explain").arg(&run).output().unwrap());
     assert!(explain.contains("the identified forward model"), "{explain}");
+    // round 10: the version-5 file's gain doubts weigh the inversion, and explain says so
+    assert!(
+        explain.contains("weighted by its gain's calibration doubt (1/√(s₀² + (rᵢΔᵢ)²), s₀ = 3 counts"),
+        "{explain}"
+    );
     assert!(explain.contains("drift model: settle 0.2 s"), "{explain}");
     // the hold's start bound (session 37): a contact starts beyond 3 σ, the 2-σ hold keeps it
     assert!(
