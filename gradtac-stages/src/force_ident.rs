@@ -241,25 +241,25 @@ impl ForwardModel {
             && (0..5).all(|k| th[k] >= SHAPE_LO[k] - 1e-9 && th[k] <= SHAPE_HI[k] + 1e-9)
     }
 
-    fn cost(&self, th: &[f64; 5], geo: &Geometry, delta: &[f64], p: [f64; 3], r2: &mut [f64]) -> f64 {
-        geo.rho2(p[0], p[1], r2);
-        let f = p[2].exp();
-        delta.iter().zip(r2.iter()).zip(&self.gains).map(|((d, &r), g)| (d - g * unit(th, r, f)).powi(2)).sum()
-    }
-
-    /// [`cost`](Self::cost) with residual `i` multiplied by `sw[i]`.
-    fn cost_weighted(
+    /// The sum of squared residuals at `p`, residual `i` multiplied by `w[i]` when weights are
+    /// given (unweighted otherwise).
+    fn cost(
         &self,
         th: &[f64; 5],
         geo: &Geometry,
         delta: &[f64],
-        sw: &[f64],
+        w: Option<&[f64]>,
         p: [f64; 3],
         r2: &mut [f64],
     ) -> f64 {
         geo.rho2(p[0], p[1], r2);
         let f = p[2].exp();
-        (0..delta.len()).map(|i| (sw[i] * (delta[i] - self.gains[i] * unit(th, r2[i], f))).powi(2)).sum()
+        (0..delta.len())
+            .map(|i| {
+                let r = delta[i] - self.gains[i] * unit(th, r2[i], f);
+                w.map_or(r, |w| w[i] * r).powi(2)
+            })
+            .sum()
     }
 
     /// The contact `(x, y, F)` (mm, mm, N) that best explains the changes `delta`: `None` with
@@ -285,10 +285,10 @@ impl ForwardModel {
             let s0 = INVERT_NOISE_COUNTS;
             delta.iter().zip(r).map(|(d, r)| 1.0 / (s0 * s0 + (r * d).powi(2)).sqrt()).collect()
         });
-        let cost = |p: [f64; 3], r2: &mut [f64]| match &sw {
-            None => self.cost(&th, geo, delta, p, r2),
-            Some(w) => self.cost_weighted(&th, geo, delta, w, p, r2),
-        };
+        let w = sw.as_deref();
+        let cost = |p: [f64; 3], r2: &mut [f64]| self.cost(&th, geo, delta, w, p, r2);
+        // residual i's weight (1: unweighted, exactly)
+        let wi = |i: usize| w.map_or(1.0, |w| w[i]);
         // coarse search over ln F at the centroid
         let mut best = (f64::INFINITY, [c[0], c[1], 0.0]);
         for k in 0..=24 {
@@ -315,12 +315,7 @@ impl ForwardModel {
             let mut m0 = vec![0.0; n];
             model(p, &mut r2, &mut m0);
             for i in 0..n {
-                res[i] = delta[i] - m0[i];
-            }
-            if let Some(w) = &sw {
-                for i in 0..n {
-                    res[i] *= w[i];
-                }
+                res[i] = (delta[i] - m0[i]) * wi(i);
             }
             let steps = [1e-4, 1e-4, 1e-5];
             let mut mk = vec![0.0; n];
@@ -329,12 +324,7 @@ impl ForwardModel {
                 q[k] += h;
                 model(q, &mut r2, &mut mk);
                 for i in 0..n {
-                    jac[i][k] = (mk[i] - m0[i]) / h;
-                }
-                if let Some(w) = &sw {
-                    for i in 0..n {
-                        jac[i][k] *= w[i];
-                    }
+                    jac[i][k] = (mk[i] - m0[i]) / h * wi(i);
                 }
             }
             let mut a = [[0.0; 3]; 3];
@@ -672,7 +662,7 @@ fn fit_place(
 ) -> [f64; 2] {
     let n = geo.len();
     let cost = |p: [f64; 2], r2: &mut [f64]| -> f64 {
-        idx.iter().map(|&k| wf[k] * model.cost(th, geo, data[k].0, [p[0], p[1], data[k].1.ln()], r2)).sum()
+        idx.iter().map(|&k| wf[k] * model.cost(th, geo, data[k].0, None, [p[0], p[1], data[k].1.ln()], r2)).sum()
     };
     let mut p = start;
     let mut e = cost(p, r2);
