@@ -559,8 +559,7 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
                 ph.amplitude,
                 ph.lag_s * 1e3,
                 fm.gains.iter().map(|g| format!("{g:.0}")).collect::<Vec<_>>().join(" "),
-                // the truth in the identified model's units: σᵢgᵢ A F_ref, its (F/F₀)^γ factor with F₀ = F_ref = 2 N
-                ph.gain.iter().map(|g| format!("{:.0}", g * ph.amplitude * F_REF_N)).collect::<Vec<_>>().join(" ")
+                true_gains(ph).iter().map(|g| format!("{g:.0}")).collect::<Vec<_>>().join(" ")
             );
         }
         eprintln!(
@@ -576,6 +575,12 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
     (100.0 * sum / n.max(1) as f64, untouched, over)
 }
 
+/// The member's true gains in the identified `forward` model's units (counts at `F₀`): σᵢgᵢ·A·F_ref,
+/// the factor of `(F/F₀)^γ` with `F₀` = `F_ref` = 2 N.
+fn true_gains(ph: &gradtac::stages::sim_family::Physics) -> Vec<f64> {
+    ph.gain.iter().map(|g| g * ph.amplitude * F_REF_N).collect()
+}
+
 // ---- exploration (session 38, examples/force_parts/forward_gap.md): FORCE_EVAL_FWD_GAP=k1,k2,…
 // swaps parts of the identified `forward` model for the member's truth (only where the model can
 // hold it: a Gaussian kernel) — `gains` (gᵢ·A·F₀: counts at F₀ = 2 N), `shape` (γ, s, w, q = 2,
@@ -589,9 +594,7 @@ fn fwd_gap_swap(m: &Member, model: &mut gradtac::stages::force_model::Calibrated
         for k in v.split(',') {
             match k {
                 "gains" => {
-                    for (g, t) in gains.iter_mut().zip(&ph.gain) {
-                        *g = t * ph.amplitude * 2.0;
-                    }
+                    *gains = true_gains(ph);
                 }
                 "shape" => {
                     (*exponent, *spread, *width_mm, *shape, *lobe) = (resp.exponent, resp.spread, ph.width_mm, 2.0, 0.0)
