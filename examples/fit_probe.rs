@@ -47,6 +47,8 @@ const HELD_OUT: std::ops::Range<u64> = 100..116;
 /// Fresh held-out seeds (stop 39, `examples/fresh_check.md`): `--fresh` only, for the adopted
 /// default, after adoption; never for a choice.
 const FRESH: std::ops::Range<u64> = 9000..9016;
+// as many fresh seeds as held-out ones, none of them held out
+const _: () = assert!(FRESH.start >= HELD_OUT.end && FRESH.end - FRESH.start == HELD_OUT.end - HELD_OUT.start);
 
 /// Why the arguments are refused: `--fresh` with any other argument (the fresh set scores the
 /// `accurate` preset as it is, one summary line, no member shown), or `--seeds N` reaching the
@@ -230,7 +232,6 @@ mod tests {
             a.push("--fresh".into());
             assert!(refusal(&a).is_some_and(|e| e.contains("--fresh")), "{a:?}");
         }
-        assert!(FRESH.start >= HELD_OUT.end && FRESH.end - FRESH.start == HELD_OUT.end - HELD_OUT.start);
     }
 
     #[test]

@@ -65,6 +65,8 @@ const TEST: std::ops::Range<u64> = 100..116;
 /// `TEST`: only for the adopted defaults, after adoption; never for a choice, never inside a
 /// round's rule.
 const FRESH: std::ops::Range<u64> = 9000..9016;
+// as many fresh seeds as held-out ones (a comparable worst member), none of them held out
+const _: () = assert!(FRESH.end - FRESH.start == TEST.end - TEST.start && FRESH.start >= TEST.end);
 const PRESSES: usize = 10;
 /// `--quick`'s held-out floors for the default method (`forward` with its guard): worst member
 /// %, mean %, untouched frames above 0.5 N % (scripts/force_eval.sh gives the measured figures).
@@ -931,7 +933,6 @@ mod tests {
         assert_eq!(plan(&args(&["--tuning-only"]), None, &[]), Ok(Plan { tune: TUNE, test: 0..0, fresh: false }));
         let fresh = plan(&args(&["--fresh", "--only", "forward,ridge"]), None, &[]);
         assert_eq!(fresh, Ok(Plan { tune: TUNE, test: 9000..9016, fresh: true }));
-        assert!(FRESH.end - FRESH.start == TEST.end - TEST.start && FRESH.start >= TEST.end);
         let seeds = plan(&args(&["--tuning-only"]), Some("200..248"), &["FORCE_EVAL_SEEDS".into()]);
         assert_eq!(seeds, Ok(Plan { tune: 200..248, test: 0..0, fresh: false }));
     }
