@@ -14,16 +14,22 @@
 //! physics kept: `gains`, `lag`, `kernel`, `drift`, `noise`, `knee`;
 //! `none` keeps none); `--without TERM` (the member's physics with that term made ideal);
 //! `--heldout` (score the held-out members, seeds 100–115 × 4 kinds, `PhysicsSet::HeldOut`,
-//! instead: for a final candidate only, never for a choice); `--verbose` (each member's
+//! instead: for a final candidate only, never for a choice); `--fresh` (score the `accurate`
+//! preset as it is on the **fresh** held-out members, seeds 9000–9015 × 4 kinds,
+//! `PhysicsSet::HeldOut`, stop 39: only for the adopted default, after adoption, reported in
+//! `examples/fresh_check.md`; never for a choice, never inside a round's rule; refused with any
+//! other argument); `--verbose` (each member's
 //! kernel, learned shape exponent `q̂`, polarities decided right / wrong / undecided, and
 //! error); `--weights PATH` (the learned correction's weights read from a file in
 //! `train_fit_correction`'s format, e.g. one written with its `--out`, instead of the built-in
-//! ones; the correction is then on whatever the TOML lines say).
+//! ones; the correction is then on whatever the TOML lines say). `--seeds N` above 100 is
+//! refused (it would reach the held-out seeds). The held-out runs print how many of their 64
+//! recordings have physics no choice saw (a Mexican-hat kernel or a lag over 30 ms).
 
 use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{Correction, Trained};
 use gradtac::stages::locate::LocateConfig;
-use gradtac::stages::sim_family::{Member, PathKind, Physics, PhysicsSet, IDEAL_TERMS};
+use gradtac::stages::sim_family::{KernelShape, Member, PathKind, Physics, PhysicsSet, IDEAL_TERMS};
 use gradtac::stages::track::{Track, TrackConfig};
 use gradtac::stream::{Layout, Stage, StageExt};
 use std::collections::HashMap;
@@ -36,8 +42,37 @@ fn ideal(p: &mut Physics, term: &str, keep: bool) {
     }
 }
 
+/// The held-out seeds (`--heldout`), scored by the finalists of rounds 5, 6, 9 and 10.
+const HELD_OUT: std::ops::Range<u64> = 100..116;
+/// Fresh held-out seeds (stop 39, `examples/fresh_check.md`): `--fresh` only, for the adopted
+/// default, after adoption; never for a choice.
+const FRESH: std::ops::Range<u64> = 9000..9016;
+// as many fresh seeds as held-out ones, none of them held out
+const _: () = assert!(FRESH.start >= HELD_OUT.end && FRESH.end - FRESH.start == HELD_OUT.end - HELD_OUT.start);
+
+/// Why the arguments are refused: `--fresh` with any other argument (the fresh set scores the
+/// `accurate` preset as it is, one summary line, no member shown), or `--seeds N` reaching the
+/// held-out seeds.
+fn refusal(args: &[String]) -> Option<String> {
+    if args.iter().any(|a| a == "--fresh") {
+        if let Some(a) = args.iter().find(|a| *a != "--fresh") {
+            return Some(format!("--fresh scores the `accurate` preset as it is: not with `{a}`"));
+        }
+    }
+    let n = args.iter().position(|a| a == "--seeds").and_then(|i| args.get(i + 1)?.parse::<u64>().ok());
+    match n {
+        Some(n) if n > HELD_OUT.start => Some(format!("--seeds {n} reaches the held-out seeds {HELD_OUT:?}")),
+        _ => None,
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(e) = refusal(&args) {
+        eprintln!("fit_probe: {e}");
+        std::process::exit(2);
+    }
+    let fresh = args.iter().any(|a| a == "--fresh");
     let mut seeds = 8u64;
     let mut heldout = false;
     let mut verbose = false;
@@ -50,6 +85,7 @@ fn main() {
         match a.as_str() {
             "--seeds" => seeds = it.next().and_then(|v| v.parse().ok()).expect("--seeds N"),
             "--heldout" => heldout = true,
+            "--fresh" => {}
             "--verbose" => verbose = true,
             "--only" => only = it.next().cloned(),
             "--without" => without = it.next().cloned(),
@@ -66,8 +102,10 @@ fn main() {
     }
     let cfg: LocateConfig = toml::from_str(&toml).expect("a [stages.locate] table");
     cfg.validate().expect("valid settings");
-    let (set, members) = if heldout {
-        (PhysicsSet::HeldOut, Member::grid(100..116))
+    let (set, members) = if fresh {
+        (PhysicsSet::HeldOut, Member::grid(FRESH))
+    } else if heldout {
+        (PhysicsSet::HeldOut, Member::grid(HELD_OUT))
     } else {
         (PhysicsSet::Tuning, Member::grid(0..seeds))
     };
@@ -75,6 +113,21 @@ fn main() {
     let width = layout.extent().width();
     let mut by_kind: HashMap<PathKind, Vec<f64>> = HashMap::new();
     let (mut contact, mut total) = (0usize, 0usize);
+    if set == PhysicsSet::HeldOut {
+        // held-out physics no choice saw: a Mexican-hat kernel or a fluid lag over 30 ms
+        let novel = members
+            .iter()
+            .map(|m| m.physics_in(set))
+            .filter(|p| matches!(p.kernel, KernelShape::MexicanHat { .. }) || p.lag_s > 0.030)
+            .count();
+        let hats =
+            members.iter().filter(|m| matches!(m.physics_in(set).kernel, KernelShape::MexicanHat { .. })).count();
+        let lags = members.iter().filter(|m| m.physics_in(set).lag_s > 0.030).count();
+        println!(
+            "{} recordings, {novel} with held-out physics ({hats} Mexican hat, {lags} lag over 30 ms)",
+            members.len()
+        );
+    }
     for m in &members {
         let mut p = m.physics_in(set);
         if let Some(t) = &only {
@@ -145,7 +198,13 @@ fn main() {
     }
     println!(
         "{} | worst {:.4} ({}) | mean {:.4} | contact {:.1} % | {} | {}",
-        if heldout { "HELD OUT" } else { "tuning" },
+        if fresh {
+            "FRESH HELD OUT (seeds 9000–9015, never used for a choice)"
+        } else if heldout {
+            "HELD OUT"
+        } else {
+            "tuning"
+        },
         worst.0,
         worst.1,
         all.iter().sum::<f64>() / all.len() as f64,
@@ -153,4 +212,33 @@ fn main() {
         per.join(", "),
         args.join(" ")
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(a: &[&str]) -> Vec<String> {
+        a.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn fresh_scores_the_preset_alone() {
+        assert_eq!(refusal(&args(&["--fresh"])), None);
+        for other in
+            [&["--heldout"][..], &["--verbose"], &["--seeds", "4"], &["--only", "gains"], &["window_frames = 5"]]
+        {
+            let mut a = args(other);
+            a.push("--fresh".into());
+            assert!(refusal(&a).is_some_and(|e| e.contains("--fresh")), "{a:?}");
+        }
+    }
+
+    #[test]
+    fn the_tuning_seeds_stop_before_the_held_out_ones() {
+        assert_eq!(refusal(&args(&["--seeds", "24"])), None);
+        assert_eq!(refusal(&args(&["--seeds", "100"])), None);
+        assert!(refusal(&args(&["--seeds", "101"])).is_some());
+        assert!(refusal(&args(&["--seeds", "9016"])).is_some());
+    }
 }

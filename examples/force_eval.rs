@@ -25,8 +25,15 @@
 //! (maximal event contour), and the contact fit's amplitude, each through a monotone curve.
 //! With `--quick` the default (`forward`) row's held-out figures are checked against floors (CI).
 //!
-//! Run: `cargo run --release --example force_eval [-- --quick | --tuning-only] [--only a,b,…]`.
-//! Exploration variables, for the tuning members only (each documented where it is read):
+//! **Fresh held-out seeds** `FRESH` (9000–9015, stop 39): `--fresh` scores the held-out rows on
+//! them instead of `TEST`, whose figures have decided rounds' adoptions. The fresh set is scored
+//! only for the adopted defaults, after adoption, and reported (`examples/fresh_check.md`); no
+//! round is adopted or refused on it. `--fresh` refuses `--quick`, `--tuning-only` and every
+//! `FORCE_EVAL_*` variable.
+//!
+//! Run: `cargo run --release --example force_eval [-- --quick | --tuning-only | --fresh] [--only a,b,…]`.
+//! Exploration variables, for the tuning members only (each documented where it is read;
+//! `FORCE_EVAL_SEEDS=a..b` replaces the tuning seeds and refuses held-out and fresh seeds):
 //! `FORCE_EVAL_SEEDS`, `_DEBUG`, `_DUMP`, `_DUMP_CHANGES`, `_UNTOUCHED`, `_PHASES`, `_DRIFT`,
 //! `_FORWARD`, `_UNGUARDED`, `_FWD_GAP`, `_OFF` / `_ON`, `_GAINS`, `_PLACE_POW`.
 
@@ -54,6 +61,12 @@ use std::time::Instant;
 
 const TUNE: std::ops::Range<u64> = 0..8;
 const TEST: std::ops::Range<u64> = 100..116;
+/// Fresh held-out seeds (stop 39, `examples/fresh_check.md`), scored with `--fresh` instead of
+/// `TEST`: only for the adopted defaults, after adoption; never for a choice, never inside a
+/// round's rule.
+const FRESH: std::ops::Range<u64> = 9000..9016;
+// as many fresh seeds as held-out ones (a comparable worst member), none of them held out
+const _: () = assert!(FRESH.end - FRESH.start == TEST.end - TEST.start && FRESH.start >= TEST.end);
 const PRESSES: usize = 10;
 /// `--quick`'s held-out floors for the default method (`forward` with its guard): worst member
 /// %, mean %, untouched frames above 0.5 N % (scripts/force_eval.sh gives the measured figures).
@@ -686,29 +699,81 @@ fn evaluate(
     Cell { worst, mean: sum / members.len() as f64, untouched: 100.0 * o as f64 / u.max(1) as f64, over: (o, u) }
 }
 
+/// The members a run scores.
+#[derive(Debug, PartialEq)]
+struct Plan {
+    tune: std::ops::Range<u64>,
+    test: std::ops::Range<u64>,
+    /// `test` is the fresh set (`--fresh`).
+    fresh: bool,
+}
+
+/// The run's members from its flags, `FORCE_EVAL_SEEDS` (`seeds`) and the names of the
+/// `FORCE_EVAL_*` variables set (`exploring`). `--quick`: tuning 0–2, held out 100–103 (CI);
+/// `--tuning-only` (exploration): no held-out member; `--fresh`: the held-out rows on `FRESH`,
+/// refused with `--quick`, `--tuning-only` or any `FORCE_EVAL_*` variable (the fresh set scores
+/// the defaults as they are, nothing explored); `FORCE_EVAL_SEEDS=a..b` (exploration) replaces
+/// the tuning seeds and is refused if it names a held-out (`TEST`) or fresh (`FRESH`) seed.
+fn plan(args: &[String], seeds: Option<&str>, exploring: &[String]) -> Result<Plan, String> {
+    let flag = |f: &str| args.iter().any(|a| a == f);
+    let (quick, tuning_only, fresh) = (flag("--quick"), flag("--tuning-only"), flag("--fresh"));
+    if fresh {
+        if let Some(f) = ["--quick", "--tuning-only"].into_iter().find(|f| flag(f)) {
+            return Err(format!("--fresh scores the fresh held-out seeds: not with {f}"));
+        }
+        if let Some(v) = exploring.first() {
+            return Err(format!("--fresh scores the defaults as they are: not with the exploration variable {v}"));
+        }
+    }
+    let (mut tune, test) = if quick {
+        (0..3, 100..104)
+    } else if tuning_only {
+        (TUNE, 0..0)
+    } else if fresh {
+        (TUNE, FRESH)
+    } else {
+        (TUNE, TEST)
+    };
+    if let Some((a, b)) = seeds.and_then(|s| {
+        let (a, b) = s.split_once("..")?;
+        Some((a.parse::<u64>().ok()?, b.parse::<u64>().ok()?))
+    }) {
+        if let Some(r) = [TEST, FRESH].into_iter().find(|r| a < r.end && r.start < b) {
+            let s = a.max(r.start);
+            return Err(format!(
+                "FORCE_EVAL_SEEDS={a}..{b} names the held-out seed {s}: exploration reads tuning members only"
+            ));
+        }
+        tune = a..b;
+    }
+    Ok(Plan { tune, test, fresh })
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
-    // exploration: `--tuning-only` scores no held-out member, `--only total,ridge` runs those rows
-    let tuning_only = args.iter().any(|a| a == "--tuning-only");
     let only: Option<Vec<String>> = args
         .iter()
         .position(|a| a == "--only")
         .and_then(|i| args.get(i + 1))
         .map(|s| s.split(',').map(String::from).collect());
-    let (mut tune, test) = if quick {
-        (0..3, 100..104)
-    } else if tuning_only {
-        (TUNE, 0..0)
-    } else {
-        (TUNE, TEST)
-    };
-    // exploration: FORCE_EVAL_SEEDS=a..b replaces the tuning seeds (with --tuning-only)
-    if let Some((a, b)) = std::env::var("FORCE_EVAL_SEEDS").ok().and_then(|s| {
-        let (a, b) = s.split_once("..")?;
-        Some((a.parse().ok()?, b.parse().ok()?))
-    }) {
-        tune = a..b;
+    let exploring: Vec<String> = std::env::vars_os()
+        .filter_map(|(k, _)| k.into_string().ok())
+        .filter(|k| k.starts_with("FORCE_EVAL_"))
+        .collect();
+    let plan = plan(&args, std::env::var("FORCE_EVAL_SEEDS").ok().as_deref(), &exploring).unwrap_or_else(|e| {
+        eprintln!("force_eval: {e}");
+        std::process::exit(2)
+    });
+    let (tune, test) = (plan.tune, plan.test);
+    if plan.fresh {
+        println!(
+            "**fresh held-out seeds {}–{}, never used for a choice** (examples/fresh_check.md): the held-out columns score them instead of seeds {}–{}\n",
+            FRESH.start,
+            FRESH.end - 1,
+            TEST.start,
+            TEST.end - 1
+        );
     }
     let members = |seeds: std::ops::Range<u64>| -> Vec<Member> {
         seeds
@@ -849,6 +914,51 @@ fn main() {
         );
         if !ok {
             std::process::exit(1);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(a: &[&str]) -> Vec<String> {
+        std::iter::once("force_eval").chain(a.iter().copied()).map(String::from).collect()
+    }
+
+    #[test]
+    fn the_runs_score_their_members() {
+        assert_eq!(plan(&args(&[]), None, &[]), Ok(Plan { tune: TUNE, test: TEST, fresh: false }));
+        assert_eq!(plan(&args(&["--quick"]), None, &[]), Ok(Plan { tune: 0..3, test: 100..104, fresh: false }));
+        assert_eq!(plan(&args(&["--tuning-only"]), None, &[]), Ok(Plan { tune: TUNE, test: 0..0, fresh: false }));
+        let fresh = plan(&args(&["--fresh", "--only", "forward,ridge"]), None, &[]);
+        assert_eq!(fresh, Ok(Plan { tune: TUNE, test: 9000..9016, fresh: true }));
+        let seeds = plan(&args(&["--tuning-only"]), Some("200..248"), &["FORCE_EVAL_SEEDS".into()]);
+        assert_eq!(seeds, Ok(Plan { tune: 200..248, test: 0..0, fresh: false }));
+    }
+
+    #[test]
+    fn fresh_refuses_the_quick_the_tuning_and_the_exploring_runs() {
+        for other in ["--quick", "--tuning-only"] {
+            let e = plan(&args(&["--fresh", other]), None, &[]).unwrap_err();
+            assert!(e.contains(other), "{e}");
+        }
+        let e = plan(&args(&["--fresh"]), Some("0..8"), &["FORCE_EVAL_SEEDS".into()]).unwrap_err();
+        assert!(e.contains("FORCE_EVAL_SEEDS"), "{e}");
+        let e = plan(&args(&["--fresh"]), None, &["FORCE_EVAL_FORWARD".into()]).unwrap_err();
+        assert!(e.contains("FORCE_EVAL_FORWARD"), "{e}");
+    }
+
+    #[test]
+    fn the_seeds_variable_refuses_held_out_and_fresh_seeds() {
+        for (seeds, first) in
+            [("100..101", 100), ("90..120", 100), ("115..200", 115), ("8990..9001", 9000), ("9015..9016", 9015)]
+        {
+            let e = plan(&args(&["--tuning-only"]), Some(seeds), &[]).unwrap_err();
+            assert!(e.contains(&format!("held-out seed {first}:")), "{seeds}: {e}");
+        }
+        for seeds in ["0..100", "116..9000", "9016..9100"] {
+            assert!(plan(&args(&["--tuning-only"]), Some(seeds), &[]).is_ok(), "{seeds}");
         }
     }
 }

@@ -14,7 +14,8 @@
 //! the 12-bit ADC (rounding and clamping to 0…4095). The oracle neglects the two residuals
 //! above (both ≪ the noise, σ ≥ 1 count). Seeds: the 62 tuning members of `force_eval`'s
 //! rounds (0–7, 700–705, 200–247) and 200 fresh seeds 5000–5199 (no other evaluation or test
-//! uses them); the held-out seeds 100–115 are refused.
+//! uses them); the held-out seeds 100–115 and the fresh held-out seeds 9000–9015
+//! (`examples/fresh_check.md`) are refused.
 //!
 //! **Told**: the true place of every frame (`ForceRecording::contact`), the kernel, γ, s, `F_ref`,
 //! `A`, the baselines, the noise σ, each gain's **sign**, and the calibration frames' **true**
@@ -82,6 +83,13 @@ const G_MAX: f64 = 1.5;
 const ADC_MAX: f64 = 4095.0;
 /// Held-out seeds of `force_eval`: never simulated here.
 const HELD_OUT: std::ops::Range<u64> = 100..116;
+/// `force_eval`'s fresh held-out seeds (`--fresh`, `examples/fresh_check.md`): never simulated here.
+const FRESH: std::ops::Range<u64> = 9000..9016;
+
+/// A seed of `force_eval`'s held-out or fresh held-out members.
+fn held_out(seed: u64) -> bool {
+    HELD_OUT.contains(&seed) || FRESH.contains(&seed)
+}
 /// The force detector's window (`window_frames`, frames): the second observer sees these.
 const WINDOW: usize = 9;
 
@@ -107,7 +115,7 @@ struct Oracle {
 /// also a Gaussian kernel, every sign −1, no noise, γ = 1, s = 0, lag 0.1 ms, knee 10⁹ counts), the sensor on
 /// which `forward` scored 29.9 % worst over seeds 0–7.
 fn idealised(seed: u64, s31: bool) -> ForceSession {
-    assert!(!HELD_OUT.contains(&seed), "seed {seed} is a held-out member of force_eval: not computed here");
+    assert!(!held_out(seed), "seed {seed} is a held-out member of force_eval: not computed here");
     let mut s = ForceSession::presses(seed, PRESSES);
     for t in ["lag", "drift", "knee"] {
         assert!(s.physics.idealise(t));
@@ -800,7 +808,7 @@ fn main() {
         sets = vec![(format!("seeds {a}..{b}"), (a..b).collect())];
     }
     for (_, seeds) in &sets {
-        if let Some(s) = seeds.iter().find(|s| HELD_OUT.contains(s)) {
+        if let Some(s) = seeds.iter().find(|s| held_out(**s)) {
             panic!("seed {s} is a held-out member of force_eval: not computed here");
         }
     }
@@ -929,6 +937,17 @@ mod tests {
         let r = s.simulate();
         let o = Oracle::new(&s);
         (s, r, o)
+    }
+
+    #[test]
+    fn held_out_and_fresh_seeds_are_refused() {
+        for seed in [100, 115, 9000, 9015] {
+            assert!(held_out(seed), "{seed}");
+            assert!(std::panic::catch_unwind(|| idealised(seed, false)).is_err(), "{seed}");
+        }
+        for seed in [0, 99, 116, 5000, 8999, 9016] {
+            assert!(!held_out(seed), "{seed}");
+        }
     }
 
     #[test]

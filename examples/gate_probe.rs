@@ -2,8 +2,8 @@
 //! of a force-family member, the peak total change `Σ|Δᵢ|`, the total change and the largest
 //! `|Δᵢ|/σᵢ` at the end of the rest that follows, and whether the contact had ended (the
 //! return rule fired) by then. Without arguments: the tuning members 0–7 and
-//! `tests/cli_force.rs`'s member 700; any seed may be named except the held-out seeds 100–115,
-//! which it refuses.
+//! `tests/cli_force.rs`'s member 700; any seed may be named except the held-out seeds 100–115
+//! and the fresh held-out seeds 9000–9015 (`examples/fresh_check.md`), which it refuses.
 //!
 //! Since session 35 the detector gets the layout's positions (as the force stage gives them:
 //! the drift-shape return needs them), and each rest also prints the magnitude shape fraction,
@@ -24,7 +24,7 @@ fn main() {
     let seeds: Vec<u64> = std::env::args().skip(1).filter_map(|s| s.parse().ok()).collect();
     let seeds = if seeds.is_empty() { vec![700, 0, 1, 2, 3, 4, 5, 6, 7] } else { seeds };
     for seed in seeds {
-        assert!(!(100..116).contains(&seed), "held-out seeds are not probed");
+        assert!(!(100..116).contains(&seed) && !(9000..9016).contains(&seed), "held-out seeds are not probed");
         let session = ForceSession::presses(seed, 10);
         let rec = session.simulate();
         let ph = &session.physics;

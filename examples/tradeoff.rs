@@ -43,6 +43,12 @@
 //! exploring settings without looking at held-out members); `--scene-only` runs only the two
 //! rows of what a `method = "events"` scene runs (`event_chain` default and `paper`);
 //! `--fit-only` (the fit, centroid and Δ² rows only: the round-4 rows of examples/fit_parts/history.md).
+//!
+//! `--fresh` (stop 39, `examples/fresh_check.md`; refused with any other flag): the library's
+//! `fast` and `accurate` presets and the centroid chosen on the tuning members, each kind's mean
+//! beside them, on **fresh** held-out members (seeds 9000–9015 × 4 kinds, held-out physics) that no
+//! choice used; no other setting is scored on them. Only for the adopted defaults, after adoption;
+//! never for a choice, never inside a round's rule.
 
 use gradtac::chain::event_track_stages;
 use gradtac::scene::StageSettings;
@@ -440,6 +446,8 @@ struct Summary {
     worst: f64,
     kind: &'static str,
     contact: f64,
+    /// Each kind's mean, in `PathKind::ALL`'s order.
+    per: [f64; 4],
 }
 
 fn summary(members: &[Member], scores: &[Score], width: f64, keep: &[bool]) -> Summary {
@@ -455,16 +463,18 @@ fn summary(members: &[Member], scores: &[Score], width: f64, keep: &[bool]) -> S
     }
     let mean = all.iter().sum::<f64>() / all.len().max(1) as f64;
     let (mut worst, mut kind) = (0.0, "");
-    for k in PathKind::ALL {
+    let mut per = [f64::NAN; 4];
+    for (j, k) in PathKind::ALL.into_iter().enumerate() {
         if let Some(v) = by_kind.get(&k) {
             let m = v.iter().sum::<f64>() / v.len() as f64;
+            per[j] = m;
             if m > worst || m.is_nan() {
                 worst = m;
                 kind = k.name();
             }
         }
     }
-    Summary { mean, worst, kind, contact: contact.iter().sum::<f64>() / contact.len().max(1) as f64 }
+    Summary { mean, worst, kind, contact: contact.iter().sum::<f64>() / contact.len().max(1) as f64, per }
 }
 
 /// The paper's protocol: one similarity over every way-point of every recording; mean and worst
@@ -535,6 +545,96 @@ const EVENT_POLARITY_GRID: [(Polarity, &[u64], f64, f64); 7] = [
     (Polarity::PressRelease, &[0], -8.0, 60.0),
 ];
 
+/// The library's `fast` preset's row (`LocateConfig::preset(Preset::Fast)`).
+fn is_library_fast(s: &Setting) -> bool {
+    let ld = LocateConfig::preset(Preset::Fast);
+    matches!(*s, Setting::Centroid { window, power, floor, counts, contact, smooth, speed }
+        if window == ld.window_frames && power == ld.power && floor == ld.floor_sigmas
+            && counts == (ld.weights == CentroidWeights::Counts) && contact == ld.contact_sigmas
+            && smooth == ld.smooth_frames && speed == ld.max_speed_mm_s)
+}
+
+/// The library's `accurate` preset's row (`LocateConfig::preset(Preset::Accurate)`).
+fn is_library_accurate(s: &Setting) -> bool {
+    let la = LocateConfig::preset(Preset::Accurate);
+    matches!(*s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys, shape, polarity, learned, guard })
+        if keys == la.fit_gain_keys && guard == (if la.fit_fold_lobe { la.fit_fold_guard_mm } else { 0.0 }) && polarity == la.fit_polarity_votes && learned == la.fit_learned_correction && shape == (la.fit_fold_lobe && la.fit_shape_rate > 0.0 && la.fit_fold_guard_mm == 0.0) && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
+            && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
+            && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
+}
+
+/// Fresh held-out seeds (stop 39, `examples/fresh_check.md`): `--fresh` only, for the adopted
+/// defaults, after adoption; never for a choice.
+const FRESH: std::ops::Range<u64> = 9000..9016;
+
+/// Why `--fresh` is refused: with any other flag (it scores the presets as they are).
+fn fresh_refusal(args: &[String]) -> Option<String> {
+    if !args.iter().any(|a| a == "--fresh") {
+        return None;
+    }
+    args.iter()
+        .find(|a| *a != "--fresh")
+        .map(|a| format!("--fresh scores the library's presets as they are: not with `{a}`"))
+}
+
+/// `--fresh`: the library's `fast` and `accurate` presets and the centroid chosen on the tuning
+/// members (among every centroid setting of `settings`, by the rule of the table's "chosen per
+/// method" rows) scored on the fresh held-out members, seeds `FRESH` × 4 kinds under held-out
+/// physics; no other setting is scored on them.
+fn fresh_report(settings: &[Setting], layout: &Layout, width: f64) {
+    let tune = Member::grid(0..8);
+    let test = Member::grid(FRESH);
+    let tune_recs: Vec<FamilyRecording> = tune.iter().map(|m| m.simulate_in(PhysicsSet::Tuning)).collect();
+    let test_recs: Vec<FamilyRecording> = test.iter().map(|m| m.simulate_in(PhysicsSet::HeldOut)).collect();
+    let novel_test: Vec<bool> = test_recs.iter().map(novel).collect();
+    let hats = test_recs.iter().filter(|r| matches!(r.physics.kernel, KernelShape::MexicanHat { .. })).count();
+    let lags = test_recs.iter().filter(|r| r.physics.lag_s > 0.030).count();
+    println!(
+        "**fresh held-out seeds {}–{} × 4 kinds, held-out physics, never used for a choice** (examples/fresh_check.md): {} recordings, {} with held-out physics ({hats} Mexican hat, {lags} lag over 30 ms)",
+        FRESH.start,
+        FRESH.end - 1,
+        test.len(),
+        novel_test.iter().filter(|&&n| n).count()
+    );
+    println!();
+    let scores = |s: &Setting, recs: &[FamilyRecording]| -> Vec<Score> {
+        recs.iter().map(|r| score(r, &run(s, layout, r, None).0)).collect()
+    };
+    let all_tune = vec![true; tune.len()];
+    // the centroid chosen on tuning: eligible (contact ≥ 90 %), lowest worst kind, then mean
+    let tuned = settings
+        .iter()
+        .filter(|s| matches!(s, Setting::Centroid { .. }))
+        .map(|s| (s, summary(&tune, &scores(s, &tune_recs), width, &all_tune)))
+        .filter(|(_, t)| t.contact >= 0.9)
+        .min_by(|a, b| a.1.worst.total_cmp(&b.1.worst).then(a.1.mean.total_cmp(&b.1.mean)))
+        .map(|(s, _)| s.clone());
+    let fast = settings.iter().find(|s| is_library_fast(s)).cloned();
+    let accurate = settings.iter().find(|s| is_library_accurate(s)).cloned();
+    println!("| row | setting | fresh worst kind | fresh mean | circle | diagonal | horizontal | vertical | fresh held-out physics worst kind | contact | tuning worst kind |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for (label, s) in [("tuned centroid", tuned), ("`fast` (the library's centroid)", fast), ("`accurate`", accurate)] {
+        let Some(s) = s else { continue };
+        let t = summary(&tune, &scores(&s, &tune_recs), width, &all_tune);
+        let hs = scores(&s, &test_recs);
+        let h = summary(&test, &hs, width, &vec![true; test.len()]);
+        let n = summary(&test, &hs, width, &novel_test);
+        let per: Vec<String> = h.per.iter().map(|v| format!("{v:.4}")).collect();
+        println!(
+            "| {label} | {} | **{:.4}** ({}) | **{:.4}** | {} | {:.4} ({}) | {:.1} % | {:.4} |",
+            s.describe(),
+            h.worst,
+            h.kind,
+            h.mean,
+            per.join(" | "),
+            n.worst,
+            n.kind,
+            100.0 * h.contact,
+            t.worst
+        );
+    }
+}
+
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
     // development flags: only the event contours (and the centroid beside them); tuning members only
@@ -542,6 +642,11 @@ fn main() {
     let tuning_only = std::env::args().any(|a| a == "--tuning-only");
     // development flag: only the fit and the centroid rows (the round-4 rows of examples/fit_parts/history.md)
     let fit_only = std::env::args().any(|a| a == "--fit-only");
+    let fresh = std::env::args().any(|a| a == "--fresh");
+    if let Some(e) = fresh_refusal(&std::env::args().skip(1).collect::<Vec<_>>()) {
+        eprintln!("tradeoff: {e}");
+        std::process::exit(2);
+    }
     let tune_seeds: Vec<u64> = if quick { (0..3).collect() } else { (0..8).collect() };
     let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };
     let layout = Layout::biotac_sp();
@@ -703,6 +808,10 @@ fn main() {
     settings.push(Setting::SceneEvents(EventChain::Paper));
     if std::env::args().any(|a| a == "--scene-only") {
         settings.retain(|s| matches!(s, Setting::SceneEvents(_)));
+    }
+    if fresh {
+        fresh_report(&settings, &layout, width);
+        return;
     }
     if fit_only {
         settings.retain(|s| matches!(s, Setting::Fit(_) | Setting::Centroid { .. } | Setting::Delta2 { .. }));
@@ -923,23 +1032,11 @@ fn main() {
             chosen_row(m, r);
         }
     }
-    let ld = LocateConfig::preset(Preset::Fast);
-    let lib_centroid = rows.iter().find(|r| {
-        matches!(r.s, Setting::Centroid { window, power, floor, counts, contact, smooth, speed }
-            if window == ld.window_frames && power == ld.power && floor == ld.floor_sigmas
-                && counts == (ld.weights == CentroidWeights::Counts) && contact == ld.contact_sigmas
-                && smooth == ld.smooth_frames && speed == ld.max_speed_mm_s)
-    });
+    let lib_centroid = rows.iter().find(|r| is_library_fast(&r.s));
     if let Some(r) = lib_centroid {
         chosen_row("**centroid with the library's default (`fast`) settings**", r);
     }
-    let la = LocateConfig::preset(Preset::Accurate);
-    let lib_accurate = rows.iter().find(|r| {
-        matches!(r.s, Setting::Fit(FitSetting { window, iterations, gain_rate, model_error, signed, smooth, speed, contact, lead, lag, continuity, keys, shape, polarity, learned, guard })
-            if keys == la.fit_gain_keys && guard == (if la.fit_fold_lobe { la.fit_fold_guard_mm } else { 0.0 }) && polarity == la.fit_polarity_votes && learned == la.fit_learned_correction && shape == (la.fit_fold_lobe && la.fit_shape_rate > 0.0 && la.fit_fold_guard_mm == 0.0) && window == la.window_frames && contact == la.contact_sigmas && lead == la.fit_lead_s && lag == la.fit_lag_estimate && iterations == la.fit_iterations && gain_rate == la.fit_gain_rate
-                && model_error == la.fit_model_error && signed == la.fit_signed && smooth == la.smooth_frames
-                && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
-    });
+    let lib_accurate = rows.iter().find(|r| is_library_accurate(&r.s));
     if let Some(r) = lib_accurate {
         chosen_row("**fit with the library's `accurate` preset**", r);
         println!();
