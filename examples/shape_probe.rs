@@ -3,7 +3,7 @@
 //! with a true force above 2 N and between 0.5 and 2 N, and over untouched frames (no force in
 //! the last 0.5 s) that the gate holds in contact (a stale baseline) — its quantiles and the
 //! share below 0.2 / 0.25 / 0.3. The signed fit by default; `MAG=1` the magnitude fit. Tuning
-//! members only (never the held-out seeds 100–115 or the tare's 600–605). `GATE_DRIFT='{…}'` (a
+//! members only (never the held-out seeds 100–115, the fresh 9000–9015 or the tare's 600–605). `GATE_DRIFT='{…}'` (a
 //! `DriftModel` in JSON) probes another gate.
 //!
 //! Run: `cargo run --release --example shape_probe -- 0 1 2 … 212`.
@@ -32,7 +32,10 @@ fn main() {
     let magnitude = std::env::var_os("MAG").is_some();
     let seeds: Vec<u64> = std::env::args().skip(1).filter_map(|s| s.parse().ok()).collect();
     for seed in seeds {
-        assert!(!(100..116).contains(&seed) && !(600..606).contains(&seed), "held-out seeds are not probed");
+        assert!(
+            !(100..116).contains(&seed) && !(600..606).contains(&seed) && !(9000..9016).contains(&seed),
+            "held-out seeds are not probed"
+        );
         let session = ForceSession::presses(seed, 10);
         let rec = session.simulate();
         let ph = &session.physics;
