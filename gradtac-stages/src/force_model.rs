@@ -832,7 +832,7 @@ pub struct ForwardSettings {
 
 impl Default for ForwardSettings {
     fn default() -> Self {
-        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside }
+        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAsideWritten }
     }
 }
 
