@@ -401,11 +401,6 @@ fn forward_settings() -> ForwardSettings {
                 "multi" => fwd.starts = Starts::Multi,
                 "in_sample" => fwd.guard = ForwardGuard::InSample,
                 "held_aside" => fwd.guard = ForwardGuard::HeldAside,
-                "held_aside_written" => fwd.guard = ForwardGuard::HeldAsideWritten,
-                m if m.starts_with("margin") => {
-                    let pct = m["margin".len()..].parse().unwrap_or_else(|_| panic!("FORCE_EVAL_FORWARD: {m:?}"));
-                    fwd.guard = ForwardGuard::HeldAsideMargin(pct);
-                }
                 other => panic!("FORCE_EVAL_FORWARD: unknown {other:?}"),
             }
         }
@@ -429,9 +424,8 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
         .map(|r| GaugeSample { force_n: at(&m.rec.gauge, r.t), ..r.sample.clone() })
         .collect();
     // exploration: FORCE_EVAL_UNGUARDED runs `forward` without its guard (examples/force_parts/history.md)
-    // exploration: FORCE_EVAL_FORWARD=single|multi,in_sample|held_aside|held_aside_written|margin<pct>
-    // sets the `forward` calibration's starts and guard (examples/force_parts/history.md, session 32;
-    // rule_round11.md; default: the library's)
+    // exploration: FORCE_EVAL_FORWARD=single|multi,in_sample|held_aside sets the `forward`
+    // calibration's starts and guard (examples/force_parts/history.md, session 32; default: the library's)
     let fwd = forward_settings();
     let fitted = if std::env::var_os("FORCE_EVAL_UNGUARDED").is_some() {
         calibrate_unguarded_with(&train, method, lambda, curve, &layout, fwd.starts)

@@ -811,14 +811,6 @@ pub enum ForwardGuard {
     /// pooled MAPE above 0.5 N of those predictions decides (fewer than 3 runs with a frame above
     /// 0.5 N: the in-sample decision).
     HeldAside,
-    /// Round 11's candidate (g2): as [`ForwardGuard::HeldAside`], but `forward`'s side is the
-    /// model fitted on all runs (the one written) predicting each run, against `placed`'s fits
-    /// without the run. Not held out for `forward`.
-    HeldAsideWritten,
-    /// Round 11's candidates (g3, g4): as [`ForwardGuard::HeldAside`] with a margin: `placed`
-    /// only when `forward`'s pooled held-aside MAPE exceeds `m` × `placed`'s, `m` = the value
-    /// / 100 (150: 1.5).
-    HeldAsideMargin(u16),
 }
 
 /// The `forward` calibration's settings: where the identification starts and its guard.
@@ -832,7 +824,7 @@ pub struct ForwardSettings {
 
 impl Default for ForwardSettings {
     fn default() -> Self {
-        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAsideWritten }
+        ForwardSettings { starts: Starts::Multi, guard: ForwardGuard::HeldAside }
     }
 }
 
@@ -875,21 +867,11 @@ pub fn calibrate_with(
     let Ok(placed) = calibrate_unguarded(samples, CalibrationMethod::Placed, lambda, curve, layout) else {
         return Ok(file);
     };
-    let aside = |m| held_aside_mape_pct(samples, m, lambda, curve, layout, fwd.starts);
-    let decided = match fwd.guard {
-        ForwardGuard::InSample => None,
-        ForwardGuard::HeldAside => aside(CalibrationMethod::Forward)
-            .zip(aside(CalibrationMethod::Placed))
-            .map(|(f, p)| f.is_finite() && f <= p),
-        ForwardGuard::HeldAsideMargin(m) => aside(CalibrationMethod::Forward)
-            .zip(aside(CalibrationMethod::Placed))
-            .map(|(f, p)| f.is_finite() && f <= f64::from(m) / 100.0 * p),
-        ForwardGuard::HeldAsideWritten => press_mape_pct(samples, |_| Some(file.model.clone()))
-            .zip(aside(CalibrationMethod::Placed))
-            .map(|(f, p)| f.is_finite() && f <= p),
-    };
-    if let Some(keep) = decided {
-        return Ok(if keep { file } else { placed });
+    if fwd.guard == ForwardGuard::HeldAside {
+        let aside = |m| held_aside_mape_pct(samples, m, lambda, curve, layout, fwd.starts);
+        if let (Some(f), Some(p)) = (aside(CalibrationMethod::Forward), aside(CalibrationMethod::Placed)) {
+            return Ok(if f.is_finite() && f <= p { file } else { placed });
+        }
     }
     Ok(forward_guard(file, placed))
 }
@@ -921,16 +903,6 @@ pub fn held_aside_mape_pct(
     layout: &gradtac_stream::Layout,
     starts: Starts,
 ) -> Option<f64> {
-    press_mape_pct(samples, |train| fit_model(train, method, lambda, curve, layout, starts).ok())
-}
-
-/// The pooled MAPE above 0.5 N (%) on each contact run (a press) of `samples` predicted by the
-/// model `model_for` gives for the samples without that run (none: 100 % per frame); `None`
-/// when fewer than 3 runs have a contact frame above 0.5 N.
-fn press_mape_pct(
-    samples: &[GaugeSample],
-    mut model_for: impl FnMut(&[GaugeSample]) -> Option<CalibratedForce>,
-) -> Option<f64> {
     // each sample's run (0: no contact)
     let (mut runs, mut run, mut was) = (Vec::with_capacity(samples.len()), 0usize, false);
     for s in samples {
@@ -949,7 +921,7 @@ fn press_mape_pct(
     for &r in &pressed {
         let train: Vec<GaugeSample> =
             samples.iter().zip(&runs).filter(|(_, &k)| k != r).map(|(s, _)| s.clone()).collect();
-        let fitted = model_for(&train);
+        let fitted = fit_model(&train, method, lambda, curve, layout, starts).ok();
         let mut predictor = fitted.as_ref().map(ForcePredictor::new);
         for (s, _) in samples.iter().zip(&runs).filter(|(_, &k)| k == r) {
             let p = predictor.as_mut().and_then(|p| p.push(s)).filter(|v| v.is_finite());
