@@ -324,20 +324,6 @@ fn features(rec: &ForceRecording, source: Source) -> (Vec<Row>, f64) {
     (rows, t0.elapsed().as_secs_f64() * 1e6 / n)
 }
 
-/// Force at time `t` (s) from a per-frame series at 100 Hz (linear interpolation).
-fn at(series: &[f64], t: f64) -> f64 {
-    let x = t * 100.0;
-    if x <= 0.0 {
-        return series[0];
-    }
-    let k = x.floor() as usize;
-    if k + 1 >= series.len() {
-        return *series.last().unwrap();
-    }
-    let u = x - k as f64;
-    series[k] * (1.0 - u) + series[k + 1] * u
-}
-
 /// Exploration (the error's decomposition, `examples/force_parts/history.md`): `FORCE_EVAL_OFF=gains,kernel,…`
 /// switches those physics terms off (`gains`: |gᵢ| = 1, signs kept; `signs`: every σᵢ = −1;
 /// `kernel`: Gaussian; `lag`: τ = 0.1 ms; `knee`: no saturation; `drift`; `noise` (and the
@@ -434,7 +420,7 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
     let train: Vec<GaugeSample> = rows
         .iter()
         .filter(|r| r.t < split)
-        .map(|r| GaugeSample { force_n: at(&m.rec.gauge, r.t), ..r.sample.clone() })
+        .map(|r| GaugeSample { force_n: m.rec.gauge_at(r.t), ..r.sample.clone() })
         .collect();
     // exploration: FORCE_EVAL_UNGUARDED runs `forward` without its guard (examples/force_parts/history.md)
     // exploration: FORCE_EVAL_FORWARD=single|multi,in_sample|held_aside sets the `forward`
@@ -483,7 +469,7 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
             eprintln!(
                 "{:.2} F {:.2} c {} S1 {:.0} max {:.0} pred {:.2}{}",
                 r.t,
-                at(&m.rec.force, r.t),
+                m.rec.force_at(r.t),
                 u8::from(r.sample.contact),
                 s1,
                 zmax,
@@ -497,8 +483,8 @@ fn score(m: &Member, rows: &[Row], method: CalibrationMethod, lambda: f64, curve
                 }
             );
         }
-        let f = at(&m.rec.force, r.t);
-        let quiet = (0..=50).all(|k| at(&m.rec.force, r.t - k as f64 * 0.01) == 0.0);
+        let f = m.rec.force_at(r.t);
+        let quiet = m.rec.untouched_at(r.t);
         if quiet {
             untouched += 1;
             over += u64::from(p.is_some_and(|p| p > 0.5));
@@ -631,7 +617,7 @@ fn fwd_gap_presses(
     // per press: error sum, frames, place error sum, frames where a start at the truth ends lower
     let mut acc = vec![[0.0f64; 4]; places.len()];
     for (k, (r, p)) in rows.iter().zip(preds).enumerate() {
-        let f = at(&m.rec.force, r.t);
+        let f = m.rec.force_at(r.t);
         if r.t < split || f <= 0.5 {
             continue;
         }

@@ -154,21 +154,6 @@ fn released(stat: &[f64], t: f64, n: usize) -> Vec<bool> {
         .collect()
 }
 
-/// Force at time `t` (s) from a per-frame series at 100 Hz (linear interpolation), as `force_eval`.
-fn at(series: &[f64], t: f64) -> f64 {
-    // `t * 100`, not `t / DT`: the same rounding as `force_eval`, so the same frames are exactly 0 N
-    let x = t * 100.0;
-    if x <= 0.0 {
-        return series[0];
-    }
-    let k = x.floor() as usize;
-    if k + 1 >= series.len() {
-        return *series.last().unwrap();
-    }
-    let u = x - k as f64;
-    series[k] * (1.0 - u) + series[k + 1] * u
-}
-
 /// Runs one member.
 fn member(seed: u64) -> MemberOut {
     let layout = Layout::biotac_sp();
@@ -198,7 +183,7 @@ fn member(seed: u64) -> MemberOut {
     let train: Vec<GaugeSample> = rows
         .iter()
         .filter(|r| r.0.time_s < split)
-        .map(|r| GaugeSample { force_n: at(&rec.gauge, r.0.time_s), ..r.0.clone() })
+        .map(|r| GaugeSample { force_n: rec.gauge_at(r.0.time_s), ..r.0.clone() })
         .collect();
     let (method, lambda, curve) = (CalibrationMethod::Forward, 0.0, ForceMethod::Linear);
     let fwd = ForwardSettings::default();
@@ -218,8 +203,8 @@ fn member(seed: u64) -> MemberOut {
     for (k, (s, sigma)) in rows.iter().enumerate() {
         let read = predictor.push(s).unwrap_or(f64::NAN);
         let t = s.time_s;
-        let f = at(&rec.force, t);
-        let quiet = (0..=50).all(|j| at(&rec.force, t - j as f64 * DT) == 0.0);
+        let f = rec.force_at(t);
+        let quiet = rec.untouched_at(t);
         untouched += usize::from(quiet);
         over += usize::from(quiet && read > 0.5);
         if t >= split && f > 0.5 {

@@ -162,6 +162,42 @@ pub struct ForceRecording {
     pub contact: Vec<Option<[f64; 2]>>,
 }
 
+impl ForceRecording {
+    /// The true force (N) at time `t` (s): linear between frames, the first or last frame's
+    /// value outside the recording.
+    pub fn force_at(&self, t: f64) -> f64 {
+        sampled_at(&self.force, t)
+    }
+
+    /// The gauge's reading (N) at time `t` (s), as [`force_at`](Self::force_at).
+    pub fn gauge_at(&self, t: f64) -> f64 {
+        sampled_at(&self.gauge, t)
+    }
+
+    /// Whether no force was applied in the 0.5 s up to `t` (s), read at every frame time back
+    /// from `t`: the evaluations' *untouched* frames.
+    pub fn untouched_at(&self, t: f64) -> bool {
+        let dt = 1.0 / RATE_HZ;
+        (0..=50).all(|k| self.force_at(t - k as f64 * dt) == 0.0)
+    }
+}
+
+/// A per-frame series (one value per frame at [`RATE_HZ`]) at time `t` (s), linear between
+/// frames. `t · RATE_HZ`, not `t / dt`: the rounding decides which frames read exactly 0 N.
+fn sampled_at(series: &[f64], t: f64) -> f64 {
+    let x = t * RATE_HZ;
+    let Some(&last) = series.last() else { return 0.0 };
+    if x <= 0.0 {
+        return series[0];
+    }
+    let k = x.floor() as usize;
+    if k + 1 >= series.len() {
+        return last;
+    }
+    let u = x - k as f64;
+    series[k] * (1.0 - u) + series[k + 1] * u
+}
+
 impl ForceSession {
     /// Member `seed`'s sensor with the calibration protocol: `n` presses at `n` places (see
     /// the [module docs](self)), after 1 s at rest.
@@ -309,6 +345,27 @@ impl ForceSession {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_recording_is_read_between_frames_and_untouched_after_half_a_second_at_rest() {
+        // 1 s at rest, then 1 N from frame 100 on
+        let force: Vec<f64> = (0..200).map(|k| if k < 100 { 0.0 } else { 1.0 }).collect();
+        let rec = ForceRecording {
+            frames: Vec::new(),
+            gauge: force.iter().map(|f| 2.0 * f).collect(),
+            force,
+            segment: Vec::new(),
+            contact: Vec::new(),
+        };
+        assert_eq!(rec.force_at(-1.0), 0.0);
+        assert_eq!(rec.force_at(0.995), 0.5);
+        assert_eq!(rec.gauge_at(0.995), 1.0);
+        assert_eq!(rec.force_at(5.0), 1.0);
+        // the frame times back from t: 0.5 s of 0 N up to frame 99, not from 99.5 on
+        assert!(rec.untouched_at(0.99) && rec.untouched_at(0.5) && rec.untouched_at(0.0));
+        assert!(!rec.untouched_at(0.995) && !rec.untouched_at(1.4) && !rec.untouched_at(1.5));
+        assert_eq!(ForceRecording { force: Vec::new(), ..rec }.force_at(1.0), 0.0);
+    }
 
     #[test]
     fn response_is_sublinear_and_spreads_with_force() {
