@@ -496,6 +496,8 @@ pub const FORCE_GATE: DriftModel = DriftModel {
     drift_shape_fit: ShapeFit::Magnitude,
     drift_shape_rise_s: 2.0,
     drift_shape_rise: RiseGuard::ShiftAnchorsUndo,
+    release_cos: 0.0,
+    release_cos_s: 0.0,
 };
 
 /// The force stage's change detector for `taxels` taxels: the `[stages.locate]` detector
@@ -2511,5 +2513,160 @@ mod tests {
         let m: DriftModel = serde_json::from_str(r#"{"drift_shape": 0.25, "drift_shape_fit": "magnitude"}"#).unwrap();
         assert_eq!((m.drift_shape, m.drift_shape_fit), (0.25, ShapeFit::Magnitude));
         assert!(serde_json::from_str::<DriftModel>(r#"{"drift_shape_fit": "curly"}"#).is_err());
+    }
+
+    /// Tuning member 205's session (10 presses; a stuck contact under today's gate) through
+    /// the force detector with `gate` and the layout's positions: an FNV-1a digest of every
+    /// frame's contact flag, signed changes and baseline (their bits), and the frames in contact.
+    fn recorded_digest(gate: DriftModel) -> (u64, usize) {
+        let rec = crate::sim_force::ForceSession::presses(205, 10).simulate();
+        let mut det = shaped_detector(gate);
+        let (mut h, mut n) = (0xcbf2_9ce4_8422_2325u64, 0usize);
+        let mut eat = |x: u64| {
+            for b in x.to_le_bytes() {
+                h ^= u64::from(b);
+                h = h.wrapping_mul(0x0100_0000_01b3);
+            }
+        };
+        for f in &rec.frames {
+            let c = det.push(f, "t").unwrap();
+            n += usize::from(c.contact);
+            eat(u64::from(c.contact));
+            det.change().iter().chain(det.baseline()).for_each(|x| eat(x.to_bits()));
+        }
+        (h, n)
+    }
+
+    #[test]
+    fn the_cosine_release_off_is_todays_gate_bit_for_bit() {
+        // pinned on today's gate before the cosine release existed (session 39): off, the
+        // default, changes nothing on a recorded member with a stuck contact
+        let today = (15_333_381_964_359_675_183, 4553);
+        assert_eq!(FORCE_GATE.release_cos, 0.0);
+        assert_eq!(recorded_digest(FORCE_GATE), today);
+        assert_eq!(recorded_digest(DriftModel { release_cos: 0.0, release_cos_s: 0.0, ..FORCE_GATE }), today);
+        // on, it acts on this member (205's stuck contact ends 0.13 s earlier at 1 s)
+        assert_ne!(recorded_digest(DriftModel { release_cos: 0.7, release_cos_s: 1.0, ..FORCE_GATE }), today);
+    }
+
+    /// Session 33's gate (no drift-shape return, which would end the stuck contact below by
+    /// itself) with the cosine release `t`, `s` seconds.
+    fn cos_gate(t: f64, s: f64) -> DriftModel {
+        DriftModel { release_cos: t, release_cos_s: s, ..GATE_S33 }
+    }
+
+    /// 1 s untouched, a press (80 counts at taxel 9: 1 s rise, 2 s hold), then over 0.5 s
+    /// (frames 300..350) the press turns into a stale offset without its shape (the same
+    /// scattered pattern as [`ramp_then_lift`], mixed signs, its total 0.7 of the press's:
+    /// too large for the peak and shape returns), held 6.5 s: per frame, in contact or not.
+    fn press_turning_into_drift(gate: DriftModel) -> Vec<bool> {
+        let layout = Layout::biotac_sp();
+        let pos = layout.positions();
+        let bump: Vec<f64> = (0..24)
+            .map(|i| (-((pos[i][0] - pos[9][0]).powi(2) + (pos[i][1] - pos[9][1]).powi(2)) / 18.0).exp())
+            .collect();
+        let scattered: Vec<f64> = (0..24)
+            .map(|i| (0.3 + 0.7 * (i as f64 * 0.618_034).fract()) * if i % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let scale = 0.7 * 80.0 * bump.iter().sum::<f64>() / scattered.iter().map(|x| x.abs()).sum::<f64>();
+        let mut det = shaped_detector(gate);
+        (0..1000u64)
+            .map(|k| {
+                let (press, stale) = match k {
+                    0..=99 => (0.0, 0.0),
+                    100..=199 => (80.0 * (k - 100) as f64 / 100.0, 0.0),
+                    200..=299 => (80.0, 0.0),
+                    300..=349 => (80.0 * (350 - k) as f64 / 50.0, (k - 300) as f64 / 50.0),
+                    _ => (0.0, 1.0),
+                };
+                let drift: Vec<f64> = scattered.iter().map(|p| -stale * scale * p).collect();
+                det.push(&shaped_frame(k, press, 9, &drift), "t").unwrap().contact
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_cosine_release_ends_a_contact_whose_pattern_turned_into_drift_after_its_time() {
+        // without the release the stale offset holds the contact to the end
+        let stuck = press_turning_into_drift(GATE_S33);
+        assert!(stuck[120..].iter().all(|c| *c), "session 33's gate lets it go");
+        for s in [1.0, 2.0] {
+            let c = press_turning_into_drift(cos_gate(0.7, s));
+            // not before: the pattern starts to change at frame 300, so nothing is released
+            // before 300 + s·100 frames (and the press itself is kept as it was)
+            let t = 300 + (s * 100.0) as usize;
+            assert_eq!(&c[..t], &stuck[..t], "released before {s} s");
+            // after: released once the pattern has been far from the press's for s (and the
+            // stretch is steady: the crossfade ends at 350, steadiness looks back 0.3 s), and
+            // the baseline settles to the stale level: no contact to the end
+            let end = c.iter().rposition(|c| *c).unwrap();
+            assert!(end < 350 + 30 + (s * 100.0) as usize, "{s} s: last contact frame {end}");
+            assert!(end >= t, "{s} s: last contact frame {end}");
+        }
+    }
+
+    /// 1 s untouched, a press of `peak` counts at taxel 9 (rise `rise` frames, hold 2 s, fall
+    /// `fall` frames), 2 s untouched, without drift: per frame, in contact or not.
+    fn shaped_press(gate: DriftModel, peak: f64, rise: u64, fall: u64) -> Vec<bool> {
+        let mut det = shaped_detector(gate);
+        let (a, b) = (100 + rise, 300 + rise);
+        (0..b + fall + 200)
+            .map(|k| {
+                let p = if k < 100 {
+                    0.0
+                } else if k < a {
+                    peak * (k - 100) as f64 / rise as f64
+                } else if k < b {
+                    peak
+                } else if k < b + fall {
+                    peak * (b + fall - k) as f64 / fall as f64
+                } else {
+                    0.0
+                };
+                det.push(&shaped_frame(k, p, 9, &[0.0; 24]), "t").unwrap().contact
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_cosine_release_never_ends_a_press_that_keeps_its_shape() {
+        // rise, hold and fall change the press's magnitude, not its pattern: every frame is
+        // as without the release, for light and firm presses, fast and slow, and for bounds
+        // far stricter than the round's candidates
+        for gate in [FORCE_GATE, GATE_S33] {
+            for (t, s) in [(0.7, 2.0), (0.7, 1.0), (0.3, 0.5)] {
+                let on = DriftModel { release_cos: t, release_cos_s: s, ..gate };
+                for peak in [15.0, 40.0, 150.0] {
+                    for (rise, fall) in [(10, 10), (100, 50), (300, 300)] {
+                        let want = shaped_press(gate, peak, rise, fall);
+                        assert!(want.iter().filter(|c| **c).count() >= 200, "{peak} {rise} {fall}: no press");
+                        assert_eq!(shaped_press(on, peak, rise, fall), want, "{t} {s} {peak} {rise} {fall}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_cosine_release_settings_are_validated_and_old_json_parses() {
+        let old: DriftModel = serde_json::from_str(r#"{"hold_sigmas": 2.0}"#).unwrap();
+        assert_eq!((old.release_cos, old.release_cos_s), (0.0, 0.0));
+        let on: DriftModel = serde_json::from_str(r#"{"release_cos": 0.7, "release_cos_s": 2.0}"#).unwrap();
+        assert_eq!((on.release_cos, on.release_cos_s), (0.7, 2.0));
+        on.validate().unwrap();
+        cos_gate(1.9, 60.0).validate().unwrap();
+        for (t, s) in [
+            (0.7, 0.0),
+            (0.0, 2.0),
+            (-0.1, 2.0),
+            (2.0, 2.0),
+            (f64::NAN, 2.0),
+            (0.7, -1.0),
+            (0.7, 61.0),
+            (0.7, f64::INFINITY),
+            (0.7, f64::NAN),
+        ] {
+            assert!(cos_gate(t, s).validate().is_err(), "{t} {s}");
+        }
     }
 }
