@@ -2550,7 +2550,7 @@ mod tests {
     }
 
     /// Session 33's gate (no drift-shape return, which would end the stuck contact below by
-    /// itself) with the cosine release `t`, `s` seconds.
+    /// itself) with the cosine release `t`, `s` seconds (0, 0: off, whatever [`FORCE_GATE`] has).
     fn cos_gate(t: f64, s: f64) -> DriftModel {
         DriftModel { release_cos: t, release_cos_s: s, ..GATE_S33 }
     }
@@ -2588,7 +2588,7 @@ mod tests {
     #[test]
     fn the_cosine_release_ends_a_contact_whose_pattern_turned_into_drift_after_its_time() {
         // without the release the stale offset holds the contact to the end
-        let stuck = press_turning_into_drift(GATE_S33);
+        let stuck = press_turning_into_drift(cos_gate(0.0, 0.0));
         assert!(stuck[120..].iter().all(|c| *c), "session 33's gate lets it go");
         for s in [1.0, 2.0] {
             let c = press_turning_into_drift(cos_gate(0.7, s));
@@ -2633,7 +2633,7 @@ mod tests {
         // rise, hold and fall change the press's magnitude, not its pattern: every frame is
         // as without the release, for light and firm presses, fast and slow, and for bounds
         // far stricter than the round's candidates
-        for gate in [FORCE_GATE, GATE_S33] {
+        for gate in [cos_gate(0.0, 0.0), DriftModel { release_cos: 0.0, release_cos_s: 0.0, ..FORCE_GATE }] {
             for (t, s) in [(0.7, 2.0), (0.7, 1.0), (0.3, 0.5)] {
                 let on = DriftModel { release_cos: t, release_cos_s: s, ..gate };
                 for peak in [15.0, 40.0, 150.0] {
