@@ -759,7 +759,6 @@ impl PositionMemory {
 /// | quiet taxels | with `quiet_taxel_s`, a taxel within `hold_sigmas` σ follows at `quiet_taxel_s` on every frame, also during an excursion | off |
 /// | drift shape | with `drift_shape` and the layout's positions ([`ChangeDetector::with_positions`]), a steady excursion whose change is not shaped like a press — one smooth bump at its largest taxel explains less than `drift_shape` of it, in σ units ([`press_shaped_fraction`], or with `drift_shape_fit` magnitude [`press_shaped_magnitude`]) — returns: a stale baseline left by drift that is independent per taxel; the slope's anchors are kept, so the step teaches the slope | off |
 /// | rise test | with `drift_shape_rise_s`, a drift-shape return on a frame whose total change that long before was under half its own (a recent rise: a press's rise and hold) is blocked, or fires with the slope's anchors shifted instead of kept (so a press taken for drift does not teach the slope the press), and optionally is undone once the sensor comes back to the level before it ([`RiseGuard`]) | off |
-/// | cosine release | with `release_cos` and `release_cos_s`, a contact whose `Δᵢ/σᵢ` pattern has had `1 − cos > release_cos` with the contact's peak pattern (`Δᵢ/σᵢ` at its largest `Σ\|Δᵢ\|`) for `release_cos_s` returns on its first steady frame; the slope's anchors are kept | off |
 /// | shape return | with `release_excess`, an excursion also returns once it is steady, its `Σ\|Δᵢ\|` has been flat for `release_flat_s` and its change *above the untouched floor* (the running mean of `Σ\|Δᵢ\|` outside excursions) has fallen to `release_excess` of the peak's: a residual left after a fall, not a press still rising or held | off |
 ///
 /// The holds are off by default (the session-29 model); the force stage runs them with
@@ -900,24 +899,6 @@ pub struct DriftModel {
     /// What the rise test does to a drift-shape return on a frame that rose recently
     /// ([`RiseGuard`]; default: blocks it).
     pub drift_shape_rise: RiseGuard,
-    /// The cosine release's bound on `1 − cos` (in [0, 2); 0: off, the default; on only with
-    /// [`release_cos_s`](Self::release_cos_s)): while the detector holds a contact it keeps the
-    /// contact's *peak pattern*, `Δᵢ/σᵢ` on the frame of the largest `Σ|Δᵢ|` since the contact
-    /// started, and `cos` is the cosine of each frame's `Δᵢ/σᵢ` with it. A press that rises,
-    /// holds or falls keeps its pattern (cos near 1, whatever its magnitude); a stale baseline
-    /// left by drift under a held contact drifts away from it. Once `1 − cos` has stayed above
-    /// this bound on consecutive contact frames for `release_cos_s`, the contact *returns* on
-    /// its first steady frame (as every return: the baseline settles to the current level at
-    /// `settle_s`, a new contact needs the usual start, `hold_start_sigmas`), and the slope's
-    /// anchors are kept, as at a drift-shape return. The count restarts at every contact start
-    /// and on any frame at or below the bound. Trade-off: a press whose pattern changes
-    /// (a moving or rolling contact, or a press on a stale baseline larger than it) is
-    /// released after `release_cos_s`. Cost: on contact frames only, O(n), no allocation after
-    /// the first. Session 39, force round 12 (`examples/force_parts/rule_round12.md`).
-    pub release_cos: f64,
-    /// How long `1 − cos` must stay above [`release_cos`](Self::release_cos) (s, in [0, 60];
-    /// 0: off, the default; both are 0 or both are > 0): the frames' durations are summed.
-    pub release_cos_s: f64,
 }
 
 /// The drift-shape return's rise test ([`DriftModel::drift_shape_rise_s`]): a frame whose
@@ -1012,8 +993,6 @@ impl Default for DriftModel {
             drift_shape_fit: ShapeFit::Signed,
             drift_shape_rise_s: 0.0,
             drift_shape_rise: RiseGuard::Block,
-            release_cos: 0.0,
-            release_cos_s: 0.0,
         }
     }
 }
@@ -1059,10 +1038,7 @@ impl DriftModel {
             && self.release_flat_sigmas <= 10.0
             && (0.0..=60.0).contains(&self.quiet_taxel_s)
             && (0.0..1.0).contains(&self.drift_shape)
-            && (0.0..=60.0).contains(&self.drift_shape_rise_s)
-            && (0.0..2.0).contains(&self.release_cos)
-            && (0.0..=60.0).contains(&self.release_cos_s)
-            && ((self.release_cos == 0.0) == (self.release_cos_s == 0.0));
+            && (0.0..=60.0).contains(&self.drift_shape_rise_s);
         if ok {
             Ok(())
         } else {
@@ -1225,11 +1201,6 @@ struct DriftState {
     /// The level before a drift-shape return on a recent rise ([`RiseGuard::ShiftAnchorsUndo`]):
     /// its time, the baseline then (moved along the slope since) and the total step it took.
     undo: Option<(Timestamp, Vec<f64>, f64)>,
-    /// The cosine release ([`DriftModel::release_cos`]): the contact's peak total change and
-    /// its pattern `Δᵢ/σᵢ`, and how long (s) `1 − cos` with it has stayed above the bound.
-    cos_peak: f64,
-    cos_pattern: Vec<f64>,
-    cos_run_s: f64,
 }
 
 impl DriftState {
@@ -1253,45 +1224,7 @@ impl DriftState {
             floor: None,
             rise: VecDeque::new(),
             undo: None,
-            cos_peak: 0.0,
-            cos_pattern: Vec::new(),
-            cos_run_s: 0.0,
         }
-    }
-
-    /// The cosine release's test for a frame (and records it): with a contact going on
-    /// (`continuing`, the last frame was one), the peak pattern takes this frame when its total
-    /// change is the largest so far, and the run of frames with `1 − cos` above the bound
-    /// grows by `dt` or restarts; otherwise this frame is the peak of a contact that may start
-    /// here and the run restarts. True once the run has lasted `release_cos_s`.
-    fn cos_release(&mut self, continuing: bool, dt: f64, total: f64, delta: &[f64], sigma: &[f64]) -> bool {
-        let m = self.model;
-        let e = |i: usize| if sigma[i] > 0.0 { delta[i] / sigma[i] } else { 0.0 };
-        if !continuing || total > self.cos_peak || self.cos_pattern.len() != delta.len() {
-            self.cos_peak = total;
-            self.cos_pattern.clear();
-            self.cos_pattern.extend((0..delta.len()).map(e));
-        }
-        if !continuing {
-            self.cos_run_s = 0.0;
-            return false;
-        }
-        let (mut ab, mut aa, mut bb) = (0.0f64, 0.0f64, 0.0f64);
-        for (i, p) in self.cos_pattern.iter().enumerate() {
-            let x = e(i);
-            ab += x * p;
-            aa += x * x;
-            bb += p * p;
-        }
-        let cos = if aa > 0.0 && bb > 0.0 { ab / (aa * bb).sqrt() } else { 1.0 };
-        // a non-finite cosine (non-finite changes) is no evidence: the run restarts
-        if cos.is_finite() && 1.0 - cos > m.release_cos && dt.is_finite() {
-            self.cos_run_s += dt;
-        } else {
-            self.cos_run_s = 0.0;
-        }
-        // the frames' durations summed: a tolerance for their rounding
-        self.cos_run_s >= m.release_cos_s - 1e-6
     }
 
     /// The drift-shape return's rise test for a frame of total change `total` (and records
@@ -1501,15 +1434,12 @@ impl DriftState {
                 };
                 f < m.drift_shape
             });
-        // the cosine release: a contact whose pattern has stopped looking like its peak's
-        let cos_release = m.release_cos > 0.0 && self.cos_release(self.touched, dt, total, delta, sigma);
-        let returning =
-            steady && self.in_contact && (self.settling || peak_return || shape_return || drift_shaped || cos_release);
+        let returning = steady && self.in_contact && (self.settling || peak_return || shape_return || drift_shaped);
         // the frame this excursion first returns on (not a later settling frame), and whether
         // the shape return alone made it return (a residual step stays behind; a drift-shaped
         // step is drift, and the anchors keep it)
         let first_return = returning && !self.settling && (contact || self.touched);
-        let shape_alone = first_return && !peak_return && !drift_shaped && !cos_release;
+        let shape_alone = first_return && !peak_return && !drift_shaped;
         self.settling = holds && returning;
         // hysteresis: a contact lasts while its excursion is held, until it returns
         // the hold's start bound: a held frame starts a contact only beyond it (looked at only
