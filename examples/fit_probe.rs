@@ -29,7 +29,9 @@
 use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{Correction, Trained};
 use gradtac::stages::locate::LocateConfig;
-use gradtac::stages::sim_family::{KernelShape, Member, PathKind, Physics, PhysicsSet, IDEAL_TERMS};
+use gradtac::stages::sim_family::{
+    KernelShape, Member, PathKind, Physics, PhysicsSet, FRESH_SEEDS as FRESH, HELD_OUT_SEEDS as HELD_OUT, IDEAL_TERMS,
+};
 use gradtac::stages::track::{Track, TrackConfig};
 use gradtac::stream::{Layout, Stage, StageExt};
 use std::collections::HashMap;
@@ -41,14 +43,6 @@ fn ideal(p: &mut Physics, term: &str, keep: bool) {
         }
     }
 }
-
-/// The held-out seeds (`--heldout`), scored by the finalists of rounds 5, 6, 9 and 10.
-const HELD_OUT: std::ops::Range<u64> = 100..116;
-/// Fresh held-out seeds (stop 39, `examples/fresh_check.md`): `--fresh` only, for the adopted
-/// default, after adoption; never for a choice.
-const FRESH: std::ops::Range<u64> = 9000..9016;
-// as many fresh seeds as held-out ones, none of them held out
-const _: () = assert!(FRESH.start >= HELD_OUT.end && FRESH.end - FRESH.start == HELD_OUT.end - HELD_OUT.start);
 
 /// Why the arguments are refused: `--fresh` with any other argument (the fresh set scores the
 /// `accurate` preset as it is, one summary line, no member shown), or `--seeds N` reaching the

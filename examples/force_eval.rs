@@ -54,19 +54,14 @@ use gradtac::stages::normalise::Normalise;
 use gradtac::stages::peak::SurfaceContour;
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::SavGol;
-use gradtac::stages::sim_force::{ForceRecording, ForceSession, Segment, F_REF_N};
+use gradtac::stages::sim_force::{
+    ForceRecording, ForceSession, Segment, FRESH_SEEDS as FRESH, F_REF_N, HELD_OUT_SEEDS as TEST,
+};
 use gradtac::stages::window::Window;
 use gradtac::stream::{Layout, Stage, StageExt};
 use std::time::Instant;
 
 const TUNE: std::ops::Range<u64> = 0..8;
-const TEST: std::ops::Range<u64> = 100..116;
-/// Fresh held-out seeds (stop 39, `examples/fresh_check.md`), scored with `--fresh` instead of
-/// `TEST`: only for the adopted defaults, after adoption; never for a choice, never inside a
-/// round's rule.
-const FRESH: std::ops::Range<u64> = 9000..9016;
-// as many fresh seeds as held-out ones (a comparable worst member), none of them held out
-const _: () = assert!(FRESH.end - FRESH.start == TEST.end - TEST.start && FRESH.start >= TEST.end);
 const PRESSES: usize = 10;
 /// `--quick`'s held-out floors for the default method (`forward` with its guard): worst member
 /// %, mean %, untouched frames above 0.5 N % (scripts/force_eval.sh gives the measured figures).

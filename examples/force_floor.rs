@@ -58,7 +58,7 @@
 //! `FORCE_FLOOR_ONLY_ML=1` runs only the two place-unknown references, the Bayes columns NaN).
 
 use gradtac::stages::sim_family::{skin_point, Physics, CORE_MM, RATE_HZ, SKIN_MM};
-use gradtac::stages::sim_force::{ForceRecording, ForceResponse, ForceSession};
+use gradtac::stages::sim_force::{is_held_out as held_out, ForceRecording, ForceResponse, ForceSession};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -81,15 +81,6 @@ const G_MIN: f64 = 0.5;
 const G_MAX: f64 = 1.5;
 /// The ADC's range.
 const ADC_MAX: f64 = 4095.0;
-/// Held-out seeds of `force_eval`: never simulated here.
-const HELD_OUT: std::ops::Range<u64> = 100..116;
-/// `force_eval`'s fresh held-out seeds (`--fresh`, `examples/fresh_check.md`): never simulated here.
-const FRESH: std::ops::Range<u64> = 9000..9016;
-
-/// A seed of `force_eval`'s held-out or fresh held-out members.
-fn held_out(seed: u64) -> bool {
-    HELD_OUT.contains(&seed) || FRESH.contains(&seed)
-}
 /// The force detector's window (`window_frames`, frames): the second observer sees these.
 const WINDOW: usize = 9;
 

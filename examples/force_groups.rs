@@ -27,13 +27,8 @@
 //! (`--members` also prints each member's physics and figures).
 
 use gradtac::stages::sim_family::KernelShape;
-use gradtac::stages::sim_force::ForceSession;
+use gradtac::stages::sim_force::{is_held_out, ForceSession};
 use std::collections::BTreeMap;
-
-/// `force_eval`'s held-out seeds: never read here.
-const HELD_OUT: std::ops::Range<u64> = 100..116;
-/// The fresh held-out seeds (`examples/fresh_check.md`): never read here.
-const FRESH: std::ops::Range<u64> = 9000..9016;
 
 /// One member's figures from a log.
 #[derive(Clone, Copy, Debug)]
@@ -54,10 +49,7 @@ fn read_log(path: &str) -> BTreeMap<u64, Figures> {
             continue;
         }
         let seed: u64 = rest.split_whitespace().next().and_then(|s| s.parse().ok()).expect("seed");
-        assert!(
-            !HELD_OUT.contains(&seed) && !FRESH.contains(&seed),
-            "{path}: held-out seed {seed}: this view reads tuning members only"
-        );
+        assert!(!is_held_out(seed), "{path}: held-out seed {seed}: this view reads tuning members only");
         let mape: f64 = rest
             .split("held-out ")
             .nth(1)

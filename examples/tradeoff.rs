@@ -60,7 +60,10 @@ use gradtac::stages::interpolate::{GridConfig, Interpolate, InterpolateConfig};
 use gradtac::stages::locate::{CentroidWeights, ChangeDetector, EventChain, LocateConfig, LocateMethod, Preset};
 use gradtac::stages::raw_contour::RawChange;
 use gradtac::stages::savgol::{SavGol, SavGolConfig};
-use gradtac::stages::sim_family::{FamilyRecording, KernelShape, Member, PathKind, PhysicsSet, Similarity, CORE_MM};
+use gradtac::stages::sim_family::{
+    FamilyRecording, KernelShape, Member, PathKind, PhysicsSet, Similarity, CORE_MM, FRESH_SEEDS as FRESH,
+    HELD_OUT_SEEDS,
+};
 use gradtac::stages::track::{ContactState, Track, TrackConfig, TrackPoint};
 use gradtac::stages::window::{Aggregate, Window, WindowConfig, WindowKind};
 use gradtac::stages::EventBatch;
@@ -563,10 +566,6 @@ fn is_library_accurate(s: &Setting) -> bool {
             && speed == la.max_speed_mm_s && continuity == (la.fit_motion_prior > 0.0))
 }
 
-/// Fresh held-out seeds (stop 39, `examples/fresh_check.md`): `--fresh` only, for the adopted
-/// defaults, after adoption; never for a choice.
-const FRESH: std::ops::Range<u64> = 9000..9016;
-
 /// Why `--fresh` is refused: with any other flag (it scores the presets as they are).
 fn fresh_refusal(args: &[String]) -> Option<String> {
     if !args.iter().any(|a| a == "--fresh") {
@@ -648,7 +647,7 @@ fn main() {
         std::process::exit(2);
     }
     let tune_seeds: Vec<u64> = if quick { (0..3).collect() } else { (0..8).collect() };
-    let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { (100..116).collect() };
+    let test_seeds: Vec<u64> = if quick { (100..104).collect() } else { HELD_OUT_SEEDS.collect() };
     let layout = Layout::biotac_sp();
     let width = layout.extent().width();
     // the "14.5 mm width across the core": the y extent of the core positions

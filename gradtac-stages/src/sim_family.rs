@@ -166,6 +166,22 @@ pub enum KernelShape {
     },
 }
 
+/// The location evaluations' **held-out** members (`examples/tradeoff.rs`, `fit_probe --heldout`):
+/// these seeds × the four [`PathKind`]s under [`PhysicsSet::HeldOut`], scored by a round's
+/// finalist after the choice; never explored or tuned on.
+pub const HELD_OUT_SEEDS: std::ops::Range<u64> = 100..116;
+
+/// The **fresh** held-out members (stop 39, `examples/fresh_check.md`): as many as
+/// [`HELD_OUT_SEEDS`], under [`PhysicsSet::HeldOut`], scored only for the adopted presets, after
+/// adoption; never for a choice.
+pub const FRESH_SEEDS: std::ops::Range<u64> = 9000..9016;
+
+// as many fresh seeds as held-out ones (a comparable worst kind), none of them held out
+const _: () = assert!(
+    FRESH_SEEDS.end - FRESH_SEEDS.start == HELD_OUT_SEEDS.end - HELD_OUT_SEEDS.start
+        && FRESH_SEEDS.start >= HELD_OUT_SEEDS.end
+);
+
 /// Which physics a member draws from: every set shares every range of the [module docs](self)
 /// but the kernel shape and the fluid lag.
 ///

@@ -39,6 +39,26 @@ use serde::{Deserialize, Serialize};
 /// Force at which the response equals the linear model's (N).
 pub const F_REF_N: f64 = 2.0;
 
+/// The force evaluations' **held-out** members (`examples/force_eval.rs`): scored once per
+/// round's winner, after the choice; never explored, probed or tuned on.
+pub const HELD_OUT_SEEDS: std::ops::Range<u64> = 100..116;
+
+/// The **fresh** held-out members (stop 39, `examples/fresh_check.md`): as many as
+/// [`HELD_OUT_SEEDS`], scored only for the adopted default, after adoption; never for a choice.
+pub const FRESH_SEEDS: std::ops::Range<u64> = 9000..9016;
+
+/// Whether `seed` is one of [`HELD_OUT_SEEDS`] or [`FRESH_SEEDS`]: the members every
+/// exploration, probe and diagnosis refuses.
+pub fn is_held_out(seed: u64) -> bool {
+    HELD_OUT_SEEDS.contains(&seed) || FRESH_SEEDS.contains(&seed)
+}
+
+// as many fresh seeds as held-out ones (a comparable worst member), none of them held out
+const _: () = assert!(
+    FRESH_SEEDS.end - FRESH_SEEDS.start == HELD_OUT_SEEDS.end - HELD_OUT_SEEDS.start
+        && FRESH_SEEDS.start >= HELD_OUT_SEEDS.end
+);
+
 /// How a member's skin responds to force (see the [module docs](self)).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ForceResponse {
