@@ -507,7 +507,7 @@ impl SensorChain {
                     )
                 };
                 let shape = format!(
-                    "kernel {}, far lobe 2.5 × the spread{}{}",
+                    "kernel {}, far lobe 2.5 × the spread{}",
                     if l.fit_shape_rate > 0.0 {
                         format!("shape exponent q (2 Gaussian … 1 exponential) learned per sensor at rate {}", l.fit_shape_rate)
                     } else {
@@ -521,15 +521,6 @@ impl SensorChain {
                         ),
                         (true, false) => ", folded to |K| (fit_fold_lobe)".to_string(),
                         _ => String::new(),
-                    },
-                    if l.fit_local_spreads > 0.0 {
-                        format!(
-                            "; then refitted on the electrodes within {} fitted spreads of the fitted contact only, \
-                             the first pass kept with fewer than 6 there (fit_local_spreads)",
-                            l.fit_local_spreads
-                        )
-                    } else {
-                        String::new()
                     }
                 );
                 let changes = if l.fit_signed {

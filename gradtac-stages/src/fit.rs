@@ -180,17 +180,6 @@
 //! motion (an electrode's change as the contact passes over it), or a ring the magnitude fit
 //! can rule out before it votes.
 //!
-//! # Local pass (`fit_local_spreads`; off by default and in `accurate`; round 15)
-//! A second pass per fitted frame on the electrodes near the contact only: after the frame's
-//! fit (its fold guard included), the contact is refitted from that solution with every
-//! electrode farther than `fit_local_spreads` fitted spreads `w` from the fitted contact
-//! (ρ > R·w on the 3-D skin, ρ as the kernel measures it) left out (weight 0), and its
-//! solution replaces the first pass's. Far changes (a ring, a heavier tail, electrodes of the
-//! other polarity) are not modelled, they are left out. With fewer than 6 electrodes within
-//! R·w the first pass stands. The summary, the gains and the learned correction read every
-//! electrode at the new solution. Off (0): no second pass, the fit bit for bit as before.
-//! Trial: `examples/fit_parts/rule_round15.md`.
-//!
 //! # Reported per point ([`FitSummary`] in [`MaxContour::fit`])
 //! amplitude `|A|`, spread `w`, far-lobe weight `a`, the **relative residual**
 //! `‖Δ − model‖ / ‖Δ‖` over the electrodes used, the **position uncertainty** `sigma_mm` (the
@@ -302,7 +291,6 @@
 //! | `fit_gain_spacing_mm` | keys crowd where the contact dwells | fewer keys, the pad sampled coarsely |
 //! | `fit_shape_rate` | 0: the Gaussian (or difference of Gaussians) only | the shape follows each clean frame, noisier; three one-step re-fits per clean frame |
 //! | `fit_fold_lobe` | a far ring that moves the other way is an outlier to the model | the ring fitted as magnitudes; more local minima (ring fits; far lobe ≤ 0.6) |
-//! | `fit_local_spreads` | 0: every electrode in the fit (the far changes read by the model) | more electrodes in the second pass, nearer the first pass; small: often under 6 electrodes, the first pass kept; one more solve per fitted frame |
 //! | `fit_fold_guard_mm` | 0: the folded fit carries its own minima (ring fits); small: the fold kept only near the unfolded fit | the fold's refinement kept farther from the unfolded fit (ring fits reachable in one frame's descent); one more solve per fitted frame either way |
 //! | `fit_polarity_votes` | 0: magnitudes, the ring read as the contact; few: a polarity decided on few frames | fewer false polarities, decided later; the ring's electrodes left out until decided (measured: no gain, *Polarity*) |
 //! | `fit_learned_correction` | off: the fit's biases stay (tuning 0.032) | the average bias of simulated tuning physics removed (tuning 0.029; mostly the gains' share); ≈ 0.14 mm added on a sensor that is the fit's own model; ≈ 6 µs per fitted frame; knows only the BioTac SP and the physics it was trained on |
@@ -818,8 +806,6 @@ pub struct Fit {
     shape: f64,
     /// The kernel folded to `|K|` (`fit_fold_lobe` and not `fit_signed`).
     fold: bool,
-    /// The local pass's weights (`fit_local_spreads`, *Local pass*): `inv_s` with the far electrodes 0.
-    local: Vec<f64>,
     /// Polarity learning (`fit_polarity_votes`, see *Polarity*): the frame's signed changes,
     /// each electrode's net core votes and the polarity applied (±1, 0 = magnitude).
     sd: Vec<f64>,
@@ -875,7 +861,6 @@ impl Fit {
             lag: cfg.fit_lag_estimate.then(|| crate::lag::LagEstimator::new(cfg.fit_lag_prior, cfg.fit_lag_max_s)),
             shape: SHAPE_MAX,
             fold: cfg.fit_fold_lobe && !cfg.fit_signed,
-            local: Vec::with_capacity(n),
             sd: Vec::with_capacity(n),
             votes: vec![0.0; n],
             pol: vec![0.0; n],
@@ -1199,28 +1184,6 @@ impl Fit {
         } else {
             (best, fold)
         };
-        // the local second pass (`fit_local_spreads`, *Local pass*): the contact refitted on the
-        // electrodes within R fitted spreads of the first pass's contact, from its solution
-        let spreads = cfg.fit_local_spreads;
-        let mut best = best;
-        if spreads > 0.0 {
-            let th = best.th;
-            let (sp, _, _) = self.geo.skin(th[0], th[1]);
-            let near2 = spreads * spreads * (2.0 * th[2]).exp();
-            self.local.clear();
-            let mut near = 0usize;
-            for i in 0..n {
-                let r2 = dist2(self.geo.core[i], sp) - self.geo.depth2[i];
-                let keep = r2 <= near2 && self.inv_s[i] != 0.0;
-                near += usize::from(keep);
-                self.local.push(if keep { self.inv_s[i] } else { 0.0 });
-            }
-            if near >= MIN_USED {
-                let s = Problem { inv_s: &self.local, fold: folded, ..prob }.solve(th, iters);
-                // the summary and the gains' clean test read every electrode: its cost over all
-                best = Solution { cost: Problem { fold: folded, ..prob }.cost(&s.th), ..s };
-            }
-        }
         let prob = Problem { fold: folded, ..prob };
         let th = best.th;
         // summary: residual, covariance, second region
@@ -2144,71 +2107,6 @@ mod tests {
             let m = geo.model_shaped([p[0], p[1], 3.0, -200.0, lobe], q, &[1.0; 25]);
             (0..25).map(|i| 2000.0 + 10.0 * i as f64 + if k >= 30 { m[i] } else { 0.0 }).collect()
         })
-    }
-
-    /// A noise-free sweep of the kernel with far lobe `lobe` and width ratio `m` (spread 3 mm);
-    /// the electrodes in `flips` rise under pressure (the other polarity).
-    fn lobe_sweep(m: f64, lobe: f64, flips: &[usize], n: u64) -> Vec<TaxelFrame> {
-        let geo = Geometry::for_layout(&grid());
-        frames(n, |k| {
-            let p = sweep_path(k);
-            let (sp, _, _) = geo.skin(p[0], p[1]);
-            (0..25)
-                .map(|i| {
-                    let r2 = dist2(geo.core[i], sp) - geo.depth2[i];
-                    let sg = if flips.contains(&i) { -1.0 } else { 1.0 };
-                    let d = -200.0 * sg * kernel(r2, 3.0f64.ln(), lobe, (2.0, m)).0;
-                    2000.0 + 10.0 * i as f64 + if k >= 30 { d } else { 0.0 }
-                })
-                .collect()
-        })
-    }
-
-    /// [`lobe_sweep`]'s contact path (mm) at frame `k`.
-    fn sweep_path(k: u64) -> [f64; 2] {
-        let t = k.saturating_sub(30) as f64 / 100.0;
-        [8.0 + 8.5 * (1.3 * t).sin(), 8.0 + 8.5 * (2.1 * t).sin()]
-    }
-
-    /// Mean distance (mm) of the fitted positions from [`sweep_path`] over the last `tail` frames.
-    fn sweep_error(out: &[ContourFrame], tail: usize) -> f64 {
-        let n = out.len();
-        let mut e = 0.0;
-        for (k, f) in out.iter().enumerate().skip(n - tail) {
-            let c = f.outcome.contact().expect("in contact");
-            let p = sweep_path(k as u64);
-            e += (c.peak_mm[0] - p[0]).hypot(c.peak_mm[1] - p[1]);
-        }
-        e / tail as f64
-    }
-
-    #[test]
-    fn the_local_pass_is_off_by_default_and_tracks_the_sweeps_with_the_far_electrodes_left_out() {
-        let layout = grid();
-        assert_eq!(LocateConfig::default().fit_local_spreads, 0.0);
-        assert_eq!(LocateConfig::preset(crate::locate::Preset::Accurate).fit_local_spreads, 0.0);
-        let cfg = LocateConfig { fit_gain_rate: 0.0, ..LocateConfig::preset(crate::locate::Preset::Accurate) };
-        // a heavier tail, a Gaussian, the fit's own ring (a = 0.3), a Gaussian with four
-        // electrodes of the other polarity
-        let cases = [(-0.3, vec![]), (0.0, vec![]), (0.3, vec![]), (0.0, vec![3usize, 7, 12, 18])];
-        for r in [1.5, 2.0] {
-            let on_cfg = LocateConfig { fit_local_spreads: r, ..cfg.clone() };
-            for (lobe, flips) in &cases {
-                let mut off = Fit::try_new(&cfg, &layout).unwrap();
-                let e_off = sweep_error(&push_all(&mut off, lobe_sweep(2.5, *lobe, flips, 600)), 300);
-                let mut on = Fit::try_new(&on_cfg, &layout).unwrap();
-                let e_on = sweep_error(&push_all(&mut on, lobe_sweep(2.5, *lobe, flips, 600)), 300);
-                let what =
-                    format!("R {r} lobe {lobe} flips {flips:?}: local pass {e_on} mm, every electrode {e_off} mm");
-                eprintln!("{what}");
-                // the local pass is a fit of the same model on fewer electrodes: it stays near
-                assert!(e_on.is_finite() && e_on < e_off + 0.3, "{what}");
-            }
-            // constant input: no contact
-            let mut on = Fit::try_new(&on_cfg, &layout).unwrap();
-            let flat = frames(200, |_| (0..25).map(|k| 2000.0 + 10.0 * k as f64).collect());
-            assert!(push_all(&mut on, flat).iter().all(|f| f.outcome.contact().is_none()));
-        }
     }
 
     #[test]

@@ -308,11 +308,6 @@ pub struct LocateConfig {
     /// strongest electrode; the folded fit never carries its own warm start from frame to
     /// frame ([`crate::fit`], *Kernel shape*). Default 0; `accurate` 2.
     pub fit_fold_guard_mm: f64,
-    /// `fit`: a second pass per fitted frame on the electrodes within this many fitted spreads
-    /// of the first pass's contact only (the far electrodes' weight 0), from the first pass's
-    /// solution, replacing it; fewer than 6 electrodes within: the first pass stands (0–20;
-    /// 0 = off) ([`crate::fit`], *Local pass*). Default 0 (`docs/tradeoff.md`, round 15).
-    pub fit_local_spreads: f64,
     /// `fit`: model error as a fraction of the frame's largest change, added in quadrature to
     /// each electrode's measured noise (≥ 0, ≤ 1): how much the response may differ from the
     /// fitted kernel before an electrode stops counting fully. Default 0.3.
@@ -409,7 +404,6 @@ struct LocateToml {
     fit_shape_rate: Option<f64>,
     fit_fold_lobe: Option<bool>,
     fit_fold_guard_mm: Option<f64>,
-    fit_local_spreads: Option<f64>,
     fit_model_error: Option<f64>,
     fit_rails: Option<[f64; 2]>,
     fit_signed: Option<bool>,
@@ -452,7 +446,6 @@ impl From<LocateToml> for LocateConfig {
             fit_shape_rate,
             fit_fold_lobe,
             fit_fold_guard_mm,
-            fit_local_spreads,
             fit_model_error,
             fit_rails,
             fit_signed,
@@ -554,7 +547,6 @@ impl LocateConfig {
             fit_shape_rate: 0.0,
             fit_fold_lobe: false,
             fit_fold_guard_mm: 0.0,
-            fit_local_spreads: 0.0,
             fit_model_error: 0.3,
             fit_rails: [0.0, 4095.0],
             fit_signed: false,
@@ -630,9 +622,6 @@ impl LocateConfig {
         }
         if !(self.fit_fold_guard_mm.is_finite() && (0.0..=100.0).contains(&self.fit_fold_guard_mm)) {
             return bad(format!("`fit_fold_guard_mm` = {} must be in [0, 100] (0 = off)", self.fit_fold_guard_mm));
-        }
-        if !(self.fit_local_spreads.is_finite() && (0.0..=20.0).contains(&self.fit_local_spreads)) {
-            return bad(format!("`fit_local_spreads` = {} must be in [0, 20] (0 = off)", self.fit_local_spreads));
         }
         if self.fit_polarity_votes > 1000 {
             return bad(format!("`fit_polarity_votes` = {} must be in 0..=1000 (0 = off)", self.fit_polarity_votes));
@@ -2162,9 +2151,6 @@ mod tests {
             LocateConfig { fit_shape_rate: f64::NAN, ..Default::default() },
             LocateConfig { fit_fold_guard_mm: -1.0, ..Default::default() },
             LocateConfig { fit_fold_guard_mm: f64::INFINITY, ..Default::default() },
-            LocateConfig { fit_local_spreads: 21.0, ..Default::default() },
-            LocateConfig { fit_local_spreads: -0.5, ..Default::default() },
-            LocateConfig { fit_local_spreads: f64::NAN, ..Default::default() },
             LocateConfig { fit_velocity_frames: 101, ..Default::default() },
             LocateConfig { fit_motion_prior: -0.5, ..Default::default() },
             LocateConfig { fit_motion_prior: f64::INFINITY, ..Default::default() },
