@@ -26,7 +26,7 @@
 //! (no seed: the 62 tuning members). Prints markdown tables on stdout.
 
 use gradtac::stages::force::ForceMethod;
-use gradtac::stages::force_ident::{ForwardModel, Geometry, INVERT_NOISE_COUNTS};
+use gradtac::stages::force_ident::{ForwardModel, Geometry};
 use gradtac::stages::force_model::{
     calibrate_unguarded_with, calibrate_with, force_detector, CalibratedForce, CalibrationMethod, ForcePredictor,
     ForwardSettings, GaugeSample,
@@ -103,21 +103,11 @@ fn relative_misfit(delta: &[f64], model: &[f64], w: Option<&[f64]>) -> f64 {
     }
 }
 
-/// The inversion's residual weights for `delta` (round 10): `1/√(s₀² + (rᵢΔᵢ)²)`; `None` without doubts.
-fn inversion_weights(model: &ForwardModel, delta: &[f64]) -> Option<Vec<f64>> {
-    let s0 = INVERT_NOISE_COUNTS;
-    model
-        .gain_rel_sd
-        .as_ref()
-        .filter(|r| r.len() == delta.len())
-        .map(|r| delta.iter().zip(r).map(|(d, r)| 1.0 / (s0 * s0 + (r * d).powi(2)).sqrt()).collect())
-}
-
 /// The forward model's relative misfit of one frame's changes.
 fn frame_misfit(model: &ForwardModel, geo: &Geometry, delta: &[f64]) -> f64 {
     let Some([x, y, f]) = model.invert(geo, delta) else { return f64::NAN };
     let pred = model.predict(geo, x, y, f);
-    relative_misfit(delta, &pred, inversion_weights(model, delta).as_deref())
+    relative_misfit(delta, &pred, model.residual_weights(delta).as_deref())
 }
 
 /// The `q`-quantile (0–1) of `v` by the nearest rank (NaN for an empty slice); sorts `v`.

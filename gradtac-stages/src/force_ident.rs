@@ -262,6 +262,17 @@ impl ForwardModel {
             .sum()
     }
 
+    /// The inversion's residual weights for the changes `delta`: `1/√(s₀² + (rᵢ Δᵢ)²)` with
+    /// `s₀` = [`INVERT_NOISE_COUNTS`] and `rᵢ` the gain doubts ([`gain_rel_sd`](Self::gain_rel_sd));
+    /// `None` (the unweighted cost) without doubts or with doubts of another length.
+    pub fn residual_weights(&self, delta: &[f64]) -> Option<Vec<f64>> {
+        let s0 = INVERT_NOISE_COUNTS;
+        self.gain_rel_sd
+            .as_ref()
+            .filter(|r| r.len() == delta.len())
+            .map(|r| delta.iter().zip(r).map(|(d, r)| 1.0 / (s0 * s0 + (r * d).powi(2)).sqrt()).collect())
+    }
+
     /// The contact `(x, y, F)` (mm, mm, N) that best explains the changes `delta`: `None` with
     /// a non-finite change or a taxel count other than the model's; `F` = 0 (at the centre of
     /// the layout) when nothing changed. With [`gain_rel_sd`](Self::gain_rel_sd), residual `i`
@@ -281,10 +292,7 @@ impl ForwardModel {
         let mut r2 = vec![0.0; n];
         let (lo, hi) = (F_RANGE_N[0].ln(), F_RANGE_N[1].ln());
         // the gain-doubt weights (none: the unweighted cost, untouched)
-        let sw: Option<Vec<f64>> = self.gain_rel_sd.as_ref().filter(|r| r.len() == n).map(|r| {
-            let s0 = INVERT_NOISE_COUNTS;
-            delta.iter().zip(r).map(|(d, r)| 1.0 / (s0 * s0 + (r * d).powi(2)).sqrt()).collect()
-        });
+        let sw = self.residual_weights(delta);
         let w = sw.as_deref();
         let cost = |p: [f64; 3], r2: &mut [f64]| self.cost(&th, geo, delta, w, p, r2);
         // residual i's weight (1: unweighted, exactly)
