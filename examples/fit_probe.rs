@@ -25,11 +25,6 @@
 //! ones; the correction is then on whatever the TOML lines say). `--seeds N` above 100 is
 //! refused (it would reach the held-out seeds). The held-out runs print how many of their 64
 //! recordings have physics no choice saw (a Mexican-hat kernel or a lag over 30 ms).
-//! `--oracle-polarity` (exploration only, `examples/fit_parts/polarity_oracle.md`): the fit is
-//! given each electrode's true pressing polarity (the sign of the member's gain) from the first
-//! frame (`Fit::set_polarity_oracle`); needs `fit_polarity_votes` > 0 or `fit_signed = true`;
-//! refused with `--heldout`. `--oracle-wrong K` gives K of those polarities wrong (electrodes
-//! `7·j + seed` mod 24, j < K).
 
 use gradtac::stages::fit::Fit;
 use gradtac::stages::fit_learned::{Correction, Trained};
@@ -58,9 +53,6 @@ fn refusal(args: &[String]) -> Option<String> {
             return Some(format!("--fresh scores the `accurate` preset as it is: not with `{a}`"));
         }
     }
-    if args.iter().any(|a| a == "--oracle-polarity") && args.iter().any(|a| a == "--heldout") {
-        return Some("--oracle-polarity is for the tuning members only: not with --heldout".into());
-    }
     let n = args.iter().position(|a| a == "--seeds").and_then(|i| args.get(i + 1)?.parse::<u64>().ok());
     match n {
         Some(n) if n > HELD_OUT.start => Some(format!("--seeds {n} reaches the held-out seeds {HELD_OUT:?}")),
@@ -78,8 +70,6 @@ fn main() {
     let mut seeds = 8u64;
     let mut heldout = false;
     let mut verbose = false;
-    let mut oracle = false;
-    let mut wrong = 0usize;
     let mut only: Option<String> = None;
     let mut without: Option<String> = None;
     let mut weights: Option<Trained> = None;
@@ -91,8 +81,6 @@ fn main() {
             "--heldout" => heldout = true,
             "--fresh" => {}
             "--verbose" => verbose = true,
-            "--oracle-polarity" => oracle = true,
-            "--oracle-wrong" => wrong = it.next().and_then(|v| v.parse().ok()).expect("--oracle-wrong K"),
             "--only" => only = it.next().cloned(),
             "--without" => without = it.next().cloned(),
             "--weights" => {
@@ -108,10 +96,6 @@ fn main() {
     }
     let cfg: LocateConfig = toml::from_str(&toml).expect("a [stages.locate] table");
     cfg.validate().expect("valid settings");
-    if oracle && cfg.fit_polarity_votes == 0 && !cfg.fit_signed {
-        eprintln!("fit_probe: --oracle-polarity needs fit_polarity_votes > 0 or fit_signed = true");
-        std::process::exit(2);
-    }
     let (set, members) = if fresh {
         (PhysicsSet::HeldOut, Member::grid(FRESH))
     } else if heldout {
@@ -151,16 +135,6 @@ fn main() {
         let mut fit = Fit::try_new(&cfg, &layout).unwrap();
         if let Some(w) = &weights {
             fit = fit.with_correction(Some(Correction::try_new(w.clone()).expect("usable weights")));
-        }
-        if oracle {
-            // the pressing polarity: the sign of the member's gain (a press moves it that way)
-            let mut signs: Vec<i8> = p.gain.iter().map(|g| if *g < 0.0 { -1 } else { 1 }).collect();
-            // `--oracle-wrong K`: K of them given wrong (electrodes 7·j + seed mod 24, j < K)
-            for j in 0..wrong.min(signs.len()) {
-                let i = (7 * j + m.seed as usize) % signs.len();
-                signs[i] = -signs[i];
-            }
-            fit.set_polarity_oracle(&signs);
         }
         let mut contours = Vec::new();
         for f in rec.frames.iter().cloned() {
@@ -260,12 +234,5 @@ mod tests {
         assert_eq!(refusal(&args(&["--seeds", "100"])), None);
         assert!(refusal(&args(&["--seeds", "101"])).is_some());
         assert!(refusal(&args(&["--seeds", "9016"])).is_some());
-    }
-
-    #[test]
-    fn the_oracle_is_for_tuning_members_only() {
-        assert_eq!(refusal(&args(&["--oracle-polarity", "fit_signed = true"])), None);
-        assert!(refusal(&args(&["--oracle-polarity", "--heldout"])).is_some());
-        assert!(refusal(&args(&["--oracle-polarity", "--fresh"])).is_some());
     }
 }

@@ -821,9 +821,6 @@ pub struct Fit {
     big: f64,
     /// Inverse scales before the polarity's exclusions (kept with a key frame).
     inv_full: Vec<f64>,
-    /// Exploration only ([`Fit::set_polarity_oracle`]): given pressing polarities (±1), empty
-    /// = off.
-    oracle: Vec<f64>,
     /// The learned bias correction (`fit_learned_correction`), when on.
     learned: Option<Box<crate::fit_learned::Correction>>,
     /// Record the learned correction's inputs of every fitted frame ([`Fit::record_inputs`]).
@@ -868,7 +865,6 @@ impl Fit {
             votes: vec![0.0; n],
             pol: vec![0.0; n],
             majority: 0.0,
-            oracle: Vec::new(),
             skip: vec![false; n],
             thr: vec![0.0; n],
             big: 0.0,
@@ -936,33 +932,6 @@ impl Fit {
         &self.pol
     }
 
-    /// Exploration only (`fit_probe --oracle-polarity`, not a setting): every electrode's
-    /// pressing polarity `p` (±1, the sign of its change under pressure) given from the first
-    /// frame and never re-voted. With `fit_polarity_votes` > 0 they are applied as decided
-    /// polarities (the votes as if at ±2N); with `fit_signed` the signed changes are multiplied
-    /// by them before the fit. Kept across [`Stage::reset`].
-    #[doc(hidden)]
-    pub fn set_polarity_oracle(&mut self, p: &[i8]) {
-        self.oracle = p.iter().map(|&v| f64::from(v.signum())).collect();
-        self.apply_oracle();
-    }
-
-    /// Mark the oracle's polarities decided (nothing when there is none).
-    fn apply_oracle(&mut self) {
-        if self.oracle.is_empty() {
-            return;
-        }
-        let need = self.det.config().fit_polarity_votes as f64;
-        let n = self.pol.len().min(self.oracle.len());
-        for i in 0..n {
-            self.pol[i] = self.oracle[i];
-            self.votes[i] = 2.0 * need * self.oracle[i];
-        }
-        let count = self.pol.iter().filter(|&&p| p != 0.0).count();
-        self.majority = if count >= POL_MAJORITY_MIN { self.pol.iter().sum::<f64>().signum() } else { 0.0 };
-        self.cal.repolarise(&self.pol, self.majority);
-    }
-
     /// Whether polarity learning is on (`fit_polarity_votes` > 0 with the magnitude fit).
     fn polarity_on(&self) -> bool {
         let cfg = self.det.config();
@@ -982,9 +951,6 @@ impl Fit {
     /// `fit_polarity_votes` has that polarity; once [`POL_MAJORITY_MIN`] have one, the others
     /// take their majority. The key frames are re-signed when anything changed.
     fn vote_polarity(&mut self) {
-        if !self.oracle.is_empty() {
-            return;
-        }
         let need = self.det.config().fit_polarity_votes as f64;
         let sigma = self.det.noise();
         let n = self.sd.len().min(self.votes.len());
@@ -1392,8 +1358,6 @@ impl Stage for Fit {
                 }
             } else if !self.det.config().fit_signed {
                 d.iter_mut().for_each(|v| *v = v.abs());
-            } else if !self.oracle.is_empty() {
-                d.iter_mut().zip(&self.oracle).for_each(|(v, p)| *v *= p);
             }
             self.d = d;
             match self.fit(&f.values) {
@@ -1465,7 +1429,6 @@ impl Stage for Fit {
         if let Some(l) = &mut self.lag {
             l.reset();
         }
-        self.apply_oracle();
     }
 
     fn delay(&self) -> Delay {
