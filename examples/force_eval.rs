@@ -579,8 +579,9 @@ fn true_gains(ph: &gradtac::stages::sim_family::Physics) -> Vec<f64> {
 // swaps parts of the identified `forward` model for the member's truth (only where the model can
 // hold it: a Gaussian kernel) — `gains` (gᵢ·A·F₀: counts at F₀ = 2 N), `shape` (γ, s, w, q = 2,
 // a = 0), `lag` (τ) — and prints per scored press its MAPE, the inversion's place error and the
-// share of frames where the model's cost at the true place and force is below the cost at the
-// inversion's answer ("truth-lower": the inversion stopped short of a better point).
+// share of frames where the model's cost (the one its inversion minimises: weighted by the gain
+// doubts when it has them) at the true place and force is below the cost at the inversion's
+// answer ("truth-lower": the inversion stopped short of a better point).
 fn fwd_gap_swap(m: &Member, model: &mut gradtac::stages::force_model::CalibratedForce, v: &str) {
     use gradtac::stages::force_model::CalibratedForce;
     let (ph, resp) = (&m.session.physics, &m.session.response);
@@ -625,8 +626,16 @@ fn fwd_gap_presses(
         let d = &r.sample.change;
         let inv = fm.invert(&geo, d).unwrap_or([0.0; 3]);
         let truth = places[press];
+        // the cost the inversion minimises: weighted by the gain doubts when the model has them
+        let w = fm.residual_weights(d);
+        let wi = |i: usize| w.as_ref().map_or(1.0, |w| w[i]);
         let cost = |q: [f64; 3]| -> f64 {
-            fm.predict(&geo, q[0], q[1], q[2]).iter().zip(d).map(|(a, b)| (a - b).powi(2)).sum::<f64>()
+            fm.predict(&geo, q[0], q[1], q[2])
+                .iter()
+                .zip(d)
+                .enumerate()
+                .map(|(i, (a, b))| (wi(i) * (a - b)).powi(2))
+                .sum()
         };
         let lower = cost([truth[0], truth[1], f]) < cost(inv) - 1e-9;
         let a = &mut acc[press];
